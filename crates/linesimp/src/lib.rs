@@ -1,0 +1,229 @@
+#![doc = include_str!("../README.md")]
+#![deny(missing_docs)]
+
+mod dp;
+mod error;
+mod hull;
+mod metric;
+
+use nalgebra::Point2;
+use rayon::prelude::*;
+
+pub use error::{LineSimpError, Result};
+pub use metric::{Metric, chord_distance};
+
+/// Which Douglas-Peucker implementation runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Method {
+    /// Hershberger-Snoeyink path hulls: O(n log n) worst case, line metric only.
+    #[default]
+    Hull,
+    /// The plain algorithm of seed 000, Table 1 (explicit stack): O(n^2) worst case.
+    Dp,
+}
+
+/// Reusable Douglas-Peucker engine. Keeping one per thread avoids re-allocating the
+/// path hull, the work stack and the keep mask on every polyline.
+///
+/// # Examples
+/// ```
+/// use linesimp::{Method, Metric, Simplifier};
+/// use nalgebra::Point2;
+///
+/// let pts: Vec<Point2<f64>> = (0..=10).map(|i| Point2::new(i as f64, 0.0)).collect();
+/// let mut s = Simplifier::new(Method::Hull, Metric::Line);
+/// assert_eq!(s.indices(&pts, 0.1).unwrap(), vec![0, 10]);
+/// ```
+#[derive(Debug, Default)]
+pub struct Simplifier {
+    method: Method,
+    metric: Metric,
+    keep: Vec<bool>,
+    ranges: Vec<(usize, usize)>,
+    tasks: Vec<hull::Task>,
+    hull: hull::PathHull,
+}
+
+impl Simplifier {
+    /// A simplifier for one method/metric pair.
+    pub fn new(method: Method, metric: Metric) -> Self {
+        Self {
+            method,
+            metric,
+            ..Self::default()
+        }
+    }
+
+    /// Indices of the vertices Douglas-Peucker keeps, in increasing order. The first
+    /// and last vertex are always kept; fewer than two points come back unchanged.
+    ///
+    /// Ties (several vertices equally far from a chord) split at the first of them,
+    /// as GEOS does.
+    pub fn indices(&mut self, points: &[Point2<f64>], epsilon: f64) -> Result<Vec<usize>> {
+        validate(points, epsilon)?;
+        if self.method == Method::Hull && self.metric != Metric::Line {
+            return Err(LineSimpError::UnsupportedMetric);
+        }
+        let n = points.len();
+        if n < 3 {
+            return Ok((0..n).collect());
+        }
+        self.keep.clear();
+        self.keep.resize(n, false);
+        self.keep[0] = true;
+        self.keep[n - 1] = true;
+        match self.method {
+            Method::Dp => dp::dp_mark(
+                points,
+                epsilon,
+                self.metric,
+                &mut self.keep,
+                &mut self.ranges,
+            ),
+            Method::Hull => hull::hull_mark(
+                points,
+                epsilon,
+                &mut self.keep,
+                &mut self.tasks,
+                &mut self.hull,
+            ),
+        }
+        Ok(self
+            .keep
+            .iter()
+            .enumerate()
+            .filter_map(|(k, &keep)| keep.then_some(k))
+            .collect())
+    }
+}
+
+/// Checks the tolerance and every coordinate before any work starts.
+fn validate(points: &[Point2<f64>], epsilon: f64) -> Result<()> {
+    if !(epsilon.is_finite() && epsilon >= 0.0) {
+        return Err(LineSimpError::InvalidEpsilon(epsilon));
+    }
+    if points.len() > u32::MAX as usize {
+        return Err(LineSimpError::InvalidParameter {
+            name: "points",
+            reason: format!(
+                "at most {} points are supported, got {}",
+                u32::MAX,
+                points.len()
+            ),
+        });
+    }
+    if let Some(index) = points
+        .iter()
+        .position(|p| !(p.x.is_finite() && p.y.is_finite()))
+    {
+        let p = points[index];
+        return Err(LineSimpError::NonFinitePoint {
+            index,
+            x: p.x,
+            y: p.y,
+        });
+    }
+    Ok(())
+}
+
+/// Indices of the vertices kept by Douglas-Peucker with tolerance `epsilon`.
+///
+/// # Examples
+/// ```
+/// use linesimp::{Method, Metric, simplify_indices};
+/// use nalgebra::Point2;
+///
+/// let pts = [Point2::new(0.0, 0.0), Point2::new(1.0, 0.05), Point2::new(2.0, 1.0), Point2::new(3.0, 1.0)];
+/// // (2, 1) is 0.32 from the chord (0,0)-(3,1); (1, 0.05) is then 0.40 from (0,0)-(2,1).
+/// assert_eq!(simplify_indices(&pts, 0.5, Method::Hull, Metric::Line).unwrap(), vec![0, 3]);
+/// assert_eq!(simplify_indices(&pts, 0.3, Method::Dp, Metric::Line).unwrap(), vec![0, 1, 2, 3]);
+/// ```
+pub fn simplify_indices(
+    points: &[Point2<f64>],
+    epsilon: f64,
+    method: Method,
+    metric: Metric,
+) -> Result<Vec<usize>> {
+    Simplifier::new(method, metric).indices(points, epsilon)
+}
+
+/// The kept vertices themselves.
+///
+/// # Examples
+/// ```
+/// use linesimp::{Method, Metric, simplify};
+/// use nalgebra::Point2;
+///
+/// let pts = [Point2::new(0.0, 0.0), Point2::new(1.0, 0.01), Point2::new(2.0, 0.0)];
+/// assert_eq!(simplify(&pts, 0.1, Method::Hull, Metric::Line).unwrap(), vec![pts[0], pts[2]]);
+/// ```
+pub fn simplify(
+    points: &[Point2<f64>],
+    epsilon: f64,
+    method: Method,
+    metric: Metric,
+) -> Result<Vec<Point2<f64>>> {
+    Ok(simplify_indices(points, epsilon, method, metric)?
+        .into_iter()
+        .map(|k| points[k])
+        .collect())
+}
+
+/// Simplifies many polylines in parallel, one result per input, in input order.
+///
+/// Each rayon task owns one [`Simplifier`], so buffers are reused across the
+/// polylines it handles. Polylines are the unit of work: they are independent and
+/// usually large enough that splitting finer would only add scheduling overhead.
+///
+/// # Examples
+/// ```
+/// use linesimp::{Method, Metric, simplify_many};
+/// use nalgebra::Point2;
+///
+/// let a: Vec<Point2<f64>> = (0..5).map(|i| Point2::new(i as f64, 0.0)).collect();
+/// let b = vec![Point2::new(0.0, 0.0), Point2::new(1.0, 5.0), Point2::new(2.0, 0.0)];
+/// let out = simplify_many(&[a.as_slice(), b.as_slice()], 0.5, Method::Hull, Metric::Line);
+/// assert_eq!(out[0].as_ref().unwrap(), &vec![0, 4]);
+/// assert_eq!(out[1].as_ref().unwrap(), &vec![0, 1, 2]);
+/// ```
+pub fn simplify_many<P>(
+    polylines: &[P],
+    epsilon: f64,
+    method: Method,
+    metric: Metric,
+) -> Vec<Result<Vec<usize>>>
+where
+    P: AsRef<[Point2<f64>]> + Sync,
+{
+    polylines
+        .par_iter()
+        .map_init(
+            || Simplifier::new(method, metric),
+            |s, pl| s.indices(pl.as_ref(), epsilon),
+        )
+        .collect()
+}
+
+/// Whether every vertex dropped by `kept` lies within `epsilon` of the chord that
+/// replaces it (with a small relative slack for round-off). The validity criterion
+/// of any Douglas-Peucker result; useful as a test oracle.
+pub fn is_valid_simplification(
+    points: &[Point2<f64>],
+    kept: &[usize],
+    epsilon: f64,
+    metric: Metric,
+) -> bool {
+    if points.len() < 2 {
+        return kept.len() == points.len();
+    }
+    if kept.first() != Some(&0) || kept.last() != Some(&(points.len() - 1)) {
+        return false;
+    }
+    kept.windows(2).all(|w| {
+        let (a, b) = (points[w[0]], points[w[1]]);
+        let scale = 1.0 + a.coords.amax().max(b.coords.amax());
+        points[w[0] + 1..w[1]]
+            .iter()
+            .all(|p| chord_distance(p, &a, &b, metric) <= epsilon + 1e-9 * scale)
+    })
+}

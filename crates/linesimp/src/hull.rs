@@ -411,7 +411,7 @@ pub(crate) fn hull_mark(
         let chord = Chord::new(points[i], points[j], crate::Metric::Line);
         let (f, key) = if chord.is_degenerate() {
             // Farthest from a point is no extreme in a direction: scan this range.
-            crate::dp::find_split(points, i, j, &chord)
+            crate::dp::find_split(points, i, j, &chord, crate::dp::Tie::First)
         } else {
             hull.farthest(points, &chord)
         };

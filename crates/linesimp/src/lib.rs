@@ -9,6 +9,7 @@ mod metric;
 use nalgebra::Point2;
 use rayon::prelude::*;
 
+pub use dp::Tie;
 pub use error::{LineSimpError, Result};
 pub use metric::{Metric, chord_distance};
 
@@ -38,6 +39,7 @@ pub enum Method {
 pub struct Simplifier {
     method: Method,
     metric: Metric,
+    tie: Tie,
     keep: Vec<bool>,
     ranges: Vec<(usize, usize)>,
     tasks: Vec<hull::Task>,
@@ -54,11 +56,18 @@ impl Simplifier {
         }
     }
 
+    /// Chooses which of several equally far vertices splits a chord (plain DP only;
+    /// path hulls always take the first). The default, [`Tie::First`], matches GEOS.
+    pub fn with_tie(mut self, tie: Tie) -> Self {
+        self.tie = tie;
+        self
+    }
+
     /// Indices of the vertices Douglas-Peucker keeps, in increasing order. The first
     /// and last vertex are always kept; fewer than two points come back unchanged.
     ///
-    /// Ties (several vertices equally far from a chord) split at the first of them,
-    /// as GEOS does.
+    /// Ties (several vertices equally far from a chord) split as [`Self::with_tie`]
+    /// says: at the first of them by default, as GEOS does.
     pub fn indices(&mut self, points: &[Point2<f64>], epsilon: f64) -> Result<Vec<usize>> {
         validate(points, epsilon)?;
         if self.method == Method::Hull && self.metric != Metric::Line {
@@ -77,6 +86,7 @@ impl Simplifier {
                 points,
                 epsilon,
                 self.metric,
+                self.tie,
                 &mut self.keep,
                 &mut self.ranges,
             ),
@@ -94,6 +104,24 @@ impl Simplifier {
             .enumerate()
             .filter_map(|(k, &keep)| keep.then_some(k))
             .collect())
+    }
+}
+
+impl Simplifier {
+    /// [`Self::indices`] for many polylines in parallel, with this simplifier's
+    /// settings; one result per input, in input order. See [`simplify_many`].
+    pub fn indices_many<P>(&self, polylines: &[P], epsilon: f64) -> Vec<Result<Vec<usize>>>
+    where
+        P: AsRef<[Point2<f64>]> + Sync,
+    {
+        let (method, metric, tie) = (self.method, self.metric, self.tie);
+        polylines
+            .par_iter()
+            .map_init(
+                || Simplifier::new(method, metric).with_tie(tie),
+                |s, pl| s.indices(pl.as_ref(), epsilon),
+            )
+            .collect()
     }
 }
 
@@ -195,13 +223,7 @@ pub fn simplify_many<P>(
 where
     P: AsRef<[Point2<f64>]> + Sync,
 {
-    polylines
-        .par_iter()
-        .map_init(
-            || Simplifier::new(method, metric),
-            |s, pl| s.indices(pl.as_ref(), epsilon),
-        )
-        .collect()
+    Simplifier::new(method, metric).indices_many(polylines, epsilon)
 }
 
 /// Whether every vertex dropped by `kept` lies within `epsilon` of the chord that

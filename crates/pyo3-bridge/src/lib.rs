@@ -1,0 +1,32 @@
+//! The extension module `rperc._rperc`.
+//!
+//! This crate only converts: numpy arrays in (with shape and dtype checks), numpy
+//! arrays out (moved, not copied), and core-crate errors into Python exceptions. The
+//! algorithms live in the core crates; the typed, documented API lives in the Python
+//! package `rperc`.
+
+mod arrays;
+mod errors;
+mod linesimp_py;
+mod parallel;
+
+use pyo3::prelude::*;
+
+/// Native core of rperc. Use the `rperc` package, not this module directly.
+#[pymodule]
+mod _rperc {
+    #[pymodule_export]
+    use crate::errors::NumericalError;
+    #[pymodule_export]
+    use crate::errors::RpercError;
+    #[pymodule_export]
+    use crate::linesimp_py::{simplify_indices, simplify_many_indices};
+
+    use super::*;
+
+    #[pymodule_init]
+    fn init(m: &Bound<'_, PyModule>) -> PyResult<()> {
+        m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+        Ok(())
+    }
+}

@@ -1,0 +1,33 @@
+"""Type stubs of the native extension. Use the documented wrappers in :mod:`rperc`."""
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = [
+    "NumericalError",
+    "RpercError",
+    "__version__",
+    "simplify_indices",
+    "simplify_many_indices",
+]
+
+__version__: str
+
+class RpercError(Exception): ...
+class NumericalError(RpercError): ...
+
+def simplify_indices(
+    points: npt.NDArray[np.floating],
+    epsilon: float,
+    method: str = "hull",
+    metric: str = "line",
+    tie: str = "first",
+) -> npt.NDArray[np.intp]: ...
+def simplify_many_indices(
+    polylines: list[npt.NDArray[np.floating]],
+    epsilon: float,
+    method: str = "hull",
+    metric: str = "line",
+    tie: str = "first",
+    threads: int | None = None,
+) -> list[npt.NDArray[np.intp]]: ...

@@ -1,0 +1,22 @@
+"""Readers for the public data sets rperc is tested and benchmarked on.
+
+Every reader reports a malformed line with its file name and line number
+(:class:`DatasetFormatError`, a ``ValueError``) and never drops a record silently.
+"""
+
+from rperc.datasets._paths import data_dir, data_path
+from rperc.datasets.carmen import CarmenLog, LaserScans, Odometry, load_carmen
+from rperc.datasets.errors import DatasetFormatError
+from rperc.datasets.polylines import read_polylines, write_polyline
+
+__all__ = [
+    "CarmenLog",
+    "DatasetFormatError",
+    "LaserScans",
+    "Odometry",
+    "data_dir",
+    "data_path",
+    "load_carmen",
+    "read_polylines",
+    "write_polyline",
+]

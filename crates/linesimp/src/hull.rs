@@ -384,23 +384,70 @@ pub(crate) struct Task {
     fresh: bool,
 }
 
-/// Douglas-Peucker with path hulls and the line metric, marking kept vertices.
+/// Douglas-Peucker with the line metric in O(n log n) worst case, marking kept vertices.
+///
+/// Plain DP scans are several times cheaper per vertex than path-hull upkeep, and on
+/// real data (coastlines, random walks, scans) they finish in O(n log n). So, as
+/// introsort does for quicksort, we run plain DP under a work budget of
+/// `dp_budget_per_level * n * log2(n)` distance evaluations and hand whatever ranges
+/// remain to path hulls only when the budget runs out (zig-zags and other
+/// adversarial chains). Both phases split at the same vertex, the farthest, with the
+/// first index winning ties, so the result does not depend on where the hand-over
+/// happens.
+pub(crate) fn hull_mark(
+    points: &[Point2<f64>],
+    epsilon: f64,
+    keep: &mut [bool],
+    ranges: &mut Vec<(usize, usize)>,
+    tasks: &mut Vec<Task>,
+    hull: &mut PathHull,
+    dp_budget_per_level: usize,
+) {
+    let n = points.len();
+    let budget = dp_budget_per_level * n * (usize::BITS - n.leading_zeros()) as usize;
+    let mut work = 0usize;
+    ranges.clear();
+    ranges.push((0, n - 1));
+    while let Some((i, j)) = ranges.pop() {
+        if j <= i + 1 {
+            continue;
+        }
+        work += j - i - 1;
+        if work > budget {
+            ranges.push((i, j));
+            break;
+        }
+        let chord = Chord::new(points[i], points[j], crate::Metric::Line);
+        let (f, key) = crate::dp::find_split(points, i, j, &chord, crate::dp::Tie::First);
+        if chord.exceeds(key, epsilon) {
+            keep[f] = true;
+            ranges.push((f, j));
+            ranges.push((i, f));
+        }
+    }
+    if ranges.is_empty() {
+        return;
+    }
+    tasks.clear();
+    tasks.extend(ranges.drain(..).map(|(i, j)| Task { i, j, fresh: true }));
+    path_hull_mark(points, epsilon, keep, tasks, hull);
+}
+
+/// Plain-DP work allowed per level of a balanced split tree before path hulls take
+/// over. Real data stays below it, so path hulls run only where plain DP would turn
+/// quadratic.
+pub(crate) const DP_BUDGET_PER_LEVEL: usize = 4;
+
+/// Douglas-Peucker with path hulls on the pending `tasks`, marking kept vertices.
 /// The part of a split that holds the tag is processed first with the rolled-back
 /// hull (it sits on top of the stack); the other part is rebuilt afterwards.
-pub(crate) fn hull_mark(
+pub(crate) fn path_hull_mark(
     points: &[Point2<f64>],
     epsilon: f64,
     keep: &mut [bool],
     tasks: &mut Vec<Task>,
     hull: &mut PathHull,
 ) {
-    let n = points.len();
-    tasks.clear();
-    tasks.push(Task {
-        i: 0,
-        j: n - 1,
-        fresh: true,
-    });
     while let Some(Task { i, j, fresh }) = tasks.pop() {
         if j <= i + 1 {
             continue;

@@ -40,6 +40,7 @@ pub struct Simplifier {
     method: Method,
     metric: Metric,
     tie: Tie,
+    dp_budget: Option<usize>,
     keep: Vec<bool>,
     ranges: Vec<(usize, usize)>,
     tasks: Vec<hull::Task>,
@@ -60,6 +61,16 @@ impl Simplifier {
     /// path hulls always take the first). The default, [`Tie::First`], matches GEOS.
     pub fn with_tie(mut self, tie: Tie) -> Self {
         self.tie = tie;
+        self
+    }
+
+    /// For [`Method::Hull`]: how much plain-DP work (distance evaluations per vertex
+    /// per level of a balanced split) runs before path hulls take over. Plain DP is
+    /// cheaper per vertex and finishes within the default budget on real data; the
+    /// budget caps its quadratic worst case. `0` runs path hulls from the start. The
+    /// result is the same either way.
+    pub fn with_dp_budget(mut self, per_level: usize) -> Self {
+        self.dp_budget = Some(per_level);
         self
     }
 
@@ -94,8 +105,10 @@ impl Simplifier {
                 points,
                 epsilon,
                 &mut self.keep,
+                &mut self.ranges,
                 &mut self.tasks,
                 &mut self.hull,
+                self.dp_budget.unwrap_or(hull::DP_BUDGET_PER_LEVEL),
             ),
         }
         Ok(self
@@ -114,11 +127,14 @@ impl Simplifier {
     where
         P: AsRef<[Point2<f64>]> + Sync,
     {
-        let (method, metric, tie) = (self.method, self.metric, self.tie);
+        let (method, metric, tie, budget) = (self.method, self.metric, self.tie, self.dp_budget);
         polylines
             .par_iter()
             .map_init(
-                || Simplifier::new(method, metric).with_tie(tie),
+                || Simplifier {
+                    dp_budget: budget,
+                    ..Simplifier::new(method, metric).with_tie(tie)
+                },
                 |s, pl| s.indices(pl.as_ref(), epsilon),
             )
             .collect()

@@ -81,17 +81,41 @@ fn check_all(points: &[Point2<f64>], eps: f64) {
     let (expected, tie) = oracle(points, eps);
     let dp = simplify_indices(points, eps, Method::Dp, Metric::Line).unwrap();
     let hull = simplify_indices(points, eps, Method::Hull, Metric::Line).unwrap();
+    // Path hulls from the first split, and after a tiny plain-DP phase, so the hull
+    // code runs on every input and not only where the default budget runs out.
+    let pure_hull = Simplifier::new(Method::Hull, Metric::Line)
+        .with_dp_budget(0)
+        .indices(points, eps)
+        .unwrap();
+    let early_hull = Simplifier::new(Method::Hull, Metric::Line)
+        .with_dp_budget(1)
+        .indices(points, eps)
+        .unwrap();
     assert!(
         is_valid_simplification(points, &dp, eps, Metric::Line),
         "dp invalid"
     );
-    assert!(
-        is_valid_simplification(points, &hull, eps, Metric::Line),
-        "hull invalid: {hull:?}"
-    );
+    for (name, kept) in [
+        ("hull", &hull),
+        ("pure hull", &pure_hull),
+        ("early hull", &early_hull),
+    ] {
+        assert!(
+            is_valid_simplification(points, kept, eps, Metric::Line),
+            "{name} invalid: {kept:?}"
+        );
+    }
     if !tie {
         assert_eq!(dp, expected, "dp differs from the oracle");
         assert_eq!(hull, dp, "hull differs from dp on a tie-free input");
+        assert_eq!(
+            pure_hull, dp,
+            "pure hull differs from dp on a tie-free input"
+        );
+        assert_eq!(
+            early_hull, dp,
+            "early hull differs from dp on a tie-free input"
+        );
     }
 }
 

@@ -17,10 +17,10 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _timing import best_time, fmt_seconds, print_table, time_in_subprocess  # noqa: E402
+from _timing import best_time, fmt_seconds, print_table, time_in_subprocess
 
-from rperc.datasets import data_dir, load_carmen, read_polylines  # noqa: E402
-from rperc.linesimp import simplify, simplify_many  # noqa: E402
+from rperc.datasets import data_dir, load_carmen, read_polylines
+from rperc.linesimp import simplify, simplify_many
 
 try:
     import shapely

@@ -7,6 +7,7 @@ Every reader reports a malformed line with its file name and line number
 from rperc.datasets._paths import data_dir, data_path
 from rperc.datasets.carmen import CarmenLog, LaserScans, Odometry, load_carmen
 from rperc.datasets.errors import DatasetFormatError
+from rperc.datasets.otb import OtbSequence, load_otb, read_boxes
 from rperc.datasets.polylines import read_polylines, write_polyline
 
 __all__ = [
@@ -14,9 +15,12 @@ __all__ = [
     "DatasetFormatError",
     "LaserScans",
     "Odometry",
+    "OtbSequence",
     "data_dir",
     "data_path",
     "load_carmen",
+    "load_otb",
+    "read_boxes",
     "read_polylines",
     "write_polyline",
 ]

@@ -1,0 +1,83 @@
+"""OTB (Object Tracking Benchmark, Wu, Lim & Yang) sequences: ``img/0001.jpg ...`` and
+``groundtruth_rect.txt`` with one ``x y w h`` box per frame (1-based top-left corner,
+separated by tabs, commas or spaces)."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from rperc.datasets.errors import DatasetFormatError
+
+_SEP = re.compile(r"[,\s]+")
+_IMAGE_SUFFIXES = {".jpg", ".jpeg", ".png"}
+
+
+@dataclass(frozen=True, repr=False)
+class OtbSequence:
+    """A sequence: frame paths in order and ground-truth boxes ``(x, y, w, h)`` with a
+    0-based top-left corner (converted from OTB's 1-based files)."""
+
+    name: str
+    frame_paths: list[Path]
+    boxes: np.ndarray  # (N, 4) float64
+
+    def __len__(self) -> int:
+        return len(self.frame_paths)
+
+    def frame(self, k: int) -> np.ndarray:
+        """Frame ``k`` as an H x W x 3 uint8 RGB array."""
+        from PIL import Image
+
+        with Image.open(self.frame_paths[k]) as img:
+            return np.asarray(img.convert("RGB"))
+
+    def frames(self) -> Iterator[np.ndarray]:
+        for k in range(len(self)):
+            yield self.frame(k)
+
+    def __repr__(self) -> str:
+        return f"OtbSequence({self.name!r}, {len(self)} frames)"
+
+
+def read_boxes(path: str | Path) -> np.ndarray:
+    """Ground-truth boxes of an OTB file, converted to 0-based corners."""
+    path = Path(path)
+    rows = []
+    for lineno, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+        if not line.strip():
+            continue
+        fields = [f for f in _SEP.split(line.strip()) if f]
+        if len(fields) != 4:
+            raise DatasetFormatError(path, lineno, f"expected 4 values x y w h, got {len(fields)}")
+        try:
+            x, y, w, h = (float(f) for f in fields)
+        except ValueError:
+            raise DatasetFormatError(path, lineno, f"bad number in {line.strip()!r}") from None
+        if not all(np.isfinite([x, y, w, h])):
+            raise DatasetFormatError(path, lineno, "non-finite box value")
+        rows.append([x - 1.0, y - 1.0, w, h])
+    return np.asarray(rows, dtype=np.float64).reshape(-1, 4)
+
+
+def load_otb(path: str | Path) -> OtbSequence:
+    """Read an OTB sequence folder. Frames are read lazily (:meth:`OtbSequence.frame`).
+
+    Raises ``FileNotFoundError`` for a missing folder, and :class:`DatasetFormatError`
+    for a malformed ground-truth line or when frames and boxes differ in number.
+    """
+    root = Path(path)
+    gt = root / "groundtruth_rect.txt"
+    if not gt.exists():
+        raise FileNotFoundError(f"{gt} not found (is {root} an OTB sequence folder?)")
+    frames = sorted(p for p in (root / "img").iterdir() if p.suffix.lower() in _IMAGE_SUFFIXES)
+    boxes = read_boxes(gt)
+    if len(frames) != len(boxes):
+        raise DatasetFormatError(
+            gt, len(boxes), f"{len(boxes)} boxes for {len(frames)} frames in {root / 'img'}"
+        )
+    return OtbSequence(root.name, frames, boxes)

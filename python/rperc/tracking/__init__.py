@@ -1,0 +1,5 @@
+"""Particle-filter (CONDENSATION) tracking and its evaluation metrics."""
+
+from rperc.tracking import metrics
+
+__all__ = ["metrics"]

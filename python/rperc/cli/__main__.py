@@ -1,0 +1,5 @@
+import sys
+
+from rperc.cli import main
+
+sys.exit(main())

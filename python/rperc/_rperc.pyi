@@ -7,6 +7,7 @@ __all__ = [
     "NumericalError",
     "RpercError",
     "__version__",
+    "extract_lines",
     "simplify_indices",
     "simplify_many_indices",
 ]
@@ -31,3 +32,25 @@ def simplify_many_indices(
     tie: str = "first",
     threads: int | None = None,
 ) -> list[npt.NDArray[np.intp]]: ...
+def extract_lines(
+    ranges: npt.NDArray[np.floating],
+    angles: npt.NDArray[np.floating],
+    *,
+    min_range: float,
+    max_range: float,
+    sigma_range: float,
+    sigma_bearing: float,
+    breakpoint_lambda: float,
+    split_epsilon: float,
+    merge_chi2: float,
+    min_points: int,
+    min_length: float,
+) -> tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.intp],
+    npt.NDArray[np.intp],
+]: ...

@@ -5,6 +5,7 @@ mod dp;
 mod error;
 mod hull;
 mod metric;
+mod walls;
 
 use nalgebra::Point2;
 use rayon::prelude::*;
@@ -12,6 +13,7 @@ use rayon::prelude::*;
 pub use dp::Tie;
 pub use error::{LineSimpError, Result};
 pub use metric::{Metric, chord_distance};
+pub use walls::{LineExtractor, ScanParams, WallSegment, extract_lines};
 
 /// Which Douglas-Peucker implementation runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

@@ -74,6 +74,38 @@ pub fn point_rows<'py>(obj: &Bound<'py, PyAny>, name: &str) -> Result<PointRows<
     )))
 }
 
+/// Reads a 1-D float64 or float32 array (any strides) into a vector.
+pub fn float_vector(obj: &Bound<'_, PyAny>, name: &str) -> Result<Vec<f64>> {
+    let untyped = obj.cast::<PyUntypedArray>().map_err(|_| {
+        Error::Type(format!(
+            "{name} must be a numpy array, got {}",
+            type_name(obj)
+        ))
+    })?;
+    if untyped.ndim() != 1 {
+        return Err(Error::Value(format!(
+            "{name} must be 1-D, got shape {:?}",
+            untyped.shape()
+        )));
+    }
+    let py = obj.py();
+    let dtype = untyped.dtype();
+    if dtype.is_equiv_to(&numpy::dtype::<f64>(py)) {
+        let a = readonly::<f64, numpy::Ix1>(obj)?;
+        return Ok(match a.as_slice() {
+            Ok(slice) => slice.to_vec(),
+            Err(_) => a.as_array().to_vec(),
+        });
+    }
+    if dtype.is_equiv_to(&numpy::dtype::<f32>(py)) {
+        let a = readonly::<f32, numpy::Ix1>(obj)?;
+        return Ok(a.as_array().iter().map(|&v| f64::from(v)).collect());
+    }
+    Err(Error::Type(format!(
+        "{name} must have a float64 or float32 dtype, got {dtype}"
+    )))
+}
+
 /// A read-only borrow of a typed array whose dtype was already checked.
 fn readonly<'py, T, D>(obj: &Bound<'py, PyAny>) -> Result<numpy::PyReadonlyArray<'py, T, D>>
 where

@@ -20,7 +20,7 @@ mod _rperc {
     #[pymodule_export]
     use crate::errors::RpercError;
     #[pymodule_export]
-    use crate::linesimp_py::{simplify_indices, simplify_many_indices};
+    use crate::linesimp_py::{extract_lines, simplify_indices, simplify_many_indices};
 
     use super::*;
 

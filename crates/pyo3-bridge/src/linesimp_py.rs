@@ -97,3 +97,89 @@ pub fn simplify_many_indices<'py>(
         .map(|kept| to_intp(kept).into_pyarray(py))
         .collect())
 }
+
+/// The arrays of a scan's walls: rho (K), alpha (K), cov (K, 2, 2), start (K, 2),
+/// end (K, 2), the fitted readings' indices back to back (M) and their offsets (K + 1).
+type WallArrays<'py> = (
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, numpy::PyArray3<f64>>,
+    Bound<'py, numpy::PyArray2<f64>>,
+    Bound<'py, numpy::PyArray2<f64>>,
+    Bound<'py, PyArray1<isize>>,
+    Bound<'py, PyArray1<isize>>,
+);
+
+/// Walls of one laser scan (GIL released).
+#[pyfunction]
+#[pyo3(signature = (
+    ranges, angles, *, min_range, max_range, sigma_range, sigma_bearing,
+    breakpoint_lambda, split_epsilon, merge_chi2, min_points, min_length
+))]
+#[allow(clippy::too_many_arguments)]
+pub fn extract_lines<'py>(
+    py: Python<'py>,
+    ranges: &Bound<'py, PyAny>,
+    angles: &Bound<'py, PyAny>,
+    min_range: f64,
+    max_range: f64,
+    sigma_range: f64,
+    sigma_bearing: f64,
+    breakpoint_lambda: f64,
+    split_epsilon: f64,
+    merge_chi2: f64,
+    min_points: usize,
+    min_length: f64,
+) -> PyResult<WallArrays<'py>> {
+    let ranges = crate::arrays::float_vector(ranges, "ranges")?;
+    let angles = crate::arrays::float_vector(angles, "angles")?;
+    let params = linesimp::ScanParams {
+        min_range,
+        max_range,
+        sigma_range,
+        sigma_bearing,
+        breakpoint_lambda,
+        split_epsilon,
+        merge_chi2,
+        min_points,
+        min_length,
+    };
+    let walls = detached(py, || {
+        Ok(linesimp::extract_lines(&ranges, &angles, &params)?)
+    })?;
+    let k = walls.len();
+    let mut rho = Vec::with_capacity(k);
+    let mut alpha = Vec::with_capacity(k);
+    let mut cov = Vec::with_capacity(4 * k);
+    let mut ends = [Vec::with_capacity(2 * k), Vec::with_capacity(2 * k)];
+    let mut indices = Vec::new();
+    let mut offsets = Vec::with_capacity(k + 1);
+    offsets.push(0isize);
+    for w in &walls {
+        rho.push(w.rho);
+        alpha.push(w.alpha);
+        // Row-major 2 x 2 for numpy (nalgebra is column-major; cov is symmetric anyway).
+        cov.extend([w.cov[(0, 0)], w.cov[(0, 1)], w.cov[(1, 0)], w.cov[(1, 1)]]);
+        ends[0].extend([w.start.x, w.start.y]);
+        ends[1].extend([w.end.x, w.end.y]);
+        indices.extend(w.indices.iter().map(|&i| i as isize));
+        offsets.push(indices.len() as isize);
+    }
+    let [start, end] = ends;
+    let shape_err = |e: numpy::ndarray::ShapeError| Error::Value(e.to_string());
+    Ok((
+        rho.into_pyarray(py),
+        alpha.into_pyarray(py),
+        numpy::ndarray::Array3::from_shape_vec((k, 2, 2), cov)
+            .map_err(shape_err)?
+            .into_pyarray(py),
+        numpy::ndarray::Array2::from_shape_vec((k, 2), start)
+            .map_err(shape_err)?
+            .into_pyarray(py),
+        numpy::ndarray::Array2::from_shape_vec((k, 2), end)
+            .map_err(shape_err)?
+            .into_pyarray(py),
+        indices.into_pyarray(py),
+        offsets.into_pyarray(py),
+    ))
+}

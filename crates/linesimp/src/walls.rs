@@ -1,0 +1,573 @@
+//! Wall (line segment) extraction from one 2-D laser scan, seed 000 section 2.1 and
+//! Fig. 1b: split-and-merge with iterative end-point fit.
+//!
+//! 1. drop invalid readings (NaN, at or below `min_range`, at or beyond `max_range`);
+//! 2. split at range discontinuities with the adaptive breakpoint detector of Borges &
+//!    Aldon (2004);
+//! 3. split each run with iterative end-point fit, i.e. Douglas-Peucker on the scan
+//!    points (path hulls, line metric);
+//! 4. fit each piece by total least squares in Hessian form `x cos a + y sin a = rho`;
+//! 5. give each line the 2 x 2 covariance of `(rho, alpha)` propagated to first order
+//!    from the range and bearing noise of its points;
+//! 6. merge neighbours whose lines agree under a chi-square test, refitting;
+//! 7. project the end points onto the line;
+//! 8. drop segments with too few points or too short a length.
+
+use std::f64::consts::PI;
+
+use nalgebra::{Matrix2, Point2, Vector2};
+
+use crate::error::{LineSimpError, Result};
+use crate::{Method, Metric, Simplifier};
+
+/// Parameters of [`LineExtractor`]. Lengths in metres, angles in radians.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScanParams {
+    /// Readings at or below this are invalid (0 is "no return" on most scanners).
+    pub min_range: f64,
+    /// Readings at or beyond this are invalid (no return). Default: infinite.
+    pub max_range: f64,
+    /// Standard deviation of the range noise (default 0.01 m).
+    pub sigma_range: f64,
+    /// Standard deviation of the bearing noise (default 0: bearings are exact).
+    pub sigma_bearing: f64,
+    /// Smallest incidence angle between a beam and a wall that still counts as one
+    /// surface, lambda of the adaptive breakpoint detector (default 10 degrees).
+    pub breakpoint_lambda: f64,
+    /// Iterative end-point fit splits where a point is farther than this from the
+    /// chord (default 0.05 m).
+    pub split_epsilon: f64,
+    /// Neighbouring lines merge when the Mahalanobis distance of their difference is
+    /// below this chi-square (2 dof) value (default 9.21, 99 %).
+    pub merge_chi2: f64,
+    /// Fewest points a wall may have (default 6; at least 2).
+    pub min_points: usize,
+    /// Shortest wall kept (default 0.3 m).
+    pub min_length: f64,
+}
+
+impl Default for ScanParams {
+    fn default() -> Self {
+        Self {
+            min_range: 0.0,
+            max_range: f64::INFINITY,
+            sigma_range: 0.01,
+            sigma_bearing: 0.0,
+            breakpoint_lambda: 10f64.to_radians(),
+            split_epsilon: 0.05,
+            merge_chi2: 9.21,
+            min_points: 6,
+            min_length: 0.3,
+        }
+    }
+}
+
+impl ScanParams {
+    /// Refuses NaN and out-of-range values with the parameter's name.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |name: &'static str, value: f64, rule: &str| {
+            Err(LineSimpError::InvalidParameter {
+                name,
+                reason: format!("must be {rule}, got {value}"),
+            })
+        };
+        let finite_nonneg = [
+            ("min_range", self.min_range),
+            ("sigma_range", self.sigma_range),
+            ("sigma_bearing", self.sigma_bearing),
+            ("split_epsilon", self.split_epsilon),
+            ("min_length", self.min_length),
+        ];
+        for (name, v) in finite_nonneg {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(name, v, "finite and >= 0");
+            }
+        }
+        if self.max_range.is_nan() || self.max_range <= self.min_range {
+            return bad("max_range", self.max_range, "greater than min_range");
+        }
+        if !(0.0..PI / 2.0).contains(&self.breakpoint_lambda) || self.breakpoint_lambda == 0.0 {
+            return bad(
+                "breakpoint_lambda",
+                self.breakpoint_lambda,
+                "in (0, pi/2) radians",
+            );
+        }
+        if !(self.merge_chi2.is_finite() && self.merge_chi2 >= 0.0) {
+            return bad("merge_chi2", self.merge_chi2, "finite and >= 0");
+        }
+        if self.min_points < 2 {
+            return bad("min_points", self.min_points as f64, ">= 2");
+        }
+        Ok(())
+    }
+}
+
+/// One extracted wall, in the sensor frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WallSegment {
+    /// Distance from the sensor to the line, >= 0.
+    pub rho: f64,
+    /// Direction of the line's normal, in (-pi, pi].
+    pub alpha: f64,
+    /// Covariance of `(rho, alpha)`.
+    pub cov: Matrix2<f64>,
+    /// First end point, projected onto the line.
+    pub start: Point2<f64>,
+    /// Last end point, projected onto the line.
+    pub end: Point2<f64>,
+    /// Indices of the fitted readings in the input scan, increasing.
+    pub indices: Vec<usize>,
+}
+
+impl WallSegment {
+    /// Length of the segment.
+    pub fn length(&self) -> f64 {
+        (self.end - self.start).norm()
+    }
+}
+
+/// A total-least-squares line fit with its first-order covariance.
+#[derive(Debug, Clone, Copy)]
+struct LineFit {
+    rho: f64,
+    alpha: f64,
+    cov: Matrix2<f64>,
+}
+
+/// Wall extractor with buffers reused from scan to scan (no allocation per point).
+///
+/// # Examples
+/// ```
+/// use linesimp::{LineExtractor, ScanParams};
+///
+/// // A wall 2 m in front of the sensor (the line x = 2), seen by 91 beams.
+/// let angles: Vec<f64> = (0..91).map(|k| (k as f64 - 45.0).to_radians()).collect();
+/// let ranges: Vec<f64> = angles.iter().map(|a| 2.0 / a.cos()).collect();
+/// let walls = LineExtractor::new(ScanParams::default()).extract(&ranges, &angles).unwrap();
+/// assert_eq!(walls.len(), 1);
+/// assert!((walls[0].rho - 2.0).abs() < 1e-9 && walls[0].alpha.abs() < 1e-9);
+/// ```
+#[derive(Debug, Default)]
+pub struct LineExtractor {
+    params: ScanParams,
+    points: Vec<Point2<f64>>,
+    ranges: Vec<f64>,
+    bearings: Vec<f64>,
+    source: Vec<usize>,
+    simplifier: Simplifier,
+    /// Point ranges `[a, b)` of the pieces of the current run.
+    pieces: Vec<(usize, usize, LineFit)>,
+}
+
+impl LineExtractor {
+    /// An extractor with the given parameters (checked on every call to `extract`).
+    pub fn new(params: ScanParams) -> Self {
+        Self {
+            params,
+            simplifier: Simplifier::new(Method::Hull, Metric::Line),
+            ..Self::default()
+        }
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> &ScanParams {
+        &self.params
+    }
+
+    /// Walls of one scan: `ranges[k]` measured along bearing `angles[k]` (sensor
+    /// frame, increasing). Invalid readings are skipped, never an error; NaN bearings,
+    /// mismatched lengths and bad parameters are.
+    pub fn extract(&mut self, ranges: &[f64], angles: &[f64]) -> Result<Vec<WallSegment>> {
+        let p = self.params;
+        p.validate()?;
+        if ranges.len() != angles.len() {
+            return Err(LineSimpError::LengthMismatch {
+                what: format!(
+                    "ranges has length {} but angles has length {}",
+                    ranges.len(),
+                    angles.len()
+                ),
+            });
+        }
+        if let Some(k) = angles.iter().position(|a| !a.is_finite()) {
+            return Err(LineSimpError::InvalidParameter {
+                name: "angles",
+                reason: format!("angle {k} is not finite ({})", angles[k]),
+            });
+        }
+        self.collect_valid(ranges, angles);
+        let mut walls = Vec::new();
+        let n = self.points.len();
+        let mut start = 0;
+        for k in 1..=n {
+            if k == n || self.is_breakpoint(k) {
+                self.extract_run(start, k, &mut walls);
+                start = k;
+            }
+        }
+        Ok(walls)
+    }
+
+    /// Step 1: the valid readings as points, with their polar coordinates and indices.
+    fn collect_valid(&mut self, ranges: &[f64], angles: &[f64]) {
+        let p = &self.params;
+        self.points.clear();
+        self.ranges.clear();
+        self.bearings.clear();
+        self.source.clear();
+        for (k, (&r, &a)) in ranges.iter().zip(angles).enumerate() {
+            if r.is_finite() && r > p.min_range && r > 0.0 && r < p.max_range {
+                let (s, c) = a.sin_cos();
+                self.points.push(Point2::new(r * c, r * s));
+                self.ranges.push(r);
+                self.bearings.push(a);
+                self.source.push(k);
+            }
+        }
+    }
+
+    /// Step 2, Borges & Aldon's adaptive breakpoint detector: consecutive points
+    /// farther apart than `r sin(dphi) / sin(lambda - dphi) + 3 sigma_r` lie on
+    /// different surfaces. Gaps wider than lambda always break.
+    fn is_breakpoint(&self, k: usize) -> bool {
+        let p = &self.params;
+        let dphi = (self.bearings[k] - self.bearings[k - 1]).abs();
+        if dphi >= p.breakpoint_lambda {
+            return true;
+        }
+        let d_max = self.ranges[k - 1] * dphi.sin() / (p.breakpoint_lambda - dphi).sin()
+            + 3.0 * p.sigma_range;
+        (self.points[k] - self.points[k - 1]).norm() > d_max
+    }
+
+    /// Steps 3 to 8 on the run of valid points `[a, b)`.
+    fn extract_run(&mut self, a: usize, b: usize, walls: &mut Vec<WallSegment>) {
+        let min_points = self.params.min_points;
+        if b - a < min_points {
+            return;
+        }
+        // Step 3: iterative end-point fit. A split vertex sits near a corner and may
+        // belong to either wall: fit the pieces without it, then give it to the
+        // piece whose line it is closer to.
+        let kept = match self
+            .simplifier
+            .indices(&self.points[a..b], self.params.split_epsilon)
+        {
+            Ok(kept) => kept,
+            Err(_) => return, // unreachable: points are finite and epsilon was checked
+        };
+        let last = kept.len() - 2;
+        self.pieces.clear();
+        for (w, pair) in kept.windows(2).enumerate() {
+            let lo = a + pair[0] + usize::from(w > 0);
+            let hi = a + pair[1] + usize::from(w == last);
+            let fit = self.fit(lo, hi);
+            self.pieces.push((lo, hi, fit));
+        }
+        for w in 1..self.pieces.len() {
+            let vertex = self.pieces[w].0 - 1;
+            let q = self.points[vertex].coords;
+            let residual = |f: &LineFit| (q.x * f.alpha.cos() + q.y * f.alpha.sin() - f.rho).abs();
+            let (before, after) = (self.pieces[w - 1], self.pieces[w]);
+            let to_before = match (before.1 - before.0 >= 2, after.1 - after.0 >= 2) {
+                (true, true) => residual(&before.2) <= residual(&after.2),
+                (ok_before, _) => ok_before,
+            };
+            if to_before {
+                self.pieces[w - 1].1 += 1;
+                self.pieces[w - 1].2 = self.fit(before.0, before.1 + 1);
+            } else {
+                self.pieces[w].0 -= 1;
+                self.pieces[w].2 = self.fit(after.0 - 1, after.1);
+            }
+        }
+        self.pieces.retain(|&(lo, hi, _)| hi - lo >= 2);
+        // Step 6: merge neighbours that agree, until none do.
+        let mut k = 0;
+        while k + 1 < self.pieces.len() {
+            let (lo, _, f1) = self.pieces[k];
+            let (_, hi, f2) = self.pieces[k + 1];
+            if same_line(&f1, &f2) < self.params.merge_chi2 {
+                let merged = self.fit(lo, hi);
+                self.pieces[k] = (lo, hi, merged);
+                self.pieces.remove(k + 1);
+                k = k.saturating_sub(1);
+            } else {
+                k += 1;
+            }
+        }
+        // Steps 7 and 8.
+        for &(lo, hi, fit) in &self.pieces {
+            if hi - lo < min_points {
+                continue;
+            }
+            let n = Vector2::new(fit.alpha.cos(), fit.alpha.sin());
+            let project = |q: &Point2<f64>| q - n * (n.dot(&q.coords) - fit.rho);
+            let wall = WallSegment {
+                rho: fit.rho,
+                alpha: fit.alpha,
+                cov: fit.cov,
+                start: project(&self.points[lo]),
+                end: project(&self.points[hi - 1]),
+                indices: self.source[lo..hi].to_vec(),
+            };
+            if wall.length() >= self.params.min_length {
+                walls.push(wall);
+            }
+        }
+    }
+
+    /// Steps 4 and 5: total least squares on points `[lo, hi)` and the first-order
+    /// covariance of `(rho, alpha)` from the polar noise of each point.
+    fn fit(&self, lo: usize, hi: usize) -> LineFit {
+        if hi < lo + 2 {
+            // No line through fewer than two points; such pieces are dropped.
+            return LineFit {
+                rho: f64::NAN,
+                alpha: f64::NAN,
+                cov: Matrix2::from_diagonal_element(f64::INFINITY),
+            };
+        }
+        let pts = &self.points[lo..hi];
+        let count = pts.len() as f64;
+        let c = pts.iter().fold(Vector2::zeros(), |s, q| s + q.coords) / count;
+        let (mut sxx, mut syy, mut sxy) = (0.0, 0.0, 0.0);
+        for q in pts {
+            let d = q.coords - c;
+            sxx += d.x * d.x;
+            syy += d.y * d.y;
+            sxy += d.x * d.y;
+        }
+        // The normal minimising the squared residuals: smallest eigenvector of the
+        // scatter matrix.
+        let mut alpha = 0.5 * (-2.0 * sxy).atan2(syy - sxx);
+        let mut rho = c.x * alpha.cos() + c.y * alpha.sin();
+        if rho < 0.0 {
+            rho = -rho;
+            alpha += PI;
+        }
+        alpha = wrap_angle(alpha);
+        let cov = self.fit_covariance(lo, hi, rho, alpha);
+        LineFit { rho, alpha, cov }
+    }
+
+    /// Implicit-function first-order propagation. With normal `n`, tangent `t`, and
+    /// residuals `e_i = n.p_i - rho`, the fit zeroes `g = (-sum e_i, sum e_i t.p_i)`;
+    /// so `d(rho, alpha)/dp_i = -H^-1 dg/dp_i` with
+    /// `H = [[N, -sum t.p_i], [-sum t.p_i, sum (t.p_i)^2 - sum e_i n.p_i]]` and
+    /// `dg/dp_i = [-n^T; (t.p_i) n^T + e_i t^T]`. Each point's covariance comes from
+    /// its range and bearing noise through `p = r (cos phi, sin phi)`.
+    fn fit_covariance(&self, lo: usize, hi: usize, rho: f64, alpha: f64) -> Matrix2<f64> {
+        let (sa, ca) = alpha.sin_cos();
+        let n = Vector2::new(ca, sa);
+        let t = Vector2::new(-sa, ca);
+        let (mut sum_tp, mut sum_tp2, mut sum_enp) = (0.0, 0.0, 0.0);
+        for q in &self.points[lo..hi] {
+            let (tp, np) = (t.dot(&q.coords), n.dot(&q.coords));
+            sum_tp += tp;
+            sum_tp2 += tp * tp;
+            sum_enp += (np - rho) * np;
+        }
+        let h = Matrix2::new((hi - lo) as f64, -sum_tp, -sum_tp, sum_tp2 - sum_enp);
+        let Some(h_inv) = h.try_inverse() else {
+            return Matrix2::from_diagonal_element(f64::INFINITY);
+        };
+        let (var_r, var_b) = (
+            self.params.sigma_range.powi(2),
+            self.params.sigma_bearing.powi(2),
+        );
+        let mut cov = Matrix2::zeros();
+        for k in lo..hi {
+            let q = self.points[k].coords;
+            let (tp, e) = (t.dot(&q), n.dot(&q) - rho);
+            // Rows: d g1 / d p = -n^T, d g2 / d p = tp n^T + e t^T.
+            let dg = Matrix2::new(-n.x, -n.y, tp * n.x + e * t.x, tp * n.y + e * t.y);
+            let a = -h_inv * dg;
+            let (sb, cb) = self.bearings[k].sin_cos();
+            let r = self.ranges[k];
+            let d_range = a * Vector2::new(cb, sb);
+            let d_bearing = a * Vector2::new(-r * sb, r * cb);
+            cov +=
+                d_range * d_range.transpose() * var_r + d_bearing * d_bearing.transpose() * var_b;
+        }
+        0.5 * (cov + cov.transpose())
+    }
+}
+
+/// Mahalanobis distance between two independent line estimates, taking the
+/// equivalent form `(-rho, alpha + pi)` into account for lines near the sensor.
+fn same_line(a: &LineFit, b: &LineFit) -> f64 {
+    let Some(inv) = (a.cov + b.cov).try_inverse() else {
+        return f64::INFINITY;
+    };
+    let d1 = Vector2::new(a.rho - b.rho, wrap_angle(a.alpha - b.alpha));
+    let d2 = Vector2::new(a.rho + b.rho, wrap_angle(a.alpha - b.alpha - PI));
+    d1.dot(&(inv * d1)).min(d2.dot(&(inv * d2)))
+}
+
+/// An angle in (-pi, pi].
+fn wrap_angle(a: f64) -> f64 {
+    let w = a.rem_euclid(2.0 * PI);
+    if w > PI { w - 2.0 * PI } else { w }
+}
+
+/// [`LineExtractor::extract`] for a single scan.
+///
+/// # Examples
+/// ```
+/// use linesimp::{ScanParams, extract_lines};
+///
+/// let angles: Vec<f64> = (0..61).map(|k| (k as f64 - 30.0).to_radians()).collect();
+/// let ranges: Vec<f64> = angles.iter().map(|a| 3.0 / (a - 0.2).cos()).collect();
+/// let walls = extract_lines(&ranges, &angles, &ScanParams::default()).unwrap();
+/// assert!((walls[0].rho - 3.0).abs() < 1e-9 && (walls[0].alpha - 0.2).abs() < 1e-9);
+/// ```
+pub fn extract_lines(
+    ranges: &[f64],
+    angles: &[f64],
+    params: &ScanParams,
+) -> Result<Vec<WallSegment>> {
+    LineExtractor::new(*params).extract(ranges, angles)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn beams(n: usize, from_deg: f64, to_deg: f64) -> Vec<f64> {
+        (0..n)
+            .map(|k| (from_deg + (to_deg - from_deg) * k as f64 / (n - 1) as f64).to_radians())
+            .collect()
+    }
+
+    /// Range to the line `x cos(alpha) + y sin(alpha) = rho` along bearing `phi`.
+    fn range_to(rho: f64, alpha: f64, phi: f64) -> f64 {
+        rho / (phi - alpha).cos()
+    }
+
+    #[test]
+    fn a_corner_gives_two_walls_meeting_at_right_angles() {
+        // Walls x = 2 (alpha 0) and y = 2 (alpha pi/2) meet at (2, 2), bearing 45 deg.
+        let angles = beams(181, -30.0, 120.0);
+        let ranges: Vec<f64> = angles
+            .iter()
+            .map(|&a| {
+                range_to(2.0, 0.0, a)
+                    .abs()
+                    .min(range_to(2.0, PI / 2.0, a).abs())
+            })
+            .map(|r| {
+                if r.is_finite() && r > 0.0 {
+                    r
+                } else {
+                    f64::NAN
+                }
+            })
+            .collect();
+        let walls = extract_lines(&ranges, &angles, &ScanParams::default()).unwrap();
+        assert_eq!(walls.len(), 2, "{walls:?}");
+        assert!((walls[0].rho - 2.0).abs() < 1e-9 && walls[0].alpha.abs() < 1e-9);
+        assert!((walls[1].rho - 2.0).abs() < 1e-9 && (walls[1].alpha - PI / 2.0).abs() < 1e-9);
+        // Both walls end at the corner.
+        assert!((walls[0].end - Point2::new(2.0, 2.0)).norm() < 0.1);
+        assert!((walls[1].start - Point2::new(2.0, 2.0)).norm() < 0.1);
+    }
+
+    #[test]
+    fn collinear_walls_across_a_gap_stay_apart() {
+        // The wall x = 2 with a doorway: beams between -5 and 5 degrees see nothing.
+        let angles = beams(121, -30.0, 30.0);
+        let ranges: Vec<f64> = angles
+            .iter()
+            .map(|&a| {
+                if a.to_degrees().abs() < 5.0 {
+                    f64::NAN
+                } else {
+                    range_to(2.0, 0.0, a)
+                }
+            })
+            .collect();
+        let walls = extract_lines(&ranges, &angles, &ScanParams::default()).unwrap();
+        assert_eq!(walls.len(), 2);
+    }
+
+    #[test]
+    fn covariance_matches_finite_differences() {
+        // An independent check of the analytic Jacobian: perturb each range and
+        // refit, accumulating J diag(var) J^T numerically.
+        let angles = beams(40, -20.0, 25.0);
+        let ranges: Vec<f64> = angles
+            .iter()
+            .enumerate()
+            .map(|(k, &a)| range_to(3.0, 0.3, a) + 0.004 * ((k * 7919 % 13) as f64 - 6.0))
+            .collect();
+        let params = ScanParams {
+            sigma_range: 0.02,
+            sigma_bearing: 0.003,
+            split_epsilon: 1.0,
+            ..ScanParams::default()
+        };
+        let mut ex = LineExtractor::new(params);
+        ex.collect_valid(&ranges, &angles);
+        let base = ex.fit(0, 40);
+        let h = 1e-6;
+        let mut cov = Matrix2::zeros();
+        for k in 0..40 {
+            for (which, var) in [(0, 0.02f64.powi(2)), (1, 0.003f64.powi(2))] {
+                let mut r = ranges.clone();
+                let mut a = angles.clone();
+                if which == 0 {
+                    r[k] += h;
+                } else {
+                    a[k] += h;
+                }
+                ex.collect_valid(&r, &a);
+                let f = ex.fit(0, 40);
+                let d = Vector2::new((f.rho - base.rho) / h, wrap_angle(f.alpha - base.alpha) / h);
+                cov += d * d.transpose() * var;
+            }
+        }
+        let rel = (cov - base.cov).norm() / base.cov.norm();
+        assert!(rel < 1e-4, "analytic {} vs numeric {}", base.cov, cov);
+    }
+
+    #[test]
+    fn bad_parameters_are_refused_by_name() {
+        for (params, name) in [
+            (
+                ScanParams {
+                    sigma_range: -1.0,
+                    ..ScanParams::default()
+                },
+                "sigma_range",
+            ),
+            (
+                ScanParams {
+                    split_epsilon: f64::NAN,
+                    ..ScanParams::default()
+                },
+                "split_epsilon",
+            ),
+            (
+                ScanParams {
+                    min_points: 1,
+                    ..ScanParams::default()
+                },
+                "min_points",
+            ),
+            (
+                ScanParams {
+                    breakpoint_lambda: 2.0,
+                    ..ScanParams::default()
+                },
+                "breakpoint_lambda",
+            ),
+        ] {
+            let err = extract_lines(&[1.0; 3], &[0.0, 0.1, 0.2], &params).unwrap_err();
+            assert!(err.to_string().contains(name), "{err}");
+        }
+        let err = extract_lines(&[1.0; 3], &[0.0, 0.1], &ScanParams::default()).unwrap_err();
+        assert!(matches!(err, LineSimpError::LengthMismatch { .. }));
+    }
+}

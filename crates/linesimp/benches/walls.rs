@@ -33,7 +33,9 @@ fn range(phi: f64) -> f64 {
 }
 
 fn bench_walls(c: &mut Criterion) {
-    let angles: Vec<f64> = (0..180).map(|k| -PI / 2.0 + PI * k as f64 / 180.0).collect();
+    let angles: Vec<f64> = (0..180)
+        .map(|k| -PI / 2.0 + PI * k as f64 / 180.0)
+        .collect();
     let ranges: Vec<f64> = angles
         .iter()
         .enumerate()
@@ -41,7 +43,11 @@ fn bench_walls(c: &mut Criterion) {
         .collect();
     let mut extractor = LineExtractor::new(ScanParams::default());
     c.bench_function("extract_lines/180 beams", |b| {
-        b.iter(|| extractor.extract(black_box(&ranges), black_box(&angles)).unwrap())
+        b.iter(|| {
+            extractor
+                .extract(black_box(&ranges), black_box(&angles))
+                .unwrap()
+        })
     });
 }
 

@@ -12,13 +12,23 @@ use nalgebra::Point2;
 /// Range from the origin along `phi` to the walls x = +-4, y = +-3 (a 8 m x 6 m room).
 fn room_range(phi: f64) -> f64 {
     let (s, c) = phi.sin_cos();
-    let tx = if c.abs() > 1e-12 { 4.0 / c.abs() } else { f64::INFINITY };
-    let ty = if s.abs() > 1e-12 { 3.0 / s.abs() } else { f64::INFINITY };
+    let tx = if c.abs() > 1e-12 {
+        4.0 / c.abs()
+    } else {
+        f64::INFINITY
+    };
+    let ty = if s.abs() > 1e-12 {
+        3.0 / s.abs()
+    } else {
+        f64::INFINITY
+    };
     tx.min(ty)
 }
 
 fn main() {
-    let angles: Vec<f64> = (0..361).map(|k| -PI / 2.0 + PI * k as f64 / 360.0).collect();
+    let angles: Vec<f64> = (0..361)
+        .map(|k| -PI / 2.0 + PI * k as f64 / 360.0)
+        .collect();
     // Deterministic pseudo-noise of about 1 cm, so the demo needs no RNG crate.
     let ranges: Vec<f64> = angles
         .iter()
@@ -28,7 +38,9 @@ fn main() {
     let mut extractor = LineExtractor::new(ScanParams::default());
     let walls = extractor.extract(&ranges, &angles).expect("valid scan");
     println!("simulated 361-beam scan of an 8 m x 6 m room (sensor at the centre, facing +x):");
-    println!("  true walls in view: x = 4 (rho 4, alpha 0), y = 3 (rho 3, alpha 90), y = -3 (rho 3, alpha -90)");
+    println!(
+        "  true walls in view: x = 4 (rho 4, alpha 0), y = 3 (rho 3, alpha 90), y = -3 (rho 3, alpha -90)"
+    );
     for w in &walls {
         println!(
             "  wall rho = {:.3} m +- {:.3}, alpha = {:7.2} deg +- {:.2}, length {:.2} m, {} points",

@@ -1,0 +1,439 @@
+//! The EKF-SLAM core: a robot block plus landmark blocks with a full covariance,
+//! seed 000 equations (3) to (9).
+//!
+//! Prediction touches only the robot rows and columns (O(n)). The update exploits
+//! the sparse observation Jacobian: `H` is a few dense blocks (the robot and one
+//! landmark, say), so `P H^T` costs O(n p) and the Joseph form, expanded as
+//! `P - K (P H^T)^T + (K S - P H^T) K^T`, costs one pass over `P` (O(n^2 p)).
+
+use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
+
+use crate::error::{Result, SlamError, ensure_finite};
+
+/// One dense block of a sparse observation Jacobian `H`: rows `row..row + h.nrows()`
+/// and columns `col..col + h.ncols()` of `H` equal `h`; everything else is zero.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JacobianBlock {
+    /// First row of the block in `H`.
+    pub row: usize,
+    /// First column of the block in `H` (the state index).
+    pub col: usize,
+    /// The block's entries.
+    pub h: DMatrix<f64>,
+}
+
+/// An observation Jacobian with `rows` rows stored as dense blocks (blocks may
+/// overlap; overlapping entries add).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SparseJacobian {
+    /// Number of rows of `H` (the observation size).
+    pub rows: usize,
+    /// The non-zero blocks.
+    pub blocks: Vec<JacobianBlock>,
+}
+
+impl SparseJacobian {
+    /// A Jacobian with `rows` rows and no blocks yet.
+    pub fn new(rows: usize) -> Self {
+        Self {
+            rows,
+            blocks: Vec::new(),
+        }
+    }
+
+    /// Adds the block `h` at `(row, col)`.
+    pub fn with_block(mut self, row: usize, col: usize, h: DMatrix<f64>) -> Self {
+        self.blocks.push(JacobianBlock { row, col, h });
+        self
+    }
+
+    /// The dense `rows x cols` matrix (for tests and small problems).
+    pub fn to_dense(&self, cols: usize) -> DMatrix<f64> {
+        let mut dense = DMatrix::zeros(self.rows, cols);
+        for b in &self.blocks {
+            let mut view = dense.view_mut((b.row, b.col), (b.h.nrows(), b.h.ncols()));
+            view += &b.h;
+        }
+        dense
+    }
+
+    fn validate(&self, state_dim: usize) -> Result<()> {
+        for b in &self.blocks {
+            if b.row + b.h.nrows() > self.rows || b.col + b.h.ncols() > state_dim {
+                return Err(SlamError::Dimension(format!(
+                    "Jacobian block {}x{} at ({}, {}) does not fit a {}x{} H",
+                    b.h.nrows(),
+                    b.h.ncols(),
+                    b.row,
+                    b.col,
+                    self.rows,
+                    state_dim
+                )));
+            }
+            ensure_finite("Jacobian", b.h.iter())?;
+        }
+        Ok(())
+    }
+}
+
+/// What one measurement update did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Update {
+    /// The innovation `z - h(x)` it used.
+    pub innovation: DVector<f64>,
+    /// Innovation covariance `S = H P H^T + R`, eq. (8).
+    pub s: DMatrix<f64>,
+    /// Kalman gain `K = P H^T S^-1`, eq. (7), `d x p`.
+    pub gain: DMatrix<f64>,
+    /// Normalised innovation squared `nu^T S^-1 nu`.
+    pub nis: f64,
+}
+
+/// States at least this large update `P` on all cores; below it, threads cost more
+/// than they save.
+const PARALLEL_MIN_DIM: usize = 384;
+
+/// An extended Kalman filter over a robot block of size `robot_dim` followed by
+/// landmark blocks of size `landmark_dim`.
+///
+/// # Examples
+/// ```
+/// use nalgebra::{DMatrix, DVector};
+/// use slam::{Ekf, SparseJacobian};
+///
+/// // A 1-D robot at 0 (variance 1) and a landmark at 2 (variance 4).
+/// let mut ekf = Ekf::new(DVector::from_vec(vec![0.0, 2.0]),
+///                        DMatrix::from_diagonal(&DVector::from_vec(vec![1.0, 4.0])), 1, 1).unwrap();
+/// // Observe the landmark relative to the robot: z = l - x = 2.5, noise variance 1.
+/// let h = SparseJacobian::new(1)
+///     .with_block(0, 0, DMatrix::from_element(1, 1, -1.0))
+///     .with_block(0, 1, DMatrix::from_element(1, 1, 1.0));
+/// let up = ekf.update(&DVector::from_vec(vec![0.5]), &h, &DMatrix::identity(1, 1)).unwrap();
+/// assert!((up.s[(0, 0)] - 6.0).abs() < 1e-12); // 1 + 4 + 1
+/// assert!((ekf.state()[1] - (2.0 + 4.0 / 6.0 * 0.5)).abs() < 1e-12);
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ekf {
+    x: DVector<f64>,
+    p: DMatrix<f64>,
+    robot_dim: usize,
+    landmark_dim: usize,
+}
+
+impl Ekf {
+    /// A filter with state `x` and covariance `p`: a robot block of `robot_dim`
+    /// entries, then landmark blocks of `landmark_dim` entries each.
+    pub fn new(
+        x: DVector<f64>,
+        p: DMatrix<f64>,
+        robot_dim: usize,
+        landmark_dim: usize,
+    ) -> Result<Self> {
+        let d = x.len();
+        if p.nrows() != d || p.ncols() != d {
+            return Err(SlamError::Dimension(format!(
+                "state has {d} entries but covariance is {}x{}",
+                p.nrows(),
+                p.ncols()
+            )));
+        }
+        if robot_dim == 0
+            || landmark_dim == 0
+            || d < robot_dim
+            || (d - robot_dim) % landmark_dim != 0
+        {
+            return Err(SlamError::Dimension(format!(
+                "a state of {d} entries is not a robot block of {robot_dim} plus blocks of {landmark_dim}"
+            )));
+        }
+        ensure_finite("state", x.iter())?;
+        ensure_finite("covariance", p.iter())?;
+        Ok(Self {
+            x,
+            p,
+            robot_dim,
+            landmark_dim,
+        })
+    }
+
+    /// The state estimate.
+    pub fn state(&self) -> &DVector<f64> {
+        &self.x
+    }
+
+    /// The state covariance.
+    pub fn covariance(&self) -> &DMatrix<f64> {
+        &self.p
+    }
+
+    /// Size of the robot block.
+    pub fn robot_dim(&self) -> usize {
+        self.robot_dim
+    }
+
+    /// Size of each landmark block.
+    pub fn landmark_dim(&self) -> usize {
+        self.landmark_dim
+    }
+
+    /// Number of landmarks in the state.
+    pub fn num_landmarks(&self) -> usize {
+        (self.x.len() - self.robot_dim) / self.landmark_dim
+    }
+
+    /// State index of landmark `j`'s first entry.
+    pub fn landmark_offset(&self, j: usize) -> Result<usize> {
+        if j >= self.num_landmarks() {
+            return Err(SlamError::Dimension(format!(
+                "landmark {j} does not exist ({} in the map)",
+                self.num_landmarks()
+            )));
+        }
+        Ok(self.robot_dim + j * self.landmark_dim)
+    }
+
+    /// Prediction, eqs. (3) and (5): the robot block moves to `robot_mean` and
+    /// `P <- Fx P Fx^T + Fv V Fv^T` with `Fx` acting on the robot block only
+    /// (landmarks are static). O(n).
+    pub fn predict(
+        &mut self,
+        robot_mean: &DVector<f64>,
+        fx: &DMatrix<f64>,
+        fv: &DMatrix<f64>,
+        v: &DMatrix<f64>,
+    ) -> Result<()> {
+        let r = self.robot_dim;
+        let q = v.nrows();
+        if robot_mean.len() != r
+            || fx.shape() != (r, r)
+            || fv.shape() != (r, q)
+            || v.shape() != (q, q)
+        {
+            return Err(SlamError::Dimension(format!(
+                "prediction needs robot mean {r}, Fx {r}x{r}, Fv {r}x{q}, V {q}x{q}; got {}, {:?}, {:?}, {:?}",
+                robot_mean.len(),
+                fx.shape(),
+                fv.shape(),
+                v.shape()
+            )));
+        }
+        ensure_finite("robot mean", robot_mean.iter())?;
+        ensure_finite("Fx", fx.iter())?;
+        ensure_finite("Fv", fv.iter())?;
+        ensure_finite("V", v.iter())?;
+        let d = self.x.len();
+        let prr = self.p.view((0, 0), (r, r)).clone_owned();
+        let new_rr = fx * prr * fx.transpose() + fv * v * fv.transpose();
+        if d > r {
+            let cross = fx * self.p.view((0, r), (r, d - r));
+            self.p
+                .view_mut((r, 0), (d - r, r))
+                .copy_from(&cross.transpose());
+            self.p.view_mut((0, r), (r, d - r)).copy_from(&cross);
+        }
+        self.p
+            .view_mut((0, 0), (r, r))
+            .copy_from(&((&new_rr + new_rr.transpose()) * 0.5));
+        self.x.rows_mut(0, r).copy_from(robot_mean);
+        Ok(())
+    }
+
+    /// Measurement update, eqs. (6) to (9), with the Joseph form in O(n^2 p) for a
+    /// sparse `H`. On error (sizes, NaN, a singular `S`) the state is unchanged.
+    pub fn update(
+        &mut self,
+        innovation: &DVector<f64>,
+        h: &SparseJacobian,
+        r: &DMatrix<f64>,
+    ) -> Result<Update> {
+        let d = self.x.len();
+        let p = h.rows;
+        if innovation.len() != p || r.shape() != (p, p) || p == 0 {
+            return Err(SlamError::Dimension(format!(
+                "update needs an innovation of {p} > 0 entries and R {p}x{p}; got {} and {:?}",
+                innovation.len(),
+                r.shape()
+            )));
+        }
+        h.validate(d)?;
+        ensure_finite("innovation", innovation.iter())?;
+        ensure_finite("R", r.iter())?;
+
+        // L = P H^T, touching only the columns of P that H's blocks select.
+        let mut l = DMatrix::<f64>::zeros(d, p);
+        for b in &h.blocks {
+            for c in 0..b.h.ncols() {
+                let pcol = self.p.column(b.col + c);
+                for a in 0..b.h.nrows() {
+                    let coeff = b.h[(a, c)];
+                    if coeff != 0.0 {
+                        l.column_mut(b.row + a).axpy(coeff, &pcol, 1.0);
+                    }
+                }
+            }
+        }
+        // S = H L + R, eq. (8).
+        let mut s = r.clone();
+        for b in &h.blocks {
+            for a in 0..b.h.nrows() {
+                for c in 0..b.h.ncols() {
+                    let coeff = b.h[(a, c)];
+                    if coeff != 0.0 {
+                        for k in 0..p {
+                            s[(b.row + a, k)] += coeff * l[(b.col + c, k)];
+                        }
+                    }
+                }
+            }
+        }
+        let s = (&s + s.transpose()) * 0.5;
+        if !s.iter().all(|v| v.is_finite()) {
+            return Err(SlamError::SingularInnovation("S is not finite".into()));
+        }
+        let chol = s.clone().cholesky().ok_or_else(|| {
+            SlamError::SingularInnovation(format!("S = {s:.3e} has no Cholesky factor"))
+        })?;
+        // K = L S^-1, eq. (7), from S K^T = L^T.
+        let gain = chol.solve(&l.transpose()).transpose();
+        let dx = &gain * innovation;
+        if !gain.iter().chain(dx.iter()).all(|v| v.is_finite()) {
+            return Err(SlamError::SingularInnovation(
+                "the gain is not finite (S is numerically singular)".into(),
+            ));
+        }
+        let nis = innovation.dot(&chol.solve(innovation));
+        // Joseph form, eq. (9), expanded for the sparse H:
+        // (I - K H) P (I - K H)^T + K R K^T = P - K L^T - L K^T + K S K^T
+        //                                   = P - K L^T + (K S - L) K^T.
+        let m = &gain * &s - &l;
+        joseph_columns(&mut self.p, &gain, &l, &m);
+        self.x += dx;
+        Ok(Update {
+            innovation: innovation.clone(),
+            s,
+            gain,
+            nis,
+        })
+    }
+
+    /// Several observations stacked into one update (one `S`, one pass over `P`).
+    /// Each item is `(innovation, H, R)` for the same state; rows are renumbered.
+    pub fn update_batch(
+        &mut self,
+        observations: &[(DVector<f64>, SparseJacobian, DMatrix<f64>)],
+    ) -> Result<Update> {
+        let p: usize = observations.iter().map(|o| o.0.len()).sum();
+        let mut innovation = DVector::zeros(p);
+        let mut h = SparseJacobian::new(p);
+        let mut r = DMatrix::zeros(p, p);
+        let mut row = 0;
+        for (nu, hi, ri) in observations {
+            let k = nu.len();
+            if hi.rows != k || ri.shape() != (k, k) {
+                return Err(SlamError::Dimension(format!(
+                    "an observation of {k} entries needs H with {k} rows and R {k}x{k}"
+                )));
+            }
+            innovation.rows_mut(row, k).copy_from(nu);
+            r.view_mut((row, row), (k, k)).copy_from(ri);
+            h.blocks.extend(hi.blocks.iter().map(|b| JacobianBlock {
+                row: row + b.row,
+                col: b.col,
+                h: b.h.clone(),
+            }));
+            row += k;
+        }
+        self.update(&innovation, &h, &r)
+    }
+
+    /// Observations one after another, each linearised at the state the previous one
+    /// left: `observe(state, i)` returns `(innovation, H, R)` for observation `i`.
+    pub fn update_sequential<F>(&mut self, count: usize, mut observe: F) -> Result<Vec<Update>>
+    where
+        F: FnMut(&DVector<f64>, usize) -> Result<(DVector<f64>, SparseJacobian, DMatrix<f64>)>,
+    {
+        (0..count)
+            .map(|i| {
+                let (nu, h, r) = observe(&self.x, i)?;
+                self.update(&nu, &h, &r)
+            })
+            .collect()
+    }
+
+    /// Appends a landmark initialised from an observation through the inverse
+    /// observation model `l = g(x_robot, z)`: mean `mean`, Jacobians `G_robot =
+    /// dg/dx_robot` and `G_z = dg/dz`, observation noise `R`. The new rows get the
+    /// full cross-covariance `G_robot P_robot,:`. Returns the landmark's index.
+    pub fn add_landmark(
+        &mut self,
+        mean: &DVector<f64>,
+        g_robot: &DMatrix<f64>,
+        g_z: &DMatrix<f64>,
+        r: &DMatrix<f64>,
+    ) -> Result<usize> {
+        let (rd, m) = (self.robot_dim, self.landmark_dim);
+        let q = r.nrows();
+        if mean.len() != m
+            || g_robot.shape() != (m, rd)
+            || g_z.shape() != (m, q)
+            || r.shape() != (q, q)
+        {
+            return Err(SlamError::Dimension(format!(
+                "a landmark needs mean {m}, G_robot {m}x{rd}, G_z {m}x{q}, R {q}x{q}"
+            )));
+        }
+        for (what, values) in [
+            ("landmark mean", mean.as_slice()),
+            ("G_robot", g_robot.as_slice()),
+            ("G_z", g_z.as_slice()),
+            ("R", r.as_slice()),
+        ] {
+            ensure_finite(what, values.iter())?;
+        }
+        let d = self.x.len();
+        let cross = g_robot * self.p.rows(0, rd); // m x d
+        let prr = self.p.view((0, 0), (rd, rd));
+        let pll = g_robot * prr * g_robot.transpose() + g_z * r * g_z.transpose();
+        let pll = (&pll + pll.transpose()) * 0.5;
+        let old = std::mem::replace(&mut self.p, DMatrix::zeros(0, 0));
+        let mut p = old.resize(d + m, d + m, 0.0);
+        p.view_mut((d, 0), (m, d)).copy_from(&cross);
+        p.view_mut((0, d), (d, m)).copy_from(&cross.transpose());
+        p.view_mut((d, d), (m, m)).copy_from(&pll);
+        self.p = p;
+        let x = std::mem::replace(&mut self.x, DVector::zeros(0));
+        self.x = x.resize_vertically(d + m, 0.0);
+        self.x.rows_mut(d, m).copy_from(mean);
+        Ok(self.num_landmarks() - 1)
+    }
+}
+
+/// `P <- P - K L^T + M K^T`, one column of `P` at a time (contiguous in nalgebra's
+/// column-major storage), on all cores for large states. Every entry is computed by
+/// the same operations whatever the thread count, so results are bit-identical.
+fn joseph_columns(p: &mut DMatrix<f64>, k: &DMatrix<f64>, l: &DMatrix<f64>, m: &DMatrix<f64>) {
+    let d = p.nrows();
+    let obs = k.ncols();
+    let (ks, ls, ms) = (k.as_slice(), l.as_slice(), m.as_slice());
+    let update_column = |j: usize, col: &mut [f64]| {
+        for a in 0..obs {
+            let (ka, ma) = (&ks[a * d..(a + 1) * d], &ms[a * d..(a + 1) * d]);
+            let (alpha, beta) = (-ls[a * d + j], ks[a * d + j]);
+            for ((c, &kv), &mv) in col.iter_mut().zip(ka).zip(ma) {
+                *c += alpha * kv + beta * mv;
+            }
+        }
+    };
+    let data = p.as_mut_slice();
+    if d >= PARALLEL_MIN_DIM {
+        data.par_chunks_mut(d)
+            .with_min_len(8)
+            .enumerate()
+            .for_each(|(j, col)| update_column(j, col));
+    } else {
+        data.chunks_mut(d)
+            .enumerate()
+            .for_each(|(j, col)| update_column(j, col));
+    }
+}

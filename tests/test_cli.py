@@ -53,3 +53,25 @@ def test_bad_input_is_an_error_message_not_a_traceback(tmp_path, capsys):
     assert "epsilon" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         main(["lines", "simplify", str(good)])  # --epsilon is required
+
+
+def test_demo_lines_writes_its_figure(tmp_path, capsys):
+    assert main(["demo", "lines", "--out", str(tmp_path)]) == 0
+    assert (tmp_path / "lines.png").stat().st_size > 10_000
+    assert "walls extracted" in capsys.readouterr().out
+
+
+def test_demo_monobot_writes_the_papers_figures(tmp_path, capsys):
+    assert main(["demo", "monobot", "--out", str(tmp_path), "--runs", "20"]) == 0
+    for name in ("fig3_fisher", "fig4_relative", "fig5_anchor", "fig6_external", "monte_carlo"):
+        assert (tmp_path / f"monobot_{name}.png").stat().st_size > 10_000
+    out = capsys.readouterr().out
+    assert "unobservable directions: [[" in out
+
+
+def test_lines_extract_on_a_real_log(tmp_path, data, capsys):
+    png = tmp_path / "intel.png"
+    log = data / "carmen" / "intel.log"
+    assert main(["lines", "extract", str(log), "--every", "10", "--plot", str(png)]) == 0
+    assert png.stat().st_size > 10_000
+    assert "walls" in capsys.readouterr().out

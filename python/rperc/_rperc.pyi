@@ -1,13 +1,23 @@
 """Type stubs of the native extension. Use the documented wrappers in :mod:`rperc`."""
 
+from typing import Any, TypeAlias, final
+
 import numpy as np
 import numpy.typing as npt
 
 __all__ = [
+    "Ekf",
     "NumericalError",
     "RpercError",
     "__version__",
     "extract_lines",
+    "information_spectrum",
+    "monobot_monte_carlo",
+    "monobot_observability_rank",
+    "monobot_run_seed",
+    "monobot_simulate",
+    "monobot_summarize",
+    "nees_bounds",
     "simplify_indices",
     "simplify_many_indices",
 ]
@@ -54,3 +64,76 @@ def extract_lines(
     npt.NDArray[np.intp],
     npt.NDArray[np.intp],
 ]: ...
+
+_Array: TypeAlias = npt.NDArray[np.float64]
+_ArrayLike: TypeAlias = npt.NDArray[np.floating]
+
+@final
+class Ekf:
+    """Extended Kalman filter: robot block plus landmark blocks, full covariance."""
+
+    def __new__(cls, x: _ArrayLike, p: _ArrayLike, robot_dim: int, landmark_dim: int) -> Ekf: ...
+    @property
+    def state(self) -> _Array: ...
+    @property
+    def covariance(self) -> _Array: ...
+    @property
+    def robot_dim(self) -> int: ...
+    @property
+    def landmark_dim(self) -> int: ...
+    @property
+    def num_landmarks(self) -> int: ...
+    def predict(
+        self, robot_mean: _ArrayLike, fx: _ArrayLike, fv: _ArrayLike, v: _ArrayLike
+    ) -> None: ...
+    def update(
+        self, innovation: _ArrayLike, blocks: list[tuple[int, int, _ArrayLike]], r: _ArrayLike
+    ) -> tuple[_Array, _Array, float]: ...
+    def update_range_bearing(self, j: int, z: _ArrayLike, r: _ArrayLike) -> float: ...
+    def add_landmark(
+        self, mean: _ArrayLike, g_robot: _ArrayLike, g_z: _ArrayLike, r: _ArrayLike
+    ) -> int: ...
+    def add_landmark_range_bearing(self, z: _ArrayLike, r: _ArrayLike) -> int: ...
+
+def monobot_simulate(
+    model: str,
+    seed: int,
+    *,
+    landmarks: int,
+    steps: int,
+    start: float,
+    amplitude: float,
+    landmark_position: float,
+    initial_variance: float,
+    plant_noise: tuple[str, float],
+    measurement_noise: tuple[str, float],
+    reference_noise: tuple[str, float],
+    noise_floor: float,
+) -> dict[str, Any]: ...
+def monobot_monte_carlo(
+    model: str,
+    runs: int,
+    seed: int,
+    *,
+    landmarks: int,
+    steps: int,
+    start: float,
+    amplitude: float,
+    landmark_position: float,
+    initial_variance: float,
+    plant_noise: tuple[str, float],
+    measurement_noise: tuple[str, float],
+    reference_noise: tuple[str, float],
+    noise_floor: float,
+) -> tuple[_Array, _Array, _Array, _Array]: ...
+def monobot_summarize(
+    nees: _ArrayLike,
+    robot_error: _ArrayLike,
+    landmark_error: _ArrayLike,
+    first_observation_error: _ArrayLike,
+    confidence: float = 0.95,
+) -> dict[str, Any]: ...
+def monobot_run_seed(seed: int, run: int) -> int: ...
+def monobot_observability_rank(model: str, landmarks: int) -> int: ...
+def information_spectrum(j: _ArrayLike, tol: float) -> tuple[_Array, _Array, int]: ...
+def nees_bounds(dof: int, runs: int, confidence: float) -> tuple[float, float]: ...

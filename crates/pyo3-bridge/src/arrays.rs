@@ -106,6 +106,61 @@ pub fn float_vector(obj: &Bound<'_, PyAny>, name: &str) -> Result<Vec<f64>> {
     )))
 }
 
+/// Reads a 2-D float array (float64 or float32, any strides) as a matrix.
+pub fn matrix(obj: &Bound<'_, PyAny>, name: &str) -> Result<nalgebra::DMatrix<f64>> {
+    let untyped = obj.cast::<PyUntypedArray>().map_err(|_| {
+        Error::Type(format!(
+            "{name} must be a numpy array, got {}",
+            type_name(obj)
+        ))
+    })?;
+    if untyped.ndim() != 2 {
+        return Err(Error::Value(format!(
+            "{name} must be 2-D, got shape {:?}",
+            untyped.shape()
+        )));
+    }
+    let py = obj.py();
+    let dtype = untyped.dtype();
+    if dtype.is_equiv_to(&numpy::dtype::<f64>(py)) {
+        let a = readonly::<f64, numpy::Ix2>(obj)?;
+        let v = a.as_array();
+        return Ok(nalgebra::DMatrix::from_fn(v.nrows(), v.ncols(), |i, j| v[(i, j)]));
+    }
+    if dtype.is_equiv_to(&numpy::dtype::<f32>(py)) {
+        let a = readonly::<f32, numpy::Ix2>(obj)?;
+        let v = a.as_array();
+        return Ok(nalgebra::DMatrix::from_fn(v.nrows(), v.ncols(), |i, j| {
+            f64::from(v[(i, j)])
+        }));
+    }
+    Err(Error::Type(format!(
+        "{name} must have a float64 or float32 dtype, got {dtype}"
+    )))
+}
+
+/// A row-major numpy copy of a (column-major) nalgebra matrix.
+pub fn to_numpy<'py>(
+    py: Python<'py>,
+    m: &nalgebra::DMatrix<f64>,
+) -> Bound<'py, numpy::PyArray2<f64>> {
+    use numpy::IntoPyArray;
+    numpy::ndarray::Array2::from_shape_fn((m.nrows(), m.ncols()), |(i, j)| m[(i, j)])
+        .into_pyarray(py)
+}
+
+/// A row-major buffer as an array of the given shape, moved without a copy.
+pub fn shaped<'py>(
+    py: Python<'py>,
+    data: Vec<f64>,
+    shape: &[usize],
+) -> Result<Bound<'py, numpy::PyArrayDyn<f64>>> {
+    use numpy::IntoPyArray;
+    numpy::ndarray::ArrayD::from_shape_vec(shape.to_vec(), data)
+        .map(|a| a.into_pyarray(py))
+        .map_err(|e| Error::Value(format!("internal shape error: {e}")))
+}
+
 /// A read-only borrow of a typed array whose dtype was already checked.
 fn readonly<'py, T, D>(obj: &Bound<'py, PyAny>) -> Result<numpy::PyReadonlyArray<'py, T, D>>
 where

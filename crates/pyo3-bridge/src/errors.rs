@@ -32,6 +32,9 @@ pub enum Error {
     /// From the line-simplification crate.
     #[error(transparent)]
     LineSimp(#[from] linesimp::LineSimpError),
+    /// From the SLAM crate.
+    #[error(transparent)]
+    Slam(#[from] slam::SlamError),
     /// A Rust panic caught at the boundary: a bug, reported rather than crashing Python.
     #[error("internal error in rperc (please report it): {0}")]
     Panic(String),
@@ -45,6 +48,10 @@ impl From<Error> for PyErr {
             Error::Type(_) => PyTypeError::new_err(msg),
             // Every linesimp error is a bad input value.
             Error::LineSimp(_) => PyValueError::new_err(msg),
+            Error::Slam(e) => match e {
+                slam::SlamError::SingularInnovation(_) => NumericalError::new_err(msg),
+                _ => PyValueError::new_err(msg),
+            },
             Error::Panic(_) => RpercError::new_err(msg),
         }
     }
@@ -89,6 +96,14 @@ mod tests {
                     py.get_type::<PyValueError>(),
                 ),
                 (Error::Panic("p".into()), py.get_type::<RpercError>()),
+                (
+                    Error::Slam(slam::SlamError::SingularInnovation("S".into())),
+                    py.get_type::<NumericalError>(),
+                ),
+                (
+                    Error::Slam(slam::SlamError::Dimension("d".into())),
+                    py.get_type::<PyValueError>(),
+                ),
             ];
             for (err, expected) in cases {
                 let msg = err.to_string();

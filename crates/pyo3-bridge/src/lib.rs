@@ -9,6 +9,7 @@ mod arrays;
 mod errors;
 mod linesimp_py;
 mod parallel;
+mod slam_py;
 
 use pyo3::prelude::*;
 
@@ -21,6 +22,11 @@ mod _rperc {
     use crate::errors::RpercError;
     #[pymodule_export]
     use crate::linesimp_py::{extract_lines, simplify_indices, simplify_many_indices};
+    #[pymodule_export]
+    use crate::slam_py::{
+        PyEkf, information_spectrum, monobot_monte_carlo, monobot_observability_rank,
+        monobot_run_seed, monobot_simulate, monobot_summarize, nees_bounds,
+    };
 
     use super::*;
 

@@ -1,6 +1,7 @@
 """The ``rperc`` command-line program.
 
     rperc demo lines            simulated scan -> walls, and a simplified polyline (PNG)
+    rperc demo monobot          EKF-SLAM observability: the paper's Figs. 3-6, Monte Carlo
     rperc lines extract LOG     walls from a CARMEN log, in the world frame (PNG)
     rperc lines simplify FILE   Douglas-Peucker on a WKT or CSV polyline
 
@@ -14,7 +15,7 @@ import sys
 from collections.abc import Sequence
 
 from rperc import RpercError, __version__
-from rperc.cli import lines
+from rperc.cli import lines, slam
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -27,6 +28,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo = sub.add_parser("demo", help="run a demo on data rperc generates itself")
     demos = demo.add_subparsers(dest="demo", required=True, metavar="DEMO")
     lines.add_demo(demos)
+    slam.add_demo(demos)
 
     lines.add_commands(sub)
     return parser

@@ -1,0 +1,421 @@
+//! Bindings of the `slam` crate: the EKF and the monobot study.
+
+use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayDyn};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use slam::monobot::{self, MeasurementModel, MonobotConfig, Noise, RunErrors};
+
+use crate::arrays::{float_vector, matrix, shaped, to_numpy};
+use crate::errors::{Error, detached};
+
+fn vector(obj: &Bound<'_, PyAny>, name: &str) -> Result<DVector<f64>, Error> {
+    Ok(DVector::from_vec(float_vector(obj, name)?))
+}
+
+/// `(S, K, nis)` of one update.
+type UpdateArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>, f64);
+/// Eigenvalues, eigenvectors and rank.
+type Spectrum<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray2<f64>>, usize);
+
+/// An extended Kalman filter over a robot block and landmark blocks.
+#[pyclass(name = "Ekf", module = "rperc._rperc")]
+pub struct PyEkf {
+    inner: slam::Ekf,
+}
+
+#[pymethods]
+impl PyEkf {
+    #[new]
+    #[pyo3(signature = (x, p, robot_dim, landmark_dim))]
+    fn new(
+        x: &Bound<'_, PyAny>,
+        p: &Bound<'_, PyAny>,
+        robot_dim: usize,
+        landmark_dim: usize,
+    ) -> PyResult<Self> {
+        let inner = slam::Ekf::new(vector(x, "x")?, matrix(p, "p")?, robot_dim, landmark_dim)
+            .map_err(Error::from)?;
+        Ok(Self { inner })
+    }
+
+    /// The state estimate (a copy).
+    #[getter]
+    fn state<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        self.inner.state().as_slice().to_vec().into_pyarray(py)
+    }
+
+    /// The state covariance (a copy).
+    #[getter]
+    fn covariance<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        to_numpy(py, self.inner.covariance())
+    }
+
+    #[getter]
+    fn robot_dim(&self) -> usize {
+        self.inner.robot_dim()
+    }
+
+    #[getter]
+    fn landmark_dim(&self) -> usize {
+        self.inner.landmark_dim()
+    }
+
+    #[getter]
+    fn num_landmarks(&self) -> usize {
+        self.inner.num_landmarks()
+    }
+
+    /// Prediction: robot block to `robot_mean`, `P <- Fx P Fx^T + Fv V Fv^T`.
+    fn predict(
+        &mut self,
+        py: Python<'_>,
+        robot_mean: &Bound<'_, PyAny>,
+        fx: &Bound<'_, PyAny>,
+        fv: &Bound<'_, PyAny>,
+        v: &Bound<'_, PyAny>,
+    ) -> PyResult<()> {
+        let (mean, fx, fv, v) = (
+            vector(robot_mean, "robot_mean")?,
+            matrix(fx, "Fx")?,
+            matrix(fv, "Fv")?,
+            matrix(v, "V")?,
+        );
+        let ekf = &mut self.inner;
+        detached(py, || Ok(ekf.predict(&mean, &fx, &fv, &v)?))
+    }
+
+    /// Update with `innovation`, a sparse `H` given as `[(row, col, block), ...]`,
+    /// and noise `R`. Returns `(S, K, nis)`.
+    fn update<'py>(
+        &mut self,
+        py: Python<'py>,
+        innovation: &Bound<'py, PyAny>,
+        blocks: Vec<(usize, usize, Bound<'py, PyAny>)>,
+        r: &Bound<'py, PyAny>,
+    ) -> PyResult<UpdateArrays<'py>> {
+        let nu = vector(innovation, "innovation")?;
+        let r = matrix(r, "R")?;
+        let mut h = slam::SparseJacobian::new(nu.len());
+        for (k, (row, col, block)) in blocks.iter().enumerate() {
+            h.blocks.push(slam::JacobianBlock {
+                row: *row,
+                col: *col,
+                h: matrix(block, &format!("blocks[{k}]"))?,
+            });
+        }
+        let ekf = &mut self.inner;
+        let up = detached(py, || Ok(ekf.update(&nu, &h, &r)?))?;
+        Ok((to_numpy(py, &up.s), to_numpy(py, &up.gain), up.nis))
+    }
+
+    /// Range-bearing update of landmark `j` (planar robot, point landmarks); returns
+    /// the normalised innovation squared.
+    fn update_range_bearing(
+        &mut self,
+        py: Python<'_>,
+        j: usize,
+        z: &Bound<'_, PyAny>,
+        r: &Bound<'_, PyAny>,
+    ) -> PyResult<f64> {
+        let (z, r) = (vector(z, "z")?, matrix(r, "R")?);
+        if z.len() != 2 || r.shape() != (2, 2) {
+            return Err(Error::Value("z must have 2 entries and R be 2x2".into()).into());
+        }
+        let (z, r) = (Vector2::new(z[0], z[1]), Matrix2::from_iterator(r.iter().copied()));
+        let ekf = &mut self.inner;
+        Ok(detached(py, || Ok(ekf.update_range_bearing(j, &z, &r)?))?.nis)
+    }
+
+    /// Adds a landmark from the inverse observation model; returns its index.
+    fn add_landmark(
+        &mut self,
+        mean: &Bound<'_, PyAny>,
+        g_robot: &Bound<'_, PyAny>,
+        g_z: &Bound<'_, PyAny>,
+        r: &Bound<'_, PyAny>,
+    ) -> PyResult<usize> {
+        let (mean, gr, gz, r) = (
+            vector(mean, "mean")?,
+            matrix(g_robot, "G_robot")?,
+            matrix(g_z, "G_z")?,
+            matrix(r, "R")?,
+        );
+        Ok(self.inner.add_landmark(&mean, &gr, &gz, &r).map_err(Error::from)?)
+    }
+
+    /// Adds a point landmark first seen at range-bearing `z`; returns its index.
+    fn add_landmark_range_bearing(
+        &mut self,
+        z: &Bound<'_, PyAny>,
+        r: &Bound<'_, PyAny>,
+    ) -> PyResult<usize> {
+        let (z, r) = (vector(z, "z")?, matrix(r, "R")?);
+        if z.len() != 2 || r.shape() != (2, 2) {
+            return Err(Error::Value("z must have 2 entries and R be 2x2".into()).into());
+        }
+        let (z, r) = (Vector2::new(z[0], z[1]), Matrix2::from_iterator(r.iter().copied()));
+        Ok(self
+            .inner
+            .add_landmark_range_bearing(&z, &r)
+            .map_err(Error::from)?)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Ekf(robot_dim={}, landmark_dim={}, landmarks={}, state_dim={})",
+            self.inner.robot_dim(),
+            self.inner.landmark_dim(),
+            self.inner.num_landmarks(),
+            self.inner.state().len()
+        )
+    }
+}
+
+fn parse_model(model: &str) -> Result<MeasurementModel, Error> {
+    match model {
+        "relative" => Ok(MeasurementModel::Relative),
+        "anchor" => Ok(MeasurementModel::Anchor),
+        "external" => Ok(MeasurementModel::External),
+        other => Err(Error::Value(format!(
+            "model must be 'relative', 'anchor' or 'external', got '{other}'"
+        ))),
+    }
+}
+
+fn parse_noise(kind: &str, value: f64, name: &str) -> Result<Noise, Error> {
+    match kind {
+        "constant" => Ok(Noise::Constant(value)),
+        "proportional" => Ok(Noise::Proportional(value)),
+        other => Err(Error::Value(format!(
+            "{name} must be 'constant' or 'proportional', got '{other}'"
+        ))),
+    }
+}
+
+/// The monobot configuration from keyword arguments (see rperc.slam.monobot).
+#[allow(clippy::too_many_arguments)]
+fn config(
+    landmarks: usize,
+    steps: usize,
+    start: f64,
+    amplitude: f64,
+    landmark_position: f64,
+    initial_variance: f64,
+    plant_noise: (String, f64),
+    measurement_noise: (String, f64),
+    reference_noise: (String, f64),
+    noise_floor: f64,
+) -> Result<MonobotConfig, Error> {
+    let config = MonobotConfig {
+        landmarks,
+        steps,
+        start,
+        amplitude,
+        landmark_position,
+        initial_variance,
+        plant_noise: parse_noise(&plant_noise.0, plant_noise.1, "plant_noise")?,
+        measurement_noise: parse_noise(&measurement_noise.0, measurement_noise.1, "measurement_noise")?,
+        reference_noise: parse_noise(&reference_noise.0, reference_noise.1, "reference_noise")?,
+        noise_floor,
+    };
+    config.validate()?;
+    Ok(config)
+}
+
+/// One monobot run as a dict of arrays (GIL released).
+#[pyfunction]
+#[pyo3(signature = (
+    model, seed, *, landmarks, steps, start, amplitude, landmark_position,
+    initial_variance, plant_noise, measurement_noise, reference_noise, noise_floor
+))]
+#[allow(clippy::too_many_arguments)]
+pub fn monobot_simulate<'py>(
+    py: Python<'py>,
+    model: &str,
+    seed: u64,
+    landmarks: usize,
+    steps: usize,
+    start: f64,
+    amplitude: f64,
+    landmark_position: f64,
+    initial_variance: f64,
+    plant_noise: (String, f64),
+    measurement_noise: (String, f64),
+    reference_noise: (String, f64),
+    noise_floor: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let model = parse_model(model)?;
+    let cfg = config(
+        landmarks, steps, start, amplitude, landmark_position, initial_variance, plant_noise,
+        measurement_noise, reference_noise, noise_floor,
+    )?;
+    let run = detached(py, || Ok(monobot::simulate(&cfg, model, seed)?))?;
+    let (d, p, k) = (run.dim, run.obs_dim, run.steps);
+    let out = PyDict::new(py);
+    out.set_item("truth", shaped(py, run.truth, &[k + 1, d])?)?;
+    out.set_item("estimate", shaped(py, run.estimate, &[k + 1, d])?)?;
+    out.set_item("std", shaped(py, run.std, &[k + 1, d])?)?;
+    out.set_item("initial_measurement", shaped(py, run.initial_measurement, &[d - 1])?)?;
+    out.set_item("measurement", shaped(py, run.measurement, &[k, p])?)?;
+    out.set_item("innovation", shaped(py, run.innovation, &[k, p])?)?;
+    out.set_item("innovation_cov", shaped(py, run.innovation_cov, &[k, p, p])?)?;
+    out.set_item("gain", shaped(py, run.gain, &[k, d, p])?)?;
+    out.set_item("predicted_cov", shaped(py, run.predicted_cov, &[k, d, d])?)?;
+    out.set_item("nees", shaped(py, run.nees, &[k + 1])?)?;
+    out.set_item("fisher", to_numpy(py, &run.fisher))?;
+    out.set_item("fisher_00", shaped(py, run.fisher_00, &[k])?)?;
+    out.set_item(
+        "first_observation_error",
+        shaped(py, run.first_observation_error, &[d - 1])?,
+    )?;
+    Ok(out)
+}
+
+type Stacked<'py> = (
+    Bound<'py, PyArrayDyn<f64>>,
+    Bound<'py, PyArrayDyn<f64>>,
+    Bound<'py, PyArrayDyn<f64>>,
+    Bound<'py, PyArrayDyn<f64>>,
+);
+
+/// The errors of `runs` Monte Carlo runs on all cores (GIL released): NEES
+/// (runs, steps+1), robot error (runs, steps+1), landmark errors (runs, steps+1, n)
+/// and first-observation errors (runs, n). Run `i` is seeded by `run_seed(seed, i)`.
+#[pyfunction]
+#[pyo3(signature = (
+    model, runs, seed, *, landmarks, steps, start, amplitude, landmark_position,
+    initial_variance, plant_noise, measurement_noise, reference_noise, noise_floor
+))]
+#[allow(clippy::too_many_arguments)]
+pub fn monobot_monte_carlo<'py>(
+    py: Python<'py>,
+    model: &str,
+    runs: usize,
+    seed: u64,
+    landmarks: usize,
+    steps: usize,
+    start: f64,
+    amplitude: f64,
+    landmark_position: f64,
+    initial_variance: f64,
+    plant_noise: (String, f64),
+    measurement_noise: (String, f64),
+    reference_noise: (String, f64),
+    noise_floor: f64,
+) -> PyResult<Stacked<'py>> {
+    let model = parse_model(model)?;
+    let cfg = config(
+        landmarks, steps, start, amplitude, landmark_position, initial_variance, plant_noise,
+        measurement_noise, reference_noise, noise_floor,
+    )?;
+    let errors = detached(py, || {
+        Ok(monobot::monte_carlo(&cfg, model, runs, seed)?
+            .iter()
+            .map(|r| r.errors())
+            .collect::<Vec<_>>())
+    })?;
+    let (n, len) = (landmarks, steps + 1);
+    let mut nees = Vec::with_capacity(runs * len);
+    let mut robot = Vec::with_capacity(runs * len);
+    let mut lm = Vec::with_capacity(runs * len * n);
+    let mut first = Vec::with_capacity(runs * n);
+    for e in errors {
+        nees.extend(e.nees);
+        robot.extend(e.robot_error);
+        lm.extend(e.landmark_error);
+        first.extend(e.first_observation_error);
+    }
+    Ok((
+        shaped(py, nees, &[runs, len])?,
+        shaped(py, robot, &[runs, len])?,
+        shaped(py, lm, &[runs, len, n])?,
+        shaped(py, first, &[runs, n])?,
+    ))
+}
+
+/// Summary statistics of stacked run errors (the arrays monobot_monte_carlo returns).
+#[pyfunction]
+#[pyo3(signature = (nees, robot_error, landmark_error, first_observation_error, confidence = 0.95))]
+pub fn monobot_summarize<'py>(
+    py: Python<'py>,
+    nees: &Bound<'py, PyAny>,
+    robot_error: &Bound<'py, PyAny>,
+    landmark_error: &Bound<'py, PyAny>,
+    first_observation_error: &Bound<'py, PyAny>,
+    confidence: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let nees = matrix(nees, "nees")?;
+    let robot = matrix(robot_error, "robot_error")?;
+    let first = matrix(first_observation_error, "first_observation_error")?;
+    let (runs, len) = nees.shape();
+    let n = first.ncols();
+    let lm_flat = landmark_error
+        .call_method1("reshape", ((runs * len * n) as isize,))
+        .map_err(|e| Error::Value(format!("landmark_error: {e}")))?;
+    let lm = float_vector(&lm_flat, "landmark_error")?;
+    if robot.shape() != (runs, len) || first.nrows() != runs || lm.len() != runs * len * n {
+        return Err(Error::Value("run error arrays have inconsistent shapes".into()).into());
+    }
+    let per_run: Vec<RunErrors> = (0..runs)
+        .map(|i| RunErrors {
+            landmarks: n,
+            nees: nees.row(i).iter().copied().collect(),
+            robot_error: robot.row(i).iter().copied().collect(),
+            landmark_error: lm[i * len * n..(i + 1) * len * n].to_vec(),
+            first_observation_error: first.row(i).iter().copied().collect(),
+        })
+        .collect();
+    let s = monobot::summarize(&per_run, confidence).map_err(Error::from)?;
+    let out = PyDict::new(py);
+    out.set_item("runs", s.runs)?;
+    out.set_item("nees", s.nees.into_pyarray(py))?;
+    out.set_item("nees_band", s.nees_band)?;
+    out.set_item("nees_in_band", s.nees_in_band)?;
+    out.set_item("landmark_error_mean", s.landmark_error_mean.into_pyarray(py))?;
+    out.set_item("landmark_error_std", s.landmark_error_std.into_pyarray(py))?;
+    out.set_item("robot_error_mean", s.robot_error_mean.into_pyarray(py))?;
+    out.set_item("robot_error_std", s.robot_error_std.into_pyarray(py))?;
+    out.set_item("final_landmark_error", shaped(py, s.final_landmark_error, &[runs, n])?)?;
+    out.set_item(
+        "first_observation_error",
+        shaped(py, s.first_observation_error, &[runs, n])?,
+    )?;
+    out.set_item("sensitivity", s.sensitivity)?;
+    out.set_item("correlation", s.correlation)?;
+    Ok(out)
+}
+
+/// The seed of run `run` of a Monte Carlo seeded with `seed`.
+#[pyfunction]
+pub fn monobot_run_seed(seed: u64, run: usize) -> u64 {
+    monobot::run_seed(seed, run)
+}
+
+/// Rank of the monobot's observability matrix.
+#[pyfunction]
+pub fn monobot_observability_rank(model: &str, landmarks: usize) -> PyResult<usize> {
+    Ok(monobot::observability_rank(parse_model(model)?, landmarks).map_err(Error::from)?)
+}
+
+/// Eigenvalues (ascending), eigenvectors (columns) and rank of a symmetric matrix.
+#[pyfunction]
+pub fn information_spectrum<'py>(
+    py: Python<'py>,
+    j: &Bound<'py, PyAny>,
+    tol: f64,
+) -> PyResult<Spectrum<'py>> {
+    let j: DMatrix<f64> = matrix(j, "J")?;
+    let spec = monobot::information_spectrum(&j, tol).map_err(Error::from)?;
+    Ok((
+        spec.eigenvalues.as_slice().to_vec().into_pyarray(py),
+        to_numpy(py, &spec.eigenvectors),
+        spec.rank,
+    ))
+}
+
+/// The band of the run-averaged NEES.
+#[pyfunction]
+pub fn nees_bounds(dof: usize, runs: usize, confidence: f64) -> PyResult<(f64, f64)> {
+    Ok(slam::nees_bounds(dof, runs, confidence).map_err(Error::from)?)
+}

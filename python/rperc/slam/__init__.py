@@ -1,0 +1,12 @@
+"""EKF-SLAM (seed paper section 2.2): the filter core and the monobot study.
+
+- :class:`Ekf`: robot block plus landmark blocks, O(n) prediction and an O(n^2)
+  Joseph-form update that exploits the sparse observation Jacobian;
+- :mod:`rperc.slam.monobot`: the 1-D robot with the relative, anchor and external
+  measurement models, Fisher information, observability and Monte Carlo consistency.
+"""
+
+from rperc._rperc import Ekf, nees_bounds
+from rperc.slam import monobot
+
+__all__ = ["Ekf", "monobot", "nees_bounds"]

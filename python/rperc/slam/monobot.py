@@ -1,0 +1,256 @@
+"""The monobot study of the seed paper (section 2.2, eqs. 14 to 23, Figs. 3 to 6).
+
+A 1-D robot ``x_{k+1} = x_k + u_k + v_k`` among static landmarks, observed with one
+of three measurement models:
+
+- ``"relative"``: ``z_i = l_i - x + w_i``, ``H = [-1, I]``; the Fisher information is
+  singular and the map is only known up to a common shift;
+- ``"anchor"``: plus a landmark at the origin used as a global reference (eq. 20);
+- ``"external"``: plus a fixed sensor that measures the robot (eq. 23).
+
+Examples
+--------
+>>> from rperc.slam import monobot
+>>> run = monobot.simulate(model="relative", landmarks=3, seed=1)
+>>> J = monobot.fisher_information(run)
+>>> monobot.unobservable_directions(J).shape   # one direction: (1, 1, 1, 1) / 2
+(4, 1)
+>>> monobot.observability_rank(model="anchor", landmarks=3)
+4
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import Executor
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+from tqdm import tqdm
+
+from rperc import _rperc
+
+Model = Literal["relative", "anchor", "external"]
+NoiseSpec = tuple[Literal["constant", "proportional"], float]
+
+__all__ = [
+    "MonobotResult",
+    "MonteCarloResult",
+    "fisher_information",
+    "monte_carlo",
+    "nees_bounds",
+    "observability_rank",
+    "simulate",
+    "unobservable_directions",
+]
+
+
+@dataclass(frozen=True)
+class MonobotConfig:
+    """The experiment; the defaults are the paper's run (Figs. 4 to 6).
+
+    Noise models are ``("constant", variance)`` or ``("proportional", k)``, the latter a
+    standard deviation ``k * length + noise_floor`` (the motion command for the plant,
+    the nominal distance for the sensors)."""
+
+    landmarks: int = 1
+    steps: int = 100
+    start: float = -1.0
+    amplitude: float = 1.0
+    landmark_position: float = 1.0
+    initial_variance: float = 1e-6
+    plant_noise: NoiseSpec = ("proportional", 0.1)
+    measurement_noise: NoiseSpec = ("proportional", 0.05)
+    reference_noise: NoiseSpec = ("proportional", 0.05)
+    noise_floor: float = 1e-3
+
+    @staticmethod
+    def unit_noise(landmarks: int, steps: int = 100) -> MonobotConfig:
+        """Fig. 3's setting: ``P0 = V = W = 1``."""
+        return MonobotConfig(
+            landmarks=landmarks,
+            steps=steps,
+            initial_variance=1.0,
+            plant_noise=("constant", 1.0),
+            measurement_noise=("constant", 1.0),
+            reference_noise=("constant", 1.0),
+        )
+
+    def kwargs(self) -> dict[str, Any]:
+        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+
+def _config(landmarks: int, steps: int, overrides: dict[str, Any]) -> MonobotConfig:
+    unknown = set(overrides) - set(MonobotConfig.__dataclass_fields__)
+    if unknown:
+        raise TypeError(f"unknown monobot parameter(s): {', '.join(sorted(unknown))}")
+    for name in ("landmarks", "steps"):
+        value = {"landmarks": landmarks, "steps": steps}[name]
+        if isinstance(value, bool) or int(value) != value or value < 1:
+            raise ValueError(f"{name} must be a positive integer, got {value!r}")
+    return MonobotConfig(landmarks=int(landmarks), steps=int(steps), **overrides)
+
+
+@dataclass(frozen=True, repr=False)
+class MonobotResult:
+    """One run. Per-step arrays start at step 0 (landmarks just initialised from the
+    first observation); the state is ``[x_robot, l_1, ..., l_n]``."""
+
+    model: str
+    config: MonobotConfig
+    seed: int
+    truth: np.ndarray  # (steps + 1, d)
+    estimate: np.ndarray  # (steps + 1, d)
+    std: np.ndarray  # (steps + 1, d) standard deviations
+    initial_measurement: np.ndarray  # (n,)
+    measurement: np.ndarray  # (steps, p)
+    innovation: np.ndarray  # (steps, p)
+    innovation_cov: np.ndarray  # (steps, p, p)
+    gain: np.ndarray  # (steps, d, p) Kalman gains
+    predicted_cov: np.ndarray  # (steps, d, d)
+    nees: np.ndarray  # (steps + 1,)
+    fisher: np.ndarray  # (d, d) total Fisher information, eq. (14)
+    fisher_00: np.ndarray  # (steps,) J[0, 0] after each update (Fig. 3)
+    first_observation_error: np.ndarray  # (n,)
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """2-sigma bounds of each state entry, ``(steps + 1, d)``."""
+        return 2.0 * self.std
+
+    @property
+    def error(self) -> np.ndarray:
+        return self.estimate - self.truth
+
+    def __repr__(self) -> str:
+        e = self.error[-1]
+        return (
+            f"MonobotResult(model={self.model!r}, landmarks={self.config.landmarks}, "
+            f"steps={self.config.steps}, final robot error {e[0]:+.4f} m, "
+            f"final landmark error {np.mean(e[1:]):+.4f} m, "
+            f"rank J = {np.linalg.matrix_rank(self.fisher)}/{len(self.fisher)})"
+        )
+
+
+def simulate(
+    *, model: Model = "relative", landmarks: int = 1, steps: int = 100, seed: int = 0, **config: Any
+) -> MonobotResult:
+    """Simulate one monobot run and its EKF-SLAM estimate.
+
+    ``config`` overrides :class:`MonobotConfig` fields (``start``, ``amplitude``,
+    ``landmark_position``, ``initial_variance``, ``plant_noise``,
+    ``measurement_noise``, ``reference_noise``, ``noise_floor``).
+    """
+    cfg = _config(landmarks, steps, config)
+    arrays = _rperc.monobot_simulate(model, _seed(seed), **cfg.kwargs())
+    return MonobotResult(model=model, config=cfg, seed=seed, **arrays)
+
+
+def _seed(seed: int) -> int:
+    if isinstance(seed, bool) or int(seed) != seed or not 0 <= seed < 2**64:
+        raise ValueError(f"seed must be an integer in [0, 2**64), got {seed!r}")
+    return int(seed)
+
+
+def fisher_information(result: MonobotResult) -> np.ndarray:
+    """The total Fisher information ``J`` (eq. 14) accumulated along ``result``'s run,
+    ``d x d`` over the robot and the estimated landmarks."""
+    return result.fisher
+
+
+def observability_rank(*, model: Model = "relative", landmarks: int = 1) -> int:
+    """Rank of the observability matrix: ``landmarks`` for the relative model,
+    ``landmarks + 1`` (full) for anchor and external."""
+    return _rperc.monobot_observability_rank(model, landmarks)
+
+
+def unobservable_directions(J: npt.ArrayLike, tol: float = 1e-9) -> np.ndarray:
+    """A basis (``d x k`` columns) of the null space of the information matrix ``J``:
+    eigenvectors whose eigenvalues are at most ``tol`` times the largest."""
+    arr = np.asarray(J, dtype=np.float64)
+    _, vectors, rank = _rperc.information_spectrum(arr, float(tol))
+    return vectors[:, : arr.shape[0] - rank]
+
+
+def nees_bounds(dof: int, runs: int, confidence: float = 0.95) -> tuple[float, float]:
+    """Two-sided ``confidence`` band for the NEES of a ``dof``-dimensional state averaged
+    over ``runs`` Monte Carlo runs (chi-square with ``dof * runs`` degrees of freedom,
+    divided by ``runs``)."""
+    return _rperc.nees_bounds(dof, runs, confidence)
+
+
+@dataclass(frozen=True, repr=False)
+class MonteCarloResult:
+    """Statistics over Monte Carlo runs of one experiment."""
+
+    model: str
+    config: MonobotConfig
+    runs: int
+    nees: np.ndarray  # (steps + 1,) run-averaged NEES of the whole state
+    nees_band: tuple[float, float]
+    nees_in_band: float  # fraction of steps inside the band
+    landmark_error_mean: np.ndarray  # (steps + 1,)
+    landmark_error_std: np.ndarray
+    robot_error_mean: np.ndarray
+    robot_error_std: np.ndarray
+    final_landmark_error: np.ndarray  # (runs, n)
+    first_observation_error: np.ndarray  # (runs, n)
+    sensitivity: float  # slope of final on first-observation landmark error
+    correlation: float
+    run_nees: np.ndarray = field(repr=False)  # (runs, steps + 1)
+
+    def __repr__(self) -> str:
+        return (
+            f"MonteCarloResult(model={self.model!r}, landmarks={self.config.landmarks}, "
+            f"runs={self.runs}, final landmark error {self.landmark_error_mean[-1]:+.4f} "
+            f"+- {self.landmark_error_std[-1]:.4f} m, sensitivity {self.sensitivity:.3f} "
+            f"(corr {self.correlation:.2f}), NEES in band {100 * self.nees_in_band:.0f}% of steps)"
+        )
+
+
+def _run_errors(model: str, seed: int, config: dict[str, Any]) -> tuple[np.ndarray, ...]:
+    """One run's errors; a top-level function so process pools and Dask can pickle it."""
+    r = _rperc.monobot_simulate(model, seed, **config)
+    err = r["estimate"] - r["truth"]
+    return r["nees"], err[:, 0], err[:, 1:], r["first_observation_error"]
+
+
+def monte_carlo(
+    *,
+    model: Model = "relative",
+    landmarks: int = 1,
+    runs: int = 100,
+    steps: int = 100,
+    seed: int = 0,
+    executor: Executor | None = None,
+    confidence: float = 0.95,
+    progress: bool = False,
+    **config: Any,
+) -> MonteCarloResult:
+    """Monte Carlo over ``runs`` seeded runs.
+
+    Without ``executor`` the runs go in parallel on all cores (rayon, GIL released).
+    With any :class:`concurrent.futures.Executor` (a process pool, Dask's
+    ``client.get_executor()``, Ray's) each run is submitted to it instead. Run ``i``
+    is seeded from ``(seed, i)`` either way, so both paths give identical results,
+    whatever the number of workers.
+    """
+    cfg = _config(landmarks, steps, config)
+    if isinstance(runs, bool) or int(runs) != runs or runs < 1:
+        raise ValueError(f"runs must be a positive integer, got {runs!r}")
+    seed = _seed(seed)
+    if executor is None:
+        nees, robot, lm, first = _rperc.monobot_monte_carlo(model, int(runs), seed, **cfg.kwargs())
+    else:
+        _rperc.monobot_simulate(model, seed, **{**cfg.kwargs(), "steps": 1})  # validate early
+        seeds = [_rperc.monobot_run_seed(seed, i) for i in range(runs)]
+        kwargs = cfg.kwargs()
+        futures = [executor.submit(_run_errors, model, s, kwargs) for s in seeds]
+        results = [f.result() for f in tqdm(futures, desc=f"monobot {model}", disable=not progress)]
+        nees, robot, lm, first = (np.stack(parts) for parts in zip(*results, strict=True))
+    summary = _rperc.monobot_summarize(nees, robot, lm, first, confidence)
+    summary.pop("runs")
+    return MonteCarloResult(
+        model=model, config=cfg, runs=int(runs), run_nees=np.asarray(nees), **summary
+    )

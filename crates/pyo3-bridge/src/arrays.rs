@@ -125,7 +125,9 @@ pub fn matrix(obj: &Bound<'_, PyAny>, name: &str) -> Result<nalgebra::DMatrix<f6
     if dtype.is_equiv_to(&numpy::dtype::<f64>(py)) {
         let a = readonly::<f64, numpy::Ix2>(obj)?;
         let v = a.as_array();
-        return Ok(nalgebra::DMatrix::from_fn(v.nrows(), v.ncols(), |i, j| v[(i, j)]));
+        return Ok(nalgebra::DMatrix::from_fn(v.nrows(), v.ncols(), |i, j| {
+            v[(i, j)]
+        }));
     }
     if dtype.is_equiv_to(&numpy::dtype::<f32>(py)) {
         let a = readonly::<f32, numpy::Ix2>(obj)?;

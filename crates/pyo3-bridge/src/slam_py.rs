@@ -122,7 +122,10 @@ impl PyEkf {
         if z.len() != 2 || r.shape() != (2, 2) {
             return Err(Error::Value("z must have 2 entries and R be 2x2".into()).into());
         }
-        let (z, r) = (Vector2::new(z[0], z[1]), Matrix2::from_iterator(r.iter().copied()));
+        let (z, r) = (
+            Vector2::new(z[0], z[1]),
+            Matrix2::from_iterator(r.iter().copied()),
+        );
         let ekf = &mut self.inner;
         Ok(detached(py, || Ok(ekf.update_range_bearing(j, &z, &r)?))?.nis)
     }
@@ -141,7 +144,10 @@ impl PyEkf {
             matrix(g_z, "G_z")?,
             matrix(r, "R")?,
         );
-        Ok(self.inner.add_landmark(&mean, &gr, &gz, &r).map_err(Error::from)?)
+        Ok(self
+            .inner
+            .add_landmark(&mean, &gr, &gz, &r)
+            .map_err(Error::from)?)
     }
 
     /// Adds a point landmark first seen at range-bearing `z`; returns its index.
@@ -154,7 +160,10 @@ impl PyEkf {
         if z.len() != 2 || r.shape() != (2, 2) {
             return Err(Error::Value("z must have 2 entries and R be 2x2".into()).into());
         }
-        let (z, r) = (Vector2::new(z[0], z[1]), Matrix2::from_iterator(r.iter().copied()));
+        let (z, r) = (
+            Vector2::new(z[0], z[1]),
+            Matrix2::from_iterator(r.iter().copied()),
+        );
         Ok(self
             .inner
             .add_landmark_range_bearing(&z, &r)
@@ -215,7 +224,11 @@ fn config(
         landmark_position,
         initial_variance,
         plant_noise: parse_noise(&plant_noise.0, plant_noise.1, "plant_noise")?,
-        measurement_noise: parse_noise(&measurement_noise.0, measurement_noise.1, "measurement_noise")?,
+        measurement_noise: parse_noise(
+            &measurement_noise.0,
+            measurement_noise.1,
+            "measurement_noise",
+        )?,
         reference_noise: parse_noise(&reference_noise.0, reference_noise.1, "reference_noise")?,
         noise_floor,
     };
@@ -247,8 +260,16 @@ pub fn monobot_simulate<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let model = parse_model(model)?;
     let cfg = config(
-        landmarks, steps, start, amplitude, landmark_position, initial_variance, plant_noise,
-        measurement_noise, reference_noise, noise_floor,
+        landmarks,
+        steps,
+        start,
+        amplitude,
+        landmark_position,
+        initial_variance,
+        plant_noise,
+        measurement_noise,
+        reference_noise,
+        noise_floor,
     )?;
     let run = detached(py, || Ok(monobot::simulate(&cfg, model, seed)?))?;
     let (d, p, k) = (run.dim, run.obs_dim, run.steps);
@@ -256,10 +277,16 @@ pub fn monobot_simulate<'py>(
     out.set_item("truth", shaped(py, run.truth, &[k + 1, d])?)?;
     out.set_item("estimate", shaped(py, run.estimate, &[k + 1, d])?)?;
     out.set_item("std", shaped(py, run.std, &[k + 1, d])?)?;
-    out.set_item("initial_measurement", shaped(py, run.initial_measurement, &[d - 1])?)?;
+    out.set_item(
+        "initial_measurement",
+        shaped(py, run.initial_measurement, &[d - 1])?,
+    )?;
     out.set_item("measurement", shaped(py, run.measurement, &[k, p])?)?;
     out.set_item("innovation", shaped(py, run.innovation, &[k, p])?)?;
-    out.set_item("innovation_cov", shaped(py, run.innovation_cov, &[k, p, p])?)?;
+    out.set_item(
+        "innovation_cov",
+        shaped(py, run.innovation_cov, &[k, p, p])?,
+    )?;
     out.set_item("gain", shaped(py, run.gain, &[k, d, p])?)?;
     out.set_item("predicted_cov", shaped(py, run.predicted_cov, &[k, d, d])?)?;
     out.set_item("nees", shaped(py, run.nees, &[k + 1])?)?;
@@ -306,8 +333,16 @@ pub fn monobot_monte_carlo<'py>(
 ) -> PyResult<Stacked<'py>> {
     let model = parse_model(model)?;
     let cfg = config(
-        landmarks, steps, start, amplitude, landmark_position, initial_variance, plant_noise,
-        measurement_noise, reference_noise, noise_floor,
+        landmarks,
+        steps,
+        start,
+        amplitude,
+        landmark_position,
+        initial_variance,
+        plant_noise,
+        measurement_noise,
+        reference_noise,
+        noise_floor,
     )?;
     let errors = detached(py, || {
         Ok(monobot::monte_carlo(&cfg, model, runs, seed)?
@@ -372,11 +407,17 @@ pub fn monobot_summarize<'py>(
     out.set_item("nees", s.nees.into_pyarray(py))?;
     out.set_item("nees_band", s.nees_band)?;
     out.set_item("nees_in_band", s.nees_in_band)?;
-    out.set_item("landmark_error_mean", s.landmark_error_mean.into_pyarray(py))?;
+    out.set_item(
+        "landmark_error_mean",
+        s.landmark_error_mean.into_pyarray(py),
+    )?;
     out.set_item("landmark_error_std", s.landmark_error_std.into_pyarray(py))?;
     out.set_item("robot_error_mean", s.robot_error_mean.into_pyarray(py))?;
     out.set_item("robot_error_std", s.robot_error_std.into_pyarray(py))?;
-    out.set_item("final_landmark_error", shaped(py, s.final_landmark_error, &[runs, n])?)?;
+    out.set_item(
+        "final_landmark_error",
+        shaped(py, s.final_landmark_error, &[runs, n])?,
+    )?;
     out.set_item(
         "first_observation_error",
         shaped(py, s.first_observation_error, &[runs, n])?,

@@ -82,6 +82,11 @@ def test_ekf_errors_map_to_python_exceptions():
         Ekf(np.zeros(2, dtype=np.int64), np.zeros((2, 2)), robot_dim=1, landmark_dim=1)
     with pytest.raises(ValueError, match="robot block"):
         Ekf(np.zeros(4), np.eye(4), robot_dim=3, landmark_dim=2)
+    one = np.ones((1, 1))
+    with pytest.raises(ValueError, match="non-finite"):
+        ekf.predict(np.array([np.nan]), one, one, one)  # a NaN control
+    with pytest.raises(ValueError, match="dimension"):
+        ekf.predict(np.zeros(2), one, one, one)
     np.testing.assert_array_equal(ekf.state, [0.0, 0.0])  # unchanged by the failures
 
 

@@ -1,0 +1,539 @@
+//! The particle set, its propagation, parallel weighting in the log domain, estimates and
+//! the recovery when every particle has zero likelihood.
+
+use nalgebra::{SMatrix, SVector};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use rayon::prelude::*;
+
+use super::resample::{Resampler, effective_sample_size};
+use crate::error::{Result, TrackingError};
+
+/// The measurement model: log-likelihood `ln p(z | s)` of a state, up to a constant.
+///
+/// `-inf` means "impossible"; NaN and `+inf` are treated as `-inf` (zero weight). The
+/// filter calls it from several threads at once, each call with its own scratch value,
+/// so a likelihood that needs a work buffer (a histogram...) allocates it once per
+/// chunk of particles, never per particle.
+///
+/// Any `Fn(&SVector<f64, D>) -> f64 + Sync` closure is a likelihood with no scratch.
+pub trait Likelihood<const D: usize>: Sync {
+    /// Per-chunk work space, reused across particles and steps.
+    type Scratch: Send;
+    /// A fresh work space.
+    fn new_scratch(&self) -> Self::Scratch;
+    /// `ln p(z | state)`.
+    fn log_likelihood(&self, state: &SVector<f64, D>, scratch: &mut Self::Scratch) -> f64;
+}
+
+impl<const D: usize, F> Likelihood<D> for F
+where
+    F: Fn(&SVector<f64, D>) -> f64 + Sync,
+{
+    type Scratch = ();
+    fn new_scratch(&self) {}
+    fn log_likelihood(&self, state: &SVector<f64, D>, _: &mut ()) -> f64 {
+        self(state)
+    }
+}
+
+/// Linear-Gaussian dynamics `s_t = A s'_t + B w_t`, `w_t ~ N(0, I)` (seed 000 section 3.3):
+/// `A` is the deterministic part, `B B^T` the process noise covariance.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinearGaussian<const D: usize> {
+    /// Deterministic part `A`.
+    pub a: SMatrix<f64, D, D>,
+    /// Noise gain `B`.
+    pub b: SMatrix<f64, D, D>,
+}
+
+impl<const D: usize> LinearGaussian<D> {
+    /// A random walk `s_t = s'_t + diag(sigma) w_t`.
+    ///
+    /// # Examples
+    /// ```
+    /// use nalgebra::Vector2;
+    /// use tracking::LinearGaussian;
+    ///
+    /// let d = LinearGaussian::random_walk(Vector2::new(1.0, 2.0));
+    /// assert_eq!(d.b[(1, 1)], 2.0);
+    /// ```
+    pub fn random_walk(sigma: SVector<f64, D>) -> Self {
+        Self {
+            a: SMatrix::identity(),
+            b: SMatrix::from_diagonal(&sigma),
+        }
+    }
+
+    fn validate(&self) -> Result<()> {
+        if self.a.iter().chain(self.b.iter()).all(|v| v.is_finite()) {
+            Ok(())
+        } else {
+            Err(TrackingError::InvalidParameter {
+                name: "dynamics",
+                reason: "A and B must be finite".into(),
+            })
+        }
+    }
+}
+
+/// When to resample at the start of a step.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum ResamplePolicy {
+    /// Every step, as in the seed's CONDENSATION.
+    #[default]
+    Always,
+    /// Only when the effective sample size falls below `fraction * n`
+    /// (`fraction` in (0, 1]); otherwise the weights carry over (importance sampling).
+    BelowEss(f64),
+}
+
+/// Tuning of a [`ParticleFilter`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct FilterParams {
+    /// Resampling scheme. Default [`Resampler::Systematic`].
+    pub resampler: Resampler,
+    /// When to resample. Default [`ResamplePolicy::Always`].
+    pub policy: ResamplePolicy,
+    /// Particles per parallel work item (default 64). Fixed, so the split of the work never
+    /// depends on the thread count; large enough that a chunk's likelihood calls outweigh
+    /// rayon's per-task cost.
+    pub chunk_size: usize,
+    /// Weight particles in parallel with rayon (default `true`). Results are identical
+    /// either way; the serial path is faster for cheap likelihoods or few particles.
+    pub parallel: bool,
+}
+
+impl Default for FilterParams {
+    fn default() -> Self {
+        Self {
+            resampler: Resampler::Systematic,
+            policy: ResamplePolicy::Always,
+            chunk_size: 64,
+            parallel: true,
+        }
+    }
+}
+
+/// What one [`ParticleFilter::step`] did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepReport {
+    /// Effective sample size of the new weights (`n` after a recovery).
+    pub ess: f64,
+    /// Whether the set was resampled at the start of the step.
+    pub resampled: bool,
+    /// Every particle had zero likelihood: the set was re-initialised around the last
+    /// estimate and the target is reported lost.
+    pub lost: bool,
+}
+
+/// A CONDENSATION particle filter over a `D`-dimensional state.
+///
+/// One [`step`](Self::step) is the seed's iteration: resample with probability
+/// proportional to the weights, propagate each sample with `s = A s' + B w`, weight it by
+/// the likelihood. Weights are kept as logarithms and normalised with log-sum-exp, so a
+/// sharp likelihood cannot underflow them. Random draws are made serially from one
+/// ChaCha8 stream, and each particle's weight is a pure function of its state, so a seed
+/// gives bit-identical results whatever the number of rayon threads.
+///
+/// # Examples
+/// Track a constant scalar observed with noise:
+/// ```
+/// use nalgebra::{SMatrix, SVector, Vector1};
+/// use tracking::{FilterParams, LinearGaussian, ParticleFilter};
+///
+/// let dynamics = LinearGaussian::random_walk(Vector1::new(0.1));
+/// let mut pf = ParticleFilter::new(
+///     500, Vector1::new(0.0), SMatrix::identity() * 4.0, dynamics, FilterParams::default(), 42,
+/// ).unwrap();
+/// for z in [1.1, 0.9, 1.05, 0.95, 1.0] {
+///     pf.step(&|s: &SVector<f64, 1>| -0.5 * ((s[0] - z) / 0.2_f64).powi(2));
+/// }
+/// assert!((pf.mean()[0] - 1.0).abs() < 0.15);
+/// ```
+#[derive(Debug, Clone)]
+pub struct ParticleFilter<const D: usize> {
+    particles: Vec<SVector<f64, D>>,
+    spare: Vec<SVector<f64, D>>,
+    log_weights: Vec<f64>,
+    weights: Vec<f64>,
+    ancestors: Vec<usize>,
+    dynamics: LinearGaussian<D>,
+    recovery_chol: SMatrix<f64, D, D>,
+    params: FilterParams,
+    rng: ChaCha8Rng,
+    mean: SVector<f64, D>,
+    ess: f64,
+    lost: bool,
+}
+
+impl<const D: usize> ParticleFilter<D> {
+    /// `n` particles drawn from `N(mean, covariance)` with equal weights. After a total
+    /// loss the set is re-drawn from `N(last estimate, covariance)`.
+    ///
+    /// # Errors
+    /// [`TrackingError::InvalidParameter`] for `n == 0`, a zero chunk size, a threshold
+    /// outside (0, 1], non-finite values; [`TrackingError::NotPositiveDefinite`] when
+    /// `covariance` is not symmetric positive definite.
+    pub fn new(
+        n: usize,
+        mean: SVector<f64, D>,
+        covariance: SMatrix<f64, D, D>,
+        dynamics: LinearGaussian<D>,
+        params: FilterParams,
+        seed: u64,
+    ) -> Result<Self> {
+        if n == 0 {
+            return Err(TrackingError::InvalidParameter {
+                name: "n",
+                reason: "need at least one particle".into(),
+            });
+        }
+        if params.chunk_size == 0 {
+            return Err(TrackingError::InvalidParameter {
+                name: "chunk_size",
+                reason: "must be >= 1".into(),
+            });
+        }
+        if let ResamplePolicy::BelowEss(f) = params.policy
+            && !(f.is_finite() && f > 0.0 && f <= 1.0)
+        {
+            return Err(TrackingError::InvalidParameter {
+                name: "policy",
+                reason: format!("ESS fraction must be in (0, 1], got {f}"),
+            });
+        }
+        if !mean.iter().all(|v| v.is_finite()) {
+            return Err(TrackingError::InvalidParameter {
+                name: "mean",
+                reason: "must be finite".into(),
+            });
+        }
+        dynamics.validate()?;
+        let recovery_chol = cholesky(&covariance, "covariance")?;
+        let mut pf = Self {
+            particles: vec![mean; n],
+            spare: Vec::with_capacity(n),
+            log_weights: vec![0.0; n],
+            weights: vec![0.0; n],
+            ancestors: Vec::with_capacity(n),
+            dynamics,
+            recovery_chol,
+            params,
+            rng: ChaCha8Rng::seed_from_u64(seed),
+            mean,
+            ess: n as f64,
+            lost: false,
+        };
+        pf.scatter_around(mean);
+        Ok(pf)
+    }
+
+    /// Replaces the covariance used to re-draw the set after a total loss.
+    ///
+    /// # Errors
+    /// [`TrackingError::NotPositiveDefinite`] when it is not symmetric positive definite.
+    pub fn set_recovery_covariance(&mut self, covariance: SMatrix<f64, D, D>) -> Result<()> {
+        self.recovery_chol = cholesky(&covariance, "covariance")?;
+        Ok(())
+    }
+
+    /// Redraws every particle from `N(centre, recovery covariance)` with equal weights.
+    pub fn scatter_around(&mut self, centre: SVector<f64, D>) {
+        let l = self.recovery_chol;
+        for p in &mut self.particles {
+            *p = centre + l * standard_normal(&mut self.rng);
+        }
+        self.set_uniform_weights();
+        self.mean = self.weighted_mean();
+    }
+
+    /// One CONDENSATION iteration; see the type's documentation.
+    pub fn step<L: Likelihood<D>>(&mut self, likelihood: &L) -> StepReport {
+        let mut scratch = Vec::new();
+        self.step_with_scratch(likelihood, &mut scratch)
+    }
+
+    /// [`step`](Self::step) reusing the caller's per-chunk scratch values, so that repeated
+    /// steps allocate nothing once `scratch` has grown to one value per chunk.
+    pub fn step_with_scratch<L: Likelihood<D>>(
+        &mut self,
+        likelihood: &L,
+        scratch: &mut Vec<L::Scratch>,
+    ) -> StepReport {
+        let resampled = self.resample_if_needed();
+        self.propagate();
+        self.weigh(likelihood, scratch);
+        let lost = !self.normalise();
+        if lost {
+            let centre = self.mean;
+            self.scatter_around(centre);
+        } else {
+            self.mean = self.weighted_mean();
+            self.ess = effective_sample_size(&self.weights);
+        }
+        self.lost = lost;
+        StepReport {
+            ess: self.ess,
+            resampled,
+            lost,
+        }
+    }
+
+    fn resample_if_needed(&mut self) -> bool {
+        let n = self.particles.len();
+        let due = match self.params.policy {
+            ResamplePolicy::Always => true,
+            ResamplePolicy::BelowEss(f) => self.ess < f * n as f64,
+        };
+        if !due {
+            return false;
+        }
+        // Weights are normalised, finite and sum to one here, so this cannot fail.
+        if self
+            .params
+            .resampler
+            .resample(&self.weights, n, &mut self.rng, &mut self.ancestors)
+            .is_err()
+        {
+            return false;
+        }
+        self.spare.clear();
+        self.spare
+            .extend(self.ancestors.iter().map(|&i| self.particles[i]));
+        std::mem::swap(&mut self.particles, &mut self.spare);
+        self.set_uniform_weights();
+        true
+    }
+
+    /// `s = A s' + B w`, seed 000 section 3.3; noise drawn serially in particle order.
+    fn propagate(&mut self) {
+        let LinearGaussian { a, b } = self.dynamics;
+        for p in &mut self.particles {
+            *p = a * *p + b * standard_normal(&mut self.rng);
+        }
+    }
+
+    /// Adds each particle's log-likelihood to its log-weight, in fixed chunks.
+    fn weigh<L: Likelihood<D>>(&mut self, likelihood: &L, scratch: &mut Vec<L::Scratch>) {
+        let chunk = self.params.chunk_size;
+        let n_chunks = self.particles.len().div_ceil(chunk);
+        while scratch.len() < n_chunks {
+            scratch.push(likelihood.new_scratch());
+        }
+        let weigh_chunk = |(particles, log_weights): (&[SVector<f64, D>], &mut [f64]),
+                           scratch: &mut L::Scratch| {
+            for (p, lw) in particles.iter().zip(log_weights.iter_mut()) {
+                let ll = likelihood.log_likelihood(p, scratch);
+                // NaN and +inf are not likelihoods: zero weight.
+                *lw += if ll.is_nan() || ll == f64::INFINITY {
+                    f64::NEG_INFINITY
+                } else {
+                    ll
+                };
+            }
+        };
+        if self.params.parallel && n_chunks > 1 {
+            self.particles
+                .par_chunks(chunk)
+                .zip(self.log_weights.par_chunks_mut(chunk))
+                .zip(scratch.par_iter_mut())
+                .for_each(|(pair, s)| weigh_chunk(pair, s));
+        } else {
+            for (pair, s) in self
+                .particles
+                .chunks(chunk)
+                .zip(self.log_weights.chunks_mut(chunk))
+                .zip(scratch.iter_mut())
+            {
+                weigh_chunk(pair, s);
+            }
+        }
+    }
+
+    /// Log-sum-exp normalisation; `false` when no weight is positive and finite.
+    fn normalise(&mut self) -> bool {
+        let max = self
+            .log_weights
+            .iter()
+            .copied()
+            .fold(f64::NEG_INFINITY, f64::max);
+        if !max.is_finite() {
+            return false;
+        }
+        let sum: f64 = self.log_weights.iter().map(|lw| (lw - max).exp()).sum();
+        let log_total = max + sum.ln();
+        for (lw, w) in self.log_weights.iter_mut().zip(self.weights.iter_mut()) {
+            *lw -= log_total;
+            *w = lw.exp();
+        }
+        true
+    }
+
+    fn set_uniform_weights(&mut self) {
+        let n = self.particles.len() as f64;
+        self.log_weights.fill(-n.ln());
+        self.weights.fill(1.0 / n);
+        self.ess = n;
+    }
+
+    fn weighted_mean(&self) -> SVector<f64, D> {
+        self.particles
+            .iter()
+            .zip(&self.weights)
+            .fold(SVector::zeros(), |acc, (p, &w)| acc + p * w)
+    }
+
+    /// Weighted mean of the particles: the state estimate.
+    pub fn mean(&self) -> SVector<f64, D> {
+        self.mean
+    }
+
+    /// Weighted covariance `sum w_i (s_i - mean)(s_i - mean)^T`.
+    pub fn covariance(&self) -> SMatrix<f64, D, D> {
+        self.particles
+            .iter()
+            .zip(&self.weights)
+            .fold(SMatrix::zeros(), |acc, (p, &w)| {
+                let d = p - self.mean;
+                acc + d * d.transpose() * w
+            })
+    }
+
+    /// The particle of largest weight and its (normalised) weight; the first on ties.
+    pub fn max_weight(&self) -> (SVector<f64, D>, f64) {
+        let mut best = 0;
+        for (i, &w) in self.weights.iter().enumerate() {
+            if w > self.weights[best] {
+                best = i;
+            }
+        }
+        (self.particles[best], self.weights[best])
+    }
+
+    /// Effective sample size `1 / sum w^2` of the current weights.
+    pub fn ess(&self) -> f64 {
+        self.ess
+    }
+
+    /// Whether the last step lost the target (every likelihood was zero).
+    pub fn lost(&self) -> bool {
+        self.lost
+    }
+
+    /// The particles.
+    pub fn particles(&self) -> &[SVector<f64, D>] {
+        &self.particles
+    }
+
+    /// Their normalised weights (sum to one).
+    pub fn weights(&self) -> &[f64] {
+        &self.weights
+    }
+
+    /// Their normalised log-weights.
+    pub fn log_weights(&self) -> &[f64] {
+        &self.log_weights
+    }
+
+    /// The dynamics.
+    pub fn dynamics(&self) -> &LinearGaussian<D> {
+        &self.dynamics
+    }
+
+    /// Replaces the dynamics (e.g. to change the noise with the target's scale).
+    ///
+    /// # Errors
+    /// [`TrackingError::InvalidParameter`] if `A` or `B` has a non-finite entry.
+    pub fn set_dynamics(&mut self, dynamics: LinearGaussian<D>) -> Result<()> {
+        dynamics.validate()?;
+        self.dynamics = dynamics;
+        Ok(())
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &FilterParams {
+        &self.params
+    }
+}
+
+fn standard_normal<const D: usize>(rng: &mut ChaCha8Rng) -> SVector<f64, D> {
+    SVector::from_fn(|_, _| StandardNormal.sample(rng))
+}
+
+fn cholesky<const D: usize>(
+    m: &SMatrix<f64, D, D>,
+    name: &'static str,
+) -> Result<SMatrix<f64, D, D>> {
+    let symmetric = (m - m.transpose()).abs().max() <= 1e-12 * m.abs().max().max(1.0);
+    if !m.iter().all(|v| v.is_finite()) || !symmetric {
+        return Err(TrackingError::NotPositiveDefinite { name });
+    }
+    m.cholesky()
+        .map(|c| c.l())
+        .ok_or(TrackingError::NotPositiveDefinite { name })
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::Vector1;
+
+    use super::*;
+
+    #[test]
+    fn rejects_bad_construction() {
+        let d = LinearGaussian::random_walk(Vector1::new(1.0));
+        let p = FilterParams::default();
+        let cov = SMatrix::<f64, 1, 1>::identity();
+        assert!(ParticleFilter::new(0, Vector1::zeros(), cov, d.clone(), p.clone(), 0).is_err());
+        assert_eq!(
+            ParticleFilter::new(10, Vector1::zeros(), -cov, d.clone(), p.clone(), 0).unwrap_err(),
+            TrackingError::NotPositiveDefinite { name: "covariance" }
+        );
+        assert!(
+            ParticleFilter::new(10, Vector1::new(f64::NAN), cov, d.clone(), p.clone(), 0).is_err()
+        );
+        let bad = FilterParams {
+            policy: ResamplePolicy::BelowEss(1.5),
+            ..p.clone()
+        };
+        assert!(ParticleFilter::new(10, Vector1::zeros(), cov, d.clone(), bad, 0).is_err());
+        let nan_dyn = LinearGaussian::random_walk(Vector1::new(f64::NAN));
+        assert!(ParticleFilter::new(10, Vector1::zeros(), cov, nan_dyn, p, 0).is_err());
+    }
+
+    #[test]
+    fn total_loss_recovers_around_last_estimate() {
+        let d = LinearGaussian::random_walk(Vector1::new(0.1));
+        let cov = SMatrix::<f64, 1, 1>::identity() * 0.01;
+        let mut pf =
+            ParticleFilter::new(200, Vector1::new(5.0), cov, d, FilterParams::default(), 1)
+                .unwrap();
+        let r = pf.step(&|_: &SVector<f64, 1>| f64::NAN);
+        assert!(r.lost && pf.lost());
+        assert_eq!(r.ess, 200.0);
+        // Recovered set is N(5, 0.01): its mean is within 5 standard errors.
+        assert!((pf.mean()[0] - 5.0).abs() < 5.0 * 0.1 / 200f64.sqrt());
+        let r = pf.step(&|s: &SVector<f64, 1>| -s[0].powi(2));
+        assert!(!r.lost && !pf.lost());
+    }
+
+    #[test]
+    fn log_domain_survives_tiny_likelihoods() {
+        // exp(-1e4) underflows to 0 in linear weights; the log domain keeps the ranking.
+        let d = LinearGaussian::random_walk(Vector1::new(0.0001));
+        let cov = SMatrix::<f64, 1, 1>::identity();
+        let mut pf =
+            ParticleFilter::new(100, Vector1::zeros(), cov, d, FilterParams::default(), 3).unwrap();
+        let r = pf.step(&|s: &SVector<f64, 1>| -1e4 - (s[0] - 1.0).powi(2));
+        assert!(!r.lost);
+        let (best, _) = pf.max_weight();
+        assert!(
+            pf.particles()
+                .iter()
+                .all(|p| (p[0] - 1.0).abs() >= (best[0] - 1.0).abs())
+        );
+        assert!((pf.weights().iter().sum::<f64>() - 1.0).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,10 @@
+//! The CONDENSATION particle filter (Isard & Blake 1998; seed 000 section 3.3, seed 001
+//! section 3.1): resample, propagate `s = A s' + B w`, weight by the likelihood.
+
+mod filter;
+mod resample;
+
+pub use filter::{
+    FilterParams, Likelihood, LinearGaussian, ParticleFilter, ResamplePolicy, StepReport,
+};
+pub use resample::{Resampler, effective_sample_size};

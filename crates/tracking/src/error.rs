@@ -1,0 +1,114 @@
+//! The one error type of the crate; the Python bridge maps each variant to an exception.
+
+/// Everything that can go wrong in `tracking`.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum TrackingError {
+    /// A parameter was out of its valid range (negative noise, zero particles, NaN...).
+    #[error("invalid parameter '{name}': {reason}")]
+    InvalidParameter {
+        /// The parameter's name as documented.
+        name: &'static str,
+        /// Why the value was refused.
+        reason: String,
+    },
+    /// A covariance matrix that must be symmetric positive definite was not.
+    #[error("covariance '{name}' is not symmetric positive definite")]
+    NotPositiveDefinite {
+        /// Which covariance.
+        name: &'static str,
+    },
+    /// A frame buffer does not hold `width * height * 3` bytes.
+    #[error("frame buffer has {got} bytes but a {width}x{height} RGB frame needs {expected}")]
+    FrameSize {
+        /// Frame width in pixels.
+        width: usize,
+        /// Frame height in pixels.
+        height: usize,
+        /// `width * height * 3`.
+        expected: usize,
+        /// The buffer's length.
+        got: usize,
+    },
+    /// A frame has zero width or height.
+    #[error("frame is empty ({width}x{height})")]
+    EmptyFrame {
+        /// Frame width in pixels.
+        width: usize,
+        /// Frame height in pixels.
+        height: usize,
+    },
+    /// The frame size changed between `new` and `update`.
+    #[error("frame size changed from {expected_width}x{expected_height} to {width}x{height}")]
+    FrameSizeChanged {
+        /// Size the tracker was initialised with.
+        expected_width: usize,
+        /// Size the tracker was initialised with.
+        expected_height: usize,
+        /// Size of the frame passed now.
+        width: usize,
+        /// Size of the frame passed now.
+        height: usize,
+    },
+    /// A box with a non-positive or non-finite width or height, or a non-finite corner.
+    #[error("box ({x}, {y}, {w}, {h}) must have finite coordinates and w, h >= 1")]
+    InvalidBox {
+        /// Left edge.
+        x: f64,
+        /// Top edge.
+        y: f64,
+        /// Width.
+        w: f64,
+        /// Height.
+        h: f64,
+    },
+    /// A box that does not lie inside the frame.
+    #[error("box ({x}, {y}, {w}, {h}) is not inside the {width}x{height} frame")]
+    BoxOutsideFrame {
+        /// Left edge.
+        x: f64,
+        /// Top edge.
+        y: f64,
+        /// Width.
+        w: f64,
+        /// Height.
+        h: f64,
+        /// Frame width.
+        width: usize,
+        /// Frame height.
+        height: usize,
+    },
+    /// Two inputs that must have the same length did not.
+    #[error("length mismatch: {what}")]
+    LengthMismatch {
+        /// Which inputs and their lengths.
+        what: String,
+    },
+    /// Resampling weights were empty, negative, non-finite or all zero.
+    #[error("invalid weights: {reason}")]
+    InvalidWeights {
+        /// What is wrong with them.
+        reason: String,
+    },
+    /// A malformed line in a data file (file name and 1-based line number).
+    #[error("{path}:{line}: {reason}")]
+    Parse {
+        /// The file.
+        path: String,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong with the line.
+        reason: String,
+    },
+    /// An I/O or image decoding failure, with the file concerned.
+    #[error("{path}: {reason}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The underlying error's message.
+        reason: String,
+    },
+}
+
+/// Shorthand for results of this crate.
+pub type Result<T> = std::result::Result<T, TrackingError>;

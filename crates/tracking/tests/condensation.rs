@@ -1,0 +1,371 @@
+//! The particle filter against independent oracles: a Kalman filter written out here, and
+//! the known count distributions of each resampler.
+
+use nalgebra::{Matrix2, SMatrix, SVector, Vector2};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use tracking::{
+    FilterParams, LinearGaussian, ParticleFilter, ResamplePolicy, Resampler, StepReport,
+    effective_sample_size,
+};
+
+// ---------------------------------------------------------------- Kalman oracle
+
+/// x_t = A x_{t-1} + B w,  z_t = H x_t + v,  v ~ N(0, r^2), H = [1, 0].
+struct Model {
+    a: Matrix2<f64>,
+    b: Matrix2<f64>,
+    r: f64,
+}
+
+/// Textbook Kalman predict + update for a scalar measurement of the first component.
+fn kalman_step(
+    m: &Model,
+    mean: Vector2<f64>,
+    cov: Matrix2<f64>,
+    z: f64,
+) -> (Vector2<f64>, Matrix2<f64>, Matrix2<f64>) {
+    let mp = m.a * mean;
+    let pp = m.a * cov * m.a.transpose() + m.b * m.b.transpose();
+    let s = pp[(0, 0)] + m.r * m.r;
+    let k = Vector2::new(pp[(0, 0)], pp[(1, 0)]) / s;
+    let innovation = z - mp[0];
+    let mean = mp + k * innovation;
+    let mut ikh = Matrix2::<f64>::identity();
+    ikh[(0, 0)] -= k[0];
+    ikh[(1, 0)] -= k[1];
+    let cov = ikh * pp;
+    // Error-propagation matrix of the filter: an error in the prior mean reaches the
+    // posterior mean multiplied by (I - K H) A.
+    (mean, cov, ikh * m.a)
+}
+
+#[test]
+fn linear_gaussian_filter_converges_to_kalman() {
+    let model = Model {
+        a: Matrix2::new(0.95, 0.1, 0.0, 0.9),
+        b: Matrix2::new(0.3, 0.0, 0.0, 0.2),
+        r: 0.5,
+    };
+    let m0 = Vector2::new(1.0, -0.5);
+    let p0 = Matrix2::new(1.0, 0.2, 0.2, 0.5);
+    let n = 40_000;
+
+    // Simulated truth and measurements from their own seeded stream.
+    let mut sim = ChaCha8Rng::seed_from_u64(2024);
+    let mut x = m0;
+    let mut zs = Vec::new();
+    for _ in 0..15 {
+        let w = Vector2::new(
+            StandardNormal.sample(&mut sim),
+            StandardNormal.sample(&mut sim),
+        );
+        x = model.a * x + model.b * w;
+        let v: f64 = StandardNormal.sample(&mut sim);
+        zs.push(x[0] + model.r * v);
+    }
+
+    let dynamics = LinearGaussian {
+        a: model.a,
+        b: model.b,
+    };
+    let params = FilterParams {
+        resampler: Resampler::Systematic,
+        ..FilterParams::default()
+    };
+    let mut pf = ParticleFilter::new(n, m0, p0, dynamics, params, 11).unwrap();
+    let (mut km, mut kp) = (m0, p0);
+    // Monte-Carlo error of the filter's mean: each step adds sampling error of covariance
+    // about P/ESS (weighting) + P/n (resampling) and carries the previous error through
+    // F = (I - K H) A. `err_cov` accumulates exactly that recursion.
+    let mut err_cov = p0 / n as f64;
+    let mut cov_err_var = Matrix2::<f64>::zeros();
+    for &z in &zs {
+        let r = model.r;
+        let report = pf.step(&|s: &SVector<f64, 2>| -0.5 * ((s[0] - z) / r).powi(2));
+        assert!(!report.lost && report.resampled);
+        let (m, p, f) = kalman_step(&model, km, kp, z);
+        km = m;
+        kp = p;
+        let fresh = kp * (1.0 / report.ess + 1.0 / n as f64);
+        err_cov = f * err_cov * f.transpose() + fresh;
+        // Sample covariance of `ess` draws: Var(S_ij) = (P_ii P_jj + P_ij^2) / ess; the
+        // previous step's error reaches it through F twice.
+        let rho = f.norm();
+        cov_err_var = cov_err_var * rho.powi(4)
+            + Matrix2::from_fn(|i, j| {
+                (kp[(i, i)] * kp[(j, j)] + kp[(i, j)].powi(2)) * (1.0 / report.ess + 1.0 / n as f64)
+            });
+
+        let mean = pf.mean();
+        let cov = pf.covariance();
+        for i in 0..2 {
+            let tol = 5.0 * err_cov[(i, i)].sqrt();
+            assert!(
+                (mean[i] - km[i]).abs() < tol,
+                "mean[{i}] {} vs Kalman {} (tol {tol})",
+                mean[i],
+                km[i]
+            );
+            for j in 0..2 {
+                let tol = 5.0 * cov_err_var[(i, j)].sqrt();
+                assert!(
+                    (cov[(i, j)] - kp[(i, j)]).abs() < tol,
+                    "cov[{i},{j}] {} vs Kalman {} (tol {tol})",
+                    cov[(i, j)],
+                    kp[(i, j)]
+                );
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------- determinism
+
+fn run_filter(threads: usize, parallel: bool) -> (Vec<SVector<f64, 3>>, Vec<f64>, Vec<StepReport>) {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    pool.install(|| {
+        let dynamics = LinearGaussian::random_walk(SVector::<f64, 3>::new(0.5, 0.5, 0.05));
+        let params = FilterParams {
+            chunk_size: 16,
+            parallel,
+            ..FilterParams::default()
+        };
+        let mut pf = ParticleFilter::new(
+            1000,
+            SVector::zeros(),
+            SMatrix::identity(),
+            dynamics,
+            params,
+            99,
+        )
+        .unwrap();
+        let mut reports = Vec::new();
+        for t in 0..10 {
+            let target = SVector::<f64, 3>::new(t as f64 * 0.3, -(t as f64) * 0.2, 1.0);
+            reports.push(pf.step(&|s: &SVector<f64, 3>| -(s - target).norm_squared()));
+        }
+        (pf.particles().to_vec(), pf.log_weights().to_vec(), reports)
+    })
+}
+
+#[test]
+fn bit_identical_whatever_the_thread_count() {
+    let one = run_filter(1, true);
+    let two = run_filter(2, true);
+    let serial = run_filter(2, false);
+    let bits = |v: &(Vec<SVector<f64, 3>>, Vec<f64>, Vec<StepReport>)| {
+        let mut b: Vec<u64> =
+            v.0.iter()
+                .flat_map(|p| p.iter().map(|x| x.to_bits()))
+                .collect();
+        b.extend(v.1.iter().map(|x| x.to_bits()));
+        b
+    };
+    assert_eq!(bits(&one), bits(&two));
+    assert_eq!(bits(&one), bits(&serial));
+    assert_eq!(one.2, two.2);
+}
+
+#[test]
+fn resample_below_threshold_keeps_weights_otherwise() {
+    let dynamics = LinearGaussian::random_walk(SVector::<f64, 1>::new(0.01));
+    let params = FilterParams {
+        policy: ResamplePolicy::BelowEss(0.5),
+        ..FilterParams::default()
+    };
+    let mut pf = ParticleFilter::new(
+        500,
+        SVector::zeros(),
+        SMatrix::identity(),
+        dynamics,
+        params,
+        5,
+    )
+    .unwrap();
+    // A flat likelihood keeps ESS at n: no resampling.
+    let r = pf.step(&|_: &SVector<f64, 1>| 0.0);
+    assert!(!r.resampled);
+    // A sharp one collapses ESS; the next step must resample.
+    let r = pf.step(&|s: &SVector<f64, 1>| -50.0 * s[0] * s[0]);
+    assert!(r.ess < 250.0);
+    let r = pf.step(&|_: &SVector<f64, 1>| 0.0);
+    assert!(r.resampled);
+}
+
+// ---------------------------------------------------------------- resamplers
+
+const WEIGHTS: [f64; 7] = [0.31, 0.005, 0.2, 0.0, 0.137, 0.05, 0.298];
+
+fn counts(idx: &[usize], m: usize) -> Vec<usize> {
+    let mut c = vec![0; m];
+    for &i in idx {
+        c[i] += 1;
+    }
+    c
+}
+
+/// Mean counts over many repetitions must match n w_i within 4.5 standard errors, where
+/// `var_bound(i)` bounds the variance of one repetition's count for that scheme.
+fn check_unbiased(
+    resampler: Resampler,
+    n: usize,
+    var_bound: impl Fn(f64) -> f64,
+    per_run: impl Fn(&[usize]),
+) {
+    let reps = 4000;
+    let mut rng = ChaCha8Rng::seed_from_u64(77);
+    let mut idx = Vec::new();
+    let mut sum = vec![0.0; WEIGHTS.len()];
+    for _ in 0..reps {
+        resampler.resample(&WEIGHTS, n, &mut rng, &mut idx).unwrap();
+        assert_eq!(idx.len(), n);
+        assert!(
+            idx.windows(2).all(|w| w[0] <= w[1]),
+            "indices must be sorted"
+        );
+        let c = counts(&idx, WEIGHTS.len());
+        assert_eq!(c[3], 0, "{resampler:?} picked a zero-weight particle");
+        per_run(&c);
+        for (s, &k) in sum.iter_mut().zip(&c) {
+            *s += k as f64;
+        }
+    }
+    for (i, &w) in WEIGHTS.iter().enumerate() {
+        let expected = n as f64 * w;
+        let mean = sum[i] / reps as f64;
+        let se = (var_bound(w) / reps as f64).sqrt().max(1e-12);
+        assert!(
+            (mean - expected).abs() <= 4.5 * se,
+            "{resampler:?} particle {i}: mean count {mean}, expected {expected}"
+        );
+    }
+}
+
+#[test]
+fn systematic_counts_are_floor_or_ceil() {
+    let n = 40;
+    check_unbiased(
+        Resampler::Systematic,
+        n,
+        |_| 0.25,
+        |c| {
+            for (&k, &w) in c.iter().zip(&WEIGHTS) {
+                let e = n as f64 * w;
+                assert!(
+                    k as f64 >= e.floor() && k as f64 <= e.ceil(),
+                    "count {k} for n w = {e}"
+                );
+            }
+        },
+    );
+}
+
+#[test]
+fn stratified_counts_are_within_one_of_floor_ceil() {
+    let n = 40;
+    // At most two strata are partly covered by a particle's interval: variance <= 2/4.
+    check_unbiased(
+        Resampler::Stratified,
+        n,
+        |_| 0.5,
+        |c| {
+            for (&k, &w) in c.iter().zip(&WEIGHTS) {
+                let e = n as f64 * w;
+                assert!(
+                    k as f64 >= e.floor() - 1.0 && k as f64 <= e.ceil() + 1.0,
+                    "count {k} for n w = {e}"
+                );
+            }
+        },
+    );
+}
+
+#[test]
+fn residual_counts_have_the_deterministic_floor() {
+    let n = 40;
+    // Only the residual draws are random: variance <= R r (1 - r) <= R / 4, R < 7 draws.
+    check_unbiased(
+        Resampler::Residual,
+        n,
+        |_| 7.0 / 4.0,
+        |c| {
+            for (&k, &w) in c.iter().zip(&WEIGHTS) {
+                let e = n as f64 * w;
+                assert!(k as f64 >= e.floor(), "count {k} below floor of n w = {e}");
+            }
+        },
+    );
+}
+
+#[test]
+fn multinomial_counts_are_unbiased_and_pass_chi_square() {
+    let n = 40;
+    check_unbiased(
+        Resampler::Multinomial,
+        n,
+        |w| n as f64 * w * (1.0 - w),
+        |_| {},
+    );
+    // One large draw: Pearson chi-square over the 6 positive-weight particles (5 degrees
+    // of freedom); 20.52 is the 99.9% quantile.
+    let big = 200_000;
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let mut idx = Vec::new();
+    Resampler::Multinomial
+        .resample(&WEIGHTS, big, &mut rng, &mut idx)
+        .unwrap();
+    let c = counts(&idx, WEIGHTS.len());
+    let chi2: f64 = WEIGHTS
+        .iter()
+        .zip(&c)
+        .filter(|(w, _)| **w > 0.0)
+        .map(|(&w, &k)| {
+            let e = big as f64 * w;
+            (k as f64 - e).powi(2) / e
+        })
+        .sum();
+    assert!(chi2 < 20.52, "chi-square {chi2}");
+}
+
+#[test]
+fn resamplers_reject_bad_weights_and_handle_edge_cases() {
+    let mut rng = ChaCha8Rng::seed_from_u64(0);
+    let mut idx = vec![9];
+    for r in [
+        Resampler::Multinomial,
+        Resampler::Systematic,
+        Resampler::Stratified,
+        Resampler::Residual,
+    ] {
+        assert!(r.resample(&[], 3, &mut rng, &mut idx).is_err());
+        assert!(r.resample(&[0.0, 0.0], 3, &mut rng, &mut idx).is_err());
+        assert!(r.resample(&[1.0, -0.1], 3, &mut rng, &mut idx).is_err());
+        assert!(r.resample(&[1.0, f64::NAN], 3, &mut rng, &mut idx).is_err());
+        r.resample(&[0.0, 3.0, 0.0], 5, &mut rng, &mut idx).unwrap();
+        assert_eq!(idx, vec![1; 5], "{r:?}");
+        r.resample(&[2.0, 2.0], 0, &mut rng, &mut idx).unwrap();
+        assert!(idx.is_empty());
+        // Unnormalised weights are fine.
+        r.resample(&[10.0, 30.0], 4, &mut rng, &mut idx).unwrap();
+        assert_eq!(idx.len(), 4);
+    }
+}
+
+#[test]
+fn effective_sample_size_formula() {
+    assert!((effective_sample_size(&[0.1; 10]) - 10.0).abs() < 1e-12);
+    assert_eq!(effective_sample_size(&[1.0, 0.0, 0.0]), 1.0);
+    // 1 / (0.6^2 + 0.2^2 + 0.2^2) = 1 / 0.44
+    assert!((effective_sample_size(&[0.6, 0.2, 0.2]) - 1.0 / 0.44).abs() < 1e-12);
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    let w: Vec<f64> = (0..100).map(|_| rng.random::<f64>()).collect();
+    let total: f64 = w.iter().sum();
+    let w: Vec<f64> = w.iter().map(|x| x / total).collect();
+    let ess = effective_sample_size(&w);
+    assert!(ess > 1.0 && ess <= 100.0);
+}

@@ -10,6 +10,7 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use crate::error::{Result, SlamError, ensure_finite};
+use crate::gaussian::ensure_noise_covariance;
 
 /// One dense block of a sparse observation Jacobian `H`: rows `row..row + h.nrows()`
 /// and columns `col..col + h.ncols()` of `H` equal `h`; everything else is zero.
@@ -221,7 +222,7 @@ impl Ekf {
         ensure_finite("robot mean", robot_mean.iter())?;
         ensure_finite("Fx", fx.iter())?;
         ensure_finite("Fv", fv.iter())?;
-        ensure_finite("V", v.iter())?;
+        ensure_noise_covariance("V", v)?;
         let d = self.x.len();
         let prr = self.p.view((0, 0), (r, r)).clone_owned();
         let new_rr = fx * prr * fx.transpose() + fv * v * fv.transpose();
@@ -258,7 +259,7 @@ impl Ekf {
         }
         h.validate(d)?;
         ensure_finite("innovation", innovation.iter())?;
-        ensure_finite("R", r.iter())?;
+        ensure_noise_covariance("R", r)?;
 
         // L = P H^T, touching only the columns of P that H's blocks select.
         let mut l = DMatrix::<f64>::zeros(d, p);
@@ -387,10 +388,10 @@ impl Ekf {
             ("landmark mean", mean.as_slice()),
             ("G_robot", g_robot.as_slice()),
             ("G_z", g_z.as_slice()),
-            ("R", r.as_slice()),
         ] {
             ensure_finite(what, values.iter())?;
         }
+        ensure_noise_covariance("R", r)?;
         let d = self.x.len();
         let cross = g_robot * self.p.rows(0, rd); // m x d
         let prr = self.p.view((0, 0), (rd, rd));

@@ -58,3 +58,31 @@ pub fn min_relative_eigenvalue(c: &DMatrix<f64>) -> f64 {
     let scale = c.amax().max(f64::MIN_POSITIVE);
     sym.symmetric_eigenvalues().min() / scale
 }
+
+/// Refuses a noise covariance (`V`, `R`) that is not symmetric positive
+/// semi-definite: a negative variance would make `P` indefinite without any error
+/// further down. Zero noise is allowed.
+pub(crate) fn ensure_noise_covariance(name: &'static str, c: &DMatrix<f64>) -> Result<()> {
+    crate::error::ensure_finite(name, c.iter())?;
+    if c.is_empty() {
+        return Ok(());
+    }
+    let scale = c.amax();
+    // Relative tolerances: symmetric and PSD up to round-off of the caller's algebra.
+    if asymmetry(c) > 1e-9 {
+        return Err(SlamError::InvalidParameter {
+            name,
+            reason: format!("noise covariance must be symmetric, got {c:.3e}"),
+        });
+    }
+    let min = ((c + c.transpose()) * 0.5).symmetric_eigenvalues().min();
+    if min < -1e-12 * scale {
+        return Err(SlamError::InvalidParameter {
+            name,
+            reason: format!(
+                "noise covariance must be positive semi-definite (smallest eigenvalue {min:.3e})"
+            ),
+        });
+    }
+    Ok(())
+}

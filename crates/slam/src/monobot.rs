@@ -110,8 +110,9 @@ pub struct MonobotConfig {
     pub amplitude: f64,
     /// Where the landmarks are (paper: 1 m).
     pub landmark_position: f64,
-    /// Initial robot variance `P_r,0|0` (default 1e-6 m^2: the paper's robot starts
-    /// at a known -1 m).
+    /// Initial robot variance `P_r,0|0`, > 0 (default 1e-6 m^2: the paper's robot
+    /// starts at a known -1 m; exactly 0 would leave `P` singular and the NEES
+    /// undefined).
     pub initial_variance: f64,
     /// Plant noise `V` (paper: proportional to the motion command; default 10 %).
     pub plant_noise: Noise,
@@ -175,10 +176,18 @@ impl MonobotConfig {
                 return bad(name, format!("must be finite, got {v}"));
             }
         }
-        for (name, v) in [
-            ("initial_variance", self.initial_variance),
-            ("noise_floor", self.noise_floor),
-        ] {
+        // The NEES of every step needs a positive-definite P, and with P_r,0|0 = 0 the
+        // first landmarks are initialised fully correlated with the robot (P singular).
+        if !(self.initial_variance.is_finite() && self.initial_variance > 0.0) {
+            return bad(
+                "initial_variance",
+                format!(
+                    "must be finite and > 0 (use e.g. 1e-6 for a known start), got {}",
+                    self.initial_variance
+                ),
+            );
+        }
+        for (name, v) in [("noise_floor", self.noise_floor)] {
             if !(v.is_finite() && v >= 0.0) {
                 return bad(name, format!("must be finite and >= 0, got {v}"));
             }

@@ -261,6 +261,52 @@ fn singular_or_non_finite_input_leaves_the_state_unchanged() {
     assert!(Ekf::new(DVector::zeros(4), DMatrix::zeros(4, 4), 3, 2).is_err());
 }
 
+/// Negative or asymmetric noise covariances would make `P` indefinite silently; each
+/// entry point refuses them by name and leaves the filter as it was.
+#[test]
+fn negative_noise_is_refused_and_leaves_the_state_unchanged() {
+    let x = DVector::from_vec(vec![0.0, 2.0]);
+    let p = DMatrix::from_diagonal(&DVector::from_vec(vec![1.0, 4.0]));
+    let mut ekf = Ekf::new(x, p, 1, 1).unwrap();
+    let before = ekf.clone();
+    let one = DMatrix::from_element(1, 1, 1.0);
+    let negative = DMatrix::from_element(1, 1, -0.5);
+    let h = SparseJacobian::new(1)
+        .with_block(0, 0, -&one)
+        .with_block(0, 1, one.clone());
+    let refused = |e: SlamError, what: &str| matches!(e, SlamError::InvalidParameter { name, .. } if name == what);
+    // S = 1 + 4 - 0.5 would still be positive: only the noise check catches this.
+    let e = ekf
+        .update(&DVector::from_element(1, 0.5), &h, &negative)
+        .unwrap_err();
+    assert!(refused(e, "R"));
+    let e = ekf
+        .predict(&DVector::from_element(1, 0.0), &one, &one, &negative)
+        .unwrap_err();
+    assert!(refused(e, "V"));
+    let e = ekf
+        .add_landmark(&DVector::from_element(1, 1.0), &one, &one, &negative)
+        .unwrap_err();
+    assert!(refused(e, "R"));
+    // Indefinite though every diagonal entry is positive; and asymmetric.
+    let indefinite = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0]);
+    let asymmetric = DMatrix::from_row_slice(2, 2, &[1.0, 0.5, 0.0, 1.0]);
+    let h2 = SparseJacobian::new(2).with_block(0, 0, DMatrix::from_element(2, 1, 1.0));
+    for r in [indefinite, asymmetric] {
+        let e = ekf.update(&DVector::zeros(2), &h2, &r).unwrap_err();
+        assert!(refused(e, "R"));
+    }
+    assert_eq!(ekf, before);
+    // Zero noise is legitimate.
+    ekf.predict(
+        &DVector::from_element(1, 0.0),
+        &one,
+        &one,
+        &DMatrix::zeros(1, 1),
+    )
+    .unwrap();
+}
+
 /// Large states update on all cores; the result must not depend on the pool size.
 #[test]
 fn parallel_update_is_bit_identical_across_thread_counts() {

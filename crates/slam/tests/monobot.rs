@@ -235,6 +235,13 @@ fn bad_input_is_refused() {
             },
             "initial_variance",
         ),
+        (
+            MonobotConfig {
+                initial_variance: 0.0,
+                ..base
+            },
+            "initial_variance",
+        ),
     ] {
         match simulate(&config, MeasurementModel::Relative, 0) {
             Err(SlamError::InvalidParameter { name: got, .. }) => assert_eq!(got, name),

@@ -95,36 +95,9 @@ class Ekf:
     ) -> int: ...
     def add_landmark_range_bearing(self, z: _ArrayLike, r: _ArrayLike) -> int: ...
 
-def monobot_simulate(
-    model: str,
-    seed: int,
-    *,
-    landmarks: int,
-    steps: int,
-    start: float,
-    amplitude: float,
-    landmark_position: float,
-    initial_variance: float,
-    plant_noise: tuple[str, float],
-    measurement_noise: tuple[str, float],
-    reference_noise: tuple[str, float],
-    noise_floor: float,
-) -> dict[str, Any]: ...
+def monobot_simulate(model: str, seed: int, config: dict[str, Any]) -> dict[str, Any]: ...
 def monobot_monte_carlo(
-    model: str,
-    runs: int,
-    seed: int,
-    *,
-    landmarks: int,
-    steps: int,
-    start: float,
-    amplitude: float,
-    landmark_position: float,
-    initial_variance: float,
-    plant_noise: tuple[str, float],
-    measurement_noise: tuple[str, float],
-    reference_noise: tuple[str, float],
-    noise_floor: float,
+    model: str, runs: int, seed: int, config: dict[str, Any]
 ) -> tuple[_Array, _Array, _Array, _Array]: ...
 def monobot_summarize(
     nees: _ArrayLike,

@@ -22,16 +22,22 @@ Tie = Literal["first", "last"]
 __all__ = ["WallSegments", "extract_lines", "simplify", "simplify_many"]
 
 
-def _as_points(points: npt.ArrayLike, name: str = "points") -> np.ndarray:
-    """An (N, 2) or (N, 3) float array; float32 and strided arrays are kept as they are
-    (the native side reads them directly), integers are converted to float64."""
-    arr = np.asarray(points)
+def _float_array(values: npt.ArrayLike, name: str) -> np.ndarray:
+    """A float64 or float32 array; float32 and strided arrays are kept as they are (the
+    native side reads them directly), integers and other floats become float64."""
+    arr = np.asarray(values)
     if arr.dtype.kind in "iub":
-        arr = arr.astype(np.float64)
-    elif arr.dtype.kind != "f":
+        return arr.astype(np.float64)
+    if arr.dtype.kind != "f":
         raise TypeError(f"{name} must be a numeric array, got dtype {arr.dtype}")
-    elif arr.dtype not in (np.float64, np.float32):
-        arr = arr.astype(np.float64)
+    if arr.dtype not in (np.float64, np.float32):
+        return arr.astype(np.float64)
+    return arr
+
+
+def _as_points(points: npt.ArrayLike, name: str = "points") -> np.ndarray:
+    """An (N, 2) or (N, 3) float array."""
+    arr = _float_array(points, name)
     if arr.ndim == 2 and arr.shape[0] == 0 and arr.shape[1] in (2, 3):
         return arr
     if arr.ndim != 2 or arr.shape[1] not in (2, 3):
@@ -231,17 +237,6 @@ class WallSegments:
         return "\n".join(lines)
 
 
-def _as_vector(values: npt.ArrayLike, name: str) -> np.ndarray:
-    arr = np.asarray(values)
-    if arr.dtype.kind in "iub":
-        arr = arr.astype(np.float64)
-    elif arr.dtype.kind != "f":
-        raise TypeError(f"{name} must be a numeric array, got dtype {arr.dtype}")
-    elif arr.dtype not in (np.float64, np.float32):
-        arr = arr.astype(np.float64)
-    return arr
-
-
 def extract_lines(
     ranges: npt.ArrayLike,
     angles: npt.ArrayLike,
@@ -309,8 +304,8 @@ def extract_lines(
     >>> len(walls), round(float(walls.rho[0]), 6), round(float(walls.alpha[0]), 6)
     (1, 2.0, 0.0)
     """
-    r = _as_vector(ranges, "ranges")
-    a = _as_vector(angles, "angles")
+    r = _float_array(ranges, "ranges")
+    a = _float_array(angles, "angles")
     if r.ndim != 1 or a.ndim != 1:
         raise ValueError(f"ranges and angles must be 1-D, got shapes {r.shape} and {a.shape}")
     rho, alpha, cov, start, end, flat, offsets = _rperc.extract_lines(

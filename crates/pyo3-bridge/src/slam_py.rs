@@ -202,9 +202,10 @@ fn parse_noise(kind: &str, value: f64, name: &str) -> Result<Noise, Error> {
     }
 }
 
-/// The monobot configuration from keyword arguments (see rperc.slam.monobot).
-#[allow(clippy::too_many_arguments)]
-fn config(
+/// The monobot configuration, read from the dict `MonobotConfig.kwargs()` builds.
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+pub struct ConfigArgs {
     landmarks: usize,
     steps: usize,
     start: f64,
@@ -215,62 +216,45 @@ fn config(
     measurement_noise: (String, f64),
     reference_noise: (String, f64),
     noise_floor: f64,
-) -> Result<MonobotConfig, Error> {
-    let config = MonobotConfig {
-        landmarks,
-        steps,
-        start,
-        amplitude,
-        landmark_position,
-        initial_variance,
-        plant_noise: parse_noise(&plant_noise.0, plant_noise.1, "plant_noise")?,
-        measurement_noise: parse_noise(
-            &measurement_noise.0,
-            measurement_noise.1,
-            "measurement_noise",
-        )?,
-        reference_noise: parse_noise(&reference_noise.0, reference_noise.1, "reference_noise")?,
-        noise_floor,
-    };
-    config.validate()?;
-    Ok(config)
+}
+
+impl ConfigArgs {
+    fn config(&self) -> Result<MonobotConfig, Error> {
+        let config = MonobotConfig {
+            landmarks: self.landmarks,
+            steps: self.steps,
+            start: self.start,
+            amplitude: self.amplitude,
+            landmark_position: self.landmark_position,
+            initial_variance: self.initial_variance,
+            plant_noise: parse_noise(&self.plant_noise.0, self.plant_noise.1, "plant_noise")?,
+            measurement_noise: parse_noise(
+                &self.measurement_noise.0,
+                self.measurement_noise.1,
+                "measurement_noise",
+            )?,
+            reference_noise: parse_noise(
+                &self.reference_noise.0,
+                self.reference_noise.1,
+                "reference_noise",
+            )?,
+            noise_floor: self.noise_floor,
+        };
+        config.validate()?;
+        Ok(config)
+    }
 }
 
 /// One monobot run as a dict of arrays (GIL released).
 #[pyfunction]
-#[pyo3(signature = (
-    model, seed, *, landmarks, steps, start, amplitude, landmark_position,
-    initial_variance, plant_noise, measurement_noise, reference_noise, noise_floor
-))]
-#[allow(clippy::too_many_arguments)]
 pub fn monobot_simulate<'py>(
     py: Python<'py>,
     model: &str,
     seed: u64,
-    landmarks: usize,
-    steps: usize,
-    start: f64,
-    amplitude: f64,
-    landmark_position: f64,
-    initial_variance: f64,
-    plant_noise: (String, f64),
-    measurement_noise: (String, f64),
-    reference_noise: (String, f64),
-    noise_floor: f64,
+    config: ConfigArgs,
 ) -> PyResult<Bound<'py, PyDict>> {
     let model = parse_model(model)?;
-    let cfg = config(
-        landmarks,
-        steps,
-        start,
-        amplitude,
-        landmark_position,
-        initial_variance,
-        plant_noise,
-        measurement_noise,
-        reference_noise,
-        noise_floor,
-    )?;
+    let cfg = config.config()?;
     let run = detached(py, || Ok(monobot::simulate(&cfg, model, seed)?))?;
     let (d, p, k) = (run.dim, run.obs_dim, run.steps);
     let out = PyDict::new(py);
@@ -310,40 +294,17 @@ type Stacked<'py> = (
 /// (runs, steps+1), robot error (runs, steps+1), landmark errors (runs, steps+1, n)
 /// and first-observation errors (runs, n). Run `i` is seeded by `run_seed(seed, i)`.
 #[pyfunction]
-#[pyo3(signature = (
-    model, runs, seed, *, landmarks, steps, start, amplitude, landmark_position,
-    initial_variance, plant_noise, measurement_noise, reference_noise, noise_floor
-))]
-#[allow(clippy::too_many_arguments)]
 pub fn monobot_monte_carlo<'py>(
     py: Python<'py>,
     model: &str,
     runs: usize,
     seed: u64,
-    landmarks: usize,
-    steps: usize,
-    start: f64,
-    amplitude: f64,
-    landmark_position: f64,
-    initial_variance: f64,
-    plant_noise: (String, f64),
-    measurement_noise: (String, f64),
-    reference_noise: (String, f64),
-    noise_floor: f64,
+    config: ConfigArgs,
 ) -> PyResult<Stacked<'py>> {
     let model = parse_model(model)?;
-    let cfg = config(
-        landmarks,
-        steps,
-        start,
-        amplitude,
-        landmark_position,
-        initial_variance,
-        plant_noise,
-        measurement_noise,
-        reference_noise,
-        noise_floor,
-    )?;
+    let cfg = config.config()?;
+    let landmarks = cfg.landmarks;
+    let steps = cfg.steps;
     let errors = detached(py, || {
         Ok(monobot::monte_carlo(&cfg, model, runs, seed)?
             .iter()

@@ -143,7 +143,7 @@ def simulate(
     ``measurement_noise``, ``reference_noise``, ``noise_floor``).
     """
     cfg = _config(landmarks, steps, config)
-    arrays = _rperc.monobot_simulate(model, _seed(seed), **cfg.kwargs())
+    arrays = _rperc.monobot_simulate(model, _seed(seed), cfg.kwargs())
     return MonobotResult(model=model, config=cfg, seed=seed, **arrays)
 
 
@@ -211,7 +211,7 @@ class MonteCarloResult:
 
 def _run_errors(model: str, seed: int, config: dict[str, Any]) -> tuple[np.ndarray, ...]:
     """One run's errors; a top-level function so process pools and Dask can pickle it."""
-    r = _rperc.monobot_simulate(model, seed, **config)
+    r = _rperc.monobot_simulate(model, seed, config)
     err = r["estimate"] - r["truth"]
     return r["nees"], err[:, 0], err[:, 1:], r["first_observation_error"]
 
@@ -241,9 +241,9 @@ def monte_carlo(
         raise ValueError(f"runs must be a positive integer, got {runs!r}")
     seed = _seed(seed)
     if executor is None:
-        nees, robot, lm, first = _rperc.monobot_monte_carlo(model, int(runs), seed, **cfg.kwargs())
+        nees, robot, lm, first = _rperc.monobot_monte_carlo(model, int(runs), seed, cfg.kwargs())
     else:
-        _rperc.monobot_simulate(model, seed, **{**cfg.kwargs(), "steps": 1})  # validate early
+        _rperc.monobot_simulate(model, seed, {**cfg.kwargs(), "steps": 1})  # validate early
         seeds = [_rperc.monobot_run_seed(seed, i) for i in range(runs)]
         kwargs = cfg.kwargs()
         futures = [executor.submit(_run_errors, model, s, kwargs) for s in seeds]

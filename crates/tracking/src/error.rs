@@ -112,3 +112,26 @@ pub enum TrackingError {
 
 /// Shorthand for results of this crate.
 pub type Result<T> = std::result::Result<T, TrackingError>;
+/// `Err(InvalidParameter)` unless `value` is finite and `> 0`.
+pub(crate) fn positive(name: &'static str, value: f64) -> Result<()> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(TrackingError::InvalidParameter {
+            name,
+            reason: format!("must be finite and > 0, got {value}"),
+        })
+    }
+}
+
+/// `Err(InvalidParameter)` unless `value` is finite and in `[lo, hi]`.
+pub(crate) fn in_range(name: &'static str, value: f64, lo: f64, hi: f64) -> Result<()> {
+    if value.is_finite() && (lo..=hi).contains(&value) {
+        Ok(())
+    } else {
+        Err(TrackingError::InvalidParameter {
+            name,
+            reason: format!("must be finite and in [{lo}, {hi}], got {value}"),
+        })
+    }
+}

@@ -1,11 +1,20 @@
 #![doc = include_str!("../README.md")]
 #![deny(missing_docs)]
 
+mod colour;
 mod condensation;
 mod error;
+mod frame;
+pub mod metrics;
+pub mod otb;
 
+pub use colour::{
+    AppearanceParams, ColorHistogramTracker, ColorSpace, ColorTrackerParams, MAX_BINS_PER_AXIS,
+    ModelKind, ParticleColorTracker, ParticleTrackerParams, TrackResult,
+};
 pub use condensation::{
     FilterParams, Likelihood, LinearGaussian, ParticleFilter, ResamplePolicy, Resampler,
     StepReport, effective_sample_size,
 };
 pub use error::{Result, TrackingError};
+pub use frame::{BoundingBox, RgbFrame};

@@ -1,0 +1,379 @@
+//! CONDENSATION over (x, y, scale) with the histogram-intersection likelihood: many
+//! hypotheses instead of one local search, for clutter and fast motion.
+
+use nalgebra::{Matrix3, SVector, Vector3};
+
+use super::ellipse::{Ellipse, half_width, vertical_radius};
+use super::gradient::GradientImage;
+use super::model::{AppearanceParams, ColourModel};
+use super::space::BinImage;
+use super::tracker::{TrackResult, pixel_centre};
+use crate::condensation::{FilterParams, Likelihood, LinearGaussian, ParticleFilter};
+use crate::error::{Result, TrackingError, positive};
+use crate::frame::{BoundingBox, RgbFrame};
+
+/// Parameters of a [`ParticleColorTracker`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParticleTrackerParams {
+    /// Colour model, adaptation and gradient term.
+    pub appearance: AppearanceParams,
+    /// Number of particles, >= 1. Default 200.
+    pub n_particles: usize,
+    /// Standard deviation of the per-frame random walk of the centre, as a fraction of
+    /// the initial box's mean half-size. Default 0.25.
+    pub position_noise: f64,
+    /// Standard deviation of the per-frame random walk of the scale. Default 0.02.
+    pub scale_noise: f64,
+    /// `sigma` of the weight `exp(-rho^2 / (2 sigma^2))` (seed 000 section 3.3) with
+    /// `rho = 1 - intersection` (+ the gradient term). Default 0.1.
+    pub sigma: f64,
+    /// Smallest scale relative to the initial box, > 0. Default 0.5.
+    pub min_scale: f64,
+    /// Largest scale relative to the initial box. Default 2.0.
+    pub max_scale: f64,
+    /// Particle-filter settings (resampler, policy, chunking, parallelism).
+    pub filter: FilterParams,
+}
+
+impl Default for ParticleTrackerParams {
+    fn default() -> Self {
+        Self {
+            appearance: AppearanceParams::default(),
+            n_particles: 200,
+            position_noise: 0.25,
+            scale_noise: 0.02,
+            sigma: 0.1,
+            min_scale: 0.5,
+            max_scale: 2.0,
+            filter: FilterParams::default(),
+        }
+    }
+}
+
+/// Unit-circle directions where the perimeter gradient is sampled by the particle
+/// likelihood.
+const PERIMETER_POINTS: usize = 32;
+
+/// The histogram likelihood of one (x, y, scale) state; the scratch is a counts buffer.
+struct HistogramLikelihood<'a> {
+    image: &'a BinImage,
+    gradient: Option<&'a GradientImage>,
+    model: &'a [f32],
+    base_a: f64,
+    base_b: f64,
+    min_scale: f64,
+    max_scale: f64,
+    inv_two_sigma_sq: f64,
+    gradient_weight: f64,
+    gradient_ref: f64,
+    directions: &'a [(f64, f64)],
+}
+
+/// Histogram intersection eq. (28) of the ellipse `(cx, cy, a, b)` with `model`
+/// (normalised), computed in one pass: each pixel adds `clamp(n m_i - c_i, 0, 1)`, where
+/// `n` is the ellipse's pixel count. A second pass clears `counts`.
+fn intersection(
+    image: &BinImage,
+    model: &[f32],
+    counts: &mut [u32],
+    cx: f64,
+    cy: f64,
+    a: f64,
+    b: f64,
+) -> f64 {
+    let (icx, icy) = (pixel_centre(cx), pixel_centre(cy));
+    let ry = vertical_radius(b);
+    let (ae, be) = ((a - 0.5).max(0.0), b.max(0.5));
+    let n: i64 = (-ry..=ry)
+        .map(|dy| 2 * i64::from(half_width(ae, be, dy)) + 1)
+        .sum();
+    let n = n as f32;
+    let mut inter = 0.0f64;
+    for pass in 0..2 {
+        for dy in -ry..=ry {
+            let y = icy + dy;
+            if y < 0 || y as usize >= image.height {
+                continue;
+            }
+            let h = half_width(ae, be, dy);
+            let x0 = (icx - h).max(0);
+            let x1 = (icx + h).min(image.width as i32 - 1);
+            if x0 > x1 {
+                continue;
+            }
+            let row = y as usize * image.width;
+            for &bin in &image.bins[row + x0 as usize..=row + x1 as usize] {
+                let bin = bin as usize;
+                if pass == 0 {
+                    let c = counts[bin] as f32;
+                    inter += f64::from((model[bin] * n - c).clamp(0.0, 1.0));
+                    counts[bin] += 1;
+                } else {
+                    counts[bin] = 0;
+                }
+            }
+        }
+    }
+    inter / f64::from(n)
+}
+
+impl HistogramLikelihood<'_> {
+    fn rho(&self, s: &SVector<f64, 3>, counts: &mut [u32]) -> f64 {
+        let scale = s[2];
+        if !(self.min_scale..=self.max_scale).contains(&scale) {
+            return f64::INFINITY;
+        }
+        let (a, b) = (self.base_a * scale, self.base_b * scale);
+        let phi = intersection(self.image, self.model, counts, s[0], s[1], a, b);
+        let mut rho = 1.0 - phi;
+        if let Some(g) = self.gradient {
+            let psi = g.perimeter_at(s[0], s[1], a, b, self.directions);
+            rho += self.gradient_weight * (1.0 - (psi / self.gradient_ref).min(1.0));
+        }
+        rho
+    }
+}
+
+impl Likelihood<3> for HistogramLikelihood<'_> {
+    type Scratch = Vec<u32>;
+    fn new_scratch(&self) -> Vec<u32> {
+        vec![0; self.model.len()]
+    }
+    fn log_likelihood(&self, s: &SVector<f64, 3>, counts: &mut Vec<u32>) -> f64 {
+        let rho = self.rho(s, counts);
+        // Seed 000 section 3.3: pi = exp(-rho^2 / (2 sigma^2)).
+        if rho.is_finite() {
+            -rho * rho * self.inv_two_sigma_sq
+        } else {
+            f64::NEG_INFINITY
+        }
+    }
+}
+
+/// CONDENSATION colour tracker over the state (centre x, centre y, scale), weighted by
+/// the histogram likelihood `exp(-(1 - phi)^2 / (2 sigma^2))`, `phi` the intersection
+/// eq. (28). The estimate is the weighted mean; the model adapts by eq. (29) there.
+///
+/// # Examples
+/// ```
+/// use tracking::{BoundingBox, ParticleColorTracker, ParticleTrackerParams, RgbFrame};
+///
+/// let (w, h) = (64, 48);
+/// let frame = |cx: f64| -> Vec<u8> {
+///     let mut px = vec![100u8; w * h * 3];
+///     for y in 0..h {
+///         for x in 0..w {
+///             if (x as f64 + 0.5 - cx).hypot(y as f64 + 0.5 - 24.0) < 7.0 {
+///                 px[(y * w + x) * 3..][..3].copy_from_slice(&[30, 200, 40]);
+///             }
+///         }
+///     }
+///     px
+/// };
+/// let f0 = frame(20.0);
+/// let mut t = ParticleColorTracker::new(
+///     RgbFrame::new(&f0, w, h).unwrap(), BoundingBox::new(13.0, 17.0, 14.0, 14.0),
+///     ParticleTrackerParams::default(), 7,
+/// ).unwrap();
+/// let mut r = t.last();
+/// for k in 1..=5 {
+///     let f = frame(20.0 + 2.0 * k as f64);
+///     r = t.update(RgbFrame::new(&f, w, h).unwrap()).unwrap();
+/// }
+/// assert!((r.bbox.centre().0 - 30.0).abs() < 2.0, "{:?}", r.bbox);
+/// ```
+#[derive(Debug, Clone)]
+pub struct ParticleColorTracker {
+    params: ParticleTrackerParams,
+    width: usize,
+    height: usize,
+    base_a: f64,
+    base_b: f64,
+    filter: ParticleFilter<3>,
+    model: ColourModel,
+    image: BinImage,
+    gradient: GradientImage,
+    gradient_ref: f64,
+    scratch: Vec<Vec<u32>>,
+    ellipse: Ellipse,
+    directions: Vec<(f64, f64)>,
+    last: TrackResult,
+}
+
+impl ParticleColorTracker {
+    /// Samples the model from `bbox` and spreads the particles around it. `seed` fixes
+    /// every random draw: the same seed gives the same track, whatever the thread count.
+    ///
+    /// # Errors
+    /// Invalid parameters, an empty frame, or a box that is degenerate or outside the frame.
+    pub fn new(
+        frame: RgbFrame<'_>,
+        bbox: BoundingBox,
+        params: ParticleTrackerParams,
+        seed: u64,
+    ) -> Result<Self> {
+        let app = &params.appearance;
+        let n_bins = app.validate()?;
+        positive("position_noise", params.position_noise)?;
+        positive("scale_noise", params.scale_noise)?;
+        positive("sigma", params.sigma)?;
+        positive("min_scale", params.min_scale)?;
+        positive("max_scale", params.max_scale)?;
+        if params.min_scale > 1.0 || params.max_scale < 1.0 {
+            return Err(TrackingError::InvalidParameter {
+                name: "max_scale",
+                reason: format!(
+                    "need min_scale <= 1 <= max_scale, got {} and {}",
+                    params.min_scale, params.max_scale
+                ),
+            });
+        }
+        bbox.check_inside(frame.width(), frame.height())?;
+        let mut image = BinImage::default();
+        image.compute(&frame, app.color_space, app.bins, params.filter.parallel);
+        let (a, b) = (bbox.w / 2.0, bbox.h / 2.0);
+        let mut ellipse = Ellipse::default();
+        ellipse.rebuild(a, b, app.upper_fraction());
+        let (cx, cy) = bbox.centre();
+        let model = ColourModel::sample(
+            app.model,
+            n_bins,
+            &image,
+            &ellipse,
+            pixel_centre(cx),
+            pixel_centre(cy),
+        );
+        let directions: Vec<(f64, f64)> = (0..PERIMETER_POINTS)
+            .map(|k| {
+                let t = 2.0 * std::f64::consts::PI * k as f64 / PERIMETER_POINTS as f64;
+                (t.cos(), t.sin())
+            })
+            .collect();
+        let mut gradient = GradientImage::default();
+        let mut gradient_ref = 1.0;
+        if app.gradient_weight > 0.0 {
+            gradient.compute(&frame);
+            // The initial box's own edge strength is what a perfect candidate scores.
+            gradient_ref = gradient.perimeter_at(cx, cy, a, b, &directions).max(1.0);
+        }
+        let sp = params.position_noise * (a + b) / 2.0;
+        let noise = Vector3::new(sp, sp, params.scale_noise);
+        let dynamics = LinearGaussian::random_walk(noise);
+        let cov = Matrix3::from_diagonal(&noise.component_mul(&noise));
+        let filter = ParticleFilter::new(
+            params.n_particles,
+            Vector3::new(cx, cy, 1.0),
+            cov,
+            dynamics,
+            params.filter.clone(),
+            seed,
+        )?;
+        Ok(Self {
+            width: frame.width(),
+            height: frame.height(),
+            base_a: a,
+            base_b: b,
+            filter,
+            model,
+            image,
+            gradient,
+            gradient_ref,
+            scratch: Vec::new(),
+            ellipse,
+            directions,
+            last: TrackResult {
+                bbox,
+                score: 1.0,
+                lost: false,
+            },
+            params,
+        })
+    }
+
+    /// One CONDENSATION step on the next frame.
+    ///
+    /// # Errors
+    /// [`TrackingError::FrameSizeChanged`] if `frame` differs in size from the first.
+    pub fn update(&mut self, frame: RgbFrame<'_>) -> Result<TrackResult> {
+        if frame.width() != self.width || frame.height() != self.height {
+            return Err(TrackingError::FrameSizeChanged {
+                expected_width: self.width,
+                expected_height: self.height,
+                width: frame.width(),
+                height: frame.height(),
+            });
+        }
+        let app = &self.params.appearance;
+        self.image.compute(
+            &frame,
+            app.color_space,
+            app.bins,
+            self.params.filter.parallel,
+        );
+        let use_gradient = app.gradient_weight > 0.0;
+        if use_gradient {
+            self.gradient.compute(&frame);
+        }
+        let likelihood = HistogramLikelihood {
+            image: &self.image,
+            gradient: use_gradient.then_some(&self.gradient),
+            model: &self.model.reference,
+            base_a: self.base_a,
+            base_b: self.base_b,
+            min_scale: self.params.min_scale,
+            max_scale: self.params.max_scale,
+            inv_two_sigma_sq: 1.0 / (2.0 * self.params.sigma * self.params.sigma),
+            gradient_weight: app.gradient_weight,
+            gradient_ref: self.gradient_ref,
+            directions: &self.directions,
+        };
+        let report = self
+            .filter
+            .step_with_scratch(&likelihood, &mut self.scratch);
+        let mean = self.filter.mean();
+        let scale = mean[2].clamp(self.params.min_scale, self.params.max_scale);
+        let (a, b) = (self.base_a * scale, self.base_b * scale);
+        let counts = &mut self.scratch[0];
+        let score = intersection(
+            &self.image,
+            &self.model.reference,
+            counts,
+            mean[0],
+            mean[1],
+            a,
+            b,
+        );
+        let lost = report.lost || score < app.lost_threshold;
+        if !lost && score > app.adaptation_threshold && app.adaptation_rate > 0.0 {
+            self.ellipse.rebuild(a, b, app.upper_fraction());
+            self.model.adapt(
+                app.adaptation_rate,
+                &self.image,
+                &self.ellipse,
+                pixel_centre(mean[0]),
+                pixel_centre(mean[1]),
+            );
+        }
+        self.last = TrackResult {
+            bbox: BoundingBox::new(mean[0] - a, mean[1] - b, 2.0 * a, 2.0 * b),
+            score,
+            lost,
+        };
+        Ok(self.last)
+    }
+
+    /// The last answer (the initial box, score 1, before the first update).
+    pub fn last(&self) -> TrackResult {
+        self.last
+    }
+
+    /// The underlying particle filter (particles, weights, ESS).
+    pub fn filter(&self) -> &ParticleFilter<3> {
+        &self.filter
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &ParticleTrackerParams {
+        &self.params
+    }
+}

@@ -48,7 +48,7 @@ impl PyEkf {
     /// The state covariance (a copy).
     #[getter]
     fn covariance<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        to_numpy(py, self.inner.covariance())
+        to_numpy(py, &self.inner.covariance())
     }
 
     #[getter]

@@ -5,6 +5,10 @@
 //! the sparse observation Jacobian: `H` is a few dense blocks (the robot and one
 //! landmark, say), so `P H^T` costs O(n p) and the Joseph form, expanded as
 //! `P - K (P H^T)^T + (K S - P H^T) K^T`, costs one pass over `P` (O(n^2 p)).
+//!
+//! `P` is symmetric, so only its upper triangle (with the diagonal) is kept up to
+//! date: the update reads and writes half the matrix, which is what bounds its speed
+//! (memory bandwidth). [`Ekf::covariance`] returns the full matrix.
 
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
@@ -150,6 +154,12 @@ impl Ekf {
         }
         ensure_finite("state", x.iter())?;
         ensure_finite("covariance", p.iter())?;
+        if crate::gaussian::asymmetry(&p) > 1e-9 {
+            return Err(SlamError::InvalidParameter {
+                name: "p",
+                reason: "the covariance must be symmetric".into(),
+            });
+        }
         Ok(Self {
             x,
             p,
@@ -163,9 +173,38 @@ impl Ekf {
         &self.x
     }
 
-    /// The state covariance.
-    pub fn covariance(&self) -> &DMatrix<f64> {
-        &self.p
+    /// The state covariance (the full symmetric matrix, built from the stored upper
+    /// triangle: O(n^2)).
+    pub fn covariance(&self) -> DMatrix<f64> {
+        let mut full = self.p.clone();
+        full.fill_lower_triangle_with_upper_triangle();
+        full
+    }
+
+    /// Column `c` of the covariance: the stored part above the diagonal, and row `c`
+    /// of the upper triangle below it.
+    fn covariance_column(&self, c: usize) -> DVector<f64> {
+        let d = self.p.nrows();
+        DVector::from_fn(d, |i, _| {
+            if i <= c {
+                self.p[(i, c)]
+            } else {
+                self.p[(c, i)]
+            }
+        })
+    }
+
+    /// The robot rows `P[0..r, :]` in full.
+    fn robot_rows(&self) -> DMatrix<f64> {
+        let r = self.robot_dim;
+        let d = self.p.nrows();
+        DMatrix::from_fn(r, d, |i, j| {
+            if i <= j {
+                self.p[(i, j)]
+            } else {
+                self.p[(j, i)]
+            }
+        })
     }
 
     /// Size of the robot block.
@@ -224,13 +263,12 @@ impl Ekf {
         ensure_finite("Fv", fv.iter())?;
         ensure_noise_covariance("V", v)?;
         let d = self.x.len();
-        let prr = self.p.view((0, 0), (r, r)).clone_owned();
+        let rows = self.robot_rows();
+        let prr = rows.columns(0, r);
         let new_rr = fx * prr * fx.transpose() + fv * v * fv.transpose();
         if d > r {
-            let cross = fx * self.p.view((0, r), (r, d - r));
-            self.p
-                .view_mut((r, 0), (d - r, r))
-                .copy_from(&cross.transpose());
+            // Rows 0..r of the landmark columns lie in the upper triangle.
+            let cross = fx * rows.columns(r, d - r);
             self.p.view_mut((0, r), (r, d - r)).copy_from(&cross);
         }
         self.p
@@ -265,7 +303,7 @@ impl Ekf {
         let mut l = DMatrix::<f64>::zeros(d, p);
         for b in &h.blocks {
             for c in 0..b.h.ncols() {
-                let pcol = self.p.column(b.col + c);
+                let pcol = self.covariance_column(b.col + c);
                 for a in 0..b.h.nrows() {
                     let coeff = b.h[(a, c)];
                     if coeff != 0.0 {
@@ -393,13 +431,14 @@ impl Ekf {
         }
         ensure_noise_covariance("R", r)?;
         let d = self.x.len();
-        let cross = g_robot * self.p.rows(0, rd); // m x d
-        let prr = self.p.view((0, 0), (rd, rd));
+        let rows = self.robot_rows();
+        let cross = g_robot * &rows; // m x d
+        let prr = rows.columns(0, rd);
         let pll = g_robot * prr * g_robot.transpose() + g_z * r * g_z.transpose();
         let pll = (&pll + pll.transpose()) * 0.5;
         let old = std::mem::replace(&mut self.p, DMatrix::zeros(0, 0));
         let mut p = old.resize(d + m, d + m, 0.0);
-        p.view_mut((d, 0), (m, d)).copy_from(&cross);
+        // The new columns' upper part; the block below the diagonal is never read.
         p.view_mut((0, d), (d, m)).copy_from(&cross.transpose());
         p.view_mut((d, d), (m, m)).copy_from(&pll);
         self.p = p;
@@ -410,18 +449,20 @@ impl Ekf {
     }
 }
 
-/// `P <- P - K L^T + M K^T`, one column of `P` at a time (contiguous in nalgebra's
-/// column-major storage), on all cores for large states. Every entry is computed by
-/// the same operations whatever the thread count, so results are bit-identical.
+/// `P <- P - K L^T + M K^T` on the upper triangle, one column prefix `P[0..=j, j]` at
+/// a time (contiguous in nalgebra's column-major storage), on all cores for large
+/// states. Every entry is computed by the same operations whatever the thread count,
+/// so results are bit-identical.
 fn joseph_columns(p: &mut DMatrix<f64>, k: &DMatrix<f64>, l: &DMatrix<f64>, m: &DMatrix<f64>) {
     let d = p.nrows();
     let obs = k.ncols();
     let (ks, ls, ms) = (k.as_slice(), l.as_slice(), m.as_slice());
     let update_column = |j: usize, col: &mut [f64]| {
+        let upper = &mut col[..=j];
         for a in 0..obs {
-            let (ka, ma) = (&ks[a * d..(a + 1) * d], &ms[a * d..(a + 1) * d]);
+            let (ka, ma) = (&ks[a * d..a * d + j + 1], &ms[a * d..a * d + j + 1]);
             let (alpha, beta) = (-ls[a * d + j], ks[a * d + j]);
-            for ((c, &kv), &mv) in col.iter_mut().zip(ka).zip(ma) {
+            for ((c, &kv), &mv) in upper.iter_mut().zip(ka).zip(ma) {
                 *c += alpha * kv + beta * mv;
             }
         }

@@ -357,7 +357,7 @@ pub fn simulate(config: &MonobotConfig, model: MeasurementModel, seed: u64) -> R
             &one,
             &DMatrix::from_element(1, 1, v),
         )?;
-        run.predicted_cov.extend(row_major(ekf.covariance()));
+        run.predicted_cov.extend(row_major(&ekf.covariance()));
 
         // Observation and its predicted value.
         // Noise levels follow the nominal geometry (planned position, nominal landmark
@@ -410,7 +410,7 @@ fn row_major(m: &DMatrix<f64>) -> impl Iterator<Item = f64> + '_ {
 
 fn record(run: &mut MonobotRun, ekf: &Ekf, x_true: f64, landmarks: &[f64]) -> Result<()> {
     let est = ekf.state();
-    let cov = ekf.covariance();
+    let cov = &ekf.covariance();
     let mut err = DVector::zeros(est.len());
     for i in 0..est.len() {
         let t = if i == 0 { x_true } else { landmarks[i - 1] };

@@ -1,10 +1,14 @@
-//! Hot paths of the crate: one particle-filter step (weighting + resampling).
+//! Hot paths of the crate: one particle-filter step (weighting + resampling), and one
+//! update of each colour tracker on a 320 x 240 frame.
 
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{SMatrix, SVector};
-use tracking::{FilterParams, LinearGaussian, ParticleFilter, Resampler};
+use tracking::{
+    BoundingBox, ColorHistogramTracker, ColorTrackerParams, FilterParams, LinearGaussian,
+    ParticleColorTracker, ParticleFilter, ParticleTrackerParams, Resampler, RgbFrame,
+};
 
 fn particle_filter_step(c: &mut Criterion) {
     let mut group = c.benchmark_group("particle_filter_step");
@@ -40,5 +44,62 @@ fn particle_filter_step(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, particle_filter_step);
+const W: usize = 320;
+const H: usize = 240;
+
+/// A pseudo-random textured 320 x 240 frame with a 30 x 60 two-colour target at `cx`.
+fn frame(cx: f64) -> Vec<u8> {
+    let mut px = vec![0u8; W * H * 3];
+    let mut state = 12345u32;
+    for v in px.iter_mut() {
+        state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        *v = 50 + (state >> 25) as u8;
+    }
+    for y in 0..H {
+        for x in 0..W {
+            let (dx, dy) = ((x as f64 - cx) / 15.0, (y as f64 - 120.0) / 30.0);
+            if dx * dx + dy * dy <= 1.0 {
+                let c = if dy < -0.2 {
+                    [30, 30, 120]
+                } else {
+                    [200, 60, 40]
+                };
+                px[(y * W + x) * 3..][..3].copy_from_slice(&c);
+            }
+        }
+    }
+    px
+}
+
+fn tracker_update(c: &mut Criterion) {
+    let frames = [frame(150.0), frame(154.0)];
+    let first = RgbFrame::new(&frames[0], W, H).unwrap();
+    let bbox = BoundingBox::new(135.0, 90.0, 30.0, 60.0);
+    let mut group = c.benchmark_group("tracker_update_320x240");
+    let mut t = ColorHistogramTracker::new(first, bbox, ColorTrackerParams::default()).unwrap();
+    let mut k = 0;
+    group.bench_function("colour_local_search", |b| {
+        b.iter(|| {
+            k += 1;
+            black_box(
+                t.update(RgbFrame::new(&frames[k % 2], W, H).unwrap())
+                    .unwrap(),
+            )
+        })
+    });
+    let mut t =
+        ParticleColorTracker::new(first, bbox, ParticleTrackerParams::default(), 0).unwrap();
+    group.bench_function("colour_particles_200", |b| {
+        b.iter(|| {
+            k += 1;
+            black_box(
+                t.update(RgbFrame::new(&frames[k % 2], W, H).unwrap())
+                    .unwrap(),
+            )
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, particle_filter_step, tracker_update);
 criterion_main!(benches);

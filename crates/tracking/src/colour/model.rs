@@ -35,20 +35,21 @@ impl Default for ModelKind {
 /// adaptation, and the gradient term. Defaults are the values tuned on OTB Girl + Couple.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AppearanceParams {
-    /// Colour space of the histograms. Default [`ColorSpace::Opponent`] (the seed's).
+    /// Colour space of the histograms. Default [`ColorSpace::Hsv`] (best on OTB Girl +
+    /// Couple; the seed's [`ColorSpace::Opponent`] scores lower there).
     pub color_space: ColorSpace,
     /// Bins per axis, 1..=64 each. Default `[8, 8, 4]` (finer chroma than intensity).
     pub bins: [usize; 3],
     /// Single or bimodal model. Default bimodal with `upper_fraction` 0.4.
     pub model: ModelKind,
     /// `a` of eq. (29), in [0, 1]: weight of the new candidate when adapting the model.
-    /// Default 0.05. 0 disables adaptation.
+    /// Default 0.03. 0 disables adaptation.
     pub adaptation_rate: f64,
     /// Eq. (29) is applied only when the intersection eq. (28) exceeds this, in [0, 1].
     /// Default 0.7.
     pub adaptation_threshold: f64,
     /// Weight of Birchfield's perimeter-gradient term relative to the colour term, >= 0.
-    /// Default 0.3. 0 skips the gradient computation entirely.
+    /// Default 0.7. 0 skips the gradient computation entirely.
     pub gradient_weight: f64,
     /// Below this intersection the target is reported lost, in [0, 1]. Default 0.3.
     pub lost_threshold: f64,
@@ -57,12 +58,12 @@ pub struct AppearanceParams {
 impl Default for AppearanceParams {
     fn default() -> Self {
         Self {
-            color_space: ColorSpace::Opponent,
+            color_space: ColorSpace::Hsv,
             bins: [8, 8, 4],
             model: ModelKind::default(),
-            adaptation_rate: 0.05,
+            adaptation_rate: 0.03,
             adaptation_threshold: 0.7,
-            gradient_weight: 0.3,
+            gradient_weight: 0.7,
             lost_threshold: 0.3,
         }
     }

@@ -18,7 +18,7 @@ use crate::frame::{BoundingBox, RgbFrame};
 pub struct ColorTrackerParams {
     /// Colour model, adaptation and gradient term.
     pub appearance: AppearanceParams,
-    /// Half-size of the square search window of centre positions, in pixels. Default 8.
+    /// Half-size of the square search window of centre positions, in pixels. Default 10.
     pub search_radius: usize,
     /// Relative scale step: each frame tries `s / (1 + step)`, `s`, `s * (1 + step)`.
     /// Default 0.04; 0 keeps the initial size.
@@ -39,7 +39,7 @@ impl Default for ColorTrackerParams {
     fn default() -> Self {
         Self {
             appearance: AppearanceParams::default(),
-            search_radius: 8,
+            search_radius: 10,
             scale_step: 0.04,
             min_scale: 0.5,
             max_scale: 2.0,

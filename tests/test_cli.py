@@ -75,3 +75,15 @@ def test_lines_extract_on_a_real_log(tmp_path, data, capsys):
     assert main(["lines", "extract", str(log), "--every", "10", "--plot", str(png)]) == 0
     assert png.stat().st_size > 10_000
     assert "walls" in capsys.readouterr().out
+
+
+def test_track_command_scores_a_sequence(tmp_path, data, capsys):
+    strip = tmp_path / "strip.png"
+    seq = data / "otb" / "Girl"
+    assert (
+        main(["track", str(seq), "--tracker", "colour", "--strip", str(strip), "--frames", "4"])
+        == 0
+    )
+    out = capsys.readouterr().out
+    assert "AUC" in out and "fps" in out
+    assert strip.stat().st_size > 10_000

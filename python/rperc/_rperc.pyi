@@ -6,10 +6,13 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = [
+    "ColorHistogramTracker",
     "Ekf",
     "NumericalError",
+    "ParticleColorTracker",
     "RpercError",
     "__version__",
+    "effective_sample_size",
     "extract_lines",
     "information_spectrum",
     "monobot_monte_carlo",
@@ -18,6 +21,7 @@ __all__ = [
     "monobot_simulate",
     "monobot_summarize",
     "nees_bounds",
+    "resample",
     "simplify_indices",
     "simplify_many_indices",
 ]
@@ -110,3 +114,32 @@ def monobot_run_seed(seed: int, run: int) -> int: ...
 def monobot_observability_rank(model: str, landmarks: int) -> int: ...
 def information_spectrum(j: _ArrayLike, tol: float) -> tuple[_Array, _Array, int]: ...
 def nees_bounds(dof: int, runs: int, confidence: float) -> tuple[float, float]: ...
+
+_Box: TypeAlias = tuple[float, float, float, float]
+
+@final
+class ColorHistogramTracker:
+    """Colour-histogram tracker with local search (see rperc.tracking)."""
+
+    def __new__(
+        cls, frame: npt.NDArray[np.uint8], box: _Box, **params: Any
+    ) -> ColorHistogramTracker: ...
+    def update(self, frame: npt.NDArray[np.uint8]) -> tuple[_Box, float, bool]: ...
+    @property
+    def scale(self) -> float: ...
+
+@final
+class ParticleColorTracker:
+    """CONDENSATION colour tracker over (x, y, scale) (see rperc.tracking)."""
+
+    def __new__(
+        cls, frame: npt.NDArray[np.uint8], box: _Box, seed: int = 0, **params: Any
+    ) -> ParticleColorTracker: ...
+    def update(self, frame: npt.NDArray[np.uint8]) -> tuple[_Box, float, bool]: ...
+    @property
+    def ess(self) -> float: ...
+
+def resample(
+    weights: _ArrayLike, n: int, method: str = "systematic", seed: int = 0
+) -> npt.NDArray[np.intp]: ...
+def effective_sample_size(weights: _ArrayLike) -> float: ...

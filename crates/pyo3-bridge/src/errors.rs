@@ -35,6 +35,9 @@ pub enum Error {
     /// From the SLAM crate.
     #[error(transparent)]
     Slam(#[from] slam::SlamError),
+    /// From the tracking crate.
+    #[error(transparent)]
+    Tracking(#[from] tracking::TrackingError),
     /// A Rust panic caught at the boundary: a bug, reported rather than crashing Python.
     #[error("internal error in rperc (please report it): {0}")]
     Panic(String),
@@ -50,6 +53,10 @@ impl From<Error> for PyErr {
             Error::LineSimp(_) => PyValueError::new_err(msg),
             Error::Slam(e) => match e {
                 slam::SlamError::SingularInnovation(_) => NumericalError::new_err(msg),
+                _ => PyValueError::new_err(msg),
+            },
+            Error::Tracking(e) => match e {
+                tracking::TrackingError::Io { .. } => RpercError::new_err(msg),
                 _ => PyValueError::new_err(msg),
             },
             Error::Panic(_) => RpercError::new_err(msg),

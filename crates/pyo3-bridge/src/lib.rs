@@ -10,6 +10,7 @@ mod errors;
 mod linesimp_py;
 mod parallel;
 mod slam_py;
+mod tracking_py;
 
 use pyo3::prelude::*;
 
@@ -26,6 +27,10 @@ mod _rperc {
     use crate::slam_py::{
         PyEkf, information_spectrum, monobot_monte_carlo, monobot_observability_rank,
         monobot_run_seed, monobot_simulate, monobot_summarize, nees_bounds,
+    };
+    #[pymodule_export]
+    use crate::tracking_py::{
+        PyColorHistogramTracker, PyParticleColorTracker, effective_sample_size, resample,
     };
 
     use super::*;

@@ -4,6 +4,7 @@
     rperc demo monobot          EKF-SLAM observability: the paper's Figs. 3-6, Monte Carlo
     rperc lines extract LOG     walls from a CARMEN log, in the world frame (PNG)
     rperc lines simplify FILE   Douglas-Peucker on a WKT or CSV polyline
+    rperc track SEQ_DIR         colour tracker on an OTB sequence (AUC, precision, fps)
 
 Run ``rperc COMMAND --help`` for the options of each.
 """
@@ -15,7 +16,7 @@ import sys
 from collections.abc import Sequence
 
 from rperc import RpercError, __version__
-from rperc.cli import lines, slam
+from rperc.cli import lines, slam, track
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -31,6 +32,7 @@ def build_parser() -> argparse.ArgumentParser:
     slam.add_demo(demos)
 
     lines.add_commands(sub)
+    track.add_commands(sub)
     return parser
 
 

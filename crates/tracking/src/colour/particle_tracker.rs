@@ -214,6 +214,12 @@ impl ParticleColorTracker {
     ) -> Result<Self> {
         let app = &params.appearance;
         let n_bins = app.validate()?;
+        if params.n_particles == 0 {
+            return Err(TrackingError::InvalidParameter {
+                name: "n_particles",
+                reason: "need at least one particle".into(),
+            });
+        }
         positive("position_noise", params.position_noise)?;
         positive("scale_noise", params.scale_noise)?;
         positive("sigma", params.sigma)?;

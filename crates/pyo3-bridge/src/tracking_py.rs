@@ -93,6 +93,21 @@ struct Params<'py> {
 }
 
 impl<'py> Params<'py> {
+    /// Owns a copy of the caller's keyword dict, so consuming it changes nothing outside.
+    fn new(params: Option<Bound<'py, PyDict>>) -> PyResult<Self> {
+        Ok(Self {
+            dict: params.map(|d| d.copy()).transpose()?,
+        })
+    }
+
+    /// Overwrites `slot` when the parameter was given.
+    fn set<T: for<'a> FromPyObject<'a, 'py>>(&self, name: &str, slot: &mut T) -> Result<(), Error> {
+        if let Some(v) = self.take(name)? {
+            *slot = v;
+        }
+        Ok(())
+    }
+
     fn take<T: for<'a> FromPyObject<'a, 'py>>(&self, name: &str) -> Result<Option<T>, Error> {
         let Some(dict) = &self.dict else {
             return Ok(None);
@@ -158,18 +173,10 @@ impl<'py> Params<'py> {
                 )));
             }
         }
-        if let Some(v) = self.take("adaptation_rate")? {
-            a.adaptation_rate = v;
-        }
-        if let Some(v) = self.take("adaptation_threshold")? {
-            a.adaptation_threshold = v;
-        }
-        if let Some(v) = self.take("gradient_weight")? {
-            a.gradient_weight = v;
-        }
-        if let Some(v) = self.take("lost_threshold")? {
-            a.lost_threshold = v;
-        }
+        self.set("adaptation_rate", &mut a.adaptation_rate)?;
+        self.set("adaptation_threshold", &mut a.adaptation_threshold)?;
+        self.set("gradient_weight", &mut a.gradient_weight)?;
+        self.set("lost_threshold", &mut a.lost_threshold)?;
         Ok(a)
     }
 }
@@ -190,31 +197,17 @@ impl PyColorHistogramTracker {
         r#box: (f64, f64, f64, f64),
         params: Option<Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
-        let p = Params {
-            dict: params.map(|d| d.copy()).transpose()?,
-        };
+        let p = Params::new(params)?;
         let mut tp = ColorTrackerParams {
             appearance: p.appearance()?,
             ..ColorTrackerParams::default()
         };
-        if let Some(v) = p.take("search_radius")? {
-            tp.search_radius = v;
-        }
-        if let Some(v) = p.take("scale_step")? {
-            tp.scale_step = v;
-        }
-        if let Some(v) = p.take("min_scale")? {
-            tp.min_scale = v;
-        }
-        if let Some(v) = p.take("max_scale")? {
-            tp.max_scale = v;
-        }
-        if let Some(v) = p.take("momentum")? {
-            tp.momentum = v;
-        }
-        if let Some(v) = p.take("parallel")? {
-            tp.parallel = v;
-        }
+        p.set("search_radius", &mut tp.search_radius)?;
+        p.set("scale_step", &mut tp.scale_step)?;
+        p.set("min_scale", &mut tp.min_scale)?;
+        p.set("max_scale", &mut tp.max_scale)?;
+        p.set("momentum", &mut tp.momentum)?;
+        p.set("parallel", &mut tp.parallel)?;
         p.finish()?;
         let f = frame_arg(frame)?;
         let view = f.view()?;
@@ -226,10 +219,8 @@ impl PyColorHistogramTracker {
 
     /// Tracks the target into `frame`: `((x, y, w, h), score, lost)`.
     fn update(&mut self, py: Python<'_>, frame: &Bound<'_, PyAny>) -> PyResult<Answer> {
-        let f = frame_arg(frame)?;
-        let view = f.view()?;
         let tracker = &mut self.inner;
-        Ok(answer(detached(py, || Ok(tracker.update(view)?))?))
+        track(py, frame, |view| tracker.update(view))
     }
 
     /// The current scale relative to the initial box.
@@ -256,31 +247,17 @@ impl PyParticleColorTracker {
         seed: u64,
         params: Option<Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
-        let p = Params {
-            dict: params.map(|d| d.copy()).transpose()?,
-        };
+        let p = Params::new(params)?;
         let mut tp = ParticleTrackerParams {
             appearance: p.appearance()?,
             ..ParticleTrackerParams::default()
         };
-        if let Some(v) = p.take("n_particles")? {
-            tp.n_particles = v;
-        }
-        if let Some(v) = p.take("position_noise")? {
-            tp.position_noise = v;
-        }
-        if let Some(v) = p.take("scale_noise")? {
-            tp.scale_noise = v;
-        }
-        if let Some(v) = p.take("sigma")? {
-            tp.sigma = v;
-        }
-        if let Some(v) = p.take("min_scale")? {
-            tp.min_scale = v;
-        }
-        if let Some(v) = p.take("max_scale")? {
-            tp.max_scale = v;
-        }
+        p.set("n_particles", &mut tp.n_particles)?;
+        p.set("position_noise", &mut tp.position_noise)?;
+        p.set("scale_noise", &mut tp.scale_noise)?;
+        p.set("sigma", &mut tp.sigma)?;
+        p.set("min_scale", &mut tp.min_scale)?;
+        p.set("max_scale", &mut tp.max_scale)?;
         tp.filter = filter_params(&p, tp.filter)?;
         p.finish()?;
         let f = frame_arg(frame)?;
@@ -298,10 +275,8 @@ impl PyParticleColorTracker {
 
     /// Tracks the target into `frame`: `((x, y, w, h), score, lost)`.
     fn update(&mut self, py: Python<'_>, frame: &Bound<'_, PyAny>) -> PyResult<Answer> {
-        let f = frame_arg(frame)?;
-        let view = f.view()?;
         let tracker = &mut self.inner;
-        Ok(answer(detached(py, || Ok(tracker.update(view)?))?))
+        track(py, frame, |view| tracker.update(view))
     }
 
     /// Effective sample size of the particle set.
@@ -313,6 +288,16 @@ impl PyParticleColorTracker {
 
 fn frame_arg<'py>(obj: &Bound<'py, PyAny>) -> PyResult<Frame<'py>> {
     Ok(frame(obj)?)
+}
+
+/// Runs one tracker step on a numpy frame with the GIL released.
+fn track<F>(py: Python<'_>, frame: &Bound<'_, PyAny>, step: F) -> PyResult<Answer>
+where
+    F: FnOnce(RgbFrame<'_>) -> tracking::Result<TrackResult> + Send,
+{
+    let f = frame_arg(frame)?;
+    let view = f.view()?;
+    Ok(answer(detached(py, || Ok(step(view)?))?))
 }
 
 fn resampler(name: &str) -> Result<Resampler, Error> {
@@ -334,12 +319,8 @@ fn filter_params(p: &Params<'_>, mut f: FilterParams) -> Result<FilterParams, Er
     if let Some(fraction) = p.take::<f64>("resample_below")? {
         f.policy = ResamplePolicy::BelowEss(fraction);
     }
-    if let Some(v) = p.take("chunk_size")? {
-        f.chunk_size = v;
-    }
-    if let Some(v) = p.take("parallel")? {
-        f.parallel = v;
-    }
+    p.set("chunk_size", &mut f.chunk_size)?;
+    p.set("parallel", &mut f.parallel)?;
     Ok(f)
 }
 

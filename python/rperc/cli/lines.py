@@ -25,7 +25,7 @@ from rperc.datasets import load_carmen, read_polylines, write_polyline
 from rperc.linesimp import simplify
 
 if TYPE_CHECKING:
-    from rperc.scansim import WallCheck
+    from rperc.scansim import SimulatedScan, WallCheck
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -180,16 +180,26 @@ def chord_deviation(points: np.ndarray, kept: np.ndarray) -> tuple[float, float]
     return worst_line, worst_segment
 
 
+SPIRAL_POINTS = 2000
+SPIRAL_NOISE = 0.05  # m
+SPIRAL_EPSILON = 0.25  # m
+
+
+def noisy_spiral(seed: int) -> np.ndarray:
+    """Three turns of an Archimedean spiral (metres) with seeded Gaussian jitter."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0, 6 * math.pi, SPIRAL_POINTS)
+    return np.c_[t * np.cos(t), t * np.sin(t)] + rng.normal(scale=SPIRAL_NOISE, size=(len(t), 2))
+
+
 def demo_lines(out: Path, seed: int) -> DemoResult:
     """Douglas-Peucker (path hulls) on a seeded noisy spiral; the deviation of the
     input from the simplification against epsilon."""
     from rperc.plot import save
     from rperc.plot.lines import polyline_figure
 
-    rng = np.random.default_rng(seed)
-    t = np.linspace(0, 6 * math.pi, 2000)
-    spiral = np.c_[t * np.cos(t), t * np.sin(t)] + rng.normal(scale=0.05, size=(len(t), 2))
-    epsilon = 0.25
+    spiral = noisy_spiral(seed)
+    epsilon = SPIRAL_EPSILON
     kept = simplify(spiral, epsilon, return_indices=True)
     line_dev, segment_dev = chord_deviation(spiral, kept)
     verdict = "within" if line_dev <= epsilon else "EXCEEDS"
@@ -222,18 +232,25 @@ WALLS_SIGMA = 0.01  # range noise of the simulated scanner, m
 WALLS_MIN_POINTS = 6
 
 
+def room_scan(seed: int) -> tuple[np.ndarray, SimulatedScan]:
+    """The demo room's walls and a seeded noisy 180-degree scan of it from WALLS_POSE."""
+    from rperc.scansim import ray_cast, room_walls
+
+    walls = room_walls()
+    angles = np.linspace(-math.pi / 2, math.pi / 2, WALLS_BEAMS)
+    rng = np.random.default_rng(seed)
+    return walls, ray_cast(walls, WALLS_POSE, angles, sigma_range=WALLS_SIGMA, rng=rng)
+
+
 def demo_walls(out: Path, seed: int) -> DemoResult:
     """Walls from a simulated 180-degree scan of a known room, matched to the ray-cast
     truth: which walls the scanner can see, which were found, and their errors."""
     from rperc.linesimp import extract_lines
     from rperc.plot import save
     from rperc.plot.lines import walls_figure
-    from rperc.scansim import check_walls, ray_cast, room_walls
+    from rperc.scansim import check_walls
 
-    rng = np.random.default_rng(seed)
-    walls = room_walls()
-    angles = np.linspace(-math.pi / 2, math.pi / 2, WALLS_BEAMS)
-    scan = ray_cast(walls, WALLS_POSE, angles, sigma_range=WALLS_SIGMA, rng=rng)
+    walls, scan = room_scan(seed)
     found = extract_lines(
         scan.ranges,
         scan.angles,

@@ -28,7 +28,8 @@ UPPER_COLOUR = (95, 45, 25)  # dark brown
 LOWER_COLOUR = (235, 160, 120)  # light orange
 UPPER_FRACTION = 0.4  # share of the ellipse's height in the upper colour
 SCALE_SWING = 0.15  # the target's size varies by +-15 %
-LIGHT_SWING = 0.12  # the illumination's gain varies by +-12 % over the sequence
+LIGHT_SWING = 0.12  # the illumination's gain varies by +-12 %
+PERIODS = (160, 120, 150, 150)  # frames: x and y motion, scale, illumination
 
 
 @dataclass(frozen=True, repr=False)
@@ -84,16 +85,17 @@ def _background(rng: np.random.Generator, height: int, width: int) -> np.ndarray
 def _path(
     rng: np.random.Generator, n: int, height: int, width: int, size: tuple[int, int]
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Centres and sizes along a Lissajous path that keeps the box inside the frame;
-    at most about 6 px of motion per frame for 120 frames."""
-    t = np.arange(n) / max(n, 2)
-    scale = 1.0 + SCALE_SWING * np.sin(2 * np.pi * t + rng.uniform(0, 2 * np.pi))
+    """Centres and sizes along a Lissajous path that keeps the box inside the frame.
+    The periods are fixed in frames, so the speed (at most about 7 px per frame in a
+    320 x 240 frame) does not depend on the length of the sequence."""
+    k = np.arange(n, dtype=np.float64)
+    scale = 1.0 + SCALE_SWING * np.sin(2 * np.pi * k / PERIODS[2] + rng.uniform(0, 2 * np.pi))
     w, h = size[0] * scale, size[1] * scale
     room_x = width / 2 - (1 + SCALE_SWING) * size[0] / 2 - 4
     room_y = height / 2 - (1 + SCALE_SWING) * size[1] / 2 - 4
     phase = rng.uniform(0, 2 * np.pi, size=2)
-    cx = width / 2 + room_x * np.sin(2 * np.pi * t + phase[0])
-    cy = height / 2 + room_y * np.sin(3 * np.pi * t + phase[1])
+    cx = width / 2 + room_x * np.sin(2 * np.pi * k / PERIODS[0] + phase[0])
+    cy = height / 2 + room_y * np.sin(2 * np.pi * k / PERIODS[1] + phase[1])
     return cx, cy, w, h
 
 
@@ -130,12 +132,14 @@ def synthetic_sequence(
     width: int = 320,
     target: tuple[int, int] = (40, 56),
     noise: float = 4.0,
+    distractors: bool = True,
     seed: int = 0,
 ) -> SyntheticSequence:
     """Generate the sequence; the same ``seed`` gives the same frames and boxes.
 
     ``target`` is the ``(width, height)`` of the target's box at scale 1 (pixels);
-    ``noise`` the standard deviation of the per-pixel sensor noise (grey levels).
+    ``noise`` the standard deviation of the per-pixel sensor noise (grey levels);
+    ``distractors=False`` leaves out the two discs in the target's lower colour.
     """
     n = _count(frames, "frames", 2)
     height, width = _count(height, "height", 32), _count(width, "width", 32)
@@ -148,8 +152,9 @@ def synthetic_sequence(
     rng = np.random.default_rng(seed)
     background = _background(rng, height, width)
     cx, cy, w, h = _path(rng, n, height, width, (tw, th))
-    _draw_distractors(background, cx, cy, (tw, th))
-    gain = 1.0 + LIGHT_SWING * np.sin(2 * np.pi * np.arange(n) / n)
+    if distractors:
+        _draw_distractors(background, cx, cy, (tw, th))
+    gain = 1.0 + LIGHT_SWING * np.sin(2 * np.pi * np.arange(n) / PERIODS[3])
     out = np.empty((n, height, width, 3), dtype=np.uint8)
     for k in range(n):
         frame = background.copy()

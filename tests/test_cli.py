@@ -192,6 +192,8 @@ def test_track_scores_an_otb_folder_against_its_ground_truth(otb_folder, tmp_pat
         (["track", "SEQ", "--frames", "1"], "argument --frames: must be an integer >= 2, got 1"),
         (["track", "SEQ", "--frames", "two"], "argument --frames: expected an integer"),
         (["track", "SEQ", "--seed", "-1"], "argument --seed: must be an integer >= 0"),
+        (["track", "SEQ", "--seed", str(2**64)], "argument --seed: must be an integer <= "),
+        (["demo", "tracking", "--frames", "1001"], "argument --frames: must be an integer <= 1000"),
         (["demo", "tracking", "--frames", "1"], "argument --frames"),
         (["demo", "monobot", "--runs", "1"], "argument --runs"),
         (["demo", "all", "--seed", "-3"], "argument --seed"),

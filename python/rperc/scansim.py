@@ -57,7 +57,8 @@ def ray_cast(
     # Solve pose + t d = a + s e for every beam/wall pair with Cramer's rule.
     denom = d[:, None, 0] * e[None, :, 1] - d[:, None, 1] * e[None, :, 0]  # (B, W)
     w = a - pose[:2]
-    with np.errstate(divide="ignore", invalid="ignore"):
+    # Near-parallel pairs divide by a tiny denominator; they are masked out below.
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         t = (w[None, :, 0] * e[None, :, 1] - w[None, :, 1] * e[None, :, 0]) / denom
         s = (w[None, :, 0] * d[:, None, 1] - w[None, :, 1] * d[:, None, 0]) / denom
     hit = (np.abs(denom) > 1e-12) & (t > 0) & (s >= 0) & (s <= 1)

@@ -24,18 +24,22 @@ import sys
 from collections.abc import Iterator, Sequence
 from typing import NoReturn
 
+from PIL import Image
+
 from rperc import RpercError, __version__
 
 # What a user can cause: bad options or input files (ValueError, TypeError, our own
 # errors), unreadable or unwritable paths and corrupt images (OSError, which includes
 # PIL's UnidentifiedImageError and truncated files). PIL reports some broken PNGs as
-# SyntaxError. Anything else is a bug and keeps its traceback.
+# SyntaxError and oversized ones as DecompressionBombError. Anything else is a bug and
+# keeps its traceback.
 USER_ERRORS: tuple[type[BaseException], ...] = (
     RpercError,
     ValueError,
     TypeError,
     OSError,
     SyntaxError,
+    Image.DecompressionBombError,
 )
 
 

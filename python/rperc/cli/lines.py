@@ -189,7 +189,8 @@ def noisy_spiral(seed: int) -> np.ndarray:
     """Three turns of an Archimedean spiral (metres) with seeded Gaussian jitter."""
     rng = np.random.default_rng(seed)
     t = np.linspace(0, 6 * math.pi, SPIRAL_POINTS)
-    return np.c_[t * np.cos(t), t * np.sin(t)] + rng.normal(scale=SPIRAL_NOISE, size=(len(t), 2))
+    spiral: np.ndarray = np.c_[t * np.cos(t), t * np.sin(t)]
+    return spiral + rng.normal(scale=SPIRAL_NOISE, size=(len(t), 2))
 
 
 def demo_lines(out: Path, seed: int) -> DemoResult:

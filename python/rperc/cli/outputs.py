@@ -17,8 +17,8 @@ from typing import Any
 import numpy as np
 
 
-def count_at_least(minimum: int) -> Callable[[str], int]:
-    """An argparse type: an integer ``>= minimum``."""
+def count_at_least(minimum: int, maximum: int | None = None) -> Callable[[str], int]:
+    """An argparse type: an integer ``>= minimum`` (and ``<= maximum`` if given)."""
 
     def parse(text: str) -> int:
         try:
@@ -27,13 +27,16 @@ def count_at_least(minimum: int) -> Callable[[str], int]:
             raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
         if value < minimum:
             raise argparse.ArgumentTypeError(f"must be an integer >= {minimum}, got {value}")
+        if maximum is not None and value > maximum:
+            raise argparse.ArgumentTypeError(f"must be an integer <= {maximum}, got {value}")
         return value
 
     parse.__name__ = f"integer >= {minimum}"
     return parse
 
 
-seed_type = count_at_least(0)
+# Seeds feed 64-bit generators on the native side.
+seed_type = count_at_least(0, 2**64 - 1)
 
 
 def positive_float(text: str) -> float:

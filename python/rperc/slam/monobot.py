@@ -21,15 +21,16 @@ Examples
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
-from tqdm import tqdm
 
 from rperc import _rperc
+from rperc._progress import progress as _progress
 
 Model = Literal["relative", "anchor", "external"]
 NoiseSpec = tuple[Literal["constant", "proportional"], float]
@@ -241,13 +242,20 @@ def monte_carlo(
         raise ValueError(f"runs must be a positive integer, got {runs!r}")
     seed = _seed(seed)
     if executor is None:
-        nees, robot, lm, first = _rperc.monobot_monte_carlo(model, int(runs), seed, cfg.kwargs())
+        # One native call does every run on all cores, so progress reports it as one
+        # batch (its final line gives the time).
+        batch: Iterable[int] = [int(runs)]
+        if progress:
+            batch = _progress(batch, desc=f"monobot {model}, {runs} runs (rayon)", unit="batch")
+        for n in batch:
+            nees, robot, lm, first = _rperc.monobot_monte_carlo(model, n, seed, cfg.kwargs())
     else:
         _rperc.monobot_simulate(model, seed, {**cfg.kwargs(), "steps": 1})  # validate early
         seeds = [_rperc.monobot_run_seed(seed, i) for i in range(runs)]
         kwargs = cfg.kwargs()
         futures = [executor.submit(_run_errors, model, s, kwargs) for s in seeds]
-        results = [f.result() for f in tqdm(futures, desc=f"monobot {model}", disable=not progress)]
+        done = _progress(futures, desc=f"monobot {model}", unit="run") if progress else futures
+        results = [f.result() for f in done]
         nees, robot, lm, first = (np.stack(parts) for parts in zip(*results, strict=True))
     summary = _rperc.monobot_summarize(nees, robot, lm, first, confidence)
     summary.pop("runs")

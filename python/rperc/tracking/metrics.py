@@ -38,7 +38,9 @@ def iou(a: npt.ArrayLike, b: npt.ArrayLike) -> np.ndarray:
     )
     with np.errstate(invalid="ignore", divide="ignore"):
         out = np.where(valid & (union > 0), inter / union, 0.0)
-    return out
+    # Rounding in the union can put identical boxes a hair above 1, and the success
+    # curve's last threshold (overlap > 1) would then count them.
+    return np.minimum(out, 1.0)
 
 
 def success_curve(

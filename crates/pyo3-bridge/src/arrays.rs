@@ -32,9 +32,14 @@ impl Floats<'_> {
         self.array.shape()
     }
 
-    /// The data as one C-ordered slice, when the array is C-contiguous.
+    /// The data as one C-ordered slice, when the array is C-contiguous. (numpy's own
+    /// `as_slice` also accepts Fortran order, whose slice is not in row order.)
     pub fn as_slice(&self) -> Option<&[f64]> {
-        self.array.as_slice().ok()
+        if self.array.is_c_contiguous() {
+            self.array.as_slice().ok()
+        } else {
+            None
+        }
     }
 }
 

@@ -72,7 +72,7 @@ def run_tracker(
     boxes: list[tuple[float, ...]] = [box]
     lost = [False]
     for frame in progress(frames[1:], desc=f"tracking ({name})", unit="frame"):
-        new_box, _score, is_lost = tracker.update(frame)
+        new_box, _score, is_lost = tracker.update(frame)  # a TrackResult unpacks
         boxes.append(tuple(new_box))
         lost.append(bool(is_lost))
     seconds = time.perf_counter() - start

@@ -9,7 +9,7 @@ use crate::frame::RgbFrame;
 rperc_core::named_enum! {
     /// The colour space whose 3-D histogram models the target (seed 000 section 3.2).
     #[derive(Default)]
-    pub enum ColorSpace: "color space" {
+    pub enum ColorSpace: "color_space" {
         /// Raw (R, G, B).
         Rgb = "rgb",
         /// The seed's and Birchfield's opponent axes (B-G, G-R, R+G+B): chroma separated

@@ -8,15 +8,14 @@ STAMP := $(VENV)/.installed
 .PHONY: demo install develop test test-rust test-python lint fmt bench check clean
 
 demo: install
-	$(BIN)/rperc demo lines --out out/demo
+	$(BIN)/rperc demo all --out out/demo
 
-# Python environment with the test and benchmark peers, then the extension (release).
+# The Python environment: rperc with its test extras, every dependency read from
+# pyproject.toml (one list, there), then maturin for fast rebuilds of the extension.
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet "maturin>=1.9.4,<2" numpy matplotlib tqdm \
-		pytest hypothesis shapely simplification filterpy scipy "dask[distributed]" \
-		opencv-contrib-python-headless mypy ruff
+	$(BIN)/python -m pip install --quiet -e ".[test,geo]" "maturin>=1.9.4,<2"
 	touch $(STAMP)
 
 install: $(STAMP) develop
@@ -38,6 +37,7 @@ lint: $(STAMP)
 	cargo clippy --workspace --all-targets -- -D warnings
 	$(BIN)/ruff check python tests benchmarks
 	. $(BIN)/activate && python -m mypy.stubtest rperc._rperc
+	. $(BIN)/activate && python -m mypy --strict python/rperc
 
 fmt:
 	cargo fmt --all

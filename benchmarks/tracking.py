@@ -43,11 +43,11 @@ def rperc_trackers() -> dict[str, Factory]:
 
     def colour(frame: np.ndarray, box: Box):
         t = ColorHistogramTracker(frame, box)
-        return lambda f: t.update(f)[0]
+        return lambda f: t.update(f).box
 
     def particles(frame: np.ndarray, box: Box):
         t = ParticleColorTracker(frame, box, seed=0)
-        return lambda f: t.update(f)[0]
+        return lambda f: t.update(f).box
 
     out["rperc colour"] = colour
     out["rperc colour PF"] = particles

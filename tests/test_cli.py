@@ -1,13 +1,27 @@
-"""The ``rperc`` command line, run in-process through its entry point."""
+"""The ``rperc`` command line, run in-process through its entry point (and once as a
+real process): results on stdout, notes on stderr, ``--json`` files recomputed from the
+inputs, and every user mistake a one-line error with exit status 2, checked before
+any work is done."""
 
 from __future__ import annotations
 
+import json
+import math
+import re
+import subprocess
+import sys
+from fractions import Fraction
+from pathlib import Path
+
 import numpy as np
 import pytest
+from PIL import Image
 
 from rperc.cli import main
 from rperc.datasets import read_polylines
 from rperc.linesimp import simplify
+from rperc.scansim import ray_cast, room_walls
+from rperc.tracking.synthetic import synthetic_sequence
 
 
 def test_lines_simplify_wkt_round_trip(tmp_path, capsys):
@@ -55,10 +69,52 @@ def test_bad_input_is_an_error_message_not_a_traceback(tmp_path, capsys):
         main(["lines", "simplify", str(good)])  # --epsilon is required
 
 
-def test_demo_lines_writes_its_figure(tmp_path, capsys):
+def one_error_line(capsys) -> str:
+    """The single ``rperc: error: ...`` line of a failed command (and no traceback)."""
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    errors = [line for line in err.splitlines() if line.startswith("rperc: error: ")]
+    assert len(errors) == 1, err
+    return errors[0]
+
+
+POSES = [(4.0, 2.5, 0.3), (5.0, 1.0, 1.2), (8.5, 3.0, 2.5), (2.0, 4.5, -1.0), (9.0, 1.0, 3.0)]
+
+
+@pytest.fixture
+def carmen_log(tmp_path) -> Path:
+    """A FLASER log of the simulated room: noise-free 180-beam ray casts from 5 poses."""
+    walls = room_walls()
+    angles = -math.pi / 2 + math.pi / 180 * np.arange(180)
+    rows = []
+    for k, (x, y, th) in enumerate(POSES):
+        scan = ray_cast(walls, np.array([x, y, th]), angles, max_range=81.83)
+        ranges = " ".join(f"{r:.5f}" for r in scan.ranges)
+        rows.append(f"FLASER 180 {ranges} {x} {y} {th} {x} {y} {th} {k}.0 sim {k}.0")
+    path = tmp_path / "room.log"
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+@pytest.fixture
+def otb_folder(tmp_path) -> Path:
+    """The synthetic sequence stored as an OTB folder (PNG frames, 1-based boxes)."""
+    seq = synthetic_sequence(12, seed=3)
+    root = tmp_path / "Synthetic"
+    (root / "img").mkdir(parents=True)
+    for k, frame in enumerate(seq.frames):
+        Image.fromarray(frame).save(root / "img" / f"{k + 1:04d}.png")
+    rows = [" ".join(f"{v:.6f}" for v in (x + 1, y + 1, w, h)) for x, y, w, h in seq.boxes]
+    (root / "groundtruth_rect.txt").write_text("\n".join(rows) + "\n")
+    return root
+
+
+def test_demo_lines_writes_exactly_its_figure(tmp_path, capsys):
     assert main(["demo", "lines", "--out", str(tmp_path)]) == 0
+    captured = capsys.readouterr()
+    assert captured.out.startswith("lines: ") and len(captured.out.splitlines()) == 1
+    assert captured.err.splitlines() == [f"wrote {tmp_path / 'lines.png'}"]
     assert (tmp_path / "lines.png").stat().st_size > 10_000
-    assert "walls extracted" in capsys.readouterr().out
 
 
 def test_demo_monobot_writes_the_papers_figures(tmp_path, capsys):
@@ -66,7 +122,146 @@ def test_demo_monobot_writes_the_papers_figures(tmp_path, capsys):
     for name in ("fig3_fisher", "fig4_relative", "fig5_anchor", "fig6_external", "monte_carlo"):
         assert (tmp_path / f"monobot_{name}.png").stat().st_size > 10_000
     out = capsys.readouterr().out
+    assert out.startswith("monobot: ")
     assert "unobservable directions: [[" in out
+
+
+def test_demo_creates_its_output_folder_but_not_over_a_file(tmp_path, capsys):
+    out = tmp_path / "a" / "b"
+    assert main(["demo", "walls", "--out", str(out)]) == 0
+    assert (out / "walls.png").is_file()
+    capsys.readouterr()
+    afile = tmp_path / "file"
+    afile.write_text("x")
+    assert main(["demo", "walls", "--out", str(afile)]) == 2
+    assert "is a file" in one_error_line(capsys)
+
+
+def test_lines_extract_prints_results_and_writes_what_it_says(carmen_log, tmp_path, capsys):
+    png, js = tmp_path / "walls.png", tmp_path / "walls.json"
+    argv = ["lines", "extract", str(carmen_log), "--plot", str(png), "--json", str(js)]
+    assert main(argv) == 0
+    captured = capsys.readouterr()
+    (line,) = captured.out.splitlines()
+    walls, scans = (int(v) for v in re.search(r"(\d+) walls from (\d+) scans", line).groups())
+    assert "wrote" not in captured.out
+    assert f"wrote {png}" in captured.err.splitlines()
+    assert f"wrote {js}" in captured.err.splitlines()
+    assert png.stat().st_size > 10_000 and sorted(p.name for p in tmp_path.iterdir()) == [
+        "room.log",
+        "walls.json",
+        "walls.png",
+    ]
+    measured = json.loads(js.read_text())
+    assert measured["scans"] == scans == len(POSES)
+    assert measured["walls"] == walls >= len(POSES)  # every pose sees at least one wall
+    assert measured["readings"] == 180 * len(POSES)  # a closed room: every beam returns
+
+
+def brute_force_auc(pred: np.ndarray, truth: np.ndarray) -> float:
+    """OTB's area under the success curve, with exact rational IoUs."""
+    ious = []
+    for p, t in zip(pred, truth, strict=True):
+        ax, ay, aw, ah = (Fraction(float(v)) for v in p)
+        bx, by, bw, bh = (Fraction(float(v)) for v in t)
+        w = max(Fraction(0), min(ax + aw, bx + bw) - max(ax, bx))
+        h = max(Fraction(0), min(ay + ah, by + bh) - max(ay, by))
+        ious.append(w * h / (aw * ah + bw * bh - w * h))
+    success = [sum(o > Fraction(k, 20) for o in ious) / len(ious) for k in range(21)]
+    return float(sum(success) / 21)
+
+
+@pytest.mark.parametrize("tracker", ["colour", "colour-pf"])
+def test_track_scores_an_otb_folder_against_its_ground_truth(otb_folder, tmp_path, capsys, tracker):
+    strip, js = tmp_path / "strip.png", tmp_path / "track.json"
+    argv = ["track", str(otb_folder), "--tracker", tracker, "--strip", str(strip), "--frames", "3"]
+    assert main([*argv, "--json", str(js)]) == 0
+    captured = capsys.readouterr()
+    (auc,) = (float(v) for v in re.search(r"AUC (\d\.\d+)", captured.out).groups())
+    measured = json.loads(js.read_text())
+    truth = synthetic_sequence(12, seed=3).boxes
+    assert auc == pytest.approx(brute_force_auc(np.asarray(measured["boxes"]), truth), abs=5e-4)
+    assert measured["tracker"] == tracker and measured["frames"] == 12
+    assert f"wrote {strip}" in captured.err.splitlines() and strip.stat().st_size > 10_000
+
+
+@pytest.mark.parametrize(
+    ("argv", "needle"),
+    [
+        (["track", "SEQ", "--frames", "0"], "argument --frames: must be an integer >= 2, got 0"),
+        (["track", "SEQ", "--frames", "1"], "argument --frames: must be an integer >= 2, got 1"),
+        (["track", "SEQ", "--frames", "two"], "argument --frames: expected an integer"),
+        (["track", "SEQ", "--seed", "-1"], "argument --seed: must be an integer >= 0"),
+        (["track", "SEQ", "--seed", str(2**64)], "argument --seed: must be an integer <= "),
+        (["demo", "tracking", "--frames", "1001"], "argument --frames: must be an integer <= 1000"),
+        (["demo", "tracking", "--frames", "1"], "argument --frames"),
+        (["demo", "monobot", "--runs", "1"], "argument --runs"),
+        (["demo", "all", "--seed", "-3"], "argument --seed"),
+        (["lines", "extract", "LOG", "--every", "0"], "argument --every"),
+        (["lines", "extract", "LOG", "--sigma-range", "nan"], "argument --sigma-range"),
+        (["demo", "nothing"], "invalid choice"),
+    ],
+)
+def test_bad_options_are_one_line_errors_with_status_2(argv, needle, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(argv)
+    assert exit_info.value.code == 2
+    assert needle in one_error_line(capsys)
+
+
+def test_output_paths_are_checked_before_any_work(tmp_path, capsys):
+    missing = tmp_path / "no" / "such"
+    log = tmp_path / "absent.log"  # the work would fail on it; the path check comes first
+    assert main(["lines", "extract", str(log), "--plot", str(missing / "p.png")]) == 2
+    assert f"folder {missing} does not exist" in one_error_line(capsys)
+    assert not missing.exists() and not missing.parent.exists()
+    assert main(["lines", "extract", str(log), "--plot", str(tmp_path)]) == 2
+    assert f"--plot {tmp_path} is a folder" in one_error_line(capsys)
+    assert main(["lines", "extract", str(log), "--plot", str(tmp_path / "walls")]) == 2
+    assert "must end in one of" in one_error_line(capsys)
+    assert main(["lines", "extract", str(log), "--json", str(missing / "x.json")]) == 2
+    assert "does not exist" in one_error_line(capsys)
+    assert main(["track", str(tmp_path), "--strip", str(missing / "s.png")]) == 2
+    assert f"folder {missing} does not exist" in one_error_line(capsys)
+    assert main(["demo", "lines", "--out", str(tmp_path), "--json", str(tmp_path)]) == 2
+    assert "is a folder" in one_error_line(capsys)
+
+
+def test_bad_input_files_are_one_line_errors(tmp_path, otb_folder, capsys):
+    assert main(["lines", "extract", str(tmp_path / "absent.log")]) == 2
+    assert "absent.log" in one_error_line(capsys)
+    bad_log = tmp_path / "bad.log"
+    bad_log.write_text("FLASER 3 1.0 oops 1.0 0 0 0 0 0 0 0 h 0\n")
+    assert main(["lines", "extract", str(bad_log)]) == 2
+    assert "bad.log:1" in one_error_line(capsys)
+    assert main(["track", str(tmp_path)]) == 2  # not an OTB folder
+    assert "groundtruth_rect.txt" in one_error_line(capsys)
+    assert main(["track", str(otb_folder), "--strip", str(tmp_path / "s.png"), "--frames", "13"])
+    assert "--frames must be between 2 and 12" in one_error_line(capsys)
+
+
+@pytest.mark.parametrize("damage", ["text", "truncated", "empty"])
+def test_a_corrupt_frame_is_a_one_line_error(otb_folder, capsys, damage):
+    frame = otb_folder / "img" / "0005.png"
+    data = frame.read_bytes()
+    frame.write_bytes({"text": b"not an image\n", "truncated": data[:200], "empty": b""}[damage])
+    assert main(["track", str(otb_folder)]) == 2
+    one_error_line(capsys)
+
+
+def test_python_dash_m_rperc_runs_the_command(tmp_path):
+    run = subprocess.run(
+        [sys.executable, "-m", "rperc", "--version"], capture_output=True, text=True, check=False
+    )
+    assert run.returncode == 0 and run.stdout.startswith("rperc ")
+    run = subprocess.run(
+        [sys.executable, "-m", "rperc", "lines", "extract", str(tmp_path / "absent.log")],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert run.returncode == 2 and run.stdout == ""
+    assert run.stderr.count("\n") == 1 and run.stderr.startswith("rperc: error: ")
 
 
 def test_lines_extract_on_a_real_log(tmp_path, data, capsys):

@@ -64,7 +64,7 @@ def test_range_bearing_update_matches_numpy_joseph():
     S = H @ P @ H.T + R
     K = P @ H.T @ np.linalg.inv(S)
     IKH = np.eye(d) - K @ H
-    nis = ekf.update_range_bearing(j, z, R)
+    nis = ekf.update_range_bearing(j, z, R).nis
     np.testing.assert_allclose(ekf.state, x + K @ nu, atol=1e-9)
     np.testing.assert_allclose(ekf.covariance, IKH @ P @ IKH.T + K @ R @ K.T, atol=1e-9)
     assert nis == pytest.approx(nu @ np.linalg.solve(S, nu))
@@ -79,7 +79,10 @@ def test_ekf_errors_map_to_python_exceptions():
     with pytest.raises(ValueError, match="dimension"):
         ekf.update(np.array([0.5, 1.0]), [(0, 1, np.ones((1, 1)))], np.ones((1, 1)))
     with pytest.raises(TypeError, match="dtype"):
-        Ekf(np.zeros(2, dtype=np.int64), np.zeros((2, 2)), robot_dim=1, landmark_dim=1)
+        Ekf(np.array(["a", "b"]), np.zeros((2, 2)), robot_dim=1, landmark_dim=1)
+    # Integers and lists are numbers: accepted, as simplify accepts them.
+    ints = Ekf([0, 2], [[1, 0], [0, 4]], robot_dim=1, landmark_dim=1)
+    assert ints.state.dtype == np.float64 and ints.state.tolist() == [0.0, 2.0]
     with pytest.raises(ValueError, match="robot block"):
         Ekf(np.zeros(4), np.eye(4), robot_dim=3, landmark_dim=2)
     one = np.ones((1, 1))

@@ -15,15 +15,17 @@ __all__ = [
     "effective_sample_size",
     "extract_lines",
     "information_spectrum",
+    "monobot_defaults",
     "monobot_monte_carlo",
     "monobot_observability_rank",
-    "monobot_run_seed",
     "monobot_simulate",
     "monobot_summarize",
     "nees_bounds",
     "resample",
+    "scan_params_defaults",
     "simplify_indices",
     "simplify_many_indices",
+    "tracker_defaults",
 ]
 
 __version__: str
@@ -49,16 +51,7 @@ def simplify_many_indices(
 def extract_lines(
     ranges: npt.NDArray[np.floating],
     angles: npt.NDArray[np.floating],
-    *,
-    min_range: float,
-    max_range: float,
-    sigma_range: float,
-    sigma_bearing: float,
-    breakpoint_lambda: float,
-    split_epsilon: float,
-    merge_chi2: float,
-    min_points: int,
-    min_length: float,
+    params: dict[str, Any] | None = None,
 ) -> tuple[
     npt.NDArray[np.float64],
     npt.NDArray[np.float64],
@@ -68,6 +61,7 @@ def extract_lines(
     npt.NDArray[np.intp],
     npt.NDArray[np.intp],
 ]: ...
+def scan_params_defaults() -> dict[str, Any]: ...
 
 _Array: TypeAlias = npt.NDArray[np.float64]
 _ArrayLike: TypeAlias = npt.NDArray[np.floating]
@@ -76,9 +70,13 @@ _ArrayLike: TypeAlias = npt.NDArray[np.floating]
 class Ekf:
     """Extended Kalman filter: robot block plus landmark blocks, full covariance."""
 
-    def __new__(cls, x: _ArrayLike, p: _ArrayLike, robot_dim: int, landmark_dim: int) -> Ekf: ...
+    def __new__(
+        cls, state: _ArrayLike, covariance: _ArrayLike, robot_dim: int, landmark_dim: int
+    ) -> Ekf: ...
     @property
     def state(self) -> _Array: ...
+    @state.setter
+    def state(self, value: _ArrayLike) -> None: ...
     @property
     def covariance(self) -> _Array: ...
     @property
@@ -93,16 +91,21 @@ class Ekf:
     def update(
         self, innovation: _ArrayLike, blocks: list[tuple[int, int, _ArrayLike]], r: _ArrayLike
     ) -> tuple[_Array, _Array, float]: ...
-    def update_range_bearing(self, j: int, z: _ArrayLike, r: _ArrayLike) -> float: ...
+    def update_range_bearing(
+        self, j: int, z: _ArrayLike, r: _ArrayLike
+    ) -> tuple[_Array, _Array, _Array, float]: ...
     def add_landmark(
         self, mean: _ArrayLike, g_robot: _ArrayLike, g_z: _ArrayLike, r: _ArrayLike
     ) -> int: ...
     def add_landmark_range_bearing(self, z: _ArrayLike, r: _ArrayLike) -> int: ...
 
-def monobot_simulate(model: str, seed: int, config: dict[str, Any]) -> dict[str, Any]: ...
+def monobot_simulate(
+    model: str, seed: int, run: int = 0, config: dict[str, Any] | None = None
+) -> dict[str, Any]: ...
 def monobot_monte_carlo(
-    model: str, runs: int, seed: int, config: dict[str, Any]
+    model: str, runs: int, seed: int, config: dict[str, Any] | None = None
 ) -> tuple[_Array, _Array, _Array, _Array]: ...
+def monobot_defaults() -> dict[str, Any]: ...
 def monobot_summarize(
     nees: _ArrayLike,
     robot_error: _ArrayLike,
@@ -110,7 +113,6 @@ def monobot_summarize(
     first_observation_error: _ArrayLike,
     confidence: float = 0.95,
 ) -> dict[str, Any]: ...
-def monobot_run_seed(seed: int, run: int) -> int: ...
 def monobot_observability_rank(model: str, landmarks: int) -> int: ...
 def information_spectrum(j: _ArrayLike, tol: float) -> tuple[_Array, _Array, int]: ...
 def nees_bounds(dof: int, runs: int, confidence: float) -> tuple[float, float]: ...
@@ -122,7 +124,10 @@ class ColorHistogramTracker:
     """Colour-histogram tracker with local search (see rperc.tracking)."""
 
     def __new__(
-        cls, frame: npt.NDArray[np.uint8], box: _Box, **params: Any
+        cls,
+        frame: npt.NDArray[np.uint8],
+        bbox: _Box | list[float] | _ArrayLike,
+        config: dict[str, Any] | None = None,
     ) -> ColorHistogramTracker: ...
     def update(self, frame: npt.NDArray[np.uint8]) -> tuple[_Box, float, bool]: ...
     @property
@@ -133,7 +138,11 @@ class ParticleColorTracker:
     """CONDENSATION colour tracker over (x, y, scale) (see rperc.tracking)."""
 
     def __new__(
-        cls, frame: npt.NDArray[np.uint8], box: _Box, seed: int = 0, **params: Any
+        cls,
+        frame: npt.NDArray[np.uint8],
+        bbox: _Box | list[float] | _ArrayLike,
+        seed: int = 0,
+        config: dict[str, Any] | None = None,
     ) -> ParticleColorTracker: ...
     def update(self, frame: npt.NDArray[np.uint8]) -> tuple[_Box, float, bool]: ...
     @property
@@ -143,3 +152,4 @@ def resample(
     weights: _ArrayLike, n: int, method: str = "systematic", seed: int = 0
 ) -> npt.NDArray[np.intp]: ...
 def effective_sample_size(weights: _ArrayLike) -> float: ...
+def tracker_defaults() -> tuple[dict[str, Any], dict[str, Any]]: ...

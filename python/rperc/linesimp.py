@@ -247,7 +247,7 @@ def extract_lines(
     sigma_bearing: float = 0.0,
     breakpoint_lambda: float = math.radians(10.0),
     split_epsilon: float = 0.05,
-    merge_chi2: float = 9.21,
+    merge_confidence: float = 0.99,
     min_points: int = 6,
     min_length: float = 0.3,
 ) -> WallSegments:
@@ -275,9 +275,9 @@ def extract_lines(
         detector's lambda; bearing gaps wider than it always split.
     split_epsilon:
         Iterative end-point fit splits at points farther than this from the chord (m).
-    merge_chi2:
-        Neighbouring lines merge below this Mahalanobis distance (chi-square, 2 dof;
-        9.21 is 99 %).
+    merge_confidence:
+        Neighbouring lines merge when the Mahalanobis distance of their difference is
+        below the chi-square (2 dof) quantile of this confidence, in (0, 1).
     min_points, min_length:
         Walls with fewer readings (>= 2) or shorter than this (m) are dropped.
 
@@ -308,19 +308,18 @@ def extract_lines(
     a = _float_array(angles, "angles")
     if r.ndim != 1 or a.ndim != 1:
         raise ValueError(f"ranges and angles must be 1-D, got shapes {r.shape} and {a.shape}")
-    rho, alpha, cov, start, end, flat, offsets = _rperc.extract_lines(
-        r,
-        a,
-        min_range=float(min_range),
-        max_range=float(max_range),
-        sigma_range=float(sigma_range),
-        sigma_bearing=float(sigma_bearing),
-        breakpoint_lambda=float(breakpoint_lambda),
-        split_epsilon=float(split_epsilon),
-        merge_chi2=float(merge_chi2),
-        min_points=_count(min_points, "min_points"),
-        min_length=float(min_length),
-    )
+    params = {
+        "min_range": float(min_range),
+        "max_range": float(max_range),
+        "sigma_range": float(sigma_range),
+        "sigma_bearing": float(sigma_bearing),
+        "breakpoint_lambda": float(breakpoint_lambda),
+        "split_epsilon": float(split_epsilon),
+        "merge_confidence": float(merge_confidence),
+        "min_points": _count(min_points, "min_points"),
+        "min_length": float(min_length),
+    }
+    rho, alpha, cov, start, end, flat, offsets = _rperc.extract_lines(r, a, params)
     return WallSegments(rho, alpha, cov, start, end, flat, offsets)
 
 

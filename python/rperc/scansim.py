@@ -1,7 +1,8 @@
 """Simulated 2-D laser scans by ray casting against wall segments.
 
-Used by ``rperc demo lines`` and by the tests of wall extraction, where the walls are
-known exactly.
+Used by ``rperc demo walls`` and by the tests of wall extraction, where the walls are
+known exactly: :func:`visible_walls` says which walls a scan can show (by beam count)
+and :func:`check_walls` matches found walls to the true ones and measures their errors.
 """
 
 from __future__ import annotations
@@ -56,7 +57,8 @@ def ray_cast(
     # Solve pose + t d = a + s e for every beam/wall pair with Cramer's rule.
     denom = d[:, None, 0] * e[None, :, 1] - d[:, None, 1] * e[None, :, 0]  # (B, W)
     w = a - pose[:2]
-    with np.errstate(divide="ignore", invalid="ignore"):
+    # Near-parallel pairs divide by a tiny denominator; they are masked out below.
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         t = (w[None, :, 0] * e[None, :, 1] - w[None, :, 1] * e[None, :, 0]) / denom
         s = (w[None, :, 0] * d[:, None, 1] - w[None, :, 1] * d[:, None, 0]) / denom
     hit = (np.abs(denom) > 1e-12) & (t > 0) & (s >= 0) & (s <= 1)
@@ -69,3 +71,88 @@ def ray_cast(
         ranges = ranges + rng.normal(scale=sigma_range, size=ranges.shape)
     ranges = np.where(wall >= 0, ranges, max_range)
     return SimulatedScan(ranges, angles, wall, pose, max_range)
+
+
+def beam_counts(scan: SimulatedScan, n_walls: int) -> np.ndarray:
+    """How many beams of ``scan`` hit each of the ``n_walls`` walls."""
+    return np.bincount(scan.wall[scan.wall >= 0], minlength=n_walls)
+
+
+def visible_walls(scan: SimulatedScan, n_walls: int, min_points: int) -> np.ndarray:
+    """Indices of the walls that received at least ``min_points`` beams: the walls a
+    wall extractor with that ``min_points`` can find from this pose. The others are
+    behind the robot, outside the field of view or hidden behind nearer walls."""
+    return np.flatnonzero(beam_counts(scan, n_walls) >= min_points)
+
+
+def wall_lines(walls: np.ndarray, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every wall's infinite line in the sensor frame of ``pose``, in Hessian form
+    ``x cos(alpha) + y sin(alpha) = rho`` with ``rho >= 0`` (the convention of
+    :class:`rperc.linesimp.WallSegments`)."""
+    walls = np.asarray(walls, dtype=float).reshape(-1, 2, 2)
+    x, y, th = np.asarray(pose, dtype=float)
+    c, s = np.cos(th), np.sin(th)
+    to_sensor = np.array([[c, s], [-s, c]])
+    a = (walls[:, 0] - (x, y)) @ to_sensor.T
+    b = (walls[:, 1] - (x, y)) @ to_sensor.T
+    d = b - a
+    normal = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.hypot(d[:, 0], d[:, 1])[:, None]
+    rho = np.einsum("ij,ij->i", normal, a)
+    normal = np.where(rho[:, None] < 0, -normal, normal)
+    return np.abs(rho), np.arctan2(normal[:, 1], normal[:, 0])
+
+
+@dataclass(frozen=True)
+class WallCheck:
+    """Found walls against the ray-cast truth.
+
+    ``truth[k]`` is the true wall of found wall ``k`` (the wall most of its readings
+    hit, -1 if none); ``d_rho`` and ``d_alpha`` are its errors (found minus true, m and
+    rad, alpha wrapped to (-pi, pi]). ``visible`` and ``hidden`` split the true walls by
+    beam count; ``missed`` are visible walls no found wall matches."""
+
+    truth: np.ndarray
+    d_rho: np.ndarray
+    d_alpha: np.ndarray
+    visible: np.ndarray
+    hidden: np.ndarray
+    missed: np.ndarray
+
+    @property
+    def found_visible(self) -> int:
+        return len(self.visible) - len(self.missed)
+
+
+def check_walls(
+    walls: np.ndarray,
+    scan: SimulatedScan,
+    found_indices: list[np.ndarray],
+    found_rho: np.ndarray,
+    found_alpha: np.ndarray,
+    *,
+    min_points: int,
+) -> WallCheck:
+    """Match found walls (readings ``found_indices[k]``, line ``found_rho[k]``,
+    ``found_alpha[k]`` in the sensor frame) to the ray-cast truth by the wall their
+    readings hit, and measure their errors."""
+    walls = np.asarray(walls, dtype=float).reshape(-1, 2, 2)
+    n = len(walls)
+    truth = np.full(len(found_indices), -1)
+    for k, idx in enumerate(found_indices):
+        hits = scan.wall[np.asarray(idx, dtype=int)]
+        hits = hits[hits >= 0]
+        if len(hits):
+            truth[k] = int(np.bincount(hits, minlength=n).argmax())
+    rho, alpha = wall_lines(walls, scan.pose)
+    ok = truth >= 0
+    d_rho = np.where(ok, np.asarray(found_rho) - rho[truth], np.nan)
+    d_alpha = np.where(ok, _wrap(np.asarray(found_alpha) - alpha[truth]), np.nan)
+    visible = visible_walls(scan, n, min_points)
+    hidden = np.setdiff1d(np.arange(n), visible)
+    missed = np.setdiff1d(visible, truth[ok])
+    return WallCheck(truth, d_rho, d_alpha, visible, hidden, missed)
+
+
+def _wrap(angle: np.ndarray) -> np.ndarray:
+    wrapped = (angle + np.pi) % (2 * np.pi) - np.pi
+    return np.where(wrapped == -np.pi, np.pi, wrapped)

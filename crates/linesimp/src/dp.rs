@@ -5,18 +5,20 @@ use nalgebra::Point2;
 
 use crate::metric::{Chord, Metric};
 
-/// Which vertex splits a chord when several are equally far from it.
-///
-/// The peers disagree: GEOS (shapely) splits at the first, geo (and so the
-/// `simplification` Python package) at the last. Either rule gives a valid result;
-/// pick the one whose output you must reproduce exactly.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Tie {
-    /// The first (smallest index) of the farthest vertices, as GEOS does.
-    #[default]
-    First,
-    /// The last (largest index) of the farthest vertices, as geo does.
-    Last,
+rperc_core::named_enum! {
+    /// Which vertex splits a chord when several are equally far from it.
+    ///
+    /// The peers disagree: GEOS (shapely) splits at the first, geo (and so the
+    /// `simplification` Python package) at the last. Either rule gives a valid result;
+    /// pick the one whose output you must reproduce exactly.
+    #[derive(Default)]
+    pub enum Tie: "tie" {
+        /// The first (smallest index) of the farthest vertices, as GEOS does.
+        #[default]
+        First = "first",
+        /// The last (largest index) of the farthest vertices, as geo does.
+        Last = "last",
+    }
 }
 
 /// FindSplit, seed 000 Table 2: the vertex strictly between `i` and `j` farthest from

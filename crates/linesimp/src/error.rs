@@ -30,6 +30,9 @@ pub enum LineSimpError {
         /// Why the value was refused.
         reason: String,
     },
+    /// From the shared core (an unknown option name...).
+    #[error(transparent)]
+    Core(#[from] rperc_core::CoreError),
     /// Two arrays that must have the same length did not.
     #[error("length mismatch: {what}")]
     LengthMismatch {
@@ -40,3 +43,10 @@ pub enum LineSimpError {
 
 /// Result alias for this crate.
 pub type Result<T> = std::result::Result<T, LineSimpError>;
+
+impl LineSimpError {
+    /// Every line-simplification error is a bad argument.
+    pub fn class(&self) -> rperc_core::ErrorClass {
+        rperc_core::ErrorClass::InvalidInput
+    }
+}

@@ -15,14 +15,16 @@ pub use error::{LineSimpError, Result};
 pub use metric::{Metric, chord_distance};
 pub use walls::{LineExtractor, ScanParams, WallSegment, extract_lines};
 
-/// Which Douglas-Peucker implementation runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Method {
-    /// Hershberger-Snoeyink path hulls: O(n log n) worst case, line metric only.
-    #[default]
-    Hull,
-    /// The plain algorithm of seed 000, Table 1 (explicit stack): O(n^2) worst case.
-    Dp,
+rperc_core::named_enum! {
+    /// Which Douglas-Peucker implementation runs.
+    #[derive(Default)]
+    pub enum Method: "method" {
+        /// Hershberger-Snoeyink path hulls: O(n log n) worst case, line metric only.
+        #[default]
+        Hull = "hull",
+        /// The plain algorithm of seed 000, Table 1 (explicit stack): O(n^2) worst case.
+        Dp = "dp",
+    }
 }
 
 /// Reusable Douglas-Peucker engine. Keeping one per thread avoids re-allocating the

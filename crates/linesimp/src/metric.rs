@@ -3,14 +3,16 @@
 
 use nalgebra::Point2;
 
-/// How the distance from a point to the chord `v_i v_j` is measured.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Metric {
-    /// Distance to the infinite line through the chord (seed 000, Table 2).
-    #[default]
-    Line,
-    /// Distance to the closed segment (what GEOS and geo use).
-    Segment,
+rperc_core::named_enum! {
+    /// How the distance from a point to the chord `v_i v_j` is measured.
+    #[derive(Default)]
+    pub enum Metric: "metric" {
+        /// Distance to the infinite line through the chord (seed 000, Table 2).
+        #[default]
+        Line = "line",
+        /// Distance to the closed segment (what GEOS and geo use).
+        Segment = "segment",
+    }
 }
 
 /// Twice the signed area of the triangle (a, b, p): the homogeneous determinant

@@ -16,12 +16,14 @@
 use std::f64::consts::PI;
 
 use nalgebra::{Matrix2, Point2, Vector2};
+use rperc_core::wrap_angle;
 
 use crate::error::{LineSimpError, Result};
 use crate::{Method, Metric, Simplifier};
 
 /// Parameters of [`LineExtractor`]. Lengths in metres, angles in radians.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct ScanParams {
     /// Readings at or below this are invalid (0 is "no return" on most scanners).
     pub min_range: f64,
@@ -38,8 +40,8 @@ pub struct ScanParams {
     /// chord (default 0.05 m).
     pub split_epsilon: f64,
     /// Neighbouring lines merge when the Mahalanobis distance of their difference is
-    /// below this chi-square (2 dof) value (default 9.21, 99 %).
-    pub merge_chi2: f64,
+    /// below the chi-square (2 dof) quantile of this confidence (default 0.99).
+    pub merge_confidence: f64,
     /// Fewest points a wall may have (default 6; at least 2).
     pub min_points: usize,
     /// Shortest wall kept (default 0.3 m).
@@ -55,7 +57,7 @@ impl Default for ScanParams {
             sigma_bearing: 0.0,
             breakpoint_lambda: 10f64.to_radians(),
             split_epsilon: 0.05,
-            merge_chi2: 9.21,
+            merge_confidence: 0.99,
             min_points: 6,
             min_length: 0.3,
         }
@@ -93,8 +95,8 @@ impl ScanParams {
                 "in (0, pi/2) radians",
             );
         }
-        if !(self.merge_chi2.is_finite() && self.merge_chi2 >= 0.0) {
-            return bad("merge_chi2", self.merge_chi2, "finite and >= 0");
+        if !(self.merge_confidence > 0.0 && self.merge_confidence < 1.0) {
+            return bad("merge_confidence", self.merge_confidence, "in (0, 1)");
         }
         if self.min_points < 2 {
             return bad("min_points", self.min_points as f64, ">= 2");
@@ -283,12 +285,14 @@ impl LineExtractor {
             }
         }
         self.pieces.retain(|&(lo, hi, _)| hi - lo >= 2);
-        // Step 6: merge neighbours that agree, until none do.
+        // Step 6: merge neighbours that agree, until none do. The confidence was
+        // checked by `validate`, so the gate exists.
+        let gate = rperc_core::chi2_gate(2, self.params.merge_confidence).unwrap_or(f64::INFINITY);
         let mut k = 0;
         while k + 1 < self.pieces.len() {
             let (lo, _, f1) = self.pieces[k];
             let (_, hi, f2) = self.pieces[k + 1];
-            if same_line(&f1, &f2) < self.params.merge_chi2 {
+            if same_line(&f1, &f2) < gate {
                 let merged = self.fit(lo, hi);
                 self.pieces[k] = (lo, hi, merged);
                 self.pieces.remove(k + 1);
@@ -404,12 +408,6 @@ fn same_line(a: &LineFit, b: &LineFit) -> f64 {
     let d1 = Vector2::new(a.rho - b.rho, wrap_angle(a.alpha - b.alpha));
     let d2 = Vector2::new(a.rho + b.rho, wrap_angle(a.alpha - b.alpha - PI));
     d1.dot(&(inv * d1)).min(d2.dot(&(inv * d2)))
-}
-
-/// An angle in (-pi, pi].
-fn wrap_angle(a: f64) -> f64 {
-    let w = a.rem_euclid(2.0 * PI);
-    if w > PI { w - 2.0 * PI } else { w }
 }
 
 /// [`LineExtractor::extract`] for a single scan.

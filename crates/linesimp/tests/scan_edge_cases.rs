@@ -201,17 +201,17 @@ fn every_bad_parameter_is_refused_by_name() {
         ),
         (
             ScanParams {
-                merge_chi2: f64::NAN,
+                merge_confidence: f64::NAN,
                 ..ok
             },
-            "merge_chi2",
+            "merge_confidence",
         ),
         (
             ScanParams {
-                merge_chi2: -1.0,
+                merge_confidence: 1.0,
                 ..ok
             },
-            "merge_chi2",
+            "merge_confidence",
         ),
         (
             ScanParams {
@@ -295,7 +295,11 @@ fn a_single_wall_is_its_line_with_its_end_readings() {
     let reading = |k: usize| Point2::new(ranges[k] * angles[k].cos(), ranges[k] * angles[k].sin());
     assert!((w.start - reading(0)).norm() < 1e-12);
     assert!((w.end - reading(120)).norm() < 1e-12);
-    assert!(((w.end - w.start).norm() - w.length()).abs() < 1e-15);
+    // Closed form: the readings at bearings phi lie rho tan(phi - alpha) along the
+    // line from the foot of the normal, so the wall spans rho (tan(80 deg - alpha) -
+    // tan(20 deg - alpha)).
+    let span = rho * ((80f64.to_radians() - alpha).tan() - (20f64.to_radians() - alpha).tan());
+    assert!((w.length() - span).abs() < 1e-9, "{} vs {span}", w.length());
     // The covariance is positive definite when there is range noise.
     assert!(w.cov[(0, 0)] > 0.0 && w.cov.determinant() > 0.0);
 }

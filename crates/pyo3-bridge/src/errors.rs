@@ -1,11 +1,14 @@
 //! The one mapping from core-crate errors to Python exceptions.
 //!
-//! Bad values raise `ValueError`, wrong dtypes `TypeError` (both checked in
-//! [`crate::arrays`]), and everything else an `rperc.RpercError` subclass.
+//! The crates classify their own errors ([`rperc_core::ErrorClass`]); this module only
+//! turns each class into an exception: a bad argument is `ValueError` (or `TypeError`
+//! for a wrong type), a numerical failure `rperc.NumericalError`, an unreadable file
+//! `OSError`, and a caught panic `rperc.RpercError`.
 
-use pyo3::exceptions::{PyException, PyTypeError, PyValueError};
+use pyo3::exceptions::{PyException, PyOSError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::{PyErr, create_exception};
+use rperc_core::ErrorClass;
 
 create_exception!(
     _rperc,
@@ -29,6 +32,9 @@ pub enum Error {
     /// A wrong dtype or Python type.
     #[error("{0}")]
     Type(String),
+    /// From the shared core.
+    #[error(transparent)]
+    Core(#[from] rperc_core::CoreError),
     /// From the line-simplification crate.
     #[error(transparent)]
     LineSimp(#[from] linesimp::LineSimpError),
@@ -38,34 +44,60 @@ pub enum Error {
     /// From the tracking crate.
     #[error(transparent)]
     Tracking(#[from] tracking::TrackingError),
+    /// A Python exception raised while reading the arguments; re-raised as it is.
+    #[error("{0}")]
+    Python(#[from] PyErr),
     /// A Rust panic caught at the boundary: a bug, reported rather than crashing Python.
     #[error("internal error in rperc (please report it): {0}")]
     Panic(String),
 }
 
+impl Error {
+    fn class(&self) -> Option<ErrorClass> {
+        match self {
+            Error::Core(e) => Some(e.class()),
+            Error::LineSimp(e) => Some(e.class()),
+            Error::Slam(e) => Some(e.class()),
+            Error::Tracking(e) => Some(e.class()),
+            Error::Value(_) => Some(ErrorClass::InvalidInput),
+            Error::Type(_) | Error::Panic(_) | Error::Python(_) => None,
+        }
+    }
+}
+
 impl From<Error> for PyErr {
     fn from(err: Error) -> PyErr {
+        if let Error::Python(e) = err {
+            return e;
+        }
         let msg = err.to_string();
-        match err {
-            Error::Value(_) => PyValueError::new_err(msg),
-            Error::Type(_) => PyTypeError::new_err(msg),
-            // Every linesimp error is a bad input value.
-            Error::LineSimp(_) => PyValueError::new_err(msg),
-            Error::Slam(e) => match e {
-                slam::SlamError::SingularInnovation(_) => NumericalError::new_err(msg),
-                _ => PyValueError::new_err(msg),
-            },
-            Error::Tracking(e) => match e {
-                tracking::TrackingError::Io { .. } => RpercError::new_err(msg),
-                _ => PyValueError::new_err(msg),
-            },
-            Error::Panic(_) => RpercError::new_err(msg),
+        match (&err, err.class()) {
+            (Error::Type(_), _) => PyTypeError::new_err(msg),
+            (Error::Panic(_), _) => RpercError::new_err(msg),
+            (_, Some(ErrorClass::Numerical)) => NumericalError::new_err(msg),
+            (_, Some(ErrorClass::Io)) => PyOSError::new_err(msg),
+            _ => PyValueError::new_err(msg),
         }
     }
 }
 
 /// Result alias of the bridge.
 pub type Result<T> = std::result::Result<T, Error>;
+
+/// The message of a caught panic.
+fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".to_owned())
+}
+
+/// Runs `work` (with the GIL held) so that a panic becomes `RpercError`.
+pub fn guarded<T>(work: impl FnOnce() -> Result<T>) -> Result<T> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(work))
+        .unwrap_or_else(|payload| Err(Error::Panic(panic_message(payload))))
+}
 
 /// Runs heavy work with the GIL released, catching panics so none crosses into Python.
 /// Every bridge call that does real work goes through here.
@@ -74,17 +106,7 @@ where
     T: Send,
     F: FnOnce() -> Result<T> + Send,
 {
-    py.detach(|| {
-        std::panic::catch_unwind(std::panic::AssertUnwindSafe(work)).unwrap_or_else(|payload| {
-            let what = payload
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| payload.downcast_ref::<String>().cloned())
-                .unwrap_or_else(|| "unknown panic".to_owned());
-            Err(Error::Panic(what))
-        })
-    })
-    .map_err(PyErr::from)
+    py.detach(|| guarded(work)).map_err(PyErr::from)
 }
 
 #[cfg(test)]
@@ -109,6 +131,17 @@ mod tests {
                 ),
                 (
                     Error::Slam(slam::SlamError::Dimension("d".into())),
+                    py.get_type::<PyValueError>(),
+                ),
+                (
+                    Error::Tracking(tracking::TrackingError::Io {
+                        path: "f".into(),
+                        reason: "r".into(),
+                    }),
+                    py.get_type::<PyOSError>(),
+                ),
+                (
+                    Error::Core(rperc_core::CoreError::NonFinite("x")),
                     py.get_type::<PyValueError>(),
                 ),
             ];

@@ -6,6 +6,7 @@
 //! package `rperc`.
 
 mod arrays;
+mod config;
 mod errors;
 mod linesimp_py;
 mod parallel;
@@ -22,15 +23,18 @@ mod _rperc {
     #[pymodule_export]
     use crate::errors::RpercError;
     #[pymodule_export]
-    use crate::linesimp_py::{extract_lines, simplify_indices, simplify_many_indices};
+    use crate::linesimp_py::{
+        extract_lines, scan_params_defaults, simplify_indices, simplify_many_indices,
+    };
     #[pymodule_export]
     use crate::slam_py::{
-        PyEkf, information_spectrum, monobot_monte_carlo, monobot_observability_rank,
-        monobot_run_seed, monobot_simulate, monobot_summarize, nees_bounds,
+        PyEkf, information_spectrum, monobot_defaults, monobot_monte_carlo,
+        monobot_observability_rank, monobot_simulate, monobot_summarize, nees_bounds,
     };
     #[pymodule_export]
     use crate::tracking_py::{
         PyColorHistogramTracker, PyParticleColorTracker, effective_sample_size, resample,
+        tracker_defaults,
     };
 
     use super::*;

@@ -7,39 +7,12 @@ use pyo3::prelude::*;
 use crate::arrays::point_rows;
 use crate::errors::{Error, detached};
 
-fn parse_method(method: &str) -> Result<Method, Error> {
-    match method {
-        "hull" => Ok(Method::Hull),
-        "dp" => Ok(Method::Dp),
-        other => Err(Error::Value(format!(
-            "method must be 'hull' or 'dp', got '{other}'"
-        ))),
-    }
-}
-
-fn parse_metric(metric: &str) -> Result<Metric, Error> {
-    match metric {
-        "line" => Ok(Metric::Line),
-        "segment" => Ok(Metric::Segment),
-        other => Err(Error::Value(format!(
-            "metric must be 'line' or 'segment', got '{other}'"
-        ))),
-    }
-}
-
-fn parse_tie(tie: &str) -> Result<Tie, Error> {
-    match tie {
-        "first" => Ok(Tie::First),
-        "last" => Ok(Tie::Last),
-        other => Err(Error::Value(format!(
-            "tie must be 'first' or 'last', got '{other}'"
-        ))),
-    }
-}
-
-/// The configured simplifier for the string options Python passes.
+/// The configured simplifier for the option names Python passes.
 fn simplifier(method: &str, metric: &str, tie: &str) -> Result<Simplifier, Error> {
-    Ok(Simplifier::new(parse_method(method)?, parse_metric(metric)?).with_tie(parse_tie(tie)?))
+    Ok(
+        Simplifier::new(method.parse::<Method>()?, metric.parse::<Metric>()?)
+            .with_tie(tie.parse::<Tie>()?),
+    )
 }
 
 /// numpy's index type, so the result indexes arrays directly.
@@ -110,40 +83,19 @@ type WallArrays<'py> = (
     Bound<'py, PyArray1<isize>>,
 );
 
-/// Walls of one laser scan (GIL released).
+/// Walls of one laser scan (GIL released); `params` holds `ScanParams` fields.
 #[pyfunction]
-#[pyo3(signature = (
-    ranges, angles, *, min_range, max_range, sigma_range, sigma_bearing,
-    breakpoint_lambda, split_epsilon, merge_chi2, min_points, min_length
-))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (ranges, angles, params = None))]
 pub fn extract_lines<'py>(
     py: Python<'py>,
     ranges: &Bound<'py, PyAny>,
     angles: &Bound<'py, PyAny>,
-    min_range: f64,
-    max_range: f64,
-    sigma_range: f64,
-    sigma_bearing: f64,
-    breakpoint_lambda: f64,
-    split_epsilon: f64,
-    merge_chi2: f64,
-    min_points: usize,
-    min_length: f64,
+    params: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<WallArrays<'py>> {
     let ranges = crate::arrays::float_vector(ranges, "ranges")?;
     let angles = crate::arrays::float_vector(angles, "angles")?;
-    let params = linesimp::ScanParams {
-        min_range,
-        max_range,
-        sigma_range,
-        sigma_bearing,
-        breakpoint_lambda,
-        split_epsilon,
-        merge_chi2,
-        min_points,
-        min_length,
-    };
+    let params: linesimp::ScanParams = crate::config::from_python(params, "extract_lines")?;
+    params.validate().map_err(Error::from)?;
     let walls = detached(py, || {
         Ok(linesimp::extract_lines(&ranges, &angles, &params)?)
     })?;
@@ -182,4 +134,10 @@ pub fn extract_lines<'py>(
         indices.into_pyarray(py),
         offsets.into_pyarray(py),
     ))
+}
+
+/// The default wall-extraction parameters as a dict.
+#[pyfunction]
+pub fn scan_params_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
+    crate::config::defaults::<linesimp::ScanParams>(py)
 }

@@ -4,9 +4,9 @@ use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayDyn};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use slam::monobot::{self, MeasurementModel, MonobotConfig, Noise, RunErrors};
+use slam::monobot::{self, MeasurementModel, MonobotConfig, RunErrors};
 
-use crate::arrays::{float_vector, matrix, shaped, to_numpy};
+use crate::arrays::{float_vector, matrix, shaped, tensor, to_numpy};
 use crate::errors::{Error, detached};
 
 fn vector(obj: &Bound<'_, PyAny>, name: &str) -> Result<DVector<f64>, Error> {
@@ -15,6 +15,13 @@ fn vector(obj: &Bound<'_, PyAny>, name: &str) -> Result<DVector<f64>, Error> {
 
 /// `(S, K, nis)` of one update.
 type UpdateArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>, f64);
+/// `(innovation, S, K, nis)` of a range-bearing update.
+type RangeBearingUpdate<'py> = (
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    f64,
+);
 /// Eigenvalues, eigenvectors and rank.
 type Spectrum<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray2<f64>>, usize);
 
@@ -27,15 +34,20 @@ pub struct PyEkf {
 #[pymethods]
 impl PyEkf {
     #[new]
-    #[pyo3(signature = (x, p, robot_dim, landmark_dim))]
+    #[pyo3(signature = (state, covariance, robot_dim, landmark_dim))]
     fn new(
-        x: &Bound<'_, PyAny>,
-        p: &Bound<'_, PyAny>,
+        state: &Bound<'_, PyAny>,
+        covariance: &Bound<'_, PyAny>,
         robot_dim: usize,
         landmark_dim: usize,
     ) -> PyResult<Self> {
-        let inner = slam::Ekf::new(vector(x, "x")?, matrix(p, "p")?, robot_dim, landmark_dim)
-            .map_err(Error::from)?;
+        let inner = slam::Ekf::new(
+            vector(state, "state")?,
+            matrix(covariance, "covariance")?,
+            robot_dim,
+            landmark_dim,
+        )
+        .map_err(Error::from)?;
         Ok(Self { inner })
     }
 
@@ -43,6 +55,13 @@ impl PyEkf {
     #[getter]
     fn state<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
         self.inner.state().as_slice().to_vec().into_pyarray(py)
+    }
+
+    /// Replaces the state estimate (same size, finite); the covariance is kept.
+    #[setter]
+    fn set_state(&mut self, state: &Bound<'_, PyAny>) -> PyResult<()> {
+        let x = vector(state, "state")?;
+        Ok(self.inner.set_state(x).map_err(Error::from)?)
     }
 
     /// The state covariance (a copy).
@@ -106,18 +125,22 @@ impl PyEkf {
         }
         let ekf = &mut self.inner;
         let up = detached(py, || Ok(ekf.update(&nu, &h, &r)?))?;
-        Ok((to_numpy(py, &up.s), to_numpy(py, &up.gain), up.nis))
+        Ok((
+            to_numpy(py, &up.innovation_cov),
+            to_numpy(py, &up.gain),
+            up.nis,
+        ))
     }
 
     /// Range-bearing update of landmark `j` (planar robot, point landmarks); returns
-    /// the normalised innovation squared.
-    fn update_range_bearing(
+    /// `(innovation, S, K, nis)`.
+    fn update_range_bearing<'py>(
         &mut self,
-        py: Python<'_>,
+        py: Python<'py>,
         j: usize,
-        z: &Bound<'_, PyAny>,
-        r: &Bound<'_, PyAny>,
-    ) -> PyResult<f64> {
+        z: &Bound<'py, PyAny>,
+        r: &Bound<'py, PyAny>,
+    ) -> PyResult<RangeBearingUpdate<'py>> {
         let (z, r) = (vector(z, "z")?, matrix(r, "R")?);
         if z.len() != 2 || r.shape() != (2, 2) {
             return Err(Error::Value("z must have 2 entries and R be 2x2".into()).into());
@@ -127,7 +150,13 @@ impl PyEkf {
             Matrix2::from_iterator(r.iter().copied()),
         );
         let ekf = &mut self.inner;
-        Ok(detached(py, || Ok(ekf.update_range_bearing(j, &z, &r)?))?.nis)
+        let up = detached(py, || Ok(ekf.update_range_bearing(j, &z, &r)?))?;
+        Ok((
+            up.innovation.as_slice().to_vec().into_pyarray(py),
+            to_numpy(py, &up.innovation_cov),
+            to_numpy(py, &up.gain),
+            up.nis,
+        ))
     }
 
     /// Adds a landmark from the inverse observation model; returns its index.
@@ -182,80 +211,35 @@ impl PyEkf {
 }
 
 fn parse_model(model: &str) -> Result<MeasurementModel, Error> {
-    match model {
-        "relative" => Ok(MeasurementModel::Relative),
-        "anchor" => Ok(MeasurementModel::Anchor),
-        "external" => Ok(MeasurementModel::External),
-        other => Err(Error::Value(format!(
-            "model must be 'relative', 'anchor' or 'external', got '{other}'"
-        ))),
-    }
+    Ok(model.parse()?)
 }
 
-fn parse_noise(kind: &str, value: f64, name: &str) -> Result<Noise, Error> {
-    match kind {
-        "constant" => Ok(Noise::Constant(value)),
-        "proportional" => Ok(Noise::Proportional(value)),
-        other => Err(Error::Value(format!(
-            "{name} must be 'constant' or 'proportional', got '{other}'"
-        ))),
-    }
+/// The monobot configuration from a dict of `MonobotConfig` fields, validated.
+fn monobot_config(config: Option<&Bound<'_, PyAny>>) -> Result<MonobotConfig, Error> {
+    let config: MonobotConfig = crate::config::from_python(config, "monobot")?;
+    config.validate()?;
+    Ok(config)
 }
 
-/// The monobot configuration, read from the dict `MonobotConfig.kwargs()` builds.
-#[derive(FromPyObject)]
-#[pyo3(from_item_all)]
-pub struct ConfigArgs {
-    landmarks: usize,
-    steps: usize,
-    start: f64,
-    amplitude: f64,
-    landmark_position: f64,
-    initial_variance: f64,
-    plant_noise: (String, f64),
-    measurement_noise: (String, f64),
-    reference_noise: (String, f64),
-    noise_floor: f64,
-}
-
-impl ConfigArgs {
-    fn config(&self) -> Result<MonobotConfig, Error> {
-        let config = MonobotConfig {
-            landmarks: self.landmarks,
-            steps: self.steps,
-            start: self.start,
-            amplitude: self.amplitude,
-            landmark_position: self.landmark_position,
-            initial_variance: self.initial_variance,
-            plant_noise: parse_noise(&self.plant_noise.0, self.plant_noise.1, "plant_noise")?,
-            measurement_noise: parse_noise(
-                &self.measurement_noise.0,
-                self.measurement_noise.1,
-                "measurement_noise",
-            )?,
-            reference_noise: parse_noise(
-                &self.reference_noise.0,
-                self.reference_noise.1,
-                "reference_noise",
-            )?,
-            noise_floor: self.noise_floor,
-        };
-        config.validate()?;
-        Ok(config)
-    }
-}
-
-/// One monobot run as a dict of arrays (GIL released).
+/// The default monobot configuration as a dict.
 #[pyfunction]
+pub fn monobot_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
+    crate::config::defaults::<MonobotConfig>(py)
+}
+
+/// Run `run` of the experiment seeded with `seed`, as a dict of arrays (GIL released).
+#[pyfunction]
+#[pyo3(signature = (model, seed, run = 0, config = None))]
 pub fn monobot_simulate<'py>(
     py: Python<'py>,
     model: &str,
     seed: u64,
-    config: ConfigArgs,
+    run: usize,
+    config: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let model = parse_model(model)?;
-    let cfg = config.config()?;
-    let run = detached(py, || Ok(monobot::simulate(&cfg, model, seed)?))?;
+    let cfg = monobot_config(config)?;
+    let run = detached(py, || Ok(monobot::simulate_run(&cfg, model, seed, run)?))?;
     let (d, p, k) = (run.dim, run.obs_dim, run.steps);
     let out = PyDict::new(py);
     out.set_item("truth", shaped(py, run.truth, &[k + 1, d])?)?;
@@ -292,17 +276,18 @@ type Stacked<'py> = (
 
 /// The errors of `runs` Monte Carlo runs on all cores (GIL released): NEES
 /// (runs, steps+1), robot error (runs, steps+1), landmark errors (runs, steps+1, n)
-/// and first-observation errors (runs, n). Run `i` is seeded by `run_seed(seed, i)`.
+/// and first-observation errors (runs, n). Run `i` draws from stream `i` of `seed`.
 #[pyfunction]
+#[pyo3(signature = (model, runs, seed, config = None))]
 pub fn monobot_monte_carlo<'py>(
     py: Python<'py>,
     model: &str,
     runs: usize,
     seed: u64,
-    config: ConfigArgs,
+    config: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Stacked<'py>> {
     let model = parse_model(model)?;
-    let cfg = config.config()?;
+    let cfg = monobot_config(config)?;
     let landmarks = cfg.landmarks;
     let steps = cfg.steps;
     let errors = detached(py, || {
@@ -346,11 +331,8 @@ pub fn monobot_summarize<'py>(
     let first = matrix(first_observation_error, "first_observation_error")?;
     let (runs, len) = nees.shape();
     let n = first.ncols();
-    let lm_flat = landmark_error
-        .call_method1("reshape", ((runs * len * n) as isize,))
-        .map_err(|e| Error::Value(format!("landmark_error: {e}")))?;
-    let lm = float_vector(&lm_flat, "landmark_error")?;
-    if robot.shape() != (runs, len) || first.nrows() != runs || lm.len() != runs * len * n {
+    let (lm_shape, lm) = tensor(landmark_error, "landmark_error", 3)?;
+    if robot.shape() != (runs, len) || first.nrows() != runs || lm_shape != [runs, len, n] {
         return Err(Error::Value("run error arrays have inconsistent shapes".into()).into());
     }
     let per_run: Vec<RunErrors> = (0..runs)
@@ -388,12 +370,6 @@ pub fn monobot_summarize<'py>(
     Ok(out)
 }
 
-/// The seed of run `run` of a Monte Carlo seeded with `seed`.
-#[pyfunction]
-pub fn monobot_run_seed(seed: u64, run: usize) -> u64 {
-    monobot::run_seed(seed, run)
-}
-
 /// Rank of the monobot's observability matrix.
 #[pyfunction]
 pub fn monobot_observability_rank(model: &str, landmarks: usize) -> PyResult<usize> {
@@ -419,5 +395,5 @@ pub fn information_spectrum<'py>(
 /// The band of the run-averaged NEES.
 #[pyfunction]
 pub fn nees_bounds(dof: usize, runs: usize, confidence: f64) -> PyResult<(f64, f64)> {
-    Ok(slam::nees_bounds(dof, runs, confidence).map_err(Error::from)?)
+    Ok(rperc_core::nees_band(dof, runs, confidence).map_err(Error::from)?)
 }

@@ -6,11 +6,8 @@ use numpy::{
     PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
-use rand::SeedableRng;
 use tracking::{
-    AppearanceParams, BoundingBox, ColorSpace, ColorTrackerParams, FilterParams, ModelKind,
-    ParticleTrackerParams, ResamplePolicy, Resampler, RgbFrame, TrackResult,
+    BoundingBox, ColorTrackerParams, ParticleTrackerParams, Resampler, RgbFrame, TrackResult,
 };
 
 use crate::errors::{Error, detached};
@@ -71,13 +68,18 @@ fn frame<'py>(obj: &Bound<'py, PyAny>) -> Result<Frame<'py>, Error> {
     })
 }
 
-fn bbox(b: (f64, f64, f64, f64)) -> BoundingBox {
-    BoundingBox {
-        x: b.0,
-        y: b.1,
-        w: b.2,
-        h: b.3,
-    }
+/// A box `(x, y, w, h)` from any sequence of four numbers (tuple, list, ndarray).
+fn bbox(obj: &Bound<'_, PyAny>) -> Result<BoundingBox, Error> {
+    let v: Vec<f64> = obj
+        .extract()
+        .map_err(|_| Error::Type("box must be a sequence of 4 numbers (x, y, w, h)".into()))?;
+    let [x, y, w, h] = v[..] else {
+        return Err(Error::Value(format!(
+            "box must have 4 numbers (x, y, w, h), got {}",
+            v.len()
+        )));
+    };
+    Ok(BoundingBox { x, y, w, h })
 }
 
 type Answer = ((f64, f64, f64, f64), f64, bool);
@@ -85,100 +87,6 @@ type Answer = ((f64, f64, f64, f64), f64, bool);
 fn answer(r: TrackResult) -> Answer {
     let [x, y, w, h] = r.bbox.to_array();
     ((x, y, w, h), r.score, r.lost)
-}
-
-/// Keyword parameters, consumed one by one so that a misspelt one is an error.
-struct Params<'py> {
-    dict: Option<Bound<'py, PyDict>>,
-}
-
-impl<'py> Params<'py> {
-    /// Owns a copy of the caller's keyword dict, so consuming it changes nothing outside.
-    fn new(params: Option<Bound<'py, PyDict>>) -> PyResult<Self> {
-        Ok(Self {
-            dict: params.map(|d| d.copy()).transpose()?,
-        })
-    }
-
-    /// Overwrites `slot` when the parameter was given.
-    fn set<T: for<'a> FromPyObject<'a, 'py>>(&self, name: &str, slot: &mut T) -> Result<(), Error> {
-        if let Some(v) = self.take(name)? {
-            *slot = v;
-        }
-        Ok(())
-    }
-
-    fn take<T: for<'a> FromPyObject<'a, 'py>>(&self, name: &str) -> Result<Option<T>, Error> {
-        let Some(dict) = &self.dict else {
-            return Ok(None);
-        };
-        match dict
-            .get_item(name)
-            .map_err(|e| Error::Value(e.to_string()))?
-        {
-            None => Ok(None),
-            Some(v) => {
-                dict.del_item(name)
-                    .map_err(|e| Error::Value(e.to_string()))?;
-                v.extract::<T>()
-                    .map(Some)
-                    .map_err(|_| Error::Type(format!("parameter '{name}' has the wrong type")))
-            }
-        }
-    }
-
-    fn finish(self) -> Result<(), Error> {
-        match self.dict {
-            Some(d) if !d.is_empty() => Err(Error::Type(format!(
-                "unknown parameter(s): {}",
-                d.keys()
-                    .iter()
-                    .map(|k| k.to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ))),
-            _ => Ok(()),
-        }
-    }
-
-    fn appearance(&self) -> Result<AppearanceParams, Error> {
-        let mut a = AppearanceParams::default();
-        if let Some(space) = self.take::<String>("color_space")? {
-            a.color_space = match space.as_str() {
-                "rgb" => ColorSpace::Rgb,
-                "opponent" => ColorSpace::Opponent,
-                "rg" => ColorSpace::NormalizedRg,
-                "hsv" => ColorSpace::Hsv,
-                other => {
-                    return Err(Error::Value(format!(
-                        "color_space must be 'rgb', 'opponent', 'rg' or 'hsv', got '{other}'"
-                    )));
-                }
-            };
-        }
-        if let Some(bins) = self.take::<(usize, usize, usize)>("bins")? {
-            a.bins = [bins.0, bins.1, bins.2];
-        }
-        let upper = self.take::<f64>("upper_fraction")?;
-        match self.take::<String>("model")?.as_deref() {
-            None | Some("bimodal") => {
-                if let Some(f) = upper {
-                    a.model = ModelKind::Bimodal { upper_fraction: f };
-                }
-            }
-            Some("single") => a.model = ModelKind::Single,
-            Some(other) => {
-                return Err(Error::Value(format!(
-                    "model must be 'single' or 'bimodal', got '{other}'"
-                )));
-            }
-        }
-        self.set("adaptation_rate", &mut a.adaptation_rate)?;
-        self.set("adaptation_threshold", &mut a.adaptation_threshold)?;
-        self.set("gradient_weight", &mut a.gradient_weight)?;
-        self.set("lost_threshold", &mut a.lost_threshold)?;
-        Ok(a)
-    }
 }
 
 /// Birchfield's colour-histogram tracker with local search over position and scale.
@@ -189,30 +97,22 @@ pub struct PyColorHistogramTracker {
 
 #[pymethods]
 impl PyColorHistogramTracker {
+    /// `config` holds `ColorTrackerParams` fields (`appearance` nested).
     #[new]
-    #[pyo3(signature = (frame, r#box, **params))]
+    #[pyo3(signature = (frame, bbox, config = None))]
     fn new(
         py: Python<'_>,
         frame: &Bound<'_, PyAny>,
-        r#box: (f64, f64, f64, f64),
-        params: Option<Bound<'_, PyDict>>,
+        bbox: &Bound<'_, PyAny>,
+        config: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let p = Params::new(params)?;
-        let mut tp = ColorTrackerParams {
-            appearance: p.appearance()?,
-            ..ColorTrackerParams::default()
-        };
-        p.set("search_radius", &mut tp.search_radius)?;
-        p.set("scale_step", &mut tp.scale_step)?;
-        p.set("min_scale", &mut tp.min_scale)?;
-        p.set("max_scale", &mut tp.max_scale)?;
-        p.set("momentum", &mut tp.momentum)?;
-        p.set("parallel", &mut tp.parallel)?;
-        p.finish()?;
+        let params: ColorTrackerParams =
+            crate::config::from_python(config, "ColorHistogramTracker")?;
+        let b = self::bbox(bbox)?;
         let f = frame_arg(frame)?;
         let view = f.view()?;
         let inner = detached(py, || {
-            Ok(tracking::ColorHistogramTracker::new(view, bbox(r#box), tp)?)
+            Ok(tracking::ColorHistogramTracker::new(view, b, params)?)
         })?;
         Ok(Self { inner })
     }
@@ -238,37 +138,23 @@ pub struct PyParticleColorTracker {
 
 #[pymethods]
 impl PyParticleColorTracker {
+    /// `config` holds `ParticleTrackerParams` fields (`appearance`, `filter` nested).
     #[new]
-    #[pyo3(signature = (frame, r#box, seed = 0, **params))]
+    #[pyo3(signature = (frame, bbox, seed = 0, config = None))]
     fn new(
         py: Python<'_>,
         frame: &Bound<'_, PyAny>,
-        r#box: (f64, f64, f64, f64),
+        bbox: &Bound<'_, PyAny>,
         seed: u64,
-        params: Option<Bound<'_, PyDict>>,
+        config: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let p = Params::new(params)?;
-        let mut tp = ParticleTrackerParams {
-            appearance: p.appearance()?,
-            ..ParticleTrackerParams::default()
-        };
-        p.set("n_particles", &mut tp.n_particles)?;
-        p.set("position_noise", &mut tp.position_noise)?;
-        p.set("scale_noise", &mut tp.scale_noise)?;
-        p.set("sigma", &mut tp.sigma)?;
-        p.set("min_scale", &mut tp.min_scale)?;
-        p.set("max_scale", &mut tp.max_scale)?;
-        tp.filter = filter_params(&p, tp.filter)?;
-        p.finish()?;
+        let params: ParticleTrackerParams =
+            crate::config::from_python(config, "ParticleColorTracker")?;
+        let b = self::bbox(bbox)?;
         let f = frame_arg(frame)?;
         let view = f.view()?;
         let inner = detached(py, || {
-            Ok(tracking::ParticleColorTracker::new(
-                view,
-                bbox(r#box),
-                tp,
-                seed,
-            )?)
+            Ok(tracking::ParticleColorTracker::new(view, b, params, seed)?)
         })?;
         Ok(Self { inner })
     }
@@ -300,31 +186,7 @@ where
     Ok(answer(detached(py, || Ok(step(view)?))?))
 }
 
-fn resampler(name: &str) -> Result<Resampler, Error> {
-    match name {
-        "multinomial" => Ok(Resampler::Multinomial),
-        "systematic" => Ok(Resampler::Systematic),
-        "stratified" => Ok(Resampler::Stratified),
-        "residual" => Ok(Resampler::Residual),
-        other => Err(Error::Value(format!(
-            "resampler must be 'multinomial', 'systematic', 'stratified' or 'residual', got '{other}'"
-        ))),
-    }
-}
-
-fn filter_params(p: &Params<'_>, mut f: FilterParams) -> Result<FilterParams, Error> {
-    if let Some(name) = p.take::<String>("resampler")? {
-        f.resampler = resampler(&name)?;
-    }
-    if let Some(fraction) = p.take::<f64>("resample_below")? {
-        f.policy = ResamplePolicy::BelowEss(fraction);
-    }
-    p.set("chunk_size", &mut f.chunk_size)?;
-    p.set("parallel", &mut f.parallel)?;
-    Ok(f)
-}
-
-/// Indices of `n` particles drawn from `weights` by `method`, seeded.
+/// Indices of `n` particles drawn from `weights` by `method`, seeded (GIL released).
 #[pyfunction]
 #[pyo3(signature = (weights, n, method = "systematic", seed = 0))]
 pub fn resample<'py>(
@@ -335,20 +197,28 @@ pub fn resample<'py>(
     seed: u64,
 ) -> PyResult<Bound<'py, PyArray1<isize>>> {
     let w = crate::arrays::float_vector(weights, "weights")?;
-    let method = resampler(method)?;
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    let mut out = Vec::new();
-    method
-        .resample(&w, n, &mut rng, &mut out)
-        .map_err(Error::from)?;
-    let out: Vec<isize> = out.into_iter().map(|k| k as isize).collect();
+    let method: Resampler = method.parse().map_err(Error::from)?;
+    let out = detached(py, || {
+        let mut rng = rperc_core::rng::seeded(seed);
+        let mut out = Vec::new();
+        method.resample(&w, n, &mut rng, &mut out)?;
+        Ok(out.into_iter().map(|k| k as isize).collect::<Vec<_>>())
+    })?;
     Ok(out.into_pyarray(py))
 }
 
-/// Effective sample size `1 / sum(w^2)` of normalised weights.
+/// Effective sample size `(sum w)^2 / sum(w^2)` of non-negative weights.
 #[pyfunction]
 pub fn effective_sample_size(weights: &Bound<'_, PyAny>) -> PyResult<f64> {
-    Ok(tracking::effective_sample_size(
-        &crate::arrays::float_vector(weights, "weights")?,
+    let w = crate::arrays::float_vector(weights, "weights")?;
+    Ok(tracking::effective_sample_size(&w).map_err(Error::from)?)
+}
+
+/// Default tracker configs as dicts: `(colour, particle)`.
+#[pyfunction]
+pub fn tracker_defaults(py: Python<'_>) -> PyResult<(Bound<'_, PyAny>, Bound<'_, PyAny>)> {
+    Ok((
+        crate::config::defaults::<ColorTrackerParams>(py)?,
+        crate::config::defaults::<ParticleTrackerParams>(py)?,
     ))
 }

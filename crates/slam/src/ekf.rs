@@ -13,8 +13,9 @@
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
+use rperc_core::{Definiteness, check_covariance};
+
 use crate::error::{Result, SlamError, ensure_finite};
-use crate::gaussian::ensure_noise_covariance;
 
 /// One dense block of a sparse observation Jacobian `H`: rows `row..row + h.nrows()`
 /// and columns `col..col + h.ncols()` of `H` equal `h`; everything else is zero.
@@ -88,7 +89,7 @@ pub struct Update {
     /// The innovation `z - h(x)` it used.
     pub innovation: DVector<f64>,
     /// Innovation covariance `S = H P H^T + R`, eq. (8).
-    pub s: DMatrix<f64>,
+    pub innovation_cov: DMatrix<f64>,
     /// Kalman gain `K = P H^T S^-1`, eq. (7), `d x p`.
     pub gain: DMatrix<f64>,
     /// Normalised innovation squared `nu^T S^-1 nu`.
@@ -99,8 +100,16 @@ pub struct Update {
 /// than they save.
 const PARALLEL_MIN_DIM: usize = 384;
 
+/// Refuses a noise covariance (`V`, `R`) that is not symmetric positive
+/// semi-definite: a negative variance would make `P` indefinite without any error
+/// further down. Zero noise is allowed.
+fn check_noise(name: &'static str, c: &DMatrix<f64>) -> Result<()> {
+    Ok(check_covariance(name, c, Definiteness::SemiPositive)?)
+}
+
 /// An extended Kalman filter over a robot block of size `robot_dim` followed by
-/// landmark blocks of size `landmark_dim`.
+/// landmark blocks of size `landmark_dim`. The state covariance is `P` in the seed's
+/// equations and `covariance` in the API.
 ///
 /// # Examples
 /// ```
@@ -115,54 +124,50 @@ const PARALLEL_MIN_DIM: usize = 384;
 ///     .with_block(0, 0, DMatrix::from_element(1, 1, -1.0))
 ///     .with_block(0, 1, DMatrix::from_element(1, 1, 1.0));
 /// let up = ekf.update(&DVector::from_vec(vec![0.5]), &h, &DMatrix::identity(1, 1)).unwrap();
-/// assert!((up.s[(0, 0)] - 6.0).abs() < 1e-12); // 1 + 4 + 1
+/// assert!((up.innovation_cov[(0, 0)] - 6.0).abs() < 1e-12); // 1 + 4 + 1
 /// assert!((ekf.state()[1] - (2.0 + 4.0 / 6.0 * 0.5)).abs() < 1e-12);
 /// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct Ekf {
     x: DVector<f64>,
-    p: DMatrix<f64>,
+    /// `P`: only the upper triangle (with the diagonal) is kept current.
+    cov: DMatrix<f64>,
     robot_dim: usize,
     landmark_dim: usize,
 }
 
 impl Ekf {
-    /// A filter with state `x` and covariance `p`: a robot block of `robot_dim`
-    /// entries, then landmark blocks of `landmark_dim` entries each.
+    /// A filter with state `x` and covariance `covariance` (symmetric positive
+    /// semi-definite: a zero block is a perfectly known start): a robot block of
+    /// `robot_dim` entries, then landmark blocks of `landmark_dim` entries each.
     pub fn new(
         x: DVector<f64>,
-        p: DMatrix<f64>,
+        covariance: DMatrix<f64>,
         robot_dim: usize,
         landmark_dim: usize,
     ) -> Result<Self> {
         let d = x.len();
-        if p.nrows() != d || p.ncols() != d {
+        if covariance.nrows() != d || covariance.ncols() != d {
             return Err(SlamError::Dimension(format!(
                 "state has {d} entries but covariance is {}x{}",
-                p.nrows(),
-                p.ncols()
+                covariance.nrows(),
+                covariance.ncols()
             )));
         }
         if robot_dim == 0
             || landmark_dim == 0
             || d < robot_dim
-            || (d - robot_dim) % landmark_dim != 0
+            || !(d - robot_dim).is_multiple_of(landmark_dim)
         {
             return Err(SlamError::Dimension(format!(
                 "a state of {d} entries is not a robot block of {robot_dim} plus blocks of {landmark_dim}"
             )));
         }
         ensure_finite("state", x.iter())?;
-        ensure_finite("covariance", p.iter())?;
-        if crate::gaussian::asymmetry(&p) > 1e-9 {
-            return Err(SlamError::InvalidParameter {
-                name: "p",
-                reason: "the covariance must be symmetric".into(),
-            });
-        }
+        check_covariance("covariance", &covariance, Definiteness::SemiPositive)?;
         Ok(Self {
             x,
-            p,
+            cov: covariance,
             robot_dim,
             landmark_dim,
         })
@@ -173,38 +178,47 @@ impl Ekf {
         &self.x
     }
 
-    /// The state covariance (the full symmetric matrix, built from the stored upper
-    /// triangle: O(n^2)).
+    /// Replaces the state estimate (same size, every entry finite); the covariance is
+    /// kept. For resetting a filter or moving it to a new frame.
+    pub fn set_state(&mut self, x: DVector<f64>) -> Result<()> {
+        if x.len() != self.x.len() {
+            return Err(SlamError::Dimension(format!(
+                "state has {} entries, got {}",
+                self.x.len(),
+                x.len()
+            )));
+        }
+        ensure_finite("state", x.iter())?;
+        self.x = x;
+        Ok(())
+    }
+
+    /// The state covariance `P` (the full symmetric matrix, built from the stored
+    /// upper triangle: O(n^2)).
     pub fn covariance(&self) -> DMatrix<f64> {
-        let mut full = self.p.clone();
+        let mut full = self.cov.clone();
         full.fill_lower_triangle_with_upper_triangle();
         full
     }
 
-    /// Column `c` of the covariance: the stored part above the diagonal, and row `c`
-    /// of the upper triangle below it.
+    /// Entry `(i, j)` of `P` read from the stored upper triangle.
+    #[inline]
+    fn cov_at(&self, i: usize, j: usize) -> f64 {
+        if i <= j {
+            self.cov[(i, j)]
+        } else {
+            self.cov[(j, i)]
+        }
+    }
+
+    /// Column `c` of `P`.
     fn covariance_column(&self, c: usize) -> DVector<f64> {
-        let d = self.p.nrows();
-        DVector::from_fn(d, |i, _| {
-            if i <= c {
-                self.p[(i, c)]
-            } else {
-                self.p[(c, i)]
-            }
-        })
+        DVector::from_fn(self.cov.nrows(), |i, _| self.cov_at(i, c))
     }
 
     /// The robot rows `P[0..r, :]` in full.
     fn robot_rows(&self) -> DMatrix<f64> {
-        let r = self.robot_dim;
-        let d = self.p.nrows();
-        DMatrix::from_fn(r, d, |i, j| {
-            if i <= j {
-                self.p[(i, j)]
-            } else {
-                self.p[(j, i)]
-            }
-        })
+        DMatrix::from_fn(self.robot_dim, self.cov.nrows(), |i, j| self.cov_at(i, j))
     }
 
     /// Size of the robot block.
@@ -261,7 +275,7 @@ impl Ekf {
         ensure_finite("robot mean", robot_mean.iter())?;
         ensure_finite("Fx", fx.iter())?;
         ensure_finite("Fv", fv.iter())?;
-        ensure_noise_covariance("V", v)?;
+        check_noise("V", v)?;
         let d = self.x.len();
         let rows = self.robot_rows();
         let prr = rows.columns(0, r);
@@ -269,88 +283,70 @@ impl Ekf {
         if d > r {
             // Rows 0..r of the landmark columns lie in the upper triangle.
             let cross = fx * rows.columns(r, d - r);
-            self.p.view_mut((0, r), (r, d - r)).copy_from(&cross);
+            self.cov.view_mut((0, r), (r, d - r)).copy_from(&cross);
         }
-        self.p
+        self.cov
             .view_mut((0, 0), (r, r))
             .copy_from(&((&new_rr + new_rr.transpose()) * 0.5));
         self.x.rows_mut(0, r).copy_from(robot_mean);
         Ok(())
     }
 
-    /// Measurement update, eqs. (6) to (9), with the Joseph form in O(n^2 p) for a
-    /// sparse `H`. On error (sizes, NaN, a singular `S`) the state is unchanged.
+    /// `L = P H^T` (d x m), touching only the columns of `P` that `H`'s blocks select.
+    fn cross_covariance(&self, h: &SparseJacobian) -> DMatrix<f64> {
+        let mut l = DMatrix::<f64>::zeros(self.x.len(), h.rows);
+        for b in &h.blocks {
+            for c in 0..b.h.ncols() {
+                let column = self.covariance_column(b.col + c);
+                for a in 0..b.h.nrows() {
+                    let coeff = b.h[(a, c)];
+                    if coeff != 0.0 {
+                        l.column_mut(b.row + a).axpy(coeff, &column, 1.0);
+                    }
+                }
+            }
+        }
+        l
+    }
+
+    /// Measurement update, eqs. (6) to (9), with the Joseph form in O(n^2 m) for a
+    /// sparse `H` of `m` rows. On error (sizes, NaN, a singular `S`) the state is
+    /// unchanged.
     pub fn update(
         &mut self,
         innovation: &DVector<f64>,
         h: &SparseJacobian,
         r: &DMatrix<f64>,
     ) -> Result<Update> {
-        let d = self.x.len();
-        let p = h.rows;
-        if innovation.len() != p || r.shape() != (p, p) || p == 0 {
+        let m = h.rows;
+        if innovation.len() != m || r.shape() != (m, m) || m == 0 {
             return Err(SlamError::Dimension(format!(
-                "update needs an innovation of {p} > 0 entries and R {p}x{p}; got {} and {:?}",
+                "update needs an innovation of {m} > 0 entries and R {m}x{m}; got {} and {:?}",
                 innovation.len(),
                 r.shape()
             )));
         }
-        h.validate(d)?;
+        h.validate(self.x.len())?;
         ensure_finite("innovation", innovation.iter())?;
-        ensure_noise_covariance("R", r)?;
-
-        // L = P H^T, touching only the columns of P that H's blocks select.
-        let mut l = DMatrix::<f64>::zeros(d, p);
-        for b in &h.blocks {
-            for c in 0..b.h.ncols() {
-                let pcol = self.covariance_column(b.col + c);
-                for a in 0..b.h.nrows() {
-                    let coeff = b.h[(a, c)];
-                    if coeff != 0.0 {
-                        l.column_mut(b.row + a).axpy(coeff, &pcol, 1.0);
-                    }
-                }
-            }
-        }
-        // S = H L + R, eq. (8).
-        let mut s = r.clone();
-        for b in &h.blocks {
-            for a in 0..b.h.nrows() {
-                for c in 0..b.h.ncols() {
-                    let coeff = b.h[(a, c)];
-                    if coeff != 0.0 {
-                        for k in 0..p {
-                            s[(b.row + a, k)] += coeff * l[(b.col + c, k)];
-                        }
-                    }
-                }
-            }
-        }
-        let s = (&s + s.transpose()) * 0.5;
-        if !s.iter().all(|v| v.is_finite()) {
-            return Err(SlamError::SingularInnovation("S is not finite".into()));
-        }
-        let chol = s.clone().cholesky().ok_or_else(|| {
-            SlamError::SingularInnovation(format!("S = {s:.3e} has no Cholesky factor"))
-        })?;
-        // K = L S^-1, eq. (7), from S K^T = L^T.
-        let gain = chol.solve(&l.transpose()).transpose();
+        check_noise("R", r)?;
+        let l = self.cross_covariance(h);
+        let s = innovation_covariance(h, &l, r);
+        let (gain, nis) = gain_and_nis(&s, &l, innovation)?;
         let dx = &gain * innovation;
-        if !gain.iter().chain(dx.iter()).all(|v| v.is_finite()) {
+        if !dx.iter().all(|v| v.is_finite()) {
             return Err(SlamError::SingularInnovation(
-                "the gain is not finite (S is numerically singular)".into(),
+                "the state correction is not finite".into(),
             ));
         }
-        let nis = innovation.dot(&chol.solve(innovation));
         // Joseph form, eq. (9), expanded for the sparse H:
         // (I - K H) P (I - K H)^T + K R K^T = P - K L^T - L K^T + K S K^T
         //                                   = P - K L^T + (K S - L) K^T.
-        let m = &gain * &s - &l;
-        joseph_columns(&mut self.p, &gain, &l, &m);
+        let ks_minus_l = &gain * &s - &l;
+        joseph_columns(&mut self.cov, &gain, &l, &ks_minus_l);
         self.x += dx;
         Ok(Update {
             innovation: innovation.clone(),
-            s,
+            innovation_cov: s,
             gain,
             nis,
         })
@@ -429,24 +425,65 @@ impl Ekf {
         ] {
             ensure_finite(what, values.iter())?;
         }
-        ensure_noise_covariance("R", r)?;
+        check_noise("R", r)?;
         let d = self.x.len();
         let rows = self.robot_rows();
         let cross = g_robot * &rows; // m x d
         let prr = rows.columns(0, rd);
         let pll = g_robot * prr * g_robot.transpose() + g_z * r * g_z.transpose();
         let pll = (&pll + pll.transpose()) * 0.5;
-        let old = std::mem::replace(&mut self.p, DMatrix::zeros(0, 0));
-        let mut p = old.resize(d + m, d + m, 0.0);
+        let old = std::mem::replace(&mut self.cov, DMatrix::zeros(0, 0));
+        let mut cov = old.resize(d + m, d + m, 0.0);
         // The new columns' upper part; the block below the diagonal is never read.
-        p.view_mut((0, d), (d, m)).copy_from(&cross.transpose());
-        p.view_mut((d, d), (m, m)).copy_from(&pll);
-        self.p = p;
+        cov.view_mut((0, d), (d, m)).copy_from(&cross.transpose());
+        cov.view_mut((d, d), (m, m)).copy_from(&pll);
+        self.cov = cov;
         let x = std::mem::replace(&mut self.x, DVector::zeros(0));
         self.x = x.resize_vertically(d + m, 0.0);
         self.x.rows_mut(d, m).copy_from(mean);
         Ok(self.num_landmarks() - 1)
     }
+}
+
+/// `S = H L + R` (eq. 8) with `L = P H^T`, symmetrised.
+fn innovation_covariance(h: &SparseJacobian, l: &DMatrix<f64>, r: &DMatrix<f64>) -> DMatrix<f64> {
+    let m = h.rows;
+    let mut s = r.clone();
+    for b in &h.blocks {
+        for a in 0..b.h.nrows() {
+            for c in 0..b.h.ncols() {
+                let coeff = b.h[(a, c)];
+                if coeff != 0.0 {
+                    for k in 0..m {
+                        s[(b.row + a, k)] += coeff * l[(b.col + c, k)];
+                    }
+                }
+            }
+        }
+    }
+    (&s + s.transpose()) * 0.5
+}
+
+/// The gain `K = L S^-1` (eq. 7, from `S K^T = L^T`) and the NIS `nu^T S^-1 nu`;
+/// an error when `S` has no Cholesky factor or the gain is not finite.
+fn gain_and_nis(
+    s: &DMatrix<f64>,
+    l: &DMatrix<f64>,
+    innovation: &DVector<f64>,
+) -> Result<(DMatrix<f64>, f64)> {
+    if !s.iter().all(|v| v.is_finite()) {
+        return Err(SlamError::SingularInnovation("S is not finite".into()));
+    }
+    let chol = s.clone().cholesky().ok_or_else(|| {
+        SlamError::SingularInnovation(format!("S = {s:.3e} has no Cholesky factor"))
+    })?;
+    let gain = chol.solve(&l.transpose()).transpose();
+    if !gain.iter().all(|v| v.is_finite()) {
+        return Err(SlamError::SingularInnovation(
+            "the gain is not finite (S is numerically singular)".into(),
+        ));
+    }
+    Ok((gain, innovation.dot(&chol.solve(innovation))))
 }
 
 /// `P <- P - K L^T + M K^T` on the upper triangle, one column prefix `P[0..=j, j]` at

@@ -1,5 +1,7 @@
 //! The one error type of the crate; the Python bridge maps each variant to an exception.
 
+use rperc_core::CoreError;
+
 /// Everything that can go wrong in `slam`.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
@@ -22,6 +24,10 @@ pub enum SlamError {
         /// Why the value was refused.
         reason: String,
     },
+    /// From the shared core: a covariance that is not symmetric PSD, an unknown
+    /// option name, a bad chi-square argument.
+    #[error(transparent)]
+    Core(#[from] CoreError),
 }
 
 /// Result alias for this crate.
@@ -36,5 +42,15 @@ pub(crate) fn ensure_finite<'a>(
         Ok(())
     } else {
         Err(SlamError::NonFinite(what))
+    }
+}
+
+impl SlamError {
+    /// Whether the caller passed something wrong or the numerics failed.
+    pub fn class(&self) -> rperc_core::ErrorClass {
+        match self {
+            SlamError::SingularInnovation(_) => rperc_core::ErrorClass::Numerical,
+            _ => rperc_core::ErrorClass::InvalidInput,
+        }
     }
 }

@@ -5,7 +5,7 @@ use nalgebra::{DMatrix, DVector, Matrix2, Matrix2x3, Point2, Vector2};
 
 use crate::ekf::{Ekf, SparseJacobian, Update};
 use crate::error::{Result, SlamError};
-use crate::pose::{Pose2, wrap_angle};
+use rperc_core::{Pose2, wrap_angle};
 
 /// `z = (range, bearing)` of `landmark` seen from `robot`, with `dz/d(robot)` (2x3)
 /// and `dz/d(landmark)` (2x2). `None` when the landmark sits on the robot.

@@ -5,7 +5,8 @@
 use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng, rngs::StdRng};
-use slam::{Ekf, SlamError, SparseJacobian, asymmetry, min_relative_eigenvalue};
+use rperc_core::{CoreError, asymmetry, min_relative_eigenvalue};
+use slam::{Ekf, SlamError, SparseJacobian};
 
 fn random_spd(rng: &mut StdRng, d: usize) -> DMatrix<f64> {
     let a = DMatrix::from_fn(d, d, |_, _| rng.random_range(-1.0..1.0));
@@ -178,7 +179,7 @@ fn landmark_initialisation_has_the_full_cross_covariance() {
     let r = random_spd(&mut rng, 2) * 0.01;
     let r2 = Matrix2::from_iterator(r.iter().copied());
     ekf.add_landmark_range_bearing(&z, &r2).unwrap();
-    let robot = slam::Pose2 {
+    let robot = rperc_core::Pose2 {
         x: x0[0],
         y: x0[1],
         theta: x0[2],
@@ -274,7 +275,7 @@ fn negative_noise_is_refused_and_leaves_the_state_unchanged() {
     let h = SparseJacobian::new(1)
         .with_block(0, 0, -&one)
         .with_block(0, 1, one.clone());
-    let refused = |e: SlamError, what: &str| matches!(e, SlamError::InvalidParameter { name, .. } if name == what);
+    let refused = |e: SlamError, what: &str| matches!(e, SlamError::Core(CoreError::NotPositiveDefinite { name, .. }) if name == what);
     // S = 1 + 4 - 0.5 would still be positive: only the noise check catches this.
     let e = ekf
         .update(&DVector::from_element(1, 0.5), &h, &negative)

@@ -18,26 +18,6 @@ pub enum TrackingError {
         /// Which covariance.
         name: &'static str,
     },
-    /// A frame buffer does not hold `width * height * 3` bytes.
-    #[error("frame buffer has {got} bytes but a {width}x{height} RGB frame needs {expected}")]
-    FrameSize {
-        /// Frame width in pixels.
-        width: usize,
-        /// Frame height in pixels.
-        height: usize,
-        /// `width * height * 3`.
-        expected: usize,
-        /// The buffer's length.
-        got: usize,
-    },
-    /// A frame has zero width or height.
-    #[error("frame is empty ({width}x{height})")]
-    EmptyFrame {
-        /// Frame width in pixels.
-        width: usize,
-        /// Frame height in pixels.
-        height: usize,
-    },
     /// The frame size changed between `new` and `update`.
     #[error("frame size changed from {expected_width}x{expected_height} to {width}x{height}")]
     FrameSizeChanged {
@@ -100,6 +80,10 @@ pub enum TrackingError {
         /// What is wrong with the line.
         reason: String,
     },
+    /// From the shared core: a bad image size, a parameter out of range, an unknown
+    /// option name.
+    #[error(transparent)]
+    Core(#[from] rperc_core::CoreError),
     /// An I/O or image decoding failure, with the file concerned.
     #[error("{path}: {reason}")]
     Io {
@@ -112,26 +96,24 @@ pub enum TrackingError {
 
 /// Shorthand for results of this crate.
 pub type Result<T> = std::result::Result<T, TrackingError>;
-/// `Err(InvalidParameter)` unless `value` is finite and `> 0`.
-pub(crate) fn positive(name: &'static str, value: f64) -> Result<()> {
-    if value.is_finite() && value > 0.0 {
-        Ok(())
-    } else {
-        Err(TrackingError::InvalidParameter {
-            name,
-            reason: format!("must be finite and > 0, got {value}"),
-        })
+
+impl TrackingError {
+    /// The name of the parameter this error refuses, whichever layer refused it.
+    pub fn parameter(&self) -> Option<&'static str> {
+        match self {
+            TrackingError::InvalidParameter { name, .. } => Some(name),
+            TrackingError::Core(rperc_core::CoreError::InvalidParameter { name, .. }) => Some(name),
+            _ => None,
+        }
     }
 }
 
-/// `Err(InvalidParameter)` unless `value` is finite and in `[lo, hi]`.
-pub(crate) fn in_range(name: &'static str, value: f64, lo: f64, hi: f64) -> Result<()> {
-    if value.is_finite() && (lo..=hi).contains(&value) {
-        Ok(())
-    } else {
-        Err(TrackingError::InvalidParameter {
-            name,
-            reason: format!("must be finite and in [{lo}, {hi}], got {value}"),
-        })
+impl TrackingError {
+    /// Whether the caller passed something wrong or a file could not be read.
+    pub fn class(&self) -> rperc_core::ErrorClass {
+        match self {
+            TrackingError::Io { .. } => rperc_core::ErrorClass::Io,
+            _ => rperc_core::ErrorClass::InvalidInput,
+        }
     }
 }

@@ -14,73 +14,18 @@ use crate::error::{Result, TrackingError};
 /// assert_eq!((frame.width(), frame.height()), (4, 3));
 /// assert!(RgbFrame::new(&pixels, 5, 3).is_err());
 /// ```
-#[derive(Debug, Clone, Copy)]
-pub struct RgbFrame<'a> {
-    data: &'a [u8],
-    width: usize,
-    height: usize,
-}
+pub type RgbFrame<'a> = rperc_core::image::RgbView<'a>;
 
-impl<'a> RgbFrame<'a> {
-    /// Wraps `data` without copying.
-    ///
-    /// # Errors
-    /// [`TrackingError::EmptyFrame`] for a zero dimension, [`TrackingError::FrameSize`]
-    /// unless `data.len() == width * height * 3`.
-    pub fn new(data: &'a [u8], width: usize, height: usize) -> Result<Self> {
-        if width == 0 || height == 0 {
-            return Err(TrackingError::EmptyFrame { width, height });
-        }
-        let expected = width
-            .checked_mul(height)
-            .and_then(|p| p.checked_mul(3))
-            .unwrap_or(usize::MAX);
-        if data.len() != expected {
-            return Err(TrackingError::FrameSize {
-                width,
-                height,
-                expected,
-                got: data.len(),
-            });
-        }
-        Ok(Self {
-            data,
-            width,
-            height,
-        })
-    }
-
-    /// Views an [`image::RgbImage`].
-    ///
-    /// # Errors
-    /// [`TrackingError::EmptyFrame`] for an empty image.
-    pub fn from_image(image: &'a image::RgbImage) -> Result<Self> {
-        Self::new(
-            image.as_raw(),
-            image.width() as usize,
-            image.height() as usize,
-        )
-    }
-
-    /// Width in pixels.
-    pub fn width(&self) -> usize {
-        self.width
-    }
-
-    /// Height in pixels.
-    pub fn height(&self) -> usize {
-        self.height
-    }
-
-    /// The raw bytes, `R G B R G B ...` row by row.
-    pub fn data(&self) -> &'a [u8] {
-        self.data
-    }
-
-    /// Row `y` as `width * 3` bytes.
-    pub(crate) fn row(&self, y: usize) -> &'a [u8] {
-        &self.data[y * self.width * 3..(y + 1) * self.width * 3]
-    }
+/// Views an [`image::RgbImage`] as a frame.
+///
+/// # Errors
+/// An empty image.
+pub fn frame_from_image(image: &image::RgbImage) -> Result<RgbFrame<'_>> {
+    Ok(RgbFrame::new(
+        image.as_raw(),
+        image.width() as usize,
+        image.height() as usize,
+    )?)
 }
 
 /// An axis-aligned box in pixels: top-left corner `(x, y)` (0-based), width and height.

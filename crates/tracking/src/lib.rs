@@ -17,4 +17,4 @@ pub use condensation::{
     StepReport, effective_sample_size,
 };
 pub use error::{Result, TrackingError};
-pub use frame::{BoundingBox, RgbFrame};
+pub use frame::{BoundingBox, RgbFrame, frame_from_image};

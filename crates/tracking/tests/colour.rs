@@ -137,14 +137,13 @@ fn bad_inputs_are_clear_errors() {
     let f0 = scene(60.0, 60.0, 12.0, 16.0);
     let frame = RgbFrame::new(&f0, W, H).unwrap();
     let p = ColorTrackerParams::default;
-    assert!(matches!(
-        RgbFrame::new(&f0, W, H + 1),
-        Err(TrackingError::FrameSize { .. })
-    ));
-    assert!(matches!(
-        RgbFrame::new(&[], 0, 5),
-        Err(TrackingError::EmptyFrame { .. })
-    ));
+    let size_error = RgbFrame::new(&f0, W, H + 1).unwrap_err().to_string();
+    assert!(
+        size_error.contains(&format!("{W}x{}x3", H + 1)),
+        "{size_error}"
+    );
+    let empty = RgbFrame::new(&[], 0, 5).unwrap_err().to_string();
+    assert!(empty.contains("empty"), "{empty}");
     let bad_box = |b: BoundingBox| ColorHistogramTracker::new(frame, b, p()).unwrap_err();
     assert!(matches!(
         bad_box(BoundingBox::new(10.0, 10.0, 0.0, 5.0)),
@@ -167,43 +166,24 @@ fn bad_inputs_are_clear_errors() {
         |params: ColorTrackerParams| ColorHistogramTracker::new(frame, bbox, params).unwrap_err();
     let mut q = p();
     q.appearance.bins = [0, 8, 8];
-    assert!(matches!(
-        bad_param(q),
-        TrackingError::InvalidParameter { name: "bins", .. }
-    ));
+    assert_eq!(bad_param(q).parameter(), Some("bins"));
     let mut q = p();
     q.appearance.adaptation_rate = f64::NAN;
-    assert!(matches!(
-        bad_param(q),
-        TrackingError::InvalidParameter {
-            name: "adaptation_rate",
-            ..
-        }
-    ));
+    assert_eq!(bad_param(q).parameter(), Some("adaptation_rate"));
     let mut q = p();
     q.appearance.gradient_weight = -1.0;
-    assert!(matches!(
-        bad_param(q),
-        TrackingError::InvalidParameter {
-            name: "gradient_weight",
-            ..
-        }
-    ));
-    assert!(matches!(
-        bad_param(ColorTrackerParams {
-            min_scale: 0.0,
-            ..p()
-        }),
-        TrackingError::InvalidParameter { .. }
-    ));
+    assert_eq!(bad_param(q).parameter(), Some("gradient_weight"));
+    let e = bad_param(ColorTrackerParams {
+        min_scale: 0.0,
+        ..p()
+    });
+    assert_eq!(e.parameter(), Some("min_scale"));
     let pp = ParticleTrackerParams {
         sigma: -0.1,
         ..ParticleTrackerParams::default()
     };
-    assert!(matches!(
-        ParticleColorTracker::new(frame, bbox, pp, 0),
-        Err(TrackingError::InvalidParameter { name: "sigma", .. })
-    ));
+    let e = ParticleColorTracker::new(frame, bbox, pp, 0).unwrap_err();
+    assert_eq!(e.parameter(), Some("sigma"));
     let pp = ParticleTrackerParams {
         n_particles: 0,
         ..ParticleTrackerParams::default()

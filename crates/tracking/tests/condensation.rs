@@ -358,14 +358,21 @@ fn resamplers_reject_bad_weights_and_handle_edge_cases() {
 
 #[test]
 fn effective_sample_size_formula() {
-    assert!((effective_sample_size(&[0.1; 10]) - 10.0).abs() < 1e-12);
-    assert_eq!(effective_sample_size(&[1.0, 0.0, 0.0]), 1.0);
+    let ess = |w: &[f64]| effective_sample_size(w).unwrap();
+    assert!((ess(&[0.1; 10]) - 10.0).abs() < 1e-12);
+    assert_eq!(ess(&[1.0, 0.0, 0.0]), 1.0);
     // 1 / (0.6^2 + 0.2^2 + 0.2^2) = 1 / 0.44
-    assert!((effective_sample_size(&[0.6, 0.2, 0.2]) - 1.0 / 0.44).abs() < 1e-12);
+    assert!((ess(&[0.6, 0.2, 0.2]) - 1.0 / 0.44).abs() < 1e-12);
+    // Unnormalised weights: the same as their normalised version (3 + 1 + 1 = 5).
+    assert!((ess(&[3.0, 1.0, 1.0]) - 1.0 / 0.44).abs() < 1e-12);
+    assert!((ess(&[1.0; 4]) - 4.0).abs() < 1e-12);
+    // Bounded by 1 and n on random weights.
     let mut rng = ChaCha8Rng::seed_from_u64(1);
     let w: Vec<f64> = (0..100).map(|_| rng.random::<f64>()).collect();
-    let total: f64 = w.iter().sum();
-    let w: Vec<f64> = w.iter().map(|x| x / total).collect();
-    let ess = effective_sample_size(&w);
-    assert!(ess > 1.0 && ess <= 100.0);
+    let e = ess(&w);
+    assert!(e > 1.0 && e <= 100.0);
+    // The weights resample refuses are refused here too.
+    for bad in [&[][..], &[0.5, f64::NAN], &[0.5, -0.1], &[0.0, 0.0]] {
+        assert!(effective_sample_size(bad).is_err(), "{bad:?}");
+    }
 }

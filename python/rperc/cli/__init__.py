@@ -1,50 +1,118 @@
 """The ``rperc`` command-line program.
 
-    rperc demo lines            simulated scan -> walls, and a simplified polyline (PNG)
+    rperc demo all              every demo below: one figure and one summary line each
+    rperc demo lines            Douglas-Peucker on a noisy spiral: deviation vs epsilon
+    rperc demo walls            walls from a simulated scan against the ray-cast truth
     rperc demo monobot          EKF-SLAM observability: the paper's Figs. 3-6, Monte Carlo
-    rperc lines extract LOG     walls from a CARMEN log, in the world frame (PNG)
+    rperc demo tracking         colour trackers on a synthetic sequence with known boxes
+    rperc lines extract LOG     walls from a CARMEN log, in the world frame
     rperc lines simplify FILE   Douglas-Peucker on a WKT or CSV polyline
     rperc track SEQ_DIR         colour tracker on an OTB sequence (AUC, precision, fps)
 
-Run ``rperc COMMAND --help`` for the options of each.
+Run ``rperc COMMAND --help`` for the options of each. Results go to stdout, notes
+("wrote ...", progress) to stderr; ``--json PATH`` writes the measured figures. A
+mistake in the command line or the input exits with status 2 and one
+``rperc: error: ...`` line.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import logging
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from typing import NoReturn
+
+from PIL import Image
 
 from rperc import RpercError, __version__
-from rperc.cli import lines, slam, track
+
+# What a user can cause: bad options or input files (ValueError, TypeError, our own
+# errors), unreadable or unwritable paths and corrupt images (OSError, which includes
+# PIL's UnidentifiedImageError and truncated files). PIL reports some broken PNGs as
+# SyntaxError and oversized ones as DecompressionBombError. Anything else is a bug and
+# keeps its traceback.
+USER_ERRORS: tuple[type[BaseException], ...] = (
+    RpercError,
+    ValueError,
+    TypeError,
+    OSError,
+    SyntaxError,
+    Image.DecompressionBombError,
+)
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors in rperc's format (argparse prints the usage
+    first); the exit status stays 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"rperc: error: {message} (see: {self.prog} --help)\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="rperc", description="Robot perception in Rust, driven from Python."
-    )
+    from rperc.cli import demo, lines, track
+
+    parser = _Parser(prog="rperc", description="Robot perception in Rust, driven from Python.")
     parser.add_argument("--version", action="version", version=f"rperc {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-
-    demo = sub.add_parser("demo", help="run a demo on data rperc generates itself")
-    demos = demo.add_subparsers(dest="demo", required=True, metavar="DEMO")
-    lines.add_demo(demos)
-    slam.add_demo(demos)
-
+    demo.add_demos(sub)
     lines.add_commands(sub)
     track.add_commands(sub)
     return parser
 
 
+class _StderrHandler(logging.Handler):
+    """Writes to whatever ``sys.stderr`` is at the time (tests swap it)."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        try:
+            sys.stderr.write(self.format(record) + "\n")
+        except Exception:  # pragma: no cover - logging must never raise
+            self.handleError(record)
+
+
+@contextlib.contextmanager
+def _progress_on_stderr() -> Iterator[None]:
+    """Send the ``rperc`` logger's INFO lines (progress) to stderr while a command
+    runs, then restore the logger as it was."""
+    logger = logging.getLogger("rperc")
+    handler = _StderrHandler()
+    handler.setFormatter(logging.Formatter("rperc: %(message)s"))
+    level = logger.level
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(level)
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return text
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the console script; returns the exit status."""
+    import matplotlib
+
+    # The command only writes files: select Agg before anything imports pyplot, so no
+    # display is needed. (The library itself never chooses a backend.)
+    matplotlib.use("Agg")
     parser = build_parser()
     args = parser.parse_args(argv)
-    try:
-        return int(args.run(args) or 0)
-    except (RpercError, ValueError, TypeError, FileNotFoundError) as exc:
-        print(f"rperc: error: {exc}", file=sys.stderr)
-        return 2
+    with _progress_on_stderr():
+        try:
+            return int(args.run(args) or 0)
+        except USER_ERRORS as exc:
+            print(f"rperc: error: {_one_line(exc)}", file=sys.stderr)
+            return 2
+        except KeyboardInterrupt:
+            print("rperc: interrupted", file=sys.stderr)
+            return 130
 
 
 if __name__ == "__main__":  # pragma: no cover

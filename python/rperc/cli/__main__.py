@@ -1,3 +1,5 @@
+"""``python -m rperc.cli``: the ``rperc`` command."""
+
 import sys
 
 from rperc.cli import main

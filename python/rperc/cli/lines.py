@@ -1,37 +1,50 @@
-"""``rperc demo lines``, ``rperc lines extract`` and ``rperc lines simplify``."""
+"""``rperc lines extract``, ``rperc lines simplify`` and the demos ``lines`` (Douglas-
+Peucker against its input) and ``walls`` (wall extraction against the ray-cast truth)."""
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from tqdm import tqdm
 
+from rperc._progress import progress
+from rperc.cli.demo import DemoResult
+from rperc.cli.outputs import (
+    add_json_option,
+    check_output_file,
+    count_at_least,
+    positive_float,
+    write_json,
+    wrote,
+)
 from rperc.datasets import load_carmen, read_polylines, write_polyline
 from rperc.linesimp import simplify
 
-
-def add_demo(demos: argparse._SubParsersAction) -> None:
-    p = demos.add_parser("lines", help="simulated laser scan -> walls; a simplified polyline")
-    p.add_argument("--out", type=Path, default=Path("out/demo"), help="folder for the PNGs")
-    p.add_argument("--seed", type=int, default=0, help="seed of the simulated noise")
-    p.set_defaults(run=demo_lines)
+if TYPE_CHECKING:
+    from rperc.scansim import SimulatedScan, WallCheck
 
 
-def add_commands(sub: argparse._SubParsersAction) -> None:
+def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     lines = sub.add_parser("lines", help="line simplification and wall extraction")
     cmds = lines.add_subparsers(dest="lines_command", required=True, metavar="COMMAND")
 
     ex = cmds.add_parser("extract", help="walls from every scan of a CARMEN log")
     ex.add_argument("log", type=Path, help="CARMEN log (FLASER / ROBOTLASER1 lines)")
-    ex.add_argument("--plot", type=Path, help="write a PNG of scans and walls in the world frame")
-    ex.add_argument("--every", type=int, default=1, help="use every N-th scan (default 1)")
-    ex.add_argument("--sigma-range", type=float, default=0.01, help="range noise, m")
-    ex.add_argument("--split-epsilon", type=float, default=0.05, help="IEPF split tolerance, m")
-    ex.add_argument("--min-points", type=int, default=6, help="fewest points per wall")
-    ex.add_argument("--min-length", type=float, default=0.3, help="shortest wall, m")
+    ex.add_argument("--plot", type=Path, help="write a figure of scans and walls (world frame)")
+    ex.add_argument("--every", type=count_at_least(1), default=1, help="use every N-th scan")
+    ex.add_argument("--sigma-range", type=positive_float, default=0.01, help="range noise, m")
+    ex.add_argument(
+        "--split-epsilon", type=positive_float, default=0.05, help="IEPF split tolerance, m"
+    )
+    ex.add_argument(
+        "--min-points", type=count_at_least(2), default=6, help="fewest points per wall"
+    )
+    ex.add_argument("--min-length", type=positive_float, default=0.3, help="shortest wall, m")
+    add_json_option(ex)
     ex.set_defaults(run=extract_command)
 
     si = cmds.add_parser("simplify", help="Douglas-Peucker on a WKT or CSV polyline")
@@ -47,7 +60,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
 
 def _to_world(pose: np.ndarray, pts: np.ndarray) -> np.ndarray:
     c, s = math.cos(pose[2]), math.sin(pose[2])
-    return pts @ np.array([[c, s], [-s, c]]) + pose[:2]
+    world: np.ndarray = pts @ np.array([[c, s], [-s, c]])
+    return np.asarray(world + pose[:2])
 
 
 def simplify_command(args: argparse.Namespace) -> int:
@@ -79,22 +93,24 @@ def simplify_command(args: argparse.Namespace) -> int:
     return 0
 
 
-def extract_command(args: argparse.Namespace) -> int:
+def _walls_of_log(
+    args: argparse.Namespace,
+) -> tuple[dict[str, Any], np.ndarray, np.ndarray, np.ndarray]:
+    """Extract the walls of every ``--every``-th scan; the counts, the world-frame
+    wall segments (K, 2, 2), the world-frame readings (M, 2) and the logged laser
+    trajectory (S, 2)."""
     from rperc.linesimp import extract_lines
 
-    if args.every < 1:
-        raise ValueError("--every must be >= 1")
-    log = load_carmen(args.log)
-    scans = log.scans
+    scans = load_carmen(args.log).scans
     if len(scans) == 0:
         raise ValueError(f"{args.log} holds no laser scans")
     picked = range(0, len(scans), args.every)
-    world_walls, world_points = [], []
-    count = 0
-    for k in tqdm(picked, desc="extracting walls", unit="scan", disable=None):
+    segments, points = [np.zeros((0, 2, 2))], [np.zeros((0, 2))]
+    walls = on_walls = valid = 0
+    for k in progress(picked, desc="extracting walls", unit="scan"):
         n = int(scans.num_beams[k])
         ranges, angles = scans.ranges[k, :n], scans.angles(k)
-        walls = extract_lines(
+        found = extract_lines(
             ranges,
             angles,
             max_range=float(scans.max_range[k]),
@@ -103,76 +119,183 @@ def extract_command(args: argparse.Namespace) -> int:
             min_points=args.min_points,
             min_length=args.min_length,
         )
-        count += len(walls)
-        pose = scans.pose[k]
-        if len(walls):
-            world_walls.append(
-                np.stack([_to_world(pose, walls.start), _to_world(pose, walls.end)], 1)
-            )
+        world = found.to_world(scans.pose[k])
+        segments.append(np.stack([world.start, world.end], axis=1))
         ok = np.isfinite(ranges) & (ranges > 0) & (ranges < scans.max_range[k])
         pts = np.c_[ranges[ok] * np.cos(angles[ok]), ranges[ok] * np.sin(angles[ok])]
-        world_points.append(_to_world(pose, pts))
-    print(
-        f"{args.log.name}: {len(picked)} scans, {count} walls "
-        f"({count / max(len(picked), 1):.1f} per scan)"
-    )
-    if args.plot:
-        from rperc.plot import plt, save
-        from rperc.plot.lines import draw_scan_points, draw_walls
+        points.append(_to_world(scans.pose[k], pts))
+        walls += len(found)
+        on_walls += len(found.flat_indices)
+        valid += int(ok.sum())
+    counts = {
+        "log": args.log,
+        "scans": len(picked),
+        "walls": walls,
+        "walls_per_scan": walls / len(picked),
+        "readings": valid,
+        "readings_on_walls": on_walls / max(valid, 1),
+    }
+    return counts, np.concatenate(segments), np.concatenate(points), scans.pose[:, :2]
 
-        fig, ax = plt.subplots(figsize=(10, 10))
-        pts = np.concatenate(world_points)
-        draw_scan_points(ax, pts[:: max(1, len(pts) // 200_000)], s=0.5, alpha=0.4)
-        if world_walls:
-            segs = np.concatenate(world_walls)
-            draw_walls(ax, segs[:, 0], segs[:, 1], linewidths=0.6, alpha=0.7)
-        ax.plot(scans.pose[:, 0], scans.pose[:, 1], color="tab:red", lw=1, label="trajectory")
-        ax.set_aspect("equal")
-        ax.autoscale()
-        ax.legend(loc="upper right", markerscale=8)
-        ax.set_title(f"{args.log.name}: {count} walls from {len(picked)} scans (world frame)")
-        print(f"wrote {save(fig, args.plot)}")
+
+def extract_command(args: argparse.Namespace) -> int:
+    check_output_file(args.plot, "--plot", figure=True)
+    check_output_file(args.json, "--json")
+    counts, segments, points, trajectory = _walls_of_log(args)
+    summary = (
+        f"{args.log.name}: {counts['walls']} walls from {counts['scans']} scans "
+        f"({counts['walls_per_scan']:.1f} per scan), "
+        f"{100 * counts['readings_on_walls']:.0f}% of the valid readings on a wall"
+    )
+    print(summary)
+    if args.plot:
+        from rperc.plot import save
+        from rperc.plot.lines import world_walls_figure
+
+        fig = world_walls_figure(points, segments, trajectory, title=f"{summary} (world frame)")
+        wrote(save(fig, args.plot))
+    write_json(args.json, counts)
     return 0
 
 
-def demo_lines(args: argparse.Namespace) -> int:
-    from rperc.linesimp import extract_lines
-    from rperc.plot import plt, save
-    from rperc.plot.lines import draw_polyline, draw_scan_points, draw_walls
+def chord_deviation(points: np.ndarray, kept: np.ndarray) -> tuple[float, float]:
+    """The largest distance of an input point from the chord that replaced it: to the
+    chord's line (what Douglas-Peucker bounds by epsilon, seed Table 2) and to the
+    chord segment (what the drawn simplification shows)."""
+    worst_line = worst_segment = 0.0
+    for i, j in itertools.pairwise(kept):
+        a, b, p = points[i], points[j], points[i + 1 : j]
+        if len(p) == 0:
+            continue
+        d, rel = b - a, p - a
+        length2 = float(d @ d)
+        # A closed chord (a == b) has no line: both distances are to the point a.
+        t = np.clip((rel @ d) / length2, 0.0, 1.0) if length2 > 0 else np.zeros(len(p))
+        seg = np.hypot(*(rel - t[:, None] * d).T)
+        line = (
+            np.abs(rel[:, 0] * d[1] - rel[:, 1] * d[0]) / math.sqrt(length2) if length2 > 0 else seg
+        )
+        worst_line = max(worst_line, float(line.max()))
+        worst_segment = max(worst_segment, float(seg.max()))
+    return worst_line, worst_segment
+
+
+SPIRAL_POINTS = 2000
+SPIRAL_NOISE = 0.05  # m
+SPIRAL_EPSILON = 0.25  # m
+
+
+def noisy_spiral(seed: int) -> np.ndarray:
+    """Three turns of an Archimedean spiral (metres) with seeded Gaussian jitter."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0, 6 * math.pi, SPIRAL_POINTS)
+    spiral: np.ndarray = np.c_[t * np.cos(t), t * np.sin(t)]
+    return spiral + rng.normal(scale=SPIRAL_NOISE, size=(len(t), 2))
+
+
+def demo_lines(out: Path, seed: int) -> DemoResult:
+    """Douglas-Peucker (path hulls) on a seeded noisy spiral; the deviation of the
+    input from the simplification against epsilon."""
+    from rperc.plot import save
+    from rperc.plot.lines import polyline_figure
+
+    spiral = noisy_spiral(seed)
+    epsilon = SPIRAL_EPSILON
+    kept = simplify(spiral, epsilon, return_indices=True)
+    line_dev, segment_dev = chord_deviation(spiral, kept)
+    verdict = "within" if line_dev <= epsilon else "EXCEEDS"
+    summary = (
+        f"lines: noisy spiral of {len(spiral)} points simplified to {len(kept)} at epsilon "
+        f"{epsilon:g} m; max deviation of an input point from its chord's line "
+        f"{line_dev:.4f} m ({verdict} epsilon), from the chord segment {segment_dev:.4f} m"
+    )
+    title = (
+        f"Douglas-Peucker with path hulls: {len(spiral)} -> {len(kept)} points, "
+        f"epsilon {epsilon:g} m\nmax deviation of the input: {line_dev:.4f} m from the "
+        f"chord's line, {segment_dev:.4f} m from the segment"
+    )
+    fig = polyline_figure([spiral], [spiral[kept]], epsilon, title=title, unit="m")
+    figures = [save(fig, out / "lines.png")]
+    measured = {
+        "points": len(spiral),
+        "kept": len(kept),
+        "epsilon": epsilon,
+        "max_line_deviation": line_dev,
+        "max_segment_deviation": segment_dev,
+        "kept_indices": kept,
+    }
+    return DemoResult(summary, figures, measured)
+
+
+WALLS_POSE = np.array([4.0, 2.5, 0.3])
+WALLS_BEAMS = 361
+WALLS_SIGMA = 0.01  # range noise of the simulated scanner, m
+WALLS_MIN_POINTS = 6
+
+
+def room_scan(seed: int) -> tuple[np.ndarray, SimulatedScan]:
+    """The demo room's walls and a seeded noisy 180-degree scan of it from WALLS_POSE."""
     from rperc.scansim import ray_cast, room_walls
 
-    rng = np.random.default_rng(args.seed)
     walls = room_walls()
-    pose = np.array([4.0, 2.5, 0.3])
-    angles = np.linspace(-math.pi / 2, math.pi / 2, 361)
-    scan = ray_cast(walls, pose, angles, max_range=30.0, sigma_range=0.01, rng=rng)
-    found = extract_lines(scan.ranges, scan.angles, max_range=scan.max_range, sigma_range=0.01)
+    angles = np.linspace(-math.pi / 2, math.pi / 2, WALLS_BEAMS)
+    rng = np.random.default_rng(seed)
+    return walls, ray_cast(walls, WALLS_POSE, angles, sigma_range=WALLS_SIGMA, rng=rng)
 
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(14, 6))
-    for a, b in walls:
-        ax1.plot([a[0], b[0]], [a[1], b[1]], color="0.75", lw=5, solid_capstyle="butt")
-    ax1.plot([], [], color="0.75", lw=5, label="true walls")
-    ok = scan.wall >= 0
-    pts = np.c_[scan.ranges[ok] * np.cos(angles[ok]), scan.ranges[ok] * np.sin(angles[ok])]
-    draw_scan_points(ax1, _to_world(pose, pts), s=6)
-    draw_walls(ax1, _to_world(pose, found.start), _to_world(pose, found.end))
-    ax1.plot(*pose[:2], "k^", ms=9, label="laser")
-    ax1.set_aspect("equal")
-    ax1.legend(loc="upper left", fontsize=8)
-    ax1.set_title(f"simulated 361-beam scan, sigma 1 cm: {len(found)} walls")
 
-    t = np.linspace(0, 6 * math.pi, 2000)
-    polyline = np.c_[t * np.cos(t), t * np.sin(t)] + rng.normal(scale=0.05, size=(len(t), 2))
-    kept = simplify(polyline, 0.25)
-    draw_polyline(ax2, polyline, kept, 0.25)
-    ax2.set_title("Douglas-Peucker with path hulls")
-    out = save(fig, args.out / "lines.png")
+def demo_walls(out: Path, seed: int) -> DemoResult:
+    """Walls from a simulated 180-degree scan of a known room, matched to the ray-cast
+    truth: which walls the scanner can see, which were found, and their errors."""
+    from rperc.linesimp import extract_lines
+    from rperc.plot import save
+    from rperc.plot.lines import walls_figure
+    from rperc.scansim import check_walls
 
-    print(f"{len(found)} walls extracted from a simulated scan of a room with {len(walls)} walls:")
-    print(found)
-    print(f"spiral of {len(polyline)} points simplified to {len(kept)} at epsilon 0.25")
-    print(f"wrote {out}")
-    return 0
+    walls, scan = room_scan(seed)
+    found = extract_lines(
+        scan.ranges,
+        scan.angles,
+        max_range=scan.max_range,
+        sigma_range=WALLS_SIGMA,
+        min_points=WALLS_MIN_POINTS,
+    )
+    check = check_walls(
+        walls, scan, found.indices, found.rho, found.alpha, min_points=WALLS_MIN_POINTS
+    )
+    summary = _walls_summary(check, len(found), len(walls))
+    head, _, tail = summary.removeprefix("walls: ").partition(", max")
+    fig = walls_figure(walls, scan, found, check, title=f"{head}\nmax{tail}")
+    figures = [save(fig, out / "walls.png")]
+    measured = {
+        "beams": WALLS_BEAMS,
+        "walls": len(walls),
+        "visible": check.visible,
+        "hidden": check.hidden,
+        "missed": check.missed,
+        "found_truth": check.truth,
+        "d_rho_m": check.d_rho,
+        "d_alpha_rad": check.d_alpha,
+        "max_abs_d_rho_m": _max_abs(check.d_rho),
+        "max_abs_d_alpha_rad": _max_abs(check.d_alpha),
+    }
+    return DemoResult(summary, figures, measured, details=[repr(found)])
+
+
+def _max_abs(values: np.ndarray) -> float:
+    finite = np.abs(values[np.isfinite(values)])
+    return float(finite.max()) if len(finite) else math.nan
+
+
+def _walls_summary(check: WallCheck, n_found: int, n_walls: int) -> str:
+    spurious = int(np.count_nonzero(check.truth < 0))
+    extra = f", {spurious} spurious" if spurious else ""
+    return (
+        f"walls: {check.found_visible} of {len(check.visible)} visible walls found in a "
+        f"simulated {WALLS_BEAMS}-beam scan ({n_found} segments{extra}; "
+        f"{len(check.hidden)} of {n_walls} walls not visible from the pose), "
+        f"max |d rho| {1e3 * _max_abs(check.d_rho):.1f} mm, "
+        f"max |d alpha| {math.degrees(_max_abs(check.d_alpha)):.2f} deg"
+    )
 
 
 def _stderr():

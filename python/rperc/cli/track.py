@@ -1,67 +1,162 @@
-"""``rperc track SEQ_DIR``: run a tracker on an OTB sequence and score it."""
+"""``rperc track SEQ_DIR`` (a tracker on an OTB sequence, scored against its ground
+truth) and ``rperc demo tracking`` (both trackers on a synthetic sequence)."""
 
 from __future__ import annotations
 
 import argparse
 import time
+from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
+from rperc._progress import progress
+from rperc.cli.demo import DemoResult
+from rperc.cli.outputs import (
+    add_json_option,
+    check_output_file,
+    count_at_least,
+    seed_type,
+    write_json,
+    wrote,
+)
 from rperc.datasets import load_otb
 from rperc.tracking import metrics
 
 TRACKERS = ("colour", "colour-pf")
+STRIP_FRAMES = 6
 
 
-def add_commands(sub: argparse._SubParsersAction) -> None:
+def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = sub.add_parser("track", help="run a tracker on an OTB sequence (AUC, precision, fps)")
     p.add_argument("sequence", type=Path, help="OTB sequence folder (img/, groundtruth_rect.txt)")
     p.add_argument("--tracker", choices=TRACKERS, default="colour")
-    p.add_argument("--seed", type=int, default=0, help="seed of the particle filter")
-    p.add_argument("--strip", type=Path, help="write a PNG strip of annotated frames")
-    p.add_argument("--frames", type=int, default=8, help="frames in the strip (default 8)")
+    p.add_argument("--seed", type=seed_type, default=0, help="seed of the particle filter")
+    p.add_argument("--strip", type=Path, help="write a figure strip of annotated frames")
+    p.add_argument(
+        "--frames", type=count_at_least(2), default=8, help="frames in the strip (>= 2, default 8)"
+    )
+    add_json_option(p)
     p.set_defaults(run=track_command)
 
 
-def make_tracker(name: str, frame: np.ndarray, box: tuple[float, ...], seed: int):
+@dataclass(frozen=True)
+class TrackerRun:
+    """A tracker over a whole sequence: one box per frame (frame 0 holds the initial
+    box), whether the tracker flagged the target lost, and the seconds it took."""
+
+    name: str
+    boxes: np.ndarray  # (N, 4)
+    lost: np.ndarray  # (N,) bool
+    seconds: float
+
+
+def run_tracker(
+    name: str, frames: Sequence[np.ndarray] | np.ndarray, first_box: Sequence[float], seed: int
+) -> TrackerRun:
+    """Run tracker ``name`` from ``first_box`` over ``frames``. This is the one place
+    that calls the trackers' Python API (construction and ``update``)."""
     from rperc.tracking import ColorHistogramTracker, ParticleColorTracker
 
+    x, y, w, h = (float(v) for v in first_box)
+    box = (x, y, w, h)
+    start = time.perf_counter()
     if name == "colour":
-        return ColorHistogramTracker(frame, box)
-    return ParticleColorTracker(frame, box, seed=seed)
+        tracker: Any = ColorHistogramTracker(frames[0], box)
+    elif name == "colour-pf":
+        tracker = ParticleColorTracker(frames[0], box, seed=seed)
+    else:
+        raise ValueError(f"unknown tracker {name!r}; expected one of {', '.join(TRACKERS)}")
+    boxes: list[tuple[float, ...]] = [box]
+    lost = [False]
+    for frame in progress(frames[1:], desc=f"tracking ({name})", unit="frame"):
+        new_box, _score, is_lost = tracker.update(frame)  # a TrackResult unpacks
+        boxes.append(tuple(new_box))
+        lost.append(bool(is_lost))
+    seconds = time.perf_counter() - start
+    return TrackerRun(name, np.asarray(boxes, dtype=np.float64), np.asarray(lost), seconds)
+
+
+def scores(run: TrackerRun, truth: np.ndarray) -> dict[str, Any]:
+    """The OTB scores of ``run`` against ``truth`` (every frame, the first included)."""
+    overlaps = metrics.iou(run.boxes, truth)
+    return {
+        "tracker": run.name,
+        "frames": len(truth),
+        "auc": metrics.auc(overlaps),
+        "precision_20px": metrics.precision(run.boxes, truth),
+        "mean_iou": float(overlaps.mean()),
+        "lost_frames": int(run.lost.sum()),
+        "fps": len(truth) / run.seconds if run.seconds > 0 else float("inf"),
+        "boxes": run.boxes,
+    }
+
+
+def strip_indices(n_frames: int, count: int) -> np.ndarray:
+    """``count`` distinct frame indices spread evenly from the first to the last."""
+    if not 2 <= count <= n_frames:
+        raise ValueError(f"--frames must be between 2 and {n_frames} (the sequence's frames)")
+    return np.floor(np.linspace(0, n_frames - 1, count) + 0.5).astype(int)
 
 
 def track_command(args: argparse.Namespace) -> int:
+    check_output_file(args.strip, "--strip", figure=True)
+    check_output_file(args.json, "--json")
     seq = load_otb(args.sequence)
-    frames = [
-        seq.frame(k) for k in tqdm(range(len(seq)), desc="decoding", unit="frame", disable=None)
-    ]
-    first = tuple(float(v) for v in seq.boxes[0])
-    boxes = [first]
-    lost_count = 0
-    t0 = time.perf_counter()
-    tracker = make_tracker(args.tracker, frames[0], first, args.seed)
-    for frame in tqdm(frames[1:], desc=f"tracking ({args.tracker})", unit="frame", disable=None):
-        box, _score, lost = tracker.update(frame)
-        boxes.append(tuple(box))
-        lost_count += bool(lost)
-    seconds = time.perf_counter() - t0
-    pred = np.asarray(boxes)
-    overlaps = metrics.iou(pred, seq.boxes)
-    auc = metrics.auc(overlaps)
-    precision = metrics.precision(pred, seq.boxes)
+    picks = strip_indices(len(seq), args.frames) if args.strip else None
+    frames = [seq.frame(k) for k in progress(range(len(seq)), desc="decoding", unit="frame")]
+    run = run_tracker(args.tracker, frames, seq.boxes[0], args.seed)
+    s = scores(run, seq.boxes)
     print(
         f"{seq.name}: {len(seq)} frames, tracker {args.tracker}: "
-        f"AUC {auc:.3f}, precision@20px {precision:.3f}, "
-        f"{len(frames) / seconds:.0f} fps, lost in {lost_count} frames"
+        f"AUC {s['auc']:.3f}, precision@20px {s['precision_20px']:.3f}, "
+        f"{s['fps']:.0f} fps, lost in {s['lost_frames']} frames"
     )
-    if args.strip:
+    if picks is not None:
         from rperc.plot import save
         from rperc.plot.tracking import strip_figure
 
-        picks = np.linspace(0, len(frames) - 1, max(args.frames, 2)).round().astype(int)
-        fig = strip_figure([frames[k] for k in picks], pred[picks], seq.boxes[picks], picks)
-        print(f"wrote {save(fig, args.strip)}")
+        fig = strip_figure(
+            [frames[k] for k in picks],
+            picks,
+            seq.boxes,
+            {args.tracker: run.boxes},
+            title=f"{seq.name} (OTB), {len(seq)} frames",
+            truth_label="ground truth (OTB)",
+        )
+        wrote(save(fig, args.strip))
+    write_json(args.json, {"sequence": seq.name, **s})
     return 0
+
+
+def demo_tracking(out: Path, seed: int, frames: int = 150) -> DemoResult:
+    """Both colour trackers on a seeded synthetic sequence whose boxes are known."""
+    from rperc.plot import save
+    from rperc.plot.tracking import strip_figure
+    from rperc.tracking.synthetic import synthetic_sequence
+
+    seq = synthetic_sequence(frames, seed=seed)
+    runs = [run_tracker(name, seq.frames, seq.boxes[0], seed) for name in TRACKERS]
+    measured = {run.name: scores(run, seq.boxes) for run in runs}
+    picks = strip_indices(len(seq), STRIP_FRAMES)
+    height, width = seq.frames.shape[1:3]
+    fig = strip_figure(
+        [seq.frames[k] for k in picks],
+        picks,
+        seq.boxes,
+        {run.name: run.boxes for run in runs},
+        title=f"synthetic sequence, seed {seed}, {len(seq)} frames of {width} x {height} px",
+        truth_label="truth (generator)",
+    )
+    figures = [save(fig, out / "tracking.png")]
+    summary = (
+        f"tracking: {len(seq)}-frame synthetic sequence (seed {seed}) against its known boxes: "
+        + "; ".join(
+            f"{n} AUC {m['auc']:.3f}, precision@20px {m['precision_20px']:.3f}, "
+            f"mean IoU {m['mean_iou']:.3f}"
+            for n, m in measured.items()
+        )
+    )
+    return DemoResult(summary, figures, {"sequence": seq.name, "trackers": measured})

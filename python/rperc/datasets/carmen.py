@@ -53,7 +53,7 @@ class LaserScans:
     def angles(self, k: int) -> np.ndarray:
         """Bearings of scan ``k``'s beams in the laser frame."""
         n = int(self.num_beams[k])
-        return self.angle_min[k] + self.angle_increment[k] * np.arange(n)
+        return np.asarray(self.angle_min[k] + self.angle_increment[k] * np.arange(n))
 
     def __repr__(self) -> str:
         beams = f"{self.ranges.shape[1]} beams" if len(self) else "no beams"

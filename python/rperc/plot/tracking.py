@@ -1,28 +1,75 @@
-"""Annotated frame strips for tracking results."""
+"""Annotated frame strips for tracking results: each tracker's box against the truth,
+and every tracker's overlap (IoU) with the truth over the whole sequence."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 
-from rperc.plot import plt
+from rperc.tracking import metrics
+
+TRUTH_COLOUR = "lime"
+TRACKER_COLOURS = ("red", "deepskyblue", "yellow", "magenta")
+
+
+def score_line(name: str, boxes: np.ndarray, truth: np.ndarray) -> str:
+    """``name: AUC a, precision@20px p, mean IoU m`` of ``boxes`` against ``truth``."""
+    overlaps = metrics.iou(boxes, truth)
+    return (
+        f"{name}: AUC {metrics.auc(overlaps):.3f}, "
+        f"precision@20px {metrics.precision(boxes, truth):.3f}, mean IoU {overlaps.mean():.2f}"
+    )
 
 
 def strip_figure(
-    frames: Sequence[np.ndarray], boxes: np.ndarray, truth: np.ndarray, indices: Sequence[int]
+    frames: Sequence[np.ndarray],
+    indices: Sequence[int] | np.ndarray,
+    truth: np.ndarray,
+    tracks: Mapping[str, np.ndarray],
+    *,
+    title: str,
+    truth_label: str = "ground truth",
 ) -> Figure:
-    """One panel per frame: the tracker's box (red) and the ground truth (green)."""
-    fig, axes = plt.subplots(1, len(frames), figsize=(2.6 * len(frames), 2.6))
-    for ax, frame, box, gt, k in zip(
-        np.atleast_1d(axes), frames, boxes, truth, indices, strict=True
-    ):
+    """One panel per picked frame with the truth box and each tracker's box, and below
+    them every tracker's IoU with the truth over the sequence.
+
+    ``frames[j]`` is frame ``indices[j]``; ``truth`` and each ``tracks[name]`` hold one
+    ``(x, y, w, h)`` box (pixels) per frame of the whole sequence. The title gets one
+    score line per tracker (AUC, precision, mean IoU against ``truth``).
+    """
+    if len(frames) != len(indices):
+        raise ValueError(f"{len(frames)} frames for {len(indices)} indices")
+    colours = dict(zip(tracks, TRACKER_COLOURS, strict=False))
+    fig = Figure(figsize=(2.4 * max(len(frames), 3), 5.2), layout="constrained")
+    grid = fig.add_gridspec(2, len(frames), height_ratios=[1.3, 1])
+    for j, (frame, k) in enumerate(zip(frames, indices, strict=True)):
+        ax = fig.add_subplot(grid[0, j])
         ax.imshow(frame)
-        for b, color in ((gt, "tab:green"), (box, "tab:red")):
-            ax.add_patch(Rectangle((b[0], b[1]), b[2], b[3], fill=False, color=color, lw=1.5))
-        ax.set_title(f"frame {k + 1}", fontsize=8)
-        ax.axis("off")
-    fig.tight_layout()
+        drawn = [(truth[k], TRUTH_COLOUR)] + [(tracks[n][k], colours[n]) for n in tracks]
+        for b, colour in drawn:
+            ax.add_patch(Rectangle((b[0], b[1]), b[2], b[3], fill=False, color=colour, lw=1.5))
+        ious = " / ".join(f"{metrics.iou(tracks[n][k], truth[k])[0]:.2f}" for n in tracks)
+        ax.set_title(f"frame {k + 1}, IoU {ious}", fontsize=7)
+        ax.set_xticks([])
+        ax.set_yticks([])
+    ax = fig.add_subplot(grid[1, :])
+    for name, boxes in tracks.items():
+        ax.plot(np.arange(1, len(truth) + 1), metrics.iou(boxes, truth), color=colours[name], lw=1)
+    for k in indices:
+        ax.axvline(k + 1, color="0.8", lw=0.6, zorder=0)
+    ax.set_xlabel("frame [index, 1-based]")
+    ax.set_ylabel("IoU with the truth [0-1]")
+    ax.set_ylim(-0.02, 1.02)
+    ax.grid(alpha=0.3)
+    handles = [Line2D([], [], color=TRUTH_COLOUR, lw=2, label=f"{truth_label} (box)")]
+    handles += [
+        Line2D([], [], color=colours[n], lw=2, label=f"tracker {n} (box, IoU)") for n in tracks
+    ]
+    ax.legend(handles=handles, loc="lower left", fontsize=8, ncol=len(handles))
+    scores = "\n".join(score_line(n, b, truth) for n, b in tracks.items())
+    fig.suptitle(f"{title}\n{scores}", fontsize=9)
     return fig

@@ -6,7 +6,8 @@
   measurement models, Fisher information, observability and Monte Carlo consistency.
 """
 
-from rperc._rperc import Ekf, nees_bounds
+from rperc._rperc import nees_bounds
 from rperc.slam import monobot
+from rperc.slam.ekf import Ekf, EkfUpdate
 
-__all__ = ["Ekf", "monobot", "nees_bounds"]
+__all__ = ["Ekf", "EkfUpdate", "monobot", "nees_bounds"]

@@ -21,15 +21,16 @@ Examples
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
-from tqdm import tqdm
 
 from rperc import _rperc
+from rperc._progress import progress as _progress
 
 Model = Literal["relative", "anchor", "external"]
 NoiseSpec = tuple[Literal["constant", "proportional"], float]
@@ -89,7 +90,18 @@ def _config(landmarks: int, steps: int, overrides: dict[str, Any]) -> MonobotCon
         value = {"landmarks": landmarks, "steps": steps}[name]
         if isinstance(value, bool) or int(value) != value or value < 1:
             raise ValueError(f"{name} must be a positive integer, got {value!r}")
+    for name in ("plant_noise", "measurement_noise", "reference_noise"):
+        spec = overrides.get(name)
+        if spec is not None and (
+            not isinstance(spec, (tuple, list)) or len(spec) != 2 or spec[0] not in _NOISE_KINDS
+        ):
+            raise ValueError(
+                f"{name} must be ('constant', variance) or ('proportional', k), got {spec!r}"
+            )
     return MonobotConfig(landmarks=int(landmarks), steps=int(steps), **overrides)
+
+
+_NOISE_KINDS = ("constant", "proportional")
 
 
 @dataclass(frozen=True, repr=False)
@@ -121,7 +133,7 @@ class MonobotResult:
 
     @property
     def error(self) -> np.ndarray:
-        return self.estimate - self.truth
+        return np.asarray(self.estimate - self.truth)
 
     def __repr__(self) -> str:
         e = self.error[-1]
@@ -143,7 +155,7 @@ def simulate(
     ``measurement_noise``, ``reference_noise``, ``noise_floor``).
     """
     cfg = _config(landmarks, steps, config)
-    arrays = _rperc.monobot_simulate(model, _seed(seed), cfg.kwargs())
+    arrays = _rperc.monobot_simulate(model, _seed(seed), 0, cfg.kwargs())
     return MonobotResult(model=model, config=cfg, seed=seed, **arrays)
 
 
@@ -209,9 +221,10 @@ class MonteCarloResult:
         )
 
 
-def _run_errors(model: str, seed: int, config: dict[str, Any]) -> tuple[np.ndarray, ...]:
-    """One run's errors; a top-level function so process pools and Dask can pickle it."""
-    r = _rperc.monobot_simulate(model, seed, config)
+def _run_errors(model: str, seed: int, run: int, config: dict[str, Any]) -> tuple[np.ndarray, ...]:
+    """Run ``run``'s errors; a top-level function so process pools and Dask can pickle
+    it. The run draws from stream ``run`` of ``seed``, as the native Monte Carlo does."""
+    r = _rperc.monobot_simulate(model, seed, run, config)
     err = r["estimate"] - r["truth"]
     return r["nees"], err[:, 0], err[:, 1:], r["first_observation_error"]
 
@@ -241,13 +254,19 @@ def monte_carlo(
         raise ValueError(f"runs must be a positive integer, got {runs!r}")
     seed = _seed(seed)
     if executor is None:
-        nees, robot, lm, first = _rperc.monobot_monte_carlo(model, int(runs), seed, cfg.kwargs())
+        # One native call does every run on all cores, so progress reports it as one
+        # batch (its final line gives the time).
+        batch: Iterable[int] = [int(runs)]
+        if progress:
+            batch = _progress(batch, desc=f"monobot {model}, {runs} runs (rayon)", unit="batch")
+        for n in batch:
+            nees, robot, lm, first = _rperc.monobot_monte_carlo(model, n, seed, cfg.kwargs())
     else:
-        _rperc.monobot_simulate(model, seed, {**cfg.kwargs(), "steps": 1})  # validate early
-        seeds = [_rperc.monobot_run_seed(seed, i) for i in range(runs)]
+        _rperc.monobot_simulate(model, seed, 0, {**cfg.kwargs(), "steps": 1})  # validate early
         kwargs = cfg.kwargs()
-        futures = [executor.submit(_run_errors, model, s, kwargs) for s in seeds]
-        results = [f.result() for f in tqdm(futures, desc=f"monobot {model}", disable=not progress)]
+        futures = [executor.submit(_run_errors, model, seed, i, kwargs) for i in range(runs)]
+        done = _progress(futures, desc=f"monobot {model}", unit="run") if progress else futures
+        results = [f.result() for f in done]
         nees, robot, lm, first = (np.stack(parts) for parts in zip(*results, strict=True))
     summary = _rperc.monobot_summarize(nees, robot, lm, first, confidence)
     summary.pop("runs")

@@ -2,8 +2,9 @@
 
 Trackers follow OpenCV's convention::
 
-    tracker = ColorHistogramTracker(frame, (x, y, w, h), **params)
-    box, score, lost = tracker.update(next_frame)
+    tracker = ColorHistogramTracker(frame, (x, y, w, h), color_space="hsv")
+    result = tracker.update(next_frame)      # TrackResult(box, score, lost)
+    box, score, lost = result
 
 Frames are H x W x 3 uint8 RGB arrays; boxes are ``(x, y, w, h)`` in pixels (top-left
 corner). The GIL is released while a frame is processed.
@@ -17,29 +18,23 @@ corner). The GIL is released while a frame is processed.
 - :func:`resample`, :func:`effective_sample_size`: the particle-filter building blocks.
 - :mod:`rperc.tracking.metrics`: IoU, success curve and AUC, precision at 20 px.
 
-Parameters (keyword arguments; defaults tuned on OTB Girl and Couple):
-
-- both: ``color_space`` (``"hsv"``, ``"opponent"`` -- the seed's (B-G, G-R, R+G+B) --,
-  ``"rg"``, ``"rgb"``), ``bins`` (3 ints), ``model`` (``"bimodal"`` or ``"single"``),
-  ``upper_fraction``, ``adaptation_rate``, ``adaptation_threshold``,
-  ``gradient_weight``, ``lost_threshold``, ``min_scale``, ``max_scale``, ``parallel``;
-- local search: ``search_radius``, ``scale_step``, ``momentum``;
-- particles: ``n_particles``, ``position_noise``, ``scale_noise``, ``sigma``,
-  ``resampler`` (``"systematic"``, ``"multinomial"``, ``"stratified"``,
-  ``"residual"``), ``resample_below`` (an ESS fraction), ``chunk_size``.
+Parameters are keyword arguments with the defaults of the Rust configs (tuned on OTB
+Girl and Couple); ``help(ColorHistogramTracker)`` lists them.
 """
 
-from rperc._rperc import (
+from rperc.tracking import metrics
+from rperc.tracking.trackers import (
     ColorHistogramTracker,
     ParticleColorTracker,
+    TrackResult,
     effective_sample_size,
     resample,
 )
-from rperc.tracking import metrics
 
 __all__ = [
     "ColorHistogramTracker",
     "ParticleColorTracker",
+    "TrackResult",
     "effective_sample_size",
     "metrics",
     "resample",

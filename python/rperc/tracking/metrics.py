@@ -38,7 +38,9 @@ def iou(a: npt.ArrayLike, b: npt.ArrayLike) -> np.ndarray:
     )
     with np.errstate(invalid="ignore", divide="ignore"):
         out = np.where(valid & (union > 0), inter / union, 0.0)
-    return out
+    # Rounding in the union can put identical boxes a hair above 1, and the success
+    # curve's last threshold (overlap > 1) would then count them.
+    return np.minimum(out, 1.0)
 
 
 def success_curve(
@@ -47,7 +49,7 @@ def success_curve(
     """Fraction of frames whose overlap exceeds each threshold."""
     o = np.asarray(overlaps, dtype=np.float64)
     t = np.asarray(thresholds, dtype=np.float64)
-    return (o[None, :] > t[:, None]).mean(axis=1)
+    return np.asarray((o[None, :] > t[:, None]).mean(axis=1), dtype=np.float64)
 
 
 def auc(overlaps: npt.ArrayLike) -> float:
@@ -60,7 +62,7 @@ def center_error(a: npt.ArrayLike, b: npt.ArrayLike) -> np.ndarray:
     a, b = _boxes(a, "a"), _boxes(b, "b")
     ca = a[:, :2] + a[:, 2:] / 2
     cb = b[:, :2] + b[:, 2:] / 2
-    return np.hypot(*(ca - cb).T)
+    return np.asarray(np.hypot(*(ca - cb).T), dtype=np.float64)
 
 
 def precision(pred: npt.ArrayLike, truth: npt.ArrayLike, threshold: float = 20.0) -> float:

@@ -5,43 +5,41 @@
 use super::ellipse::Ellipse;
 use super::region::count_parts;
 use super::space::{BinImage, ColorSpace, check_bins};
-use crate::error::{Result, TrackingError, in_range};
+use rperc_core::{ensure_in_range, ensure_non_negative};
 
-/// How the target's colours are modelled.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum ModelKind {
-    /// One histogram of the whole ellipse.
-    Single,
-    /// Two histograms, of the top `upper_fraction` of the ellipse's rows and of the rest
-    /// (hair and skin for a head: seed 000 section 3.2 "bimodal histogram"). A candidate
-    /// is compared with their upper envelope `max(M_upper(i), M_lower(i))`, so it matches
-    /// when each of its colours is explained by either mode: a head still matches when it
-    /// turns and shows only hair.
-    Bimodal {
-        /// Fraction of the ellipse's rows in the upper part, in (0, 1).
-        upper_fraction: f64,
-    },
-}
+use crate::error::{Result, TrackingError};
 
-impl Default for ModelKind {
-    fn default() -> Self {
-        ModelKind::Bimodal {
-            upper_fraction: 0.4,
-        }
+rperc_core::named_enum! {
+    /// How the target's colours are modelled.
+    #[derive(Default)]
+    pub enum ModelKind: "model" {
+        /// One histogram of the whole ellipse.
+        Single = "single",
+        /// Two histograms, of the top `upper_fraction` of the ellipse's rows and of the
+        /// rest (hair and skin for a head: seed 000 section 3.2 "bimodal histogram"). A
+        /// candidate is compared with their upper envelope `max(M_upper(i), M_lower(i))`,
+        /// so it matches when each of its colours is explained by either mode: a head
+        /// still matches when it turns and shows only hair.
+        #[default]
+        Bimodal = "bimodal",
     }
 }
 
 /// The appearance part of a tracker's parameters: colour space, bins, model and its
 /// adaptation, and the gradient term. Defaults are the values tuned on OTB Girl + Couple.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct AppearanceParams {
     /// Colour space of the histograms. Default [`ColorSpace::Hsv`] (best on OTB Girl +
     /// Couple; the seed's [`ColorSpace::Opponent`] scores lower there).
     pub color_space: ColorSpace,
     /// Bins per axis, 1..=64 each. Default `[8, 8, 4]` (finer chroma than intensity).
     pub bins: [usize; 3],
-    /// Single or bimodal model. Default bimodal with `upper_fraction` 0.4.
+    /// Single or bimodal model. Default bimodal.
     pub model: ModelKind,
+    /// Fraction of the ellipse's rows in the upper part of a bimodal model, in (0, 1).
+    /// Default 0.4.
+    pub upper_fraction: f64,
     /// `a` of eq. (29), in [0, 1]: weight of the new candidate when adapting the model.
     /// Default 0.03. 0 disables adaptation.
     pub adaptation_rate: f64,
@@ -61,6 +59,7 @@ impl Default for AppearanceParams {
             color_space: ColorSpace::Hsv,
             bins: [8, 8, 4],
             model: ModelKind::default(),
+            upper_fraction: 0.4,
             adaptation_rate: 0.03,
             adaptation_threshold: 0.7,
             gradient_weight: 0.7,
@@ -72,18 +71,12 @@ impl Default for AppearanceParams {
 impl AppearanceParams {
     pub(crate) fn validate(&self) -> Result<usize> {
         let n_bins = check_bins(self.bins)?;
-        in_range("adaptation_rate", self.adaptation_rate, 0.0, 1.0)?;
-        in_range("adaptation_threshold", self.adaptation_threshold, 0.0, 1.0)?;
-        in_range("lost_threshold", self.lost_threshold, 0.0, 1.0)?;
-        if !(self.gradient_weight.is_finite() && self.gradient_weight >= 0.0) {
-            return Err(TrackingError::InvalidParameter {
-                name: "gradient_weight",
-                reason: format!("must be finite and >= 0, got {}", self.gradient_weight),
-            });
-        }
-        if let ModelKind::Bimodal { upper_fraction } = self.model
-            && !(upper_fraction.is_finite() && upper_fraction > 0.0 && upper_fraction < 1.0)
-        {
+        ensure_in_range("adaptation_rate", self.adaptation_rate, 0.0, 1.0)?;
+        ensure_in_range("adaptation_threshold", self.adaptation_threshold, 0.0, 1.0)?;
+        ensure_in_range("lost_threshold", self.lost_threshold, 0.0, 1.0)?;
+        ensure_non_negative("gradient_weight", self.gradient_weight)?;
+        let upper_fraction = self.upper_fraction;
+        if !(upper_fraction.is_finite() && upper_fraction > 0.0 && upper_fraction < 1.0) {
             return Err(TrackingError::InvalidParameter {
                 name: "upper_fraction",
                 reason: format!("must be in (0, 1), got {upper_fraction}"),
@@ -95,7 +88,7 @@ impl AppearanceParams {
     pub(crate) fn upper_fraction(&self) -> f64 {
         match self.model {
             ModelKind::Single => 0.5,
-            ModelKind::Bimodal { upper_fraction } => upper_fraction,
+            ModelKind::Bimodal => self.upper_fraction,
         }
     }
 }
@@ -190,7 +183,7 @@ impl ColourModel {
         for ((r, u), l) in self.reference.iter_mut().zip(&self.upper).zip(&self.lower) {
             *r = match self.kind {
                 ModelKind::Single => *u as f32,
-                ModelKind::Bimodal { .. } => u.max(*l) as f32,
+                ModelKind::Bimodal => u.max(*l) as f32,
             };
         }
     }

@@ -9,11 +9,14 @@ use super::model::{AppearanceParams, ColourModel};
 use super::space::BinImage;
 use super::tracker::{TrackResult, pixel_centre};
 use crate::condensation::{FilterParams, Likelihood, LinearGaussian, ParticleFilter};
-use crate::error::{Result, TrackingError, positive};
+use rperc_core::ensure_positive as positive;
+
+use crate::error::{Result, TrackingError};
 use crate::frame::{BoundingBox, RgbFrame};
 
 /// Parameters of a [`ParticleColorTracker`].
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct ParticleTrackerParams {
     /// Colour model, adaptation and gradient term.
     pub appearance: AppearanceParams,

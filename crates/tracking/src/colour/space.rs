@@ -6,20 +6,22 @@ use rayon::prelude::*;
 use crate::error::{Result, TrackingError};
 use crate::frame::RgbFrame;
 
-/// The colour space whose 3-D histogram models the target (seed 000 section 3.2).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum ColorSpace {
-    /// Raw (R, G, B).
-    Rgb,
-    /// The seed's and Birchfield's opponent axes (B-G, G-R, R+G+B): chroma separated
-    /// from intensity, robust to specular highlights.
-    #[default]
-    Opponent,
-    /// Normalised chromaticity (r, g) = (R, G) / (R+G+B), plus the intensity R+G+B as the
-    /// third axis (give it 1 bin to ignore intensity).
-    NormalizedRg,
-    /// Hue, saturation, value (hue in degrees, 0..360).
-    Hsv,
+rperc_core::named_enum! {
+    /// The colour space whose 3-D histogram models the target (seed 000 section 3.2).
+    #[derive(Default)]
+    pub enum ColorSpace: "color_space" {
+        /// Raw (R, G, B).
+        Rgb = "rgb",
+        /// The seed's and Birchfield's opponent axes (B-G, G-R, R+G+B): chroma separated
+        /// from intensity, robust to specular highlights.
+        #[default]
+        Opponent = "opponent",
+        /// Normalised chromaticity (r, g) = (R, G) / (R+G+B), plus the intensity R+G+B as
+        /// the third axis (give it 1 bin to ignore intensity).
+        NormalizedRg = "rg",
+        /// Hue, saturation, value (hue in degrees, 0..360).
+        Hsv = "hsv",
+    }
 }
 
 /// Largest number of bins per axis.

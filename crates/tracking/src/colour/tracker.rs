@@ -9,12 +9,15 @@ use super::gradient::GradientImage;
 use super::model::{AppearanceParams, ColourModel};
 use super::region::RegionHistogram;
 use super::space::BinImage;
-use crate::error::{Result, TrackingError, in_range, positive};
+use rperc_core::{ensure_in_range as in_range, ensure_positive as positive};
+
+use crate::error::{Result, TrackingError};
 use crate::frame::{BoundingBox, RgbFrame};
 
 /// Parameters of a [`ColorHistogramTracker`]. Defaults are the values tuned on OTB Girl
 /// and Couple (the same for both).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct ColorTrackerParams {
     /// Colour model, adaptation and gradient term.
     pub appearance: AppearanceParams,

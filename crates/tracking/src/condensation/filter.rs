@@ -2,12 +2,11 @@
 //! the recovery when every particle has zero likelihood.
 
 use nalgebra::{SMatrix, SVector};
-use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 
-use super::resample::{Resampler, effective_sample_size};
+use super::resample::{Resampler, ess_normalized};
 use crate::error::{Result, TrackingError};
 
 /// The measurement model: log-likelihood `ln p(z | s)` of a state, up to a constant.
@@ -78,8 +77,10 @@ impl<const D: usize> LinearGaussian<D> {
     }
 }
 
-/// When to resample at the start of a step.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+/// When to resample at the start of a step. In configs: `resample_below = None`
+/// (always) or an ESS fraction.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Deserialize, serde::Serialize)]
+#[serde(from = "Option<f64>", into = "Option<f64>")]
 pub enum ResamplePolicy {
     /// Every step, as in the seed's CONDENSATION.
     #[default]
@@ -89,12 +90,30 @@ pub enum ResamplePolicy {
     BelowEss(f64),
 }
 
+impl From<Option<f64>> for ResamplePolicy {
+    fn from(fraction: Option<f64>) -> Self {
+        fraction.map_or(ResamplePolicy::Always, ResamplePolicy::BelowEss)
+    }
+}
+
+impl From<ResamplePolicy> for Option<f64> {
+    fn from(policy: ResamplePolicy) -> Self {
+        match policy {
+            ResamplePolicy::Always => None,
+            ResamplePolicy::BelowEss(f) => Some(f),
+        }
+    }
+}
+
 /// Tuning of a [`ParticleFilter`].
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct FilterParams {
     /// Resampling scheme. Default [`Resampler::Systematic`].
     pub resampler: Resampler,
-    /// When to resample. Default [`ResamplePolicy::Always`].
+    /// When to resample. Default [`ResamplePolicy::Always`]. Spelled `resample_below`
+    /// (an ESS fraction, or none for "always") in configs.
+    #[serde(rename = "resample_below")]
     pub policy: ResamplePolicy,
     /// Particles per parallel work item (default 64). Fixed, so the split of the work never
     /// depends on the thread count; large enough that a chunk's likelihood calls outweigh
@@ -221,7 +240,7 @@ impl<const D: usize> ParticleFilter<D> {
             dynamics,
             recovery_chol,
             params,
-            rng: ChaCha8Rng::seed_from_u64(seed),
+            rng: rperc_core::rng::seeded(seed),
             mean,
             ess: n as f64,
             lost: false,
@@ -271,7 +290,7 @@ impl<const D: usize> ParticleFilter<D> {
             self.scatter_around(centre);
         } else {
             self.mean = self.weighted_mean();
-            self.ess = effective_sample_size(&self.weights);
+            self.ess = ess_normalized(self.weights.iter().copied());
         }
         self.lost = lost;
         StepReport {

@@ -6,34 +6,49 @@ use rand::Rng;
 
 use crate::error::{Result, TrackingError};
 
-/// How a weighted particle set is turned into an equally weighted one.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Resampler {
-    /// Independent draws from the weights, as in the seed: counts are multinomial.
-    Multinomial,
-    /// One uniform offset, `n` evenly spaced pointers: each count is `floor(n w)` or
-    /// `ceil(n w)`. Lowest variance in practice; the default.
-    #[default]
-    Systematic,
-    /// One independent uniform per stratum `[k/n, (k+1)/n)`.
-    Stratified,
-    /// `floor(n w_i)` copies deterministically, the remainder drawn multinomially from
-    /// the residual weights `n w_i - floor(n w_i)`.
-    Residual,
+rperc_core::named_enum! {
+    /// How a weighted particle set is turned into an equally weighted one.
+    #[derive(Default)]
+    pub enum Resampler: "resampler" {
+        /// Independent draws from the weights, as in the seed: counts are multinomial.
+        Multinomial = "multinomial",
+        /// One uniform offset, `n` evenly spaced pointers: each count is `floor(n w)` or
+        /// `ceil(n w)`. Lowest variance in practice; the default.
+        #[default]
+        Systematic = "systematic",
+        /// One independent uniform per stratum `[k/n, (k+1)/n)`.
+        Stratified = "stratified",
+        /// `floor(n w_i)` copies deterministically, the remainder drawn multinomially
+        /// from the residual weights `n w_i - floor(n w_i)`.
+        Residual = "residual",
+    }
 }
 
-/// Effective sample size `1 / sum(w_i^2)` of weights that sum to one (Kong, Liu & Wong):
-/// `n` for uniform weights, 1 when one particle carries all the weight.
+/// Effective sample size `(sum w_i)^2 / sum(w_i^2)` (Kong, Liu & Wong) of
+/// non-negative weights, which need not be normalised: `n` for equal weights, 1 when
+/// one particle carries all the weight.
+///
+/// # Errors
+/// [`TrackingError::InvalidWeights`] for the weights [`Resampler::resample`] refuses:
+/// empty, negative, non-finite or all zero.
 ///
 /// # Examples
 /// ```
 /// use tracking::effective_sample_size;
 ///
-/// assert_eq!(effective_sample_size(&[0.25; 4]), 4.0);
-/// assert_eq!(effective_sample_size(&[0.5, 0.25, 0.25]), 1.0 / 0.375);
+/// assert_eq!(effective_sample_size(&[0.25; 4]).unwrap(), 4.0);
+/// assert_eq!(effective_sample_size(&[1.0; 4]).unwrap(), 4.0);
+/// assert_eq!(effective_sample_size(&[0.5, 0.25, 0.25]).unwrap(), 1.0 / 0.375);
+/// assert!(effective_sample_size(&[0.5, f64::NAN]).is_err());
 /// ```
-pub fn effective_sample_size(weights: &[f64]) -> f64 {
-    let sum_sq: f64 = weights.iter().map(|w| w * w).sum();
+pub fn effective_sample_size(weights: &[f64]) -> Result<f64> {
+    let total = checked_total(weights)?;
+    Ok(ess_normalized(weights.iter().map(|w| w / total)))
+}
+
+/// `1 / sum(w_i^2)` of weights that already sum to one.
+pub(crate) fn ess_normalized(weights: impl Iterator<Item = f64>) -> f64 {
+    let sum_sq: f64 = weights.map(|w| w * w).sum();
     if sum_sq > 0.0 { 1.0 / sum_sq } else { 0.0 }
 }
 

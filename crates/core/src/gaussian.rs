@@ -1,0 +1,210 @@
+//! Gaussians `N(mean, cov)`: Mahalanobis distance (NEES, NIS, gating) and the
+//! symmetric positive (semi-)definite checks every filter applies to its covariances.
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::error::{CoreError, Result, ensure_finite};
+
+/// Relative tolerance of the symmetry and definiteness checks: round-off of the
+/// caller's algebra passes, a wrong sign or a transposed block does not.
+pub const COVARIANCE_RTOL: f64 = 1e-9;
+
+/// What a covariance must be.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Definiteness {
+    /// Positive definite: a state covariance whose inverse is used (P0, S).
+    Positive,
+    /// Positive semi-definite: a noise covariance that may be zero in some direction.
+    SemiPositive,
+}
+
+impl Definiteness {
+    fn describe(self) -> &'static str {
+        match self {
+            Definiteness::Positive => "symmetric positive definite",
+            Definiteness::SemiPositive => "symmetric positive semi-definite",
+        }
+    }
+}
+
+/// Largest `|C - C^T|` entry relative to the largest `|C|` entry.
+pub fn asymmetry(c: &DMatrix<f64>) -> f64 {
+    let scale = c.amax().max(f64::MIN_POSITIVE);
+    (c - c.transpose()).amax() / scale
+}
+
+/// Smallest eigenvalue of the symmetric part of `C`, relative to the largest `|C|`.
+pub fn min_relative_eigenvalue(c: &DMatrix<f64>) -> f64 {
+    if c.is_empty() {
+        return 0.0;
+    }
+    let sym = (c + c.transpose()) * 0.5;
+    let scale = c.amax().max(f64::MIN_POSITIVE);
+    sym.symmetric_eigenvalues().min() / scale
+}
+
+/// Checks that `c` (named `name` in the error) is square, finite, symmetric and
+/// positive (semi-)definite within [`COVARIANCE_RTOL`]. An empty matrix passes.
+///
+/// # Examples
+/// ```
+/// use nalgebra::DMatrix;
+/// use rperc_core::{Definiteness, check_covariance};
+///
+/// let p = DMatrix::from_row_slice(2, 2, &[0.01, 0.0, 0.0, -0.01]);
+/// let err = check_covariance("P0", &p, Definiteness::Positive).unwrap_err();
+/// assert!(err.to_string().contains("P0"));
+/// assert!(check_covariance("V", &DMatrix::zeros(2, 2), Definiteness::SemiPositive).is_ok());
+/// ```
+pub fn check_covariance(name: &'static str, c: &DMatrix<f64>, kind: Definiteness) -> Result<()> {
+    let fail = |reason: String| CoreError::NotPositiveDefinite {
+        name,
+        requirement: kind.describe(),
+        reason,
+    };
+    if !c.is_square() {
+        return Err(CoreError::Dimension(format!(
+            "covariance '{name}' must be square, got {}x{}",
+            c.nrows(),
+            c.ncols()
+        )));
+    }
+    ensure_finite(name, c.iter())?;
+    if c.is_empty() {
+        return Ok(());
+    }
+    let asym = asymmetry(c);
+    if asym > COVARIANCE_RTOL {
+        return Err(fail(format!("relative asymmetry {asym:.2e}")));
+    }
+    let min = min_relative_eigenvalue(c);
+    let ok = match kind {
+        // Strictly positive, and a Cholesky factor must exist (the inverse is used).
+        Definiteness::Positive => min > 0.0 && c.clone().cholesky().is_some(),
+        Definiteness::SemiPositive => min >= -COVARIANCE_RTOL,
+    };
+    if ok {
+        Ok(())
+    } else {
+        Err(fail(format!(
+            "smallest eigenvalue {:.3e} (relative {min:.2e})",
+            min * c.amax()
+        )))
+    }
+}
+
+/// The nearest usable covariance: the symmetric part of `c` with its eigenvalues
+/// raised to at least `floor` (absolute). For a covariance that drifted indefinite
+/// through round-off; a NaN or a non-square matrix is still an error.
+pub fn repair_covariance(name: &'static str, c: &DMatrix<f64>, floor: f64) -> Result<DMatrix<f64>> {
+    if !c.is_square() {
+        return Err(CoreError::Dimension(format!(
+            "covariance '{name}' must be square"
+        )));
+    }
+    ensure_finite(name, c.iter())?;
+    crate::error::ensure_non_negative("floor", floor)?;
+    let eig = ((c + c.transpose()) * 0.5).symmetric_eigen();
+    let clipped = eig.eigenvalues.map(|v| v.max(floor));
+    let q = &eig.eigenvectors;
+    let fixed = q * DMatrix::from_diagonal(&clipped) * q.transpose();
+    Ok((&fixed + fixed.transpose()) * 0.5)
+}
+
+/// `e^T C^-1 e` through a Cholesky factorisation; an error when `C` is not positive
+/// definite. With the estimation error this is the NEES; with the innovation, the NIS.
+pub fn mahalanobis2(e: &DVector<f64>, cov: &DMatrix<f64>) -> Result<f64> {
+    if cov.nrows() != e.len() || cov.ncols() != e.len() {
+        return Err(CoreError::Dimension(format!(
+            "vector of {} entries against a {}x{} covariance",
+            e.len(),
+            cov.nrows(),
+            cov.ncols()
+        )));
+    }
+    let chol = cov
+        .clone()
+        .cholesky()
+        .ok_or_else(|| CoreError::NotPositiveDefinite {
+            name: "covariance",
+            requirement: Definiteness::Positive.describe(),
+            reason: "no Cholesky factor".into(),
+        })?;
+    Ok(e.dot(&chol.solve(e)))
+}
+
+/// A multivariate Gaussian `N(mean, cov)` with a checked covariance.
+///
+/// # Examples
+/// ```
+/// use nalgebra::{DMatrix, DVector};
+/// use rperc_core::Gaussian;
+///
+/// let g = Gaussian::new(DVector::from_vec(vec![1.0, 2.0]),
+///                       DMatrix::from_diagonal(&DVector::from_vec(vec![4.0, 1.0]))).unwrap();
+/// // (3 - 1)^2 / 4 + (2 - 2)^2 / 1 = 1
+/// assert!((g.mahalanobis2(&DVector::from_vec(vec![3.0, 2.0])).unwrap() - 1.0).abs() < 1e-12);
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct Gaussian {
+    /// Mean vector.
+    pub mean: DVector<f64>,
+    /// Covariance matrix (symmetric positive definite).
+    pub cov: DMatrix<f64>,
+}
+
+impl Gaussian {
+    /// A Gaussian after checking sizes, finiteness and positive definiteness.
+    pub fn new(mean: DVector<f64>, cov: DMatrix<f64>) -> Result<Self> {
+        if cov.nrows() != mean.len() || cov.ncols() != mean.len() {
+            return Err(CoreError::Dimension(format!(
+                "mean has {} entries but cov is {}x{}",
+                mean.len(),
+                cov.nrows(),
+                cov.ncols()
+            )));
+        }
+        ensure_finite("mean", mean.iter())?;
+        check_covariance("cov", &cov, Definiteness::Positive)?;
+        Ok(Self { mean, cov })
+    }
+
+    /// Squared Mahalanobis distance of `x` from the mean (the NEES of a true state).
+    pub fn mahalanobis2(&self, x: &DVector<f64>) -> Result<f64> {
+        mahalanobis2(&(x - &self.mean), &self.cov)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn checks_catch_sign_and_symmetry_errors() {
+        let pd = DMatrix::from_row_slice(2, 2, &[2.0, 0.5, 0.5, 1.0]);
+        assert!(check_covariance("P", &pd, Definiteness::Positive).is_ok());
+        let asym = DMatrix::from_row_slice(2, 2, &[2.0, 0.5, 0.4, 1.0]);
+        assert!(check_covariance("P", &asym, Definiteness::SemiPositive).is_err());
+        let singular = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0]);
+        assert!(check_covariance("V", &singular, Definiteness::SemiPositive).is_ok());
+        assert!(check_covariance("P", &singular, Definiteness::Positive).is_err());
+        let nan = DMatrix::from_row_slice(1, 1, &[f64::NAN]);
+        assert_eq!(
+            check_covariance("R", &nan, Definiteness::SemiPositive),
+            Err(CoreError::NonFinite("R"))
+        );
+    }
+
+    #[test]
+    fn repair_clips_negative_eigenvalues_only() {
+        // Eigenvalues 3 and -1 (eigenvectors (1, 1) and (1, -1) / sqrt 2).
+        let c = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0]);
+        let fixed = repair_covariance("P", &c, 1e-3).unwrap();
+        let mut eig: Vec<f64> = fixed.symmetric_eigenvalues().iter().copied().collect();
+        eig.sort_by(f64::total_cmp);
+        assert!((eig[0] - 1e-3).abs() < 1e-12 && (eig[1] - 3.0).abs() < 1e-12);
+        // An SPD matrix comes back unchanged.
+        let pd = DMatrix::from_row_slice(2, 2, &[2.0, 0.5, 0.5, 1.0]);
+        assert!((repair_covariance("P", &pd, 0.0).unwrap() - &pd).amax() < 1e-12);
+    }
+}

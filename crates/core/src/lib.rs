@@ -1,0 +1,26 @@
+#![doc = include_str!("../README.md")]
+#![deny(missing_docs)]
+
+pub mod angle;
+pub mod chi2;
+mod error;
+pub mod gaussian;
+pub mod image;
+mod named;
+pub mod pose;
+pub mod rng;
+
+pub use angle::{angle_diff, wrap_angle};
+pub use chi2::{chi2_cdf, chi2_gate, chi2_quantile, nees_band};
+pub use error::{
+    CoreError, ErrorClass, Result, ensure_finite, ensure_in_range, ensure_non_negative,
+    ensure_positive,
+};
+pub use gaussian::{
+    Definiteness, Gaussian, asymmetry, check_covariance, mahalanobis2, min_relative_eigenvalue,
+    repair_covariance,
+};
+pub use pose::Pose2;
+/// Re-exported for [`named_enum!`].
+#[doc(hidden)]
+pub use serde;

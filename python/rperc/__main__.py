@@ -1,0 +1,7 @@
+"""``python -m rperc``: the ``rperc`` command."""
+
+import sys
+
+from rperc.cli import main
+
+sys.exit(main())

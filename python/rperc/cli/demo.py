@@ -1,0 +1,145 @@
+"""``rperc demo NAME`` and ``rperc demo all``: each capability on data rperc generates
+itself, checked against the truth of that data.
+
+A demo is a function ``run(out, seed, **options) -> DemoResult`` that writes its
+figures into the folder ``out`` and returns one summary line (what was checked and the
+measured error), the figures it wrote and its measured figures for ``--json``. To add a
+capability, write its demo next to its command and append one :class:`Demo` to
+:func:`registry`: it then has its own ``rperc demo NAME`` and runs in ``rperc demo all``
+(and so in ``make demo``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from rperc.cli.outputs import (
+    add_json_option,
+    check_output_file,
+    count_at_least,
+    prepare_output_folder,
+    seed_type,
+    write_json,
+    wrote,
+)
+
+
+@dataclass(frozen=True)
+class DemoResult:
+    """What a demo found: ``summary`` is one line starting with the demo's name;
+    ``details`` are printed after it when the demo runs on its own."""
+
+    summary: str
+    figures: list[Path]
+    measured: dict[str, Any]
+    details: list[str] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class Option:
+    """A demo-specific option: ``--flag`` passed to the demo as keyword ``dest``."""
+
+    flag: str
+    dest: str
+    type: Callable[[str], Any]
+    default: Any
+    help: str
+
+
+@dataclass(frozen=True)
+class Demo:
+    name: str
+    help: str
+    run: Callable[..., DemoResult]
+    options: tuple[Option, ...] = ()
+
+    def defaults(self) -> dict[str, Any]:
+        return {o.dest: o.default for o in self.options}
+
+
+@functools.cache
+def registry() -> tuple[Demo, ...]:
+    """Every demo, in the order ``demo all`` runs them. (Built on first use: the demo
+    functions live in the command modules, which import this one.)"""
+    from rperc.cli import lines, slam, track
+
+    return (
+        Demo("lines", "Douglas-Peucker on a noisy spiral, deviation vs epsilon", lines.demo_lines),
+        Demo("walls", "walls from a simulated laser scan vs the ray-cast truth", lines.demo_walls),
+        Demo(
+            "monobot",
+            "EKF-SLAM observability study (Figs. 3-6, Monte Carlo)",
+            slam.demo_monobot,
+            (Option("--runs", "runs", count_at_least(2), 100, "Monte Carlo runs (default 100)"),),
+        ),
+        Demo(
+            "tracking",
+            "colour trackers on a synthetic sequence vs its known boxes",
+            track.demo_tracking,
+            # 1000 frames of 320 x 240 RGB are 230 MB: a bound well above any use.
+            (Option("--frames", "frames", count_at_least(2, 1000), 150, "frames (default 150)"),),
+        ),
+    )
+
+
+def _common_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--out", type=Path, default=Path("out/demo"), help="folder for the figures")
+    p.add_argument("--seed", type=seed_type, default=0, help="seed of the generated data")
+    add_json_option(p)
+
+
+def add_demos(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    demo = sub.add_parser("demo", help="run the demos on data rperc generates itself")
+    demos = demo.add_subparsers(dest="demo", required=True, metavar="DEMO")
+    for d in registry():
+        p = demos.add_parser(d.name, help=d.help)
+        _common_options(p)
+        for o in d.options:
+            p.add_argument(o.flag, dest=o.dest, type=o.type, default=o.default, help=o.help)
+        p.set_defaults(run=_run_one, demo_entry=d)
+    p = demos.add_parser("all", help="every demo above, one figure and one summary line each")
+    _common_options(p)
+    p.set_defaults(run=run_all)
+
+
+def _run(d: Demo, out: Path, seed: int, options: dict[str, Any]) -> tuple[DemoResult, float]:
+    start = time.perf_counter()
+    result = d.run(out, seed, **options)
+    seconds = time.perf_counter() - start
+    for path in result.figures:
+        wrote(path)
+    return result, seconds
+
+
+def _run_one(args: argparse.Namespace) -> int:
+    d: Demo = args.demo_entry
+    out = prepare_output_folder(args.out, "--out")  # first: --json may point into it
+    check_output_file(args.json, "--json")
+    result, seconds = _run(d, out, args.seed, {o.dest: getattr(args, o.dest) for o in d.options})
+    print(result.summary)
+    for line in result.details:
+        print(line)
+    write_json(args.json, {**result.measured, "seconds": seconds})
+    return 0
+
+
+def run_all(args: argparse.Namespace) -> int:
+    out = prepare_output_folder(args.out, "--out")  # first: --json may point into it
+    check_output_file(args.json, "--json")
+    measured: dict[str, Any] = {}
+    start = time.perf_counter()
+    for d in registry():
+        result, seconds = _run(d, out, args.seed, d.defaults())
+        print(result.summary, flush=True)
+        measured[d.name] = {**result.measured, "seconds": seconds}
+    total = time.perf_counter() - start
+    print(f"rperc demo all: {len(registry())} demos in {total:.1f} s", file=sys.stderr)
+    write_json(args.json, {"demos": measured, "seconds": total})
+    return 0

@@ -1,0 +1,117 @@
+"""What every ``rperc`` command shares about its inputs and outputs: option types
+that reject bad counts and seeds, output paths checked before any work is done, the
+``--json`` file of measured figures, and "wrote ..." notes on stderr (stdout carries
+the results only, so it can be piped)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+def count_at_least(minimum: int, maximum: int | None = None) -> Callable[[str], int]:
+    """An argparse type: an integer ``>= minimum`` (and ``<= maximum`` if given)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be an integer >= {minimum}, got {value}")
+        if maximum is not None and value > maximum:
+            raise argparse.ArgumentTypeError(f"must be an integer <= {maximum}, got {value}")
+        return value
+
+    parse.__name__ = f"integer >= {minimum}"
+    return parse
+
+
+# Seeds feed 64-bit generators on the native side.
+seed_type = count_at_least(0, 2**64 - 1)
+
+
+def positive_float(text: str) -> float:
+    """An argparse type: a finite float > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
+    return value
+
+
+def add_json_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--json", type=Path, metavar="PATH", help="also write the measured figures as JSON"
+    )
+
+
+def check_output_file(path: Path | None, option: str, *, figure: bool = False) -> None:
+    """Refuse, before any work, an output that could not be written: a folder, a file
+    in a folder that does not exist (it is not created silently) or is read-only, or a
+    figure whose suffix names no image format."""
+    if path is None:
+        return
+    if path.is_dir():
+        example = path / ("figure.png" if figure else "out.json")
+        raise ValueError(f"{option} {path} is a folder; give a file name such as {example}")
+    folder = path.parent
+    if not folder.is_dir():
+        raise ValueError(f"{option} {path}: folder {folder} does not exist")
+    if not os.access(folder, os.W_OK):
+        raise ValueError(f"{option} {path}: folder {folder} is not writable")
+    if figure:
+        from rperc.plot import figure_format
+
+        try:
+            figure_format(path)
+        except ValueError as exc:
+            raise ValueError(f"{option} {exc}") from None
+
+
+def prepare_output_folder(path: Path, option: str) -> Path:
+    """A folder for several outputs (``demo --out``): created with its parents, as
+    ``make demo`` needs on a fresh checkout, but never over an existing file."""
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"{option} {path} is a file, not a folder")
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def wrote(path: Path) -> None:
+    print(f"wrote {path}", file=sys.stderr)
+
+
+def _plain(value: Any) -> Any:
+    """JSON-ready copies of numpy scalars and arrays, paths and tuples."""
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _plain(value.tolist())
+    if isinstance(value, np.generic):
+        return _plain(value.item())
+    if isinstance(value, float) and not math.isfinite(value):
+        return None  # JSON has no NaN or infinity
+    if isinstance(value, Path):
+        return str(value)
+    return value
+
+
+def write_json(path: Path | None, measured: Mapping[str, Any]) -> None:
+    """Write ``measured`` to ``path`` (checked earlier with :func:`check_output_file`)."""
+    if path is None:
+        return
+    path.write_text(json.dumps(_plain(measured), indent=2) + "\n", encoding="utf-8")
+    wrote(path)

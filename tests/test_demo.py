@@ -1,0 +1,230 @@
+"""``rperc demo all`` tells the truth: every number it prints is recomputed here from
+the simulated truth with independent code (brute-force loops, closed forms, scipy),
+and each capability writes its figure."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import itertools
+import json
+import math
+import re
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rperc.cli import demo as demo_module
+from rperc.cli import lines as lines_cli
+from rperc.cli import main
+from rperc.cli.demo import Demo, DemoResult
+from rperc.linesimp import extract_lines
+from rperc.slam import monobot
+from rperc.tracking.synthetic import synthetic_sequence
+
+NUMBER = r"([-+]?\d+(?:\.\d+)?)"
+
+
+@pytest.fixture(scope="module")
+def demo_all(tmp_path_factory):
+    """One ``rperc demo all`` run (the command ``make demo`` runs), with its stdout,
+    stderr, JSON and figures, shared by the checks below."""
+    out = tmp_path_factory.mktemp("demo")
+    stdout, stderr = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+        code = main(["demo", "all", "--out", str(out), "--json", str(out / "all.json")])
+    assert code == 0, stderr.getvalue()
+    lines = stdout.getvalue().splitlines()
+    summary = {line.split(":", 1)[0]: line for line in lines}
+    measured = json.loads((out / "all.json").read_text())["demos"]
+    return {"out": out, "lines": lines, "summary": summary, "measured": measured,
+            "stderr": stderr.getvalue()}  # fmt: skip
+
+
+def grab(pattern: str, text: str) -> list[float]:
+    match = re.search(pattern, text)
+    assert match, f"{pattern!r} not in {text!r}"
+    return [float(g) for g in match.groups()]
+
+
+def test_one_summary_line_and_one_figure_per_capability(demo_all):
+    names = [d.name for d in demo_module.registry()]
+    assert [line.split(":", 1)[0] for line in demo_all["lines"]] == names
+    for name in ("lines", "walls", "tracking", "monobot_fig3_fisher", "monobot_monte_carlo"):
+        assert (demo_all["out"] / f"{name}.png").stat().st_size > 10_000
+    assert "wrote" not in "\n".join(demo_all["lines"])  # notes go to stderr
+    for path in re.findall(r"wrote (.+)", demo_all["stderr"]):
+        assert Path(path).is_file()
+
+
+def chord_line_distance_brute_force(points: np.ndarray, kept: list[int]) -> float:
+    """Max distance of every dropped point to the line through its chord's ends."""
+    worst = 0.0
+    for a, b in itertools.pairwise(kept):
+        (x0, y0), (x1, y1) = points[a], points[b]
+        norm = math.hypot(x1 - x0, y1 - y0)
+        for i in range(a + 1, b):
+            x, y = points[i]
+            worst = max(worst, abs((x - x0) * (y1 - y0) - (y - y0) * (x1 - x0)) / norm)
+    return worst
+
+
+def test_lines_deviation_is_recomputed_from_the_input(demo_all):
+    line = demo_all["summary"]["lines"]
+    n, kept_count, epsilon = grab(rf"spiral of {NUMBER} points simplified to {NUMBER} at "
+                                  rf"epsilon {NUMBER} m", line)  # fmt: skip
+    (printed,) = grab(rf"from its chord's line {NUMBER} m", line)
+    kept = demo_all["measured"]["lines"]["kept_indices"]
+    spiral = lines_cli.noisy_spiral(0)
+    assert n == len(spiral) and kept_count == len(kept)
+    assert kept[0] == 0 and kept[-1] == len(spiral) - 1
+    ours = chord_line_distance_brute_force(spiral, kept)
+    assert printed == pytest.approx(ours, abs=5e-5)
+    assert ours <= epsilon  # Douglas-Peucker's guarantee (seed Table 2)
+    assert "within epsilon" in line
+
+
+def brute_force_beam_counts(walls: np.ndarray, pose: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """Beams per wall, one beam and one wall at a time: the nearest wall a beam meets."""
+    counts = np.zeros(len(walls), dtype=int)
+    for a in angles:
+        d = np.array([math.cos(pose[2] + a), math.sin(pose[2] + a)])
+        best, best_w = math.inf, -1
+        for w, (p, q) in enumerate(walls):
+            m = np.column_stack([d, p - q])  # pose + t d = p + s (q - p)
+            if abs(np.linalg.det(m)) < 1e-12:
+                continue
+            t, s = np.linalg.solve(m, p - pose[:2])
+            if t > 0 and 0 <= s <= 1 and t < best:
+                best, best_w = t, w
+        if best_w >= 0:
+            counts[best_w] += 1
+    return counts
+
+
+def true_line(p: np.ndarray, q: np.ndarray, pose: np.ndarray) -> tuple[float, float]:
+    """(rho, alpha) of the line through world points p, q in the sensor frame."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    rot = np.array([[c, s], [-s, c]])
+    a, b = rot @ (p - pose[:2]), rot @ (q - pose[:2])
+    n = np.array([a[1] - b[1], b[0] - a[0]]) / np.linalg.norm(b - a)
+    rho = float(n @ a)
+    if rho < 0:
+        n, rho = -n, -rho
+    return rho, math.atan2(n[1], n[0])
+
+
+def test_walls_visibility_and_errors_are_recomputed_from_the_ray_cast(demo_all):
+    line = demo_all["summary"]["walls"]
+    found_count, visible_count = grab(rf"{NUMBER} of {NUMBER} visible walls found", line)
+    hidden_count, total = grab(rf"{NUMBER} of {NUMBER} walls not visible", line)
+    d_rho_mm, d_alpha_deg = grab(rf"max \|d rho\| {NUMBER} mm, max \|d alpha\| {NUMBER} deg", line)
+
+    walls, scan = lines_cli.room_scan(0)
+    counts = brute_force_beam_counts(walls, scan.pose, scan.angles)
+    visible = np.flatnonzero(counts >= lines_cli.WALLS_MIN_POINTS)
+    assert total == len(walls)
+    assert visible_count == len(visible) and hidden_count == len(walls) - len(visible)
+    assert demo_all["measured"]["walls"]["visible"] == visible.tolist()
+
+    found = extract_lines(
+        scan.ranges,
+        scan.angles,
+        max_range=scan.max_range,
+        sigma_range=lines_cli.WALLS_SIGMA,
+        min_points=lines_cli.WALLS_MIN_POINTS,
+    )
+    truth = {w: true_line(*walls[w], scan.pose) for w in visible}
+    worst_rho = worst_alpha = 0.0
+    matched = set()
+    for rho, alpha in zip(found.rho, found.alpha, strict=True):
+        w = min(truth, key=lambda w: abs(rho - truth[w][0]) + abs(alpha - truth[w][1]))
+        d_alpha = (alpha - truth[w][1] + math.pi) % (2 * math.pi) - math.pi
+        assert abs(rho - truth[w][0]) < 0.05 and abs(d_alpha) < math.radians(2)
+        matched.add(w)
+        worst_rho = max(worst_rho, abs(rho - truth[w][0]))
+        worst_alpha = max(worst_alpha, abs(d_alpha))
+    assert found_count == len(matched) == len(visible)
+    assert d_rho_mm == pytest.approx(1e3 * worst_rho, abs=0.051)
+    assert d_alpha_deg == pytest.approx(math.degrees(worst_alpha), abs=0.0051)
+
+
+def test_monobot_ranks_and_monte_carlo_are_recomputed(demo_all):
+    from scipy import stats
+
+    line = demo_all["summary"]["monobot"]
+    ranks = grab(rf"relative {NUMBER}/2, anchor {NUMBER}/2, external {NUMBER}/2", line)
+    assert ranks == [1, 2, 2]  # the paper: relative measurements leave one direction free
+    for model, rank in zip(("relative", "anchor", "external"), ranks, strict=True):
+        J = monobot.fisher_information(monobot.simulate(model=model, landmarks=1, seed=0))
+        assert rank == np.linalg.matrix_rank(J, tol=1e-9 * np.abs(J).max())
+    direction = grab(rf"unobservable along \({NUMBER}, {NUMBER}\)", line)
+    assert abs(direction[0]) == pytest.approx(1 / math.sqrt(2), abs=0.006)
+    assert direction[0] == direction[1]  # (1, 1) / sqrt(2): a common shift of all
+
+    sds = grab(rf"error sd {NUMBER} / {NUMBER} / {NUMBER} mm", line)
+    inside = grab(rf"band {NUMBER} / {NUMBER} / {NUMBER}% of steps", line)
+    runs = demo_all["measured"]["monobot"]["runs"]
+    lo, hi = (stats.chi2.ppf(p, df=2 * runs) / runs for p in (0.025, 0.975))
+    for k, model in enumerate(("relative", "anchor", "external")):
+        mc = monobot.monte_carlo(model=model, landmarks=1, runs=runs, seed=0, initial_variance=1e-2)
+        assert sds[k] == pytest.approx(1e3 * np.std(mc.final_landmark_error, ddof=1), abs=0.051)
+        nees = mc.run_nees.mean(axis=0)
+        assert inside[k] == round(100 * np.mean((nees >= lo) & (nees <= hi)))
+
+
+def iou_brute_force(a: np.ndarray, b: np.ndarray) -> Fraction:
+    """Exact IoU in rational arithmetic (identical boxes give exactly 1)."""
+    ax0, ay0, aw, ah = (Fraction(float(v)) for v in a)
+    bx0, by0, bw, bh = (Fraction(float(v)) for v in b)
+    w = max(Fraction(0), min(ax0 + aw, bx0 + bw) - max(ax0, bx0))
+    h = max(Fraction(0), min(ay0 + ah, by0 + bh) - max(ay0, by0))
+    return w * h / (aw * ah + bw * bh - w * h)
+
+
+def test_tracking_scores_are_recomputed_against_the_generator(demo_all):
+    line = demo_all["summary"]["tracking"]
+    (frames,) = grab(rf"{NUMBER}-frame synthetic sequence", line)
+    truth = synthetic_sequence(int(frames), seed=0).boxes
+    for name, m in demo_all["measured"]["tracking"]["trackers"].items():
+        auc, precision, mean_iou = grab(
+            rf"{re.escape(name)} AUC {NUMBER}, precision@20px {NUMBER}, mean IoU {NUMBER}", line
+        )
+        boxes = np.asarray(m["boxes"])
+        assert boxes.shape == truth.shape
+        np.testing.assert_array_equal(boxes[0], truth[0])  # trackers start on the truth
+        ious = [iou_brute_force(p, t) for p, t in zip(boxes, truth, strict=True)]
+        thresholds = [Fraction(k, 20) for k in range(21)]  # OTB's success curve
+        ours_auc = sum(sum(o > t for o in ious) / len(ious) for t in thresholds) / 21
+        centre = np.hypot(
+            *((boxes[:, :2] + boxes[:, 2:] / 2) - (truth[:, :2] + truth[:, 2:] / 2)).T
+        )
+        assert auc == pytest.approx(ours_auc, abs=5e-4)
+        assert mean_iou == pytest.approx(float(sum(ious) / len(ious)), abs=5e-4)
+        assert precision == pytest.approx(np.mean(centre <= 20), abs=5e-4)
+        assert precision >= 0.9, f"{name} lost the synthetic target: {line}"
+
+
+def test_a_new_capability_is_one_registry_entry(tmp_path, capsys, monkeypatch):
+    from rperc.plot import save
+    from rperc.plot.lines import polyline_figure
+
+    def fake(out: Path, seed: int, size: int = 3) -> DemoResult:
+        pts = np.arange(2.0 * size).reshape(-1, 2)
+        path = save(polyline_figure([pts], [pts], 0.1, title="fake", unit="m"), out / "fake.png")
+        return DemoResult(f"fake: {size} points, seed {seed}", [path], {"size": size})
+
+    from rperc.cli.demo import Option
+    from rperc.cli.outputs import count_at_least
+
+    entry = Demo(
+        "fake", "a test demo", fake, (Option("--size", "size", count_at_least(2), 4, "n"),)
+    )
+    monkeypatch.setattr(demo_module, "registry", lambda: (entry,))
+    assert main(["demo", "all", "--out", str(tmp_path), "--seed", "7"]) == 0
+    assert capsys.readouterr().out == "fake: 4 points, seed 7\n"
+    assert main(["demo", "fake", "--out", str(tmp_path), "--size", "5"]) == 0
+    assert capsys.readouterr().out == "fake: 5 points, seed 0\n"
+    assert (tmp_path / "fake.png").is_file()

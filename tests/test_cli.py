@@ -171,7 +171,7 @@ def brute_force_auc(pred: np.ndarray, truth: np.ndarray) -> float:
     return float(sum(success) / 21)
 
 
-@pytest.mark.parametrize("tracker", ["colour", "colour-pf"])
+@pytest.mark.parametrize("tracker", ["color", "color-pf"])
 def test_track_scores_an_otb_folder_against_its_ground_truth(otb_folder, tmp_path, capsys, tracker):
     strip, js = tmp_path / "strip.png", tmp_path / "track.json"
     argv = ["track", str(otb_folder), "--tracker", tracker, "--strip", str(strip), "--frames", "3"]
@@ -276,8 +276,7 @@ def test_track_command_scores_a_sequence(tmp_path, data, capsys):
     strip = tmp_path / "strip.png"
     seq = data / "otb" / "Girl"
     assert (
-        main(["track", str(seq), "--tracker", "colour", "--strip", str(strip), "--frames", "4"])
-        == 0
+        main(["track", str(seq), "--tracker", "color", "--strip", str(strip), "--frames", "4"]) == 0
     )
     out = capsys.readouterr().out
     assert "AUC" in out and "fps" in out

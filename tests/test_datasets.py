@@ -91,3 +91,15 @@ def test_malformed_otb_box_line(tmp_path):
     gt.write_text("1,2,3,4\n1\t2\t3\n")
     with pytest.raises(DatasetFormatError, match=r"groundtruth_rect\.txt:2"):
         read_boxes(gt)
+
+
+def test_groundtruth_blank_lines_and_impossible_boxes(tmp_path):
+    gt = tmp_path / "groundtruth_rect.txt"
+    gt.write_text("1,2,3,4\n5,6,7,8\n\n\n")  # blank lines at the end: fine
+    np.testing.assert_array_equal(read_boxes(gt), [[0, 1, 3, 4], [4, 5, 7, 8]])
+    gt.write_text("1,2,3,4\n\n5,6,7,8\n")  # a frame without a box: an error
+    with pytest.raises(DatasetFormatError, match=r"groundtruth_rect\.txt:2"):
+        read_boxes(gt)
+    gt.write_text("1,2,3,4\n5,6,-7,8\n")  # a negative width
+    with pytest.raises(DatasetFormatError, match=r":2: .*negative"):
+        read_boxes(gt)

@@ -56,5 +56,8 @@ def test_precision_by_hand():
 def test_bad_shapes_raise():
     with pytest.raises(ValueError, match=r"\(N, 4\)"):
         iou([[0, 0, 1]], [[0, 0, 1]])
-    with pytest.raises(ValueError, match="same shape"):
+    with pytest.raises(ValueError, match="as many boxes"):
         iou(np.zeros((2, 4)), np.zeros((3, 4)))
+    # One box against five is not broadcast (it used to return 1.0 silently).
+    with pytest.raises(ValueError, match="as many boxes"):
+        iou(np.zeros((1, 4)) + 1, np.ones((5, 4)))

@@ -193,8 +193,8 @@ def figures_of_every_kind() -> dict[str, tuple[Figure, tuple[str, str]]]:
         "fisher": (fisher_figure([run]), ("computed", "landmarks")),
         "run": (run_figure(run), ("truth", "estimate")),
         "monte_carlo": (monte_carlo_figure([mc]), ("truth", "fit")),
-        "strip": (strip_figure(frames, [0, 2], truth, {"colour": truth + 1}, title="t"),
-                  ("truth", "tracker colour")),
+        "strip": (strip_figure(frames, [0, 2], truth, {"color": truth + 1}, title="t"),
+                  ("truth", "tracker color")),
     }  # fmt: skip
 
 
@@ -217,9 +217,9 @@ def test_strip_title_carries_each_trackers_score():
     truth = np.array([[0.0, 0, 10, 10], [0, 0, 10, 10], [0, 0, 10, 10], [0, 0, 10, 10]])
     pred = truth + np.array([[0, 0, 0, 0], [5, 0, 0, 0], [0, 0, 0, 0], [20, 0, 0, 0]])
     frames = [np.zeros((40, 40, 3), dtype=np.uint8)] * 2
-    fig = strip_figure(frames, [0, 3], truth, {"colour-pf": pred}, title="seq")
+    fig = strip_figure(frames, [0, 3], truth, {"color-pf": pred}, title="seq")
     ious = [1.0, 50 / 150, 1.0, 0.0]  # by hand: a 5-px shift of a 10-px box
     auc = np.mean([np.mean(np.asarray(ious) > k / 20) for k in range(21)])
     title = fig.get_suptitle()
-    assert "colour-pf" in title and f"AUC {auc:.3f}" in title
+    assert "color-pf" in title and f"AUC {auc:.3f}" in title
     assert f"mean IoU {np.mean(ious):.2f}" in title

@@ -153,7 +153,7 @@ def test_dask_executor_path():
     [
         ({"landmarks": 0}, ValueError, "landmarks"),
         ({"plant_noise": ("proportional", -0.1)}, ValueError, "plant_noise"),
-        ({"start": float("nan")}, ValueError, "start"),
+        ({"config": monobot.MonobotConfig(start=float("nan"))}, ValueError, "start"),
         ({"measurement_noise": ("gaussian", 1.0)}, ValueError, "measurement_noise"),
         ({"model": "magic"}, ValueError, "model"),
         ({"bogus": 1}, TypeError, "bogus"),

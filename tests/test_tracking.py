@@ -183,3 +183,27 @@ def test_colour_trackers_beat_camshift_on_girl_and_couple(otb):
         np.concatenate([run_tracker(ours["local search"], *otb[s]) for s in ("Girl", "Couple")])
     )
     assert mine > theirs + 0.2
+
+
+def test_config_errors_name_the_field():
+    """The generic keyword path names the field, nested ones included, and tells a
+    wrong type or unknown field (TypeError) from a bad value (ValueError)."""
+    from rperc import _rperc
+
+    frame = np.full((60, 80, 3), 90, np.uint8)
+    box = [22.0, 22.0, 16.0, 16.0]
+    cases = [
+        ({"search_radius": -1}, ValueError, "search_radius"),
+        ({"appearance": {"bins": [8, 8]}}, ValueError, r"appearance\.bins"),
+        ({"appearance": {"color_space": "lab"}}, ValueError, r"appearance\.color_space.*'hsv'"),
+        ({"serch_radius": 3}, TypeError, "serch_radius"),
+        ({"search_radius": "x"}, TypeError, "search_radius"),
+    ]
+    for config, exc, message in cases:
+        with pytest.raises(exc, match=message):
+            _rperc.ColorHistogramTracker(frame, box, config)
+    with pytest.raises(ValueError, match=r"filter\.resampler"):
+        _rperc.ParticleColorTracker(frame, box, 0, {"filter": {"resampler": "magic"}})
+    # Non-finite values survive the path (max_range may be infinite) and reach validate().
+    with pytest.raises(ValueError, match="sigma_range"):
+        _rperc.extract_lines(np.ones(5), np.linspace(0, 0.1, 5), {"sigma_range": np.nan})

@@ -14,6 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
+from rperc.pose import to_world as pose_to_world
 
 Method = Literal["hull", "dp"]
 Metric = Literal["line", "segment"]
@@ -205,10 +206,8 @@ class WallSegments:
         theta)``: end points move, ``(rho, alpha)`` and the covariance transform with
         the rigid motion (to first order, taking the pose as exact)."""
         x, y, th = np.asarray(pose, dtype=np.float64)
-        c, s = math.cos(th), math.sin(th)
-        rot = np.array([[c, -s], [s, c]])
-        start = self.start @ rot.T + (x, y)
-        end = self.end @ rot.T + (x, y)
+        start = pose_to_world((x, y, th), self.start)
+        end = pose_to_world((x, y, th), self.end)
         alpha = self.alpha + th
         rho = self.rho + x * np.cos(alpha) + y * np.sin(alpha)
         # d rho_w / d alpha_s = -x sin(alpha_w) + y cos(alpha_w); d alpha_w / d alpha_s = 1.

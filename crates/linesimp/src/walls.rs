@@ -245,19 +245,24 @@ impl LineExtractor {
 
     /// Steps 3 to 8 on the run of valid points `[a, b)`.
     fn extract_run(&mut self, a: usize, b: usize, walls: &mut Vec<WallSegment>) {
-        let min_points = self.params.min_points;
-        if b - a < min_points {
+        if b - a < self.params.min_points {
             return;
         }
-        // Step 3: iterative end-point fit. A split vertex sits near a corner and may
-        // belong to either wall: fit the pieces without it, then give it to the
-        // piece whose line it is closer to.
-        let kept = match self
+        if self.split_run(a, b) {
+            self.merge_pieces();
+            self.emit_walls(walls);
+        }
+    }
+
+    /// Step 3: iterative end-point fit into `self.pieces`. A split vertex sits near a
+    /// corner and may belong to either wall: the pieces are fitted without it, then it
+    /// goes to the piece whose line it is closer to. `false` if the run cannot be split.
+    fn split_run(&mut self, a: usize, b: usize) -> bool {
+        let Ok(kept) = self
             .simplifier
             .indices(&self.points[a..b], self.params.split_epsilon)
-        {
-            Ok(kept) => kept,
-            Err(_) => return, // unreachable: points are finite and epsilon was checked
+        else {
+            return false; // unreachable: points are finite and epsilon was checked
         };
         let last = kept.len() - 2;
         self.pieces.clear();
@@ -268,25 +273,34 @@ impl LineExtractor {
             self.pieces.push((lo, hi, fit));
         }
         for w in 1..self.pieces.len() {
-            let vertex = self.pieces[w].0 - 1;
-            let q = self.points[vertex].coords;
-            let residual = |f: &LineFit| (q.x * f.alpha.cos() + q.y * f.alpha.sin() - f.rho).abs();
-            let (before, after) = (self.pieces[w - 1], self.pieces[w]);
-            let to_before = match (before.1 - before.0 >= 2, after.1 - after.0 >= 2) {
-                (true, true) => residual(&before.2) <= residual(&after.2),
-                (ok_before, _) => ok_before,
-            };
-            if to_before {
-                self.pieces[w - 1].1 += 1;
-                self.pieces[w - 1].2 = self.fit(before.0, before.1 + 1);
-            } else {
-                self.pieces[w].0 -= 1;
-                self.pieces[w].2 = self.fit(after.0 - 1, after.1);
-            }
+            self.assign_split_vertex(w);
         }
         self.pieces.retain(|&(lo, hi, _)| hi - lo >= 2);
-        // Step 6: merge neighbours that agree, until none do. The confidence was
-        // checked by `validate`, so the gate exists.
+        true
+    }
+
+    /// Gives the vertex between pieces `w - 1` and `w` to the one whose line fits it.
+    fn assign_split_vertex(&mut self, w: usize) {
+        let vertex = self.pieces[w].0 - 1;
+        let q = self.points[vertex].coords;
+        let residual = |f: &LineFit| (q.x * f.alpha.cos() + q.y * f.alpha.sin() - f.rho).abs();
+        let (before, after) = (self.pieces[w - 1], self.pieces[w]);
+        let to_before = match (before.1 - before.0 >= 2, after.1 - after.0 >= 2) {
+            (true, true) => residual(&before.2) <= residual(&after.2),
+            (ok_before, _) => ok_before,
+        };
+        if to_before {
+            self.pieces[w - 1].1 += 1;
+            self.pieces[w - 1].2 = self.fit(before.0, before.1 + 1);
+        } else {
+            self.pieces[w].0 -= 1;
+            self.pieces[w].2 = self.fit(after.0 - 1, after.1);
+        }
+    }
+
+    /// Step 6: merge neighbours whose lines agree under the chi-square test, until
+    /// none do. The confidence was checked by `validate`, so the gate exists.
+    fn merge_pieces(&mut self) {
         let gate = rperc_core::chi2_gate(2, self.params.merge_confidence).unwrap_or(f64::INFINITY);
         let mut k = 0;
         while k + 1 < self.pieces.len() {
@@ -301,9 +315,12 @@ impl LineExtractor {
                 k += 1;
             }
         }
-        // Steps 7 and 8.
+    }
+
+    /// Steps 7 and 8: end points projected onto the lines; short or sparse walls dropped.
+    fn emit_walls(&self, walls: &mut Vec<WallSegment>) {
         for &(lo, hi, fit) in &self.pieces {
-            if hi - lo < min_points {
+            if hi - lo < self.params.min_points {
                 continue;
             }
             let n = Vector2::new(fit.alpha.cos(), fit.alpha.sin());

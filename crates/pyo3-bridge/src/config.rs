@@ -1,8 +1,10 @@
 //! The one path from Python keyword arguments to a core crate's typed config struct.
 //!
-//! Every config derives serde's `Deserialize` with defaults and `deny_unknown_fields`;
-//! a dict (or dataclass) of keywords is deserialised field by field by serde-pyobject,
-//! so no binding has code per field. The caller then runs the config's `validate()`.
+//! Every config derives serde's `Deserialize` with defaults and `deny_unknown_fields`.
+//! A dict (or dataclass) of keywords is read by serde-pyobject into a generic serde
+//! value (which keeps NaN and infinities), then deserialised into the config through
+//! `serde_path_to_error`, so every message names the field (`appearance.bins`), and no
+//! binding has code per field. The caller then runs the config's `validate()`.
 
 use pyo3::prelude::*;
 use serde::de::DeserializeOwned;
@@ -20,19 +22,19 @@ pub fn from_python<T: DeserializeOwned + Default>(
         return Ok(T::default());
     };
     // serde-pyobject panics on Python types it does not know (numpy scalars...).
-    guarded(|| {
-        serde_pyobject::from_pyobject::<T, _>(obj.clone()).map_err(|e| {
-            let msg = e.0.value(obj.py()).to_string();
-            let text = format!("{what}: {msg}");
-            if msg.starts_with("unknown field")
-                || msg.starts_with("invalid type")
-                || msg.contains("cannot be converted")
-            {
-                Error::Type(text)
-            } else {
-                Error::Value(text)
-            }
-        })
+    let value = guarded(|| {
+        serde_pyobject::from_pyobject::<serde_value::Value, _>(obj.clone())
+            .map_err(|e| Error::Type(format!("{what}: {}", e.0.value(obj.py()))))
+    })?;
+    serde_path_to_error::deserialize::<_, T>(value).map_err(|e| {
+        let (field, msg) = (e.path().to_string(), e.inner().to_string());
+        let text = format!("{what}: {field}: {msg}");
+        let lower = msg.to_lowercase();
+        if lower.starts_with("unknown field") || lower.starts_with("invalid type") {
+            Error::Type(text)
+        } else {
+            Error::Value(text)
+        }
     })
 }
 

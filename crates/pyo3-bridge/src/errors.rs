@@ -130,7 +130,9 @@ mod tests {
                     py.get_type::<NumericalError>(),
                 ),
                 (
-                    Error::Slam(slam::SlamError::Dimension("d".into())),
+                    Error::Slam(slam::SlamError::Core(rperc_core::CoreError::Dimension(
+                        "d".into(),
+                    ))),
                     py.get_type::<PyValueError>(),
                 ),
                 (

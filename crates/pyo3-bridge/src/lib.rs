@@ -8,6 +8,7 @@
 mod arrays;
 mod config;
 mod errors;
+mod eval_py;
 mod linesimp_py;
 mod parallel;
 mod slam_py;
@@ -22,6 +23,11 @@ mod _rperc {
     use crate::errors::NumericalError;
     #[pymodule_export]
     use crate::errors::RpercError;
+    #[pymodule_export]
+    use crate::eval_py::{
+        otb_center_error, otb_groundtruth, otb_iou, otb_precision, otb_success_curve,
+        pose_transform_points,
+    };
     #[pymodule_export]
     use crate::linesimp_py::{
         extract_lines, scan_params_defaults, simplify_indices, simplify_many_indices,

@@ -67,7 +67,7 @@ impl SparseJacobian {
     fn validate(&self, state_dim: usize) -> Result<()> {
         for b in &self.blocks {
             if b.row + b.h.nrows() > self.rows || b.col + b.h.ncols() > state_dim {
-                return Err(SlamError::Dimension(format!(
+                return Err(SlamError::dimension(format!(
                     "Jacobian block {}x{} at ({}, {}) does not fit a {}x{} H",
                     b.h.nrows(),
                     b.h.ncols(),
@@ -148,7 +148,7 @@ impl Ekf {
     ) -> Result<Self> {
         let d = x.len();
         if covariance.nrows() != d || covariance.ncols() != d {
-            return Err(SlamError::Dimension(format!(
+            return Err(SlamError::dimension(format!(
                 "state has {d} entries but covariance is {}x{}",
                 covariance.nrows(),
                 covariance.ncols()
@@ -159,7 +159,7 @@ impl Ekf {
             || d < robot_dim
             || !(d - robot_dim).is_multiple_of(landmark_dim)
         {
-            return Err(SlamError::Dimension(format!(
+            return Err(SlamError::dimension(format!(
                 "a state of {d} entries is not a robot block of {robot_dim} plus blocks of {landmark_dim}"
             )));
         }
@@ -182,7 +182,7 @@ impl Ekf {
     /// kept. For resetting a filter or moving it to a new frame.
     pub fn set_state(&mut self, x: DVector<f64>) -> Result<()> {
         if x.len() != self.x.len() {
-            return Err(SlamError::Dimension(format!(
+            return Err(SlamError::dimension(format!(
                 "state has {} entries, got {}",
                 self.x.len(),
                 x.len()
@@ -239,7 +239,7 @@ impl Ekf {
     /// State index of landmark `j`'s first entry.
     pub fn landmark_offset(&self, j: usize) -> Result<usize> {
         if j >= self.num_landmarks() {
-            return Err(SlamError::Dimension(format!(
+            return Err(SlamError::dimension(format!(
                 "landmark {j} does not exist ({} in the map)",
                 self.num_landmarks()
             )));
@@ -264,7 +264,7 @@ impl Ekf {
             || fv.shape() != (r, q)
             || v.shape() != (q, q)
         {
-            return Err(SlamError::Dimension(format!(
+            return Err(SlamError::dimension(format!(
                 "prediction needs robot mean {r}, Fx {r}x{r}, Fv {r}x{q}, V {q}x{q}; got {}, {:?}, {:?}, {:?}",
                 robot_mean.len(),
                 fx.shape(),
@@ -320,7 +320,7 @@ impl Ekf {
     ) -> Result<Update> {
         let m = h.rows;
         if innovation.len() != m || r.shape() != (m, m) || m == 0 {
-            return Err(SlamError::Dimension(format!(
+            return Err(SlamError::dimension(format!(
                 "update needs an innovation of {m} > 0 entries and R {m}x{m}; got {} and {:?}",
                 innovation.len(),
                 r.shape()
@@ -366,7 +366,7 @@ impl Ekf {
         for (nu, hi, ri) in observations {
             let k = nu.len();
             if hi.rows != k || ri.shape() != (k, k) {
-                return Err(SlamError::Dimension(format!(
+                return Err(SlamError::dimension(format!(
                     "an observation of {k} entries needs H with {k} rows and R {k}x{k}"
                 )));
             }
@@ -414,7 +414,7 @@ impl Ekf {
             || g_z.shape() != (m, q)
             || r.shape() != (q, q)
         {
-            return Err(SlamError::Dimension(format!(
+            return Err(SlamError::dimension(format!(
                 "a landmark needs mean {m}, G_robot {m}x{rd}, G_z {m}x{q}, R {q}x{q}"
             )));
         }

@@ -10,22 +10,10 @@ pub enum SlamError {
     /// The filter state was left unchanged.
     #[error("innovation covariance S is singular or not positive definite: {0}")]
     SingularInnovation(String),
-    /// A matrix or vector argument has the wrong size.
-    #[error("dimension mismatch: {0}")]
-    Dimension(String),
-    /// A value was NaN or infinite.
-    #[error("non-finite value in {0}")]
-    NonFinite(&'static str),
-    /// A parameter was out of its valid range.
-    #[error("invalid parameter '{name}': {reason}")]
-    InvalidParameter {
-        /// The parameter's name as documented.
-        name: &'static str,
-        /// Why the value was refused.
-        reason: String,
-    },
-    /// From the shared core: a covariance that is not symmetric PSD, an unknown
-    /// option name, a bad chi-square argument.
+    /// A bad argument, from the shared core's checks: a wrong size
+    /// ([`CoreError::Dimension`]), a NaN ([`CoreError::NonFinite`]), a value out of
+    /// range ([`CoreError::InvalidParameter`]), a covariance that is not symmetric PSD,
+    /// an unknown option name.
     #[error(transparent)]
     Core(#[from] CoreError),
 }
@@ -33,16 +21,24 @@ pub enum SlamError {
 /// Result alias for this crate.
 pub type Result<T> = std::result::Result<T, SlamError>;
 
+impl SlamError {
+    /// A size mismatch.
+    pub(crate) fn dimension(what: String) -> Self {
+        SlamError::Core(CoreError::Dimension(what))
+    }
+
+    /// A parameter out of range.
+    pub(crate) fn invalid(name: &'static str, reason: String) -> Self {
+        SlamError::Core(CoreError::InvalidParameter { name, reason })
+    }
+}
+
 /// Refuses a non-finite matrix or vector.
 pub(crate) fn ensure_finite<'a>(
     what: &'static str,
     values: impl IntoIterator<Item = &'a f64>,
 ) -> Result<()> {
-    if values.into_iter().all(|v| v.is_finite()) {
-        Ok(())
-    } else {
-        Err(SlamError::NonFinite(what))
-    }
+    Ok(rperc_core::ensure_finite(what, values)?)
 }
 
 impl SlamError {

@@ -42,7 +42,7 @@ pub fn landmark_from_range_bearing(
 impl Ekf {
     fn planar_robot(&self) -> Result<Pose2> {
         if self.robot_dim() != 3 || self.landmark_dim() != 2 {
-            return Err(SlamError::Dimension(format!(
+            return Err(SlamError::dimension(format!(
                 "range-bearing needs a planar robot (3) and point landmarks (2), not {} and {}",
                 self.robot_dim(),
                 self.landmark_dim()

@@ -244,12 +244,12 @@ fn singular_or_non_finite_input_leaves_the_state_unchanged() {
             &DMatrix::identity(1, 1),
         )
         .unwrap_err();
-    assert!(matches!(err, SlamError::NonFinite(_)));
+    assert!(matches!(err, SlamError::Core(CoreError::NonFinite(_))));
     assert_eq!(ekf, before);
     let err = ekf
         .update(&DVector::from_element(2, 0.0), &h, &DMatrix::identity(1, 1))
         .unwrap_err();
-    assert!(matches!(err, SlamError::Dimension(_)));
+    assert!(matches!(err, SlamError::Core(CoreError::Dimension(_))));
     let err = ekf
         .update(
             &DVector::from_element(1, 0.0),
@@ -257,7 +257,7 @@ fn singular_or_non_finite_input_leaves_the_state_unchanged() {
             &DMatrix::identity(1, 1),
         )
         .unwrap_err();
-    assert!(matches!(err, SlamError::Dimension(_)));
+    assert!(matches!(err, SlamError::Core(CoreError::Dimension(_))));
     assert_eq!(ekf, before);
     assert!(Ekf::new(DVector::zeros(4), DMatrix::zeros(4, 4), 3, 2).is_err());
 }

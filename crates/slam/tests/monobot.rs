@@ -264,7 +264,9 @@ fn bad_input_is_refused() {
         ),
     ] {
         match simulate(&config, MeasurementModel::Relative, 0) {
-            Err(SlamError::InvalidParameter { name: got, .. }) => assert_eq!(got, name),
+            Err(SlamError::Core(rperc_core::CoreError::InvalidParameter { name: got, .. })) => {
+                assert_eq!(got, name)
+            }
             other => panic!("{name}: expected an error, got {other:?}"),
         }
     }

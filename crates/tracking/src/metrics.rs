@@ -30,7 +30,12 @@ pub fn iou(a: &BoundingBox, b: &BoundingBox) -> f64 {
     let ih = ((a.y + a.h).min(b.y + b.h) - a.y.max(b.y)).max(0.0);
     let inter = iw * ih;
     let union = a.w * a.h + b.w * b.h - inter;
-    if union > 0.0 { inter / union } else { 0.0 }
+    // Round-off can put identical boxes a hair above 1, past the last success threshold.
+    if union > 0.0 {
+        (inter / union).min(1.0)
+    } else {
+        0.0
+    }
 }
 
 /// Fraction of `overlaps` strictly above each of the 21 thresholds.

@@ -10,7 +10,8 @@ use crate::frame::BoundingBox;
 ///
 /// # Errors
 /// [`TrackingError::Parse`] naming `name` and the 1-based line of the first malformed
-/// line (not four finite numbers). Blank lines are errors too: a box per frame is expected.
+/// line (not four finite numbers, or a negative width or height). Blank lines inside
+/// the file are errors too (a box per frame is expected); blank lines at its end are not.
 ///
 /// # Examples
 /// ```
@@ -22,7 +23,9 @@ use crate::frame::BoundingBox;
 /// assert!(err.to_string().starts_with("gt.txt:2:"));
 /// ```
 pub fn parse_groundtruth(text: &str, name: &str) -> Result<Vec<BoundingBox>> {
-    let text = text.strip_suffix('\n').unwrap_or(text);
+    // Blank lines at the end of the file are tolerated; a blank line inside is a frame
+    // without a box, which is an error.
+    let text = text.trim_end_matches(['\n', '\r', ' ', '\t']);
     let mut boxes = Vec::new();
     for (i, line) in text.split('\n').enumerate() {
         let bad = |reason: String| TrackingError::Parse {
@@ -49,6 +52,11 @@ pub fn parse_groundtruth(text: &str, name: &str) -> Result<Vec<BoundingBox>> {
             if !slot.is_finite() {
                 return Err(bad(format!("{f:?} is not finite")));
             }
+        }
+        if v[2] < 0.0 || v[3] < 0.0 {
+            return Err(bad(format!(
+                "a box cannot have a negative size, got {line:?}"
+            )));
         }
         boxes.push(BoundingBox::new(v[0] - 1.0, v[1] - 1.0, v[2], v[3]));
     }

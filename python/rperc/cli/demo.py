@@ -81,7 +81,7 @@ def registry() -> tuple[Demo, ...]:
         ),
         Demo(
             "tracking",
-            "colour trackers on a synthetic sequence vs its known boxes",
+            "color trackers on a synthetic sequence vs its known boxes",
             track.demo_tracking,
             # 1000 frames of 320 x 240 RGB are 230 MB: a bound well above any use.
             (Option("--frames", "frames", count_at_least(2, 1000), 150, "frames (default 150)"),),

@@ -7,7 +7,7 @@ import argparse
 import itertools
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TextIO
 
 import numpy as np
 
@@ -23,6 +23,7 @@ from rperc.cli.outputs import (
 )
 from rperc.datasets import load_carmen, read_polylines, write_polyline
 from rperc.linesimp import simplify
+from rperc.pose import to_world
 
 if TYPE_CHECKING:
     from rperc.scansim import SimulatedScan, WallCheck
@@ -56,12 +57,6 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     si.add_argument("-o", "--output", type=Path, help="write .wkt or .csv (default: stdout WKT)")
     si.add_argument("--plot", type=Path, help="write a PNG of input and result")
     si.set_defaults(run=simplify_command)
-
-
-def _to_world(pose: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    world: np.ndarray = pts @ np.array([[c, s], [-s, c]])
-    return np.asarray(world + pose[:2])
 
 
 def simplify_command(args: argparse.Namespace) -> int:
@@ -123,7 +118,7 @@ def _walls_of_log(
         segments.append(np.stack([world.start, world.end], axis=1))
         ok = np.isfinite(ranges) & (ranges > 0) & (ranges < scans.max_range[k])
         pts = np.c_[ranges[ok] * np.cos(angles[ok]), ranges[ok] * np.sin(angles[ok])]
-        points.append(_to_world(scans.pose[k], pts))
+        points.append(to_world(scans.pose[k], pts))
         walls += len(found)
         on_walls += len(found.flat_indices)
         valid += int(ok.sum())
@@ -298,7 +293,7 @@ def _walls_summary(check: WallCheck, n_found: int, n_walls: int) -> str:
     )
 
 
-def _stderr():
+def _stderr() -> TextIO:
     import sys
 
     return sys.stderr

@@ -25,14 +25,14 @@ from rperc.cli.outputs import (
 from rperc.datasets import load_otb
 from rperc.tracking import metrics
 
-TRACKERS = ("colour", "colour-pf")
+TRACKERS = ("color", "color-pf")
 STRIP_FRAMES = 6
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = sub.add_parser("track", help="run a tracker on an OTB sequence (AUC, precision, fps)")
     p.add_argument("sequence", type=Path, help="OTB sequence folder (img/, groundtruth_rect.txt)")
-    p.add_argument("--tracker", choices=TRACKERS, default="colour")
+    p.add_argument("--tracker", choices=TRACKERS, default="color")
     p.add_argument("--seed", type=seed_type, default=0, help="seed of the particle filter")
     p.add_argument("--strip", type=Path, help="write a figure strip of annotated frames")
     p.add_argument(
@@ -63,9 +63,9 @@ def run_tracker(
     x, y, w, h = (float(v) for v in first_box)
     box = (x, y, w, h)
     start = time.perf_counter()
-    if name == "colour":
+    if name == "color":
         tracker: Any = ColorHistogramTracker(frames[0], box)
-    elif name == "colour-pf":
+    elif name == "color-pf":
         tracker = ParticleColorTracker(frames[0], box, seed=seed)
     else:
         raise ValueError(f"unknown tracker {name!r}; expected one of {', '.join(TRACKERS)}")

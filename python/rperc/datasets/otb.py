@@ -11,9 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
+from rperc import _rperc
 from rperc.datasets.errors import DatasetFormatError
 
-_SEP = re.compile(r"[,\s]+")
 _IMAGE_SUFFIXES = {".jpg", ".jpeg", ".png"}
 
 
@@ -45,23 +45,23 @@ class OtbSequence:
 
 
 def read_boxes(path: str | Path) -> np.ndarray:
-    """Ground-truth boxes of an OTB file, converted to 0-based corners."""
+    """Ground-truth boxes of an OTB file, converted from OTB's 1-based corners to
+    0-based ones (``x - 1, y - 1``). Parsed by the same Rust reader as ``track_otb``:
+    four numbers per line separated by tabs, commas or spaces; a blank line inside the
+    file, a non-finite value or a negative size is a :class:`DatasetFormatError` naming
+    the file and line (blank lines at the end are allowed)."""
     path = Path(path)
-    rows = []
-    for lineno, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
-        if not line.strip():
-            continue
-        fields = [f for f in _SEP.split(line.strip()) if f]
-        if len(fields) != 4:
-            raise DatasetFormatError(path, lineno, f"expected 4 values x y w h, got {len(fields)}")
-        try:
-            x, y, w, h = (float(f) for f in fields)
-        except ValueError:
-            raise DatasetFormatError(path, lineno, f"bad number in {line.strip()!r}") from None
-        if not all(np.isfinite([x, y, w, h])):
-            raise DatasetFormatError(path, lineno, "non-finite box value")
-        rows.append([x - 1.0, y - 1.0, w, h])
-    return np.asarray(rows, dtype=np.float64).reshape(-1, 4)
+    try:
+        return _rperc.otb_groundtruth(path.read_text(encoding="utf-8"), str(path))
+    except ValueError as exc:
+        where = _LOCATION.match(str(exc))
+        if where is None:
+            raise
+        raise DatasetFormatError(where["path"], int(where["line"]), where["reason"]) from None
+
+
+# "file:line: reason", the format of the Rust parser's errors.
+_LOCATION = re.compile(r"^(?P<path>.*):(?P<line>\d+): (?P<reason>.*)$", re.S)
 
 
 def load_otb(path: str | Path) -> OtbSequence:

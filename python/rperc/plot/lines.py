@@ -14,6 +14,7 @@ from matplotlib.patches import Wedge
 
 from rperc.linesimp import WallSegments
 from rperc.plot import Limits, outside, robust_limits, set_limits
+from rperc.pose import to_world
 from rperc.scansim import SimulatedScan, WallCheck
 
 # Above this many vertices markers hide the line they sit on (a 4,688-vertex coastline
@@ -85,12 +86,6 @@ def polyline_figure(
     ax.set_title(title, fontsize=10)
     ax.grid(alpha=0.3)
     return fig
-
-
-def _to_world(pose: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    world: np.ndarray = np.asarray(pts, dtype=float).reshape(-1, 2) @ np.array([[c, s], [-s, c]])
-    return np.asarray(world + pose[:2])
 
 
 def _draw_true_walls(ax: Axes, walls: np.ndarray, check: WallCheck) -> None:
@@ -214,7 +209,7 @@ def walls_figure(
     ]
     world = found.to_world(scan.pose)
     draw_walls(ax, world.start, world.end, label="estimated walls", linewidths=1.5, zorder=3)
-    draw_scan_points(ax, _to_world(scan.pose, pts), s=3, label="scan points (simulated)", zorder=4)
+    draw_scan_points(ax, to_world(scan.pose, pts), s=3, label="scan points (simulated)", zorder=4)
     limits = robust_limits(walls.reshape(-1, 2), include=walls.reshape(-1, 2), margin=0.04)
     span = max(limits[0][1] - limits[0][0], limits[1][1] - limits[1][0])
     _draw_robot(ax, scan, radius=2 * span)

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from concurrent.futures import Executor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -47,24 +47,43 @@ __all__ = [
 ]
 
 
+# The Rust config is the one source of the defaults.
+_DEFAULTS = _rperc.monobot_defaults()
+
+
+def _noise(spec: Any) -> NoiseSpec:
+    kind, value = spec
+    return (kind, float(value))
+
+
+_PLANT_NOISE = _noise(_DEFAULTS["plant_noise"])
+_MEASUREMENT_NOISE = _noise(_DEFAULTS["measurement_noise"])
+_REFERENCE_NOISE = _noise(_DEFAULTS["reference_noise"])
+
+
 @dataclass(frozen=True)
 class MonobotConfig:
     """The experiment; the defaults are the paper's run (Figs. 4 to 6).
 
-    Noise models are ``("constant", variance)`` or ``("proportional", k)``, the latter a
-    standard deviation ``k * length + noise_floor`` (the motion command for the plant,
-    the nominal distance for the sensors)."""
+    - ``landmarks``: how many, all at ``landmark_position`` (m);
+    - ``steps``: iterations after the first observation (the paper: 100);
+    - the robot follows ``start + amplitude (1 - cos(2 pi k / steps)) / 2`` (m) and
+      starts with variance ``initial_variance`` (m^2, > 0);
+    - noise models are ``("constant", variance)`` or ``("proportional", k)``, the latter
+      a standard deviation ``k * length + noise_floor`` (m): the motion command for the
+      plant (eq. 19), the nominal distance for the landmark sensor and for the reference
+      observation of the anchor (eq. 20) or external sensor (eq. 23)."""
 
-    landmarks: int = 1
-    steps: int = 100
-    start: float = -1.0
-    amplitude: float = 1.0
-    landmark_position: float = 1.0
-    initial_variance: float = 1e-6
-    plant_noise: NoiseSpec = ("proportional", 0.1)
-    measurement_noise: NoiseSpec = ("proportional", 0.05)
-    reference_noise: NoiseSpec = ("proportional", 0.05)
-    noise_floor: float = 1e-3
+    landmarks: int = _DEFAULTS["landmarks"]
+    steps: int = _DEFAULTS["steps"]
+    start: float = _DEFAULTS["start"]
+    amplitude: float = _DEFAULTS["amplitude"]
+    landmark_position: float = _DEFAULTS["landmark_position"]
+    initial_variance: float = _DEFAULTS["initial_variance"]
+    plant_noise: NoiseSpec = _PLANT_NOISE
+    measurement_noise: NoiseSpec = _MEASUREMENT_NOISE
+    reference_noise: NoiseSpec = _REFERENCE_NOISE
+    noise_floor: float = _DEFAULTS["noise_floor"]
 
     @staticmethod
     def unit_noise(landmarks: int, steps: int = 100) -> MonobotConfig:
@@ -82,23 +101,21 @@ class MonobotConfig:
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
 
 
-def _config(landmarks: int, steps: int, overrides: dict[str, Any]) -> MonobotConfig:
-    unknown = set(overrides) - set(MonobotConfig.__dataclass_fields__)
-    if unknown:
-        raise TypeError(f"unknown monobot parameter(s): {', '.join(sorted(unknown))}")
+def _config(config: MonobotConfig | None, overrides: dict[str, Any]) -> MonobotConfig:
+    """``config`` (default: the paper's run) with the given fields replaced, checked."""
+    base = config if config is not None else MonobotConfig()
+    cfg = replace(base, **{k: v for k, v in overrides.items() if v is not None})
     for name in ("landmarks", "steps"):
-        value = {"landmarks": landmarks, "steps": steps}[name]
+        value = getattr(cfg, name)
         if isinstance(value, bool) or int(value) != value or value < 1:
             raise ValueError(f"{name} must be a positive integer, got {value!r}")
     for name in ("plant_noise", "measurement_noise", "reference_noise"):
-        spec = overrides.get(name)
-        if spec is not None and (
-            not isinstance(spec, (tuple, list)) or len(spec) != 2 or spec[0] not in _NOISE_KINDS
-        ):
+        spec = getattr(cfg, name)
+        if not isinstance(spec, (tuple, list)) or len(spec) != 2 or spec[0] not in _NOISE_KINDS:
             raise ValueError(
                 f"{name} must be ('constant', variance) or ('proportional', k), got {spec!r}"
             )
-    return MonobotConfig(landmarks=int(landmarks), steps=int(steps), **overrides)
+    return cfg
 
 
 _NOISE_KINDS = ("constant", "proportional")
@@ -146,15 +163,33 @@ class MonobotResult:
 
 
 def simulate(
-    *, model: Model = "relative", landmarks: int = 1, steps: int = 100, seed: int = 0, **config: Any
+    *,
+    model: Model = "relative",
+    seed: int = 0,
+    config: MonobotConfig | None = None,
+    landmarks: int | None = None,
+    steps: int | None = None,
+    initial_variance: float | None = None,
+    plant_noise: NoiseSpec | None = None,
+    measurement_noise: NoiseSpec | None = None,
+    reference_noise: NoiseSpec | None = None,
 ) -> MonobotResult:
-    """Simulate one monobot run and its EKF-SLAM estimate.
+    """Simulate one monobot run and its EKF-SLAM estimate (seed 000 Figs. 4-6).
 
-    ``config`` overrides :class:`MonobotConfig` fields (``start``, ``amplitude``,
-    ``landmark_position``, ``initial_variance``, ``plant_noise``,
-    ``measurement_noise``, ``reference_noise``, ``noise_floor``).
+    ``config`` is the experiment (default: the paper's run, see
+    :class:`MonobotConfig`); the other keywords replace its fields.
     """
-    cfg = _config(landmarks, steps, config)
+    cfg = _config(
+        config,
+        {
+            "landmarks": landmarks,
+            "steps": steps,
+            "initial_variance": initial_variance,
+            "plant_noise": plant_noise,
+            "measurement_noise": measurement_noise,
+            "reference_noise": reference_noise,
+        },
+    )
     arrays = _rperc.monobot_simulate(model, _seed(seed), 0, cfg.kwargs())
     return MonobotResult(model=model, config=cfg, seed=seed, **arrays)
 
@@ -232,14 +267,15 @@ def _run_errors(model: str, seed: int, run: int, config: dict[str, Any]) -> tupl
 def monte_carlo(
     *,
     model: Model = "relative",
-    landmarks: int = 1,
     runs: int = 100,
-    steps: int = 100,
     seed: int = 0,
+    config: MonobotConfig | None = None,
+    landmarks: int | None = None,
+    steps: int | None = None,
+    initial_variance: float | None = None,
     executor: Executor | None = None,
     confidence: float = 0.95,
     progress: bool = False,
-    **config: Any,
 ) -> MonteCarloResult:
     """Monte Carlo over ``runs`` seeded runs.
 
@@ -249,7 +285,9 @@ def monte_carlo(
     is seeded from ``(seed, i)`` either way, so both paths give identical results,
     whatever the number of workers.
     """
-    cfg = _config(landmarks, steps, config)
+    cfg = _config(
+        config, {"landmarks": landmarks, "steps": steps, "initial_variance": initial_variance}
+    )
     if isinstance(runs, bool) or int(runs) != runs or runs < 1:
         raise ValueError(f"runs must be a positive integer, got {runs!r}")
     seed = _seed(seed)

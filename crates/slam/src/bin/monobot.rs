@@ -2,7 +2,7 @@
 //! Fisher information's spectrum and null space, Monte Carlo sensitivity to the first
 //! observation, and NEES consistency.
 //!
-//! `cargo run --release -p slam --bin monobot [runs]`
+//! `cargo run --release -p slam --bin monobot [RUNS]`
 
 use slam::monobot::{
     MeasurementModel, MonobotConfig, information_spectrum, monte_carlo, observability_rank,
@@ -15,12 +15,23 @@ const MODELS: [(MeasurementModel, &str); 3] = [
     (MeasurementModel::External, "external (eq. 23)"),
 ];
 
-fn main() -> slam::Result<()> {
-    let runs: usize = std::env::args()
-        .nth(1)
-        .and_then(|a| a.parse().ok())
-        .unwrap_or(100);
+/// The monobot study in figures.
+#[derive(Debug, clap::Parser)]
+#[command(name = "monobot")]
+struct Args {
+    /// Monte Carlo runs per experiment.
+    #[arg(default_value_t = 100)]
+    runs: usize,
+}
 
+fn main() -> slam::Result<()> {
+    let args = <Args as clap::Parser>::parse();
+    print_ranks();
+    print_fisher()?;
+    print_monte_carlo(args.runs)
+}
+
+fn print_ranks() {
     println!("Observability-matrix rank (state size d = landmarks + 1):");
     for (model, name) in MODELS {
         let ranks: Vec<String> = (1..=5)
@@ -28,7 +39,9 @@ fn main() -> slam::Result<()> {
             .collect();
         println!("  {name:18} n = 1..5: {}", ranks.join(" "));
     }
+}
 
+fn print_fisher() -> slam::Result<()> {
     println!("\nTotal Fisher information J after one run (P0 = V = W = 1, 3 landmarks):");
     for (model, name) in MODELS {
         let run = simulate(&MonobotConfig::unit_noise(3), model, 1)?;
@@ -50,7 +63,10 @@ fn main() -> slam::Result<()> {
             println!("  {:18} unobservable direction ({})", "", v.join(", "));
         }
     }
+    Ok(())
+}
 
+fn print_monte_carlo(runs: usize) -> slam::Result<()> {
     println!("\nMonte Carlo, {runs} runs of the paper's experiment (sensitivity = slope of the");
     println!("final landmark error on the first-observation error; NEES band 95 %).");
     println!("An uncertain start (P0 = 0.01) shows the dependence on the first observation;");

@@ -106,14 +106,7 @@ impl Noise {
         let v = match self {
             Noise::Constant(v) | Noise::Proportional(v) => v,
         };
-        if v.is_finite() && v >= 0.0 {
-            Ok(())
-        } else {
-            Err(SlamError::InvalidParameter {
-                name,
-                reason: format!("must be finite and >= 0, got {v}"),
-            })
-        }
+        Ok(rperc_core::ensure_non_negative(name, v)?)
     }
 }
 
@@ -181,8 +174,7 @@ impl MonobotConfig {
 
     /// Refuses bad values with the parameter's name.
     pub fn validate(&self) -> Result<()> {
-        let bad =
-            |name: &'static str, reason: String| Err(SlamError::InvalidParameter { name, reason });
+        let bad = |name: &'static str, reason: String| Err(SlamError::invalid(name, reason));
         if self.landmarks == 0 {
             return bad("landmarks", "must be >= 1".into());
         }

@@ -15,10 +15,7 @@ pub fn monte_carlo(
     seed: u64,
 ) -> Result<Vec<MonobotRun>> {
     if runs == 0 {
-        return Err(SlamError::InvalidParameter {
-            name: "runs",
-            reason: "must be >= 1".into(),
-        });
+        return Err(SlamError::invalid("runs", "must be >= 1".into()));
     }
     (0..runs)
         .into_par_iter()
@@ -75,10 +72,7 @@ pub struct MonteCarloSummary {
 /// Summarises runs of one experiment (same config and model).
 pub fn summarize(runs: &[RunErrors], confidence: f64) -> Result<MonteCarloSummary> {
     let Some(first) = runs.first() else {
-        return Err(SlamError::InvalidParameter {
-            name: "runs",
-            reason: "need at least one run".into(),
-        });
+        return Err(SlamError::invalid("runs", "need at least one run".into()));
     };
     let (n, len) = (first.landmarks, first.nees.len());
     if runs.iter().any(|r| {
@@ -88,40 +82,12 @@ pub fn summarize(runs: &[RunErrors], confidence: f64) -> Result<MonteCarloSummar
             || r.landmark_error.len() != len * n
             || r.first_observation_error.len() != n
     }) {
-        return Err(SlamError::Dimension(
+        return Err(SlamError::dimension(
             "runs of different experiments cannot be summarised together".into(),
         ));
     }
-    let count = runs.len() as f64;
-    let mean_std = |values: &mut dyn Iterator<Item = f64>| {
-        let (mut s, mut s2, mut c) = (0.0, 0.0, 0.0);
-        for v in values {
-            s += v;
-            s2 += v * v;
-            c += 1.0;
-        }
-        let mean = s / c;
-        (
-            mean,
-            ((s2 / c - mean * mean).max(0.0) * c / (c - 1.0).max(1.0)).sqrt(),
-        )
-    };
-    let mut nees = Vec::with_capacity(len);
-    let (mut lm_mean, mut lm_std, mut r_mean, mut r_std) =
-        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    for k in 0..len {
-        nees.push(runs.iter().map(|r| r.nees[k]).sum::<f64>() / count);
-        let (m, s) = mean_std(
-            &mut runs
-                .iter()
-                .flat_map(|r| r.landmark_error[k * n..(k + 1) * n].iter().copied()),
-        );
-        lm_mean.push(m);
-        lm_std.push(s);
-        let (m, s) = mean_std(&mut runs.iter().map(|r| r.robot_error[k]));
-        r_mean.push(m);
-        r_std.push(s);
-    }
+    let per_step = PerStep::of(runs, n, len);
+    let nees = per_step.nees;
     let band = rperc_core::nees_band(n + 1, runs.len(), confidence)?;
     let inside = nees.iter().filter(|&&v| v >= band.0 && v <= band.1).count();
     let final_err: Vec<f64> = runs
@@ -138,15 +104,65 @@ pub fn summarize(runs: &[RunErrors], confidence: f64) -> Result<MonteCarloSummar
         nees,
         nees_band: band,
         nees_in_band: inside as f64 / len as f64,
-        landmark_error_mean: lm_mean,
-        landmark_error_std: lm_std,
-        robot_error_mean: r_mean,
-        robot_error_std: r_std,
+        landmark_error_mean: per_step.landmark_mean,
+        landmark_error_std: per_step.landmark_std,
+        robot_error_mean: per_step.robot_mean,
+        robot_error_std: per_step.robot_std,
         final_landmark_error: final_err,
         first_observation_error: first_err,
         sensitivity: slope,
         correlation: corr,
     })
+}
+
+/// Per-step statistics over runs: mean NEES, and mean and standard deviation of the
+/// landmark and robot errors.
+struct PerStep {
+    nees: Vec<f64>,
+    landmark_mean: Vec<f64>,
+    landmark_std: Vec<f64>,
+    robot_mean: Vec<f64>,
+    robot_std: Vec<f64>,
+}
+
+impl PerStep {
+    fn of(runs: &[RunErrors], n: usize, len: usize) -> Self {
+        let count = runs.len() as f64;
+        let mut out = PerStep {
+            nees: Vec::with_capacity(len),
+            landmark_mean: Vec::with_capacity(len),
+            landmark_std: Vec::with_capacity(len),
+            robot_mean: Vec::with_capacity(len),
+            robot_std: Vec::with_capacity(len),
+        };
+        for k in 0..len {
+            out.nees
+                .push(runs.iter().map(|r| r.nees[k]).sum::<f64>() / count);
+            let (m, s) = mean_std(
+                runs.iter()
+                    .flat_map(|r| r.landmark_error[k * n..(k + 1) * n].iter().copied()),
+            );
+            out.landmark_mean.push(m);
+            out.landmark_std.push(s);
+            let (m, s) = mean_std(runs.iter().map(|r| r.robot_error[k]));
+            out.robot_mean.push(m);
+            out.robot_std.push(s);
+        }
+        out
+    }
+}
+
+/// Mean and sample standard deviation.
+fn mean_std(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (mut s, mut s2, mut c) = (0.0, 0.0, 0.0);
+    for v in values {
+        s += v;
+        s2 += v * v;
+        c += 1.0;
+    }
+    let mean = s / c;
+    let var = (s2 / c - mean * mean).max(0.0) * c / (c - 1.0).max(1.0);
+    (mean, var.sqrt())
 }
 
 /// Slope and correlation of the least-squares line of `y` on `x`.

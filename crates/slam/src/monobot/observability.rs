@@ -30,10 +30,7 @@ pub fn rank(m: &DMatrix<f64>, tol: f64) -> usize {
 /// for the relative model, `d` for anchor and external.
 pub fn observability_rank(model: MeasurementModel, landmarks: usize) -> Result<usize> {
     if landmarks == 0 {
-        return Err(SlamError::InvalidParameter {
-            name: "landmarks",
-            reason: "must be >= 1".into(),
-        });
+        return Err(SlamError::invalid("landmarks", "must be >= 1".into()));
     }
     Ok(rank(&observability_matrix(model, landmarks), 1e-10))
 }
@@ -52,17 +49,17 @@ pub struct InformationSpectrum {
 /// Eigenvalues, rank and eigenvectors of a symmetric `J`.
 pub fn information_spectrum(j: &DMatrix<f64>, tol: f64) -> Result<InformationSpectrum> {
     if !j.is_square() || j.nrows() == 0 {
-        return Err(SlamError::Dimension(format!(
+        return Err(SlamError::dimension(format!(
             "J must be square, got {:?}",
             j.shape()
         )));
     }
     ensure_finite("J", j.iter())?;
     if !(tol.is_finite() && tol >= 0.0) {
-        return Err(SlamError::InvalidParameter {
-            name: "tol",
-            reason: format!("must be finite and >= 0, got {tol}"),
-        });
+        return Err(SlamError::invalid(
+            "tol",
+            format!("must be finite and >= 0, got {tol}"),
+        ));
     }
     let sym = (j + j.transpose()) * 0.5;
     let eig = sym.symmetric_eigen();

@@ -203,6 +203,65 @@ pub struct ParticleColorTracker {
     last: TrackResult,
 }
 
+impl ParticleTrackerParams {
+    /// Refuses bad values with the parameter's name; returns the number of bins.
+    pub fn validate(&self) -> Result<usize> {
+        let n_bins = self.appearance.validate()?;
+        if self.n_particles == 0 {
+            return Err(TrackingError::InvalidParameter {
+                name: "n_particles",
+                reason: "need at least one particle".into(),
+            });
+        }
+        positive("position_noise", self.position_noise)?;
+        positive("scale_noise", self.scale_noise)?;
+        positive("sigma", self.sigma)?;
+        positive("min_scale", self.min_scale)?;
+        positive("max_scale", self.max_scale)?;
+        if self.min_scale > 1.0 || self.max_scale < 1.0 {
+            return Err(TrackingError::InvalidParameter {
+                name: "max_scale",
+                reason: format!(
+                    "need min_scale <= 1 <= max_scale, got {} and {}",
+                    self.min_scale, self.max_scale
+                ),
+            });
+        }
+        Ok(n_bins)
+    }
+}
+
+/// Unit directions `(cos t, sin t)` at which the ellipse's perimeter is sampled.
+fn perimeter_directions() -> Vec<(f64, f64)> {
+    (0..PERIMETER_POINTS)
+        .map(|k| {
+            let t = 2.0 * std::f64::consts::PI * k as f64 / PERIMETER_POINTS as f64;
+            (t.cos(), t.sin())
+        })
+        .collect()
+}
+
+/// The particle filter over `(x, y, scale)`: a random walk whose position noise scales
+/// with the target's mean semi-axis, started around `centre` at scale 1.
+fn random_walk_filter(
+    params: &ParticleTrackerParams,
+    centre: (f64, f64),
+    semi_axis: f64,
+    seed: u64,
+) -> Result<ParticleFilter<3>> {
+    let sp = params.position_noise * semi_axis;
+    let noise = Vector3::new(sp, sp, params.scale_noise);
+    let cov = Matrix3::from_diagonal(&noise.component_mul(&noise));
+    ParticleFilter::new(
+        params.n_particles,
+        Vector3::new(centre.0, centre.1, 1.0),
+        cov,
+        LinearGaussian::random_walk(noise),
+        params.filter.clone(),
+        seed,
+    )
+}
+
 impl ParticleColorTracker {
     /// Samples the model from `bbox` and spreads the particles around it. `seed` fixes
     /// every random draw: the same seed gives the same track, whatever the thread count.
@@ -215,28 +274,8 @@ impl ParticleColorTracker {
         params: ParticleTrackerParams,
         seed: u64,
     ) -> Result<Self> {
+        let n_bins = params.validate()?;
         let app = &params.appearance;
-        let n_bins = app.validate()?;
-        if params.n_particles == 0 {
-            return Err(TrackingError::InvalidParameter {
-                name: "n_particles",
-                reason: "need at least one particle".into(),
-            });
-        }
-        positive("position_noise", params.position_noise)?;
-        positive("scale_noise", params.scale_noise)?;
-        positive("sigma", params.sigma)?;
-        positive("min_scale", params.min_scale)?;
-        positive("max_scale", params.max_scale)?;
-        if params.min_scale > 1.0 || params.max_scale < 1.0 {
-            return Err(TrackingError::InvalidParameter {
-                name: "max_scale",
-                reason: format!(
-                    "need min_scale <= 1 <= max_scale, got {} and {}",
-                    params.min_scale, params.max_scale
-                ),
-            });
-        }
         bbox.check_inside(frame.width(), frame.height())?;
         let mut image = BinImage::default();
         image.compute(&frame, app.color_space, app.bins, params.filter.parallel);
@@ -252,12 +291,7 @@ impl ParticleColorTracker {
             pixel_centre(cx),
             pixel_centre(cy),
         );
-        let directions: Vec<(f64, f64)> = (0..PERIMETER_POINTS)
-            .map(|k| {
-                let t = 2.0 * std::f64::consts::PI * k as f64 / PERIMETER_POINTS as f64;
-                (t.cos(), t.sin())
-            })
-            .collect();
+        let directions = perimeter_directions();
         let mut gradient = GradientImage::default();
         let mut gradient_ref = 1.0;
         if app.gradient_weight > 0.0 {
@@ -265,18 +299,7 @@ impl ParticleColorTracker {
             // The initial box's own edge strength is what a perfect candidate scores.
             gradient_ref = gradient.perimeter_at(cx, cy, a, b, &directions).max(1.0);
         }
-        let sp = params.position_noise * (a + b) / 2.0;
-        let noise = Vector3::new(sp, sp, params.scale_noise);
-        let dynamics = LinearGaussian::random_walk(noise);
-        let cov = Matrix3::from_diagonal(&noise.component_mul(&noise));
-        let filter = ParticleFilter::new(
-            params.n_particles,
-            Vector3::new(cx, cy, 1.0),
-            cov,
-            dynamics,
-            params.filter.clone(),
-            seed,
-        )?;
+        let filter = random_walk_filter(&params, (cx, cy), (a + b) / 2.0, seed)?;
         Ok(Self {
             width: frame.width(),
             height: frame.height(),
@@ -312,17 +335,8 @@ impl ParticleColorTracker {
                 height: frame.height(),
             });
         }
+        let use_gradient = self.prepare_frame(&frame);
         let app = &self.params.appearance;
-        self.image.compute(
-            &frame,
-            app.color_space,
-            app.bins,
-            self.params.filter.parallel,
-        );
-        let use_gradient = app.gradient_weight > 0.0;
-        if use_gradient {
-            self.gradient.compute(&frame);
-        }
         let likelihood = HistogramLikelihood {
             image: &self.image,
             gradient: use_gradient.then_some(&self.gradient),
@@ -369,6 +383,20 @@ impl ParticleColorTracker {
             lost,
         };
         Ok(self.last)
+    }
+
+    /// Bins (and, with the gradient term, differentiates) the new frame; whether the
+    /// gradient term is on.
+    fn prepare_frame(&mut self, frame: &RgbFrame<'_>) -> bool {
+        let app = &self.params.appearance;
+        let parallel = self.params.filter.parallel;
+        self.image
+            .compute(frame, app.color_space, app.bins, parallel);
+        let use_gradient = app.gradient_weight > 0.0;
+        if use_gradient {
+            self.gradient.compute(frame);
+        }
+        use_gradient
     }
 
     /// The last answer (the initial box, score 1, before the first update).

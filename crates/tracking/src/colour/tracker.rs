@@ -53,7 +53,8 @@ impl Default for ColorTrackerParams {
 }
 
 impl ColorTrackerParams {
-    fn validate(&self) -> Result<usize> {
+    /// Refuses bad values with the parameter's name; returns the number of bins.
+    pub fn validate(&self) -> Result<usize> {
         let n_bins = self.appearance.validate()?;
         if self.search_radius > 512 {
             return Err(TrackingError::InvalidParameter {
@@ -276,42 +277,10 @@ impl ColorHistogramTracker {
         if use_gradient {
             self.gradient.compute(&frame);
         }
+        let window = self.search_window();
+        self.search_scales(window, use_gradient);
 
-        let m = self.params.momentum;
-        let predicted = (
-            self.centre.0 + m * self.velocity.0,
-            self.centre.1 + m * self.velocity.1,
-        );
-        // A lost target is looked for in a window twice as wide.
-        let radius = (self.params.search_radius * if self.last.lost { 2 } else { 1 }) as i32;
-        let window = Window {
-            x0: pixel_centre(predicted.0) - radius,
-            y0: pixel_centre(predicted.1) - radius,
-            side: 2 * radius as usize + 1,
-        };
-        let step = 1.0 + self.params.scale_step;
-        let scales = [self.scale, self.scale / step, self.scale * step];
-        let upper_fraction = app.upper_fraction();
-        for (search, &s) in self.searches.iter_mut().zip(&scales) {
-            search.scale = s.clamp(self.params.min_scale, self.params.max_scale);
-            search.ellipse.rebuild(
-                self.base_a * search.scale,
-                self.base_b * search.scale,
-                upper_fraction,
-            );
-        }
-        let (image, model) = (&self.image, &self.model);
-        let grad = use_gradient.then_some(&self.gradient);
-        if self.params.parallel {
-            self.searches
-                .par_iter_mut()
-                .for_each(|s| s.run(image, grad, model, window));
-        } else {
-            self.searches
-                .iter_mut()
-                .for_each(|s| s.run(image, grad, model, window));
-        }
-
+        let app = &self.params.appearance;
         let (best_scale, best_index) = self.best_candidate(use_gradient);
         let search = &self.searches[best_scale];
         let side = window.side;
@@ -337,6 +306,48 @@ impl ColorHistogramTracker {
             lost,
         };
         Ok(self.last)
+    }
+
+    /// The window of centres searched this frame: around the constant-velocity
+    /// prediction, twice as wide when the target was lost.
+    fn search_window(&self) -> Window {
+        let m = self.params.momentum;
+        let predicted = (
+            self.centre.0 + m * self.velocity.0,
+            self.centre.1 + m * self.velocity.1,
+        );
+        let radius = (self.params.search_radius * if self.last.lost { 2 } else { 1 }) as i32;
+        Window {
+            x0: pixel_centre(predicted.0) - radius,
+            y0: pixel_centre(predicted.1) - radius,
+            side: 2 * radius as usize + 1,
+        }
+    }
+
+    /// Scores every centre of `window` at the current scale and one step either side.
+    fn search_scales(&mut self, window: Window, use_gradient: bool) {
+        let step = 1.0 + self.params.scale_step;
+        let scales = [self.scale, self.scale / step, self.scale * step];
+        let upper_fraction = self.params.appearance.upper_fraction();
+        for (search, &s) in self.searches.iter_mut().zip(&scales) {
+            search.scale = s.clamp(self.params.min_scale, self.params.max_scale);
+            search.ellipse.rebuild(
+                self.base_a * search.scale,
+                self.base_b * search.scale,
+                upper_fraction,
+            );
+        }
+        let (image, model) = (&self.image, &self.model);
+        let grad = use_gradient.then_some(&self.gradient);
+        if self.params.parallel {
+            self.searches
+                .par_iter_mut()
+                .for_each(|s| s.run(image, grad, model, window));
+        } else {
+            self.searches
+                .iter_mut()
+                .for_each(|s| s.run(image, grad, model, window));
+        }
     }
 
     /// (scale index, window index) of the best candidate. With the gradient term, both

@@ -1,0 +1,146 @@
+//! Bindings of the evaluation pieces Python must not re-derive: OTB ground truth, the
+//! OTB metrics, and SE(2) point transforms (rperc-core's `Pose2`).
+
+use nalgebra::Point2;
+use numpy::{IntoPyArray, PyArray1, PyArray2};
+use pyo3::prelude::*;
+use rperc_core::Pose2;
+use tracking::BoundingBox;
+
+use crate::arrays::{float_vector, point_rows};
+use crate::errors::Error;
+
+/// Boxes of an `(N, 4)` array named `name`.
+fn boxes(obj: &Bound<'_, PyAny>, name: &str) -> Result<Vec<BoundingBox>, Error> {
+    let (shape, data) = crate::arrays::tensor(obj, name, 2)?;
+    if shape[1] != 4 {
+        return Err(Error::Value(format!(
+            "{name} must have shape (N, 4) as x, y, w, h; got {shape:?}"
+        )));
+    }
+    Ok(data
+        .chunks_exact(4)
+        .map(|b| BoundingBox::new(b[0], b[1], b[2], b[3]))
+        .collect())
+}
+
+/// Two box arrays of the same length.
+fn box_pairs(
+    a: &Bound<'_, PyAny>,
+    b: &Bound<'_, PyAny>,
+) -> Result<(Vec<BoundingBox>, Vec<BoundingBox>), Error> {
+    let (a, b) = (boxes(a, "a")?, boxes(b, "b")?);
+    if a.len() != b.len() {
+        return Err(Error::Value(format!(
+            "a and b must hold as many boxes, got {} and {}",
+            a.len(),
+            b.len()
+        )));
+    }
+    Ok((a, b))
+}
+
+/// IoU of matching rows of two `(N, 4)` box arrays.
+#[pyfunction]
+pub fn otb_iou<'py>(
+    py: Python<'py>,
+    a: &Bound<'py, PyAny>,
+    b: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let (a, b) = box_pairs(a, b)?;
+    let out: Vec<f64> = a
+        .iter()
+        .zip(&b)
+        .map(|(x, y)| tracking::metrics::iou(x, y))
+        .collect();
+    Ok(out.into_pyarray(py))
+}
+
+/// Centre distances of matching rows of two `(N, 4)` box arrays.
+#[pyfunction]
+pub fn otb_center_error<'py>(
+    py: Python<'py>,
+    a: &Bound<'py, PyAny>,
+    b: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let (a, b) = box_pairs(a, b)?;
+    let out: Vec<f64> = a
+        .iter()
+        .zip(&b)
+        .map(|(x, y)| tracking::metrics::centre_error(x, y))
+        .collect();
+    Ok(out.into_pyarray(py))
+}
+
+/// The success curve over the 21 OTB thresholds.
+#[pyfunction]
+pub fn otb_success_curve<'py>(
+    py: Python<'py>,
+    overlaps: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let o = float_vector(overlaps, "overlaps")?;
+    Ok(tracking::metrics::success_curve(&o)
+        .to_vec()
+        .into_pyarray(py))
+}
+
+/// Fraction of centre errors at most `threshold` pixels.
+#[pyfunction]
+pub fn otb_precision(errors: &Bound<'_, PyAny>, threshold: f64) -> PyResult<f64> {
+    let e = float_vector(errors, "errors")?;
+    Ok(tracking::metrics::precision(&e, threshold))
+}
+
+/// Ground-truth boxes of an OTB file's text, with 0-based corners; `name` labels errors.
+#[pyfunction]
+pub fn otb_groundtruth<'py>(
+    py: Python<'py>,
+    text: &str,
+    name: &str,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let boxes = tracking::otb::parse_groundtruth(text, name).map_err(Error::from)?;
+    let flat: Vec<f64> = boxes.iter().flat_map(|b| b.to_array()).collect();
+    let n = boxes.len();
+    Ok(numpy::ndarray::Array2::from_shape_vec((n, 4), flat)
+        .map_err(|e| Error::Value(e.to_string()))?
+        .into_pyarray(py))
+}
+
+/// Points `(N, 2)` in the frame of `pose = (x, y, theta)` moved to the world
+/// (`inverse = false`), or world points expressed in that frame (`inverse = true`).
+#[pyfunction]
+#[pyo3(signature = (pose, points, inverse = false))]
+pub fn pose_transform_points<'py>(
+    py: Python<'py>,
+    pose: &Bound<'py, PyAny>,
+    points: &Bound<'py, PyAny>,
+    inverse: bool,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let p = float_vector(pose, "pose")?;
+    let [x, y, theta] = p[..] else {
+        return Err(Error::Value(format!(
+            "pose must be (x, y, theta), got {} values",
+            p.len()
+        ))
+        .into());
+    };
+    let pose = Pose2 { x, y, theta };
+    let rows = point_rows(points, "points")?;
+    let pts = rows.as_points();
+    let moved: Vec<f64> = pts
+        .iter()
+        .flat_map(|q: &Point2<f64>| {
+            let r = if inverse {
+                pose.inverse_transform_point(q)
+            } else {
+                pose.transform_point(q)
+            };
+            [r.x, r.y]
+        })
+        .collect();
+    Ok(
+        numpy::ndarray::Array2::from_shape_vec((pts.len(), 2), moved)
+            .map_err(|e| Error::Value(e.to_string()))?
+            .into_pyarray(py),
+    )
+}

@@ -28,6 +28,18 @@ pub enum CoreError {
         /// Why the value was refused.
         reason: String,
     },
+    /// A size a caller asked for would need more memory than rperc allows itself.
+    #[error("'{name}' = {count} would need {bytes} bytes, over the limit of {limit} bytes")]
+    TooLarge {
+        /// The parameter that sets the size.
+        name: &'static str,
+        /// The size asked for.
+        count: u128,
+        /// The bytes it would need.
+        bytes: u128,
+        /// [`MAX_ALLOCATION_BYTES`].
+        limit: u128,
+    },
     /// A string option that names no known choice.
     #[error("unknown {kind} '{got}'; expected one of {}", quoted(expected))]
     UnknownName {
@@ -46,6 +58,34 @@ fn quoted(names: &[&str]) -> String {
         .map(|n| format!("'{n}'"))
         .collect::<Vec<_>>()
         .join(", ")
+}
+
+/// The most memory one request may ask rperc to allocate (4 GiB): a size above it is
+/// refused with [`CoreError::TooLarge`] before anything is allocated, so a typo such as
+/// `n_particles=10**13` is an error, not an aborted process.
+pub const MAX_ALLOCATION_BYTES: u128 = 4 << 30;
+
+/// `Err(TooLarge)` when `count` items of `bytes_each` bytes exceed
+/// [`MAX_ALLOCATION_BYTES`].
+///
+/// # Examples
+/// ```
+/// assert!(rperc_core::check_allocation("n", 1_000, 8).is_ok());
+/// let err = rperc_core::check_allocation("n", 1 << 40, 8).unwrap_err();
+/// assert!(err.to_string().starts_with("'n' = 1099511627776 would need 8796093022208 bytes"));
+/// ```
+pub fn check_allocation(name: &'static str, count: u128, bytes_each: u128) -> Result<()> {
+    let bytes = count.saturating_mul(bytes_each);
+    if bytes <= MAX_ALLOCATION_BYTES {
+        Ok(())
+    } else {
+        Err(CoreError::TooLarge {
+            name,
+            count,
+            bytes,
+            limit: MAX_ALLOCATION_BYTES,
+        })
+    }
 }
 
 /// Result alias of this crate.
@@ -110,11 +150,16 @@ pub enum ErrorClass {
     Numerical,
     /// A file that could not be read or decoded (Python `OSError`).
     Io,
+    /// A request for more memory than rperc allows itself (Python `MemoryError`).
+    Memory,
 }
 
 impl CoreError {
-    /// Every core error is a bad argument.
+    /// How a caller should read this error.
     pub fn class(&self) -> ErrorClass {
-        ErrorClass::InvalidInput
+        match self {
+            CoreError::TooLarge { .. } => ErrorClass::Memory,
+            _ => ErrorClass::InvalidInput,
+        }
     }
 }

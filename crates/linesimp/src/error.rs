@@ -47,6 +47,9 @@ pub type Result<T> = std::result::Result<T, LineSimpError>;
 impl LineSimpError {
     /// Every line-simplification error is a bad argument.
     pub fn class(&self) -> rperc_core::ErrorClass {
-        rperc_core::ErrorClass::InvalidInput
+        match self {
+            LineSimpError::Core(e) => e.class(),
+            _ => rperc_core::ErrorClass::InvalidInput,
+        }
     }
 }

@@ -198,6 +198,7 @@ impl LineExtractor {
                 reason: format!("angle {k} is not finite ({})", angles[k]),
             });
         }
+        check_monotonic(angles)?;
         self.collect_valid(ranges, angles);
         let mut walls = Vec::new();
         let n = self.points.len();
@@ -413,6 +414,31 @@ impl LineExtractor {
                 d_range * d_range.transpose() * var_r + d_bearing * d_bearing.transpose() * var_b;
         }
         0.5 * (cov + cov.transpose())
+    }
+}
+
+/// Breakpoints and the fit assume that neighbours in the scan are neighbours in angle:
+/// bearings must be strictly increasing or strictly decreasing (a clockwise scanner).
+fn check_monotonic(angles: &[f64]) -> Result<()> {
+    let increasing = angles.len() < 2 || angles[1] > angles[0];
+    let out_of_order = angles.windows(2).position(|w| {
+        if increasing {
+            w[1] <= w[0]
+        } else {
+            w[1] >= w[0]
+        }
+    });
+    match out_of_order {
+        None => Ok(()),
+        Some(k) => Err(LineSimpError::InvalidParameter {
+            name: "angles",
+            reason: format!(
+                "bearings must be strictly monotonic, but angle {} ({}) follows angle {k} ({})",
+                k + 1,
+                angles[k + 1],
+                angles[k]
+            ),
+        }),
     }
 }
 

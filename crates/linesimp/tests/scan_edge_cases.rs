@@ -528,3 +528,18 @@ fn end_points_lie_on_the_line_within_round_off() {
         assert!((w.start - foot).norm() < 1e-12);
     }
 }
+
+/// Bearings out of order (neither increasing nor decreasing) are refused with the
+/// offending reading, instead of silently giving no walls.
+#[test]
+fn unsorted_bearings_are_an_error_naming_the_reading() {
+    let mut angles = bearings(61, -30.0, 30.0);
+    angles.swap(20, 21);
+    let ranges: Vec<f64> = angles.iter().map(|&a| range_to(2.0, 0.0, a)).collect();
+    let err = extract_lines(&ranges, &angles, &ScanParams::default()).unwrap_err();
+    assert!(err.to_string().contains("angle 21"), "{err}");
+    assert!(matches!(
+        err,
+        LineSimpError::InvalidParameter { name: "angles", .. }
+    ));
+}

@@ -5,7 +5,7 @@
 //! for a wrong type), a numerical failure `rperc.NumericalError`, an unreadable file
 //! `OSError`, and a caught panic `rperc.RpercError`.
 
-use pyo3::exceptions::{PyException, PyOSError, PyTypeError, PyValueError};
+use pyo3::exceptions::{PyException, PyMemoryError, PyOSError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::{PyErr, create_exception};
 use rperc_core::ErrorClass;
@@ -76,6 +76,7 @@ impl From<Error> for PyErr {
             (Error::Panic(_), _) => RpercError::new_err(msg),
             (_, Some(ErrorClass::Numerical)) => NumericalError::new_err(msg),
             (_, Some(ErrorClass::Io)) => PyOSError::new_err(msg),
+            (_, Some(ErrorClass::Memory)) => PyMemoryError::new_err(msg),
             _ => PyValueError::new_err(msg),
         }
     }

@@ -280,9 +280,17 @@ impl Ekf {
         let rows = self.robot_rows();
         let prr = rows.columns(0, r);
         let new_rr = fx * prr * fx.transpose() + fv * v * fv.transpose();
+        let cross = fx * rows.columns(r, d - r);
+        // Check before writing, so a diverged prediction leaves the filter as it was.
+        let finite = new_rr.iter().chain(cross.iter()).all(|v| v.is_finite());
+        if !finite || new_rr.diagonal().iter().any(|&v| v < 0.0) {
+            return Err(SlamError::Diverged(
+                "predict: the predicted robot covariance is not finite or has a negative variance"
+                    .into(),
+            ));
+        }
         if d > r {
             // Rows 0..r of the landmark columns lie in the upper triangle.
-            let cross = fx * rows.columns(r, d - r);
             self.cov.view_mut((0, r), (r, d - r)).copy_from(&cross);
         }
         self.cov
@@ -307,6 +315,29 @@ impl Ekf {
             }
         }
         l
+    }
+
+    /// The diagonal the Joseph update would write, `P_ii - (K L^T)_ii + (M K^T)_ii`, must
+    /// be finite and non-negative (up to round-off); checked in O(n m) before writing.
+    fn check_updated_diagonal(
+        &self,
+        gain: &DMatrix<f64>,
+        l: &DMatrix<f64>,
+        ks_minus_l: &DMatrix<f64>,
+    ) -> Result<()> {
+        for i in 0..self.x.len() {
+            let old = self.cov[(i, i)];
+            let mut new = old;
+            for a in 0..gain.ncols() {
+                new += gain[(i, a)] * (ks_minus_l[(i, a)] - l[(i, a)]);
+            }
+            if !new.is_finite() || new < -1e-9 * old.abs().max(f64::MIN_POSITIVE) {
+                return Err(SlamError::Diverged(format!(
+                    "update: the variance of state {i} would become {new:.3e} (was {old:.3e})"
+                )));
+            }
+        }
+        Ok(())
     }
 
     /// Measurement update, eqs. (6) to (9), with the Joseph form in O(n^2 m) for a
@@ -342,6 +373,7 @@ impl Ekf {
         // (I - K H) P (I - K H)^T + K R K^T = P - K L^T - L K^T + K S K^T
         //                                   = P - K L^T + (K S - L) K^T.
         let ks_minus_l = &gain * &s - &l;
+        self.check_updated_diagonal(&gain, &l, &ks_minus_l)?;
         joseph_columns(&mut self.cov, &gain, &l, &ks_minus_l);
         self.x += dx;
         Ok(Update {

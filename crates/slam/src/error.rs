@@ -10,6 +10,10 @@ pub enum SlamError {
     /// The filter state was left unchanged.
     #[error("innovation covariance S is singular or not positive definite: {0}")]
     SingularInnovation(String),
+    /// A prediction or update whose result would not be finite, or would have a
+    /// negative variance: the filter diverged. The state was left unchanged.
+    #[error("the filter diverged in {0}")]
+    Diverged(String),
     /// A bad argument, from the shared core's checks: a wrong size
     /// ([`CoreError::Dimension`]), a NaN ([`CoreError::NonFinite`]), a value out of
     /// range ([`CoreError::InvalidParameter`]), a covariance that is not symmetric PSD,
@@ -45,8 +49,10 @@ impl SlamError {
     /// Whether the caller passed something wrong or the numerics failed.
     pub fn class(&self) -> rperc_core::ErrorClass {
         match self {
-            SlamError::SingularInnovation(_) => rperc_core::ErrorClass::Numerical,
-            _ => rperc_core::ErrorClass::InvalidInput,
+            SlamError::SingularInnovation(_) | SlamError::Diverged(_) => {
+                rperc_core::ErrorClass::Numerical
+            }
+            SlamError::Core(e) => e.class(),
         }
     }
 }

@@ -113,6 +113,7 @@ impl TrackingError {
     pub fn class(&self) -> rperc_core::ErrorClass {
         match self {
             TrackingError::Io { .. } => rperc_core::ErrorClass::Io,
+            TrackingError::Core(e) => e.class(),
             _ => rperc_core::ErrorClass::InvalidInput,
         }
     }

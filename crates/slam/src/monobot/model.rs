@@ -206,9 +206,21 @@ impl MonobotConfig {
                 return bad(name, format!("must be finite and >= 0, got {v}"));
             }
         }
+        self.check_record_size()?;
         self.plant_noise.validate("plant_noise")?;
         self.measurement_noise.validate("measurement_noise")?;
         self.reference_noise.validate("reference_noise")
+    }
+
+    /// Refuses a run whose record (predicted covariances, gains, innovation
+    /// covariances per step, all O(steps n^2)) would exceed the allocation limit.
+    fn check_record_size(&self) -> Result<()> {
+        let d = self.landmarks as u128 + 1;
+        let p = d; // the anchor and external models observe n + 1 values
+        let per_step = p * p + d * p + d * d + 2 * p + 3 * d;
+        let steps = self.steps as u128 + 1;
+        rperc_core::check_allocation("landmarks", steps.saturating_mul(per_step) + d * d, 8)?;
+        Ok(())
     }
 
     /// The commanded (noise-free) robot position at step `k`.

@@ -32,7 +32,15 @@ pub fn observability_rank(model: MeasurementModel, landmarks: usize) -> Result<u
     if landmarks == 0 {
         return Err(SlamError::invalid("landmarks", "must be >= 1".into()));
     }
-    Ok(rank(&observability_matrix(model, landmarks), 1e-10))
+    // With static landmarks (A = I) every block row of O is H, so rank O = rank H: the
+    // rank needs H (p x d), not the (p d) x d matrix O.
+    let d = landmarks as u128 + 1;
+    let p = model.observation_dim(landmarks) as u128;
+    rperc_core::check_allocation("landmarks", p * d, 8)?;
+    Ok(rank(
+        &model.jacobian(landmarks).to_dense(landmarks + 1),
+        1e-10,
+    ))
 }
 
 /// Eigen-decomposition of a symmetric information matrix.

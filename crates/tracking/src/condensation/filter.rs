@@ -209,6 +209,9 @@ impl<const D: usize> ParticleFilter<D> {
                 reason: "need at least one particle".into(),
             });
         }
+        // Particles, their copy for resampling, weights, log-weights and ancestors.
+        let per_particle = 2 * std::mem::size_of::<SVector<f64, D>>() + 3 * 8;
+        rperc_core::check_allocation("n_particles", n as u128, per_particle as u128)?;
         if params.chunk_size == 0 {
             return Err(TrackingError::InvalidParameter {
                 name: "chunk_size",

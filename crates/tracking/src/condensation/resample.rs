@@ -78,6 +78,7 @@ impl Resampler {
         out: &mut Vec<usize>,
     ) -> Result<()> {
         let total = checked_total(weights)?;
+        rperc_core::check_allocation("n", n as u128, std::mem::size_of::<usize>() as u128)?;
         out.clear();
         out.reserve(n);
         if n == 0 {

@@ -1,0 +1,130 @@
+"""Issue 15's reproducers that are fixed: each used to abort, hang or give a silently
+wrong number. Each runs in a subprocess with a time limit, so a regression to an
+abort or a hang fails the test instead of killing the run."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+
+def run(code: str, timeout: float = 60.0) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(code)],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
+    )
+
+
+@pytest.mark.parametrize(
+    ("code", "error", "message"),
+    [
+        (
+            "import numpy as np; from rperc.tracking import resample; "
+            "resample(np.ones(2) / 2, 2**40)",
+            "MemoryError",
+            "'n' = 1099511627776 would need",
+        ),
+        (
+            "import numpy as np; from rperc.tracking import resample; "
+            "resample(np.ones(2) / 2, 2**62)",
+            "MemoryError",
+            "'n' =",
+        ),
+        (
+            "from rperc.slam import monobot; "
+            "monobot.observability_rank(model='anchor', landmarks=100000)",
+            "MemoryError",
+            "'landmarks'",
+        ),
+        (
+            "from rperc.slam import monobot; monobot.simulate(landmarks=200000, steps=1)",
+            "MemoryError",
+            "'landmarks'",
+        ),
+        (
+            "import numpy as np; from rperc.tracking import ParticleColorTracker; "
+            "f = np.zeros((40, 40, 3), np.uint8); "
+            "ParticleColorTracker(f, (5, 5, 10, 10), n_particles=10**13)",
+            "MemoryError",
+            "'n_particles'",
+        ),
+        (
+            "import numpy as np; from rperc.slam import Ekf; "
+            "e = Ekf(np.zeros(3), np.eye(3), 3, 2); "
+            "e.predict(np.zeros(3), np.eye(3) * 1e200, np.eye(3), np.eye(3))",
+            "NumericalError",
+            "predict",
+        ),
+        (
+            "import numpy as np; from rperc.linesimp import extract_lines; "
+            "a = np.radians(np.arange(-45.0, 46.0)); a[[10, 11]] = a[[11, 10]]; "
+            "extract_lines(2 / np.cos(a), a)",
+            "ValueError",
+            "strictly monotonic",
+        ),
+    ],
+)
+def test_a_bad_size_or_value_is_an_exception_not_an_abort(code, error, message):
+    out = run(code)
+    assert out.returncode == 1, (out.returncode, out.stderr[-2000:])
+    last = out.stderr.strip().splitlines()[-1]
+    assert error in last and message in last, last
+
+
+def test_a_diverged_prediction_leaves_the_filter_unchanged():
+    import numpy as np
+
+    import rperc
+    from rperc.slam import Ekf
+
+    ekf = Ekf(np.zeros(5), np.eye(5), 3, 2)
+    before = (ekf.state, ekf.covariance)
+    with pytest.raises(rperc.NumericalError, match="predict"):
+        ekf.predict(np.ones(3), np.eye(3) * 1e200, np.eye(3), np.eye(3))
+    np.testing.assert_array_equal(ekf.state, before[0])
+    np.testing.assert_array_equal(ekf.covariance, before[1])
+
+
+def test_nees_band_of_huge_dof_is_fast_and_ordered():
+    """dof * runs beyond 2**64 neither overflows nor hangs (it used to, for minutes)."""
+    out = run(
+        "from rperc.slam import nees_bounds; lo, hi = nees_bounds(2**62 + 1, 4, 0.95); "
+        "print(lo < 2**62 + 1 < hi)",
+        timeout=20,
+    )
+    assert out.stdout.strip() == "True", out.stderr[-2000:]
+
+
+def test_nees_band_matches_scipy_to_1e9_at_large_dof():
+    from scipy.stats import chi2
+
+    from rperc.slam import nees_bounds
+
+    for dof, runs in [(10**6, 10**6), (1, 10**9), (6, 100)]:
+        lo, hi = nees_bounds(dof, runs, 0.95)
+        k = dof * runs
+        assert lo == pytest.approx(chi2.ppf(0.025, k) / runs, rel=1e-9)
+        assert hi == pytest.approx(chi2.ppf(0.975, k) / runs, rel=1e-9)
+
+
+def test_threads_are_capped_and_still_correct():
+    import numpy as np
+
+    from rperc.linesimp import simplify, simplify_many
+
+    pts = np.cumsum(np.random.default_rng(3).normal(size=(200, 2)), axis=0)
+    out = run(
+        "import numpy as np, time; from rperc.linesimp import simplify_many; "
+        "t = time.perf_counter(); simplify_many([np.zeros((3, 2))], 1.0, threads=10000); "
+        "print(time.perf_counter() - t)",
+        timeout=30,
+    )
+    assert out.returncode == 0 and float(out.stdout) < 10.0, out.stderr[-2000:]
+    many = simplify_many([pts, pts], 0.5, threads=10000, return_indices=True)
+    np.testing.assert_array_equal(many[0], simplify(pts, 0.5, return_indices=True))

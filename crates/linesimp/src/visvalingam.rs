@@ -110,7 +110,7 @@ pub(crate) fn vw_mark(
     let mut queue = BinaryHeap::from(std::mem::take(heap));
     while let Some(c) = queue.pop() {
         // NaN (from overflowing coordinates) sorts last and is never `<= epsilon`.
-        if !(c.area <= epsilon) {
+        if c.area.is_nan() || c.area > epsilon {
             break;
         }
         let v = c.vertex as usize;

@@ -22,7 +22,9 @@ mod _rperc {
     #[pymodule_export]
     use crate::errors::RpercError;
     #[pymodule_export]
-    use crate::linesimp_py::{extract_lines, simplify_indices, simplify_many_indices};
+    use crate::linesimp_py::{
+        extract_lines, simplify_indices, simplify_many_indices, simplify_topology_indices,
+    };
     #[pymodule_export]
     use crate::slam_py::{
         PyEkf, information_spectrum, monobot_monte_carlo, monobot_observability_rank,

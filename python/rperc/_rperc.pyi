@@ -24,6 +24,7 @@ __all__ = [
     "resample",
     "simplify_indices",
     "simplify_many_indices",
+    "simplify_topology_indices",
 ]
 
 __version__: str
@@ -34,17 +35,25 @@ class NumericalError(RpercError): ...
 def simplify_indices(
     points: npt.NDArray[np.floating],
     epsilon: float,
-    method: str = "hull",
+    method: str = "auto",
     metric: str = "line",
     tie: str = "first",
 ) -> npt.NDArray[np.intp]: ...
 def simplify_many_indices(
     polylines: list[npt.NDArray[np.floating]],
     epsilon: float,
-    method: str = "hull",
+    method: str = "auto",
     metric: str = "line",
     tie: str = "first",
     threads: int | None = None,
+) -> list[npt.NDArray[np.intp]]: ...
+def simplify_topology_indices(
+    components: list[npt.NDArray[np.floating]],
+    rings: list[bool],
+    epsilon: float,
+    method: str = "auto",
+    metric: str = "line",
+    tie: str = "first",
 ) -> list[npt.NDArray[np.intp]]: ...
 def extract_lines(
     ranges: npt.NDArray[np.floating],

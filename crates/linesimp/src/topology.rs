@@ -11,9 +11,11 @@
 //!   point is fine) with any live segment: the not-yet-replaced input segments of every
 //!   component except those of the section itself, and every chord accepted so far, and
 //!   (4) the chord does not jump over another component: for each other component whose
-//!   second vertex lies in the section's bounding box, the section and the chord must
-//!   see that vertex on the same side (equal parity of ray crossings). Otherwise the
-//!   section splits at its farthest vertex, as plain DP would.
+//!   *probe* lies in the section's bounding box, the section and the chord must see the
+//!   probe on the same side (equal parity of ray crossings). The probe is the second
+//!   vertex of a component not simplified yet, and the first kept vertex of one already
+//!   simplified (GEOS since JTS #1096). Otherwise the section splits at its farthest
+//!   vertex, as plain DP would.
 //! - When condition (2) fails, GEOS's rule is used: at depth `d` of the recursion a
 //!   section may be flattened only if the line already has the minimum number of
 //!   vertices or `d + 1` reaches it.
@@ -28,11 +30,13 @@
 
 mod grid;
 pub(crate) mod predicates;
+mod probes;
 
 use nalgebra::Point2;
 
 use self::grid::{Origin, Segment, SegmentGrid};
 use self::predicates::{crosses_ray, interior_intersection, orientation, same_segment};
+use self::probes::Probes;
 use crate::{LineSimpError, Metric, Result, Tie, chord_distance};
 
 type P = Point2<f64>;
@@ -158,9 +162,8 @@ struct Engine<'a> {
     /// Id of input segment 0 of each component (input segments are stored first, in
     /// order, so segment `k` of component `c` has id `first_segment[c] + k`).
     first_segment: Vec<u32>,
-    /// The second vertex of each component with one, as `(x, y, component)` sorted by
-    /// x: the point GEOS tests for jumps.
-    probes: Vec<(f64, f64, u32)>,
+    /// The point of each component that chords must not jump over.
+    probes: Probes,
 }
 
 impl<'a> Engine<'a> {
@@ -201,12 +204,7 @@ impl<'a> Engine<'a> {
                 });
             }
         }
-        let mut probes: Vec<(f64, f64, u32)> = components
-            .iter()
-            .enumerate()
-            .filter_map(|(c, comp)| comp.points.get(1).map(|p| (p.x, p.y, c as u32)))
-            .collect();
-        probes.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let probes = Probes::new(components.iter().map(|c| c.points.get(1).copied()));
         Self {
             components,
             epsilon,
@@ -218,9 +216,20 @@ impl<'a> Engine<'a> {
         }
     }
 
+    /// The kept vertices of component `c`; its probe then moves to its first kept
+    /// vertex.
+    fn simplify_component(&mut self, c: usize) -> Vec<usize> {
+        let comp = self.components[c];
+        let kept = self.kept_vertices(c);
+        if let Some(&first) = kept.first() {
+            self.probes.set(c, comp.points[first]);
+        }
+        kept
+    }
+
     /// The Douglas-Peucker recursion on an explicit stack (left part on top, so pieces
     /// come out in order), then the ring start vertex.
-    fn simplify_component(&mut self, c: usize) -> Vec<usize> {
+    fn kept_vertices(&mut self, c: usize) -> Vec<usize> {
         let comp = self.components[c];
         let n = comp.points.len();
         if n < 3 {
@@ -311,19 +320,13 @@ impl<'a> Engine<'a> {
             lo = P::new(lo.x.min(p.x), lo.y.min(p.y));
             hi = P::new(hi.x.max(p.x), hi.y.max(p.y));
         }
-        let from = self.probes.partition_point(|q| q.0 < lo.x);
-        self.probes[from..]
-            .iter()
-            .take_while(|q| q.0 <= hi.x)
-            .filter(|q| q.2 as usize != c && q.1 >= lo.y && q.1 <= hi.y)
-            .any(|&(x, y, _)| {
-                let probe = P::new(x, y);
-                let along = chain
-                    .windows(2)
-                    .filter(|w| crosses_ray(&probe, &w[0], &w[1]))
-                    .count();
-                along % 2 != usize::from(crosses_ray(&probe, a, b))
-            })
+        self.probes.inside(&lo, &hi, c).any(|probe| {
+            let along = chain
+                .windows(2)
+                .filter(|w| crosses_ray(&probe, &w[0], &w[1]))
+                .count();
+            along % 2 != usize::from(crosses_ray(&probe, a, b))
+        })
     }
 
     /// Replaces section `i..j` of component `c` by its chord; returns the chord's id.

@@ -91,6 +91,8 @@ struct Reference<'a> {
     comps: &'a [(Vec<P>, bool)],
     eps: f64,
     live: Vec<Live>,
+    /// Second input vertex until the component is simplified, then its first kept one.
+    probes: Vec<Option<P>>,
 }
 
 impl Reference<'_> {
@@ -114,11 +116,11 @@ impl Reference<'_> {
         let (y0, y1) = chain
             .iter()
             .fold((f64::MAX, f64::MIN), |r, p| (r.0.min(p.y), r.1.max(p.y)));
-        self.comps.iter().enumerate().any(|(o, (pts, _))| {
-            if o == c || pts.len() < 2 {
+        self.probes.iter().enumerate().any(|(o, probe)| {
+            let Some(q) = *probe else { return false };
+            if o == c {
                 return false;
             }
-            let q = pts[1];
             if q.x < x0 || q.x > x1 || q.y < y0 || q.y > y1 {
                 return false;
             }
@@ -217,11 +219,20 @@ impl Reference<'_> {
                 });
             }
         }
-        let mut r = Reference { comps, eps, live };
-        let mut result = Vec::new();
+        let probes = comps.iter().map(|(p, _)| p.get(1).copied()).collect();
+        let mut r = Reference {
+            comps,
+            eps,
+            live,
+            probes,
+        };
+        let mut result: Vec<Vec<usize>> = Vec::new();
         for (c, (pts, ring)) in comps.iter().enumerate() {
             if pts.len() < 3 {
                 result.push((0..pts.len()).collect());
+                if !pts.is_empty() {
+                    r.probes[c] = Some(pts[0]);
+                }
                 continue;
             }
             let mut out = Vec::new();
@@ -231,6 +242,7 @@ impl Reference<'_> {
             }
             let mut kept: Vec<usize> = out.iter().map(|p| p.0).collect();
             kept.push(out.last().unwrap().1);
+            r.probes[c] = Some(pts[kept[0]]);
             result.push(kept);
         }
         result
@@ -418,6 +430,31 @@ proptest! {
             }
         }
     }
+}
+
+/// Cases checked on shapely 2.2 / GEOS 3.14 (`MultiLineString([...])`, tolerance 2.5):
+/// the jump check probes the second input vertex of a component not yet simplified and
+/// the first kept vertex of one already simplified.
+#[test]
+fn jump_probes_follow_geos() {
+    let bump = [P::new(0.0, 0.0), P::new(5.0, 2.0), P::new(10.0, 0.0)];
+    let run = |lines: &[&[P]]| {
+        let comps: Vec<Component<'_>> = lines.iter().map(|l| Component::line(l)).collect();
+        simplify_preserving_topology(&comps, 2.5, Metric::Segment, Tie::First).unwrap()
+    };
+    // Hangs from the bump's top into the pocket under it.
+    let hanging = [P::new(5.0, 2.0), P::new(5.1, 1.0), P::new(5.0, 0.5)];
+    let rising = [P::new(5.0, 0.5), P::new(5.1, 1.0), P::new(5.0, 2.0)];
+    // Simplified first: the probe is the first kept vertex, the shared top for
+    // `hanging` (no jump: GEOS flattens the bump), inside the pocket for `rising`.
+    assert_eq!(run(&[&hanging, &bump]), vec![vec![0, 2], vec![0, 2]]);
+    assert_eq!(run(&[&rising, &bump]), vec![vec![0, 2], vec![0, 1, 2]]);
+    // Not simplified yet: the probe is the second vertex, inside the pocket.
+    assert_eq!(run(&[&bump, &hanging]), vec![vec![0, 1, 2], vec![0, 2]]);
+    // A line dipping under the chord and coming back: simplified first, it no longer
+    // reaches the pocket, though its dropped second vertex does.
+    let dipping = [P::new(5.0, -1.0), P::new(5.5, 0.5), P::new(6.0, -1.0)];
+    assert_eq!(run(&[&dipping, &bump]), vec![vec![0, 2], vec![0, 2]]);
 }
 
 #[test]

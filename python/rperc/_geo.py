@@ -153,7 +153,7 @@ def _linear_ring(ring: np.ndarray | None, dims: Dims) -> Geometry:
     head = f"LINEARRING{tag[dims.has_z, dims.has_m]}"
     if ring is None:
         return shapely.from_wkt(f"{head} EMPTY")
-    body = ", ".join(" ".join(repr(float(v)) for v in row) for row in ring)
+    body = ", ".join(" ".join(_number(v) for v in row) for row in ring)
     return shapely.from_wkt(f"{head} ({body})")
 
 
@@ -200,3 +200,46 @@ def map_parts(
     layout, parts = decompose(geom)
     new = simplify_parts(parts) if parts else []
     return rebuild(layout, new, dims_of(geom), int(shapely.get_srid(geom)))
+
+
+_DIM_TAGS = {(False, False): "", (True, False): " Z", (False, True): " M", (True, True): " ZM"}
+_KEYWORDS = {
+    "Point": "POINT",
+    "LineString": "LINESTRING",
+    "LinearRing": "LINEARRING",
+    "Polygon": "POLYGON",
+    "MultiPoint": "MULTIPOINT",
+    "MultiLineString": "MULTILINESTRING",
+    "MultiPolygon": "MULTIPOLYGON",
+    "GeometryCollection": "GEOMETRYCOLLECTION",
+}
+
+
+def exact_wkt(geom: Geometry) -> str:
+    """WKT whose numbers read back bit for bit (Python's shortest round-trip repr),
+    with the Z/M tag; GEOS's writer rounds some values at 16 or 17 digits."""
+    dims = dims_of(geom)
+    return f"{_KEYWORDS[geom.geom_type]}{_DIM_TAGS[dims.has_z, dims.has_m]} {_wkt_body(geom, dims)}"
+
+
+def _wkt_body(geom: Geometry, dims: Dims) -> str:
+    """The parenthesised part of a geometry's WKT (``EMPTY`` when empty)."""
+    shapely = shapely_module()
+    kind = geom.geom_type
+    if geom.is_empty:
+        return "EMPTY"
+    if kind in ("Point", "LineString", "LinearRing"):
+        xyzm = shapely.get_coordinates(geom, include_z=dims.has_z, include_m=dims.has_m)
+        return "(" + ", ".join(" ".join(_number(v) for v in row) for row in xyzm) + ")"
+    if kind == "Polygon":
+        rings = (geom.exterior, *geom.interiors)
+        return "(" + ", ".join(_wkt_body(r, dims) for r in rings) + ")"
+    if kind == "GeometryCollection":
+        return "(" + ", ".join(exact_wkt(m) for m in geom.geoms) + ")"
+    return "(" + ", ".join(_wkt_body(m, dims) for m in geom.geoms) + ")"
+
+
+def _number(v: float) -> str:
+    """The shortest text that reads back as ``v``, without a trailing ``.0``."""
+    text = repr(float(v))
+    return text[:-2] if text.endswith(".0") else text

@@ -214,7 +214,7 @@ def write_geometries(path: str | Path, geometries: Iterable[Any]) -> Path:
     """Write geometries (shapely geometries or ``__geo_interface__`` objects) in the
     format the suffix names; returns the path.
 
-    WKT keeps the type, Z, M and SRID (as EWKT) with full precision. GeoJSON writes a
+    WKT keeps the type, Z, M and SRID (as EWKT), and numbers read back exactly. GeoJSON writes a
     FeatureCollection (M dropped). CSV writes every line and ring as a polyline of
     ``x,y[,z]`` rows, blank lines between them (types and M are lost; points refused).
     An unknown suffix is a ValueError.
@@ -233,10 +233,10 @@ def write_geometries(path: str | Path, geometries: Iterable[Any]) -> Path:
 
 
 def wkt_line(geom: _geo.Geometry) -> str:
-    """``geom`` as one line of WKT with full precision, Z and M, and an ``SRID=n;``
-    prefix (EWKT) when it has an SRID."""
+    """``geom`` as one line of WKT that reads back exactly (every digit needed), with
+    Z and M, and an ``SRID=n;`` prefix (EWKT) when it has an SRID."""
     shapely = _geo.shapely_module()
-    wkt = str(shapely.to_wkt(geom, rounding_precision=-1, output_dimension=4))
+    wkt = _geo.exact_wkt(geom)
     srid = int(shapely.get_srid(geom))
     return f"SRID={srid};{wkt}" if srid else wkt
 

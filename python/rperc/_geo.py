@@ -50,7 +50,11 @@ def shapely_module() -> ModuleType:
 def is_geometry(obj: object) -> bool:
     """Whether ``obj`` is a geometry rather than an array of points: a shapely
     geometry, any object with ``__geo_interface__``, or a GeoJSON-like mapping."""
-    return hasattr(obj, "__geo_interface__") or (isinstance(obj, Mapping) and "type" in obj)
+    # Look on the type first: shapely computes ``__geo_interface__`` (a tuple of every
+    # coordinate) each time the property is read.
+    if hasattr(type(obj), "__geo_interface__") or hasattr(obj, "__geo_interface__"):
+        return True
+    return isinstance(obj, Mapping) and "type" in obj
 
 
 def to_shapely(obj: object) -> Geometry:

@@ -1,6 +1,28 @@
-"""Douglas-Peucker line simplification and wall extraction from 2-D laser scans.
+"""Line simplification and wall extraction from 2-D laser scans.
 
-Section 2.1 of the seed paper (Tables 1 and 2) and Hershberger & Snoeyink (1992).
+Douglas-Peucker (section 2.1 of the seed paper, Tables 1 and 2), with Hershberger &
+Snoeyink's (1992) path hulls; Visvalingam & Whyatt's (1993) effective-area elimination;
+topology-preserving Douglas-Peucker with the rules of GEOS's
+TopologyPreservingSimplifier; shapely geometries in and out.
+
+Geometries
+----------
+Every line and ring is simplified (all together with ``preserve_topology``) and the
+geometry is rebuilt with the same type (GEOS turns a one-member MultiLineString into a
+LineString; rperc does not), Z/M dimensions (M values are carried along, not turned
+into Z) and SRID; points pass through. A LineString keeps both
+end points, also when closed. Polygon rings and LinearRings follow GEOS:
+
+- with ``preserve_topology=True`` they keep at least 4 coordinates and may start
+  at another vertex;
+- otherwise each ring is simplified from its start vertex, which then goes too
+  when it lies within epsilon of the chord joining its kept neighbours (Douglas-
+  Peucker methods, as GEOS's DouglasPeuckerSimplifier; VW keeps it), and a ring
+  left with fewer than 4 coordinates is dropped: a hole disappears, a polygon whose
+  shell collapses becomes empty and leaves a MultiPolygon or collection (which,
+  unlike in GEOS, keeps its type), a lone LinearRing becomes empty. Unlike shapely,
+  the result is not repaired when it self-intersects: use
+  ``preserve_topology=True`` to prevent that.
 """
 
 from __future__ import annotations
@@ -113,7 +135,8 @@ def simplify(
         Or a geometry: a shapely LineString, LinearRing, Polygon, MultiLineString,
         MultiPolygon or GeometryCollection, any object with ``__geo_interface__``, or a
         GeoJSON-like mapping; the result is then a shapely geometry of the same type
-        (see *Geometries* below). Geometries need shapely (``pip install shapely``).
+        (see *Geometries* in the module documentation). Geometries need shapely
+        (``pip install shapely``).
     epsilon:
         Tolerance, >= 0: a distance in the units of the points for Douglas-Peucker, an
         *area* (units squared) for ``method="vw"``.
@@ -157,25 +180,7 @@ def simplify(
     -------
     The kept rows of ``points`` (same dtype and columns), or their indices, in order.
     The first and last points are always kept; fewer than 3 points come back unchanged.
-    For a geometry: a shapely geometry (see below).
-
-    Geometries
-    ----------
-    Every line and ring is simplified (all together with ``preserve_topology``) and the
-    geometry is rebuilt with the same type, Z/M dimensions (M values are carried
-    along, not turned into Z) and SRID; points pass through. A LineString keeps both
-    end points, also when closed. Polygon rings and LinearRings follow GEOS:
-
-    - with ``preserve_topology=True`` they keep at least 4 coordinates and may start
-      at another vertex;
-    - otherwise each ring is simplified from its start vertex, which then goes too
-      when it lies within epsilon of the chord joining its kept neighbours (Douglas-
-      Peucker methods, as GEOS's DouglasPeuckerSimplifier; VW keeps it), and a ring
-      left with fewer than 4 coordinates is dropped: a hole disappears, a polygon whose
-      shell collapses becomes empty and leaves a MultiPolygon or collection (which,
-      unlike in GEOS, keeps its type), a lone LinearRing becomes empty. Unlike shapely,
-      the result is not repaired when it self-intersects: use
-      ``preserve_topology=True`` to prevent that.
+    For a geometry: a shapely geometry of the same type.
 
     Raises
     ------

@@ -241,7 +241,15 @@ class _Options:
                 xy, rings, self.epsilon, self.method, self.metric, self.tie
             )
             return [p.coords[k] for p, k in zip(parts, per_part, strict=True)]
-        many = _rperc.simplify_many_indices(xy, self.epsilon, self.method, self.metric, self.tie)
+        try:
+            many = _rperc.simplify_many_indices(
+                xy, self.epsilon, self.method, self.metric, self.tie
+            )
+        except ValueError as exc:
+            # The native message counts "polylines": here they are the geometry's parts.
+            raise ValueError(
+                f"{exc} (parts are the geometry's lines and rings, in order)"
+            ) from None
         out: list[np.ndarray | None] = []
         for part, pts, idx in zip(parts, xy, many, strict=True):
             kept = self._ring(pts, idx) if part.ring else idx

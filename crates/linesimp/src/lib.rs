@@ -114,7 +114,8 @@ impl Simplifier {
     }
 
     /// Chooses which of several equally far vertices splits a chord (plain DP only;
-    /// path hulls always take the first). The default, [`Tie::First`], matches GEOS.
+    /// path hulls always take the first, Visvalingam-Whyatt has its own rule: the
+    /// smallest index among equal areas). The default, [`Tie::First`], matches GEOS.
     pub fn with_tie(mut self, tie: Tie) -> Self {
         self.tie = tie;
         self

@@ -2,10 +2,21 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
-from rperc.datasets import DatasetFormatError, load_carmen, load_otb, read_boxes, read_polylines
+from rperc.datasets import (
+    DatasetFormatError,
+    load_carmen,
+    load_otb,
+    read_boxes,
+    read_geometries,
+    read_polylines,
+    write_geometries,
+    write_polyline,
+)
 
 
 def test_intel_log_reads_every_record(data):
@@ -72,6 +83,127 @@ def test_wkt_and_csv(tmp_path):
     bad_wkt.write_text("LINESTRING(0 0, 1 1)\nPOINT(1 2)\n")
     with pytest.raises(DatasetFormatError, match=r"b.wkt:2"):
         read_polylines(bad_wkt)
+
+
+def test_m_values_are_never_read_as_z(tmp_path):
+    shapely = pytest.importorskip("shapely")
+    path = tmp_path / "m.wkt"
+    path.write_text("LINESTRING M (0 0 5, 1 1 6, 2 0 7)\nLINESTRING ZM (0 0 1 5, 1 1 2 6)\n")
+    m, zm = read_geometries(path)
+    assert m.has_m and not m.has_z and zm.has_m and zm.has_z
+    np.testing.assert_array_equal(shapely.get_coordinates(m, include_m=True)[:, 2], [5, 6, 7])
+    line_m, line_zm = read_polylines(path)
+    np.testing.assert_array_equal(line_m, [[0, 0], [1, 1], [2, 0]])  # M dropped
+    np.testing.assert_array_equal(line_zm, [[0, 0, 1], [1, 1, 2]])  # z kept, M dropped
+
+
+def geometry_zoo(shapely):
+    walk = np.cumsum(np.random.default_rng(0).normal(size=(50, 2)), axis=0) / 3.0
+    texts = [
+        "MULTIPOLYGON (((0 0, 4 0, 4 4, 0 4, 0 0), (1 1, 2 1, 2 2, 1 1)), "
+        "((10 10, 11 10, 11 11, 10 10)))",
+        "POLYGON ((0 0, 1 0, 1 1, 0 0))",
+        "LINESTRING EMPTY",
+        "POLYGON EMPTY",
+        "MULTILINESTRING ((0 0, 1 1), (2 2, 3 3))",
+        "LINESTRING M (0 0 1, 1 1 2)",
+        "LINESTRING Z (0.1 0.2 0.3, 1e-300 5e300 7)",
+        "GEOMETRYCOLLECTION (POINT (1 2), LINESTRING (0 0, 1 1))",
+    ]
+    geoms = [shapely.from_wkt(t) for t in texts] + [shapely.LineString(walk)]
+    geoms[0] = shapely.set_srid(geoms[0], 4326)
+    return geoms
+
+
+def test_wkt_round_trip_keeps_type_dimensions_srid_and_every_bit(tmp_path):
+    shapely = pytest.importorskip("shapely")
+    geoms = geometry_zoo(shapely)
+    path = write_geometries(tmp_path / "zoo.wkt", geoms)
+    lines = path.read_text().splitlines()
+    assert lines[0].startswith("SRID=4326;MULTIPOLYGON") and lines[1].startswith("POLYGON")
+    back = read_geometries(path)
+    assert len(back) == len(geoms)
+    for before, after in zip(geoms, back, strict=True):
+        assert after.geom_type == before.geom_type
+        assert (after.has_z, after.has_m) == (before.has_z, before.has_m)
+        assert shapely.get_srid(after) == shapely.get_srid(before)
+        assert shapely.equals_exact(after, before, tolerance=0.0) or before.is_empty
+
+
+def test_geojson_round_trip_keeps_types_and_coordinates(tmp_path):
+    shapely = pytest.importorskip("shapely")
+    geoms = geometry_zoo(shapely)
+    path = write_geometries(tmp_path / "zoo.geojson", geoms)
+    doc = json.loads(path.read_text())
+    assert doc["type"] == "FeatureCollection" and len(doc["features"]) == len(geoms)
+    back = read_geometries(path)
+    for before, after in zip(geoms, back, strict=True):
+        assert after.geom_type == before.geom_type or before.is_empty
+        assert not after.has_m  # GeoJSON has no M
+        xyz = shapely.get_coordinates(before, include_z=before.has_z)
+        np.testing.assert_array_equal(shapely.get_coordinates(after, include_z=before.has_z), xyz)
+
+
+def test_csv_output_holds_every_line_and_ring(tmp_path):
+    shapely = pytest.importorskip("shapely")
+    polygon = shapely.from_wkt("POLYGON ((0 0, 4 0, 4 4, 0 0), (1 0.5, 2 0.5, 2 1, 1 0.5))")
+    path = write_geometries(tmp_path / "rings.csv", [polygon, shapely.LineString([(5, 5), (6, 7)])])
+    rings = read_polylines(path)
+    assert [len(r) for r in rings] == [4, 4, 2]
+    np.testing.assert_array_equal(rings[1], np.asarray(polygon.interiors[0].coords))
+    with pytest.raises(ValueError, match="Point"):
+        write_geometries(tmp_path / "p.csv", [shapely.Point(1, 2)])
+
+
+def test_ewkt_srid_prefixes(tmp_path):
+    shapely = pytest.importorskip("shapely")
+    path = tmp_path / "srid.wkt"
+    path.write_text("SRID=4326;LINESTRING (0 0, 1 1)\nsrid = 3857 ; POINT (1 2)\nPOINT (3 4)\n")
+    srids = [shapely.get_srid(g) for g in read_geometries(path)]
+    assert srids == [4326, 3857, 0]
+
+
+def test_geojson_errors_name_file_and_line(tmp_path):
+    pytest.importorskip("shapely")
+    broken = tmp_path / "broken.geojson"
+    broken.write_text(
+        '{"type": "FeatureCollection",\n "features": [\n  {"type": "Feature",,}\n]}\n'
+    )
+    with pytest.raises(DatasetFormatError, match=r"broken\.geojson:3") as info:
+        read_geometries(broken)
+    assert info.value.line == 3
+    feature = '  {"type": "Feature", "properties": {}, "geometry": %s}'
+    good = '{"type": "LineString", "coordinates": [[0, 0], [1, 1]]}'
+    bad = '{"type": "LineString", "coordinates": [[0, 0]]}'
+    text = (
+        '{"type": "FeatureCollection", "features": [\n'
+        + ",\n".join([feature % good, feature % "null", feature % bad])
+        + "\n]}\n"
+    )
+    path = tmp_path / "bad.geojson"
+    path.write_text(text)
+    with pytest.raises(DatasetFormatError, match=r"features\[2\]") as info:
+        read_geometries(path)
+    assert info.value.line == 4 and str(path) in str(info.value)
+    path.write_text(text.replace(feature % bad, feature % good))
+    first, empty, last = read_geometries(path)  # a null geometry is kept, as empty
+    assert empty.is_empty and first.geom_type == last.geom_type == "LineString"
+
+
+def test_unknown_suffixes_are_refused(tmp_path):
+    with pytest.raises(ValueError, match="unknown file type"):
+        write_polyline(tmp_path / "a.dat", np.zeros((2, 2)))
+    (tmp_path / "a.shp").write_text("")
+    with pytest.raises(ValueError, match="unknown file type"):
+        read_geometries(tmp_path / "a.shp")
+
+
+def test_write_polyline_in_every_format(tmp_path):
+    pytest.importorskip("shapely")
+    pts = np.cumsum(np.random.default_rng(1).normal(size=(30, 3)), axis=0)
+    for suffix in (".wkt", ".geojson", ".csv"):
+        (back,) = read_polylines(write_polyline(tmp_path / f"line{suffix}", pts))
+        np.testing.assert_array_equal(back, pts)
 
 
 def test_otb_sequences(data):

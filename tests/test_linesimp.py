@@ -1,7 +1,12 @@
 """rperc.linesimp.simplify / simplify_many against shapely, the simplification package,
-an independent Douglas-Peucker written in the test, and bad input."""
+independent Douglas-Peucker and Visvalingam-Whyatt written in the tests, and bad input;
+geometry in and out (shapely, __geo_interface__), topology preservation against GEOS,
+pickling."""
 
 from __future__ import annotations
+
+import pickle
+import sys
 
 import numpy as np
 import pytest
@@ -9,8 +14,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import rperc
-from rperc.datasets import read_polylines
-from rperc.linesimp import simplify, simplify_many
+from rperc import _rperc
+from rperc.datasets import DatasetFormatError, read_polylines
+from rperc.linesimp import extract_lines, simplify, simplify_many
 
 from reference import douglas_peucker, is_valid
 
@@ -180,8 +186,37 @@ def test_fewer_than_three_points_come_back_unchanged(n):
         (np.array([["a", "b"], ["c", "d"]]), 0.1, {}, TypeError, "dtype"),
         ([[0, 0], [1, 1], [2, 0]], 0.1, {"method": "fast"}, ValueError, "method"),
         ([[0, 0], [1, 1], [2, 0]], 0.1, {"metric": "area"}, ValueError, "metric"),
-        ([[0, 0], [1, 1], [2, 0]], 0.1, {"metric": "segment"}, ValueError, "hull"),
+        (
+            [[0, 0], [1, 1], [2, 0]],
+            0.1,
+            {"method": "hull", "metric": "segment"},
+            ValueError,
+            "hull",
+        ),
+        ([[0, 0], [1, 1], [2, 0]], 0.1, {"method": "vw", "metric": "segment"}, ValueError, "vw"),
         ([[0, 0], [1, 1], [2, 0]], 0.1, {"method": "dp", "tie": "middle"}, ValueError, "tie"),
+        (
+            [[0, 0], [1, 1], [2, 0]],
+            0.1,
+            {"method": "vw", "preserve_topology": True},
+            ValueError,
+            "preserve_topology",
+        ),
+        (
+            [[0, 0], [1, 1], [2, 0]],
+            0.1,
+            {"method": "hull", "preserve_topology": True},
+            ValueError,
+            "preserve_topology",
+        ),
+        (
+            {"type": "LineString", "coordinates": [[0, 0], [1, 1]]},
+            0.1,
+            {"return_indices": True},
+            ValueError,
+            "return_indices",
+        ),
+        ({"type": "LineString", "coordinates": [[0, 0]]}, 0.1, {}, ValueError, "geometry"),
     ],
 )
 def test_bad_input_raises_a_clear_error(points, eps, kwargs, exc, message):
@@ -201,9 +236,32 @@ def test_native_layer_checks_dtype_and_shape_itself():
         _rperc.simplify_indices(np.zeros((3, 7)), 0.1)
 
 
-def test_error_hierarchy():
-    assert issubclass(rperc.NumericalError, rperc.RpercError)
-    assert issubclass(rperc.RpercError, Exception)
+def test_errors_from_real_bad_input_have_the_documented_classes(tmp_path):
+    """rperc documents: bad values raise ValueError, wrong dtypes TypeError, numerical
+    failures NumericalError (an RpercError), malformed files DatasetFormatError (an
+    RpercError and a ValueError). Each is raised here by real bad input through the
+    native layer and checked against the classes the package exports."""
+    assert rperc.RpercError is _rperc.RpercError
+    assert rperc.NumericalError is _rperc.NumericalError
+    nan = np.array([[0.0, 0.0], [np.nan, 1.0], [2.0, 0.0]])
+    with pytest.raises(ValueError, match="point 1") as bad_value:
+        _rperc.simplify_indices(nan, 0.1)
+    assert not isinstance(bad_value.value, rperc.RpercError)
+    with pytest.raises(TypeError, match="dtype"):
+        _rperc.simplify_indices(np.zeros((3, 2), dtype=np.int64), 0.1)
+    with pytest.raises(ValueError, match="component 0"):
+        _rperc.simplify_topology_indices([nan], [False], 0.1)
+    ekf = _rperc.Ekf(np.zeros(3), np.zeros((3, 3)), 3, 2)  # zero P and R: S = 0
+    with pytest.raises(rperc.NumericalError, match="singular") as singular:
+        ekf.update(np.zeros(1), [(0, 0, np.array([[1.0, 0.0, 0.0]]))], np.zeros((1, 1)))
+    assert isinstance(singular.value, rperc.RpercError)
+    assert not isinstance(singular.value, ValueError)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("x,y\n0,0\n1,oops\n")
+    with pytest.raises(rperc.RpercError) as malformed:
+        read_polylines(bad)
+    assert isinstance(malformed.value, DatasetFormatError)
+    assert isinstance(malformed.value, ValueError)
 
 
 def test_simplify_many_matches_simplify_and_reports_the_bad_polyline():
@@ -220,3 +278,334 @@ def test_simplify_many_matches_simplify_and_reports_the_bad_polyline():
         simplify_many(bad, 0.8)
     with pytest.raises(ValueError, match="threads"):
         simplify_many(lines, 0.8, threads=0)
+
+
+# ---- method="auto" ----------------------------------------------------------------
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(3, 300), st.floats(0.0, 3.0))
+def test_auto_is_path_hulls_for_line_and_plain_dp_for_segment(seed, n, eps):
+    pts = np.cumsum(np.random.default_rng(seed).normal(size=(n, 2)), axis=0)
+    line = simplify(pts, eps, return_indices=True)
+    assert line.tolist() == douglas_peucker(pts, eps)
+    segment = simplify(pts, eps, metric="segment", return_indices=True)
+    np.testing.assert_array_equal(segment, shapely_indices(pts, eps))
+    many = simplify_many([pts, pts[::-1]], eps, metric="segment", return_indices=True)
+    np.testing.assert_array_equal(many[0], segment)
+
+
+# ---- Visvalingam-Whyatt -------------------------------------------------------------
+
+
+def visvalingam(points: np.ndarray, area: float) -> list[int]:
+    """Brute force from the definition: recompute every effective area (the triangle
+    with the current neighbours), remove the smallest (ties: the smallest index) while
+    it is <= area."""
+    alive = list(range(len(points)))
+    while len(alive) > 2:
+        a, p, b = (points[alive[:-2]], points[alive[1:-1]], points[alive[2:]])
+        cross = (p[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1]) - (p[:, 1] - a[:, 1]) * (
+            b[:, 0] - a[:, 0]
+        )
+        areas = 0.5 * np.abs(cross)
+        k = int(np.argmin(areas))  # the first of equal minima
+        if areas[k] > area:
+            break
+        del alive[k + 1]
+    return alive
+
+
+@pytest.mark.parametrize("area", [0.0, 1e-8, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 0.1, 1.0])
+def test_vw_equals_simplification_on_louisiana(data, area):
+    (line,) = read_polylines(data / "polylines" / "louisiana.wkt")
+    ours = simplify(line, area, method="vw", return_indices=True)
+    theirs = np.asarray(simplification.simplify_coords_vw_idx(line, area), dtype=np.intp)
+    np.testing.assert_array_equal(ours, theirs)
+
+
+@pytest.mark.parametrize("area", [1e-4, 1e-3, 1e-2, 0.1, 1.0])
+def test_vw_on_norway_differs_from_simplification_only_by_ties(data, area):
+    """16 % of norway's effective areas tie exactly (a gridded coastline), and the peer
+    takes equal areas in its heap's order, we in index order. Both results are complete
+    (every kept interior vertex has an area above the threshold) and equal the brute
+    force with their tie rule; with the ties broken by a 1e-9 jitter the two agree."""
+    (line,) = read_polylines(data / "polylines" / "norway_main.wkt")
+    ours = simplify(line, area, method="vw", return_indices=True)
+    theirs = np.asarray(simplification.simplify_coords_vw_idx(line, area), dtype=np.intp)
+    for kept in (ours, theirs):
+        a, p, b = line[kept[:-2]], line[kept[1:-1]], line[kept[2:]]
+        cross = (p[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1]) - (p[:, 1] - a[:, 1]) * (
+            b[:, 0] - a[:, 0]
+        )
+        assert (0.5 * np.abs(cross) > area).all()
+    if area >= 1e-3:  # the brute force is O(n^2): only where few removals remain
+        assert ours.tolist() == visvalingam(line, area)
+    jittered = line + np.random.default_rng(0).normal(scale=1e-9, size=line.shape)
+    np.testing.assert_array_equal(
+        simplify(jittered, area, method="vw", return_indices=True),
+        np.asarray(simplification.simplify_coords_vw_idx(jittered, area), dtype=np.intp),
+    )
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(0, 300), st.floats(0.0, 20.0))
+def test_vw_equals_simplification_and_brute_force_on_random_walks(seed, n, area):
+    pts = np.cumsum(np.random.default_rng(seed).normal(size=(n, 2)), axis=0)
+    ours = simplify(pts, area, method="vw", return_indices=True)
+    if n >= 2:
+        peer = simplification.simplify_coords_vw_idx(pts, area)
+        np.testing.assert_array_equal(ours, np.asarray(peer, dtype=np.intp))
+    assert ours.tolist() == visvalingam(pts, area)
+
+
+@given(
+    st.lists(st.tuples(st.integers(-3, 3), st.integers(-3, 3)), min_size=3, max_size=80),
+    st.integers(0, 12),
+    st.booleans(),
+)
+def test_vw_ties_and_closed_rings_follow_the_documented_rules(coords, half_units, closed):
+    pts = np.asarray(coords, dtype=float)  # lattice: many equal areas, repeats
+    if closed:
+        pts = np.vstack([pts, pts[:1]])
+    area = half_units / 2  # areas are multiples of 0.5: the threshold is hit exactly
+    kept = simplify(pts, area, method="vw", return_indices=True)
+    assert kept.tolist() == visvalingam(pts, area)
+    assert kept[0] == 0 and kept[-1] == len(pts) - 1  # both ends stay, also when equal
+
+
+# ---- topology preservation against GEOS ---------------------------------------------
+
+TOPOLOGY_EPSILONS = [0.001, 0.005, 0.01, 0.03, 0.05, 0.1, 0.2, 0.5, 1.0]
+
+
+@pytest.mark.parametrize("name", ["louisiana.wkt", "norway_main.wkt"])
+@pytest.mark.parametrize("as_polygon", [False, True])
+def test_topology_equals_shapely_on_coastlines(data, name, as_polygon):
+    """Same coordinates as GEOS's TopologyPreservingSimplifier, in the same order (the
+    polygon ring's start vertex moves where GEOS moves it), at every tolerance."""
+    (line,) = read_polylines(data / "polylines" / name)
+    geom = shapely.Polygon(line) if as_polygon else shapely.LineString(line)
+    for eps in TOPOLOGY_EPSILONS:
+        ours = simplify(geom, eps, metric="segment", preserve_topology=True)
+        theirs = shapely.simplify(geom, eps, preserve_topology=True)
+        assert ours.geom_type == geom.geom_type
+        assert shapely.equals_exact(ours, theirs, tolerance=0.0), eps
+        assert ours.is_valid
+
+
+@pytest.mark.parametrize("eps", [0.01, 0.03, 0.05, 0.1, 0.2])
+def test_norway_self_intersects_without_topology_and_not_with_it(data, eps):
+    (line,) = read_polylines(data / "polylines" / "norway_main.wkt")
+    assert shapely.LineString(line).is_simple
+    plain = simplify(line, eps, metric="segment")
+    assert not shapely.LineString(plain).is_simple  # why preserve_topology exists
+    kept = simplify(line, eps, metric="segment", preserve_topology=True)
+    assert shapely.LineString(kept).is_simple
+    polygon = simplify(shapely.Polygon(line), eps, metric="segment", preserve_topology=True)
+    assert polygon.is_valid and polygon.geom_type == "Polygon"
+
+
+def star(rng: np.random.Generator, centre, radius, n, rough) -> np.ndarray:
+    t = np.sort(rng.uniform(0, 2 * np.pi, n))
+    r = radius * (1 + rough * rng.uniform(-1, 1, n))
+    ring = np.c_[centre[0] + r * np.cos(t), centre[1] + r * np.sin(t)]
+    return np.vstack([ring, ring[:1]])
+
+
+def random_polygons(seed: int):
+    """A MultiPolygon: a rough polygon with up to three holes, and a second polygon
+    close by; None when the random shapes happen to be invalid."""
+    rng = np.random.default_rng(seed)
+    shell = star(rng, (0, 0), 10, int(rng.integers(8, 200)), 0.45)
+    holes = [
+        star(rng, rng.uniform(-3, 3, 2), rng.uniform(0.5, 2.0), int(rng.integers(4, 40)), 0.3)
+        for _ in range(int(rng.integers(0, 4)))
+    ]
+    polygon = shapely.Polygon(shell, holes)
+    other = shapely.Polygon(star(rng, (22, 0), 8, 60, 0.4))
+    geom = shapely.MultiPolygon([polygon, other])
+    return geom if geom.is_valid else None
+
+
+@given(st.integers(0, 2**32 - 1), st.floats(0.02, 4.0))
+def test_topology_equals_shapely_on_random_polygons_with_holes(seed, eps):
+    geom = random_polygons(seed)
+    if geom is None:
+        return
+    ours = simplify(geom, eps, metric="segment", preserve_topology=True)
+    assert shapely.equals_exact(ours, shapely.simplify(geom, eps, preserve_topology=True), 0.0)
+    assert ours.is_valid and ours.geom_type == "MultiPolygon"
+    # Within epsilon (2 epsilon next to a ring's moved start vertex, see simplify).
+    for before, after in zip(geom.geoms, ours.geoms, strict=True):
+        for ring_in, ring_out in zip(
+            [before.exterior, *before.interiors], [after.exterior, *after.interiors], strict=True
+        ):
+            gap = shapely.distance(shapely.points(np.asarray(ring_in.coords)), ring_out)
+            assert gap.max() <= 2 * eps * (1 + 1e-12)
+            assert len(ring_out.coords) >= 4
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(3, 200), st.floats(0.0, 5.0))
+def test_topology_on_arrays_equals_shapely_linestrings(seed, n, eps):
+    pts = np.cumsum(np.random.default_rng(seed).normal(size=(n, 2)), axis=0)
+    ours = simplify(pts, eps, metric="segment", preserve_topology=True)
+    theirs = np.asarray(
+        shapely.simplify(shapely.LineString(pts), eps, preserve_topology=True).coords
+    )
+    np.testing.assert_array_equal(ours, theirs)
+
+
+# ---- geometry in and out ---------------------------------------------------------------
+
+
+class GeoInterface:
+    """A foreign geometry object: only ``__geo_interface__``."""
+
+    def __init__(self, mapping):
+        self.__geo_interface__ = mapping
+
+
+def wavy(n: int, y0: float = 0.0, seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    x = np.linspace(0, 10, n)
+    return np.c_[x, y0 + 0.5 * np.sin(x) + rng.normal(scale=0.01, size=n)]
+
+
+def geometries():
+    ring = star(np.random.default_rng(3), (5, 5), 4, 80, 0.2)
+    hole = star(np.random.default_rng(4), (5, 5), 1, 30, 0.2)
+    return [
+        shapely.LineString(wavy(200)),
+        shapely.LinearRing(ring),
+        shapely.Polygon(ring, [hole]),
+        shapely.MultiLineString([wavy(100), wavy(50, y0=3, seed=1)]),
+        shapely.MultiPolygon([shapely.Polygon(ring, [hole]), shapely.Polygon(ring + 20)]),
+        shapely.GeometryCollection([shapely.Point(1, 2), shapely.LineString(wavy(60))]),
+    ]
+
+
+@pytest.mark.parametrize("geom", geometries(), ids=lambda g: g.geom_type)
+@pytest.mark.parametrize("eps", [0.01, 0.1, 0.3])
+def test_geometries_come_back_as_the_same_type_equal_to_shapely(geom, eps):
+    """Plain DP on every part follows GEOS's DouglasPeuckerSimplifier (ring start
+    vertex, collapsed rings), so the result equals shapely's whenever shapely did not
+    have to repair it."""
+    ours = simplify(geom, eps, metric="segment")
+    assert ours.geom_type == geom.geom_type
+    theirs = shapely.simplify(geom, eps, preserve_topology=False)
+    assert shapely.equals_exact(ours, theirs, tolerance=0.0)
+    topo = simplify(geom, eps, metric="segment", preserve_topology=True)
+    assert shapely.equals_exact(topo, shapely.simplify(geom, eps, preserve_topology=True), 0.0)
+    from_interface = simplify(GeoInterface(geom.__geo_interface__), eps, metric="segment")
+    assert shapely.equals_exact(from_interface, ours, tolerance=0.0)
+
+
+def test_mappings_and_geo_interface_objects_are_geometries():
+    mapping = {"type": "LineString", "coordinates": [[0, 0], [1, 0.01], [2, 0]]}
+    for obj in (mapping, GeoInterface(mapping)):
+        out = simplify(obj, 0.1)
+        assert isinstance(out, shapely.LineString) and out.wkt == "LINESTRING (0 0, 2 0)"
+    with pytest.raises(TypeError, match="geometry"):
+        simplify_many([mapping], 0.1)
+
+
+@pytest.mark.parametrize(
+    ("wkt", "expected"),
+    [
+        ("LINESTRING M (0 0 7, 1 0.01 8, 2 0 9)", "LINESTRING M (0 0 7, 2 0 9)"),
+        ("LINESTRING Z (0 0 7, 1 0.01 8, 2 0 9)", "LINESTRING Z (0 0 7, 2 0 9)"),
+        ("LINESTRING ZM (0 0 7 1, 1 0.01 8 2, 2 0 9 3)", "LINESTRING ZM (0 0 7 1, 2 0 9 3)"),
+        (
+            "POLYGON M ((0 0 1, 1 0.01 2, 2 0 3, 2 2 4, 0 2 5, 0 0 1))",
+            "POLYGON M ((0 0 1, 2 0 3, 2 2 4, 0 2 5, 0 0 1))",
+        ),
+        (
+            "LINEARRING M (0 0 1, 1 0.01 2, 2 0 3, 2 2 4, 0 0 1)",
+            "LINEARRING M (0 0 1, 2 0 3, 2 2 4, 0 0 1)",
+        ),
+        ("MULTIPOLYGON EMPTY", "MULTIPOLYGON EMPTY"),
+        ("LINESTRING EMPTY", "LINESTRING EMPTY"),
+        ("GEOMETRYCOLLECTION (POINT EMPTY, LINESTRING (0 0, 1 0.01, 2 0))", None),
+    ],
+)
+def test_dimensions_and_empties_survive(wkt, expected):
+    geom = shapely.from_wkt(wkt)
+    out = simplify(geom, 0.1, metric="segment")
+    assert out.geom_type == geom.geom_type
+    assert out.has_z == geom.has_z and out.has_m == geom.has_m  # M never becomes Z
+    if expected is not None:
+        assert shapely.to_wkt(out, output_dimension=4) == expected
+
+
+def test_srid_is_kept():
+    geom = shapely.set_srid(shapely.LineString(wavy(50)), 4326)
+    assert shapely.get_srid(simplify(geom, 0.1)) == 4326
+    assert shapely.get_srid(simplify(geom, 0.1, preserve_topology=True)) == 4326
+
+
+def test_collapsed_rings_follow_the_documented_rule():
+    sliver = [(0, 0), (1, 0.01), (2, 0), (1, 0.02)]
+    big = [(10, 10), (20, 10), (20, 20), (10, 20)]
+    with_hole = shapely.Polygon(big, [[(12, 12), (13, 12.01), (14, 12), (13, 12.02)]])
+    out = simplify(with_hole, 0.1, metric="segment")
+    assert len(out.interiors) == 0  # the hole collapsed and went, as in GEOS
+    assert shapely.equals_exact(out, shapely.simplify(with_hole, 0.1, preserve_topology=False), 0)
+    assert simplify(shapely.Polygon(sliver), 0.1).is_empty
+    multi = simplify(shapely.MultiPolygon([shapely.Polygon(sliver), shapely.Polygon(big)]), 0.1)
+    assert multi.geom_type == "MultiPolygon" and len(multi.geoms) == 1  # GEOS: a Polygon
+    assert simplify(shapely.LinearRing(sliver), 0.1).is_empty
+    kept = simplify(shapely.Polygon(sliver), 0.1, preserve_topology=True)
+    assert len(kept.exterior.coords) >= 4 and kept.is_valid
+    assert len(simplify(with_hole, 0.1, method="vw").interiors) == 0
+
+
+def test_geometries_without_shapely_raise_a_clear_import_error(monkeypatch):
+    monkeypatch.setitem(sys.modules, "shapely", None)
+    with pytest.raises(ImportError, match="pip install shapely"):
+        simplify({"type": "LineString", "coordinates": [[0, 0], [1, 1]]}, 0.1)
+    # Arrays need no shapely.
+    assert simplify(np.array([[0.0, 0.0], [1.0, 0.01], [2.0, 0.0]]), 0.1).shape == (2, 2)
+
+
+# ---- pickling and __geo_interface__ of results -----------------------------------------
+
+
+def test_every_result_type_pickles():
+    pts = wavy(100)
+    angles = np.radians(np.arange(-45.0, 46.0))
+    walls = extract_lines(2.0 / np.cos(angles), angles)
+    results = [
+        simplify(pts, 0.05),
+        simplify(pts, 0.05, return_indices=True),
+        simplify_many([pts, pts[:10]], 0.05),
+        simplify(shapely.Polygon(star(np.random.default_rng(0), (0, 0), 3, 40, 0.2)), 0.05),
+        walls,
+        walls.to_world([1.0, 2.0, 0.3]),
+    ]
+    for result in results:
+        back = pickle.loads(pickle.dumps(result))
+        assert type(back) is type(result)
+        if isinstance(result, list):
+            for a, b in zip(result, back, strict=True):
+                np.testing.assert_array_equal(a, b)
+        elif isinstance(result, np.ndarray):
+            np.testing.assert_array_equal(back, result)
+        elif hasattr(result, "rho"):
+            for field in ("rho", "alpha", "cov", "start", "end", "flat_indices", "offsets"):
+                np.testing.assert_array_equal(getattr(back, field), getattr(result, field))
+        else:
+            assert shapely.equals_exact(back, result, tolerance=0.0)
+
+
+def test_walls_are_a_multilinestring_for_shapely():
+    angles = np.radians(np.arange(-80.0, 81.0))
+    # Two walls: x = 2 (|angle| < 45 deg) and y = +-2 beyond it.
+    ranges = np.minimum(2.0 / np.abs(np.cos(angles)), 2.0 / np.abs(np.sin(angles) + 1e-300))
+    walls = extract_lines(ranges, angles)
+    shape = shapely.geometry.shape(walls)
+    assert shape.geom_type == "MultiLineString" and len(shape.geoms) == len(walls) >= 2
+    for k, segment in enumerate(shape.geoms):
+        np.testing.assert_array_equal(np.asarray(segment.coords), [walls.start[k], walls.end[k]])
+        # shapely measures the length itself.
+        assert segment.length == pytest.approx(float(np.hypot(*(walls.end[k] - walls.start[k]))))
+    no_walls = extract_lines(np.full(3, np.nan), np.linspace(0.0, 0.1, 3))
+    assert shapely.geometry.shape(no_walls).is_empty

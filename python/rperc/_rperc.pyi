@@ -31,6 +31,7 @@ __all__ = [
     "scan_params_defaults",
     "simplify_indices",
     "simplify_many_indices",
+    "simplify_topology_indices",
     "tracker_defaults",
 ]
 
@@ -42,17 +43,25 @@ class NumericalError(RpercError): ...
 def simplify_indices(
     points: npt.NDArray[np.floating],
     epsilon: float,
-    method: str = "hull",
+    method: str = "auto",
     metric: str = "line",
     tie: str = "first",
 ) -> npt.NDArray[np.intp]: ...
 def simplify_many_indices(
     polylines: list[npt.NDArray[np.floating]],
     epsilon: float,
-    method: str = "hull",
+    method: str = "auto",
     metric: str = "line",
     tie: str = "first",
     threads: int | None = None,
+) -> list[npt.NDArray[np.intp]]: ...
+def simplify_topology_indices(
+    components: list[npt.NDArray[np.floating]],
+    rings: list[bool],
+    epsilon: float,
+    method: str = "auto",
+    metric: str = "line",
+    tie: str = "first",
 ) -> list[npt.NDArray[np.intp]]: ...
 def extract_lines(
     ranges: npt.NDArray[np.floating],

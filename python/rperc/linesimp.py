@@ -1,6 +1,28 @@
-"""Douglas-Peucker line simplification and wall extraction from 2-D laser scans.
+"""Line simplification and wall extraction from 2-D laser scans.
 
-Section 2.1 of the seed paper (Tables 1 and 2) and Hershberger & Snoeyink (1992).
+Douglas-Peucker (section 2.1 of the seed paper, Tables 1 and 2), with Hershberger &
+Snoeyink's (1992) path hulls; Visvalingam & Whyatt's (1993) effective-area elimination;
+topology-preserving Douglas-Peucker with the rules of GEOS's
+TopologyPreservingSimplifier; shapely geometries in and out.
+
+Geometries
+----------
+Every line and ring is simplified (all together with ``preserve_topology``) and the
+geometry is rebuilt with the same type (GEOS turns a one-member MultiLineString into a
+LineString; rperc does not), Z/M dimensions (M values are carried along, not turned
+into Z) and SRID; points pass through. A LineString keeps both
+end points, also when closed. Polygon rings and LinearRings follow GEOS:
+
+- with ``preserve_topology=True`` they keep at least 4 coordinates and may start
+  at another vertex;
+- otherwise each ring is simplified from its start vertex, which then goes too
+  when it lies within epsilon of the chord joining its kept neighbours (Douglas-
+  Peucker methods, as GEOS's DouglasPeuckerSimplifier; VW keeps it), and a ring
+  left with fewer than 4 coordinates is dropped: a hole disappears, a polygon whose
+  shell collapses becomes empty and leaves a MultiPolygon or collection (which,
+  unlike in GEOS, keeps its type), a lone LinearRing becomes empty. Unlike shapely,
+  the result is not repaired when it self-intersects: use
+  ``preserve_topology=True`` to prevent that.
 """
 
 from __future__ import annotations
@@ -8,24 +30,32 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal, overload
+from typing import Any, Literal, overload
 
 import numpy as np
 import numpy.typing as npt
 
-from rperc import _rperc
+from rperc import _geo, _rperc
 from rperc.pose import to_world as pose_to_world
 
-Method = Literal["hull", "dp"]
+Method = Literal["auto", "hull", "dp", "vw"]
 Metric = Literal["line", "segment"]
 Tie = Literal["first", "last"]
 
 __all__ = ["WallSegments", "extract_lines", "simplify", "simplify_many"]
 
+# Methods that run Douglas-Peucker (``auto`` resolves to one of the other two).
+_DP_METHODS = ("auto", "hull", "dp")
+
 
 def _float_array(values: npt.ArrayLike, name: str) -> np.ndarray:
     """A float64 or float32 array; float32 and strided arrays are kept as they are (the
     native side reads them directly), integers and other floats become float64."""
+    if _geo.is_geometry(values):
+        raise TypeError(
+            f"{name} is a geometry; pass it to rperc.linesimp.simplify, which returns the "
+            "same geometry type"
+        )
     arr = np.asarray(values)
     if arr.dtype.kind in "iub":
         return arr.astype(np.float64)
@@ -61,6 +91,7 @@ def simplify(
     method: Method = ...,
     metric: Metric = ...,
     tie: Tie = ...,
+    preserve_topology: bool = ...,
     return_indices: Literal[False] = ...,
 ) -> np.ndarray: ...
 @overload
@@ -71,56 +102,98 @@ def simplify(
     method: Method = ...,
     metric: Metric = ...,
     tie: Tie = ...,
+    preserve_topology: bool = ...,
     return_indices: Literal[True],
 ) -> npt.NDArray[np.intp]: ...
+@overload
 def simplify(
-    points: npt.ArrayLike,
+    points: _geo.Geometry,
     epsilon: float,
     *,
-    method: Method = "hull",
+    method: Method = ...,
+    metric: Metric = ...,
+    tie: Tie = ...,
+    preserve_topology: bool = ...,
+    return_indices: Literal[False] = ...,
+) -> _geo.Geometry: ...
+def simplify(
+    points: npt.ArrayLike | _geo.Geometry,
+    epsilon: float,
+    *,
+    method: Method = "auto",
     metric: Metric = "line",
     tie: Tie = "first",
+    preserve_topology: bool = False,
     return_indices: bool = False,
-) -> np.ndarray:
-    """Simplify a polyline with Douglas-Peucker.
+) -> np.ndarray | _geo.Geometry:
+    """Simplify a polyline or a geometry with Douglas-Peucker or Visvalingam-Whyatt.
 
     Parameters
     ----------
     points:
         (N, 2) array of vertices; an (N, 3) array carries z along (distances are
         measured in xy). Any float array-like works: float32, strided views, lists.
+        Or a geometry: a shapely LineString, LinearRing, Polygon, MultiLineString,
+        MultiPolygon or GeometryCollection, any object with ``__geo_interface__``, or a
+        GeoJSON-like mapping; the result is then a shapely geometry of the same type
+        (see *Geometries* in the module documentation). Geometries need shapely
+        (``pip install shapely``).
     epsilon:
-        Tolerance, >= 0, in the units of the points.
+        Tolerance, >= 0: a distance in the units of the points for Douglas-Peucker, an
+        *area* (units squared) for ``method="vw"``.
     method:
-        ``"hull"`` (default): Hershberger-Snoeyink path hulls, O(n log n) worst case,
-        line metric only. ``"dp"``: the plain algorithm of the seed's Table 1, run on an
-        explicit stack (no recursion limit), O(n^2) worst case.
+        ``"auto"`` (default): Douglas-Peucker, with path hulls for ``metric="line"`` and
+        the plain algorithm for ``metric="segment"``. ``"hull"``: Hershberger-Snoeyink
+        path hulls, O(n log n) worst case, line metric only. ``"dp"``: the plain
+        algorithm of the seed's Table 1, on an explicit stack (no recursion limit),
+        O(n^2) worst case. ``"vw"``: Visvalingam-Whyatt, O(n log n): the vertex whose
+        triangle with its two current neighbours has the smallest area goes first,
+        while that area is ``<= epsilon`` (ties: the smallest index first); the same
+        convention as ``simplification.cutil.simplify_coords_vw_idx`` (triangle area,
+        not twice it; ``<=``, so ``epsilon=0`` drops exactly collinear and repeated
+        points). End points always stay, also the closing point of a closed ring.
     metric:
         ``"line"`` (default): distance to the infinite line through the chord (seed
         Table 2). ``"segment"``: distance to the chord segment, as GEOS/shapely and the
-        ``simplification`` package use; with ``method="dp"`` the kept indices equal
-        theirs (see ``tie``).
+        ``simplification`` package use; with ``method="dp"`` or ``"auto"`` the kept
+        indices equal theirs (see ``tie``). ``"vw"`` takes ``"line"`` only (it measures
+        areas).
     tie:
         Which of several equally far vertices splits a chord (``method="dp"``):
         ``"first"`` (default) as GEOS/shapely does, ``"last"`` as geo and the
         ``simplification`` package do. The peers differ on real data (norway at
         epsilon 0.01); either rule gives a valid simplification. Path hulls always take
         the first.
+    preserve_topology:
+        Douglas-Peucker that introduces no intersection, as GEOS's
+        TopologyPreservingSimplifier (shapely ``preserve_topology=True``): a chord
+        replaces its section only if it crosses or touches no other live segment of
+        any part of the geometry and does not move another part to its other side;
+        otherwise the section splits further. Closed lines and rings keep at least 4
+        coordinates. With ``metric="segment"`` the result has the same vertices as
+        shapely's. Methods ``"auto"`` and ``"dp"`` only. For a polygon ring the start
+        vertex may go too (as in GEOS), and then the vertices dropped next to it are
+        within ``2 * epsilon``, not ``epsilon``, of the result.
     return_indices:
-        Return the kept indices (int array) instead of the kept rows.
+        Return the kept indices (int array) instead of the kept rows (arrays only).
 
     Returns
     -------
     The kept rows of ``points`` (same dtype and columns), or their indices, in order.
-    The first and last points are always kept; fewer than 2 points come back unchanged.
+    The first and last points are always kept; fewer than 3 points come back unchanged.
+    For a geometry: a shapely geometry of the same type.
 
     Raises
     ------
     ValueError
         NaN or infinite coordinates, a negative or NaN epsilon, a wrong shape, an
-        unknown method or metric, or ``method="hull"`` with ``metric="segment"``.
+        unknown method or metric, ``method="hull"`` or ``"vw"`` with
+        ``metric="segment"``, ``preserve_topology`` with ``"hull"`` or ``"vw"``, or
+        ``return_indices`` with a geometry.
     TypeError
         A non-numeric dtype.
+    ImportError
+        A geometry without shapely installed.
 
     Examples
     --------
@@ -128,18 +201,91 @@ def simplify(
     >>> from rperc.linesimp import simplify
     >>> simplify(np.array([[0.0, 0.0], [1.0, 0.05], [2.0, 0.0]]), 0.1, return_indices=True)
     array([0, 2])
+    >>> simplify(np.array([[0.0, 0.0], [1.0, 0.05], [2.0, 0.0]]), 0.1, metric="segment")
+    array([[0., 0.],
+           [2., 0.]])
+    >>> import shapely
+    >>> square = shapely.Polygon([(0, 0), (1, 0.01), (2, 0), (2, 2), (0, 2)])
+    >>> simplify(square, 0.1, metric="segment").wkt
+    'POLYGON ((0 0, 2 0, 2 2, 0 2, 0 0))'
     """
-    arr = _as_points(points)
     eps = _check_epsilon(epsilon)
-    idx = _rperc.simplify_indices(arr, eps, method, metric, tie)
+    if _geo.is_geometry(points):
+        if return_indices:
+            raise ValueError("return_indices needs an array of points, not a geometry")
+        options = _Options(eps, method, metric, tie, preserve_topology)
+        return _geo.map_parts(_geo.to_shapely(points), options.simplify_parts)
+    arr = _as_points(points)
+    if preserve_topology:
+        (idx,) = _rperc.simplify_topology_indices([arr], [False], eps, method, metric, tie)
+    else:
+        idx = _rperc.simplify_indices(arr, eps, method, metric, tie)
     return idx if return_indices else arr[idx]
+
+
+@dataclass(frozen=True)
+class _Options:
+    """The options of one :func:`simplify` call on a geometry."""
+
+    epsilon: float
+    method: Method
+    metric: Metric
+    tie: Tie
+    preserve_topology: bool
+
+    def simplify_parts(self, parts: list[_geo.Part]) -> list[np.ndarray | None]:
+        """Kept coordinates of every part; ``None`` for a ring that collapsed."""
+        xy = [np.ascontiguousarray(p.coords[:, :2]) for p in parts]
+        if self.preserve_topology:
+            rings = [p.ring for p in parts]
+            per_part = _rperc.simplify_topology_indices(
+                xy, rings, self.epsilon, self.method, self.metric, self.tie
+            )
+            return [p.coords[k] for p, k in zip(parts, per_part, strict=True)]
+        try:
+            many = _rperc.simplify_many_indices(
+                xy, self.epsilon, self.method, self.metric, self.tie
+            )
+        except ValueError as exc:
+            # The native message counts "polylines": here they are the geometry's parts.
+            raise ValueError(
+                f"{exc} (parts are the geometry's lines and rings, in order)"
+            ) from None
+        out: list[np.ndarray | None] = []
+        for part, pts, idx in zip(parts, xy, many, strict=True):
+            kept = self._ring(pts, idx) if part.ring else idx
+            out.append(None if kept is None else part.coords[kept])
+        return out
+
+    def _ring(self, xy: np.ndarray, kept: npt.NDArray[np.intp]) -> npt.NDArray[np.intp] | None:
+        """GEOS DouglasPeuckerSimplifier's ring rules: drop the start vertex when it is
+        within epsilon of the chord joining its kept neighbours; drop the ring when
+        fewer than 4 coordinates remain."""
+        if self.method in _DP_METHODS and len(kept) >= 4:
+            a, b = xy[kept[1]], xy[kept[-2]]
+            if _chord_distance(xy[kept[0]], a, b, self.metric) <= self.epsilon:
+                kept = np.append(kept[1:-1], kept[1])
+        return kept if len(kept) >= 4 else None
+
+
+def _chord_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray, metric: Metric) -> float:
+    """Distance from ``p`` to the chord ``a b`` (to ``a`` when ``a == b``)."""
+    d = b - a
+    length2 = float(d @ d)
+    if length2 == 0.0:
+        return float(np.hypot(*(p - a)))
+    t = float((p - a) @ d) / length2
+    if metric == "segment":
+        t = min(max(t, 0.0), 1.0)
+        return float(np.hypot(*(p - a - t * d)))
+    return abs(float(d[0] * (p[1] - a[1]) - d[1] * (p[0] - a[0]))) / math.sqrt(length2)
 
 
 def simplify_many(
     polylines: Sequence[npt.ArrayLike],
     epsilon: float,
     *,
-    method: Method = "hull",
+    method: Method = "auto",
     metric: Metric = "line",
     tie: Tie = "first",
     return_indices: bool = False,
@@ -147,8 +293,10 @@ def simplify_many(
 ) -> list[np.ndarray]:
     """Simplify many polylines in parallel (GIL released).
 
-    Takes the same keyword arguments as :func:`simplify` and returns one result per
-    input, in order. ``threads`` caps the worker threads (default: all cores).
+    Takes the same keyword arguments as :func:`simplify` (arrays only; for geometries
+    call :func:`simplify`, which simplifies all parts of a geometry in parallel) and
+    returns one result per input, in order. ``threads`` caps the worker threads
+    (default: all cores).
 
     Examples
     --------
@@ -158,6 +306,8 @@ def simplify_many(
     >>> peak = np.array([[0.0, 0.0], [1.0, 3.0], [2.0, 0.0]])
     >>> lines = [flat, peak]
     >>> [len(p) for p in simplify_many(lines, 0.5)]
+    [2, 3]
+    >>> [len(p) for p in simplify_many(lines, 1.0, method="vw")]  # peak: area 3
     [2, 3]
     """
     arrays = [_as_points(p, f"polylines[{k}]") for k, p in enumerate(polylines)]
@@ -196,6 +346,13 @@ class WallSegments:
         return [
             self.flat_indices[a:b] for a, b in zip(self.offsets[:-1], self.offsets[1:], strict=True)
         ]
+
+    @property
+    def __geo_interface__(self) -> dict[str, Any]:
+        """The walls as a GeoJSON-like MultiLineString, one segment from ``start[k]`` to
+        ``end[k]`` per wall, so that ``shapely.geometry.shape(walls)`` works."""
+        segments = np.stack([self.start, self.end], axis=1).tolist() if len(self) else []
+        return {"type": "MultiLineString", "coordinates": segments}
 
     @property
     def length(self) -> np.ndarray:

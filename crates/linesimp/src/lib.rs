@@ -5,6 +5,8 @@ mod dp;
 mod error;
 mod hull;
 mod metric;
+mod topology;
+mod visvalingam;
 mod walls;
 
 use nalgebra::Point2;
@@ -13,21 +15,74 @@ use rayon::prelude::*;
 pub use dp::Tie;
 pub use error::{LineSimpError, Result};
 pub use metric::{Metric, chord_distance};
+pub use topology::{Component, simplify_preserving_topology};
 pub use walls::{LineExtractor, ScanParams, WallSegment, extract_lines};
 
 rperc_core::named_enum! {
-    /// Which Douglas-Peucker implementation runs.
+    /// Which simplification algorithm runs.
     #[derive(Default)]
     pub enum Method: "method" {
-        /// Hershberger-Snoeyink path hulls: O(n log n) worst case, line metric only.
+        /// Douglas-Peucker, the fastest exact implementation for the metric:
+        /// [`Method::Hull`] for [`Metric::Line`], [`Method::Dp`] for [`Metric::Segment`].
         #[default]
+        Auto = "auto",
+        /// Douglas-Peucker with Hershberger-Snoeyink path hulls: O(n log n) worst case,
+        /// line metric only.
         Hull = "hull",
-        /// The plain algorithm of seed 000, Table 1 (explicit stack): O(n^2) worst case.
+        /// The plain Douglas-Peucker of seed 000, Table 1 (explicit stack): O(n^2) worst
+        /// case.
         Dp = "dp",
+        /// Visvalingam-Whyatt effective-area elimination, O(n log n). `epsilon` is an
+        /// *area*: vertices whose triangle with their current neighbours has area
+        /// `<= epsilon` are removed, smallest first (ties: smallest index first), as the
+        /// `simplification` package (geo) does. The metric does not apply; only
+        /// [`Metric::Line`], the default, is accepted. Both end points stay, also for a
+        /// closed ring.
+        Visvalingam = "vw",
     }
 }
 
-/// Reusable Douglas-Peucker engine. Keeping one per thread avoids re-allocating the
+impl Method {
+    /// The method that actually runs for `metric`: [`Method::Auto`] resolved, the others
+    /// unchanged.
+    pub fn resolve(self, metric: Metric) -> Method {
+        match (self, metric) {
+            (Method::Auto, Metric::Line) => Method::Hull,
+            (Method::Auto, Metric::Segment) => Method::Dp,
+            (other, _) => other,
+        }
+    }
+}
+
+/// The algorithm that runs for a method/metric pair, once `Auto` is resolved and the
+/// pair is known to be supported.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Engine {
+    Hull,
+    Dp,
+    Visvalingam,
+}
+
+impl Engine {
+    fn for_options(method: Method, metric: Metric) -> Result<Engine> {
+        match (method.resolve(metric), metric) {
+            (Method::Hull, Metric::Line) => Ok(Engine::Hull),
+            (Method::Hull, Metric::Segment) => Err(LineSimpError::UnsupportedMetric),
+            (Method::Dp, _) => Ok(Engine::Dp),
+            (Method::Visvalingam, Metric::Line) => Ok(Engine::Visvalingam),
+            (Method::Visvalingam, Metric::Segment) => Err(LineSimpError::InvalidParameter {
+                name: "metric",
+                reason: "method 'vw' ranks vertices by triangle area, not by a distance; \
+                         leave metric at 'line'"
+                    .to_owned(),
+            }),
+            // `resolve` never returns `Auto`; this arm only satisfies the match.
+            (Method::Auto, _) => Ok(Engine::Dp),
+        }
+    }
+}
+
+/// Reusable simplification engine. Keeping one per thread avoids re-allocating the
 /// path hull, the work stack and the keep mask on every polyline.
 ///
 /// # Examples
@@ -49,6 +104,7 @@ pub struct Simplifier {
     ranges: Vec<(usize, usize)>,
     tasks: Vec<hull::Task>,
     hull: hull::PathHull,
+    vw: visvalingam::Scratch,
 }
 
 impl Simplifier {
@@ -62,7 +118,8 @@ impl Simplifier {
     }
 
     /// Chooses which of several equally far vertices splits a chord (plain DP only;
-    /// path hulls always take the first). The default, [`Tie::First`], matches GEOS.
+    /// path hulls always take the first, Visvalingam-Whyatt has its own rule: the
+    /// smallest index among equal areas). The default, [`Tie::First`], matches GEOS.
     pub fn with_tie(mut self, tie: Tie) -> Self {
         self.tie = tie;
         self
@@ -78,16 +135,31 @@ impl Simplifier {
         self
     }
 
-    /// Indices of the vertices Douglas-Peucker keeps, in increasing order. The first
-    /// and last vertex are always kept; fewer than two points come back unchanged.
+    /// Indices of the vertices the method keeps, in increasing order. The first and
+    /// last vertex are always kept; fewer than three points come back unchanged.
     ///
-    /// Ties (several vertices equally far from a chord) split as [`Self::with_tie`]
-    /// says: at the first of them by default, as GEOS does.
+    /// Douglas-Peucker ties (several vertices equally far from a chord) split as
+    /// [`Self::with_tie`] says: at the first of them by default, as GEOS does.
+    /// Visvalingam-Whyatt removes the smallest area first, the smallest index among
+    /// equal areas.
+    ///
+    /// # Examples
+    /// ```
+    /// use linesimp::{Method, Metric, Simplifier};
+    /// use nalgebra::Point2;
+    ///
+    /// let pts = [Point2::new(0.0, 0.0), Point2::new(1.0, 0.1), Point2::new(2.0, 0.0)];
+    /// // The default, `Auto`, runs plain DP for the segment metric.
+    /// let mut dp = Simplifier::new(Method::Auto, Metric::Segment);
+    /// assert_eq!(dp.indices(&pts, 0.2).unwrap(), vec![0, 2]);
+    /// // The triangle (0,0) (1,0.1) (2,0) has area 0.1: removed at 0.1, kept below.
+    /// let mut vw = Simplifier::new(Method::Visvalingam, Metric::Line);
+    /// assert_eq!(vw.indices(&pts, 0.1).unwrap(), vec![0, 2]);
+    /// assert_eq!(vw.indices(&pts, 0.09).unwrap(), vec![0, 1, 2]);
+    /// ```
     pub fn indices(&mut self, points: &[Point2<f64>], epsilon: f64) -> Result<Vec<usize>> {
         validate(points, epsilon)?;
-        if self.method == Method::Hull && self.metric != Metric::Line {
-            return Err(LineSimpError::UnsupportedMetric);
-        }
+        let engine = Engine::for_options(self.method, self.metric)?;
         let n = points.len();
         if n < 3 {
             return Ok((0..n).collect());
@@ -96,8 +168,8 @@ impl Simplifier {
         self.keep.resize(n, false);
         self.keep[0] = true;
         self.keep[n - 1] = true;
-        match self.method {
-            Method::Dp => dp::dp_mark(
+        match engine {
+            Engine::Dp => dp::dp_mark(
                 points,
                 epsilon,
                 self.metric,
@@ -105,7 +177,7 @@ impl Simplifier {
                 &mut self.keep,
                 &mut self.ranges,
             ),
-            Method::Hull => hull::hull_mark(
+            Engine::Hull => hull::hull_mark(
                 points,
                 epsilon,
                 &mut self.keep,
@@ -114,6 +186,9 @@ impl Simplifier {
                 &mut self.hull,
                 self.dp_budget.unwrap_or(hull::DP_BUDGET_PER_LEVEL),
             ),
+            Engine::Visvalingam => {
+                visvalingam::vw_mark(points, epsilon, &mut self.keep, &mut self.vw)
+            }
         }
         Ok(self
             .keep

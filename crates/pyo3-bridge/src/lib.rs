@@ -31,6 +31,7 @@ mod _rperc {
     #[pymodule_export]
     use crate::linesimp_py::{
         extract_lines, scan_params_defaults, simplify_indices, simplify_many_indices,
+        simplify_topology_indices,
     };
     #[pymodule_export]
     use crate::slam_py::{

@@ -1,6 +1,6 @@
 //! Bindings of the `linesimp` crate: Douglas-Peucker simplification.
 
-use linesimp::{Method, Metric, Simplifier, Tie};
+use linesimp::{Component, Method, Metric, Simplifier, Tie};
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 
@@ -23,7 +23,7 @@ fn to_intp(indices: Vec<usize>) -> Vec<isize> {
 
 /// Indices kept by Douglas-Peucker, as an int array (GIL released).
 #[pyfunction]
-#[pyo3(signature = (points, epsilon, method = "hull", metric = "line", tie = "first"))]
+#[pyo3(signature = (points, epsilon, method = "auto", metric = "line", tie = "first"))]
 pub fn simplify_indices<'py>(
     py: Python<'py>,
     points: &Bound<'py, PyAny>,
@@ -41,7 +41,7 @@ pub fn simplify_indices<'py>(
 
 /// Indices kept for each polyline of a list, simplified in parallel (GIL released).
 #[pyfunction]
-#[pyo3(signature = (polylines, epsilon, method = "hull", metric = "line", tie = "first", threads = None))]
+#[pyo3(signature = (polylines, epsilon, method = "auto", metric = "line", tie = "first", threads = None))]
 pub fn simplify_many_indices<'py>(
     py: Python<'py>,
     polylines: Vec<Bound<'py, PyAny>>,
@@ -68,6 +68,64 @@ pub fn simplify_many_indices<'py>(
     Ok(results
         .into_iter()
         .map(|kept| to_intp(kept).into_pyarray(py))
+        .collect())
+}
+
+/// Topology-preserving Douglas-Peucker of the components of one geometry (GIL
+/// released): `rings[k]` marks polygon rings. Kept indices per component, in output
+/// order.
+#[pyfunction]
+#[pyo3(signature = (components, rings, epsilon, method = "auto", metric = "line", tie = "first"))]
+pub fn simplify_topology_indices<'py>(
+    py: Python<'py>,
+    components: Vec<Bound<'py, PyAny>>,
+    rings: Vec<bool>,
+    epsilon: f64,
+    method: &str,
+    metric: &str,
+    tie: &str,
+) -> PyResult<Vec<Bound<'py, PyArray1<isize>>>> {
+    if !matches!(
+        method.parse::<Method>().map_err(Error::from)?,
+        Method::Auto | Method::Dp
+    ) {
+        return Err(Error::Value(format!(
+            "preserve_topology runs Douglas-Peucker section by section: method must be \
+             'auto' or 'dp', got '{method}'"
+        ))
+        .into());
+    }
+    let metric: Metric = metric.parse().map_err(Error::from)?;
+    let tie: Tie = tie.parse().map_err(Error::from)?;
+    if rings.len() != components.len() {
+        return Err(Error::Value(format!(
+            "rings has {} flags for {} components",
+            rings.len(),
+            components.len()
+        ))
+        .into());
+    }
+    let rows = components
+        .iter()
+        .enumerate()
+        .map(|(k, p)| point_rows(p, &format!("components[{k}]")))
+        .collect::<Result<Vec<_>, _>>()?;
+    let parts: Vec<Component<'_>> = rows
+        .iter()
+        .zip(&rings)
+        .map(|(r, &ring)| Component {
+            points: r.as_points(),
+            ring,
+        })
+        .collect();
+    let kept = detached(py, || {
+        Ok(linesimp::simplify_preserving_topology(
+            &parts, epsilon, metric, tie,
+        )?)
+    })?;
+    Ok(kept
+        .into_iter()
+        .map(|k| to_intp(k).into_pyarray(py))
         .collect())
 }
 

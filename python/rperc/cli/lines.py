@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import argparse
 import itertools
+import json
 import math
+import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TextIO
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -21,7 +23,7 @@ from rperc.cli.outputs import (
     write_json,
     wrote,
 )
-from rperc.datasets import load_carmen, read_polylines, write_polyline
+from rperc.datasets import load_carmen
 from rperc.linesimp import simplify
 from rperc.pose import to_world
 
@@ -48,44 +50,134 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     add_json_option(ex)
     ex.set_defaults(run=extract_command)
 
-    si = cmds.add_parser("simplify", help="Douglas-Peucker on a WKT or CSV polyline")
-    si.add_argument("file", type=Path, help="WKT (LINESTRING/POLYGON per line) or CSV (x,y[,z])")
-    si.add_argument("--epsilon", type=float, required=True, help="tolerance (units of the data)")
-    si.add_argument("--method", choices=["hull", "dp"], default="hull")
+    si = cmds.add_parser(
+        "simplify", help="simplify the lines and polygons of a WKT, GeoJSON or CSV file"
+    )
+    si.add_argument(
+        "file",
+        type=Path,
+        help="WKT (.wkt/.txt, one geometry per line, EWKT allowed), GeoJSON (.geojson/.json) "
+        "or CSV (.csv, x,y[,z] rows, blank lines between polylines)",
+    )
+    si.add_argument(
+        "--epsilon",
+        type=float,
+        required=True,
+        help="tolerance: a distance (units of the data), an area for --method vw",
+    )
+    si.add_argument("--method", choices=["auto", "hull", "dp", "vw"], default="auto")
     si.add_argument("--metric", choices=["line", "segment"], default="line")
     si.add_argument("--tie", choices=["first", "last"], default="first")
-    si.add_argument("-o", "--output", type=Path, help="write .wkt or .csv (default: stdout WKT)")
+    si.add_argument(
+        "--preserve-topology",
+        action="store_true",
+        help="never create intersections (GEOS's TopologyPreservingSimplifier rules)",
+    )
+    si.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        help="write .wkt, .geojson/.json or .csv, chosen by the suffix (default: WKT on stdout)",
+    )
     si.add_argument("--plot", type=Path, help="write a PNG of input and result")
+    si.add_argument(
+        "--json", type=Path, help="write a JSON summary: options and point counts per geometry"
+    )
     si.set_defaults(run=simplify_command)
 
 
 def simplify_command(args: argparse.Namespace) -> int:
-    polylines = read_polylines(args.file)
-    results = []
-    for k, line in enumerate(polylines):
-        kept = simplify(line, args.epsilon, method=args.method, metric=args.metric, tie=args.tie)
-        results.append(kept)
-        print(f"polyline {k}: {len(line)} -> {len(kept)} points", file=_stderr())
-    if args.output:
-        if len(results) == 1:
-            write_polyline(args.output, results[0])
-        else:
-            for k, kept in enumerate(results):
-                write_polyline(args.output.with_stem(f"{args.output.stem}_{k}"), kept)
-    else:
-        for kept in results:
-            coords = ",".join(" ".join(f"{v:.17g}" for v in row) for row in kept)
-            print(f"LINESTRING{' Z' if kept.shape[1] == 3 else ''}({coords})")
-    if args.plot:
-        from rperc.plot import plt, save
-        from rperc.plot.lines import draw_polyline
+    from rperc import _geo
+    from rperc.datasets.polylines import (
+        format_of,
+        read_geometries,
+        wkt_line,
+        write_geometries,
+    )
 
-        fig, ax = plt.subplots(figsize=(7, 7))
-        for line, kept in zip(polylines, results, strict=True):
-            draw_polyline(ax, line, kept, args.epsilon)
-        ax.set_title(f"{args.file.name}: {args.method}/{args.metric}")
-        print(f"wrote {save(fig, args.plot)}", file=_stderr())
+    if args.output is not None:
+        format_of(args.output)  # an unknown suffix fails before any work
+        check_output_file(args.output, "-o")
+    check_output_file(args.plot, "--plot", figure=True)
+    check_output_file(args.json, "--json")
+    shapely = _geo.shapely_module()
+    inputs = read_geometries(args.file)
+    results = [
+        simplify(
+            g,
+            args.epsilon,
+            method=args.method,
+            metric=args.metric,
+            tie=args.tie,
+            preserve_topology=args.preserve_topology,
+        )
+        for g in inputs
+    ]
+    rows = []
+    for k, (before, after) in enumerate(zip(inputs, results, strict=True)):
+        n_in, n_out = (int(shapely.get_num_coordinates(g)) for g in (before, after))
+        rows.append({"index": k, "type": before.geom_type, "points_in": n_in, "points_out": n_out})
+        print(f"geometry {k} ({before.geom_type}): {n_in} -> {n_out} points", file=sys.stderr)
+    if args.output:
+        print(f"wrote {write_geometries(args.output, results)}", file=sys.stderr)
+    else:
+        for geom in results:
+            print(wkt_line(geom))
+    if args.plot:
+        _plot_simplification(args, inputs, results)
+    if args.json:
+        args.json.write_text(json.dumps(_summary(args, rows), indent=2) + "\n", encoding="utf-8")
+        print(f"wrote {args.json}", file=sys.stderr)
     return 0
+
+
+def _summary(args: argparse.Namespace, rows: list[dict[str, object]]) -> dict[str, object]:
+    """The machine-readable record of one ``lines simplify`` run."""
+    if args.preserve_topology or (args.method == "auto" and args.metric == "segment"):
+        runs = "dp"
+    else:
+        runs = "hull" if args.method == "auto" else args.method
+    return {
+        "command": "lines simplify",
+        "input": str(args.file),
+        "output": None if args.output is None else str(args.output),
+        "epsilon": args.epsilon,
+        "method": args.method,
+        "method_run": runs,
+        "metric": args.metric,
+        "tie": args.tie,
+        "preserve_topology": args.preserve_topology,
+        "points_in": sum(int(str(r["points_in"])) for r in rows),
+        "points_out": sum(int(str(r["points_out"])) for r in rows),
+        "geometries": rows,
+    }
+
+
+def _plot_simplification(args: argparse.Namespace, inputs: list[Any], results: list[Any]) -> None:
+    """Every line and ring before and after, drawn as one polyline each way (NaN rows
+    separate the parts)."""
+    from rperc import _geo
+    from rperc.plot import plt, save
+    from rperc.plot.lines import draw_polyline
+
+    def joined(geoms: list[Any]) -> tuple[np.ndarray, int]:
+        parts = [p.coords[:, :2] for g in geoms for p in _geo.linear_parts(g)]
+        if not parts:
+            return np.zeros((0, 2)), 0
+        gaps = [np.vstack([p, np.full((1, 2), np.nan)]) for p in parts]
+        return np.vstack(gaps)[:-1], sum(len(p) for p in parts)
+
+    (before, n_in), (after, n_out) = joined(inputs), joined(results)
+    fig, ax = plt.subplots(figsize=(7, 7))
+    draw_polyline(ax, before, after, args.epsilon)
+    # The legend counts points, not the NaN separators.
+    lines = ax.get_lines()[-2:]
+    lines[0].set_label(f"input ({n_in})")
+    lines[1].set_label(f"simplified, eps={args.epsilon:g} ({n_out})")
+    ax.legend(loc="best", fontsize=8)
+    topology = ", preserve topology" if args.preserve_topology else ""
+    ax.set_title(f"{args.file.name}: {args.method}/{args.metric}{topology}")
+    print(f"wrote {save(fig, args.plot)}", file=sys.stderr)
 
 
 def _walls_of_log(
@@ -291,9 +383,3 @@ def _walls_summary(check: WallCheck, n_found: int, n_walls: int) -> str:
         f"max |d rho| {1e3 * _max_abs(check.d_rho):.1f} mm, "
         f"max |d alpha| {math.degrees(_max_abs(check.d_alpha)):.2f} deg"
     )
-
-
-def _stderr() -> TextIO:
-    import sys
-
-    return sys.stderr

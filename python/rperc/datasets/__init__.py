@@ -8,7 +8,12 @@ from rperc.datasets._paths import data_dir, data_path
 from rperc.datasets.carmen import CarmenLog, LaserScans, Odometry, load_carmen
 from rperc.datasets.errors import DatasetFormatError
 from rperc.datasets.otb import OtbSequence, load_otb, read_boxes
-from rperc.datasets.polylines import read_polylines, write_polyline
+from rperc.datasets.polylines import (
+    read_geometries,
+    read_polylines,
+    write_geometries,
+    write_polyline,
+)
 
 __all__ = [
     "CarmenLog",
@@ -21,6 +26,8 @@ __all__ = [
     "load_carmen",
     "load_otb",
     "read_boxes",
+    "read_geometries",
     "read_polylines",
+    "write_geometries",
     "write_polyline",
 ]

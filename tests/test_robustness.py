@@ -128,3 +128,36 @@ def test_threads_are_capped_and_still_correct():
     assert out.returncode == 0 and float(out.stdout) < 10.0, out.stderr[-2000:]
     many = simplify_many([pts, pts], 0.5, threads=10000, return_indices=True)
     np.testing.assert_array_equal(many[0], simplify(pts, 0.5, return_indices=True))
+
+
+def test_one_filter_from_two_threads_says_why():
+    """A second thread entering a filter that is mid-update gets an error that says
+    what to do (not PyO3's bare 'Already borrowed'), and the filter stays usable."""
+    import threading
+    import time
+
+    import numpy as np
+
+    from rperc.slam import Ekf
+
+    n = 600  # landmarks: one update takes milliseconds, long enough to collide
+    ekf = Ekf(np.zeros(3 + 2 * n), np.eye(3 + 2 * n), 3, 2)
+    blocks = [(0, 0, np.ones((1, 3))), (0, 3, np.ones((1, 2 * n)))]
+    stop = time.monotonic() + 10.0
+    errors: list[str] = []
+
+    def hammer() -> None:
+        while time.monotonic() < stop and not errors:
+            ekf.update(np.zeros(1), blocks, np.eye(1))
+
+    worker = threading.Thread(target=hammer)
+    worker.start()
+    while time.monotonic() < stop and not errors:
+        try:
+            ekf.predict(np.zeros(3), np.eye(3), np.eye(3), np.eye(3) * 1e-6)
+        except RuntimeError as exc:
+            errors.append(str(exc))
+    worker.join()
+    assert errors, "no collision in 10 s"
+    assert "in use by another thread; create one per thread" in errors[0]
+    ekf.predict(np.zeros(3), np.eye(3), np.eye(3), np.eye(3) * 1e-6)  # still usable

@@ -82,6 +82,31 @@ impl From<Error> for PyErr {
     }
 }
 
+/// Exclusive access to a native object for a mutating call. PyO3 refuses a second
+/// concurrent borrow with a bare "Already borrowed"; this says what to do instead.
+pub fn exclusive<'py, T>(slf: &Bound<'py, T>) -> PyResult<pyo3::PyRefMut<'py, T>>
+where
+    T: pyo3::PyClass<Frozen = pyo3::pyclass::boolean_struct::False>,
+{
+    slf.try_borrow_mut().map_err(|_| in_use(slf.as_any()))
+}
+
+/// Shared access to a native object for a reading call (refused while another thread
+/// is inside a mutating call).
+pub fn shared<'py, T: pyo3::PyClass>(slf: &Bound<'py, T>) -> PyResult<pyo3::PyRef<'py, T>> {
+    slf.try_borrow().map_err(|_| in_use(slf.as_any()))
+}
+
+fn in_use(obj: &Bound<'_, PyAny>) -> PyErr {
+    let name = obj
+        .get_type()
+        .name()
+        .map_or_else(|_| "object".to_owned(), |n| n.to_string());
+    pyo3::exceptions::PyRuntimeError::new_err(format!(
+        "this {name} is in use by another thread; create one per thread"
+    ))
+}
+
 /// Result alias of the bridge.
 pub type Result<T> = std::result::Result<T, Error>;
 

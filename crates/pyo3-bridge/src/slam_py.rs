@@ -7,7 +7,7 @@ use pyo3::types::PyDict;
 use slam::monobot::{self, MeasurementModel, MonobotConfig, RunErrors};
 
 use crate::arrays::{float_vector, matrix, shaped, tensor, to_numpy};
-use crate::errors::{Error, detached};
+use crate::errors::{Error, detached, exclusive, shared};
 
 fn vector(obj: &Bound<'_, PyAny>, name: &str) -> Result<DVector<f64>, Error> {
     Ok(DVector::from_vec(float_vector(obj, name)?))
@@ -53,21 +53,27 @@ impl PyEkf {
 
     /// The state estimate (a copy).
     #[getter]
-    fn state<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        self.inner.state().as_slice().to_vec().into_pyarray(py)
+    fn state<'py>(slf: &Bound<'py, Self>, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let this = shared(slf)?;
+        Ok(this.inner.state().as_slice().to_vec().into_pyarray(py))
     }
 
     /// Replaces the state estimate (same size, finite); the covariance is kept.
     #[setter]
-    fn set_state(&mut self, state: &Bound<'_, PyAny>) -> PyResult<()> {
+    fn set_state(slf: &Bound<'_, Self>, state: &Bound<'_, PyAny>) -> PyResult<()> {
+        let mut this = exclusive(slf)?;
         let x = vector(state, "state")?;
-        Ok(self.inner.set_state(x).map_err(Error::from)?)
+        Ok(this.inner.set_state(x).map_err(Error::from)?)
     }
 
     /// The state covariance (a copy).
     #[getter]
-    fn covariance<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        to_numpy(py, &self.inner.covariance())
+    fn covariance<'py>(
+        slf: &Bound<'py, Self>,
+        py: Python<'py>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let this = shared(slf)?;
+        Ok(to_numpy(py, &this.inner.covariance()))
     }
 
     #[getter]
@@ -87,32 +93,34 @@ impl PyEkf {
 
     /// Prediction: robot block to `robot_mean`, `P <- Fx P Fx^T + Fv V Fv^T`.
     fn predict(
-        &mut self,
+        slf: &Bound<'_, Self>,
         py: Python<'_>,
         robot_mean: &Bound<'_, PyAny>,
         fx: &Bound<'_, PyAny>,
         fv: &Bound<'_, PyAny>,
         v: &Bound<'_, PyAny>,
     ) -> PyResult<()> {
+        let mut this = exclusive(slf)?;
         let (mean, fx, fv, v) = (
             vector(robot_mean, "robot_mean")?,
             matrix(fx, "Fx")?,
             matrix(fv, "Fv")?,
             matrix(v, "V")?,
         );
-        let ekf = &mut self.inner;
+        let ekf = &mut this.inner;
         detached(py, || Ok(ekf.predict(&mean, &fx, &fv, &v)?))
     }
 
     /// Update with `innovation`, a sparse `H` given as `[(row, col, block), ...]`,
     /// and noise `R`. Returns `(S, K, nis)`.
     fn update<'py>(
-        &mut self,
+        slf: &Bound<'_, Self>,
         py: Python<'py>,
         innovation: &Bound<'py, PyAny>,
         blocks: Vec<(usize, usize, Bound<'py, PyAny>)>,
         r: &Bound<'py, PyAny>,
     ) -> PyResult<UpdateArrays<'py>> {
+        let mut this = exclusive(slf)?;
         let nu = vector(innovation, "innovation")?;
         let r = matrix(r, "R")?;
         let mut h = slam::SparseJacobian::new(nu.len());
@@ -123,7 +131,7 @@ impl PyEkf {
                 h: matrix(block, &format!("blocks[{k}]"))?,
             });
         }
-        let ekf = &mut self.inner;
+        let ekf = &mut this.inner;
         let up = detached(py, || Ok(ekf.update(&nu, &h, &r)?))?;
         Ok((
             to_numpy(py, &up.innovation_cov),
@@ -135,12 +143,13 @@ impl PyEkf {
     /// Range-bearing update of landmark `j` (planar robot, point landmarks); returns
     /// `(innovation, S, K, nis)`.
     fn update_range_bearing<'py>(
-        &mut self,
+        slf: &Bound<'_, Self>,
         py: Python<'py>,
         j: usize,
         z: &Bound<'py, PyAny>,
         r: &Bound<'py, PyAny>,
     ) -> PyResult<RangeBearingUpdate<'py>> {
+        let mut this = exclusive(slf)?;
         let (z, r) = (vector(z, "z")?, matrix(r, "R")?);
         if z.len() != 2 || r.shape() != (2, 2) {
             return Err(Error::Value("z must have 2 entries and R be 2x2".into()).into());
@@ -149,7 +158,7 @@ impl PyEkf {
             Vector2::new(z[0], z[1]),
             Matrix2::from_iterator(r.iter().copied()),
         );
-        let ekf = &mut self.inner;
+        let ekf = &mut this.inner;
         let up = detached(py, || Ok(ekf.update_range_bearing(j, &z, &r)?))?;
         Ok((
             up.innovation.as_slice().to_vec().into_pyarray(py),
@@ -161,19 +170,20 @@ impl PyEkf {
 
     /// Adds a landmark from the inverse observation model; returns its index.
     fn add_landmark(
-        &mut self,
+        slf: &Bound<'_, Self>,
         mean: &Bound<'_, PyAny>,
         g_robot: &Bound<'_, PyAny>,
         g_z: &Bound<'_, PyAny>,
         r: &Bound<'_, PyAny>,
     ) -> PyResult<usize> {
+        let mut this = exclusive(slf)?;
         let (mean, gr, gz, r) = (
             vector(mean, "mean")?,
             matrix(g_robot, "G_robot")?,
             matrix(g_z, "G_z")?,
             matrix(r, "R")?,
         );
-        Ok(self
+        Ok(this
             .inner
             .add_landmark(&mean, &gr, &gz, &r)
             .map_err(Error::from)?)
@@ -181,10 +191,11 @@ impl PyEkf {
 
     /// Adds a point landmark first seen at range-bearing `z`; returns its index.
     fn add_landmark_range_bearing(
-        &mut self,
+        slf: &Bound<'_, Self>,
         z: &Bound<'_, PyAny>,
         r: &Bound<'_, PyAny>,
     ) -> PyResult<usize> {
+        let mut this = exclusive(slf)?;
         let (z, r) = (vector(z, "z")?, matrix(r, "R")?);
         if z.len() != 2 || r.shape() != (2, 2) {
             return Err(Error::Value("z must have 2 entries and R be 2x2".into()).into());
@@ -193,7 +204,7 @@ impl PyEkf {
             Vector2::new(z[0], z[1]),
             Matrix2::from_iterator(r.iter().copied()),
         );
-        Ok(self
+        Ok(this
             .inner
             .add_landmark_range_bearing(&z, &r)
             .map_err(Error::from)?)

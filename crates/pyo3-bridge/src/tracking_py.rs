@@ -10,7 +10,7 @@ use tracking::{
     BoundingBox, ColorTrackerParams, ParticleTrackerParams, Resampler, RgbFrame, TrackResult,
 };
 
-use crate::errors::{Error, detached};
+use crate::errors::{Error, detached, exclusive, shared};
 
 /// An H x W x 3 uint8 frame: borrowed when C-contiguous, copied otherwise.
 enum FrameBuffer<'py> {
@@ -118,15 +118,16 @@ impl PyColorHistogramTracker {
     }
 
     /// Tracks the target into `frame`: `((x, y, w, h), score, lost)`.
-    fn update(&mut self, py: Python<'_>, frame: &Bound<'_, PyAny>) -> PyResult<Answer> {
-        let tracker = &mut self.inner;
+    fn update(slf: &Bound<'_, Self>, py: Python<'_>, frame: &Bound<'_, PyAny>) -> PyResult<Answer> {
+        let mut this = exclusive(slf)?;
+        let tracker = &mut this.inner;
         track(py, frame, |view| tracker.update(view))
     }
 
     /// The current scale relative to the initial box.
     #[getter]
-    fn scale(&self) -> f64 {
-        self.inner.scale()
+    fn scale(slf: &Bound<'_, Self>) -> PyResult<f64> {
+        Ok(shared(slf)?.inner.scale())
     }
 }
 
@@ -160,15 +161,16 @@ impl PyParticleColorTracker {
     }
 
     /// Tracks the target into `frame`: `((x, y, w, h), score, lost)`.
-    fn update(&mut self, py: Python<'_>, frame: &Bound<'_, PyAny>) -> PyResult<Answer> {
-        let tracker = &mut self.inner;
+    fn update(slf: &Bound<'_, Self>, py: Python<'_>, frame: &Bound<'_, PyAny>) -> PyResult<Answer> {
+        let mut this = exclusive(slf)?;
+        let tracker = &mut this.inner;
         track(py, frame, |view| tracker.update(view))
     }
 
     /// Effective sample size of the particle set.
     #[getter]
-    fn ess(&self) -> f64 {
-        self.inner.filter().ess()
+    fn ess(slf: &Bound<'_, Self>) -> PyResult<f64> {
+        Ok(shared(slf)?.inner.filter().ess())
     }
 }
 

@@ -152,7 +152,8 @@ impl Unicycle {
         Ok(unicycle(pose, control.x, control.y, dt))
     }
 
-    /// The control noise covariance `V` (per unit time step: the caller scales it).
+    /// The covariance `V` of the `(v, omega)` noise, held over a step (`Fv` already
+    /// carries `dt`).
     pub fn control_noise(&self) -> Matrix2<f64> {
         Matrix2::new(self.speed_variance, 0.0, 0.0, self.turn_rate_variance)
     }

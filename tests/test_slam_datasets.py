@@ -10,8 +10,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from rperc.datasets import DatasetFormatError, load_mrclam, load_victoria_park
+from rperc.datasets._table import read_table
 
 MRCLAM_FILES = ("Odometry", "Measurement", "Groundtruth")
 
@@ -304,3 +307,46 @@ def test_mrclam_errors(tmp_path: Path) -> None:
         load_mrclam(folder, robot=6)
     with pytest.raises(FileNotFoundError):
         load_mrclam(folder, robot=3)
+
+
+# ------------------------------------------------------------- property: line numbers
+
+finite = st.floats(-1e6, 1e6, allow_nan=False)
+
+
+@given(
+    rows=st.lists(st.tuples(finite, finite), min_size=1, max_size=30),
+    filler=st.lists(st.sampled_from(["", "# comment", "   "]), max_size=30),
+    seed=st.integers(0, 2**32 - 1),
+    corrupt=st.booleans(),
+)
+def test_line_numbers_are_exact(
+    tmp_path_factory: pytest.TempPathFactory,
+    rows: list[tuple[float, float]],
+    filler: list[str],
+    seed: int,
+    corrupt: bool,
+) -> None:
+    """Records interleaved with comments and blank lines at random: every value and
+    line number comes back, and a corrupted record is named by its line."""
+    rng = np.random.default_rng(seed)
+    times = [float(t) for t in np.cumsum(rng.uniform(0.0, 1.0, len(rows)))]
+    lines = [f"{t!r} {a!r} {b!r}" for t, (a, b) in zip(times, rows, strict=True)]
+    for text in filler:
+        lines.insert(int(rng.integers(0, len(lines) + 1)), text)
+    record_lines = [k + 1 for k, text in enumerate(lines) if text.strip() and text[0] != "#"]
+    bad = int(rng.integers(0, len(record_lines)))
+    if corrupt:
+        k = record_lines[bad] - 1
+        lines[k] = lines[k].rsplit(" ", 1)[0] + " 1.2.3"
+    path = tmp_path_factory.mktemp("t") / "x.dat"
+    path.write_text("\n".join(lines) + "\n")
+    if corrupt:
+        with pytest.raises(DatasetFormatError) as err:
+            read_table(path, 3)
+        assert err.value.line == record_lines[bad] and "column 3" in err.value.reason
+        return
+    table = read_table(path, 3)
+    assert table.line.tolist() == record_lines
+    assert table.values[:, 0].tolist() == times
+    assert table.values[:, 1:].tolist() == [list(r) for r in rows]

@@ -7,6 +7,7 @@ Every reader reports a malformed line with its file name and line number
 from rperc.datasets._paths import data_dir, data_path
 from rperc.datasets.carmen import CarmenLog, LaserScans, Odometry, load_carmen
 from rperc.datasets.errors import DatasetFormatError
+from rperc.datasets.mrclam import MrclamRun, load_mrclam
 from rperc.datasets.otb import OtbSequence, load_otb, read_boxes
 from rperc.datasets.polylines import (
     read_geometries,
@@ -14,17 +15,22 @@ from rperc.datasets.polylines import (
     write_geometries,
     write_polyline,
 )
+from rperc.datasets.victoria_park import VictoriaPark, load_victoria_park
 
 __all__ = [
     "CarmenLog",
     "DatasetFormatError",
     "LaserScans",
+    "MrclamRun",
     "Odometry",
     "OtbSequence",
+    "VictoriaPark",
     "data_dir",
     "data_path",
     "load_carmen",
+    "load_mrclam",
     "load_otb",
+    "load_victoria_park",
     "read_boxes",
     "read_geometries",
     "read_polylines",

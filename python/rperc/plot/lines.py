@@ -25,16 +25,51 @@ ESTIMATE = "tab:green"
 TRUTH = "0.55"
 
 
-def draw_walls(ax: Axes, start: np.ndarray, end: np.ndarray, **kwargs: Any) -> None:
-    """Wall segments from ``start[k]`` to ``end[k]`` ((K, 2) arrays)."""
-    style: dict[str, Any] = {"colors": ESTIMATE, "linewidths": 2.0, "label": "estimated walls"}
+def draw_walls(
+    ax: Axes,
+    start: np.ndarray,
+    end: np.ndarray,
+    *,
+    label: str = "estimated walls",
+    linewidths: float = 2.0,
+    alpha: float = 1.0,
+    zorder: float = 2.0,
+) -> None:
+    """Wall segments from ``start[k]`` to ``end[k]`` ((K, 2) arrays, metres), drawn as
+    estimates."""
     segments = list(np.stack([start, end], axis=1))
-    ax.add_collection(LineCollection(segments, **(style | kwargs)))
+    ax.add_collection(
+        LineCollection(
+            segments,
+            colors=ESTIMATE,
+            linewidths=linewidths,
+            alpha=alpha,
+            zorder=zorder,
+            label=label,
+        )
+    )
 
 
-def draw_scan_points(ax: Axes, points: np.ndarray, **kwargs: Any) -> None:
-    style: dict[str, Any] = {"s": 2, "c": "tab:blue", "label": "scan points", "linewidths": 0}
-    ax.scatter(points[:, 0], points[:, 1], **(style | kwargs))
+def draw_scan_points(
+    ax: Axes,
+    points: np.ndarray,
+    *,
+    label: str = "scan points",
+    s: float = 2.0,
+    alpha: float = 1.0,
+    zorder: float = 1.0,
+) -> None:
+    """Laser readings ``(N, 2)`` in metres, marker area ``s`` (points^2)."""
+    ax.scatter(
+        points[:, 0],
+        points[:, 1],
+        s=s,
+        c="tab:blue",
+        linewidths=0,
+        alpha=alpha,
+        zorder=zorder,
+        label=label,
+    )
 
 
 def draw_polyline(

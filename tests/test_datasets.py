@@ -25,7 +25,10 @@ def test_intel_log_reads_every_record(data):
     text = path.read_text().splitlines()
     assert len(log.scans) == sum(line.startswith("FLASER ") for line in text)
     assert len(log.odometry) == sum(line.startswith("ODOM ") for line in text)
-    assert log.skipped == {"NEFF": sum(line.startswith("NEFF ") for line in text)}
+    counted = {
+        kind: sum(line.startswith(kind + " ") for line in text) for kind in ("NEFF", "PARAM")
+    }
+    assert log.skipped == counted  # PARAM lines are counted too, never silently dropped
     assert log.scans.ranges.shape[1] == 180
     first = next(line for line in text if line.startswith("FLASER "))
     np.testing.assert_allclose(log.scans.ranges[0], [float(v) for v in first.split()[2:182]])
@@ -234,4 +237,46 @@ def test_groundtruth_blank_lines_and_impossible_boxes(tmp_path):
         read_boxes(gt)
     gt.write_text("1,2,3,4\n5,6,-7,8\n")  # a negative width
     with pytest.raises(DatasetFormatError, match=r":2: .*negative"):
+        read_boxes(gt)
+
+
+FLASER = "FLASER 3 1.0 2.0 3.0 0.5 0.25 0.1 0.5 0.25 0.1 12.5 host 12.6\n"
+
+
+def test_carmen_bom_gzip_unknown_types_and_bad_bytes(tmp_path):
+    import gzip
+
+    plain = "PARAM robot_x 1\n" + FLASER + "flaser 3 1 2 3 0 0 0 0 0 0 1 h 1\nNEFF 1 2\nNEFF 3 4\n"
+    log = tmp_path / "a.log"
+    log.write_bytes(b"\xef\xbb\xbf" + plain.encode())
+    read = load_carmen(log)
+    assert len(read.scans) == 1  # the BOM did not hide the first scan
+    np.testing.assert_array_equal(read.scans.ranges[0], [1.0, 2.0, 3.0])
+    assert read.skipped == {"PARAM": 1, "flaser": 1, "NEFF": 2}
+    assert read.first_line == {"PARAM": 1, "flaser": 3, "NEFF": 4}
+    assert "2 NEFF skipped (first at line 4)" in read.summary()
+    with pytest.raises(DatasetFormatError, match=r"a\.log:3: unknown record type 'flaser'"):
+        load_carmen(log, strict=True)
+    # gzip is read transparently, whatever the suffix.
+    gz = tmp_path / "b.log"
+    gz.write_bytes(gzip.compress(plain.encode()))
+    assert load_carmen(gz).skipped == read.skipped
+    gz.write_bytes(gzip.compress(plain.encode())[:-9])  # truncated
+    with pytest.raises(DatasetFormatError, match="gzip"):
+        load_carmen(gz)
+    # A byte that is not UTF-8: file, line and the byte's offset in the line.
+    bad = tmp_path / "c.log"
+    bad.write_bytes(FLASER.encode() + b"NEFF \xff 2\n")
+    with pytest.raises(DatasetFormatError, match=r"c\.log:2: byte 5 of the line \(0xff\)"):
+        load_carmen(bad)
+
+
+def test_otb_groundtruth_gzip_and_bad_bytes(tmp_path):
+    import gzip
+
+    gt = tmp_path / "groundtruth_rect.txt"
+    gt.write_bytes(gzip.compress(b"1,2,3,4\n5,6,7,8\n"))
+    np.testing.assert_array_equal(read_boxes(gt), [[0, 1, 3, 4], [4, 5, 7, 8]])
+    gt.write_bytes(b"1,2,3,4\n5,6,\xe9,8\n")
+    with pytest.raises(DatasetFormatError, match=r":2: byte 4 of the line"):
         read_boxes(gt)

@@ -3,13 +3,13 @@ line numbers for every record, shared by the MR.CLAM and Victoria Park readers."
 
 from __future__ import annotations
 
-import gzip
 import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from rperc.datasets._text import read_lines
 from rperc.datasets.errors import DatasetFormatError
 
 
@@ -30,16 +30,8 @@ class Table:
 
 
 def _open_lines(path: Path) -> list[str]:
-    """The file's lines; ``.gz`` files are decompressed transparently."""
-    try:
-        if path.suffix == ".gz":
-            with gzip.open(path, "rt", encoding="utf-8") as f:
-                return f.read().splitlines()
-        return path.read_text(encoding="utf-8").splitlines()
-    except (OSError, EOFError, UnicodeDecodeError) as exc:
-        if isinstance(exc, FileNotFoundError):
-            raise
-        raise DatasetFormatError(path, 0, f"unreadable: {exc}") from exc
+    """The file's lines: gzip, a BOM and undecodable bytes handled by the shared reader."""
+    return read_lines(path)
 
 
 def _records(path: Path, lines: list[str], columns: int) -> tuple[list[str], list[int]]:

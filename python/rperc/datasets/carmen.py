@@ -24,12 +24,13 @@ from pathlib import Path
 
 import numpy as np
 
+from rperc.datasets._text import read_lines
 from rperc.datasets.errors import DatasetFormatError
 
 # FLASER max range is not in the line; SICK LMS scanners of those logs report 81.9 m
 # for "no return", which is beyond any indoor wall.
 FLASER_MAX_RANGE = 81.83
-SKIPPED_TYPES = frozenset({"PARAM", "SYNC", "#"})
+SKIPPED_TYPES = frozenset({"PARAM", "SYNC"})
 
 
 @dataclass(frozen=True, repr=False)
@@ -83,8 +84,19 @@ class CarmenLog:
     scans: LaserScans
     odometry: Odometry
     skipped: dict[str, int] = field(default_factory=dict)
-    """Records of message types rperc does not read (e.g. ``NEFF``), by type: counted,
+    """Records rperc does not read, by type (``PARAM``, ``SYNC``, ``NEFF``, ...): counted,
     never silently lost."""
+    first_line: dict[str, int] = field(default_factory=dict)
+    """The 1-based line of the first record of each skipped type."""
+
+    def summary(self) -> str:
+        """Every count: scans, odometry records and each skipped type with its first line."""
+        parts = [f"{len(self.scans)} scans", f"{len(self.odometry)} odometry records"]
+        parts += [
+            f"{n} {kind} skipped (first at line {self.first_line[kind]})"
+            for kind, n in sorted(self.skipped.items())
+        ]
+        return f"{self.path.name}: " + ", ".join(parts)
 
 
 def _floats(path: Path, lineno: int, fields: list[str], what: str) -> list[float]:
@@ -149,34 +161,41 @@ def _parse_robotlaser(path: Path, lineno: int, tok: list[str], rows: _ScanRows) 
     rows.add(ranges, (start, res, max_range, lx, ly, lth, rx, ry, rth, ts), lineno)
 
 
-def load_carmen(path: str | Path) -> CarmenLog:
-    """Read a CARMEN log.
+def load_carmen(path: str | Path, *, strict: bool = False) -> CarmenLog:
+    """Read a CARMEN log (plain or gzip, with or without a UTF-8 byte-order mark).
 
     Raises :class:`DatasetFormatError` (a ``ValueError``) naming the file and line for a
-    malformed record, and ``FileNotFoundError`` when the file is absent. Message types
-    rperc does not read are counted in :attr:`CarmenLog.skipped`.
+    malformed record or a byte that is not UTF-8, and ``FileNotFoundError`` when the
+    file is absent. Record types rperc does not read are counted with their first line
+    in :attr:`CarmenLog.skipped` and :attr:`CarmenLog.first_line`; with ``strict=True``
+    an unknown type (anything but the known ones and ``PARAM``/``SYNC``) is an error.
+    Type names are matched as written: ``flaser`` is not ``FLASER``.
     """
     path = Path(path)
     rows = _ScanRows()
     odom: list[list[float]] = []
     skipped: Counter[str] = Counter()
-    with path.open("r", encoding="utf-8", errors="strict") as f:
-        for lineno, raw in enumerate(f, start=1):
-            tok = raw.split()
-            if not tok or tok[0].startswith("#") or tok[0] in SKIPPED_TYPES:
-                continue
-            kind = tok[0]
-            if kind in ("FLASER", "RLASER"):
-                _parse_flaser(path, lineno, tok, rows)
-            elif kind == "ROBOTLASER1":
-                _parse_robotlaser(path, lineno, tok, rows)
-            elif kind == "ODOM":
-                if len(tok) != 10:
-                    raise DatasetFormatError(path, lineno, f"ODOM needs 10 fields, got {len(tok)}")
-                odom.append(_floats(path, lineno, tok[1:8], "ODOM values"))
-            else:
-                skipped[kind] += 1
-    return CarmenLog(path, _stack_scans(rows), _stack_odometry(odom), dict(skipped))
+    first_line: dict[str, int] = {}
+    for lineno, raw in enumerate(read_lines(path), start=1):
+        tok = raw.split()
+        if not tok or tok[0].startswith("#"):
+            continue
+        kind = tok[0]
+        if kind in ("FLASER", "RLASER"):
+            _parse_flaser(path, lineno, tok, rows)
+        elif kind == "ROBOTLASER1":
+            _parse_robotlaser(path, lineno, tok, rows)
+        elif kind == "ODOM":
+            if len(tok) != 10:
+                raise DatasetFormatError(path, lineno, f"ODOM needs 10 fields, got {len(tok)}")
+            odom.append(_floats(path, lineno, tok[1:8], "ODOM values"))
+        else:
+            if strict and kind not in SKIPPED_TYPES:
+                raise DatasetFormatError(path, lineno, f"unknown record type {kind!r}")
+            skipped[kind] += 1
+            first_line.setdefault(kind, lineno)
+    scans, odometry = _stack_scans(rows), _stack_odometry(odom)
+    return CarmenLog(path, scans, odometry, dict(skipped), first_line)
 
 
 def _stack_scans(rows: _ScanRows) -> LaserScans:

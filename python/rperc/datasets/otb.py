@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from rperc import _rperc
+from rperc.datasets._text import read_text
 from rperc.datasets.errors import DatasetFormatError
 
 _IMAGE_SUFFIXES = {".jpg", ".jpeg", ".png"}
@@ -52,7 +53,7 @@ def read_boxes(path: str | Path) -> np.ndarray:
     the file and line (blank lines at the end are allowed)."""
     path = Path(path)
     try:
-        return _rperc.otb_groundtruth(path.read_text(encoding="utf-8"), str(path))
+        return _rperc.otb_groundtruth(read_text(path), str(path))
     except ValueError as exc:
         where = _LOCATION.match(str(exc))
         if where is None:

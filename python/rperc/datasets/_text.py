@@ -1,0 +1,48 @@
+"""Text files as every reader sees them: gzip read transparently (by its magic bytes,
+whatever the suffix), a UTF-8 byte-order mark dropped, and undecodable bytes reported
+with their file, line and byte offset instead of a bare UnicodeDecodeError."""
+
+from __future__ import annotations
+
+import gzip
+import zlib
+from pathlib import Path
+
+from rperc.datasets.errors import DatasetFormatError
+
+_GZIP_MAGIC = b"\x1f\x8b"
+_BOM = b"\xef\xbb\xbf"
+
+
+def read_bytes(path: Path) -> bytes:
+    """The file's bytes, gunzipped when it is a gzip stream."""
+    raw = path.read_bytes()
+    if not raw.startswith(_GZIP_MAGIC):
+        return raw
+    try:
+        return gzip.decompress(raw)
+    except (EOFError, OSError, zlib.error) as exc:
+        raise DatasetFormatError(path, 0, f"corrupt or truncated gzip stream: {exc}") from None
+
+
+def read_text(path: str | Path) -> str:
+    """The file as text (UTF-8, BOM dropped); a byte that is not UTF-8 is a
+    :class:`DatasetFormatError` naming its line and its offset in that line."""
+    path = Path(path)
+    raw = read_bytes(path)
+    if raw.startswith(_BOM):
+        raw = raw[len(_BOM) :]
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        start = raw.rfind(b"\n", 0, exc.start) + 1
+        byte = raw[exc.start]
+        raise DatasetFormatError(
+            path, line, f"byte {exc.start - start} of the line (0x{byte:02x}) is not UTF-8"
+        ) from None
+
+
+def read_lines(path: str | Path) -> list[str]:
+    """:func:`read_text` split into lines (``\\n``, ``\\r\\n``)."""
+    return read_text(path).splitlines()

@@ -280,3 +280,19 @@ def test_otb_groundtruth_gzip_and_bad_bytes(tmp_path):
     gt.write_bytes(b"1,2,3,4\n5,6,\xe9,8\n")
     with pytest.raises(DatasetFormatError, match=r":2: byte 4 of the line"):
         read_boxes(gt)
+
+
+def test_a_16_bit_frame_is_scaled_not_clipped(tmp_path):
+    from PIL import Image
+
+    seq = tmp_path / "seq"
+    (seq / "img").mkdir(parents=True)
+    ramp = (np.arange(64, dtype=np.uint16).reshape(8, 8) * 1000).astype(np.uint16)
+    image = Image.fromarray(ramp)
+    assert image.mode.startswith("I;16")
+    image.save(seq / "img" / "0001.png")
+    (seq / "groundtruth_rect.txt").write_text("1,1,4,4\n")
+    frame = load_otb(seq).frame(0)
+    assert frame.shape == (8, 8, 3) and frame.dtype == np.uint8
+    np.testing.assert_array_equal(frame[:, :, 0], (ramp >> 8).astype(np.uint8))
+    assert len(np.unique(frame)) > 10  # not all 255

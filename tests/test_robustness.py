@@ -161,3 +161,15 @@ def test_one_filter_from_two_threads_says_why():
     assert errors, "no collision in 10 s"
     assert "in use by another thread; create one per thread" in errors[0]
     ekf.predict(np.zeros(3), np.eye(3), np.eye(3), np.eye(3) * 1e-6)  # still usable
+
+
+def test_negative_counts_name_the_parameter():
+    import numpy as np
+
+    from rperc.linesimp import simplify_many
+    from rperc.tracking import resample
+
+    with pytest.raises(ValueError, match="threads"):
+        simplify_many([np.zeros((3, 2))], 1.0, threads=-1)
+    with pytest.raises(ValueError, match="n must be"):
+        resample(np.ones(3), -1)

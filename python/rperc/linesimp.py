@@ -312,6 +312,9 @@ def simplify_many(
     """
     arrays = [_as_points(p, f"polylines[{k}]") for k, p in enumerate(polylines)]
     eps = _check_epsilon(epsilon)
+    bad_threads = isinstance(threads, bool) or (threads is not None and int(threads) < 1)
+    if bad_threads:
+        raise ValueError(f"threads must be a positive integer or None, got {threads!r}")
     indices = _rperc.simplify_many_indices(arrays, eps, method, metric, tie, threads)
     if return_indices:
         return indices

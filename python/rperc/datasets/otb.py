@@ -31,10 +31,19 @@ class OtbSequence:
         return len(self.frame_paths)
 
     def frame(self, k: int) -> np.ndarray:
-        """Frame ``k`` as an H x W x 3 uint8 RGB array."""
+        """Frame ``k`` as an H x W x 3 uint8 RGB array. 16-bit images are scaled to 8
+        bits (the high byte), not clipped to white as Pillow's ``convert`` would."""
         from PIL import Image
 
         with Image.open(self.frame_paths[k]) as img:
+            if img.mode in ("I;16", "I;16B", "I;16L", "I"):
+                deep = np.asarray(img, dtype=np.int64)
+                if deep.min() < 0 or deep.max() > 65535:
+                    raise DatasetFormatError(
+                        self.frame_paths[k], 0, f"{img.mode} pixel values outside 0..65535"
+                    )
+                grey = (deep >> 8).astype(np.uint8)
+                return np.repeat(grey[:, :, None], 3, axis=2)
             return np.asarray(img.convert("RGB"))
 
     def frames(self) -> Iterator[np.ndarray]:

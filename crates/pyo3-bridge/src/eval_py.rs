@@ -40,6 +40,18 @@ fn box_pairs(
     Ok((a, b))
 }
 
+/// `metric` of matching rows of two `(N, 4)` box arrays.
+fn pairwise<'py>(
+    py: Python<'py>,
+    a: &Bound<'py, PyAny>,
+    b: &Bound<'py, PyAny>,
+    metric: fn(&BoundingBox, &BoundingBox) -> f64,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let (a, b) = box_pairs(a, b)?;
+    let out: Vec<f64> = a.iter().zip(&b).map(|(x, y)| metric(x, y)).collect();
+    Ok(out.into_pyarray(py))
+}
+
 /// IoU of matching rows of two `(N, 4)` box arrays.
 #[pyfunction]
 pub fn otb_iou<'py>(
@@ -47,13 +59,7 @@ pub fn otb_iou<'py>(
     a: &Bound<'py, PyAny>,
     b: &Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let (a, b) = box_pairs(a, b)?;
-    let out: Vec<f64> = a
-        .iter()
-        .zip(&b)
-        .map(|(x, y)| tracking::metrics::iou(x, y))
-        .collect();
-    Ok(out.into_pyarray(py))
+    pairwise(py, a, b, tracking::metrics::iou)
 }
 
 /// Centre distances of matching rows of two `(N, 4)` box arrays.
@@ -63,13 +69,7 @@ pub fn otb_center_error<'py>(
     a: &Bound<'py, PyAny>,
     b: &Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let (a, b) = box_pairs(a, b)?;
-    let out: Vec<f64> = a
-        .iter()
-        .zip(&b)
-        .map(|(x, y)| tracking::metrics::centre_error(x, y))
-        .collect();
-    Ok(out.into_pyarray(py))
+    pairwise(py, a, b, tracking::metrics::centre_error)
 }
 
 /// The success curve over the 21 OTB thresholds.

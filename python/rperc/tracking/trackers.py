@@ -133,17 +133,18 @@ class ColorHistogramTracker:
         momentum: float = _COLOR["momentum"],
         parallel: bool = _COLOR["parallel"],
     ) -> None:
+        appearance = _appearance(
+            color_space=color_space,
+            bins=bins,
+            model=model,
+            upper_fraction=upper_fraction,
+            adaptation_rate=adaptation_rate,
+            adaptation_threshold=adaptation_threshold,
+            gradient_weight=gradient_weight,
+            lost_threshold=lost_threshold,
+        )
         config = {
-            "appearance": _appearance(
-                color_space=color_space,
-                bins=bins,
-                model=model,
-                upper_fraction=upper_fraction,
-                adaptation_rate=adaptation_rate,
-                adaptation_threshold=adaptation_threshold,
-                gradient_weight=gradient_weight,
-                lost_threshold=lost_threshold,
-            ),
+            "appearance": appearance,
             **_appearance(
                 search_radius=search_radius,
                 scale_step=scale_step,
@@ -207,17 +208,18 @@ class ParticleColorTracker:
         gradient_weight: float = _APPEARANCE["gradient_weight"],
         lost_threshold: float = _APPEARANCE["lost_threshold"],
     ) -> None:
+        appearance = _appearance(
+            color_space=color_space,
+            bins=bins,
+            model=model,
+            upper_fraction=upper_fraction,
+            adaptation_rate=adaptation_rate,
+            adaptation_threshold=adaptation_threshold,
+            gradient_weight=gradient_weight,
+            lost_threshold=lost_threshold,
+        )
         config = {
-            "appearance": _appearance(
-                color_space=color_space,
-                bins=bins,
-                model=model,
-                upper_fraction=upper_fraction,
-                adaptation_rate=adaptation_rate,
-                adaptation_threshold=adaptation_threshold,
-                gradient_weight=gradient_weight,
-                lost_threshold=lost_threshold,
-            ),
+            "appearance": appearance,
             "filter": _appearance(
                 resampler=resampler,
                 resample_below=resample_below,

@@ -85,7 +85,7 @@ impl Default for PatternConfig {
             min_slope: 0.02,
             max_points: 200,
             sigma: 1.0,
-            occlusion_threshold: 2.0,
+            occlusion_threshold: 1.5,
             max_occluded_fraction: 0.4,
             scale_levels: vec![1.0, 1.25, 1.5, 1.75, 2.0, 2.5, 3.0],
         }

@@ -129,7 +129,12 @@ impl PatternConfig {
             return Err(invalid("max_points", "must be >= 1"));
         }
         let levels = &self.scale_levels;
-        if levels.is_empty() || levels[0] != 1.0 || levels.windows(2).any(|w| !(w[1] > w[0])) {
+        if levels.is_empty()
+            || levels[0] != 1.0
+            || levels
+                .windows(2)
+                .any(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater))
+        {
             return Err(invalid("scale_levels", "must start at 1.0 and increase"));
         }
         Ok(())

@@ -116,8 +116,8 @@ impl<'a> PatternLikelihood<'a> {
         let n = self.model.points.len();
         if self.space.is_empty()
             || n == 0
-            || !(state[3] > 0.0)
             || !state.iter().all(|v| v.is_finite())
+            || state[3] <= 0.0
         {
             return Observation {
                 log_likelihood: f64::NEG_INFINITY,

@@ -382,3 +382,69 @@ proptest! {
         prop_assert_eq!(a.occluded_fraction, b.occluded_fraction);
     }
 }
+
+#[test]
+fn scale_space_picks_the_nearest_level_blurred_by_blur_sigma_times_s() {
+    let m = model();
+    let frame = render(TRUTH, m.centre, FRAME);
+    let mut space = ScaleSpace::new();
+    space.build(&frame, &m).unwrap();
+    assert_eq!(space.len(), m.config.scale_levels.len());
+    let (mut scratch, mut direct) = (GrayImage::default(), GrayImage::default());
+    // 1.3 is nearest to the 1.25 level; 0.7 uses the first level (scale 1).
+    for (s, level) in [(1.3, 1.25), (0.7, 1.0), (2.9, 3.0)] {
+        frame
+            .gaussian_blur(m.config.blur_sigma * level, &mut scratch, &mut direct)
+            .unwrap();
+        assert_eq!(space.level(s), &direct, "scale {s}");
+    }
+}
+
+#[test]
+fn particle_filter_weighs_particles_with_the_pattern_likelihood() {
+    use nalgebra::{SMatrix, Vector4};
+    use tracking::{FilterParams, Likelihood, LinearGaussian, ParticleFilter};
+    let m = model();
+    let mut frame = render(TRUTH, m.centre, FRAME);
+    add_noise(&mut frame, 3.0, 7);
+    let mut space = ScaleSpace::new();
+    space.build(&frame, &m).unwrap();
+    let lik = PatternLikelihood::new(&m, &space);
+    // Section 4.1's evolution noise: 5 px, 5 px, 3 deg, 0.1.
+    let sigma = Vector4::new(5.0, 5.0, 3f64.to_radians(), 0.1);
+    let prior = Vector4::new(
+        TRUTH[0] + 4.0,
+        TRUTH[1] - 3.0,
+        TRUTH[2] + 0.05,
+        TRUTH[3] + 0.08,
+    );
+    let cov = SMatrix::from_diagonal(&sigma.component_mul(&sigma));
+    let params = FilterParams::default();
+    let mut pf = ParticleFilter::new(
+        400,
+        prior,
+        cov,
+        LinearGaussian::random_walk(sigma),
+        params,
+        9,
+    )
+    .unwrap();
+    let report = pf.step(&lik);
+    assert!(!report.lost);
+    // Log-weights are the pattern log-likelihoods up to one constant.
+    let mut scratch = lik.new_scratch();
+    let offsets: Vec<f64> = pf
+        .particles()
+        .iter()
+        .zip(pf.log_weights())
+        .map(|(p, lw)| lw - lik.observe(p, &mut scratch).log_likelihood)
+        .filter(|d| d.is_finite())
+        .collect();
+    let spread = offsets
+        .iter()
+        .fold(0.0f64, |a, d| a.max((d - offsets[0]).abs()));
+    assert!(spread < 1e-9, "log-weight offsets spread {spread}");
+    let err = (pf.mean() - SVector::from(TRUTH)).fixed_rows::<2>(0).norm();
+    println!("one step: position error {err:.2} px (prior 5 px)");
+    assert!(err < 5.0);
+}

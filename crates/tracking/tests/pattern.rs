@@ -448,3 +448,60 @@ fn particle_filter_weighs_particles_with_the_pattern_likelihood() {
     println!("one step: position error {err:.2} px (prior 5 px)");
     assert!(err < 5.0);
 }
+
+#[test]
+fn scale_is_recovered_at_a_large_scale_through_the_scale_space() {
+    let m = model();
+    let truth = [84.0, 86.0, -0.3, 1.45];
+    let mut frame = render(truth, m.centre, 190);
+    add_noise(&mut frame, 3.0, 8);
+    let mut space = ScaleSpace::new();
+    space.build(&frame, &m).unwrap();
+    let lik = PatternLikelihood::new(&m, &space);
+    let mut scratch = PatternScratch::default();
+    // Scale from 1.25 to 1.65 by 0.02, position +-1 px by 0.5.
+    let mut best = ([0.0; 4], f64::NEG_INFINITY);
+    for k in -10..=10 {
+        for i in -2..=2 {
+            for j in -2..=2 {
+                let st = [
+                    truth[0] + 0.5 * f64::from(i),
+                    truth[1] + 0.5 * f64::from(j),
+                    truth[2],
+                    truth[3] + 0.02 * f64::from(k),
+                ];
+                let ll = lik.observe(&SVector::from(st), &mut scratch).log_likelihood;
+                if ll > best.1 {
+                    best = (st, ll);
+                }
+            }
+        }
+    }
+    println!("scale argmax {:?}, truth {truth:?}", best.0);
+    assert!((best.0[3] - truth[3]).abs() <= 0.02 + 1e-9);
+    assert!((best.0[0] - truth[0]).abs() <= 1.0 && (best.0[1] - truth[1]).abs() <= 1.0);
+}
+
+#[test]
+fn max_points_caps_the_model_and_a_mask_restricts_it() {
+    let mut reference = clean_pattern();
+    add_noise(&mut reference, 3.0, 1);
+    let config = PatternConfig {
+        max_points: 20,
+        ..PatternConfig::default()
+    };
+    let capped = PatternModel::from_region(&reference, WINDOW, &config).unwrap();
+    assert_eq!(capped.points.len(), 20);
+    // A mask over the disc only: every model point is on the disc's edge.
+    let mask: Vec<bool> = (0..SIZE * SIZE)
+        .map(|i| ((i % SIZE) as f64 - DISC.0).hypot((i / SIZE) as f64 - DISC.1) < DISC.2 + 5.0)
+        .collect();
+    let m = PatternModel::from_region(&reference, Region::Mask(mask), &PatternConfig::default())
+        .unwrap();
+    assert!(m.points.len() >= 10);
+    for j in 0..m.points.len() {
+        let o = m.offset(j);
+        let r = (m.centre[0] + o[0] - DISC.0).hypot(m.centre[1] + o[1] - DISC.1);
+        assert!((r - DISC.2).abs() < 1.5, "point at radius {r}");
+    }
+}

@@ -505,3 +505,35 @@ fn max_points_caps_the_model_and_a_mask_restricts_it() {
         assert!((r - DISC.2).abs() < 1.5, "point at radius {r}");
     }
 }
+
+#[test]
+fn non_finite_grey_levels_are_refused_or_occluded() {
+    let mut reference = clean_pattern();
+    reference.data[10] = f32::NAN;
+    let err = PatternModel::from_region(&reference, WINDOW, &PatternConfig::default());
+    assert_eq!(err.unwrap_err().parameter(), Some("image"));
+    // A frame with NaN over the disc: those points are occluded, the likelihood finite.
+    let m = model();
+    let mut frame = render(TRUTH, m.centre, FRAME);
+    let (sn, cs) = TRUTH[2].sin_cos();
+    for y in 0..FRAME {
+        for x in 0..FRAME {
+            let q = [
+                (x as f64 - TRUTH[0]) / TRUTH[3],
+                (y as f64 - TRUTH[1]) / TRUTH[3],
+            ];
+            let src = [
+                m.centre[0] + cs * q[0] - sn * q[1],
+                m.centre[1] + sn * q[0] + cs * q[1],
+            ];
+            if (src[0] - DISC.0).hypot(src[1] - DISC.1) < DISC.2 + 7.0 {
+                frame.data[y * FRAME + x] = f32::NAN;
+            }
+        }
+    }
+    let mut space = ScaleSpace::new();
+    space.build(&frame, &m).unwrap();
+    let obs = PatternLikelihood::new(&m, &space)
+        .observe(&SVector::from(TRUTH), &mut PatternScratch::default());
+    assert!(obs.log_likelihood.is_finite() && obs.occluded_fraction > 0.2);
+}

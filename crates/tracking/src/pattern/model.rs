@@ -280,6 +280,9 @@ impl PatternModel {
         if image.data.len() != image.width * image.height || image.data.is_empty() {
             return Err(invalid("image", "empty or inconsistent size"));
         }
+        if !image.data.iter().all(|g| g.is_finite()) {
+            return Err(invalid("image", "contains NaN or infinite grey levels"));
+        }
         let win = window(image, &region)?;
         let (mut scratch, mut blurred) = (GrayImage::default(), GrayImage::default());
         image.gaussian_blur(config.blur_sigma, &mut scratch, &mut blurred)?;

@@ -165,7 +165,12 @@ impl<'a> PatternLikelihood<'a> {
             } else {
                 f64::INFINITY
             };
-            scratch.deviations.push(lambda);
+            // A NaN grey level (a corrupt frame) makes the point occluded, not the sum NaN.
+            scratch.deviations.push(if lambda.is_nan() {
+                f64::INFINITY
+            } else {
+                lambda
+            });
         }
     }
 }

@@ -118,6 +118,8 @@ impl PatternConfig {
         ensure_in_range("min_contrast", self.min_contrast, 0.0, f64::MAX)?;
         ensure_in_range("min_slope", self.min_slope, 0.0, f64::MAX)?;
         let (lo, hi) = (f64::from(self.canny_low), f64::from(self.canny_high));
+        ensure_in_range("canny_high", hi, 0.0, f64::MAX)?;
+        // imageproc's Canny asserts low <= high: refuse it here instead of panicking.
         ensure_in_range("canny_low", lo, 0.0, hi)?;
         if !(3..=1024).contains(&self.n_samples) {
             return Err(invalid("n_samples", "must be in 3..=1024"));
@@ -371,4 +373,65 @@ fn spread(points: &mut Vec<ModelPoint>, max: usize) {
     }
     let kept: Vec<ModelPoint> = (0..max).map(|k| points[k * n / max].clone()).collect();
     *points = kept;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_parameters_are_named() {
+        let cases: [(&str, PatternConfig); 6] = [
+            (
+                "canny_low",
+                PatternConfig {
+                    canny_low: 70.0,
+                    ..PatternConfig::default()
+                },
+            ),
+            (
+                "canny_high",
+                PatternConfig {
+                    canny_high: f32::NAN,
+                    ..PatternConfig::default()
+                },
+            ),
+            (
+                "n_samples",
+                PatternConfig {
+                    n_samples: 2,
+                    ..PatternConfig::default()
+                },
+            ),
+            (
+                "fit_lags",
+                PatternConfig {
+                    fit_lags: 0,
+                    ..PatternConfig::default()
+                },
+            ),
+            (
+                "scale_levels",
+                PatternConfig {
+                    scale_levels: vec![1.0, 0.9],
+                    ..PatternConfig::default()
+                },
+            ),
+            (
+                "max_occluded_fraction",
+                PatternConfig {
+                    max_occluded_fraction: 1.5,
+                    ..PatternConfig::default()
+                },
+            ),
+        ];
+        for (name, config) in cases {
+            assert_eq!(
+                config.validate().unwrap_err().parameter(),
+                Some(name),
+                "{name}"
+            );
+        }
+        assert!(PatternConfig::default().validate().is_ok());
+    }
 }

@@ -1,5 +1,6 @@
 //! Hot paths of the crate: one particle-filter step (weighting + resampling), and one
-//! update of each colour tracker on a 320 x 240 frame.
+//! update of each colour tracker on a 320 x 240 frame, and the pattern likelihood of one
+//! state with its per-frame scale space.
 
 use std::hint::black_box;
 
@@ -101,5 +102,55 @@ fn tracker_update(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, particle_filter_step, tracker_update);
+/// A 160x160 frame with two rectangles and a disc, the pattern tracker's test scene.
+fn pattern_scene() -> rperc_core::image::GrayImage {
+    let n = 160;
+    let mut img = rperc_core::image::GrayImage::zeros(n, n);
+    for (i, g) in img.data.iter_mut().enumerate() {
+        let (x, y) = ((i % n) as f64, (i / n) as f64);
+        *g = if (x - 100.0).hypot(y - 60.0) < 18.0 {
+            40.0
+        } else if (30.0..60.0).contains(&x) && (40.0..70.0).contains(&y) {
+            180.0
+        } else if (30.0..100.0).contains(&x) && (90.0..105.0).contains(&y) {
+            220.0
+        } else {
+            100.0 + ((i * 7919) % 11) as f32
+        };
+    }
+    img
+}
+
+fn pattern_likelihood(c: &mut Criterion) {
+    use tracking::pattern::PatternScratch;
+    use tracking::{PatternConfig, PatternLikelihood, PatternModel, Region, ScaleSpace};
+    let scene = pattern_scene();
+    let region = Region::Box {
+        x: 20,
+        y: 30,
+        w: 110,
+        h: 85,
+    };
+    let model = PatternModel::from_region(&scene, region, &PatternConfig::default()).unwrap();
+    let mut space = ScaleSpace::new();
+    let mut group = c.benchmark_group("pattern");
+    group.bench_function("scale_space_build_160", |b| {
+        b.iter(|| space.build(black_box(&scene), &model).unwrap())
+    });
+    space.build(&scene, &model).unwrap();
+    let lik = PatternLikelihood::new(&model, &space);
+    let mut scratch = PatternScratch::default();
+    let state = nalgebra::SVector::from([model.centre[0] + 1.0, model.centre[1], 0.05, 1.1]);
+    group.bench_function("observe_one_state", |b| {
+        b.iter(|| black_box(lik.observe(black_box(&state), &mut scratch)))
+    });
+    group.finish();
+}
+
+criterion_group!(
+    benches,
+    particle_filter_step,
+    tracker_update,
+    pattern_likelihood
+);
 criterion_main!(benches);

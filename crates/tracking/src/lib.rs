@@ -7,6 +7,7 @@ mod error;
 mod frame;
 pub mod metrics;
 pub mod otb;
+pub mod pattern;
 
 pub use colour::{
     AppearanceParams, ColorHistogramTracker, ColorSpace, ColorTrackerParams, MAX_BINS_PER_AXIS,
@@ -18,3 +19,6 @@ pub use condensation::{
 };
 pub use error::{Result, TrackingError};
 pub use frame::{BoundingBox, RgbFrame, frame_from_image};
+pub use pattern::{
+    Observation, PatternConfig, PatternLikelihood, PatternModel, Region, ScaleSpace,
+};

@@ -1,0 +1,143 @@
+//! The normalised auto-correlation of a grey-level vector, its linear approximation
+//! (the `W(j)` of eq. 4) and the normalised inter-correlation of section 3.3.
+//!
+//! Grey-level vectors are stored with their mean removed: the paper's normalisation by
+//! `||V||` already cancels a gain, removing the mean also cancels an offset, so the
+//! inter-correlation is invariant to `g -> a g + b` (`a > 0`), the illumination change
+//! the paper claims robustness to. The auto-correlation is computed on the same
+//! zero-mean vector so that its slope and the inter-correlation are on one scale.
+
+/// Removes the mean of `v` in place and returns its standard deviation (the contrast
+/// of the profile).
+pub fn remove_mean(v: &mut [f32]) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    let n = v.len() as f64;
+    let mean = v.iter().map(|&g| f64::from(g)).sum::<f64>() / n;
+    let mut ss = 0.0;
+    for g in v.iter_mut() {
+        let d = f64::from(*g) - mean;
+        *g = d as f32;
+        ss += d * d;
+    }
+    (ss / n).sqrt()
+}
+
+/// The discrete normalised auto-correlation `C_GG(lambda)` of section 3.2:
+/// `(1 / ||V||^2) sum_l G(l) G(l - lambda)` with `G` zero outside `1..=Ns`.
+/// Returns 0 for a zero vector.
+pub fn autocorrelation(v: &[f32], lambda: usize) -> f64 {
+    let energy: f64 = v.iter().map(|&g| f64::from(g) * f64::from(g)).sum();
+    if energy <= 0.0 || lambda >= v.len() {
+        return 0.0;
+    }
+    let cross: f64 = v[lambda..]
+        .iter()
+        .zip(v)
+        .map(|(&a, &b)| f64::from(a) * f64::from(b))
+        .sum();
+    cross / energy
+}
+
+/// The slope `W` of the straight line `C~(lambda) = 1 + W lambda` approximating the
+/// auto-correlation near `lambda = 0` (Figure 6).
+///
+/// The line is forced through `C(0) = 1` and fitted by least squares to
+/// `C(1), ..., C(fit_lags)`: `W = sum_k k (C(k) - 1) / sum_k k^2`. For a centred step
+/// profile of `Ns` samples `C(lambda) = 1 - 3 lambda / Ns` exactly, so `W = -3 / Ns`.
+/// `W <= 0` for any vector; a flat (textureless) profile has `W` near 0.
+pub fn autocorrelation_slope(v: &[f32], fit_lags: usize) -> f64 {
+    let lags = fit_lags.min(v.len().saturating_sub(1));
+    let (mut num, mut den) = (0.0, 0.0);
+    for k in 1..=lags {
+        let kf = k as f64;
+        num += kf * (autocorrelation(v, k) - 1.0);
+        den += kf * kf;
+    }
+    if den > 0.0 { num / den } else { 0.0 }
+}
+
+/// The normalised inter-correlation `V . V_k / (||V|| ||V_k||)` (section 3.3) between
+/// a stored zero-mean vector and an observed vector (whose mean is removed here
+/// without modifying it). 0 when either vector is flat.
+pub fn inter_correlation(stored: &[f32], observed: &[f32]) -> f64 {
+    let n = observed.len() as f64;
+    let mean = observed.iter().map(|&g| f64::from(g)).sum::<f64>() / n;
+    let (mut dot, mut so, mut ss) = (0.0, 0.0, 0.0);
+    for (&a, &b) in stored.iter().zip(observed) {
+        let (a, b) = (f64::from(a), f64::from(b) - mean);
+        dot += a * b;
+        so += b * b;
+        ss += a * a;
+    }
+    let norm = (so * ss).sqrt();
+    if norm > 1e-9 { dot / norm } else { 0.0 }
+}
+
+/// The deviation `lambda = C~^-1(c)` of section 3.3 for the linear approximation
+/// `C~(lambda) = 1 + W lambda` (`W < 0`), in samples: `(1 - c) / |W|`.
+pub fn deviation(inter_correlation: f64, slope: f64) -> f64 {
+    (1.0 - inter_correlation) / slope.abs().max(f64::MIN_POSITIVE)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn autocorrelation_matches_brute_force_definition() {
+        let v: Vec<f32> = [3.0, -1.0, 4.0, 1.0, -5.0, 9.0, 2.0, -6.0].to_vec();
+        let ns = v.len() as i64;
+        // G(l) = g_l for l = 1..Ns, zero elsewhere; sum over l = -Ns..Ns.
+        let g = |l: i64| {
+            if (1..=ns).contains(&l) {
+                f64::from(v[(l - 1) as usize])
+            } else {
+                0.0
+            }
+        };
+        let energy: f64 = (1..=ns).map(|l| g(l) * g(l)).sum();
+        for lambda in 0..ns {
+            let brute: f64 = (-ns..=ns).map(|l| g(l) * g(l - lambda)).sum::<f64>() / energy;
+            assert!((autocorrelation(&v, lambda as usize) - brute).abs() < 1e-12);
+        }
+        assert!((autocorrelation(&v, 0) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn slope_of_a_step_profile_is_minus_three_over_ns() {
+        for ns in [8usize, 12, 20] {
+            let mut v: Vec<f32> = (0..ns)
+                .map(|l| if l < ns / 2 { 10.0 } else { 70.0 })
+                .collect();
+            remove_mean(&mut v);
+            for lags in 1..=3 {
+                let w = autocorrelation_slope(&v, lags);
+                assert!(
+                    (w + 3.0 / ns as f64).abs() < 1e-9,
+                    "ns {ns} lags {lags}: {w}"
+                );
+            }
+            // The deviation grows with the shift of the observed profile.
+            let w1 = autocorrelation_slope(&v, 1);
+            let lambdas: Vec<f64> = (0..3)
+                .map(|shift| {
+                    let obs: Vec<f32> = (0..ns)
+                        .map(|l| if l < ns / 2 + shift { 10.0 } else { 70.0 })
+                        .collect();
+                    deviation(inter_correlation(&v, &obs), w1)
+                })
+                .collect();
+            assert!(lambdas[0].abs() < 1e-6 && lambdas[0] < lambdas[1] && lambdas[1] < lambdas[2]);
+        }
+    }
+
+    #[test]
+    fn inter_correlation_ignores_gain_and_offset() {
+        let mut v: Vec<f32> = vec![1.0, 5.0, 2.0, 8.0, 3.0];
+        let obs: Vec<f32> = v.iter().map(|g| 2.5 * g + 40.0).collect();
+        remove_mean(&mut v);
+        assert!((inter_correlation(&v, &obs) - 1.0).abs() < 1e-6);
+    }
+}

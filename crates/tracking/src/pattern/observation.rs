@@ -1,0 +1,191 @@
+//! The observation model of section 3.3 (eqs. 5-6): the likelihood of a state
+//! `X = (x, y, theta, s)` from the inter-correlation of each model point's stored and
+//! observed grey-level vectors, with occlusion and scale space handling.
+
+use super::correlation::{deviation, inter_correlation};
+use super::model::{PatternModel, sample_vector};
+use crate::condensation::Likelihood;
+use crate::error::Result;
+use nalgebra::SVector;
+use rperc_core::image::GrayImage;
+
+/// A per-frame stack of Gaussian-blurred copies of the frame, one per scale level
+/// (section 3.3, "scale changing effects"): level `k` of scale `s_k` is blurred by
+/// `blur_sigma * s_k`, so that a pattern seen `s_k` times larger, once rescaled, has
+/// the blur its model was learnt with. Buffers are reused from frame to frame.
+#[derive(Debug, Clone, Default)]
+pub struct ScaleSpace {
+    scales: Vec<f64>,
+    levels: Vec<GrayImage>,
+    scratch: GrayImage,
+}
+
+impl ScaleSpace {
+    /// An empty stack; [`Self::build`] fills it.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Blurs `frame` once per level of `config.scale_levels` (never per particle).
+    pub fn build(&mut self, frame: &GrayImage, model: &PatternModel) -> Result<()> {
+        let config = &model.config;
+        self.scales.clone_from(&config.scale_levels);
+        self.levels
+            .resize_with(self.scales.len(), GrayImage::default);
+        for (level, &s) in self.levels.iter_mut().zip(&self.scales) {
+            frame.gaussian_blur(config.blur_sigma * s, &mut self.scratch, level)?;
+        }
+        Ok(())
+    }
+
+    /// The level nearest to scale `s` (the first one for `s <= 1`).
+    pub fn level(&self, s: f64) -> &GrayImage {
+        let k = self
+            .scales
+            .iter()
+            .enumerate()
+            .min_by(|a, b| (a.1 - s).abs().total_cmp(&(b.1 - s).abs()))
+            .map_or(0, |(k, _)| k);
+        &self.levels[k]
+    }
+
+    /// Number of levels.
+    pub fn len(&self) -> usize {
+        self.levels.len()
+    }
+
+    /// Whether [`Self::build`] has not run yet.
+    pub fn is_empty(&self) -> bool {
+        self.levels.is_empty()
+    }
+}
+
+/// The likelihood of one state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Observation {
+    /// `log p(Z | X)`, eq. 6 in the log domain (up to a constant).
+    pub log_likelihood: f64,
+    /// The occlusion fraction: model points whose deviation exceeds the occlusion
+    /// threshold (or whose vector leaves the frame), over all model points.
+    pub occluded_fraction: f64,
+}
+
+/// Per-thread buffers of [`PatternLikelihood`]: one observed vector and the point
+/// deviations, so that no particle allocates.
+#[derive(Debug, Clone, Default)]
+pub struct PatternScratch {
+    observed: Vec<f32>,
+    deviations: Vec<f64>,
+}
+
+/// The observation model of one frame: a model and the frame's scale space.
+#[derive(Debug, Clone, Copy)]
+pub struct PatternLikelihood<'a> {
+    model: &'a PatternModel,
+    space: &'a ScaleSpace,
+}
+
+/// Where model point offset `(dx, dy)` and direction `phi` land for state `x`: the
+/// similarity `centre + s R(theta) (dx, dy)` with `R = [[c, s], [-s, c]]`, theta
+/// counter-clockwise on screen (y down), as OpenCV's `getRotationMatrix2D`.
+pub fn place(state: &SVector<f64, 4>, offset: [f64; 2], phi: f64) -> ([f64; 2], f64) {
+    let (s, c) = state[2].sin_cos();
+    let scale = state[3];
+    let x = state[0] + scale * (c * offset[0] + s * offset[1]);
+    let y = state[1] + scale * (-s * offset[0] + c * offset[1]);
+    ([x, y], phi - state[2])
+}
+
+impl<'a> PatternLikelihood<'a> {
+    /// The observation model of `model` in the frame whose scale space is `space`.
+    pub fn new(model: &'a PatternModel, space: &'a ScaleSpace) -> Self {
+        Self { model, space }
+    }
+
+    /// The likelihood and occlusion fraction of `state` (eqs. 5-6).
+    ///
+    /// Each model point gives a deviation `lambda = (1 - C) / |W|` (samples) from its
+    /// inter-correlation `C`, and the log-Gaussian term `-lambda^2 / (2 sigma^2)`.
+    /// Occlusion: points with `lambda > occlusion_threshold` are left out, at most
+    /// `floor(max_occluded_fraction * N_m)` of them, the worst first; beyond that the
+    /// remaining ones count with their own term. A left-out point contributes the term
+    /// of the threshold itself, `-T^2 / (2 sigma^2)`, rather than nothing: otherwise a
+    /// state would gain likelihood by occluding points, and states with different
+    /// numbers of occluded points could not be compared.
+    pub fn observe(&self, state: &SVector<f64, 4>, scratch: &mut PatternScratch) -> Observation {
+        let n = self.model.points.len();
+        if self.space.is_empty()
+            || n == 0
+            || !state.iter().all(|v| v.is_finite())
+            || state[3] <= 0.0
+        {
+            return Observation {
+                log_likelihood: f64::NEG_INFINITY,
+                occluded_fraction: 1.0,
+            };
+        }
+        self.fill_deviations(state, scratch);
+        let config = &self.model.config;
+        let threshold = config.occlusion_threshold;
+        let occluded = scratch
+            .deviations
+            .iter()
+            .filter(|&&l| l > threshold)
+            .count();
+        let tolerated = ((config.max_occluded_fraction * n as f64).floor() as usize).min(occluded);
+        // The `tolerated` largest deviations are left out: move them to the end.
+        let d = &mut scratch.deviations;
+        if tolerated > 0 {
+            d.select_nth_unstable_by(n - tolerated, |a, b| a.total_cmp(b));
+        }
+        let inv = 1.0 / (2.0 * config.sigma * config.sigma);
+        let kept: f64 = d[..n - tolerated].iter().map(|l| -l * l * inv).sum();
+        let left_out = tolerated as f64 * (-threshold * threshold * inv);
+        Observation {
+            log_likelihood: kept + left_out,
+            occluded_fraction: occluded as f64 / n as f64,
+        }
+    }
+
+    /// The deviation of every model point for `state` into `scratch.deviations`
+    /// (infinite when the observed vector leaves the frame).
+    fn fill_deviations(&self, state: &SVector<f64, 4>, scratch: &mut PatternScratch) {
+        let config = &self.model.config;
+        let image = self.space.level(state[3]);
+        scratch.observed.resize(config.n_samples, 0.0);
+        scratch.deviations.clear();
+        for (j, point) in self.model.points.iter().enumerate() {
+            let (p, phi) = place(state, self.model.offset(j), point.phi);
+            let step = config.delta * state[3];
+            let lambda = if sample_vector(image, p, phi, step, &mut scratch.observed) {
+                deviation(
+                    inter_correlation(&point.vector, &scratch.observed),
+                    point.slope,
+                )
+            } else {
+                f64::INFINITY
+            };
+            // A NaN grey level (a corrupt frame) makes the point occluded, not the sum NaN.
+            scratch.deviations.push(if lambda.is_nan() {
+                f64::INFINITY
+            } else {
+                lambda
+            });
+        }
+    }
+}
+
+impl Likelihood<4> for PatternLikelihood<'_> {
+    type Scratch = PatternScratch;
+
+    fn new_scratch(&self) -> PatternScratch {
+        PatternScratch {
+            observed: Vec::with_capacity(self.model.config.n_samples),
+            deviations: Vec::with_capacity(self.model.points.len()),
+        }
+    }
+
+    fn log_likelihood(&self, state: &SVector<f64, 4>, scratch: &mut PatternScratch) -> f64 {
+        self.observe(state, scratch).log_likelihood
+    }
+}

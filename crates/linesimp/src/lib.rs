@@ -59,8 +59,8 @@ impl Simplifier {
         }
     }
 
-    /// Chooses which of several equally far vertices splits a chord (plain DP only;
-    /// path hulls always take the first). The default, [`Tie::First`], matches GEOS.
+    /// Chooses which of several equally far vertices splits a chord; see [`Tie`] for
+    /// exactly what each rule promises. The default, [`Tie::First`], matches GEOS.
     pub fn with_tie(mut self, tie: Tie) -> Self {
         self.tie = tie;
         self
@@ -69,8 +69,8 @@ impl Simplifier {
     /// For [`Method::Hull`]: how much plain-DP work (distance evaluations per vertex
     /// per level of a balanced split) runs before path hulls take over. Plain DP is
     /// cheaper per vertex and finishes within the default budget on real data; the
-    /// budget caps its quadratic worst case. `0` runs path hulls from the start. The
-    /// result is the same either way.
+    /// budget caps its quadratic worst case. `0` runs path hulls from the start. Both
+    /// phases split at exactly the same vertex, so the result does not depend on it.
     pub fn with_dp_budget(mut self, per_level: usize) -> Self {
         self.dp_budget = Some(per_level);
         self
@@ -102,16 +102,17 @@ impl Simplifier {
                 self.tie,
                 &mut self.keep,
                 &mut self.ranges,
-            ),
+            )?,
             Method::Hull => hull::hull_mark(
                 points,
                 epsilon,
+                self.tie,
                 &mut self.keep,
                 &mut self.ranges,
                 &mut self.tasks,
                 &mut self.hull,
                 self.dp_budget.unwrap_or(hull::DP_BUDGET_PER_LEVEL),
-            ),
+            )?,
         }
         Ok(self
             .keep

@@ -1,7 +1,18 @@
 //! Distances from a point to a chord: the seed's line metric (Table 2) and the
 //! point-to-segment metric used by GEOS/shapely and geo.
+//!
+//! Both are evaluated in a frame rescaled by a power of two chosen from the chord (and
+//! the polyline's extent), never from the absolute scale of the input. Multiplying by
+//! a power of two is exact, so no square overflows or underflows, and scaling the input
+//! and epsilon together by any power of two leaves every decision bit-for-bit unchanged.
+
+mod exact;
 
 use nalgebra::Point2;
+
+use crate::{LineSimpError, Result};
+pub(crate) use exact::orient;
+use exact::{ETA, U, cross_sign, exponent, ldexp, two_diff};
 
 /// How the distance from a point to the chord `v_i v_j` is measured.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -13,97 +24,355 @@ pub enum Metric {
     Segment,
 }
 
-/// Twice the signed area of the triangle (a, b, p): the homogeneous determinant
-/// `|a~ b~ p~|` of seed 000, Table 2. Positive when `p` is left of `a -> b`.
-#[inline(always)]
-pub(crate) fn cross(a: &Point2<f64>, b: &Point2<f64>, p: &Point2<f64>) -> f64 {
-    (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x)
+/// Which peer's point-to-segment arithmetic [`Metric::Segment`] reproduces.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum SegmentFormula {
+    /// GEOS `Distance::pointToSegment`: `sqrt` of sums of squares.
+    Geos,
+    /// geo `line_segment_distance`: `hypot`.
+    Geo,
 }
 
-#[inline(always)]
-fn dist(a: &Point2<f64>, b: &Point2<f64>) -> f64 {
-    let (dx, dy) = (a.x - b.x, a.y - b.y);
-    (dx * dx + dy * dy).sqrt()
-}
+/// Coordinates may span at most this much in x and in y: then every difference of two
+/// coordinates, and every cross product of a normalised direction with one, is finite.
+pub(crate) const MAX_SPAN: f64 = f64::from_bits(2043 << 52); // 2^1020
 
-/// Point-to-segment distance, written in the same arithmetic order as GEOS so that
-/// ties and threshold decisions agree with shapely bit for bit.
-#[inline(always)]
-pub(crate) fn segment_distance(p: &Point2<f64>, a: &Point2<f64>, b: &Point2<f64>) -> f64 {
-    if a == b {
-        return dist(p, a);
-    }
-    let (dx, dy) = (b.x - a.x, b.y - a.y);
-    let len2 = dx * dx + dy * dy;
-    let r = ((p.x - a.x) * dx + (p.y - a.y) * dy) / len2;
-    if r <= 0.0 {
-        return dist(p, a);
-    }
-    if r >= 1.0 {
-        return dist(p, b);
-    }
-    let s = ((a.y - p.y) * dx - (a.x - p.x) * dy) / len2;
-    s.abs() * len2.sqrt()
-}
-
-/// The per-chord distance in a form that is cheap to compare: within one chord a
-/// larger key means a farther point, and `exceeds` tells whether a key is beyond
-/// epsilon. For the line metric the key is `|cross|`, so no division or square root
-/// runs in the inner loop.
+/// The spans of a polyline's bounding box: they bound every coordinate difference,
+/// hence the round-off of every key, and fix the scale of the metric frames.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct Chord {
-    pub a: Point2<f64>,
-    pub b: Point2<f64>,
-    metric: Metric,
-    /// Squared chord length; zero for a degenerate chord (first point equals last).
-    len2: f64,
+pub(crate) struct Extent {
+    x: f64,
+    y: f64,
+    /// Binary exponent of the larger span (0 for a single repeated point).
+    exp: i32,
 }
 
-impl Chord {
-    #[inline]
-    pub fn new(a: Point2<f64>, b: Point2<f64>, metric: Metric) -> Self {
-        let len2 = (b - a).norm_squared();
-        Self { a, b, metric, len2 }
+impl Extent {
+    /// Scans the points once; refuses spans beyond [`MAX_SPAN`] with a clear error.
+    pub fn of(points: &[Point2<f64>]) -> Result<Self> {
+        let (mut lo, mut hi) = (points[0], points[0]);
+        for p in points {
+            lo.x = lo.x.min(p.x);
+            lo.y = lo.y.min(p.y);
+            hi.x = hi.x.max(p.x);
+            hi.y = hi.y.max(p.y);
+        }
+        let (x, y) = (hi.x - lo.x, hi.y - lo.y);
+        if !(x <= MAX_SPAN && y <= MAX_SPAN) {
+            return Err(LineSimpError::InvalidParameter {
+                name: "points",
+                reason: format!(
+                    "coordinates span x [{}, {}] and y [{}, {}]; spans above 2^1020 \
+                     (about 1.1e307) are not supported, rescale the points",
+                    lo.x, hi.x, lo.y, hi.y
+                ),
+            });
+        }
+        let m = x.max(y);
+        let exp = if m > 0.0 { exponent(m) } else { 0 };
+        Ok(Self { x, y, exp })
+    }
+}
+
+/// `2^-k` with `k` clamped to the normal range (the frames never need more).
+#[inline]
+fn inv_pow2(k: i32) -> f64 {
+    ldexp(1.0, -k.clamp(-1022, 1022))
+}
+
+/// `|(x, y)|` without overflow or underflow: rescaled by the larger component's
+/// binary exponent, so the result is the same for every power-of-two scaling.
+#[inline]
+pub(crate) fn scaled_norm(x: f64, y: f64) -> f64 {
+    let m = x.abs().max(y.abs());
+    if m == 0.0 {
+        return 0.0;
+    }
+    let k = exponent(m);
+    let (xs, ys) = (ldexp(x, -k), ldexp(y, -k));
+    ldexp((xs * xs + ys * ys).sqrt(), k)
+}
+
+/// The line metric for one chord `a b`, in the form the split search needs.
+///
+/// For `a != b` the exact quantity compared is `F(p) = (b - a) x (p - a)` divided by a
+/// power of two (the chord's binary exponent): `|F(p)| / |b - a|` is the distance of
+/// Table 2. [`Self::key`] evaluates it in floating point, within [`Self::tol`] of the
+/// exact value for every point of the polyline, so comparisons of keys further apart
+/// than that are decided without further work and closer ones exactly. The kept
+/// vertex therefore depends only on exact geometry and the index rule, never on
+/// round-off, and plain DP and path hulls, which compare different pairs of points,
+/// agree. For `a == b` the quantity is `|p - a|^2`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct LineChord {
+    pub a: Point2<f64>,
+    /// `fl(b - a)` divided by `2^e`, `e` the exponent of its larger component.
+    dx: f64,
+    dy: f64,
+    /// The exact `b - a` divided by `2^e`, as `[hi, lo]` pairs (`hi` is `dx`, `dy`).
+    ex: [f64; 2],
+    ey: [f64; 2],
+    /// `|(dx, dy)|`, in [1, 2 sqrt 2).
+    norm: f64,
+    /// Bound on `|key(p) - F(p)|` for every point of the polyline.
+    tol: f64,
+    /// For `a == b`: the power of two that brings the extent to [1, 2).
+    point_scale: f64,
+    degenerate: bool,
+}
+
+impl LineChord {
+    pub fn new(a: Point2<f64>, b: Point2<f64>, extent: &Extent) -> Self {
+        let (bx, by) = (two_diff(b.x, a.x), two_diff(b.y, a.y));
+        let m = bx[0].abs().max(by[0].abs());
+        let point_scale = inv_pow2(extent.exp);
+        if m == 0.0 {
+            let (sx, sy) = (extent.x * point_scale, extent.y * point_scale);
+            return Self {
+                a,
+                dx: 0.0,
+                dy: 0.0,
+                ex: [0.0; 2],
+                ey: [0.0; 2],
+                norm: 0.0,
+                tol: 8.0 * U * (sx * sx + sy * sy) + 8.0 * ETA,
+                point_scale,
+                degenerate: true,
+            };
+        }
+        let k = -exponent(m);
+        let ex = [ldexp(bx[0], k), ldexp(bx[1], k)];
+        let ey = [ldexp(by[0], k), ldexp(by[1], k)];
+        let (dx, dy) = (ex[0], ey[0]);
+        // fl(b - a), fl(p - a), two products and a difference: at most 4 roundings of
+        // relative size U on |dx| |p.y - a.y| + |dy| |p.x - a.x|, plus underflow.
+        let tol = 8.0 * U * (dx.abs() * extent.y + dy.abs() * extent.x) + 8.0 * ETA;
+        Self {
+            a,
+            dx,
+            dy,
+            ex,
+            ey,
+            norm: (dx * dx + dy * dy).sqrt(),
+            tol,
+            point_scale,
+            degenerate: false,
+        }
     }
 
-    /// True when both ends coincide: every metric becomes the distance to that point.
+    /// True when both ends coincide: the distance is then to that point.
     #[inline]
     pub fn is_degenerate(&self) -> bool {
-        self.len2 == 0.0
+        self.degenerate
     }
 
+    /// `F(p)` in floating point, signed (for `a == b`: `|p - a|^2`, rescaled).
     #[inline(always)]
     pub fn key(&self, p: &Point2<f64>) -> f64 {
-        match self.metric {
-            Metric::Segment => segment_distance(p, &self.a, &self.b),
-            Metric::Line if self.len2 == 0.0 => (p - self.a).norm_squared(),
-            Metric::Line => cross(&self.a, &self.b, p).abs(),
+        if self.degenerate {
+            let (x, y) = (
+                (p.x - self.a.x) * self.point_scale,
+                (p.y - self.a.y) * self.point_scale,
+            );
+            x * x + y * y
+        } else {
+            self.dx * (p.y - self.a.y) - self.dy * (p.x - self.a.x)
         }
     }
 
-    /// Whether a point with this key lies farther than `epsilon` from the chord.
+    /// The round-off bound of [`Self::key`] (keys closer than `3 * tol` are compared
+    /// exactly).
     #[inline(always)]
-    pub fn exceeds(&self, key: f64, epsilon: f64) -> bool {
-        match self.metric {
-            Metric::Segment => key > epsilon,
-            Metric::Line if self.len2 == 0.0 => key > epsilon * epsilon,
-            // |cross| / |b - a| > eps, squared to avoid the root.
-            Metric::Line => key * key > epsilon * epsilon * self.len2,
-        }
+    pub fn tol(&self) -> f64 {
+        self.tol
     }
 
-    /// Distance in length units for a key (used to report errors, not in loops).
-    pub fn distance(&self, key: f64) -> f64 {
-        match self.metric {
-            Metric::Segment => key,
-            Metric::Line if self.len2 == 0.0 => key.sqrt(),
-            Metric::Line => key / self.len2.sqrt(),
+    /// Exact sign of `F(p)`, given its key.
+    pub fn sign(&self, p: &Point2<f64>, key: f64) -> i8 {
+        if self.degenerate {
+            return i8::from(*p != self.a);
         }
+        if key.abs() > self.tol {
+            return if key > 0.0 { 1 } else { -1 };
+        }
+        let (vx, vy) = (two_diff(p.x, self.a.x), two_diff(p.y, self.a.y));
+        cross_sign(&self.ex, &self.ey, &vx, &vy)
+    }
+
+    /// Exact comparison of `F(p)` with `F(q)` (signed; non-degenerate chords).
+    pub fn cmp_signed(
+        &self,
+        p: &Point2<f64>,
+        kp: f64,
+        q: &Point2<f64>,
+        kq: f64,
+    ) -> std::cmp::Ordering {
+        use std::cmp::Ordering::*;
+        let t = 3.0 * self.tol;
+        if kp > kq + t {
+            return Greater;
+        }
+        if kq > kp + t {
+            return Less;
+        }
+        let (vx, vy) = (two_diff(p.x, q.x), two_diff(p.y, q.y));
+        cross_sign(&self.ex, &self.ey, &vx, &vy).cmp(&0)
+    }
+
+    /// Exact comparison of `|F(p)|` with `|F(q)|`: which of two points is farther.
+    pub fn cmp_abs(
+        &self,
+        p: &Point2<f64>,
+        kp: f64,
+        q: &Point2<f64>,
+        kq: f64,
+    ) -> std::cmp::Ordering {
+        use std::cmp::Ordering::*;
+        let (ap, aq) = (kp.abs(), kq.abs());
+        let t = 3.0 * self.tol;
+        if ap > aq + t {
+            return Greater;
+        }
+        if aq > ap + t {
+            return Less;
+        }
+        if self.degenerate {
+            return exact::compare_squared_distances(&self.a, p, q).cmp(&0);
+        }
+        let (sp, sq) = (self.sign(p, kp), self.sign(q, kq));
+        match (sp, sq) {
+            (0, 0) => return Equal,
+            (0, _) => return Less,
+            (_, 0) => return Greater,
+            _ => {}
+        }
+        // |F(p)| - |F(q)| = sp (F(p) - F(q)) when the signs agree, and
+        // sp (F(p) + F(q)) = sp (b - a) x ((p - a) + (q - a)) when they differ.
+        let s = if sp == sq {
+            let (vx, vy) = (two_diff(p.x, q.x), two_diff(p.y, q.y));
+            cross_sign(&self.ex, &self.ey, &vx, &vy)
+        } else {
+            let a = &self.a;
+            let vx = [two_diff(p.x, a.x), two_diff(q.x, a.x)].concat();
+            let vy = [two_diff(p.y, a.y), two_diff(q.y, a.y)].concat();
+            cross_sign(&self.ex, &self.ey, &vx, &vy)
+        };
+        (sp * s).cmp(&0)
+    }
+
+    /// The distance from `p` to the chord's line that is compared with epsilon: 0 when
+    /// `p` is exactly on it, else `|key| / |b - a|` (within 3 ulps of the true value).
+    pub fn distance(&self, p: &Point2<f64>) -> f64 {
+        if self.degenerate {
+            return scaled_norm(p.x - self.a.x, p.y - self.a.y);
+        }
+        let key = self.key(p);
+        if self.sign(p, key) == 0 {
+            return 0.0;
+        }
+        key.abs() / self.norm
     }
 }
 
-/// Distance from `p` to the chord `a b` in the given metric, in length units.
+/// The segment metric for one chord, evaluated exactly as GEOS (or geo) does but in a
+/// frame scaled by `2^-e`: the same operations on scaled operands give the scaled
+/// result bit for bit wherever the peer itself neither overflows nor underflows.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct SegmentChord {
+    a: Point2<f64>,
+    b: Point2<f64>,
+    scale: f64,
+    dx: f64,
+    dy: f64,
+    len2: f64,
+    /// GEOS: `sqrt(len2)`; geo: `hypot(dx, dy)`.
+    len: f64,
+    /// The chord is a point at this scale (both ends equal, or a chord more than
+    /// 2^800 times shorter than the polyline's extent): distance to `a`.
+    point_like: bool,
+    formula: SegmentFormula,
+}
+
+impl SegmentChord {
+    pub fn new(a: Point2<f64>, b: Point2<f64>, extent: &Extent, formula: SegmentFormula) -> Self {
+        let (bx, by) = (b.x - a.x, b.y - a.y);
+        let m = bx.abs().max(by.abs());
+        // Frame exponent: the chord's own, but never so small that a coordinate
+        // difference (at most the extent) exceeds 2^501 in the frame.
+        let e = if m > 0.0 {
+            exponent(m).max(extent.exp - 500)
+        } else {
+            extent.exp
+        };
+        let scale = inv_pow2(e);
+        let (dx, dy) = (bx * scale, by * scale);
+        let len2 = dx * dx + dy * dy;
+        let len = match formula {
+            SegmentFormula::Geos => len2.sqrt(),
+            SegmentFormula::Geo => dx.hypot(dy),
+        };
+        Self {
+            a,
+            b,
+            scale,
+            dx,
+            dy,
+            len2,
+            len,
+            point_like: m == 0.0 || len2 < 2f64.powi(-600),
+            formula,
+        }
+    }
+
+    /// Epsilon in the frame (may round to 0 or infinity, consistently for all keys).
+    #[inline]
+    pub fn epsilon(&self, epsilon: f64) -> f64 {
+        epsilon * self.scale
+    }
+
+    #[inline(always)]
+    fn point_distance(&self, x: f64, y: f64) -> f64 {
+        match self.formula {
+            SegmentFormula::Geos => (x * x + y * y).sqrt(),
+            SegmentFormula::Geo => x.hypot(y),
+        }
+    }
+
+    /// Distance from `p` to the segment in the frame, with the peer's operation order:
+    /// projection parameter `r`, end-point distances outside [0, 1], else `|s| len`.
+    #[inline(always)]
+    pub fn key(&self, p: &Point2<f64>) -> f64 {
+        let s = self.scale;
+        let (px, py) = ((p.x - self.a.x) * s, (p.y - self.a.y) * s);
+        if self.point_like {
+            return self.point_distance(px, py);
+        }
+        let (dx, dy) = (self.dx, self.dy);
+        let r = (px * dx + py * dy) / self.len2;
+        if r <= 0.0 {
+            return self.point_distance(px, py);
+        }
+        if r >= 1.0 {
+            return self.point_distance((p.x - self.b.x) * s, (p.y - self.b.y) * s);
+        }
+        // (a.y - p.y) dx - (a.x - p.x) dy, as both peers write it.
+        let (ay_py, ax_px) = ((self.a.y - p.y) * s, (self.a.x - p.x) * s);
+        let sn = (ay_py * dx - ax_px * dy) / self.len2;
+        sn.abs() * self.len
+    }
+}
+
+/// Distance from `p` to the chord `a b` in the given metric, in length units (the
+/// GEOS formula for [`Metric::Segment`]), without overflow or underflow.
 pub fn chord_distance(p: &Point2<f64>, a: &Point2<f64>, b: &Point2<f64>, metric: Metric) -> f64 {
-    let chord = Chord::new(*a, *b, metric);
-    chord.distance(chord.key(p))
+    let Ok(extent) = Extent::of(&[*p, *a, *b]) else {
+        return f64::INFINITY; // a span beyond 2^1020: farther than any tolerance
+    };
+    match metric {
+        Metric::Line => LineChord::new(*a, *b, &extent).distance(p),
+        Metric::Segment => {
+            let chord = SegmentChord::new(*a, *b, &extent, SegmentFormula::Geos);
+            chord.key(p) / chord.scale
+        }
+    }
 }

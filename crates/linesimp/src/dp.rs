@@ -144,7 +144,7 @@ pub(crate) fn split_at(
         Metric::Line => {
             let chord = LineChord::new(points[i], points[j], extent);
             let f = find_split_line(points, i, j, &chord, tie);
-            (chord.distance(&points[f]) > epsilon).then_some(f)
+            chord.exceeds(&points[f], epsilon).then_some(f)
         }
         Metric::Segment => {
             let chord = SegmentChord::new(points[i], points[j], extent, tie.segment_formula());

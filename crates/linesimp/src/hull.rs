@@ -192,7 +192,7 @@ pub(crate) fn path_hull_mark(
         } else {
             hull.farthest(points, &chord)
         };
-        if chord.distance(&points[f]) <= epsilon {
+        if !chord.exceeds(&points[f], epsilon) {
             continue;
         }
         debug_assert!(i < f && f < j, "split {f} outside ({i}, {j})");

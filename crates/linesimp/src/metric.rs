@@ -12,7 +12,7 @@ use nalgebra::Point2;
 
 use crate::{LineSimpError, Result};
 pub(crate) use exact::orient;
-use exact::{ETA, U, cross_sign, exponent, ldexp, two_diff};
+use exact::{ETA, U, cross_sign, cross_value, exponent, ldexp, two_diff};
 
 /// How the distance from a point to the chord `v_i v_j` is measured.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -260,17 +260,33 @@ impl LineChord {
         (sp * s).cmp(&0)
     }
 
-    /// The distance from `p` to the chord's line that is compared with epsilon: 0 when
-    /// `p` is exactly on it, else `|key| / |b - a|` (within 3 ulps of the true value).
+    /// The distance from `p` to the chord's line: `|F(p)| / |b - a|` with `F(p)`
+    /// computed exactly and rounded, so within 4 ulps of the true distance, and 0
+    /// exactly when `p` is on the line.
     pub fn distance(&self, p: &Point2<f64>) -> f64 {
         if self.degenerate {
             return scaled_norm(p.x - self.a.x, p.y - self.a.y);
         }
-        let key = self.key(p);
-        if self.sign(p, key) == 0 {
-            return 0.0;
+        let (vx, vy) = (two_diff(p.x, self.a.x), two_diff(p.y, self.a.y));
+        cross_value(&self.ex, &self.ey, &vx, &vy).abs() / self.norm
+    }
+
+    /// Whether `p` is farther than `epsilon`: exactly `distance(p) > epsilon`, decided
+    /// from the floating-point key whenever its error bound allows (the key alone can
+    /// lose every digit to cancellation for a vertex close to a long chord).
+    pub fn exceeds(&self, p: &Point2<f64>, epsilon: f64) -> bool {
+        if !self.degenerate {
+            let fast = self.key(p).abs() / self.norm;
+            // |fast - true| <= tol / norm + 4 U fast; `distance` is within 4 ulps.
+            let err = self.tol / self.norm + 8.0 * U * fast;
+            if fast - err > epsilon * (1.0 + 16.0 * U) {
+                return true;
+            }
+            if fast + err < epsilon * (1.0 - 16.0 * U) {
+                return false;
+            }
         }
-        key.abs() / self.norm
+        self.distance(p) > epsilon
     }
 }
 

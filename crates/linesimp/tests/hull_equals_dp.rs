@@ -3,96 +3,14 @@
 //! full of exact ties: duplicates, collinear runs, lattice walks, closed rings, convex
 //! zig-zags followed by other data, epsilon 0 and epsilon equal to vertex distances.
 //!
-//! The oracle is Douglas-Peucker written here in exact integer arithmetic: inputs are
+//! The oracle (`common::oracle`) is Douglas-Peucker in exact integer arithmetic: inputs are
 //! integers times a power of two, so `(b - a) x (p - a)` is an exact `i128`.
 
+mod common;
+
+use common::{all_line_results, check, to_points};
 use linesimp::{Method, Metric, Simplifier, Tie};
-use nalgebra::Point2;
 use proptest::prelude::*;
-
-/// Exact DP on integer coordinates (line metric). `eps_units` is epsilon in grid
-/// units; `None` means epsilon 0 (keep every vertex off its chord's line).
-fn oracle(xy: &[(i64, i64)], eps_units: Option<f64>, tie: Tie) -> Vec<usize> {
-    let n = xy.len();
-    if n < 3 {
-        return (0..n).collect();
-    }
-    let mut keep = vec![false; n];
-    keep[0] = true;
-    keep[n - 1] = true;
-    let mut stack = vec![(0usize, n - 1)];
-    while let Some((i, j)) = stack.pop() {
-        if j <= i + 1 {
-            continue;
-        }
-        let (a, b) = (xy[i], xy[j]);
-        let (dx, dy) = ((b.0 - a.0) as i128, (b.1 - a.1) as i128);
-        // |F| for a proper chord, squared distance to `a` for a degenerate one.
-        let key = |p: (i64, i64)| -> i128 {
-            let (px, py) = ((p.0 - a.0) as i128, (p.1 - a.1) as i128);
-            if dx == 0 && dy == 0 {
-                px * px + py * py
-            } else {
-                (dx * py - dy * px).abs()
-            }
-        };
-        let mut f = i + 1;
-        for k in i + 2..j {
-            let (kk, kf) = (key(xy[k]), key(xy[f]));
-            if kk > kf || (kk == kf && tie == Tie::Last) {
-                f = k;
-            }
-        }
-        let kf = key(xy[f]);
-        let split = match eps_units {
-            None => kf != 0,
-            Some(e) if dx == 0 && dy == 0 => (kf as f64).sqrt() > e,
-            Some(e) => kf as f64 / ((dx * dx + dy * dy) as f64).sqrt() > e,
-        };
-        if split {
-            keep[f] = true;
-            stack.push((f, j));
-            stack.push((i, f));
-        }
-    }
-    (0..n).filter(|&k| keep[k]).collect()
-}
-
-/// Every configuration that must agree: plain DP, and path hulls with the default
-/// budget, an early hand-over and none at all.
-fn all_line_results(points: &[Point2<f64>], eps: f64, tie: Tie) -> Vec<(&'static str, Vec<usize>)> {
-    let run = |method, budget: Option<usize>| {
-        let mut s = Simplifier::new(method, Metric::Line).with_tie(tie);
-        if let Some(b) = budget {
-            s = s.with_dp_budget(b);
-        }
-        s.indices(points, eps).unwrap()
-    };
-    vec![
-        ("dp", run(Method::Dp, None)),
-        ("hull", run(Method::Hull, None)),
-        ("hull budget 1", run(Method::Hull, Some(1))),
-        ("pure hull", run(Method::Hull, Some(0))),
-    ]
-}
-
-fn to_points(xy: &[(i64, i64)], unit: f64) -> Vec<Point2<f64>> {
-    xy.iter()
-        .map(|&(x, y)| Point2::new(x as f64 * unit, y as f64 * unit))
-        .collect()
-}
-
-/// Checks all configurations against the oracle, for both tie rules.
-fn check(xy: &[(i64, i64)], unit: f64, eps_units: Option<f64>) {
-    let pts = to_points(xy, unit);
-    let eps = eps_units.map_or(0.0, |e| e * unit);
-    for tie in [Tie::First, Tie::Last] {
-        let expected = oracle(xy, eps_units, tie);
-        for (name, got) in all_line_results(&pts, eps, tie) {
-            assert_eq!(got, expected, "{name}, {tie:?}, eps {eps}, n {}", xy.len());
-        }
-    }
-}
 
 fn lattice_walk(steps: &[(i64, i64)]) -> Vec<(i64, i64)> {
     let mut p = (0, 0);
@@ -192,6 +110,53 @@ proptest! {
         let results = all_line_results(&pts, eps, tie);
         for (name, got) in &results[1..] {
             prop_assert_eq!(got, &results[0].1, "{} vs dp at eps {}", name, eps);
+        }
+    }
+}
+
+/// Integers `(s, t)` with `a s + b t = gcd(a, b)`.
+fn egcd(a: i128, b: i128) -> (i128, i128, i128) {
+    if b == 0 {
+        (a, 1, 0)
+    } else {
+        let (g, s, t) = egcd(b, a % b);
+        (g, t, s - (a / b) * t)
+    }
+}
+
+/// Vertices whose exact distances to the chord `(0, 0) -> (d, e)` are `t + delta_k`
+/// over `|(d, e)|`: consecutive distances differ by less than the round-off of a
+/// floating-point key (about 2^-13 of a unit here), so only exact comparison orders them.
+fn near_ties(d: i64, e: i64, t: i64, deltas: &[i64]) -> Vec<(i64, i64)> {
+    let (_, s, r) = egcd(d as i128, e as i128); // d s + e r = 1
+    let mut xy = vec![(0, 0)];
+    for &delta in deltas {
+        let f = (t + delta) as i128; // want d y - e x = f
+        let (x0, y0) = (-r * f, s * f);
+        let k = (-x0).div_euclid(d as i128);
+        let (x, y) = (x0 + k * d as i128, y0 + k * e as i128);
+        xy.push((x as i64, y as i64));
+    }
+    xy.push((d, e));
+    xy
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    #[test]
+    fn near_ties_below_round_off(
+        d in (1i64 << 35)..(1i64 << 40),
+        e in (1i64 << 34)..(1i64 << 39),
+        t in (1i64 << 40)..(1i64 << 41),
+        deltas in prop::collection::vec(-3i64..=3, 1..60),
+        frac in 0.0..1.0f64,
+    ) {
+        prop_assume!(egcd(d as i128, e as i128).0 == 1);
+        let xy = near_ties(d, e, t, &deltas);
+        let len = ((d as f64).powi(2) + (e as f64).powi(2)).sqrt();
+        for eps in [None, Some(frac * t as f64 / len), Some(0.3 + frac)] {
+            check(&xy, 1.0, eps);
         }
     }
 }

@@ -87,13 +87,12 @@ impl Terms {
         }
     }
 
-    /// The sign of the exact sum: -1, 0 or 1.
-    pub(crate) fn sign(&self) -> i8 {
+    /// The exact sum as a non-overlapping expansion, increasing in magnitude, without
+    /// zeros: grow-expansion adds one term at a time with two-sums.
+    fn expansion(&self) -> ([f64; CAP], usize) {
         let mut e = [0.0f64; CAP];
         let mut len = 0;
         for &b in &self.t[..self.len] {
-            // Grow-expansion: add b to the non-overlapping expansion e[..len], keeping
-            // the components in increasing magnitude and dropping zeros.
             let mut q = b;
             let mut k = 0;
             for i in 0..len {
@@ -110,12 +109,23 @@ impl Terms {
             }
             len = k;
         }
-        // The largest component carries the sign of a non-overlapping expansion.
+        (e, len)
+    }
+
+    /// The sign of the exact sum: -1, 0 or 1 (that of the largest component).
+    pub(crate) fn sign(&self) -> i8 {
+        let (e, len) = self.expansion();
         match len {
             0 => 0,
             _ if e[len - 1] > 0.0 => 1,
             _ => -1,
         }
+    }
+
+    /// The exact sum rounded to within an ulp: the components, smallest first.
+    pub(crate) fn estimate(&self) -> f64 {
+        let (e, len) = self.expansion();
+        e[..len].iter().sum()
     }
 }
 
@@ -153,17 +163,19 @@ pub(crate) fn ldexp(mut x: f64, mut k: i32) -> f64 {
     x * pow2(k)
 }
 
-/// Rescales the parts in place by one power of two so that the largest is in [1, 2).
-/// Signs of cross products and comparisons of squared norms do not change.
-pub(crate) fn normalize(parts: &mut [f64]) {
+/// Rescales the parts in place by one power of two, `2^k`, so that the largest is in
+/// [1, 2), and returns `k`. Signs of cross products and comparisons of squared norms
+/// do not change.
+pub(crate) fn normalize(parts: &mut [f64]) -> i32 {
     let m = parts.iter().fold(0.0f64, |m, &v| m.max(v.abs()));
     if m == 0.0 {
-        return;
+        return 0;
     }
     let k = -exponent(m);
     if k != 0 {
         parts.iter_mut().for_each(|v| *v = ldexp(*v, k));
     }
+    k
 }
 
 /// Exact sign of `(w - u) x (p - u)`: positive when `p` is left of `u -> w`.
@@ -188,26 +200,37 @@ pub(crate) fn orient(u: &Point2<f64>, w: &Point2<f64>, p: &Point2<f64>) -> i8 {
 fn orient_exact(u: &Point2<f64>, w: &Point2<f64>, p: &Point2<f64>) -> i8 {
     let mut v = [two_diff(w.x, u.x), two_diff(w.y, u.y)].concat();
     let mut q = [two_diff(p.x, u.x), two_diff(p.y, u.y)].concat();
-    normalize(&mut v);
-    normalize(&mut q);
+    let _ = (normalize(&mut v), normalize(&mut q));
     let mut t = Terms::new();
     t.add_products(&v[..2], &q[2..], 1.0);
     t.add_products(&v[2..], &q[..2], -1.0);
     t.sign()
 }
 
-/// Exact sign of `d x v` for a direction held as pairs `dx = [hi, lo]`, `dy` and a
-/// vector whose components are expansions of equal length (2 or 4 parts).
-pub(crate) fn cross_sign(dx: &[f64; 2], dy: &[f64; 2], vx: &[f64], vy: &[f64]) -> i8 {
+/// The exact `d x v`, for a direction held as pairs `dx = [hi, lo]`, `dy` and a vector
+/// whose components are expansions of equal length (2 or 4 parts), as terms of
+/// `2^k (d x v)`; `v` is rescaled by `2^k` to keep the products clear of underflow.
+fn cross_terms(dx: &[f64; 2], dy: &[f64; 2], vx: &[f64], vy: &[f64]) -> (Terms, i32) {
     let n = vx.len();
     let mut v = [0.0f64; 8];
     v[..n].copy_from_slice(vx);
     v[n..2 * n].copy_from_slice(vy);
-    normalize(&mut v[..2 * n]);
+    let k = normalize(&mut v[..2 * n]);
     let mut t = Terms::new();
     t.add_products(dx, &v[n..2 * n], 1.0);
     t.add_products(dy, &v[..n], -1.0);
-    t.sign()
+    (t, k)
+}
+
+/// Exact sign of `d x v` (see [`cross_terms`]).
+pub(crate) fn cross_sign(dx: &[f64; 2], dy: &[f64; 2], vx: &[f64], vy: &[f64]) -> i8 {
+    cross_terms(dx, dy, vx, vy).0.sign()
+}
+
+/// `d x v` rounded to within an ulp (see [`cross_terms`]).
+pub(crate) fn cross_value(dx: &[f64; 2], dy: &[f64; 2], vx: &[f64], vy: &[f64]) -> f64 {
+    let (t, k) = cross_terms(dx, dy, vx, vy);
+    ldexp(t.estimate(), -k)
 }
 
 /// Exact sign of `|p - a|^2 - |q - a|^2`.
@@ -219,7 +242,7 @@ pub(crate) fn compare_squared_distances(a: &Point2<f64>, p: &Point2<f64>, q: &Po
         two_diff(q.y, a.y),
     ]
     .concat();
-    normalize(&mut v);
+    let _ = normalize(&mut v);
     let mut t = Terms::new();
     for (k, sign) in [(0, 1.0), (2, 1.0), (4, -1.0), (6, -1.0)] {
         let part = [v[k], v[k + 1]];

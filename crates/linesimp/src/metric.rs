@@ -62,8 +62,8 @@ impl Extent {
             return Err(LineSimpError::InvalidParameter {
                 name: "points",
                 reason: format!(
-                    "coordinates span x [{}, {}] and y [{}, {}]; spans above 2^1020 \
-                     (about 1.1e307) are not supported, rescale the points",
+                    "coordinates span x [{:e}, {:e}] and y [{:e}, {:e}]; spans above \
+                     2^1020 (about 1.1e307) are not supported, rescale the points",
                     lo.x, hi.x, lo.y, hi.y
                 ),
             });

@@ -62,18 +62,12 @@ pub(crate) fn find_split_line(
     tie: Tie,
 ) -> usize {
     debug_assert!(j >= i + 2);
-    let (mut best, mut second, mut f) = (f64::NEG_INFINITY, f64::NEG_INFINITY, i + 1);
-    for (k, p) in points.iter().enumerate().take(j).skip(i + 1) {
-        let d = chord.key(p).abs();
-        if d > best {
-            second = best;
-            best = d;
-            f = k;
-        } else if d > second {
-            second = d;
-        }
-    }
     let t = 3.0 * chord.tol();
+    let (f, best, second) = if chord.is_degenerate() {
+        largest_two(points, i, j, t, |p| chord.point_key(p))
+    } else {
+        largest_two(points, i, j, t, |p| chord.line_key(p).abs())
+    };
     if best > second + t {
         return f;
     }
@@ -81,7 +75,7 @@ pub(crate) fn find_split_line(
     let floor = best - t;
     let mut win = f;
     let mut win_key = chord.key(&points[f]);
-    for (k, p) in points.iter().enumerate().take(j).skip(i + 1) {
+    for (k, p) in (i + 1..j).zip(&points[i + 1..j]) {
         let key = chord.key(p);
         if k == win || key.abs() < floor {
             continue;
@@ -93,6 +87,37 @@ pub(crate) fn find_split_line(
         }
     }
     win
+}
+
+/// The index of the largest `key` strictly between `i` and `j` (the first if several),
+/// the largest value, and the largest other value seen within `t` of the running
+/// maximum (anything else is more than `t` below the final maximum). The common case
+/// costs one comparison per vertex, as a plain maximum search does.
+#[inline(always)]
+fn largest_two(
+    points: &[Point2<f64>],
+    i: usize,
+    j: usize,
+    t: f64,
+    key: impl Fn(&Point2<f64>) -> f64,
+) -> (usize, f64, f64) {
+    let (mut best, mut floor, mut second) =
+        (f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
+    let mut f = i + 1;
+    for (k, p) in (i + 1..j).zip(&points[i + 1..j]) {
+        let d = key(p);
+        if d >= floor {
+            if d > best {
+                second = best;
+                best = d;
+                floor = d - t;
+                f = k;
+            } else {
+                second = second.max(d);
+            }
+        }
+    }
+    (f, best, second)
 }
 
 /// FindSplit for the segment metric: the rounded peer distance, compared as the peer
@@ -107,7 +132,7 @@ pub(crate) fn find_split_segment(
 ) -> (usize, f64) {
     debug_assert!(j >= i + 2);
     let mut best = (i + 1, chord.key(&points[i + 1]));
-    let inner = points.iter().enumerate().take(j).skip(i + 2);
+    let inner = (i + 2..j).zip(&points[i + 2..j]);
     match tie {
         Tie::First => {
             for (k, p) in inner {

@@ -35,11 +35,12 @@ pub(crate) struct PathHull {
 
 impl PathHull {
     /// Builds the path hull of `points[i..=j]` with the tag at the middle.
-    pub fn build(&mut self, points: &[Point2<f64>], i: usize, j: usize, tie: Tie) {
+    /// `grid`: see `Extent::grid`.
+    pub fn build(&mut self, points: &[Point2<f64>], i: usize, j: usize, tie: Tie, grid: bool) {
         self.tag = i + (j - i) / 2;
         self.tie = tie;
-        self.left.reset(self.tag - i + 1, tie);
-        self.right.reset(j - self.tag + 1, tie);
+        self.left.reset(self.tag - i + 1, tie, grid);
+        self.right.reset(j - self.tag + 1, tie, grid);
         for k in (i..=self.tag).rev() {
             self.left.insert(points, k as u32);
         }
@@ -183,7 +184,7 @@ pub(crate) fn path_hull_mark(
             continue;
         }
         if fresh {
-            hull.build(points, i, j, tie);
+            hull.build(points, i, j, tie, extent.grid);
         }
         let chord = LineChord::new(points[i], points[j], extent);
         let f = if chord.is_degenerate() {
@@ -220,7 +221,7 @@ pub(crate) fn path_hull_mark(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::metric::orient;
+    use crate::metric::orient_on;
 
     /// Checks the invariants of both halves against brute force over the chain they
     /// hold: strictly convex corners, and records equal to the preferred index among
@@ -232,7 +233,11 @@ mod tests {
         if m >= 3 {
             for s in 0..m {
                 let (a, b, c) = (corners[s], corners[(s + 1) % m], corners[(s + 2) % m]);
-                assert_eq!(orient(p(a), p(b), p(c)), 1, "not strictly convex at {s}");
+                assert_eq!(
+                    orient_on(false, p(a), p(b), p(c)),
+                    1,
+                    "not strictly convex at {s}"
+                );
             }
         }
         let prefer = |v: &[usize]| match tie {
@@ -259,7 +264,7 @@ mod tests {
                         let q = &points[k];
                         q != u
                             && q != w
-                            && orient(u, w, q) == 0
+                            && orient_on(false, u, w, q) == 0
                             && u.x.min(w.x) <= q.x
                             && q.x <= u.x.max(w.x)
                             && u.y.min(w.y) <= q.y
@@ -292,9 +297,9 @@ mod tests {
     fn halves_keep_their_invariants_through_inserts_and_undos() {
         for seed in 0..200u64 {
             let pts = lattice(40, seed);
-            for tie in [Tie::First, Tie::Last] {
+            for (tie, grid) in [(Tie::First, false), (Tie::Last, false), (Tie::First, true)] {
                 let mut hull = PathHull::default();
-                hull.build(&pts, 0, pts.len() - 1, tie);
+                hull.build(&pts, 0, pts.len() - 1, tie, grid);
                 let tag = hull.tag();
                 let (l, r) = hull.halves();
                 check_half(&pts, l, &(0..=tag).collect::<Vec<_>>(), tie);

@@ -45,6 +45,11 @@ pub(crate) struct Extent {
     y: f64,
     /// Binary exponent of the larger span (0 for a single repeated point).
     exp: i32,
+    /// Every coordinate is a multiple of one power of two `2^g` and the spans are below
+    /// `2^(g + 26)`: then coordinate differences, their products and the cross products
+    /// of two such differences are all exact in floating point (at most 53 bits), so
+    /// orientation tests and key comparisons need no error bound (integer data).
+    pub grid: bool,
 }
 
 impl Extent {
@@ -70,7 +75,35 @@ impl Extent {
         }
         let m = x.max(y);
         let exp = if m > 0.0 { exponent(m) } else { 0 };
-        Ok(Self { x, y, exp })
+        let grid = m > 0.0 && on_grid(points, exp - 25);
+        Ok(Self { x, y, exp, grid })
+    }
+}
+
+/// Whether every coordinate is an integer multiple of `2^g` (conservatively false for
+/// multiples beyond 2^62, and for `g` so extreme that a product of two differences,
+/// a multiple of `2^2g` below `2^(2g + 52)`, could underflow or overflow).
+fn on_grid(points: &[Point2<f64>], g: i32) -> bool {
+    if !(-520..=480).contains(&g) {
+        return false;
+    }
+    let s = ldexp(1.0, -g);
+    let whole = |v: f64| {
+        let t = v * s;
+        t.abs() < 4.6e18 && (t as i64) as f64 == t
+    };
+    points.iter().all(|p| whole(p.x) && whole(p.y))
+}
+
+/// Exact sign of `(w - u) x (p - u)`; on a grid (see [`Extent::grid`]) the
+/// floating-point determinant is exact and is used as it is.
+#[inline(always)]
+pub(crate) fn orient_on(grid: bool, u: &Point2<f64>, w: &Point2<f64>, p: &Point2<f64>) -> i8 {
+    if grid {
+        let det = (w.x - u.x) * (p.y - u.y) - (w.y - u.y) * (p.x - u.x);
+        (det > 0.0) as i8 - (det < 0.0) as i8
+    } else {
+        orient(u, w, p)
     }
 }
 
@@ -119,6 +152,8 @@ pub(crate) struct LineChord {
     /// For `a == b`: the power of two that brings the extent to [1, 2).
     point_scale: f64,
     degenerate: bool,
+    /// Keys are exact (grid data): equal keys are equal distances.
+    exact: bool,
 }
 
 impl LineChord {
@@ -138,6 +173,7 @@ impl LineChord {
                 tol: 8.0 * U * (sx * sx + sy * sy) + 8.0 * ETA,
                 point_scale,
                 degenerate: true,
+                exact: false,
             };
         }
         let k = -exponent(m);
@@ -146,7 +182,10 @@ impl LineChord {
         let (dx, dy) = (ex[0], ey[0]);
         // fl(b - a), fl(p - a), two products and a difference: at most 4 roundings of
         // relative size U on |dx| |p.y - a.y| + |dy| |p.x - a.x|, plus underflow.
-        let tol = 8.0 * U * (dx.abs() * extent.y + dy.abs() * extent.x) + 8.0 * ETA;
+        let tol = match extent.grid {
+            true => 0.0,
+            false => 8.0 * U * (dx.abs() * extent.y + dy.abs() * extent.x) + 8.0 * ETA,
+        };
         Self {
             a,
             dx,
@@ -157,6 +196,7 @@ impl LineChord {
             tol,
             point_scale,
             degenerate: false,
+            exact: extent.grid,
         }
     }
 
@@ -170,14 +210,26 @@ impl LineChord {
     #[inline(always)]
     pub fn key(&self, p: &Point2<f64>) -> f64 {
         if self.degenerate {
-            let (x, y) = (
-                (p.x - self.a.x) * self.point_scale,
-                (p.y - self.a.y) * self.point_scale,
-            );
-            x * x + y * y
+            self.point_key(p)
         } else {
-            self.dx * (p.y - self.a.y) - self.dy * (p.x - self.a.x)
+            self.line_key(p)
         }
+    }
+
+    /// [`Self::key`] of a proper chord.
+    #[inline(always)]
+    pub fn line_key(&self, p: &Point2<f64>) -> f64 {
+        self.dx * (p.y - self.a.y) - self.dy * (p.x - self.a.x)
+    }
+
+    /// [`Self::key`] of a degenerate chord.
+    #[inline(always)]
+    pub fn point_key(&self, p: &Point2<f64>) -> f64 {
+        let (x, y) = (
+            (p.x - self.a.x) * self.point_scale,
+            (p.y - self.a.y) * self.point_scale,
+        );
+        x * x + y * y
     }
 
     /// The round-off bound of [`Self::key`] (keys closer than `3 * tol` are compared
@@ -192,8 +244,8 @@ impl LineChord {
         if self.degenerate {
             return i8::from(*p != self.a);
         }
-        if key.abs() > self.tol {
-            return if key > 0.0 { 1 } else { -1 };
+        if key.abs() > self.tol || self.exact {
+            return (key > 0.0) as i8 - (key < 0.0) as i8;
         }
         let (vx, vy) = (two_diff(p.x, self.a.x), two_diff(p.y, self.a.y));
         cross_sign(&self.ex, &self.ey, &vx, &vy)
@@ -214,6 +266,9 @@ impl LineChord {
         }
         if kq > kp + t {
             return Less;
+        }
+        if self.exact {
+            return Equal;
         }
         let (vx, vy) = (two_diff(p.x, q.x), two_diff(p.y, q.y));
         cross_sign(&self.ex, &self.ey, &vx, &vy).cmp(&0)
@@ -236,6 +291,9 @@ impl LineChord {
         if aq > ap + t {
             return Less;
         }
+        if self.exact {
+            return Equal;
+        }
         if self.degenerate {
             return exact::compare_squared_distances(&self.a, p, q).cmp(&0);
         }
@@ -253,8 +311,12 @@ impl LineChord {
             cross_sign(&self.ex, &self.ey, &vx, &vy)
         } else {
             let a = &self.a;
-            let vx = [two_diff(p.x, a.x), two_diff(q.x, a.x)].concat();
-            let vy = [two_diff(p.y, a.y), two_diff(q.y, a.y)].concat();
+            let ([px, qx], [py, qy]) = (
+                [two_diff(p.x, a.x), two_diff(q.x, a.x)],
+                [two_diff(p.y, a.y), two_diff(q.y, a.y)],
+            );
+            let vx = [px[0], px[1], qx[0], qx[1]];
+            let vy = [py[0], py[1], qy[0], qy[1]];
             cross_sign(&self.ex, &self.ey, &vx, &vy)
         };
         (sp * s).cmp(&0)

@@ -24,7 +24,7 @@ use std::cmp::Ordering;
 use nalgebra::Point2;
 
 use crate::dp::Tie;
-use crate::metric::{LineChord, orient};
+use crate::metric::{LineChord, orient_on};
 
 /// No vertex recorded.
 pub(super) const NONE: u32 = u32::MAX;
@@ -91,20 +91,20 @@ fn within(u: &Point2<f64>, w: &Point2<f64>, p: &Point2<f64>) -> bool {
 
 /// Locates `q` against the polygon `w` (m >= 3 corners, counter-clockwise) when `q`
 /// is strictly inside the angle at `w[0]`: binary search over the fan of triangles.
-fn locate_in_wedge(points: &[Point2<f64>], w: &[u32], q: &Point2<f64>) -> Loc {
+fn locate_in_wedge(grid: bool, points: &[Point2<f64>], w: &[u32], q: &Point2<f64>) -> Loc {
     let w0 = pt(points, w[0]);
     // Invariant: orient(w0, w[lo], q) >= 0 > orient(w0, w[hi], q).
     let (mut lo, mut hi) = (1, w.len() - 1);
     while hi - lo > 1 {
         let mid = (lo + hi) / 2;
-        if orient(w0, pt(points, w[mid]), q) >= 0 {
+        if orient_on(grid, w0, pt(points, w[mid]), q) >= 0 {
             lo = mid;
         } else {
             hi = mid;
         }
     }
     let (u, v) = (pt(points, w[lo]), pt(points, w[lo + 1]));
-    match orient(u, v, q) {
+    match orient_on(grid, u, v, q) {
         1 => Loc::Inside,
         -1 => Loc::Outside,
         _ if q == u => Loc::Corner(lo),
@@ -114,13 +114,13 @@ fn locate_in_wedge(points: &[Point2<f64>], w: &[u32], q: &Point2<f64>) -> Loc {
 }
 
 /// Locates `q` against the polygon `w` (m >= 3 corners, counter-clockwise).
-fn locate(points: &[Point2<f64>], w: &[u32], q: &Point2<f64>) -> Loc {
+fn locate(grid: bool, points: &[Point2<f64>], w: &[u32], q: &Point2<f64>) -> Loc {
     let m = w.len();
     let (w0, w1, wl) = (pt(points, w[0]), pt(points, w[1]), pt(points, w[m - 1]));
     if q == w0 {
         return Loc::Corner(0);
     }
-    let (o1, o2) = (orient(w0, w1, q), orient(wl, w0, q));
+    let (o1, o2) = (orient_on(grid, w0, w1, q), orient_on(grid, wl, w0, q));
     if o1 < 0 || o2 < 0 {
         return Loc::Outside;
     }
@@ -138,12 +138,12 @@ fn locate(points: &[Point2<f64>], w: &[u32], q: &Point2<f64>) -> Loc {
             true => Loc::Edge(m - 1),
         };
     }
-    locate_in_wedge(points, w, q)
+    locate_in_wedge(grid, points, w, q)
 }
 
 /// Andrew's monotone chain on vertices sorted by (x, y) without duplicate coordinates:
 /// the strictly convex hull, counter-clockwise from the lowest-leftmost vertex.
-fn monotone_chain(points: &[Point2<f64>], sorted: &[u32], out: &mut Vec<u32>) {
+fn monotone_chain(grid: bool, points: &[Point2<f64>], sorted: &[u32], out: &mut Vec<u32>) {
     out.clear();
     if sorted.len() <= 2 {
         out.extend_from_slice(sorted);
@@ -151,7 +151,8 @@ fn monotone_chain(points: &[Point2<f64>], sorted: &[u32], out: &mut Vec<u32>) {
     }
     let turns_left = |out: &[u32], c: u32| {
         let n = out.len();
-        orient(
+        orient_on(
+            grid,
             pt(points, out[n - 2]),
             pt(points, out[n - 1]),
             pt(points, c),
@@ -211,15 +212,19 @@ pub(super) struct HalfHull {
     bot: usize,
     top: usize,
     tie: Tie,
+    /// Grid data: floating-point orientation tests are exact (see `Extent::grid`).
+    grid: bool,
     log: Vec<Op>,
     saved: Vec<u32>,
     cand: Vec<u32>,
     chain: Vec<u32>,
+    records: Vec<u32>,
+    sorted: Vec<u32>,
 }
 
 impl HalfHull {
     /// Empties the hull, sizing the deque for up to `n` insertions.
-    pub fn reset(&mut self, n: usize, tie: Tie) {
+    pub fn reset(&mut self, n: usize, tie: Tie, grid: bool) {
         // Every insertion moves bot down by at most one and top up by at most one
         // (two for the very first), so `n + 2` slots each way suffice.
         if self.elt.len() < 2 * n + 4 {
@@ -229,6 +234,7 @@ impl HalfHull {
         self.bot = n + 2;
         self.top = n + 1;
         self.tie = tie;
+        self.grid = grid;
         self.log.clear();
         self.saved.clear();
     }
@@ -251,6 +257,7 @@ impl HalfHull {
 
     /// Adds chain vertex `k` (vertices come in chain order from the tag outward).
     pub fn insert(&mut self, points: &[Point2<f64>], k: u32) {
+        let grid = self.grid;
         let m = self.corners();
         if m < 3 {
             self.insert_small(points, k, m);
@@ -258,12 +265,22 @@ impl HalfHull {
         }
         let p = pt(points, k);
         let (bot, top) = (self.bot, self.top);
-        let o_top = orient(pt(points, self.elt[top - 1]), pt(points, self.elt[top]), p);
-        let o_bot = orient(pt(points, self.elt[bot]), pt(points, self.elt[bot + 1]), p);
+        let o_top = orient_on(
+            grid,
+            pt(points, self.elt[top - 1]),
+            pt(points, self.elt[top]),
+            p,
+        );
+        let o_bot = orient_on(
+            grid,
+            pt(points, self.elt[bot]),
+            pt(points, self.elt[bot + 1]),
+            p,
+        );
         if o_top > 0 && o_bot > 0 {
             // Inside the angle at the end corner: inside, on the boundary, or (only
             // for a chain that crosses itself) outside away from the ends.
-            match locate_in_wedge(points, &self.elt[bot..top], p) {
+            match locate_in_wedge(grid, points, &self.elt[bot..top], p) {
                 Loc::Inside => self.log.push(Op::Nothing),
                 Loc::Corner(s) => self.record_corner(bot + s, k),
                 Loc::Edge(s) => self.record_edge(bot + s, k),
@@ -288,6 +305,7 @@ impl HalfHull {
 
     /// Insertion while the hull is empty, a point or a segment.
     fn insert_small(&mut self, points: &[Point2<f64>], k: u32, m: usize) {
+        let grid = self.grid;
         let p = pt(points, k);
         let bot = self.bot;
         if m >= 1 && p == pt(points, self.elt[bot]) {
@@ -295,7 +313,7 @@ impl HalfHull {
         }
         if m == 2 {
             let (u, w) = (pt(points, self.elt[bot]), pt(points, self.elt[bot + 1]));
-            if orient(u, w, p) == 0 && within(u, w, p) {
+            if orient_on(grid, u, w, p) == 0 && within(u, w, p) {
                 return match p == w {
                     true => self.record_corner(bot + 1, k),
                     false => self.record_edge(bot, k),
@@ -357,20 +375,36 @@ impl HalfHull {
     /// Melkman's step for a vertex strictly outside: pop the corners that `p` sees
     /// from both ends, push `p` on both. The first pop tests are `o_top`, `o_bot`.
     fn push(&mut self, points: &[Point2<f64>], k: u32, o_top: i8, o_bot: i8) {
+        let grid = self.grid;
         let p = pt(points, k);
         let (bot0, top0) = (self.bot, self.top);
         let (mut bot, mut top) = (bot0, top0);
+        // The test that removed the last corner on each side (see `absorbed`).
+        let (mut last_top, mut last_bot) = (1, 1);
         let mut o = o_top;
         while top > bot + 1 && o <= 0 {
+            last_top = o;
             top -= 1;
-            o = orient(pt(points, self.elt[top - 1]), pt(points, self.elt[top]), p);
+            o = orient_on(
+                grid,
+                pt(points, self.elt[top - 1]),
+                pt(points, self.elt[top]),
+                p,
+            );
         }
         let mut o = o_bot;
         while top > bot + 1 && o <= 0 {
+            last_bot = o;
             bot += 1;
-            o = orient(pt(points, self.elt[bot]), pt(points, self.elt[bot + 1]), p);
+            o = orient_on(
+                grid,
+                pt(points, self.elt[bot]),
+                pt(points, self.elt[bot + 1]),
+                p,
+            );
         }
-        let (agg_top, agg_bot) = self.absorbed(points, p, (bot0, top0), (bot, top));
+        let tests = [o_top, last_top, o_bot, last_bot];
+        let (agg_top, agg_bot) = self.absorbed((bot0, top0), (bot, top), tests);
         let saved = [
             self.elt[top + 1],
             self.edge[top],
@@ -396,40 +430,34 @@ impl HalfHull {
     /// A removed corner lies on a new edge only if it is adjacent to `T` (on `T p`) or
     /// to `B` (on `p B`): a corner further along would put its predecessor outside the
     /// new hull. Likewise only the edges `T x1` and `xr B` can stay on the boundary.
+    /// Whether `x1` is on `T p` is whether `orient(T, x1, p)` was 0, a test the pops
+    /// already made: `tests` holds the first and last pop tests on the top side, then
+    /// on the bottom side.
     fn absorbed(
         &self,
-        points: &[Point2<f64>],
-        p: &Point2<f64>,
         (bot0, top0): (usize, usize),
         (bot, top): (usize, usize),
+        [first_top, last_top, first_bot, last_bot]: [i8; 4],
     ) -> (u32, u32) {
         let (ntop, nbot) = (top0 - top, bot - bot0);
-        // First removed corner after T and the edge to it; last before B and its edge.
+        // (corner, edge to it from T or from it to B, pop test that decided it)
         let first = match (ntop, nbot) {
             (0, 0) => None,
-            (0, _) => (bot > bot0 + 1).then_some((bot0 + 1, bot0)),
-            (_, 0) => (top + 1 < top0).then_some((top + 1, top)),
-            _ => Some((top + 1, top)),
+            (0, _) => (bot > bot0 + 1).then_some((bot0 + 1, bot0, first_bot)),
+            (_, 0) => (top + 1 < top0).then_some((top + 1, top, last_top)),
+            _ => Some((top + 1, top, last_top)),
         };
         let last = match (ntop, nbot) {
             (0, 0) => None,
-            (_, 0) => (top + 1 < top0).then_some((top0 - 1, top0 - 1)),
-            (0, _) => (bot > bot0 + 1).then_some((bot - 1, bot - 1)),
-            _ => Some((bot - 1, bot - 1)),
+            (_, 0) => (top + 1 < top0).then_some((top0 - 1, top0 - 1, first_top)),
+            (0, _) => (bot > bot0 + 1).then_some((bot - 1, bot - 1, last_bot)),
+            _ => Some((bot - 1, bot - 1, last_bot)),
         };
-        let (t, b) = (pt(points, self.elt[top]), pt(points, self.elt[bot]));
-        let (mut agg_top, mut agg_bot) = (NONE, NONE);
-        if let Some((x, e)) = first {
-            if orient(t, p, pt(points, self.elt[x])) == 0 {
-                agg_top = self.prefer(self.elt[x], self.edge[e]);
-            }
-        }
-        if let Some((x, e)) = last {
-            if orient(p, b, pt(points, self.elt[x])) == 0 {
-                agg_bot = self.prefer(self.elt[x], self.edge[e]);
-            }
-        }
-        (agg_top, agg_bot)
+        let record = |c: Option<(usize, usize, i8)>| match c {
+            Some((x, e, 0)) => self.prefer(self.elt[x], self.edge[e]),
+            _ => NONE,
+        };
+        (record(first), record(last))
     }
 
     /// Recomputes the hull from its corners, its records and `k` (slow path: degenerate
@@ -459,7 +487,7 @@ impl HalfHull {
         });
         cand.dedup_by(|b, a| pt(points, *a) == pt(points, *b));
         let mut chain = std::mem::take(&mut self.chain);
-        monotone_chain(points, &cand, &mut chain);
+        monotone_chain(self.grid, points, &cand, &mut chain);
         let Some(at) = chain.iter().position(|&v| v == k) else {
             debug_assert!(false, "a vertex outside the hull must be a corner");
             self.log.push(Op::Nothing);
@@ -467,27 +495,47 @@ impl HalfHull {
             return;
         };
         chain.rotate_left(at);
-        let records = Self::edge_records(points, &chain, &cand, |a, b| self.prefer(a, b));
+        let mut records = std::mem::take(&mut self.records);
+        let mut sorted = std::mem::take(&mut self.sorted);
+        let grid = self.grid;
+        Self::edge_records(
+            grid,
+            points,
+            &chain,
+            &cand,
+            &mut sorted,
+            &mut records,
+            |a, b| self.prefer(a, b),
+        );
         self.replace(&chain, &records, k);
-        (self.cand, self.chain) = (cand, chain);
+        (self.cand, self.chain, self.records, self.sorted) = (cand, chain, records, sorted);
     }
 
-    /// The collinear record of each edge of the new hull `chain`, from candidates.
-    /// Candidates that are corners locate as corners and are skipped.
+    /// The collinear record of each edge of the new hull `chain`, from candidates
+    /// (corners, found by index in `sorted`, are skipped).
     fn edge_records(
+        grid: bool,
         points: &[Point2<f64>],
         chain: &[u32],
         cand: &[u32],
+        sorted: &mut Vec<u32>,
+        records: &mut Vec<u32>,
         prefer: impl Fn(u32, u32) -> u32,
-    ) -> Vec<u32> {
+    ) {
         let m = chain.len();
-        let mut records = vec![NONE; m];
+        records.clear();
+        records.resize(m, NONE);
+        sorted.clear();
+        sorted.extend_from_slice(chain);
+        sorted.sort_unstable();
         for &c in cand {
+            if sorted.binary_search(&c).is_ok() {
+                continue;
+            }
             let slot = match m {
                 0 | 1 => None,
-                // Collinear: every candidate lies on the segment.
-                2 => (c != chain[0] && c != chain[1]).then_some(0),
-                _ => match locate(points, chain, pt(points, c)) {
+                2 => Some(0), // collinear: every candidate lies on the segment
+                _ => match locate(grid, points, chain, pt(points, c)) {
                     Loc::Edge(s) => Some(s),
                     _ => None,
                 },
@@ -499,7 +547,6 @@ impl HalfHull {
         if m == 2 {
             records[1] = records[0];
         }
-        records
     }
 
     /// Writes a new deque `chain` (starting at `k`) with its edge records, logging what
@@ -569,7 +616,20 @@ impl HalfHull {
             return None;
         }
         let w = &self.elt[self.bot..=self.top];
-        let key = |s: usize| chord.key(pt(points, w[s]));
+        // Keys of small hulls are computed once; large hulls are binary searched.
+        let mut small = [0.0f64; LINEAR_SCAN_MAX];
+        if m <= LINEAR_SCAN_MAX {
+            for (s, k) in small.iter_mut().enumerate().take(m) {
+                *k = chord.line_key(pt(points, w[s]));
+            }
+        }
+        let key = |s: usize| {
+            if m <= LINEAR_SCAN_MAX {
+                small[s]
+            } else {
+                chord.line_key(pt(points, w[s]))
+            }
+        };
         let cmp = |a: usize, b: usize| {
             let o = chord.cmp_signed(pt(points, w[a]), key(a), pt(points, w[b]), key(b));
             if sign > 0 { o } else { o.reverse() }

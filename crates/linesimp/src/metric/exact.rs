@@ -61,13 +61,14 @@ fn two_prod(a: f64, b: f64) -> (f64, f64) {
     (p, e)
 }
 
-/// A bounded list of terms whose exact sum's sign is wanted.
+/// A bounded list of non-zero terms whose exact sum is wanted.
 pub(crate) struct Terms {
     t: [f64; CAP],
     len: usize,
 }
 
 impl Terms {
+    #[inline]
     pub(crate) fn new() -> Self {
         Self {
             t: [0.0; CAP],
@@ -75,22 +76,30 @@ impl Terms {
         }
     }
 
-    /// Adds `sign * x * y` for every pair of parts of the expansions `x` and `y`.
+    #[inline(always)]
+    fn push(&mut self, x: f64) {
+        if x != 0.0 {
+            self.t[self.len] = x;
+            self.len += 1;
+        }
+    }
+
+    /// Adds `sign * x * y` for every pair of non-zero parts of the expansions `x`, `y`
+    /// (exact differences of doubles often have a zero low part).
+    #[inline]
     pub(crate) fn add_products(&mut self, x: &[f64], y: &[f64], sign: f64) {
-        for &a in x {
-            for &b in y {
+        for &a in x.iter().filter(|a| **a != 0.0) {
+            for &b in y.iter().filter(|b| **b != 0.0) {
                 let (p, e) = two_prod(a, b);
-                self.t[self.len] = sign * p;
-                self.t[self.len + 1] = sign * e;
-                self.len += 2;
+                self.push(sign * p);
+                self.push(sign * e);
             }
         }
     }
 
-    /// The exact sum as a non-overlapping expansion, increasing in magnitude, without
-    /// zeros: grow-expansion adds one term at a time with two-sums.
-    fn expansion(&self) -> ([f64; CAP], usize) {
-        let mut e = [0.0f64; CAP];
+    /// Grow-expansion with zero elimination: writes the exact sum into `e` as a
+    /// non-overlapping expansion in increasing magnitude and returns its length.
+    fn expansion(&self, e: &mut [f64; CAP]) -> usize {
         let mut len = 0;
         for &b in &self.t[..self.len] {
             let mut q = b;
@@ -109,22 +118,27 @@ impl Terms {
             }
             len = k;
         }
-        (e, len)
+        len
     }
 
     /// The sign of the exact sum: -1, 0 or 1 (that of the largest component).
     pub(crate) fn sign(&self) -> i8 {
-        let (e, len) = self.expansion();
-        match len {
-            0 => 0,
-            _ if e[len - 1] > 0.0 => 1,
-            _ => -1,
-        }
+        let top = match self.len {
+            0 => 0.0,
+            1 => self.t[0],
+            _ => {
+                let mut e = [0.0f64; CAP];
+                let len = self.expansion(&mut e);
+                if len == 0 { 0.0 } else { e[len - 1] }
+            }
+        };
+        (top > 0.0) as i8 - (top < 0.0) as i8
     }
 
     /// The exact sum rounded to within an ulp: the components, smallest first.
     pub(crate) fn estimate(&self) -> f64 {
-        let (e, len) = self.expansion();
+        let mut e = [0.0f64; CAP];
+        let len = self.expansion(&mut e);
         e[..len].iter().sum()
     }
 }
@@ -164,19 +178,22 @@ pub(crate) fn ldexp(mut x: f64, mut k: i32) -> f64 {
 }
 
 /// Rescales the parts in place by one power of two, `2^k`, so that the largest is in
-/// [1, 2), and returns `k`. Signs of cross products and comparisons of squared norms
-/// do not change.
+/// [1, 2), and returns `k`; parts already between 2^-300 and 2^300 are left alone.
+/// Either way no product of two parts underflows, and signs of cross products and
+/// comparisons of squared norms do not change.
+#[inline]
 pub(crate) fn normalize(parts: &mut [f64]) -> i32 {
     let m = parts.iter().fold(0.0f64, |m, &v| m.max(v.abs()));
-    if m == 0.0 {
+    if m == 0.0 || (SAFE_LO..=SAFE_HI).contains(&m) {
         return 0;
     }
     let k = -exponent(m);
-    if k != 0 {
-        parts.iter_mut().for_each(|v| *v = ldexp(*v, k));
-    }
+    parts.iter_mut().for_each(|v| *v = ldexp(*v, k));
     k
 }
+
+const SAFE_LO: f64 = f64::from_bits((1023 - 300) << 52); // 2^-300
+const SAFE_HI: f64 = f64::from_bits((1023 + 300) << 52); // 2^300
 
 /// Exact sign of `(w - u) x (p - u)`: positive when `p` is left of `u -> w`.
 /// A floating-point evaluation with Shewchuk's error bound decides almost always.
@@ -198,8 +215,18 @@ pub(crate) fn orient(u: &Point2<f64>, w: &Point2<f64>, p: &Point2<f64>) -> i8 {
 
 #[cold]
 fn orient_exact(u: &Point2<f64>, w: &Point2<f64>, p: &Point2<f64>) -> i8 {
-    let mut v = [two_diff(w.x, u.x), two_diff(w.y, u.y)].concat();
-    let mut q = [two_diff(p.x, u.x), two_diff(p.y, u.y)].concat();
+    if let Some(s) = exact_products_sign(
+        [two_diff(w.x, u.x), two_diff(p.y, u.y)],
+        [two_diff(w.y, u.y), two_diff(p.x, u.x)],
+    ) {
+        return s;
+    }
+    let ([vx, vy], [qx, qy]) = (
+        [two_diff(w.x, u.x), two_diff(w.y, u.y)],
+        [two_diff(p.x, u.x), two_diff(p.y, u.y)],
+    );
+    let mut v = [vx[0], vx[1], vy[0], vy[1]];
+    let mut q = [qx[0], qx[1], qy[0], qy[1]];
     let _ = (normalize(&mut v), normalize(&mut q));
     let mut t = Terms::new();
     t.add_products(&v[..2], &q[2..], 1.0);
@@ -207,41 +234,72 @@ fn orient_exact(u: &Point2<f64>, w: &Point2<f64>, p: &Point2<f64>) -> i8 {
     t.sign()
 }
 
-/// The exact `d x v`, for a direction held as pairs `dx = [hi, lo]`, `dy` and a vector
-/// whose components are expansions of equal length (2 or 4 parts), as terms of
-/// `2^k (d x v)`; `v` is rescaled by `2^k` to keep the products clear of underflow.
-fn cross_terms(dx: &[f64; 2], dy: &[f64; 2], vx: &[f64], vy: &[f64]) -> (Terms, i32) {
+/// Sign of `a0 a1 - b0 b1` for pairs held as `[hi, lo]`, when the cheap route is
+/// exact: every low part is zero (the differences were exact, as for data on a grid)
+/// and both products are exact in floating point (their Dekker error is zero and no
+/// factor is small enough to underflow). `None` sends the caller to full expansions.
+#[inline]
+fn exact_products_sign(a: [[f64; 2]; 2], b: [[f64; 2]; 2]) -> Option<i8> {
+    let lows = a[0][1] == 0.0 && a[1][1] == 0.0 && b[0][1] == 0.0 && b[1][1] == 0.0;
+    let in_range = |x: f64| x == 0.0 || (SAFE_LO..=SAFE_HI).contains(&x.abs());
+    let his = [a[0][0], a[1][0], b[0][0], b[1][0]];
+    if !lows || !his.iter().all(|&x| in_range(x)) {
+        return None;
+    }
+    let (l, le) = two_prod(a[0][0], a[1][0]);
+    let (r, re) = two_prod(b[0][0], b[1][0]);
+    // Both products exact: l - r rounds to a value of the exact sign.
+    (le == 0.0 && re == 0.0).then(|| {
+        let d = l - r;
+        (d > 0.0) as i8 - (d < 0.0) as i8
+    })
+}
+
+/// Adds the exact `d x v` to `t`, for a direction held as pairs `dx = [hi, lo]`, `dy`
+/// and a vector whose components are expansions of equal length (2 or 4 parts),
+/// rescaled by `2^k` (returned) to keep the products clear of underflow.
+#[inline]
+fn cross_terms(dx: &[f64; 2], dy: &[f64; 2], vx: &[f64], vy: &[f64], t: &mut Terms) -> i32 {
     let n = vx.len();
     let mut v = [0.0f64; 8];
     v[..n].copy_from_slice(vx);
     v[n..2 * n].copy_from_slice(vy);
     let k = normalize(&mut v[..2 * n]);
-    let mut t = Terms::new();
     t.add_products(dx, &v[n..2 * n], 1.0);
     t.add_products(dy, &v[..n], -1.0);
-    (t, k)
+    k
 }
 
 /// Exact sign of `d x v` (see [`cross_terms`]).
 pub(crate) fn cross_sign(dx: &[f64; 2], dy: &[f64; 2], vx: &[f64], vy: &[f64]) -> i8 {
-    cross_terms(dx, dy, vx, vy).0.sign()
+    if vx.len() == 2 {
+        if let Some(s) = exact_products_sign([*dx, [vy[0], vy[1]]], [*dy, [vx[0], vx[1]]]) {
+            return s;
+        }
+    }
+    let mut t = Terms::new();
+    cross_terms(dx, dy, vx, vy, &mut t);
+    t.sign()
 }
 
 /// `d x v` rounded to within an ulp (see [`cross_terms`]).
 pub(crate) fn cross_value(dx: &[f64; 2], dy: &[f64; 2], vx: &[f64], vy: &[f64]) -> f64 {
-    let (t, k) = cross_terms(dx, dy, vx, vy);
+    let mut t = Terms::new();
+    let k = cross_terms(dx, dy, vx, vy, &mut t);
     ldexp(t.estimate(), -k)
 }
 
 /// Exact sign of `|p - a|^2 - |q - a|^2`.
 pub(crate) fn compare_squared_distances(a: &Point2<f64>, p: &Point2<f64>, q: &Point2<f64>) -> i8 {
-    let mut v = [
+    let d = [
         two_diff(p.x, a.x),
         two_diff(p.y, a.y),
         two_diff(q.x, a.x),
         two_diff(q.y, a.y),
-    ]
-    .concat();
+    ];
+    let mut v = [
+        d[0][0], d[0][1], d[1][0], d[1][1], d[2][0], d[2][1], d[3][0], d[3][1],
+    ];
     let _ = normalize(&mut v);
     let mut t = Terms::new();
     for (k, sign) in [(0, 1.0), (2, 1.0), (4, -1.0), (6, -1.0)] {

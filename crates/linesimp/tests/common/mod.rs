@@ -83,8 +83,29 @@ pub fn to_points(xy: &[(i64, i64)], unit: f64) -> Vec<Point2<f64>> {
         .collect()
 }
 
-/// Checks all configurations against the oracle, for both tie rules.
+/// Checks all configurations against the oracle, for both tie rules; then again with
+/// one vertex off the grid appended (when coordinates allow), so that the same exact
+/// ties go through the filtered floating-point path and the exact expansions instead
+/// of the shortcut for grid data.
 pub fn check(xy: &[(i64, i64)], unit: f64, eps_units: Option<f64>) {
+    check_once(xy, unit, eps_units);
+    // Refine the grid by 2^shift, keeping every coordinate below 2^50 (exact in f64).
+    let max = xy
+        .iter()
+        .map(|&(x, y)| x.abs().max(y.abs()))
+        .max()
+        .unwrap_or(0);
+    let shift = 50 - (64 - max.leading_zeros() as i32);
+    if !xy.is_empty() && shift >= 8 {
+        let mut off: Vec<(i64, i64)> = xy.iter().map(|&(x, y)| (x << shift, y << shift)).collect();
+        let last = off[off.len() - 1];
+        off.push((last.0 + 1, last.1 + 3));
+        let fine = 2f64.powi(shift);
+        check_once(&off, unit / fine, eps_units.map(|e| e * fine));
+    }
+}
+
+fn check_once(xy: &[(i64, i64)], unit: f64, eps_units: Option<f64>) {
     let pts = to_points(xy, unit);
     let eps = eps_units.map_or(0.0, |e| e * unit);
     for tie in [Tie::First, Tie::Last] {

@@ -236,6 +236,8 @@ impl HalfHull {
         self.tie = tie;
         self.grid = grid;
         self.log.clear();
+        // One entry per insertion: reserve it all now rather than double on the way.
+        self.log.reserve(n);
         self.saved.clear();
     }
 

@@ -64,9 +64,9 @@ pub(crate) fn find_split_line(
     debug_assert!(j >= i + 2);
     let t = 3.0 * chord.tol();
     let (f, best, second) = if chord.is_degenerate() {
-        largest_two(points, i, j, t, |p| chord.point_key(p))
+        largest_two(points, i, j, |p| chord.point_key(p))
     } else {
-        largest_two(points, i, j, t, |p| chord.line_key(p).abs())
+        largest_two(points, i, j, |p| chord.line_key(p).abs())
     };
     if best > second + t {
         return f;
@@ -90,31 +90,23 @@ pub(crate) fn find_split_line(
 }
 
 /// The index of the largest `key` strictly between `i` and `j` (the first if several),
-/// the largest value, and the largest other value seen within `t` of the running
-/// maximum (anything else is more than `t` below the final maximum). The common case
-/// costs one comparison per vertex, as a plain maximum search does.
+/// the largest value and the runner-up (the largest of the others).
 #[inline(always)]
 fn largest_two(
     points: &[Point2<f64>],
     i: usize,
     j: usize,
-    t: f64,
     key: impl Fn(&Point2<f64>) -> f64,
 ) -> (usize, f64, f64) {
-    let (mut best, mut floor, mut second) =
-        (f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
-    let mut f = i + 1;
+    let (mut best, mut second, mut f) = (f64::NEG_INFINITY, f64::NEG_INFINITY, i + 1);
     for (k, p) in (i + 1..j).zip(&points[i + 1..j]) {
         let d = key(p);
-        if d >= floor {
-            if d > best {
-                second = best;
-                best = d;
-                floor = d - t;
-                f = k;
-            } else {
-                second = second.max(d);
-            }
+        // The runner-up without a second branch: the smaller of d and the old best.
+        let lower = if d < best { d } else { best };
+        second = if lower > second { lower } else { second };
+        if d > best {
+            best = d;
+            f = k;
         }
     }
     (f, best, second)

@@ -12,7 +12,7 @@ use nalgebra::Point2;
 
 use crate::{LineSimpError, Result};
 pub(crate) use exact::orient;
-use exact::{ETA, U, cross_sign, cross_value, exponent, ldexp, two_diff};
+use exact::{ETA, U, cross_sign, cross_value, exponent, ldexp, pow2, two_diff};
 
 /// How the distance from a point to the chord `v_i v_j` is measured.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -160,8 +160,8 @@ impl LineChord {
     pub fn new(a: Point2<f64>, b: Point2<f64>, extent: &Extent) -> Self {
         let (bx, by) = (two_diff(b.x, a.x), two_diff(b.y, a.y));
         let m = bx[0].abs().max(by[0].abs());
-        let point_scale = inv_pow2(extent.exp);
         if m == 0.0 {
+            let point_scale = inv_pow2(extent.exp);
             let (sx, sy) = (extent.x * point_scale, extent.y * point_scale);
             return Self {
                 a,
@@ -177,8 +177,12 @@ impl LineChord {
             };
         }
         let k = -exponent(m);
-        let ex = [ldexp(bx[0], k), ldexp(bx[1], k)];
-        let ey = [ldexp(by[0], k), ldexp(by[1], k)];
+        let scale = |v: f64| match k {
+            -1022..=1023 => v * pow2(k),
+            _ => ldexp(v, k),
+        };
+        let ex = [scale(bx[0]), scale(bx[1])];
+        let ey = [scale(by[0]), scale(by[1])];
         let (dx, dy) = (ex[0], ey[0]);
         // fl(b - a), fl(p - a), two products and a difference: at most 4 roundings of
         // relative size U on |dx| |p.y - a.y| + |dy| |p.x - a.x|, plus underflow.
@@ -194,7 +198,7 @@ impl LineChord {
             ey,
             norm: (dx * dx + dy * dy).sqrt(),
             tol,
-            point_scale,
+            point_scale: 1.0,
             degenerate: false,
             exact: extent.grid,
         }
@@ -338,13 +342,15 @@ impl LineChord {
     /// lose every digit to cancellation for a vertex close to a long chord).
     pub fn exceeds(&self, p: &Point2<f64>, epsilon: f64) -> bool {
         if !self.degenerate {
-            let fast = self.key(p).abs() / self.norm;
-            // |fast - true| <= tol / norm + 4 U fast; `distance` is within 4 ulps.
-            let err = self.tol / self.norm + 8.0 * U * fast;
-            if fast - err > epsilon * (1.0 + 16.0 * U) {
+            // distance = |F| / |D|: |key| is within tol of |F| (plus 2 U of rounding
+            // here) and norm within 2 U of |D|; `distance` is within 4 ulps. Compare
+            // |key| with epsilon * norm, without a division, with margins for all that.
+            let k = self.key(p).abs();
+            let e = epsilon * self.norm;
+            if k * (1.0 - 8.0 * U) - self.tol > e * (1.0 + 24.0 * U) {
                 return true;
             }
-            if fast + err < epsilon * (1.0 - 16.0 * U) {
+            if k * (1.0 + 8.0 * U) + self.tol < e * (1.0 - 24.0 * U) {
                 return false;
             }
         }

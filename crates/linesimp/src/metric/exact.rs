@@ -145,7 +145,7 @@ impl Terms {
 
 /// `2^k` for `k` in the normal exponent range.
 #[inline]
-fn pow2(k: i32) -> f64 {
+pub(crate) fn pow2(k: i32) -> f64 {
     debug_assert!((-1022..=1023).contains(&k));
     f64::from_bits(((k + 1023) as u64) << 52)
 }

@@ -17,8 +17,9 @@ analysis of DP's worst case. All three are simple chains:
 They run at n = 10^3 .. 10^6 with epsilon 1e-9 of the extent (everything is kept).
 Peers run in a subprocess with a timeout, so a stack overflow or a hang is reported,
 not fatal. Growth exponents are least-squares slopes of log time against log n over
-n >= 10^4. Memory per point is the peak resident-set growth of a subprocess during one
-call at n = 10^6, divided by n.
+n >= 10^4 (over every size that ran, for peers that crash beyond 10^4). Memory per
+point is the peak resident-set growth of a subprocess during one call at n = 10^6,
+divided by n.
 """
 
 from __future__ import annotations
@@ -130,11 +131,15 @@ def peer_times(name: str, n: int, eps: float, timeout: float) -> dict[str, tuple
 
 
 def growth(ns: list[int], ts: list[float | None]) -> str:
-    pairs = [(n, t) for n, t in zip(ns, ts, strict=True) if t and n >= 10_000]
+    """Least-squares slope of log time on log n over the sizes n >= 1e4 that ran (or
+    over all that ran when fewer than two of those did), with the range used."""
+    pairs = [(n, t) for n, t in zip(ns, ts, strict=True) if t]
+    big = [p for p in pairs if p[0] >= 10_000]
+    pairs = big if len(big) >= 2 else pairs
     if len(pairs) < 2:
         return "-"
     x, y = np.log([p[0] for p in pairs]), np.log([p[1] for p in pairs])
-    return f"n^{np.polyfit(x, y, 1)[0]:.2f}"
+    return f"n^{np.polyfit(x, y, 1)[0]:.2f} ({pairs[0][0]:.0e}..{pairs[-1][0]:.0e})"
 
 
 def worst_cases(sizes: list[int], dp_max: int, timeout: float) -> None:
@@ -175,7 +180,7 @@ def worst_cases(sizes: list[int], dp_max: int, timeout: float) -> None:
         rows,
     )
     print_table(
-        "Growth of time with n (least squares over n >= 1e4)",
+        "Growth of time with n (least-squares exponent, over the sizes shown)",
         ["family", "rperc hull", "rperc dp", "shapely", "simplification"],
         exps,
     )

@@ -272,10 +272,10 @@ fn cross_terms(dx: &[f64; 2], dy: &[f64; 2], vx: &[f64], vy: &[f64], t: &mut Ter
 
 /// Exact sign of `d x v` (see [`cross_terms`]).
 pub(crate) fn cross_sign(dx: &[f64; 2], dy: &[f64; 2], vx: &[f64], vy: &[f64]) -> i8 {
-    if vx.len() == 2 {
-        if let Some(s) = exact_products_sign([*dx, [vy[0], vy[1]]], [*dy, [vx[0], vx[1]]]) {
-            return s;
-        }
+    if vx.len() == 2
+        && let Some(s) = exact_products_sign([*dx, [vy[0], vy[1]]], [*dy, [vx[0], vx[1]]])
+    {
+        return s;
     }
     let mut t = Terms::new();
     cross_terms(dx, dy, vx, vy, &mut t);

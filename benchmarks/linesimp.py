@@ -3,14 +3,30 @@
 
     python benchmarks/linesimp.py [--quick]
 
-Peers run in a subprocess on the zig-zags, where their recursion may overflow the
-stack; a crash is reported, not fatal.
+Worst cases: three families on which plain Douglas-Peucker splits one vertex off per
+level (quadratic time, recursion as deep as the input), after Hershberger & Snoeyink's
+analysis of DP's worst case. All three are simple chains:
+
+- zig-zag: V_k = (k, (-1)^k k), integers; every chord's farthest vertex is the one
+  next to its far end;
+- shrinking zig-zag: V_k = (k, (-1)^k (n - k)); the farthest vertex is the one next to
+  the near end (the mirror case: path hulls roll back the other half);
+- convex zig-zag: V_k = (k/n, (-1)^k (k/n)^2); the peaks lie on two parabolas, so every
+  vertex is a corner of the hull (binary searches on large hulls, non-integer data).
+
+They run at n = 10^3 .. 10^6 with epsilon 1e-9 of the extent (everything is kept).
+Peers run in a subprocess with a timeout, so a stack overflow or a hang is reported,
+not fatal. Growth exponents are least-squares slopes of log time against log n over
+n >= 10^4 (over every size that ran, for peers that crash beyond 10^4). Memory per
+point is the peak resident-set growth of a subprocess during one call at n = 10^6,
+divided by n.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import subprocess
 import sys
 from pathlib import Path
 
@@ -74,52 +90,135 @@ def coastlines(rows: list[list[str]]) -> None:
         )
 
 
-def zigzag(n: int) -> np.ndarray:
-    k = np.arange(n, dtype=float)
-    return np.c_[k, np.where(k % 2 == 0, k, -k)]
+FAMILIES = {
+    "zig-zag": ("k = np.arange(n, dtype=float)\npts = np.c_[k, np.where(k % 2 == 0, k, -k)]\n"),
+    "shrinking zig-zag": (
+        "k = np.arange(n, dtype=float)\npts = np.c_[k, np.where(k % 2 == 0, n - k, k - n)]\n"
+    ),
+    "convex zig-zag": (
+        "t = np.arange(n, dtype=float) / n\n"
+        "pts = np.c_[t, np.where(np.arange(n) % 2 == 0, t * t, -t * t)]\n"
+    ),
+}
 
 
-def zigzags(rows: list[list[str]], sizes: list[int]) -> None:
-    for n in sizes:
-        pts = zigzag(n)
-        hull = best_time(lambda pts=pts: simplify(pts, 1e-9, return_indices=True), repeat=3)
-        dp = (
-            best_time(
-                lambda pts=pts: simplify(pts, 1e-9, method="dp", return_indices=True), repeat=1
-            )
-            if n <= 64_000
-            else None
+def family(name: str, n: int) -> np.ndarray:
+    scope: dict = {"np": np, "n": n}
+    exec(FAMILIES[name], scope)  # the same code the peer subprocesses run
+    return scope["pts"]
+
+
+def tolerance(pts: np.ndarray) -> float:
+    return 1e-9 * float(np.ptp(pts, axis=0).max())
+
+
+def peer_times(name: str, n: int, eps: float, timeout: float) -> dict[str, tuple]:
+    setup = f"import numpy as np\nn = {n}\n" + FAMILIES[name]
+    out: dict[str, tuple] = {"shapely": (None, "not installed"), "simpl.": (None, "not installed")}
+    if shapely is not None:
+        out["shapely"] = time_in_subprocess(
+            setup + "import shapely\nline = shapely.LineString(pts)",
+            f"shapely.simplify(line, {eps!r}, preserve_topology=False)",
+            timeout=timeout,
         )
-        setup = (
-            "import numpy as np\n"
-            f"k = np.arange({n}, dtype=float)\n"
-            "pts = np.c_[k, np.where(k % 2 == 0, k, -k)]\n"
+    if simplify_coords_idx is not None:
+        out["simpl."] = time_in_subprocess(
+            setup + "from simplification.cutil import simplify_coords_idx",
+            f"simplify_coords_idx(pts, {eps!r})",
+            timeout=timeout,
         )
-        geos, geos_note = (None, "not installed")
-        geo, geo_note = (None, "not installed")
-        if shapely is not None:
-            geos, geos_note = time_in_subprocess(
-                setup + "import shapely\nline = shapely.LineString(pts)",
-                "shapely.simplify(line, 1e-9, preserve_topology=False)",
-                timeout=120,
+    return out
+
+
+def growth(ns: list[int], ts: list[float | None]) -> str:
+    """Least-squares slope of log time on log n over the sizes n >= 1e4 that ran (or
+    over all that ran when fewer than two of those did), with the range used."""
+    pairs = [(n, t) for n, t in zip(ns, ts, strict=True) if t]
+    big = [p for p in pairs if p[0] >= 10_000]
+    pairs = big if len(big) >= 2 else pairs
+    if len(pairs) < 2:
+        return "-"
+    x, y = np.log([p[0] for p in pairs]), np.log([p[1] for p in pairs])
+    return f"n^{np.polyfit(x, y, 1)[0]:.2f} ({pairs[0][0]:.0e}..{pairs[-1][0]:.0e})"
+
+
+def worst_cases(sizes: list[int], dp_max: int, timeout: float) -> None:
+    rows, exps = [], []
+    for name in FAMILIES:
+        times: dict[str, list[float | None]] = {k: [] for k in ("hull", "dp", "shapely", "simpl.")}
+        for n in sizes:
+            pts = family(name, n)
+            eps = tolerance(pts)
+            hull = best_time(lambda pts=pts, eps=eps: simplify(pts, eps, return_indices=True))
+            dp = None
+            if n <= dp_max:
+                dp = best_time(
+                    lambda pts=pts, eps=eps: simplify(pts, eps, method="dp", return_indices=True),
+                    repeat=1,
+                    min_time=0.0,
+                )
+            peers = peer_times(name, n, eps, timeout)
+            for key, t in (("hull", hull), ("dp", dp)):
+                times[key].append(t)
+            for key in ("shapely", "simpl."):
+                times[key].append(peers[key][0])
+            rows.append(
+                [
+                    f"{name} n={n:.0e}",
+                    fmt_seconds(hull),
+                    fmt_seconds(dp, "skipped (quadratic)"),
+                    fmt_seconds(*peers["shapely"]),
+                    fmt_seconds(*peers["simpl."]),
+                    ratio(peers["shapely"][0], hull),
+                    ratio(peers["simpl."][0], hull),
+                ]
             )
-        if simplify_coords_idx is not None:
-            geo, geo_note = time_in_subprocess(
-                setup + "from simplification.cutil import simplify_coords_idx",
-                "simplify_coords_idx(pts, 1e-9)",
-                timeout=120,
-            )
-        rows.append(
-            [
-                f"zig-zag n={n}",
-                fmt_seconds(hull),
-                fmt_seconds(dp, "skipped (quadratic)"),
-                fmt_seconds(geos, geos_note),
-                fmt_seconds(geo, geo_note),
-                ratio(geos, hull),
-                ratio(geo, hull),
-            ]
-        )
+        exps.append([name, *(growth(sizes, times[k]) for k in ("hull", "dp", "shapely", "simpl."))])
+    print_table(
+        "Worst cases for plain DP (ratios: peer time / rperc hull time)",
+        ["input", "rperc hull", "rperc dp", "shapely", "simplification", "vs shapely", "vs simpl."],
+        rows,
+    )
+    print_table(
+        "Growth of time with n (least-squares exponent, over the sizes shown)",
+        ["family", "rperc hull", "rperc dp", "shapely", "simplification"],
+        exps,
+    )
+
+
+MEMORY = """
+import numpy as np
+from rperc.linesimp import simplify
+n = {n}
+{setup}
+def status(key):
+    with open("/proc/self/status") as f:
+        return next(int(line.split()[1]) * 1024 for line in f if line.startswith(key))
+simplify(pts[:1000], 0.0)  # load everything first
+with open("/proc/self/clear_refs", "w") as f:
+    f.write("5")  # reset the peak resident set to the current one
+before = status("VmRSS:")
+idx = simplify(pts, {eps!r}, method={method!r}, return_indices=True)
+print((status("VmHWM:") - before) / n, len(idx))
+"""
+
+
+def memory(n: int) -> None:
+    print(f"\n## Peak memory during one call, n = {n:.0e} (input excluded)")
+    walk = "pts = np.cumsum(np.random.default_rng(0).normal(size=(n, 2)), axis=0)\n"
+    for label, setup, eps, method in [
+        ("zig-zag (all kept), hull", FAMILIES["zig-zag"], 1e-9, "hull"),
+        ("convex zig-zag (all kept), hull", FAMILIES["convex zig-zag"], 0.0, "hull"),
+        ("random walk eps=5 (1.4% kept), hull", walk, 5.0, "hull"),
+        ("random walk eps=5, dp", walk, 5.0, "dp"),
+    ]:
+        code = MEMORY.format(n=n, setup=setup, eps=eps, method=method)
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+        if out.returncode != 0:
+            print(f"{label}: failed ({out.stderr.strip().splitlines()[-1:]})")
+            continue
+        per_point, kept = out.stdout.split()
+        print(f"{label:38s} {float(per_point):6.1f} B/point ({int(kept):,} kept)")
 
 
 def random_walk(rows: list[list[str]], n: int) -> None:
@@ -210,7 +309,6 @@ def main() -> None:
     rows: list[list[str]] = []
     coastlines(rows)
     random_walk(rows, 100_000 if args.quick else 1_000_000)
-    zigzags(rows, [16_000] if args.quick else [16_000, 64_000, 1_000_000])
     print_table(
         "Douglas-Peucker, best of repeats (ratios: peer time / best rperc time)",
         [
@@ -224,6 +322,11 @@ def main() -> None:
         ],
         rows,
     )
+    if args.quick:
+        worst_cases([1_000, 10_000, 30_000], dp_max=30_000, timeout=60)
+    else:
+        worst_cases([1_000, 10_000, 100_000, 1_000_000], dp_max=100_000, timeout=120)
+    memory(100_000 if args.quick else 1_000_000)
     many(500 if args.quick else 2000)
     scans(args.quick)
 

@@ -117,8 +117,8 @@ impl Simplifier {
         }
     }
 
-    /// Chooses which of several equally far vertices splits a chord (plain DP only;
-    /// path hulls always take the first, Visvalingam-Whyatt has its own rule: the
+    /// Chooses which of several equally far vertices splits a chord; see [`Tie`] for
+    /// exactly what each rule promises (Visvalingam-Whyatt has its own rule: the
     /// smallest index among equal areas). The default, [`Tie::First`], matches GEOS.
     pub fn with_tie(mut self, tie: Tie) -> Self {
         self.tie = tie;
@@ -128,8 +128,8 @@ impl Simplifier {
     /// For [`Method::Hull`]: how much plain-DP work (distance evaluations per vertex
     /// per level of a balanced split) runs before path hulls take over. Plain DP is
     /// cheaper per vertex and finishes within the default budget on real data; the
-    /// budget caps its quadratic worst case. `0` runs path hulls from the start. The
-    /// result is the same either way.
+    /// budget caps its quadratic worst case. `0` runs path hulls from the start. Both
+    /// phases split at exactly the same vertex, so the result does not depend on it.
     pub fn with_dp_budget(mut self, per_level: usize) -> Self {
         self.dp_budget = Some(per_level);
         self
@@ -176,16 +176,17 @@ impl Simplifier {
                 self.tie,
                 &mut self.keep,
                 &mut self.ranges,
-            ),
+            )?,
             Engine::Hull => hull::hull_mark(
                 points,
                 epsilon,
+                self.tie,
                 &mut self.keep,
                 &mut self.ranges,
                 &mut self.tasks,
                 &mut self.hull,
                 self.dp_budget.unwrap_or(hull::DP_BUDGET_PER_LEVEL),
-            ),
+            )?,
             Engine::Visvalingam => {
                 visvalingam::vw_mark(points, epsilon, &mut self.keep, &mut self.vw)
             }

@@ -59,10 +59,10 @@ def _yaw(path: Path, line: int, q: np.ndarray, tolerance: float) -> float:
     norm = math.sqrt(float(q @ q))
     if not (math.isfinite(norm) and abs(norm - 1.0) <= 1e-6):
         raise DatasetFormatError(path, line, f"quaternion norm is {norm!r}, not 1")
-    qx, qy, qz, qw = q / norm
+    qx, qy, qz, qw = (float(v) for v in q / norm)
     if max(abs(qx), abs(qy)) > tolerance:
         raise DatasetFormatError(
-            path, line, f"not a planar pose: the rotation has qx={qx!r}, qy={qy!r}"
+            path, line, f"not planar: the rotation has qx={qx!r}, qy={qy!r} (a tilt)"
         )
     yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
     # atan2 can return -pi; rperc's headings live in (-pi, pi].
@@ -84,7 +84,9 @@ def read_tum(path: str | Path, *, planar_tolerance: float = 1e-6) -> tuple[np.nd
     off_plane = np.flatnonzero(np.abs(values[:, 3]) > planar_tolerance)
     if off_plane.size:
         k = int(off_plane[0])
-        raise DatasetFormatError(table.path, int(lines[k]), f"not planar: z = {values[k, 3]!r}")
+        raise DatasetFormatError(
+            table.path, int(lines[k]), f"not planar: z = {float(values[k, 3])!r}"
+        )
     yaw = [
         _yaw(table.path, int(line), q, planar_tolerance)
         for line, q in zip(lines, values[:, 4:8], strict=True)

@@ -329,19 +329,26 @@ class PlanarEkfSlam:
         """A scan with known identities: mapped landmarks (each through the NIS gate
         when ``gate_known``) in one batch update, then new ones initialised."""
         index = {ident: k for k, ident in enumerate(self.ids)}
-        pairs, new = [], []
+        pairs, new, again = [], {}, []
         for ident, z in zip(ids, np.asarray(zs, dtype=np.float64), strict=True):
             j = index.get(int(ident))
             if j is None:
-                new.append((int(ident), z))
+                # A new id seen twice in one scan: the first sighting starts it, the
+                # others update it once it exists.
+                if int(ident) in new:
+                    again.append((int(ident), z))
+                else:
+                    new[int(ident)] = z
             elif self.gate_known and self.nis(j, z) > self.gate_d2:
                 self.stats.rejected += 1
             else:
                 pairs.append((j, z))
         self.stats.accepted += len(pairs)
         self.update(pairs)
-        for ident, z in new:
+        for ident, z in new.items():
             self.add_landmark(ident, z)
+        if again:
+            self.observe_known([i for i, _ in again], np.array([z for _, z in again]))
 
     def observe_nearest(self, zs: np.ndarray) -> None:
         """A scan without identities: each sighting goes to the landmark of least NIS

@@ -441,3 +441,10 @@ def test_dense_and_structured_agree_over_the_whole_mrclam_run(data: Path) -> Non
     np.testing.assert_allclose(structured_run.landmarks, dense.landmarks, atol=1e-6)
     assert vars(structured_run.stats) == vars(dense.stats)
     assert dense.stats.total() == len(run.measurement_t)
+
+
+def test_a_new_id_seen_twice_in_one_scan_starts_one_landmark() -> None:
+    slam = make_filter(structured=True)
+    slam.observe_known([9, 9], np.array([[3.0, 0.2], [3.01, 0.2]]))
+    assert slam.num_landmarks == 1 and slam.ids == [9]
+    assert (slam.stats.new, slam.stats.accepted, slam.stats.rejected) == (1, 1, 0)

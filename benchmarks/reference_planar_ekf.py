@@ -28,7 +28,10 @@ same numbers; the benchmark should quote rperc against the structured one.
 from __future__ import annotations
 
 import math
+import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -269,6 +272,29 @@ class PlanarEkfSlam:
         s = h @ self.P[np.ix_(cols, cols)] @ h.T + self.R
         return float(nu @ np.linalg.solve(s, nu))
 
+    def nis_all(self, z: np.ndarray) -> np.ndarray:
+        """:meth:`nis` of ``z`` against every landmark at once, ``(n,)``: the same
+        algebra on stacked 2x3 and 2x2 Jacobians, so that nearest neighbour costs one
+        numpy pass per sighting instead of a Python loop over the map."""
+        n = self.num_landmarks
+        sensor, j_sensor = self._sensor()
+        d = self.landmarks() - sensor[:2]
+        q = np.einsum("ij,ij->i", d, d)
+        r = np.sqrt(q)
+        dx, dy, zero = d[:, 0], d[:, 1], np.zeros(n)
+        h_s = np.stack([[-dx / r, -dy / r, zero], [dy / q, -dx / q, zero - 1.0]]).transpose(2, 0, 1)
+        h_r = h_s @ j_sensor
+        h_l = np.stack([[dx / r, dy / r], [-dy / q, dx / q]]).transpose(2, 0, 1)
+        off = 3 + 2 * np.arange(n)
+        p_rl = self.P[:3, 3:].reshape(3, n, 2).transpose(1, 0, 2)  # (n, 3, 2)
+        p_ll = self.P[off[:, None, None] + [[0], [1]], off[:, None, None] + [[0, 1]]]
+        cross = h_r @ p_rl @ h_l.transpose(0, 2, 1)
+        s = h_r @ self.P[:3, :3] @ h_r.transpose(0, 2, 1) + cross + cross.transpose(0, 2, 1)
+        s += h_l @ p_ll @ h_l.transpose(0, 2, 1) + self.R
+        bearing = np.arctan2(dy, dx) - sensor[2]
+        nu = np.stack([z[0] - r, np.mod(z[1] - bearing + math.pi, 2 * math.pi) - math.pi], 1)
+        return np.einsum("ij,ij->i", nu, np.linalg.solve(s, nu[:, :, None])[:, :, 0])
+
     def _stack(self, pairs: list[tuple[int, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
         """The stacked innovation (bearings wrapped) and dense ``H`` of a scan."""
         n, m = len(self.x), len(pairs)
@@ -358,8 +384,8 @@ class PlanarEkfSlam:
         best: dict[int, tuple[float, np.ndarray]] = {}
         new = []
         for z in np.asarray(zs, dtype=np.float64):
-            d2 = [self.nis(j, z) for j in range(self.num_landmarks)]
-            j = int(np.argmin(d2)) if d2 else -1
+            d2 = self.nis_all(z) if self.num_landmarks else np.zeros(0)
+            j = int(np.argmin(d2)) if len(d2) else -1
             if j < 0 or d2[j] > self.new_d2:
                 new.append(z)
             elif d2[j] > self.gate_d2:
@@ -405,7 +431,7 @@ def _scans(t: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True))
 
 
-def initial_pose(run: object) -> np.ndarray:
+def initial_pose(run: Any) -> np.ndarray:
     """The ground truth at the first odometry time (heading along the shorter arc)."""
     t0 = run.odometry_t[0]
     k = int(np.clip(np.searchsorted(run.truth_t, t0) - 1, 0, len(run.truth_t) - 2))
@@ -416,37 +442,61 @@ def initial_pose(run: object) -> np.ndarray:
     return np.array([x, y, wrap(th)])
 
 
-def run_mrclam(run: object, slam: PlanarEkfSlam) -> RunResult:
-    """Drives ``slam`` over a :class:`rperc.datasets.MrclamRun` with known association.
+def drive(
+    slam: PlanarEkfSlam,
+    t_controls: np.ndarray,
+    controls: np.ndarray,
+    t_sightings: np.ndarray,
+    observe: Callable[[int, int], None],
+) -> RunResult:
+    """Drives ``slam`` through controls ``(N, 2)`` at times ``t_controls`` and the
+    scans of ``t_sightings`` (rows sharing one time), calling ``observe(a, b)`` for
+    the rows ``[a, b)`` of each scan.
 
-    Commands are held constant between odometry records; a scan between two records
-    is applied after predicting up to its own time, so every prediction covers
-    exactly the time that passed. The pose is recorded at every odometry time.
+    Controls are held constant until the next record; a scan between two records is
+    applied after predicting up to its own time, so every prediction covers exactly
+    the time that passed. The pose is recorded at every control time.
     """
-    import time
-
-    t_odo = run.odometry_t
-    u = np.c_[run.odometry_v, run.odometry_omega]
-    scans, s = _scans(run.measurement_t), 0
-    z = np.c_[run.measurement_range, run.measurement_bearing]
-    poses, covs = np.empty((len(t_odo), 3)), np.empty((len(t_odo), 3, 3))
-    start, now = time.perf_counter(), t_odo[0]
+    scans, s = _scans(t_sightings), 0
+    poses, covs = np.empty((len(t_controls), 3)), np.empty((len(t_controls), 3, 3))
+    start, now = time.perf_counter(), t_controls[0]
     poses[0], covs[0] = slam.x[:3], slam.P[:3, :3]
-    for k in range(1, len(t_odo) + 1):
-        end = t_odo[k] if k < len(t_odo) else math.inf
-        while s < len(scans) and run.measurement_t[scans[s][0]] < end:
+    for k in range(1, len(t_controls) + 1):
+        end = t_controls[k] if k < len(t_controls) else math.inf
+        while s < len(scans) and t_sightings[scans[s][0]] < end:
             a, b = scans[s]
-            ts = run.measurement_t[a]
-            if ts > now:
-                slam.predict(u[k - 1, 0], u[k - 1, 1], ts - now)
-                now = ts
-            slam.observe_known(run.measurement_landmark[a:b].tolist(), z[a:b])
+            if t_sightings[a] > now:
+                slam.predict(controls[k - 1, 0], controls[k - 1, 1], t_sightings[a] - now)
+                now = t_sightings[a]
+            observe(a, b)
             s += 1
-        if k < len(t_odo):
-            slam.predict(u[k - 1, 0], u[k - 1, 1], t_odo[k] - now)
-            now = t_odo[k]
+        if k < len(t_controls):
+            slam.predict(controls[k - 1, 0], controls[k - 1, 1], t_controls[k] - now)
+            now = t_controls[k]
             poses[k], covs[k] = slam.x[:3], slam.P[:3, :3]
     seconds = time.perf_counter() - start
-    return RunResult(
-        t_odo, poses, covs, np.array(slam.ids), slam.landmarks().copy(), slam.stats, seconds
-    )
+    ids, marks = np.array(slam.ids, dtype=np.int64), slam.landmarks().copy()
+    return RunResult(t_controls, poses, covs, ids, marks, slam.stats, seconds)
+
+
+def run_mrclam(run: Any, slam: PlanarEkfSlam) -> RunResult:
+    """A :class:`rperc.datasets.MrclamRun` with known association (barcodes)."""
+    z = np.c_[run.measurement_range, run.measurement_bearing]
+    controls = np.c_[run.odometry_v, run.odometry_omega]
+
+    def observe(a: int, b: int) -> None:
+        slam.observe_known(run.measurement_landmark[a:b].tolist(), z[a:b])
+
+    return drive(slam, run.odometry_t, controls, run.measurement_t, observe)
+
+
+def run_victoria_park(park: Any, slam: PlanarEkfSlam) -> RunResult:
+    """A :class:`rperc.datasets.VictoriaPark` run with nearest-neighbour association
+    (``slam`` should carry the :class:`Ackermann` vehicle). GPS is not used."""
+    z = np.c_[park.measurement_range, park.measurement_bearing]
+    controls = np.c_[park.input_speed, park.input_steering]
+
+    def observe(a: int, b: int) -> None:
+        slam.observe_nearest(z[a:b])
+
+    return drive(slam, park.input_t, controls, park.measurement_t, observe)

@@ -448,3 +448,66 @@ def test_a_new_id_seen_twice_in_one_scan_starts_one_landmark() -> None:
     slam.observe_known([9, 9], np.array([[3.0, 0.2], [3.01, 0.2]]))
     assert slam.num_landmarks == 1 and slam.ids == [9]
     assert (slam.stats.new, slam.stats.accepted, slam.stats.rejected) == (1, 1, 0)
+
+
+def test_vectorised_nis_equals_the_per_landmark_loop() -> None:
+    rng = np.random.default_rng(6)
+    for vehicle in (None, ref.Ackermann()):
+        slam = ref.PlanarEkfSlam(
+            np.array([1.0, 2.0, 3.0]),
+            np.diag([0.1, 0.1, 0.02]),
+            np.eye(2) * 0.1,
+            np.diag([0.02, 1e-3]),
+            vehicle=vehicle,
+            structured=True,
+        )
+        for _ in range(12):
+            slam.add_landmark(0, np.array([rng.uniform(2, 20), rng.uniform(-3, 3)]))
+            slam.predict(1.0, 0.1, 0.5)
+        z = np.array([8.0, 3.1])  # a bearing near pi: the innovation must wrap
+        loop = [slam.nis(j, z) for j in range(slam.num_landmarks)]
+        np.testing.assert_allclose(slam.nis_all(z), loop, rtol=1e-10)
+
+
+def test_victoria_park_driver_with_nearest_neighbour_on_a_noise_free_car() -> None:
+    """The Ackermann car among trees on a 10 m grid, seen from its laser without noise:
+    nearest neighbour maps every tree once and the path is the true one."""
+    rng = np.random.default_rng(7)
+    car = ref.Ackermann()
+    trees = np.array([[x, y] for x in range(-40, 41, 10) for y in range(-40, 41, 10)], float)
+    t = np.cumsum(rng.uniform(0.02, 0.05, 1500))
+    speed, steer = np.full(1500, 3.0), 0.25 * np.sin(t / 4)
+    poses = [np.array([0.0, 0.0, 0.3])]
+    for k in range(1, 1500):
+        poses.append(car.predict(poses[-1], speed[k - 1], steer[k - 1], t[k] - t[k - 1])[0])
+    mt, mz = [], []
+    for k in range(0, 1500, 7):  # scans at odometry times, as the laser rarely is
+        laser = car.laser_pose(poses[k])[0]
+        for tree in trees:
+            z = ref.range_bearing(laser, tree)[0]
+            if z[0] < 15.0 and abs(z[1]) < math.pi / 2:
+                mt.append(t[k])
+                mz.append(z)
+    mz_arr = np.array(mz)
+    park = SimpleNamespace(
+        input_t=t,
+        input_speed=speed,
+        input_steering=steer,
+        measurement_t=np.array(mt),
+        measurement_range=mz_arr[:, 0],
+        measurement_bearing=mz_arr[:, 1],
+    )
+    slam = ref.PlanarEkfSlam(
+        poses[0],
+        np.eye(3) * 1e-12,
+        np.eye(2) * 1e-12,
+        np.eye(2) * 1e-10,
+        vehicle=car,
+        structured=True,
+    )
+    res = ref.run_victoria_park(park, slam)
+    np.testing.assert_allclose(res.poses[:, :2], np.array(poses)[:, :2], atol=1e-6)
+    nearest = [int(np.argmin(np.linalg.norm(trees - m, axis=1))) for m in res.landmarks]
+    assert len(set(nearest)) == len(nearest) == slam.stats.new >= 10  # each tree once
+    np.testing.assert_allclose(res.landmarks, trees[nearest], atol=1e-6)
+    assert slam.stats.rejected == 0 and slam.stats.total() == len(mt)

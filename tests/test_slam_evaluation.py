@@ -484,3 +484,21 @@ def test_victoria_park_gps_against_itself_moved(data: Path) -> None:
     res = gps_error(vp.gps_t, moved, vp.gps_t, gps)
     assert res.association.matched == len(gps)
     assert res.rms < 1e-9
+
+
+# ------------------------------------------------------------------ properties
+
+
+@given(st.integers(0, 2**32 - 1), st.floats(-math.pi, math.pi), st.tuples(finite, finite))
+def test_aligned_ate_is_optimal_and_blind_to_a_rigid_motion(
+    seed: int, theta: float, shift: tuple[float, float]
+) -> None:
+    rng = np.random.default_rng(seed)
+    t = np.arange(20.0)
+    truth = random_path(rng, 20)
+    est = truth + rng.normal(scale=0.3, size=(20, 3))
+    aligned = ate(t, est, t, truth, align=True)
+    # Optimal: no worse than no alignment; blind: moving the estimate changes nothing.
+    assert aligned.rmse <= ate(t, est, t, truth).rmse + 1e-12
+    moved = ate(t, move(theta, np.array(shift), est), t, truth, align=True)
+    assert moved.rmse == pytest.approx(aligned.rmse, rel=1e-6, abs=1e-9)

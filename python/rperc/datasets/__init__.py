@@ -15,6 +15,7 @@ from rperc.datasets.polylines import (
     write_geometries,
     write_polyline,
 )
+from rperc.datasets.tum import read_tum, write_tum
 from rperc.datasets.victoria_park import VictoriaPark, load_victoria_park
 
 __all__ = [
@@ -34,6 +35,8 @@ __all__ = [
     "read_boxes",
     "read_geometries",
     "read_polylines",
+    "read_tum",
     "write_geometries",
     "write_polyline",
+    "write_tum",
 ]

@@ -3,11 +3,13 @@
 - :class:`Ekf`: robot block plus landmark blocks, O(n) prediction and an O(n^2)
   Joseph-form update that exploits the sparse observation Jacobian;
 - :mod:`rperc.slam.monobot`: the 1-D robot with the relative, anchor and external
-  measurement models, Fisher information, observability and Monte Carlo consistency.
+  measurement models, Fisher information, observability and Monte Carlo consistency;
+- :mod:`rperc.slam.evaluation`: ATE with and without SE(2) alignment, heading error,
+  landmark RMSE, pose NEES and distance to GPS fixes, against ground truth.
 """
 
 from rperc._rperc import nees_bounds
-from rperc.slam import monobot
+from rperc.slam import evaluation, monobot
 from rperc.slam.ekf import Ekf, EkfUpdate
 
-__all__ = ["Ekf", "EkfUpdate", "monobot", "nees_bounds"]
+__all__ = ["Ekf", "EkfUpdate", "evaluation", "monobot", "nees_bounds"]

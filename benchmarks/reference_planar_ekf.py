@@ -1,0 +1,502 @@
+"""A straightforward numpy EKF-SLAM, the one a Python user would write today
+(PythonRobotics style): one dense state vector ``[x, y, theta, l1x, l1y, ...]`` that
+grows with the map, one dense covariance, the models written out in numpy.
+
+It is the peer of rperc's planar SLAM in ``benchmarks/planar_slam.py`` and an oracle in
+the tests, so its models are the ones of the Rust ``slam`` crate, term for term:
+
+- the unicycle of ``crates/slam/src/motion.rs`` (exact arc integration with the same
+  series below ``|omega dt| < 1e-2``) and the Ackermann vehicle of
+  ``crates/slam/src/ackermann.rs`` (encoder speed at the rear left wheel, steering, a
+  laser ahead and to the left of the rear axle);
+- range-bearing to point landmarks (``crates/slam/src/observation.rs``), bearings
+  wrapped into (-pi, pi];
+- the EKF of the seed paper (eqs. 3-9), Joseph form;
+- association by known identity, or nearest neighbour with a Mahalanobis chi-square
+  gate.
+
+``structured=False`` (the default) is the textbook dense form: the prediction builds
+the full ``F`` and computes ``F P F^T`` (O(n^3)); the update computes ``P H^T`` with
+the full ``H`` and the Joseph form with full ``I - K H`` (O(n^3)). ``structured=True``
+is what a careful numpy user writes instead: the prediction touches the robot rows and
+columns only (O(n)), and the update uses the sparsity of ``H`` (O(n^2)). Both give the
+same numbers; the benchmark should quote rperc against the structured one.
+
+    from reference_planar_ekf import PlanarEkfSlam, unicycle
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+SERIES_BELOW = 1e-2  # as motion.rs: closed forms lose digits to cancellation below
+
+
+def wrap(a: float) -> float:
+    """Into (-pi, pi], as rperc-core's wrap_angle."""
+    w = a % (2.0 * math.pi)
+    return w - 2.0 * math.pi if w > math.pi else w
+
+
+def chi2_quantile_2dof(p: float) -> float:
+    """The chi-square quantile for 2 degrees of freedom, in closed form: its CDF is
+    ``1 - exp(-x / 2)`` (no scipy needed at run time)."""
+    return -2.0 * math.log1p(-p)
+
+
+# ------------------------------------------------------------------ motion
+
+
+def arc_functions(phi: float) -> tuple[float, float, float, float]:
+    """``sin(phi)/phi``, its derivative, ``(1 - cos phi)/phi`` and its derivative."""
+    if abs(phi) < SERIES_BELOW:
+        p2 = phi * phi
+        f = 1.0 - p2 / 6.0 * (1.0 - p2 / 20.0 * (1.0 - p2 / 42.0))
+        df = -phi / 3.0 * (1.0 - p2 / 10.0 * (1.0 - p2 / 28.0))
+        g = phi / 2.0 * (1.0 - p2 / 12.0 * (1.0 - p2 / 30.0 * (1.0 - p2 / 56.0)))
+        dg = 0.5 * (1.0 - p2 / 4.0 * (1.0 - p2 / 18.0 * (1.0 - p2 / 40.0)))
+        return f, df, g, dg
+    s, c = math.sin(phi), math.cos(phi)
+    one_minus_cos = 2.0 * math.sin(phi / 2.0) ** 2
+    return s / phi, (phi * c - s) / phi**2, one_minus_cos / phi, (phi * s - one_minus_cos) / phi**2
+
+
+def unicycle(
+    pose: np.ndarray, v: float, omega: float, dt: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Constant ``(v, omega)`` over ``dt``, integrated exactly (an arc): the new pose,
+    ``Fx = d(pose')/d(pose)`` (3x3) and ``Fv = d(pose')/d(v, omega)`` (3x2)."""
+    phi = omega * dt
+    f, df, g, dg = arc_functions(phi)
+    s, c = math.sin(pose[2]), math.cos(pose[2])
+    d = v * dt
+    dx, dy = d * (c * f - s * g), d * (s * f + c * g)
+    mean = np.array([pose[0] + dx, pose[1] + dy, wrap(pose[2] + phi)])
+    fx = np.array([[1.0, 0.0, -dy], [0.0, 1.0, dx], [0.0, 0.0, 1.0]])
+    fv = np.array(
+        [
+            [dt * (c * f - s * g), d * dt * (c * df - s * dg)],
+            [dt * (s * f + c * g), d * dt * (s * df + c * dg)],
+            [0.0, dt],
+        ]
+    )
+    return mean, fx, fv
+
+
+@dataclass(frozen=True)
+class Ackermann:
+    """Victoria Park's car (defaults: the public implementations' constants)."""
+
+    wheel_base: float = 2.83
+    encoder_offset: float = 0.76
+    laser_forward: float = 3.78
+    laser_left: float = 0.50
+
+    def centre_velocity(self, speed: float, steer: float) -> tuple[float, float, np.ndarray]:
+        """``(v_c, omega)`` of the rear axle centre from the encoder speed and the
+        steering, and ``d(v_c, omega)/d(speed, steer)``."""
+        length, h = self.wheel_base, self.encoder_offset
+        tan = math.tan(steer)
+        den = 1.0 - tan * h / length
+        if abs(steer) >= math.pi / 2 or den <= 0.0:
+            raise ValueError(f"steering {steer} rad puts the encoder wheel past the turn centre")
+        sec2 = 1.0 + tan * tan
+        vc = speed / den
+        dvc_dsteer = speed * (h / length) * sec2 / den**2
+        j = np.array(
+            [
+                [1.0 / den, dvc_dsteer],
+                [tan / (length * den), (dvc_dsteer * tan + vc * sec2) / length],
+            ]
+        )
+        return vc, vc * tan / length, j
+
+    def predict(
+        self, pose: np.ndarray, speed: float, steer: float, dt: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        vc, omega, j = self.centre_velocity(speed, steer)
+        mean, fx, fv = unicycle(pose, vc, omega, dt)
+        return mean, fx, fv @ j
+
+    def laser_pose(self, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The laser's pose (same heading) and ``d(laser pose)/d(pose)``."""
+        s, c = math.sin(pose[2]), math.cos(pose[2])
+        a, b = self.laser_forward, self.laser_left
+        laser = np.array([pose[0] + c * a - s * b, pose[1] + s * a + c * b, pose[2]])
+        j = np.array([[1.0, 0.0, -s * a - c * b], [0.0, 1.0, c * a - s * b], [0.0, 0.0, 1.0]])
+        return laser, j
+
+
+# ------------------------------------------------------------------ observation
+
+
+def range_bearing(
+    pose: np.ndarray, landmark: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``z = (range, bearing)`` of ``landmark`` from ``pose``, ``dz/d(pose)`` (2x3) and
+    ``dz/d(landmark)`` (2x2)."""
+    dx, dy = landmark[0] - pose[0], landmark[1] - pose[1]
+    q = dx * dx + dy * dy
+    if q == 0.0:
+        raise ValueError("the landmark sits on the sensor")
+    r = math.sqrt(q)
+    z = np.array([r, wrap(math.atan2(dy, dx) - pose[2])])
+    h_pose = np.array([[-dx / r, -dy / r, 0.0], [dy / q, -dx / q, -1.0]])
+    h_landmark = np.array([[dx / r, dy / r], [-dy / q, dx / q]])
+    return z, h_pose, h_landmark
+
+
+def landmark_from_range_bearing(
+    pose: np.ndarray, z: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The inverse: the landmark at ``z`` from ``pose``, ``dl/d(pose)`` and ``dl/dz``."""
+    a = pose[2] + z[1]
+    s, c = math.sin(a), math.cos(a)
+    landmark = np.array([pose[0] + z[0] * c, pose[1] + z[0] * s])
+    g_pose = np.array([[1.0, 0.0, -z[0] * s], [0.0, 1.0, z[0] * c]])
+    g_z = np.array([[c, -z[0] * s], [s, z[0] * c]])
+    return landmark, g_pose, g_z
+
+
+# ------------------------------------------------------------------ the filter
+
+
+@dataclass
+class AssociationStats:
+    """What happened to every sighting."""
+
+    accepted: int = 0  # updated a mapped landmark
+    rejected: int = 0  # failed the gate (known ids) or fell between gate and new
+    new: int = 0  # started a landmark
+
+    def total(self) -> int:
+        return self.accepted + self.rejected + self.new
+
+
+@dataclass
+class PlanarEkfSlam:
+    """EKF-SLAM over ``[x, y, theta, l1x, l1y, ...]`` with dense numpy matrices.
+
+    ``control_noise`` ``V`` (2x2) is the covariance of the two controls (``(v, omega)``
+    for the unicycle, ``(encoder speed, steering)`` with ``vehicle``); ``measurement_noise``
+    ``R`` (2x2) that of ``(range, bearing)``. With ``vehicle`` the range-bearing is
+    measured from its laser, otherwise from the robot's centre. ``gate`` is the
+    probability of the chi-square (2 dof) gate on the NIS; ``new_landmark`` the one
+    beyond which an unassociated sighting starts a landmark (nearest neighbour).
+    """
+
+    pose: np.ndarray
+    pose_covariance: np.ndarray
+    control_noise: np.ndarray
+    measurement_noise: np.ndarray
+    vehicle: Ackermann | None = None
+    structured: bool = False
+    gate: float = 0.99
+    new_landmark: float = 0.9999
+    gate_known: bool = True
+    x: np.ndarray = field(init=False)
+    P: np.ndarray = field(init=False)
+    ids: list[int] = field(init=False, default_factory=list)
+    stats: AssociationStats = field(init=False, default_factory=AssociationStats)
+
+    def __post_init__(self) -> None:
+        self.x = np.array(self.pose, dtype=np.float64).copy()
+        self.P = np.array(self.pose_covariance, dtype=np.float64).copy()
+        self.V = np.asarray(self.control_noise, dtype=np.float64)
+        self.R = np.asarray(self.measurement_noise, dtype=np.float64)
+        self.gate_d2 = chi2_quantile_2dof(self.gate)
+        self.new_d2 = chi2_quantile_2dof(self.new_landmark)
+
+    @property
+    def num_landmarks(self) -> int:
+        return (len(self.x) - 3) // 2
+
+    def landmarks(self) -> np.ndarray:
+        """``(n, 2)`` landmark means, in the order they were added."""
+        return self.x[3:].reshape(-1, 2)
+
+    def landmark_covariance(self, j: int) -> np.ndarray:
+        o = 3 + 2 * j
+        return self.P[o : o + 2, o : o + 2].copy()
+
+    # -------------------------------------------------------------- prediction
+
+    def predict(self, u1: float, u2: float, dt: float) -> None:
+        """Seed eqs. (3) and (5): the robot moves, ``P <- F P F^T + G V G^T``."""
+        if self.vehicle is None:
+            mean, fx, fv = unicycle(self.x[:3], u1, u2, dt)
+        else:
+            mean, fx, fv = self.vehicle.predict(self.x[:3], u1, u2, dt)
+        self.x[:3] = mean
+        if self.structured:
+            # Only the robot rows and columns change: O(n).
+            self.P[:3, :] = fx @ self.P[:3, :]
+            self.P[:, :3] = self.P[:, :3] @ fx.T
+            self.P[:3, :3] += fv @ self.V @ fv.T
+            return
+        n = len(self.x)
+        f = np.eye(n)
+        f[:3, :3] = fx
+        g = np.zeros((n, 2))
+        g[:3] = fv
+        self.P = f @ self.P @ f.T + g @ self.V @ g.T
+
+    # -------------------------------------------------------------- observation
+
+    def _sensor(self) -> tuple[np.ndarray, np.ndarray]:
+        """The sensor's pose and its Jacobian wrt the robot pose."""
+        if self.vehicle is None:
+            return self.x[:3], np.eye(3)
+        return self.vehicle.laser_pose(self.x[:3])
+
+    def predict_observation(self, j: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``h(x)`` for landmark ``j``, ``dh/d(robot)`` and ``dh/d(landmark)``."""
+        sensor, j_sensor = self._sensor()
+        o = 3 + 2 * j
+        z, h_sensor, h_landmark = range_bearing(sensor, self.x[o : o + 2])
+        return z, h_sensor @ j_sensor, h_landmark
+
+    def nis(self, j: int, z: np.ndarray) -> float:
+        """Normalised innovation squared of ``z`` against landmark ``j`` (prior)."""
+        zhat, h_r, h_l = self.predict_observation(j)
+        o = 3 + 2 * j
+        nu = np.array([z[0] - zhat[0], wrap(z[1] - zhat[1])])
+        cols = [0, 1, 2, o, o + 1]
+        h = np.hstack([h_r, h_l])
+        s = h @ self.P[np.ix_(cols, cols)] @ h.T + self.R
+        return float(nu @ np.linalg.solve(s, nu))
+
+    def nis_all(self, z: np.ndarray) -> np.ndarray:
+        """:meth:`nis` of ``z`` against every landmark at once, ``(n,)``: the same
+        algebra on stacked 2x3 and 2x2 Jacobians, so that nearest neighbour costs one
+        numpy pass per sighting instead of a Python loop over the map."""
+        n = self.num_landmarks
+        sensor, j_sensor = self._sensor()
+        d = self.landmarks() - sensor[:2]
+        q = np.einsum("ij,ij->i", d, d)
+        r = np.sqrt(q)
+        dx, dy, zero = d[:, 0], d[:, 1], np.zeros(n)
+        h_s = np.stack([[-dx / r, -dy / r, zero], [dy / q, -dx / q, zero - 1.0]]).transpose(2, 0, 1)
+        h_r = h_s @ j_sensor
+        h_l = np.stack([[dx / r, dy / r], [-dy / q, dx / q]]).transpose(2, 0, 1)
+        off = 3 + 2 * np.arange(n)
+        p_rl = self.P[:3, 3:].reshape(3, n, 2).transpose(1, 0, 2)  # (n, 3, 2)
+        p_ll = self.P[off[:, None, None] + [[0], [1]], off[:, None, None] + [[0, 1]]]
+        cross = h_r @ p_rl @ h_l.transpose(0, 2, 1)
+        s = h_r @ self.P[:3, :3] @ h_r.transpose(0, 2, 1) + cross + cross.transpose(0, 2, 1)
+        s += h_l @ p_ll @ h_l.transpose(0, 2, 1) + self.R
+        bearing = np.arctan2(dy, dx) - sensor[2]
+        nu = np.stack([z[0] - r, np.mod(z[1] - bearing + math.pi, 2 * math.pi) - math.pi], 1)
+        return np.einsum("ij,ij->i", nu, np.linalg.solve(s, nu[:, :, None])[:, :, 0])
+
+    def _stack(self, pairs: list[tuple[int, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
+        """The stacked innovation (bearings wrapped) and dense ``H`` of a scan."""
+        n, m = len(self.x), len(pairs)
+        nu, h = np.zeros(2 * m), np.zeros((2 * m, n))
+        for k, (j, z) in enumerate(pairs):
+            zhat, h_r, h_l = self.predict_observation(j)
+            nu[2 * k : 2 * k + 2] = [z[0] - zhat[0], wrap(z[1] - zhat[1])]
+            o = 3 + 2 * j
+            h[2 * k : 2 * k + 2, :3], h[2 * k : 2 * k + 2, o : o + 2] = h_r, h_l
+        return nu, h
+
+    def update(self, pairs: list[tuple[int, np.ndarray]]) -> None:
+        """One batch update (seed eqs. 6-9, Joseph form) with sightings ``(j, z)``."""
+        if not pairs:
+            return
+        nu, h = self._stack(pairs)
+        r = np.kron(np.eye(len(pairs)), self.R)
+        if self.structured:
+            # H touches 5 columns per sighting: P H^T in O(n m), the expanded Joseph
+            # form P - K (P H^T)^T - (P H^T) K^T + K S K^T in O(n^2 m).
+            cols = np.flatnonzero(np.any(h != 0.0, axis=0))
+            pht = self.P[:, cols] @ h[:, cols].T
+            s = h[:, cols] @ pht[cols] + r
+            k = np.linalg.solve(s, pht.T).T
+            self.P += -k @ pht.T - pht @ k.T + k @ s @ k.T
+            # Unlike the product form, this sum does not shrink an asymmetric part of
+            # P left by rounding: it would grow over thousands of updates (measured on
+            # MR.CLAM: 6e-3 after 477 updates, then a negative eigenvalue).
+            self.P = 0.5 * (self.P + self.P.T)
+        else:
+            s = h @ self.P @ h.T + r
+            k = self.P @ h.T @ np.linalg.inv(s)
+            ikh = np.eye(len(self.x)) - k @ h
+            self.P = ikh @ self.P @ ikh.T + k @ r @ k.T
+        self.x += k @ nu
+        self.x[2] = wrap(self.x[2])
+
+    def add_landmark(self, ident: int, z: np.ndarray) -> int:
+        """Appends the landmark first seen at ``z`` with its full covariance:
+        ``P_ll = G_x P_xx G_x^T + G_z R G_z^T``, ``P_l* = G_x P_x*``."""
+        sensor, j_sensor = self._sensor()
+        landmark, g_sensor, g_z = landmark_from_range_bearing(sensor, z)
+        g_x = g_sensor @ j_sensor
+        n = len(self.x)
+        cross = g_x @ self.P[:3, :]  # 2 x n
+        p = np.zeros((n + 2, n + 2))
+        p[:n, :n] = self.P
+        p[n:, :n], p[:n, n:] = cross, cross.T
+        p[n:, n:] = g_x @ self.P[:3, :3] @ g_x.T + g_z @ self.R @ g_z.T
+        self.x, self.P = np.concatenate([self.x, landmark]), p
+        self.ids.append(int(ident))
+        self.stats.new += 1
+        return self.num_landmarks - 1
+
+    # -------------------------------------------------------------- association
+
+    def observe_known(self, ids: list[int], zs: np.ndarray) -> None:
+        """A scan with known identities: mapped landmarks (each through the NIS gate
+        when ``gate_known``) in one batch update, then new ones initialised."""
+        index = {ident: k for k, ident in enumerate(self.ids)}
+        pairs, new, again = [], {}, []
+        for ident, z in zip(ids, np.asarray(zs, dtype=np.float64), strict=True):
+            j = index.get(int(ident))
+            if j is None:
+                # A new id seen twice in one scan: the first sighting starts it, the
+                # others update it once it exists.
+                if int(ident) in new:
+                    again.append((int(ident), z))
+                else:
+                    new[int(ident)] = z
+            elif self.gate_known and self.nis(j, z) > self.gate_d2:
+                self.stats.rejected += 1
+            else:
+                pairs.append((j, z))
+        self.stats.accepted += len(pairs)
+        self.update(pairs)
+        for ident, z in new.items():
+            self.add_landmark(ident, z)
+        if again:
+            self.observe_known([i for i, _ in again], np.array([z for _, z in again]))
+
+    def observe_nearest(self, zs: np.ndarray) -> None:
+        """A scan without identities: each sighting goes to the landmark of least NIS
+        if it passes the gate, starts a landmark if even that NIS is beyond
+        ``new_landmark``, and is rejected in between. Two sightings on one landmark:
+        the closer wins, the other is rejected."""
+        best: dict[int, tuple[float, np.ndarray]] = {}
+        new = []
+        for z in np.asarray(zs, dtype=np.float64):
+            d2 = self.nis_all(z) if self.num_landmarks else np.zeros(0)
+            j = int(np.argmin(d2)) if len(d2) else -1
+            if j < 0 or d2[j] > self.new_d2:
+                new.append(z)
+            elif d2[j] > self.gate_d2:
+                self.stats.rejected += 1
+            elif j in best:
+                self.stats.rejected += 1
+                if d2[j] < best[j][0]:
+                    best[j] = (d2[j], z)
+            else:
+                best[j] = (d2[j], z)
+        self.stats.accepted += len(best)
+        self.update([(j, z) for j, (_, z) in sorted(best.items())])
+        for z in new:
+            self.add_landmark(len(self.ids), z)
+
+    def pose_nees(self, truth: np.ndarray) -> float:
+        """``e^T P_xx^-1 e`` of the robot pose against ``truth`` (heading wrapped)."""
+        e = self.x[:3] - np.asarray(truth, dtype=np.float64)
+        e[2] = wrap(e[2])
+        return float(e @ np.linalg.solve(self.P[:3, :3], e))
+
+
+# ------------------------------------------------------------------ MR.CLAM driver
+
+
+@dataclass
+class RunResult:
+    """A whole run: the pose and robot covariance after every odometry record."""
+
+    t: np.ndarray  # (N,) odometry times
+    poses: np.ndarray  # (N, 3)
+    covariances: np.ndarray  # (N, 3, 3)
+    landmark_ids: np.ndarray  # (n,) subject numbers, in the order they were mapped
+    landmarks: np.ndarray  # (n, 2)
+    stats: AssociationStats
+    seconds: float  # wall time of the filter loop
+
+
+def _scans(t: np.ndarray) -> list[tuple[int, int]]:
+    """``[start, end)`` row ranges of the measurements sharing one time stamp."""
+    cuts = np.flatnonzero(np.diff(t) != 0) + 1
+    bounds = np.r_[0, cuts, len(t)]
+    return list(zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True))
+
+
+def initial_pose(run: Any) -> np.ndarray:
+    """The ground truth at the first odometry time (heading along the shorter arc)."""
+    t0 = run.odometry_t[0]
+    k = int(np.clip(np.searchsorted(run.truth_t, t0) - 1, 0, len(run.truth_t) - 2))
+    s = (t0 - run.truth_t[k]) / (run.truth_t[k + 1] - run.truth_t[k])
+    th = run.truth_theta[k] + s * wrap(run.truth_theta[k + 1] - run.truth_theta[k])
+    x = run.truth_x[k] + s * (run.truth_x[k + 1] - run.truth_x[k])
+    y = run.truth_y[k] + s * (run.truth_y[k + 1] - run.truth_y[k])
+    return np.array([x, y, wrap(th)])
+
+
+def drive(
+    slam: PlanarEkfSlam,
+    t_controls: np.ndarray,
+    controls: np.ndarray,
+    t_sightings: np.ndarray,
+    observe: Callable[[int, int], None],
+) -> RunResult:
+    """Drives ``slam`` through controls ``(N, 2)`` at times ``t_controls`` and the
+    scans of ``t_sightings`` (rows sharing one time), calling ``observe(a, b)`` for
+    the rows ``[a, b)`` of each scan.
+
+    Controls are held constant until the next record; a scan between two records is
+    applied after predicting up to its own time, so every prediction covers exactly
+    the time that passed. The pose is recorded at every control time.
+    """
+    scans, s = _scans(t_sightings), 0
+    poses, covs = np.empty((len(t_controls), 3)), np.empty((len(t_controls), 3, 3))
+    start, now = time.perf_counter(), t_controls[0]
+    poses[0], covs[0] = slam.x[:3], slam.P[:3, :3]
+    for k in range(1, len(t_controls) + 1):
+        end = t_controls[k] if k < len(t_controls) else math.inf
+        while s < len(scans) and t_sightings[scans[s][0]] < end:
+            a, b = scans[s]
+            if t_sightings[a] > now:
+                slam.predict(controls[k - 1, 0], controls[k - 1, 1], t_sightings[a] - now)
+                now = t_sightings[a]
+            observe(a, b)
+            s += 1
+        if k < len(t_controls):
+            slam.predict(controls[k - 1, 0], controls[k - 1, 1], t_controls[k] - now)
+            now = t_controls[k]
+            poses[k], covs[k] = slam.x[:3], slam.P[:3, :3]
+    seconds = time.perf_counter() - start
+    ids, marks = np.array(slam.ids, dtype=np.int64), slam.landmarks().copy()
+    return RunResult(t_controls, poses, covs, ids, marks, slam.stats, seconds)
+
+
+def run_mrclam(run: Any, slam: PlanarEkfSlam) -> RunResult:
+    """A :class:`rperc.datasets.MrclamRun` with known association (barcodes)."""
+    z = np.c_[run.measurement_range, run.measurement_bearing]
+    controls = np.c_[run.odometry_v, run.odometry_omega]
+
+    def observe(a: int, b: int) -> None:
+        slam.observe_known(run.measurement_landmark[a:b].tolist(), z[a:b])
+
+    return drive(slam, run.odometry_t, controls, run.measurement_t, observe)
+
+
+def run_victoria_park(park: Any, slam: PlanarEkfSlam) -> RunResult:
+    """A :class:`rperc.datasets.VictoriaPark` run with nearest-neighbour association
+    (``slam`` should carry the :class:`Ackermann` vehicle). GPS is not used."""
+    z = np.c_[park.measurement_range, park.measurement_bearing]
+    controls = np.c_[park.input_speed, park.input_steering]
+
+    def observe(a: int, b: int) -> None:
+        slam.observe_nearest(z[a:b])
+
+    return drive(slam, park.input_t, controls, park.measurement_t, observe)

@@ -40,6 +40,9 @@ pub enum CoreError {
         /// [`MAX_ALLOCATION_BYTES`].
         limit: u128,
     },
+    /// The caller asked the work to stop (Ctrl-C in Python): see [`crate::interrupt`].
+    #[error("interrupted")]
+    Interrupted,
     /// A string option that names no known choice.
     #[error("unknown {kind} '{got}'; expected one of {}", quoted(expected))]
     UnknownName {
@@ -152,6 +155,8 @@ pub enum ErrorClass {
     Io,
     /// A request for more memory than rperc allows itself (Python `MemoryError`).
     Memory,
+    /// The work was stopped on request (Python: the pending `KeyboardInterrupt`).
+    Interrupted,
 }
 
 impl CoreError {
@@ -159,6 +164,7 @@ impl CoreError {
     pub fn class(&self) -> ErrorClass {
         match self {
             CoreError::TooLarge { .. } => ErrorClass::Memory,
+            CoreError::Interrupted => ErrorClass::Interrupted,
             _ => ErrorClass::InvalidInput,
         }
     }

@@ -6,6 +6,7 @@ pub mod chi2;
 mod error;
 pub mod gaussian;
 pub mod image;
+pub mod interrupt;
 mod named;
 pub mod pose;
 pub mod rng;

@@ -4,6 +4,7 @@
 use std::cmp::Ordering;
 
 use nalgebra::Point2;
+use rperc_core::interrupt::Work;
 
 use crate::Result;
 use crate::metric::{Extent, LineChord, Metric, SegmentChord, SegmentFormula};
@@ -192,12 +193,15 @@ pub(crate) fn dp_mark(
         return Ok(());
     }
     let extent = Extent::of(points)?;
+    // Adversarial chains make this quadratic (minutes at 10^6 points): let Ctrl-C in.
+    let mut meter = Work::new();
     stack.clear();
     stack.push((0, n - 1));
     while let Some((i, j)) = stack.pop() {
         if j <= i + 1 {
             continue;
         }
+        meter.advance((j - i) as u64)?;
         if let Some(f) = split_at(points, i, j, epsilon, metric, tie, &extent) {
             keep[f] = true;
             // Left part on top: the output order does not depend on it, but it keeps

@@ -18,6 +18,7 @@ mod half;
 use std::cmp::Ordering;
 
 use nalgebra::Point2;
+use rperc_core::interrupt::Work;
 
 use crate::Result;
 use crate::dp::{Tie, find_split_line, split_at};
@@ -138,12 +139,14 @@ pub(crate) fn hull_mark(
         .saturating_mul(n)
         .saturating_mul((usize::BITS - n.leading_zeros()) as usize);
     let mut work = 0usize;
+    let mut meter = Work::new();
     ranges.clear();
     ranges.push((0, n - 1));
     while let Some((i, j)) = ranges.pop() {
         if j <= i + 1 {
             continue;
         }
+        meter.advance((j - i) as u64)?;
         work += j - i - 1;
         if work > budget {
             ranges.push((i, j));
@@ -160,8 +163,7 @@ pub(crate) fn hull_mark(
     }
     tasks.clear();
     tasks.extend(ranges.drain(..).map(|(i, j)| Task { i, j, fresh: true }));
-    path_hull_mark(points, epsilon, tie, &extent, keep, tasks, hull);
-    Ok(())
+    path_hull_mark(points, epsilon, tie, &extent, keep, tasks, hull)
 }
 
 /// Douglas-Peucker with path hulls on the pending `tasks`, marking kept vertices.
@@ -178,13 +180,18 @@ pub(crate) fn path_hull_mark(
     keep: &mut [bool],
     tasks: &mut Vec<Task>,
     hull: &mut PathHull,
-) {
+) -> Result<()> {
+    let mut meter = Work::new();
     while let Some(Task { i, j, fresh }) = tasks.pop() {
         if j <= i + 1 {
             continue;
         }
         if fresh {
+            meter.advance((j - i) as u64)?;
             hull.build(points, i, j, tie, extent.grid);
+        } else {
+            // A rolled-back hull answers in O(log n): count it as a few units.
+            meter.advance(16)?;
         }
         let chord = LineChord::new(points[i], points[j], extent);
         let f = if chord.is_degenerate() {
@@ -216,6 +223,7 @@ pub(crate) fn path_hull_mark(
             fresh: false,
         });
     }
+    Ok(())
 }
 
 #[cfg(test)]

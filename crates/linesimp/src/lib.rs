@@ -208,6 +208,8 @@ impl Simplifier {
         P: AsRef<[Point2<f64>]> + Sync,
     {
         let (method, metric, tie, budget) = (self.method, self.metric, self.tie, self.dp_budget);
+        // The pool's threads work under the caller's interrupt token (if any).
+        let token = rperc_core::interrupt::current();
         polylines
             .par_iter()
             .map_init(
@@ -215,7 +217,11 @@ impl Simplifier {
                     dp_budget: budget,
                     ..Simplifier::new(method, metric).with_tie(tie)
                 },
-                |s, pl| s.indices(pl.as_ref(), epsilon),
+                |s, pl| {
+                    rperc_core::interrupt::run_with(token.clone(), || {
+                        s.indices(pl.as_ref(), epsilon)
+                    })
+                },
             )
             .collect()
     }

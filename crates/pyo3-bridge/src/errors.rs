@@ -5,10 +5,14 @@
 //! for a wrong type), a numerical failure `rperc.NumericalError`, an unreadable file
 //! `OSError`, and a caught panic `rperc.RpercError`.
 
-use pyo3::exceptions::{PyException, PyMemoryError, PyOSError, PyTypeError, PyValueError};
+use std::sync::{Arc, Mutex};
+
+use pyo3::exceptions::{
+    PyException, PyKeyboardInterrupt, PyMemoryError, PyOSError, PyTypeError, PyValueError,
+};
 use pyo3::prelude::*;
 use pyo3::{PyErr, create_exception};
-use rperc_core::ErrorClass;
+use rperc_core::{ErrorClass, interrupt};
 
 create_exception!(
     _rperc,
@@ -77,6 +81,7 @@ impl From<Error> for PyErr {
             (_, Some(ErrorClass::Numerical)) => NumericalError::new_err(msg),
             (_, Some(ErrorClass::Io)) => PyOSError::new_err(msg),
             (_, Some(ErrorClass::Memory)) => PyMemoryError::new_err(msg),
+            (_, Some(ErrorClass::Interrupted)) => PyKeyboardInterrupt::new_err(msg),
             _ => PyValueError::new_err(msg),
         }
     }
@@ -125,14 +130,83 @@ pub fn guarded<T>(work: impl FnOnce() -> Result<T>) -> Result<T> {
         .unwrap_or_else(|payload| Err(Error::Panic(panic_message(payload))))
 }
 
+/// A Python exception raised by a signal handler while native work ran (normally
+/// `KeyboardInterrupt`), kept until the work has stopped and the GIL is back.
+type Pending = Arc<Mutex<Option<PyErr>>>;
+
+/// Asks Python for pending signals (briefly re-attaching to the interpreter); a raised
+/// exception is kept in `pending` and reported as `true`.
+fn signalled(pending: &Pending) -> bool {
+    match Python::attach(|py| py.check_signals()) {
+        Ok(()) => false,
+        Err(err) => {
+            let mut slot = pending.lock().unwrap_or_else(|e| e.into_inner());
+            slot.get_or_insert(err);
+            true
+        }
+    }
+}
+
+/// The work's result as a Python result: an interrupted run re-raises the signal
+/// handler's exception.
+fn finish<T>(out: Result<T>, pending: &Pending) -> PyResult<T> {
+    match out {
+        Ok(value) => Ok(value),
+        Err(err) if err.class() == Some(ErrorClass::Interrupted) => {
+            let raised = pending.lock().unwrap_or_else(|e| e.into_inner()).take();
+            Err(raised.unwrap_or_else(|| PyKeyboardInterrupt::new_err("interrupted")))
+        }
+        Err(err) => Err(err.into()),
+    }
+}
+
 /// Runs heavy work with the GIL released, catching panics so none crosses into Python.
-/// Every bridge call that does real work goes through here.
+/// Every bridge call that does real work goes through here. The work's checkpoints
+/// (see [`rperc_core::interrupt`]) poll for signals on this thread, so Ctrl-C stops
+/// a long loop with `KeyboardInterrupt` instead of waiting for its end.
 pub fn detached<T, F>(py: Python<'_>, work: F) -> PyResult<T>
 where
     T: Send,
     F: FnOnce() -> Result<T> + Send,
 {
-    py.detach(|| guarded(work)).map_err(PyErr::from)
+    let pending = Pending::default();
+    let poll_pending = Arc::clone(&pending);
+    let out = py
+        .detach(move || interrupt::run_polled(move || signalled(&poll_pending), || guarded(work)));
+    finish(out, &pending)
+}
+
+/// [`detached`] for work that runs on a thread pool: the pool's threads cannot ask
+/// Python for signals, so the work runs on a scoped thread while this one polls every
+/// [`interrupt::POLL_INTERVAL`] and stops the shared token on a signal.
+pub fn detached_parallel<T, F>(py: Python<'_>, work: F) -> PyResult<T>
+where
+    T: Send,
+    F: FnOnce() -> Result<T> + Send,
+{
+    let pending = Pending::default();
+    let out = py.detach(|| {
+        let token = Arc::new(interrupt::Interrupt::new());
+        std::thread::scope(|scope| {
+            let caller = std::thread::current();
+            let worker_token = Some(Arc::clone(&token));
+            let worker = scope.spawn(move || {
+                let out = interrupt::run_with(worker_token, || guarded(work));
+                caller.unpark();
+                out
+            });
+            while !worker.is_finished() {
+                std::thread::park_timeout(interrupt::POLL_INTERVAL);
+                if !worker.is_finished() && !token.is_stopped() && signalled(&pending) {
+                    token.stop();
+                }
+            }
+            worker
+                .join()
+                .unwrap_or_else(|payload| Err(Error::Panic(panic_message(payload))))
+        })
+    });
+    finish(out, &pending)
 }
 
 #[cfg(test)]
@@ -171,6 +245,10 @@ mod tests {
                 (
                     Error::Core(rperc_core::CoreError::NonFinite("x")),
                     py.get_type::<PyValueError>(),
+                ),
+                (
+                    Error::LineSimp(rperc_core::CoreError::Interrupted.into()),
+                    py.get_type::<PyKeyboardInterrupt>(),
                 ),
             ];
             for (err, expected) in cases {

@@ -5,7 +5,7 @@ use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 
 use crate::arrays::point_rows;
-use crate::errors::{Error, detached};
+use crate::errors::{Error, detached, detached_parallel};
 
 /// The configured simplifier for the option names Python passes.
 fn simplifier(method: &str, metric: &str, tie: &str) -> Result<Simplifier, Error> {
@@ -58,17 +58,25 @@ pub fn simplify_many_indices<'py>(
         .map(|(k, p)| point_rows(p, &format!("polylines[{k}]")))
         .collect::<Result<Vec<_>, _>>()?;
     let slices: Vec<&[nalgebra::Point2<f64>]> = rows.iter().map(|r| r.as_points()).collect();
-    let results = detached(py, || {
+    let results = detached_parallel(py, || {
         crate::parallel::with_threads(threads, || simplifier.indices_many(&slices, epsilon))?
             .into_iter()
             .enumerate()
-            .map(|(k, r)| r.map_err(|e| Error::Value(format!("polylines[{k}]: {e}"))))
+            .map(|(k, r)| r.map_err(|e| polyline_error(k, e)))
             .collect::<Result<Vec<_>, Error>>()
     })?;
     Ok(results
         .into_iter()
         .map(|kept| to_intp(kept).into_pyarray(py))
         .collect())
+}
+
+/// An error of polyline `k` of a batch, named by its index; an interrupt stays one.
+fn polyline_error(k: usize, err: linesimp::LineSimpError) -> Error {
+    match err.class() {
+        rperc_core::ErrorClass::Interrupted => Error::LineSimp(err),
+        _ => Error::Value(format!("polylines[{k}]: {err}")),
+    }
 }
 
 /// Topology-preserving Douglas-Peucker of the components of one geometry (GIL

@@ -14,7 +14,11 @@ pub fn with_threads<T: Send>(threads: Option<usize>, work: impl FnOnce() -> T + 
         Some(n) => rayon::ThreadPoolBuilder::new()
             .num_threads(n.min(4 * cores))
             .build()
-            .map(|pool| pool.install(work))
+            .map(|pool| {
+                // `install` runs `work` on a pool thread: hand it the caller's token.
+                let token = rperc_core::interrupt::current();
+                pool.install(|| rperc_core::interrupt::run_with(token, work))
+            })
             .map_err(|e| Error::Value(format!("cannot start {n} threads: {e}"))),
     }
 }

@@ -7,7 +7,7 @@ use pyo3::types::PyDict;
 use slam::monobot::{self, MeasurementModel, MonobotConfig, RunErrors};
 
 use crate::arrays::{float_vector, matrix, shaped, tensor, to_numpy};
-use crate::errors::{Error, detached, exclusive, shared};
+use crate::errors::{Error, detached, detached_parallel, exclusive, shared};
 
 fn vector(obj: &Bound<'_, PyAny>, name: &str) -> Result<DVector<f64>, Error> {
     Ok(DVector::from_vec(float_vector(obj, name)?))
@@ -301,7 +301,7 @@ pub fn monobot_monte_carlo<'py>(
     let cfg = monobot_config(config)?;
     let landmarks = cfg.landmarks;
     let steps = cfg.steps;
-    let errors = detached(py, || {
+    let errors = detached_parallel(py, || {
         Ok(monobot::monte_carlo(&cfg, model, runs, seed)?
             .iter()
             .map(|r| r.errors())

@@ -17,9 +17,13 @@ pub fn monte_carlo(
     if runs == 0 {
         return Err(SlamError::invalid("runs", "must be >= 1".into()));
     }
+    // The pool's threads work under the caller's interrupt token (if any).
+    let token = rperc_core::interrupt::current();
     (0..runs)
         .into_par_iter()
-        .map(|i| simulate_run(config, model, seed, i))
+        .map(|i| {
+            rperc_core::interrupt::run_with(token.clone(), || simulate_run(config, model, seed, i))
+        })
         .collect()
 }
 

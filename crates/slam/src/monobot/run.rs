@@ -117,6 +117,7 @@ pub fn simulate_run(
     config.validate()?;
     let mut sim = Simulation::start(config, model, stream(seed, run as u64))?;
     for k in 0..config.steps {
+        rperc_core::interrupt::checkpoint()?;
         sim.step(k)?;
     }
     Ok(sim.run)
@@ -178,6 +179,8 @@ impl<'a> Simulation<'a> {
             .measurement_noise
             .variance(c.landmark_position - c.planned_position(0), c.noise_floor);
         for _ in 0..c.landmarks {
+            // Each addition grows P: thousands of landmarks take minutes.
+            rperc_core::interrupt::checkpoint()?;
             let z = c.landmark_position - self.x_true + w.sqrt() * normal(&mut self.rng);
             let x_hat = self.ekf.state()[0];
             self.ekf.add_landmark(

@@ -1,0 +1,79 @@
+"""Ctrl-C stops long native work (issue 15): each case runs in a child process that
+starts a call which would take tens of seconds to minutes, receives SIGINT while the
+call runs with the GIL released, and must die of KeyboardInterrupt promptly instead of
+finishing the work first.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+
+# Each case builds its input, prints "ready" and starts a call that runs for far
+# longer than the test waits (the uninterruptible versions took 39 s to 20 min).
+ZIGZAG = (
+    "import numpy as np\nk = np.arange(300_000.0)\npts = np.c_[k, np.where(k % 2 == 0, k, -k)]\n"
+)
+CASES = {
+    "dp on a zig-zag": ZIGZAG
+    + "from rperc.linesimp import simplify\nprint('ready', flush=True)\n"
+    + "simplify(pts, 1e-9, method='dp')\n",
+    "simplify_many on zig-zags": ZIGZAG
+    + "from rperc.linesimp import simplify_many\nprint('ready', flush=True)\n"
+    + "simplify_many([pts, pts], 1e-9, method='dp', threads=2)\n",
+    "monobot with thousands of landmarks": "from rperc.slam import monobot\n"
+    + "print('ready', flush=True)\nmonobot.simulate(landmarks=3000, steps=1)\n",
+    "monobot Monte Carlo": "from rperc.slam import monobot\n"
+    + "print('ready', flush=True)\nmonobot.monte_carlo(runs=8, landmarks=1500, steps=50)\n",
+}
+
+# Far above the 20 ms poll interval (the child also needs time to unwind and exit on a
+# loaded 2-core machine), far below the seconds to minutes the calls take.
+DEADLINE_S = 5.0
+
+
+def _interrupt(code: str) -> tuple[float, str]:
+    child = subprocess.Popen(
+        [sys.executable, "-c", code],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert child.stdout is not None
+        assert child.stdout.readline().strip() == "ready"
+        time.sleep(1.0)  # inside the native call by now
+        assert child.poll() is None, "the call ended before it could be interrupted"
+        sent = time.monotonic()
+        os.kill(child.pid, signal.SIGINT)
+        _, stderr = child.communicate(timeout=60)
+        return time.monotonic() - sent, stderr
+    finally:
+        if child.poll() is None:
+            child.kill()
+            child.wait()
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_ctrl_c_stops_long_native_work(name):
+    elapsed, stderr = _interrupt(CASES[name])
+    assert "KeyboardInterrupt" in stderr, stderr[-2000:]
+    assert elapsed < DEADLINE_S, f"{name}: took {elapsed:.2f} s to stop"
+
+
+def test_interruptible_calls_still_return_their_results():
+    from rperc.linesimp import simplify, simplify_many
+
+    pts = [[0.0, 0.0], [1.0, 1.0], [2.0, 0.0]]
+    assert simplify(pts, 0.5, return_indices=True).tolist() == [0, 1, 2]
+    assert [r.tolist() for r in simplify_many([pts, pts], 2.0, return_indices=True)] == [
+        [0, 2],
+        [0, 2],
+    ]

@@ -9,7 +9,7 @@ pub mod motion;
 mod observation;
 
 pub use ackermann::{Ackermann, LaserObservation};
-pub use ekf::{Ekf, JacobianBlock, SparseJacobian, Update};
+pub use ekf::{Ekf, Gated, JacobianBlock, SparseJacobian, Update};
 pub use error::{Result, SlamError};
 pub use motion::{MotionModel, Prediction, Unicycle, unicycle};
 pub use observation::{landmark_from_range_bearing, range_bearing};

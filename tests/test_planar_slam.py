@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from rperc.slam import PlanarSlam
-from rperc.slam.planar import defaults, mrclam_events
+from rperc.slam.planar import defaults, mrclam_recording
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -173,10 +173,8 @@ def test_mrclam_robot1_equals_the_reference_and_scores():
         "initial_pose": pose0.tolist(),
         "initial_pose_variance": [1e-6] * 3,
     }
-    ev = mrclam_events(run)
-    ours = PlanarSlam(cfg).run_arrays(
-        ev["controls"], ev["detections"], detection_ids=ev["detection_ids"]
-    )
+    ev = mrclam_recording(run)
+    ours = PlanarSlam(cfg).run(ev)
     slam = REF.PlanarEkfSlam(
         pose=pose0, pose_covariance=np.eye(3) * 1e-6,
         control_noise=np.diag([0.1**2, 0.2**2]), measurement_noise=np.diag([0.1**2, 0.05**2]),

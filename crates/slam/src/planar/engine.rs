@@ -292,7 +292,10 @@ impl PlanarSlam {
             }
             zs.push(Vector2::new(d.range, d.bearing));
         }
-        let ids: Vec<Option<u64>> = detections.iter().map(|d| d.id).collect();
+        // Ids are the association only when it is 'known'; otherwise they are ignored
+        // (a data set's labels must not leak into NN or JCBB).
+        let known = self.config.association == Association::Known;
+        let ids: Vec<Option<u64>> = detections.iter().map(|d| d.id.filter(|_| known)).collect();
         let (pairings, unmatched) = self.associate(&zs, &ids)?;
         if !pairings.is_empty() {
             self.apply(&pairings, &zs)?;

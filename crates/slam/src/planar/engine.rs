@@ -154,7 +154,7 @@ impl PlanarSlam {
 
     /// The robot covariance `P_rr` (relative to the anchor when there is one).
     pub fn pose_covariance(&self) -> Matrix3<f64> {
-        Matrix3::from_column_slice(self.ekf.robot_covariance().as_slice())
+        self.ekf.robot_covariance_planar()
     }
 
     /// The anchor's id and world position, once the anchor variant has one.
@@ -250,9 +250,9 @@ impl PlanarSlam {
                 .config
                 .motion
                 .predict(&self.robot(), self.control, t - t0)?;
-            let (mean, fx, fv) = pred.to_dynamic();
-            let v = dyn_mat(&self.config.motion.control_noise());
-            self.ekf.predict(&mean, &fx, &fv, &v)?;
+            let v = self.config.motion.control_noise();
+            self.ekf
+                .predict_planar(&pred.mean, &pred.fx, &pred.fv, &v)?;
         }
         self.time = Some(t);
         Ok(())

@@ -29,15 +29,16 @@ const SIZES: [usize; 5] = [10, 50, 100, 500, 1000];
 
 fn bench_predict(c: &mut Criterion) {
     let mut group = c.benchmark_group("planar/predict");
-    let v = DMatrix::from_diagonal(&DVector::from_vec(vec![0.01, 0.001]));
+    let v = Matrix2::new(0.01, 0.0, 0.0, 0.001);
     for n in SIZES {
         let mut ekf = filter(n);
         group.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
             b.iter(|| {
                 let x = ekf.state();
                 let pose = rperc_core::Pose2::new(x[0], x[1], x[2]);
-                let (mean, fx, fv) = unicycle(&pose, 0.5, 0.1, 0.015).to_dynamic();
-                ekf.predict(black_box(&mean), &fx, &fv, &v).unwrap();
+                let p = unicycle(&pose, 0.5, 0.1, 0.015);
+                ekf.predict_planar(black_box(&p.mean), &p.fx, &p.fv, &v)
+                    .unwrap();
             })
         });
     }

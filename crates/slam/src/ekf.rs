@@ -13,7 +13,7 @@
 
 use std::collections::HashMap;
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Matrix3x2, Vector3};
 use rayon::prelude::*;
 
 use rperc_core::{Definiteness, check_allocation, check_covariance, wrap_angle};
@@ -146,7 +146,7 @@ struct Prepared {
 ///
 /// # Examples
 /// ```
-/// use nalgebra::{DMatrix, DVector};
+/// use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Matrix3x2, Vector3};
 /// use slam::{Ekf, SparseJacobian};
 ///
 /// // A 1-D robot at 0 (variance 1) and a landmark at 2 (variance 4).
@@ -319,6 +319,19 @@ impl Ekf {
         DMatrix::from_fn(r, r, |i, j| self.cov_at(i, j))
     }
 
+    /// The planar robot block as a fixed-size matrix (the top-left 3x3 of `P`;
+    /// with a smaller robot block, the rows and columns past it are zero).
+    pub fn robot_covariance_planar(&self) -> Matrix3<f64> {
+        let r = self.robot_dim.min(3);
+        Matrix3::from_fn(|i, j| {
+            if i < r && j < r {
+                self.cov_at(i, j)
+            } else {
+                0.0
+            }
+        })
+    }
+
     /// Landmark `j`'s own block `P_jj` (`landmark_dim x landmark_dim`).
     pub fn landmark_covariance(&self, j: usize) -> Result<DMatrix<f64>> {
         let off = self.landmark_offset(j)?;
@@ -447,6 +460,54 @@ impl Ekf {
             .view_mut((0, 0), (r, r))
             .copy_from(&((&new_rr + new_rr.transpose()) * 0.5));
         self.x.rows_mut(0, r).copy_from(robot_mean);
+        self.wrap_angles();
+        Ok(())
+    }
+
+    /// [`Ekf::predict`] for a planar robot (`robot_dim == 3`) with fixed-size
+    /// Jacobians and no allocation: `P_lr <- P_lr Fx^T` is done in place, row by row
+    /// over the three contiguous robot columns. The path of a long odometry stream.
+    pub fn predict_planar(
+        &mut self,
+        robot_mean: &Vector3<f64>,
+        fx: &Matrix3<f64>,
+        fv: &Matrix3x2<f64>,
+        v: &Matrix2<f64>,
+    ) -> Result<()> {
+        if self.robot_dim != 3 {
+            return Err(SlamError::dimension(format!(
+                "predict_planar needs a robot block of 3, not {}",
+                self.robot_dim
+            )));
+        }
+        ensure_finite("robot mean", robot_mean.iter())?;
+        ensure_finite("Fx", fx.iter())?;
+        ensure_finite("Fv", fv.iter())?;
+        check_noise("V", &DMatrix::from_column_slice(2, 2, v.as_slice()))?;
+        let prr = Matrix3::from_fn(|i, j| self.cov_at(i, j));
+        let new_rr = fx * prr * fx.transpose() + fv * v * fv.transpose();
+        if !new_rr.iter().all(|x| x.is_finite()) || new_rr.diagonal().iter().any(|&x| x < 0.0) {
+            return Err(SlamError::Diverged(
+                "predict: the predicted robot covariance is not finite or has a negative variance"
+                    .into(),
+            ));
+        }
+        let (d, cap) = (self.dim(), self.cov.nrows());
+        let data = self.cov.as_mut_slice();
+        let (c0, rest) = data.split_at_mut(cap);
+        let (c1, c2) = rest.split_at_mut(cap);
+        for i in 3..d {
+            let row = Vector3::new(c0[i], c1[i], c2[i]);
+            let moved = fx * row;
+            (c0[i], c1[i], c2[i]) = (moved.x, moved.y, moved.z);
+        }
+        let sym = (new_rr + new_rr.transpose()) * 0.5;
+        for j in 0..3 {
+            for i in j..3 {
+                self.cov[(i, j)] = sym[(i, j)];
+            }
+        }
+        self.x.fixed_rows_mut::<3>(0).copy_from(robot_mean);
         self.wrap_angles();
         Ok(())
     }

@@ -489,3 +489,33 @@ fn range_bearing_batch_equals_sequential_for_a_known_robot() {
     assert!((batch.state() - seq.state()).amax() < 1e-9);
     assert!(rel_err(&batch.covariance(), &seq.covariance()) < 1e-9);
 }
+
+/// The allocation-free planar prediction equals the generic one (same algebra,
+/// fixed-size matrices), and both equal `F P F^T + G V G^T` written densely.
+#[test]
+fn planar_prediction_equals_the_generic_and_dense_predictions() {
+    let (ekf, _, _, _) = random_problem(17, 6, 2);
+    let x = ekf.state().clone();
+    let pose = rperc_core::Pose2::new(x[0], x[1], x[2]);
+    let pred = slam::unicycle(&pose, 0.7, -0.3, 0.2);
+    let v = Matrix2::new(0.02, 0.001, 0.001, 0.005);
+    let mut generic = ekf.clone();
+    let (mean, fx, fv) = pred.to_dynamic();
+    let vd = DMatrix::from_column_slice(2, 2, v.as_slice());
+    generic.predict(&mean, &fx, &fv, &vd).unwrap();
+    let mut planar = ekf.clone();
+    planar
+        .predict_planar(&pred.mean, &pred.fx, &pred.fv, &v)
+        .unwrap();
+    assert!((planar.state() - generic.state()).amax() < 1e-15);
+    assert!(rel_err(&planar.covariance(), &generic.covariance()) < 1e-14);
+    let d = x.len();
+    let mut f = DMatrix::identity(d, d);
+    f.view_mut((0, 0), (3, 3)).copy_from(&fx);
+    let mut g = DMatrix::zeros(d, 2);
+    g.view_mut((0, 0), (3, 2)).copy_from(&fv);
+    let dense = &f * ekf.covariance() * f.transpose() + &g * vd * g.transpose();
+    assert!(rel_err(&planar.covariance(), &dense) < 1e-12);
+    let m3 = nalgebra::Matrix3::from_column_slice(planar.robot_covariance().as_slice());
+    assert_eq!(planar.robot_covariance_planar(), m3);
+}

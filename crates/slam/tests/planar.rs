@@ -419,3 +419,24 @@ fn bad_input_is_an_error_naming_the_event() {
     assert_eq!((cfg.association, cfg.anchor), (Association::Jcbb, true));
     let _ = Pose2::identity();
 }
+
+/// Nearest neighbour ignores the ids a data set carries: a sighting just outside the
+/// gate of its own landmark becomes a new landmark with a fresh id, never a clash.
+#[test]
+fn nn_ignores_detection_ids() {
+    let sim = SimConfig {
+        steps: 200,
+        ..SimConfig::default()
+    };
+    let data = simulate(&sim, 1, 0);
+    let config = PlanarConfig {
+        association: Association::NearestNeighbour,
+        gate_confidence: 0.9,
+        ..sim.slam_config()
+    };
+    let result = run(config, &data.events);
+    let mut ids: Vec<u64> = result.landmarks.iter().map(|l| l.id).collect();
+    ids.dedup();
+    assert_eq!(ids.len(), result.landmarks.len());
+    assert_eq!(result.statistics.new, ids.len() as u64);
+}

@@ -154,7 +154,7 @@ impl PlanarSlam {
 
     /// The robot covariance `P_rr` (relative to the anchor when there is one).
     pub fn pose_covariance(&self) -> Matrix3<f64> {
-        Matrix3::from_column_slice(self.ekf.robot_covariance().as_slice())
+        self.ekf.robot_covariance_planar()
     }
 
     /// The anchor's id and world position, once the anchor variant has one.
@@ -250,9 +250,9 @@ impl PlanarSlam {
                 .config
                 .motion
                 .predict(&self.robot(), self.control, t - t0)?;
-            let (mean, fx, fv) = pred.to_dynamic();
-            let v = dyn_mat(&self.config.motion.control_noise());
-            self.ekf.predict(&mean, &fx, &fv, &v)?;
+            let v = self.config.motion.control_noise();
+            self.ekf
+                .predict_planar(&pred.mean, &pred.fx, &pred.fv, &v)?;
         }
         self.time = Some(t);
         Ok(())
@@ -292,7 +292,10 @@ impl PlanarSlam {
             }
             zs.push(Vector2::new(d.range, d.bearing));
         }
-        let ids: Vec<Option<u64>> = detections.iter().map(|d| d.id).collect();
+        // Ids are the association only when it is 'known'; otherwise they are ignored
+        // (a data set's labels must not leak into NN or JCBB).
+        let known = self.config.association == Association::Known;
+        let ids: Vec<Option<u64>> = detections.iter().map(|d| d.id.filter(|_| known)).collect();
         let (pairings, unmatched) = self.associate(&zs, &ids)?;
         if !pairings.is_empty() {
             self.apply(&pairings, &zs)?;

@@ -37,3 +37,24 @@ def test_no_input_crashes_hangs_or_corrupts(module: str, tmp_path: Path) -> None
     else:
         what = "a property failed"
     pytest.fail(f"{module}: {what}\nlast example: {got.last_case}\n{got.stderr[-6000:]}")
+
+
+@pytest.mark.parametrize(
+    ("prop", "expected"),
+    [("prop_abort", "SIGABRT"), ("prop_hang", "Timeout"), ("prop_allocate", None)],
+)
+def test_the_harness_survives_and_reports_an_abort_or_a_hang(prop, expected, tmp_path):
+    """The canary examples abort, sleep forever or allocate 8 GiB: the child must die
+    alone (or raise MemoryError under its limit), and the report must name the example."""
+    got = run_child(
+        "canary", tmp_path / "last.txt", 60.0, only=prop,
+        extra_env={"RPERC_FUZZ_EXAMPLE_TIMEOUT": "1"},
+    )  # fmt: skip
+    if expected is None:
+        assert got.returncode == 0, got.stderr[-2000:]
+    elif expected == "SIGABRT":
+        assert got.returncode == -signal.SIGABRT, (got.returncode, got.stderr[-2000:])
+    else:
+        assert got.returncode == 1 and "Timeout (" in got.stderr, got.stderr[-2000:]
+    if expected:
+        assert got.last_case.startswith(prop.removeprefix("prop_") + "(k="), got.last_case

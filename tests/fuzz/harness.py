@@ -31,7 +31,8 @@ from hypothesis import HealthCheck, settings
 
 TESTS = Path(__file__).resolve().parent.parent
 MEMORY_LIMIT = 2 << 30  # bytes of address space per child
-EXAMPLE_TIMEOUT = 20  # seconds one example may take before it counts as a hang
+# Seconds one example may take before it counts as a hang (the canary test shortens it).
+EXAMPLE_TIMEOUT = float(os.environ.get("RPERC_FUZZ_EXAMPLE_TIMEOUT", "20"))
 LONG = os.environ.get("RPERC_FUZZ") == "long"
 
 
@@ -126,9 +127,15 @@ class ChildResult:
     last_case: str
 
 
-def run_child(module_name: str, log: Path, timeout: float, only: str | None = None) -> ChildResult:
+def run_child(
+    module_name: str,
+    log: Path,
+    timeout: float,
+    only: str | None = None,
+    extra_env: dict[str, str] | None = None,
+) -> ChildResult:
     """Runs :func:`main` for one module in a fresh interpreter."""
-    env = dict(os.environ, RPERC_FUZZ_LOG=str(log), PYTHONPATH=str(TESTS))
+    env = dict(os.environ, RPERC_FUZZ_LOG=str(log), PYTHONPATH=str(TESTS), **(extra_env or {}))
     # One BLAS/rayon thread: thread stacks count against RLIMIT_AS, and the machine
     # is shared.
     env.update(OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", RAYON_NUM_THREADS="2")

@@ -185,6 +185,7 @@ FUZZ_REPRODUCERS = [
         "min_points must be",
     ),
     ("extract_lines(np.ones(5), np.arange(5.0), min_range=None)", ValueError, "min_range"),
+    ("extract_lines(np.ones(5), np.arange(5.0), sigma_range=1e300)", ValueError, "sigma_range"),
     ("monobot.simulate(landmarks=float('nan'))", ValueError, "landmarks must be"),
     ("monobot.observability_rank(landmarks=-1)", ValueError, "landmarks must be"),
     ("monobot.observability_rank(landmarks=2**64)", ValueError, "landmarks must be"),

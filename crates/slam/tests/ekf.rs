@@ -323,3 +323,28 @@ fn parallel_update_is_bit_identical_across_thread_counts() {
     };
     assert_eq!(run(1), run(2));
 }
+
+/// Fuzz reproducer (issue 15): a landmark seen at range 1e20 with R = diag(0, 1e300)
+/// has a covariance G_z R G_z^T that overflows to inf; it used to enter P silently.
+#[test]
+fn an_overflowing_new_landmark_is_refused_and_changes_nothing() {
+    let mut ekf = Ekf::new(
+        DVector::from_element(3, 1.0),
+        DMatrix::identity(3, 3) * 0.01,
+        3,
+        2,
+    )
+    .unwrap();
+    let before = ekf.clone();
+    let e = ekf
+        .add_landmark_range_bearing(
+            &Vector2::new(1e20, 0.3),
+            &Matrix2::new(0.0, 0.0, 0.0, 1e300),
+        )
+        .unwrap_err();
+    assert!(
+        matches!(e, SlamError::Diverged(ref m) if m.starts_with("add_landmark")),
+        "{e}"
+    );
+    assert_eq!(ekf, before);
+}

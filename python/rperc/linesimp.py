@@ -36,6 +36,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _geo, _rperc
+from rperc._args import real_number, whole_number
 from rperc.pose import to_world as pose_to_world
 
 Method = Literal["auto", "hull", "dp", "vw"]
@@ -468,21 +469,19 @@ def extract_lines(
     if r.ndim != 1 or a.ndim != 1:
         raise ValueError(f"ranges and angles must be 1-D, got shapes {r.shape} and {a.shape}")
     params = {
-        "min_range": float(min_range),
-        "max_range": float(max_range),
-        "sigma_range": float(sigma_range),
-        "sigma_bearing": float(sigma_bearing),
-        "breakpoint_lambda": float(breakpoint_lambda),
-        "split_epsilon": float(split_epsilon),
-        "merge_confidence": float(merge_confidence),
+        "min_range": real_number(min_range, "min_range"),
+        "max_range": real_number(max_range, "max_range"),
+        "sigma_range": real_number(sigma_range, "sigma_range"),
+        "sigma_bearing": real_number(sigma_bearing, "sigma_bearing"),
+        "breakpoint_lambda": real_number(breakpoint_lambda, "breakpoint_lambda"),
+        "split_epsilon": real_number(split_epsilon, "split_epsilon"),
+        "merge_confidence": real_number(merge_confidence, "merge_confidence"),
         "min_points": _count(min_points, "min_points"),
-        "min_length": float(min_length),
+        "min_length": real_number(min_length, "min_length"),
     }
     rho, alpha, cov, start, end, flat, offsets = _rperc.extract_lines(r, a, params)
     return WallSegments(rho, alpha, cov, start, end, flat, offsets)
 
 
 def _count(value: int, name: str) -> int:
-    if isinstance(value, bool) or int(value) != value or value < 0:
-        raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
-    return int(value)
+    return whole_number(value, name, 0)

@@ -10,8 +10,18 @@ from rperc import _rperc
 
 
 def _points(points: npt.ArrayLike) -> np.ndarray:
-    arr = np.asarray(points, dtype=np.float64)
-    return arr.reshape(-1, 2) if arr.size else np.zeros((0, 2))
+    """(N, 2) float64 points; one point ``(2,)`` is a row. Any other shape is an error:
+    reshaping an (N, 3) array to pairs would silently mix coordinates."""
+    arr = np.asarray(points)
+    if arr.dtype.kind not in "fiub":
+        raise TypeError(f"points must be real numbers, got dtype {arr.dtype}")
+    if arr.shape == (2,):
+        arr = arr.reshape(1, 2)
+    if arr.size == 0:
+        return np.zeros((0, 2))
+    if arr.ndim != 2 or arr.shape[1] != 2:
+        raise ValueError(f"points must have shape (N, 2) or (2,), got {arr.shape}")
+    return arr.astype(np.float64)
 
 
 def to_world(pose: npt.ArrayLike, points: npt.ArrayLike) -> np.ndarray:

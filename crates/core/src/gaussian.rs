@@ -77,6 +77,9 @@ pub fn check_covariance(name: &'static str, c: &DMatrix<f64>, kind: Definiteness
     if asym > COVARIANCE_RTOL {
         return Err(fail(format!("relative asymmetry {asym:.2e}")));
     }
+    if let Some(reason) = entrywise_violation(c) {
+        return Err(fail(reason));
+    }
     let min = min_relative_eigenvalue(c);
     let ok = match kind {
         // Strictly positive, and a Cholesky factor must exist (the inverse is used).
@@ -91,6 +94,33 @@ pub fn check_covariance(name: &'static str, c: &DMatrix<f64>, kind: Definiteness
             min * c.amax()
         )))
     }
+}
+
+/// What a PSD matrix satisfies entry by entry, with a tolerance relative to each row's
+/// own scale (the eigenvalue test above is relative to the largest entry, so a
+/// variance of -0.01 next to one of 1e20 passes it): every variance is >= 0, and every
+/// covariance obeys Cauchy-Schwarz, `|c_ij| <= sqrt(c_ii c_jj)`.
+fn entrywise_violation(c: &DMatrix<f64>) -> Option<String> {
+    let n = c.nrows();
+    let row_scale: Vec<f64> = (0..n).map(|i| c.row(i).amax()).collect();
+    for i in 0..n {
+        if c[(i, i)] < -COVARIANCE_RTOL * row_scale[i] {
+            return Some(format!("variance {i} is negative ({:e})", c[(i, i)]));
+        }
+    }
+    for i in 0..n {
+        for j in i + 1..n {
+            let bound = (c[(i, i)].max(0.0) * c[(j, j)].max(0.0)).sqrt()
+                + COVARIANCE_RTOL * row_scale[i].max(row_scale[j]);
+            let cij = c[(i, j)].abs().max(c[(j, i)].abs());
+            if cij > bound * (1.0 + COVARIANCE_RTOL) {
+                return Some(format!(
+                    "entry ({i}, {j}) = {cij:e} exceeds sqrt(variance {i} * variance {j})"
+                ));
+            }
+        }
+    }
+    None
 }
 
 /// The nearest usable covariance: the symmetric part of `c` with its eigenvalues
@@ -193,6 +223,23 @@ mod tests {
             check_covariance("R", &nan, Definiteness::SemiPositive),
             Err(CoreError::NonFinite("R"))
         );
+    }
+
+    /// Found by the fuzz suite: the eigenvalue test is relative to the largest entry,
+    /// so a small negative variance or an impossible covariance hid next to a huge one.
+    #[test]
+    fn entries_are_checked_at_their_own_scale() {
+        let neg = DMatrix::from_diagonal(&DVector::from_vec(vec![-0.01, 0.0, 1e20]));
+        let err = check_covariance("P0", &neg, Definiteness::SemiPositive).unwrap_err();
+        assert!(err.to_string().contains("variance 0 is negative"), "{err}");
+        let cs = DMatrix::from_row_slice(3, 3, &[0., 1., 0., 1., 0., 0., 0., 0., 1e20]);
+        let err = check_covariance("P0", &cs, Definiteness::SemiPositive).unwrap_err();
+        assert!(err.to_string().contains("entry (0, 1)"), "{err}");
+        // A PSD matrix of wildly different scales, with round-off, still passes.
+        let j = DMatrix::from_row_slice(3, 2, &[1e10, 1.0, 3.0, -2.0, 1e-8, 5.0]);
+        let p = &j * DMatrix::from_row_slice(2, 2, &[2.0, 0.3, 0.3, 1.0]) * j.transpose();
+        let p = (&p + p.transpose()) * 0.5;
+        assert!(check_covariance("P", &p, Definiteness::SemiPositive).is_ok());
     }
 
     #[test]

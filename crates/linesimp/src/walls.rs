@@ -85,6 +85,16 @@ impl ScanParams {
                 return bad(name, v, "finite and >= 0");
             }
         }
+        // The covariance uses the variances: an infinite sigma^2 times a zero
+        // Jacobian entry made a NaN covariance (sigma_range = 1e300, fuzz suite).
+        for (name, v) in [
+            ("sigma_range", self.sigma_range),
+            ("sigma_bearing", self.sigma_bearing),
+        ] {
+            if !(v * v).is_finite() {
+                return bad(name, v, "small enough that its square is finite (< 1e154)");
+            }
+        }
         if self.max_range.is_nan() || self.max_range <= self.min_range {
             return bad("max_range", self.max_range, "greater than min_range");
         }
@@ -582,6 +592,20 @@ mod tests {
                     ..ScanParams::default()
                 },
                 "sigma_range",
+            ),
+            (
+                ScanParams {
+                    sigma_range: 1e300,
+                    ..ScanParams::default()
+                },
+                "sigma_range",
+            ),
+            (
+                ScanParams {
+                    sigma_bearing: 1e200,
+                    ..ScanParams::default()
+                },
+                "sigma_bearing",
             ),
             (
                 ScanParams {

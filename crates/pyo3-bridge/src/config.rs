@@ -7,6 +7,7 @@
 //! binding has code per field. The caller then runs the config's `validate()`.
 
 use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use serde::de::DeserializeOwned;
 
 use crate::errors::{Error, Result, guarded};
@@ -21,7 +22,9 @@ pub fn from_python<T: DeserializeOwned + Default>(
     let Some(obj) = obj.filter(|o| !o.is_none()) else {
         return Ok(T::default());
     };
-    // serde-pyobject panics on Python types it does not know (numpy scalars...).
+    let obj = plain(obj, what)?;
+    // serde-pyobject panics on Python types it does not know; `plain` refuses those
+    // first, and the guard stays for anything it missed.
     let value = guarded(|| {
         serde_pyobject::from_pyobject::<serde_value::Value, _>(obj.clone())
             .map_err(|e| Error::Type(format!("{what}: {}", e.0.value(obj.py()))))
@@ -36,6 +39,66 @@ pub fn from_python<T: DeserializeOwned + Default>(
             Error::Value(text)
         }
     })
+}
+
+/// `obj` with numpy scalars (`np.float32(0.5)`, `np.int64(3)`) turned into Python
+/// numbers, inside dicts, lists and tuples; a leaf of any other type serde-pyobject
+/// cannot read (a complex, bytes, a set) is a `TypeError`, an int beyond i64 a
+/// `ValueError`, each naming its field. Objects
+/// with attributes (dataclasses) pass through: serde-pyobject reads those.
+fn plain<'py>(obj: &Bound<'py, PyAny>, path: &str) -> Result<Bound<'py, PyAny>> {
+    let py = obj.py();
+    // serde-pyobject reads ints as i64 and its overflow error names no field.
+    if obj.is_instance_of::<PyInt>() && obj.extract::<i64>().is_err() {
+        return Err(Error::Value(format!(
+            "{path}: {} does not fit a 64-bit integer",
+            obj.repr()?
+        )));
+    }
+    if obj.is_none()
+        || obj.is_instance_of::<PyBool>()
+        || obj.is_instance_of::<PyInt>()
+        || obj.is_instance_of::<PyFloat>()
+        || obj.is_instance_of::<PyString>()
+    {
+        return Ok(obj.clone());
+    }
+    if let Ok(dict) = obj.cast::<PyDict>() {
+        let out = PyDict::new(py);
+        for (key, value) in dict.iter() {
+            out.set_item(&key, plain(&value, &format!("{path}.{key}"))?)?;
+        }
+        return Ok(out.into_any());
+    }
+    if obj.is_instance_of::<PyList>() || obj.is_instance_of::<PyTuple>() {
+        let items = obj
+            .try_iter()?
+            .enumerate()
+            .map(|(k, item)| plain(&item?, &format!("{path}[{k}]")))
+            .collect::<Result<Vec<_>>>()?;
+        return Ok(PyList::new(py, items)?.into_any());
+    }
+    if obj.hasattr("dtype")? && obj.hasattr("item")? && obj.getattr("ndim")?.extract::<i64>()? == 0
+    {
+        let item = obj.call_method0("item")?;
+        if !item.is_instance_of::<PyInt>()
+            && !item.is_instance_of::<PyFloat>()
+            && !item.is_instance_of::<PyBool>()
+        {
+            return Err(Error::Type(format!(
+                "{path}: expected a number, got {}",
+                obj.repr()?
+            )));
+        }
+        return Ok(item);
+    }
+    if obj.hasattr("__dict__")? || obj.hasattr("__slots__")? {
+        return Ok(obj.clone());
+    }
+    Err(Error::Type(format!(
+        "{path}: unsupported type {}",
+        obj.get_type().name()?
+    )))
 }
 
 /// The default config `T`, as a dict: what the typed Python layer shows as defaults.

@@ -726,6 +726,16 @@ impl Ekf {
         let prr = cols.rows(0, rd);
         let pll = g_robot * prr * g_robot.transpose() + g_z * r * g_z.transpose();
         let pll = (&pll + pll.transpose()) * 0.5;
+        // Checked before writing: a huge range times a huge R overflows to inf, which
+        // would otherwise enter P and poison every later step.
+        let finite = pll.iter().chain(cross.iter()).all(|v| v.is_finite());
+        if !finite || pll.diagonal().iter().any(|&v| v < 0.0) {
+            return Err(SlamError::Diverged(
+                "add_landmark: the new landmark's covariance is not finite or has a negative \
+                 variance"
+                    .into(),
+            ));
+        }
         self.reserve(d + m)?;
         // The new rows below the old block, and the new diagonal block.
         self.cov.view_mut((d, 0), (m, d)).copy_from(&cross);

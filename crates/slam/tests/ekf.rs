@@ -519,3 +519,28 @@ fn planar_prediction_equals_the_generic_and_dense_predictions() {
     let m3 = nalgebra::Matrix3::from_column_slice(planar.robot_covariance().as_slice());
     assert_eq!(planar.robot_covariance_planar(), m3);
 }
+
+/// Fuzz reproducer (issue 15): a landmark seen at range 1e20 with R = diag(0, 1e300)
+/// has a covariance G_z R G_z^T that overflows to inf; it used to enter P silently.
+#[test]
+fn an_overflowing_new_landmark_is_refused_and_changes_nothing() {
+    let mut ekf = Ekf::new(
+        DVector::from_element(3, 1.0),
+        DMatrix::identity(3, 3) * 0.01,
+        3,
+        2,
+    )
+    .unwrap();
+    let before = ekf.clone();
+    let e = ekf
+        .add_landmark_range_bearing(
+            &Vector2::new(1e20, 0.3),
+            &Matrix2::new(0.0, 0.0, 0.0, 1e300),
+        )
+        .unwrap_err();
+    assert!(
+        matches!(e, SlamError::Diverged(ref m) if m.starts_with("add_landmark")),
+        "{e}"
+    );
+    assert_eq!(ekf, before);
+}

@@ -43,6 +43,17 @@ def read_text(path: str | Path) -> str:
         ) from None
 
 
+def split_lines(text: str) -> list[str]:
+    """``text`` split at ``\\n``, ``\\r\\n`` and ``\\r`` only. ``str.splitlines`` also
+    splits at form feeds, ``\\x1c``-``\\x1e``, NEL and the Unicode line separators, which
+    would cut a record (or a comment) in two and shift every later line number away
+    from what an editor shows."""
+    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+    if lines[-1] == "":
+        lines.pop()  # the newline that ends the last line starts no new one
+    return lines
+
+
 def read_lines(path: str | Path) -> list[str]:
-    """:func:`read_text` split into lines (``\\n``, ``\\r\\n``)."""
-    return read_text(path).splitlines()
+    """:func:`read_text` split into lines by :func:`split_lines`."""
+    return split_lines(read_text(path))

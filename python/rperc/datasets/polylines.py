@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from rperc import _geo
+from rperc.datasets._text import read_text, split_lines
 from rperc.datasets.errors import DatasetFormatError
 
 __all__ = [
@@ -61,7 +62,7 @@ def read_geometries(path: str | Path) -> list[_geo.Geometry]:
 def _read_numbered(path: Path) -> list[tuple[int, _geo.Geometry]]:
     """Each geometry with the line it starts on."""
     kind = format_of(path)
-    text = path.read_text(encoding="utf-8")
+    text = read_text(path)
     if kind == "csv":
         shapely = _geo.shapely_module()
         return [(line, shapely.LineString(pts)) for line, pts in _read_csv(path, text)]
@@ -74,7 +75,7 @@ def _read_numbered(path: Path) -> list[tuple[int, _geo.Geometry]]:
 def _read_wkt(path: Path, text: str) -> list[tuple[int, _geo.Geometry]]:
     shapely = _geo.shapely_module()
     out = []
-    for lineno, line in enumerate(text.splitlines(), start=1):
+    for lineno, line in enumerate(split_lines(text), start=1):
         if not line.strip():
             continue
         srid = _SRID.match(line)
@@ -160,7 +161,7 @@ def read_polylines(path: str | Path) -> list[np.ndarray]:
     """
     path = Path(path)
     if format_of(path) == "csv":
-        return [pts for _, pts in _read_csv(path, path.read_text(encoding="utf-8"))]
+        return [pts for _, pts in _read_csv(path, read_text(path))]
     out: list[np.ndarray] = []
     for lineno, geom in _read_numbered(path):
         kinds = _leaf_types(geom)
@@ -182,7 +183,7 @@ def _read_csv(path: Path, text: str) -> list[tuple[int, np.ndarray]]:
     out: list[tuple[int, np.ndarray]] = []
     rows: list[list[float]] = []
     width, first = None, 0
-    for lineno, line in enumerate(text.splitlines(), start=1):
+    for lineno, line in enumerate(split_lines(text), start=1):
         fields = [f.strip() for f in line.split(",")] if line.strip() else []
         if not fields:
             if rows:

@@ -15,6 +15,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
+from rperc._args import whole_number
 
 
 def _floats(values: npt.ArrayLike, name: str) -> np.ndarray:
@@ -90,8 +91,7 @@ class Ekf:
         landmark_dim: int,
     ) -> None:
         for name, value in (("robot_dim", robot_dim), ("landmark_dim", landmark_dim)):
-            if isinstance(value, bool) or int(value) != value or value < 1:
-                raise ValueError(f"{name} must be a positive integer, got {value!r}")
+            whole_number(value, name, 1)
         self._native = _rperc.Ekf(
             _vector(state, "state"),
             _matrix(covariance, "covariance"),

@@ -49,7 +49,10 @@ __all__ = [
 
 def wrap_angle(angle: npt.ArrayLike) -> np.ndarray:
     """Angles wrapped into (-pi, pi], the convention of rperc-core (pi stays pi)."""
-    w = np.mod(np.asarray(angle, dtype=np.float64), 2.0 * math.pi)
+    arr = np.asarray(angle)
+    if arr.dtype.kind not in "fiub":
+        raise TypeError(f"angle must hold real numbers, got dtype {arr.dtype}")
+    w = np.mod(arr.astype(np.float64), 2.0 * math.pi)
     return np.where(w > math.pi, w - 2.0 * math.pi, w)
 
 

@@ -30,6 +30,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
+from rperc._args import whole_number
 from rperc._progress import progress as _progress
 
 Model = Literal["relative", "anchor", "external"]
@@ -106,9 +107,7 @@ def _config(config: MonobotConfig | None, overrides: dict[str, Any]) -> MonobotC
     base = config if config is not None else MonobotConfig()
     cfg = replace(base, **{k: v for k, v in overrides.items() if v is not None})
     for name in ("landmarks", "steps"):
-        value = getattr(cfg, name)
-        if isinstance(value, bool) or int(value) != value or value < 1:
-            raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        whole_number(getattr(cfg, name), name, 1)
     for name in ("plant_noise", "measurement_noise", "reference_noise"):
         spec = getattr(cfg, name)
         if not isinstance(spec, (tuple, list)) or len(spec) != 2 or spec[0] not in _NOISE_KINDS:
@@ -195,9 +194,7 @@ def simulate(
 
 
 def _seed(seed: int) -> int:
-    if isinstance(seed, bool) or int(seed) != seed or not 0 <= seed < 2**64:
-        raise ValueError(f"seed must be an integer in [0, 2**64), got {seed!r}")
-    return int(seed)
+    return whole_number(seed, "seed", 0, limit=2**64)
 
 
 def fisher_information(result: MonobotResult) -> np.ndarray:
@@ -209,13 +206,16 @@ def fisher_information(result: MonobotResult) -> np.ndarray:
 def observability_rank(*, model: Model = "relative", landmarks: int = 1) -> int:
     """Rank of the observability matrix: ``landmarks`` for the relative model,
     ``landmarks + 1`` (full) for anchor and external."""
-    return _rperc.monobot_observability_rank(model, landmarks)
+    return _rperc.monobot_observability_rank(model, whole_number(landmarks, "landmarks", 0))
 
 
 def unobservable_directions(J: npt.ArrayLike, tol: float = 1e-9) -> np.ndarray:
     """A basis (``d x k`` columns) of the null space of the information matrix ``J``:
     eigenvectors whose eigenvalues are at most ``tol`` times the largest."""
-    arr = np.asarray(J, dtype=np.float64)
+    arr = np.asarray(J)
+    if arr.dtype.kind not in "fiu":
+        raise TypeError(f"J must be a real matrix, got dtype {arr.dtype}")
+    arr = arr.astype(np.float64)
     _, vectors, rank = _rperc.information_spectrum(arr, float(tol))
     return vectors[:, : arr.shape[0] - rank]
 
@@ -288,8 +288,7 @@ def monte_carlo(
     cfg = _config(
         config, {"landmarks": landmarks, "steps": steps, "initial_variance": initial_variance}
     )
-    if isinstance(runs, bool) or int(runs) != runs or runs < 1:
-        raise ValueError(f"runs must be a positive integer, got {runs!r}")
+    whole_number(runs, "runs", 1)
     seed = _seed(seed)
     if executor is None:
         # One native call does every run on all cores, so progress reports it as one

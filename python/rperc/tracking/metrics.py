@@ -3,10 +3,13 @@ and its area, and precision at a centre-error threshold. Boxes are ``(x, y, w, h
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
+from rperc._args import real_number
 
 SUCCESS_THRESHOLDS = np.linspace(0.0, 1.0, 21)
 
@@ -52,4 +55,7 @@ def center_error(a: npt.ArrayLike, b: npt.ArrayLike) -> np.ndarray:
 
 def precision(pred: npt.ArrayLike, truth: npt.ArrayLike, threshold: float = 20.0) -> float:
     """Fraction of frames whose centre error is at most ``threshold`` pixels."""
-    return float(_rperc.otb_precision(center_error(pred, truth), float(threshold)))
+    limit = real_number(threshold, "threshold")
+    if math.isnan(limit):
+        raise ValueError("threshold must be a number of pixels, got nan")
+    return float(_rperc.otb_precision(center_error(pred, truth), limit))

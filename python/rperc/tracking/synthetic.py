@@ -22,6 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rperc._args import whole_number
+
 __all__ = ["SyntheticSequence", "synthetic_sequence"]
 
 UPPER_COLOUR = (95, 45, 25)  # dark brown
@@ -58,9 +60,7 @@ class SyntheticSequence:
 
 
 def _count(value: int, name: str, minimum: int) -> int:
-    if isinstance(value, bool) or int(value) != value or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    return int(value)
+    return whole_number(value, name, minimum)
 
 
 def _background(rng: np.random.Generator, height: int, width: int) -> np.ndarray:

@@ -17,6 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
+from rperc._args import whole_number
 
 ColorSpace = Literal["hsv", "opponent", "rg", "rgb"]
 ModelKind = Literal["bimodal", "single"]
@@ -235,9 +236,8 @@ class ParticleColorTracker:
                 max_scale=max_scale,
             ),
         }
-        if isinstance(seed, bool) or int(seed) != seed or not 0 <= seed < 2**64:
-            raise ValueError(f"seed must be an integer in [0, 2**64), got {seed!r}")
-        self._native = _rperc.ParticleColorTracker(_frame(frame), _box(box), int(seed), config)
+        seed = whole_number(seed, "seed", 0, limit=2**64)
+        self._native = _rperc.ParticleColorTracker(_frame(frame), _box(box), seed, config)
         self._last = TrackResult(_box(box), 1.0, False)
 
     def update(self, frame: npt.ArrayLike) -> TrackResult:
@@ -259,14 +259,22 @@ def resample(
 ) -> npt.NDArray[np.intp]:
     """Indices of ``n`` particles drawn from non-negative ``weights`` (need not sum to
     one), sorted ascending, by ``method``; seeded. The GIL is released."""
-    if isinstance(n, bool) or int(n) != n or n < 0:
-        raise ValueError(f"n must be a non-negative integer, got {n!r}")
-    w = np.asarray(weights, dtype=np.float64)
-    return _rperc.resample(w, int(n), method, int(seed))
+    count = whole_number(n, "n", 0)
+    seed = whole_number(seed, "seed", 0, limit=2**64)
+    return _rperc.resample(_weights(weights), count, method, seed)
 
 
 def effective_sample_size(weights: npt.ArrayLike) -> float:
     """``(sum w)^2 / sum(w^2)`` of non-negative weights (normalised first): ``n`` for
     equal weights, 1 when one particle holds all the weight. Refuses the weights
     :func:`resample` refuses (empty, negative, NaN, all zero)."""
-    return _rperc.effective_sample_size(np.asarray(weights, dtype=np.float64))
+    return _rperc.effective_sample_size(_weights(weights))
+
+
+def _weights(weights: npt.ArrayLike) -> np.ndarray:
+    """Real numbers as float64; strings or complex numbers are a TypeError (numpy would
+    parse ``"1"`` and drop an imaginary part without a word)."""
+    arr = np.asarray(weights)
+    if arr.dtype.kind not in "fiub":
+        raise TypeError(f"weights must be real numbers, got dtype {arr.dtype}")
+    return arr.astype(np.float64)

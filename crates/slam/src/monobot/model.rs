@@ -219,7 +219,11 @@ impl MonobotConfig {
         let p = d; // the anchor and external models observe n + 1 values
         let per_step = p * p + d * p + d * d + 2 * p + 3 * d;
         let steps = self.steps as u128 + 1;
-        rperc_core::check_allocation("landmarks", steps.saturating_mul(per_step) + d * d, 8)?;
+        rperc_core::check_allocation(
+            "landmarks and steps",
+            steps.saturating_mul(per_step) + d * d,
+            8,
+        )?;
         Ok(())
     }
 

@@ -83,6 +83,8 @@ pub struct PlanarSlam {
     candidates: Vec<Candidate>,
     next_id: u64,
     events: usize,
+    /// Work done since the last interrupt checkpoint (Ctrl-C from Python).
+    meter: rperc_core::interrupt::Work,
     trajectory: Trajectory,
     stats: Statistics,
 }
@@ -125,6 +127,7 @@ impl PlanarSlam {
             candidates: Vec::new(),
             next_id: 0,
             events: 0,
+            meter: rperc_core::interrupt::Work::new(),
             trajectory: Trajectory::default(),
             stats: Statistics::default(),
         })
@@ -185,6 +188,13 @@ impl PlanarSlam {
         })?;
         self.events += 1;
         self.record(t, kind, started.elapsed().as_secs_f64());
+        // An event costs about the state size (prediction) times its detections (update).
+        let detections = match event {
+            Event::Scan { detections, .. } => detections.len(),
+            _ => 0,
+        };
+        let cost = self.ekf.state().len() * (1 + detections);
+        self.meter.advance(cost as u64)?;
         Ok(())
     }
 

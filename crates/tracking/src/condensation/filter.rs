@@ -221,8 +221,9 @@ impl<const D: usize> ParticleFilter<D> {
         if let ResamplePolicy::BelowEss(f) = params.policy
             && !(f.is_finite() && f > 0.0 && f <= 1.0)
         {
+            // Named as configs and Python spell it (the field is serde-renamed).
             return Err(TrackingError::InvalidParameter {
-                name: "policy",
+                name: "resample_below",
                 reason: format!("ESS fraction must be in (0, 1], got {f}"),
             });
         }

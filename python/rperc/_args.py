@@ -1,0 +1,44 @@
+"""Checks of the scalar arguments every module takes (counts, sizes, seeds, reals), so
+that a bad one is a ValueError naming it rather than whatever ``int()``, ``float()``
+or pyo3 would say (``cannot convert float NaN to integer``, ``int too big to
+convert``), which names nothing."""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+
+def whole_number(value: object, name: str, minimum: int, limit: int = 2**63) -> int:
+    """``value`` as an int, after checking it is a whole number in ``[minimum, limit)``.
+
+    A NaN, an infinity or a non-number is refused with a message naming ``name``.
+    The default ``limit`` is the first size no native integer holds."""
+    number = _whole(value)
+    if number is None or not minimum <= number < limit:
+        what = {0: "a non-negative integer", 1: "a positive integer"}.get(
+            minimum, f"an integer >= {minimum}"
+        )
+        raise ValueError(f"{name} must be {what} below 2**{limit.bit_length() - 1}, got {value!r}")
+    return number
+
+
+def _whole(value: object) -> int | None:
+    """The int ``value`` stands for (``3``, ``3.0``, ``np.int64(3)``), or None."""
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, numbers.Integral):
+        return int(value)
+    if isinstance(value, numbers.Real):
+        real = float(value)
+        return int(real) if math.isfinite(real) and real.is_integer() else None
+    return None
+
+
+def real_number(value: object, name: str) -> float:
+    """``value`` as a float; a string, None or a complex is a ValueError naming
+    ``name`` (``float("1")`` would quietly accept a string). NaN and infinities pass:
+    the caller decides what range is valid."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ValueError(f"{name} must be a real number, got {value!r}")
+    return float(value)

@@ -26,6 +26,8 @@ __all__ = [
     "otb_iou",
     "otb_precision",
     "otb_success_curve",
+    "planar_defaults",
+    "planar_slam_run",
     "pose_transform_points",
     "resample",
     "scan_params_defaults",
@@ -121,6 +123,14 @@ def monobot_monte_carlo(
     model: str, runs: int, seed: int, config: dict[str, Any] | None = None
 ) -> tuple[_Array, _Array, _Array, _Array]: ...
 def monobot_defaults() -> dict[str, Any]: ...
+def planar_defaults() -> dict[str, Any]: ...
+def planar_slam_run(
+    controls: npt.NDArray[np.float64],
+    detections: npt.NDArray[np.float64],
+    detection_ids: npt.NDArray[np.int64] | None = None,
+    fixes: npt.NDArray[np.float64] | None = None,
+    config: dict[str, Any] | None = None,
+) -> dict[str, Any]: ...
 def monobot_summarize(
     nees: _ArrayLike,
     robot_error: _ArrayLike,

@@ -165,7 +165,7 @@ pub fn checkpoint() -> Result<(), CoreError> {
 
 /// Counts the work a loop has done and calls [`checkpoint`] every
 /// [`CHECK_EVERY_UNITS`] units, so loops of any granularity pay the same small cost.
-#[derive(Debug, Default)]
+#[derive(Debug, Clone, Default)]
 pub struct Work {
     since_check: u64,
 }

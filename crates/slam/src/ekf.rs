@@ -6,14 +6,17 @@
 //! landmark, say), so `P H^T` costs O(n p) and the Joseph form, expanded as
 //! `P - K (P H^T)^T + (K S - P H^T) K^T`, costs one pass over `P` (O(n^2 p)).
 //!
-//! `P` is symmetric, so only its upper triangle (with the diagonal) is kept up to
+//! `P` is symmetric, so only its lower triangle (with the diagonal) is kept up to
 //! date: the update reads and writes half the matrix, which is what bounds its speed
-//! (memory bandwidth). [`Ekf::covariance`] returns the full matrix.
+//! (memory bandwidth), and the robot columns the prediction touches are contiguous.
+//! [`Ekf::covariance`] returns the full matrix; the block readers return one block.
 
-use nalgebra::{DMatrix, DVector};
+use std::collections::HashMap;
+
+use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Matrix3x2, Vector3};
 use rayon::prelude::*;
 
-use rperc_core::{Definiteness, check_covariance};
+use rperc_core::{Definiteness, check_allocation, check_covariance, wrap_angle};
 
 use crate::error::{Result, SlamError, ensure_finite};
 
@@ -107,13 +110,43 @@ fn check_noise(name: &'static str, c: &DMatrix<f64>) -> Result<()> {
     Ok(check_covariance(name, c, Definiteness::SemiPositive)?)
 }
 
+/// What a gated update did: applied, or refused because its NIS exceeded the gate
+/// (the filter is then unchanged).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Gated {
+    /// The NIS was within the gate and the update was applied.
+    Applied(Update),
+    /// The NIS `nu^T S^-1 nu` exceeded `gate`; nothing was changed.
+    Rejected {
+        /// The innovation's NIS at the prior state.
+        nis: f64,
+        /// The chi-square gate it was compared with.
+        gate: f64,
+    },
+}
+
+/// The parts of an update computed before anything is written.
+struct Prepared {
+    l: DMatrix<f64>,
+    s: DMatrix<f64>,
+    gain: DMatrix<f64>,
+    nis: f64,
+}
+
 /// An extended Kalman filter over a robot block of size `robot_dim` followed by
 /// landmark blocks of size `landmark_dim`. The state covariance is `P` in the seed's
-/// equations and `covariance` in the API.
+/// equations and `covariance` in the API. Each landmark carries an id (`u64`); the
+/// filter maps ids to state indices and removes landmarks (marginalisation).
+///
+/// `P` lives in a buffer with spare capacity that grows geometrically, so adding `n`
+/// landmarks one by one costs amortised O(n) per landmark, not a reallocation of the
+/// whole matrix each time. Only its lower triangle is current: the robot columns
+/// `P[:, 0..r]` are then contiguous in nalgebra's column-major storage, which is what
+/// the O(n) prediction reads and writes.
 ///
 /// # Examples
 /// ```
-/// use nalgebra::{DMatrix, DVector};
+/// use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Matrix3x2, Vector3};
 /// use slam::{Ekf, SparseJacobian};
 ///
 /// // A 1-D robot at 0 (variance 1) and a landmark at 2 (variance 4).
@@ -130,16 +163,24 @@ fn check_noise(name: &'static str, c: &DMatrix<f64>) -> Result<()> {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Ekf {
     x: DVector<f64>,
-    /// `P`: only the upper triangle (with the diagonal) is kept current.
+    /// `P` in a `cap x cap` buffer: the lower triangle (with the diagonal) of its
+    /// leading `d x d` block is current, the rest is never read.
     cov: DMatrix<f64>,
     robot_dim: usize,
     landmark_dim: usize,
+    /// State indices holding angles, wrapped to (-pi, pi] after every update.
+    angles: Vec<usize>,
+    /// `ids[j]` is landmark `j`'s id; `index` is the inverse map.
+    ids: Vec<u64>,
+    index: HashMap<u64, usize>,
+    next_id: u64,
 }
 
 impl Ekf {
     /// A filter with state `x` and covariance `covariance` (symmetric positive
     /// semi-definite: a zero block is a perfectly known start): a robot block of
     /// `robot_dim` entries, then landmark blocks of `landmark_dim` entries each.
+    /// The landmarks get ids `0, 1, ...`.
     pub fn new(
         x: DVector<f64>,
         covariance: DMatrix<f64>,
@@ -165,12 +206,47 @@ impl Ekf {
         }
         ensure_finite("state", x.iter())?;
         check_covariance("covariance", &covariance, Definiteness::SemiPositive)?;
+        let n = (d - robot_dim) / landmark_dim;
+        let ids: Vec<u64> = (0..n as u64).collect();
+        let index = ids.iter().map(|&id| (id, id as usize)).collect();
         Ok(Self {
             x,
             cov: covariance,
             robot_dim,
             landmark_dim,
+            angles: Vec::new(),
+            ids,
+            index,
+            next_id: n as u64,
         })
+    }
+
+    /// Marks state entry `index` (inside the robot block) as an angle: it is wrapped
+    /// to (-pi, pi] after every update, so a heading never drifts out of range.
+    pub fn with_wrapped_angle(mut self, index: usize) -> Result<Self> {
+        if index >= self.robot_dim {
+            return Err(SlamError::invalid(
+                "index",
+                format!("an angle must be in the robot block (< {})", self.robot_dim),
+            ));
+        }
+        self.angles.push(index);
+        self.wrap_angles();
+        Ok(self)
+    }
+
+    /// Marks entry `index` as an angle if it is not yet (for the planar helpers).
+    pub(crate) fn ensure_wrapped_angle(&mut self, index: usize) {
+        if !self.angles.contains(&index) {
+            self.angles.push(index);
+            self.wrap_angles();
+        }
+    }
+
+    fn wrap_angles(&mut self) {
+        for &i in &self.angles {
+            self.x[i] = wrap_angle(self.x[i]);
+        }
     }
 
     /// The state estimate.
@@ -190,35 +266,98 @@ impl Ekf {
         }
         ensure_finite("state", x.iter())?;
         self.x = x;
+        self.wrap_angles();
         Ok(())
     }
 
+    fn dim(&self) -> usize {
+        self.x.len()
+    }
+
     /// The state covariance `P` (the full symmetric matrix, built from the stored
-    /// upper triangle: O(n^2)).
+    /// lower triangle: O(n^2)). Prefer the block readers when a block is enough.
     pub fn covariance(&self) -> DMatrix<f64> {
-        let mut full = self.cov.clone();
-        full.fill_lower_triangle_with_upper_triangle();
+        let d = self.dim();
+        let mut full = self.cov.view((0, 0), (d, d)).into_owned();
+        full.fill_upper_triangle_with_lower_triangle();
         full
     }
 
-    /// Entry `(i, j)` of `P` read from the stored upper triangle.
+    /// Entry `(i, j)` of `P` read from the stored lower triangle.
     #[inline]
     fn cov_at(&self, i: usize, j: usize) -> f64 {
-        if i <= j {
+        if i >= j {
             self.cov[(i, j)]
         } else {
             self.cov[(j, i)]
         }
     }
 
-    /// Column `c` of `P`.
-    fn covariance_column(&self, c: usize) -> DVector<f64> {
-        DVector::from_fn(self.cov.nrows(), |i, _| self.cov_at(i, c))
+    /// The block `P[row..row + nrows, col..col + ncols]`, read without copying the
+    /// rest of the matrix.
+    pub fn covariance_block(
+        &self,
+        row: usize,
+        col: usize,
+        nrows: usize,
+        ncols: usize,
+    ) -> Result<DMatrix<f64>> {
+        let d = self.dim();
+        if row + nrows > d || col + ncols > d {
+            return Err(SlamError::dimension(format!(
+                "block {nrows}x{ncols} at ({row}, {col}) does not fit a {d}x{d} covariance"
+            )));
+        }
+        Ok(DMatrix::from_fn(nrows, ncols, |i, j| {
+            self.cov_at(row + i, col + j)
+        }))
     }
 
-    /// The robot rows `P[0..r, :]` in full.
-    fn robot_rows(&self) -> DMatrix<f64> {
-        DMatrix::from_fn(self.robot_dim, self.cov.nrows(), |i, j| self.cov_at(i, j))
+    /// The robot block `P_rr` (`robot_dim x robot_dim`).
+    pub fn robot_covariance(&self) -> DMatrix<f64> {
+        let r = self.robot_dim;
+        DMatrix::from_fn(r, r, |i, j| self.cov_at(i, j))
+    }
+
+    /// The planar robot block as a fixed-size matrix (the top-left 3x3 of `P`;
+    /// with a smaller robot block, the rows and columns past it are zero).
+    pub fn robot_covariance_planar(&self) -> Matrix3<f64> {
+        let r = self.robot_dim.min(3);
+        Matrix3::from_fn(|i, j| {
+            if i < r && j < r {
+                self.cov_at(i, j)
+            } else {
+                0.0
+            }
+        })
+    }
+
+    /// Landmark `j`'s own block `P_jj` (`landmark_dim x landmark_dim`).
+    pub fn landmark_covariance(&self, j: usize) -> Result<DMatrix<f64>> {
+        let off = self.landmark_offset(j)?;
+        let m = self.landmark_dim;
+        self.covariance_block(off, off, m, m)
+    }
+
+    /// The robot-landmark cross block `P_rj` (`robot_dim x landmark_dim`).
+    pub fn robot_landmark_covariance(&self, j: usize) -> Result<DMatrix<f64>> {
+        let off = self.landmark_offset(j)?;
+        self.covariance_block(0, off, self.robot_dim, self.landmark_dim)
+    }
+
+    /// Column `c` of `P` into `out`: the part on and below the diagonal is one
+    /// contiguous slice, the part above comes from row `c`.
+    fn covariance_column_into(&self, c: usize, out: &mut [f64]) {
+        let d = self.dim();
+        for (i, o) in out.iter_mut().enumerate().take(c) {
+            *o = self.cov[(c, i)];
+        }
+        out[c..d].copy_from_slice(&self.cov.column(c).as_slice()[c..d]);
+    }
+
+    /// The robot columns `P[:, 0..r]` in full (`d x r`).
+    fn robot_columns(&self) -> DMatrix<f64> {
+        DMatrix::from_fn(self.dim(), self.robot_dim, |i, j| self.cov_at(i, j))
     }
 
     /// Size of the robot block.
@@ -247,9 +386,26 @@ impl Ekf {
         Ok(self.robot_dim + j * self.landmark_dim)
     }
 
+    /// The index of the landmark with id `id`, if it is in the state.
+    pub fn landmark_index(&self, id: u64) -> Option<usize> {
+        self.index.get(&id).copied()
+    }
+
+    /// The id of landmark `j`.
+    pub fn landmark_id(&self, j: usize) -> Result<u64> {
+        self.landmark_offset(j)?;
+        Ok(self.ids[j])
+    }
+
+    /// The ids of the landmarks in state order.
+    pub fn landmark_ids(&self) -> &[u64] {
+        &self.ids
+    }
+
     /// Prediction, eqs. (3) and (5): the robot block moves to `robot_mean` and
     /// `P <- Fx P Fx^T + Fv V Fv^T` with `Fx` acting on the robot block only
-    /// (landmarks are static). O(n).
+    /// (landmarks are static). O(n): it reads and writes the robot columns, which
+    /// are contiguous in the stored lower triangle.
     pub fn predict(
         &mut self,
         robot_mean: &DVector<f64>,
@@ -276,11 +432,21 @@ impl Ekf {
         ensure_finite("Fx", fx.iter())?;
         ensure_finite("Fv", fv.iter())?;
         check_noise("V", v)?;
-        let d = self.x.len();
-        let rows = self.robot_rows();
-        let prr = rows.columns(0, r);
+        self.predict_unchecked(robot_mean, fx, fv, v)
+    }
+
+    fn predict_unchecked(
+        &mut self,
+        robot_mean: &DVector<f64>,
+        fx: &DMatrix<f64>,
+        fv: &DMatrix<f64>,
+        v: &DMatrix<f64>,
+    ) -> Result<()> {
+        let (r, d) = (self.robot_dim, self.dim());
+        let prr = self.robot_covariance();
         let new_rr = fx * prr * fx.transpose() + fv * v * fv.transpose();
-        let cross = fx * rows.columns(r, d - r);
+        // P_lr <- P_lr Fx^T: the landmark rows of the robot columns (contiguous).
+        let cross = self.cov.view((r, 0), (d - r, r)) * fx.transpose();
         // Check before writing, so a diverged prediction leaves the filter as it was.
         let finite = new_rr.iter().chain(cross.iter()).all(|v| v.is_finite());
         if !finite || new_rr.diagonal().iter().any(|&v| v < 0.0) {
@@ -289,23 +455,71 @@ impl Ekf {
                     .into(),
             ));
         }
-        if d > r {
-            // Rows 0..r of the landmark columns lie in the upper triangle.
-            self.cov.view_mut((0, r), (r, d - r)).copy_from(&cross);
-        }
+        self.cov.view_mut((r, 0), (d - r, r)).copy_from(&cross);
         self.cov
             .view_mut((0, 0), (r, r))
             .copy_from(&((&new_rr + new_rr.transpose()) * 0.5));
         self.x.rows_mut(0, r).copy_from(robot_mean);
+        self.wrap_angles();
+        Ok(())
+    }
+
+    /// [`Ekf::predict`] for a planar robot (`robot_dim == 3`) with fixed-size
+    /// Jacobians and no allocation: `P_lr <- P_lr Fx^T` is done in place, row by row
+    /// over the three contiguous robot columns. The path of a long odometry stream.
+    pub fn predict_planar(
+        &mut self,
+        robot_mean: &Vector3<f64>,
+        fx: &Matrix3<f64>,
+        fv: &Matrix3x2<f64>,
+        v: &Matrix2<f64>,
+    ) -> Result<()> {
+        if self.robot_dim != 3 {
+            return Err(SlamError::dimension(format!(
+                "predict_planar needs a robot block of 3, not {}",
+                self.robot_dim
+            )));
+        }
+        ensure_finite("robot mean", robot_mean.iter())?;
+        ensure_finite("Fx", fx.iter())?;
+        ensure_finite("Fv", fv.iter())?;
+        check_noise("V", &DMatrix::from_column_slice(2, 2, v.as_slice()))?;
+        let prr = Matrix3::from_fn(|i, j| self.cov_at(i, j));
+        let new_rr = fx * prr * fx.transpose() + fv * v * fv.transpose();
+        if !new_rr.iter().all(|x| x.is_finite()) || new_rr.diagonal().iter().any(|&x| x < 0.0) {
+            return Err(SlamError::Diverged(
+                "predict: the predicted robot covariance is not finite or has a negative variance"
+                    .into(),
+            ));
+        }
+        let (d, cap) = (self.dim(), self.cov.nrows());
+        let data = self.cov.as_mut_slice();
+        let (c0, rest) = data.split_at_mut(cap);
+        let (c1, c2) = rest.split_at_mut(cap);
+        for i in 3..d {
+            let row = Vector3::new(c0[i], c1[i], c2[i]);
+            let moved = fx * row;
+            (c0[i], c1[i], c2[i]) = (moved.x, moved.y, moved.z);
+        }
+        let sym = (new_rr + new_rr.transpose()) * 0.5;
+        for j in 0..3 {
+            for i in j..3 {
+                self.cov[(i, j)] = sym[(i, j)];
+            }
+        }
+        self.x.fixed_rows_mut::<3>(0).copy_from(robot_mean);
+        self.wrap_angles();
         Ok(())
     }
 
     /// `L = P H^T` (d x m), touching only the columns of `P` that `H`'s blocks select.
     fn cross_covariance(&self, h: &SparseJacobian) -> DMatrix<f64> {
-        let mut l = DMatrix::<f64>::zeros(self.x.len(), h.rows);
+        let d = self.dim();
+        let mut l = DMatrix::<f64>::zeros(d, h.rows);
+        let mut column = DVector::<f64>::zeros(d);
         for b in &h.blocks {
             for c in 0..b.h.ncols() {
-                let column = self.covariance_column(b.col + c);
+                self.covariance_column_into(b.col + c, column.as_mut_slice());
                 for a in 0..b.h.nrows() {
                     let coeff = b.h[(a, c)];
                     if coeff != 0.0 {
@@ -340,15 +554,14 @@ impl Ekf {
         Ok(())
     }
 
-    /// Measurement update, eqs. (6) to (9), with the Joseph form in O(n^2 m) for a
-    /// sparse `H` of `m` rows. On error (sizes, NaN, a singular `S`) the state is
-    /// unchanged.
-    pub fn update(
-        &mut self,
+    /// Checks the inputs and computes `L = P H^T`, `S` (eq. 8), `K` (eq. 7) and the
+    /// NIS, writing nothing.
+    fn prepare(
+        &self,
         innovation: &DVector<f64>,
         h: &SparseJacobian,
         r: &DMatrix<f64>,
-    ) -> Result<Update> {
+    ) -> Result<Prepared> {
         let m = h.rows;
         if innovation.len() != m || r.shape() != (m, m) || m == 0 {
             return Err(SlamError::dimension(format!(
@@ -363,7 +576,12 @@ impl Ekf {
         let l = self.cross_covariance(h);
         let s = innovation_covariance(h, &l, r);
         let (gain, nis) = gain_and_nis(&s, &l, innovation)?;
-        let dx = &gain * innovation;
+        Ok(Prepared { l, s, gain, nis })
+    }
+
+    /// Applies a prepared update: eq. (6) for the mean, the Joseph form (9) for `P`.
+    fn apply(&mut self, p: Prepared, innovation: &DVector<f64>) -> Result<Update> {
+        let dx = &p.gain * innovation;
         if !dx.iter().all(|v| v.is_finite()) {
             return Err(SlamError::SingularInnovation(
                 "the state correction is not finite".into(),
@@ -372,16 +590,57 @@ impl Ekf {
         // Joseph form, eq. (9), expanded for the sparse H:
         // (I - K H) P (I - K H)^T + K R K^T = P - K L^T - L K^T + K S K^T
         //                                   = P - K L^T + (K S - L) K^T.
-        let ks_minus_l = &gain * &s - &l;
-        self.check_updated_diagonal(&gain, &l, &ks_minus_l)?;
-        joseph_columns(&mut self.cov, &gain, &l, &ks_minus_l);
+        let ks_minus_l = &p.gain * &p.s - &p.l;
+        self.check_updated_diagonal(&p.gain, &p.l, &ks_minus_l)?;
+        let d = self.dim();
+        joseph_columns(&mut self.cov, d, &p.gain, &p.l, &ks_minus_l);
         self.x += dx;
+        self.wrap_angles();
         Ok(Update {
             innovation: innovation.clone(),
-            innovation_cov: s,
-            gain,
-            nis,
+            innovation_cov: p.s,
+            gain: p.gain,
+            nis: p.nis,
         })
+    }
+
+    /// Measurement update, eqs. (6) to (9), with the Joseph form in O(n^2 m) for a
+    /// sparse `H` of `m` rows. On error (sizes, NaN, a singular `S`) the state is
+    /// unchanged. Angles marked with [`Ekf::with_wrapped_angle`] are wrapped after.
+    pub fn update(
+        &mut self,
+        innovation: &DVector<f64>,
+        h: &SparseJacobian,
+        r: &DMatrix<f64>,
+    ) -> Result<Update> {
+        let prepared = self.prepare(innovation, h, r)?;
+        self.apply(prepared, innovation)
+    }
+
+    /// The update of [`Ekf::update`] behind a chi-square validation gate: the NIS is
+    /// computed at the prior state and, when it exceeds `gate`, nothing is applied
+    /// and the rejection is returned with its NIS.
+    pub fn update_gated(
+        &mut self,
+        innovation: &DVector<f64>,
+        h: &SparseJacobian,
+        r: &DMatrix<f64>,
+        gate: f64,
+    ) -> Result<Gated> {
+        if gate.is_nan() || gate <= 0.0 {
+            return Err(SlamError::invalid(
+                "gate",
+                format!("must be > 0, got {gate}"),
+            ));
+        }
+        let prepared = self.prepare(innovation, h, r)?;
+        if prepared.nis > gate {
+            return Ok(Gated::Rejected {
+                nis: prepared.nis,
+                gate,
+            });
+        }
+        Ok(Gated::Applied(self.apply(prepared, innovation)?))
     }
 
     /// Several observations stacked into one update (one `S`, one pass over `P`).
@@ -390,27 +649,7 @@ impl Ekf {
         &mut self,
         observations: &[(DVector<f64>, SparseJacobian, DMatrix<f64>)],
     ) -> Result<Update> {
-        let p: usize = observations.iter().map(|o| o.0.len()).sum();
-        let mut innovation = DVector::zeros(p);
-        let mut h = SparseJacobian::new(p);
-        let mut r = DMatrix::zeros(p, p);
-        let mut row = 0;
-        for (nu, hi, ri) in observations {
-            let k = nu.len();
-            if hi.rows != k || ri.shape() != (k, k) {
-                return Err(SlamError::dimension(format!(
-                    "an observation of {k} entries needs H with {k} rows and R {k}x{k}"
-                )));
-            }
-            innovation.rows_mut(row, k).copy_from(nu);
-            r.view_mut((row, row), (k, k)).copy_from(ri);
-            h.blocks.extend(hi.blocks.iter().map(|b| JacobianBlock {
-                row: row + b.row,
-                col: b.col,
-                h: b.h.clone(),
-            }));
-            row += k;
-        }
+        let (innovation, h, r) = stack_observations(observations)?;
         self.update(&innovation, &h, &r)
     }
 
@@ -428,10 +667,29 @@ impl Ekf {
             .collect()
     }
 
+    /// Grows the covariance buffer to hold a state of `need` entries, by at least
+    /// half its size so that `n` additions cost O(n^2) copying in total, not O(n^3).
+    fn reserve(&mut self, need: usize) -> Result<()> {
+        let cap = self.cov.nrows();
+        if need <= cap {
+            return Ok(());
+        }
+        let new_cap = need.max(cap + cap / 2).max(16);
+        check_allocation("state dimension", (new_cap as u128).pow(2), 8)?;
+        let d = self.dim();
+        let mut grown = DMatrix::zeros(new_cap, new_cap);
+        grown
+            .view_mut((0, 0), (d, d))
+            .copy_from(&self.cov.view((0, 0), (d, d)));
+        self.cov = grown;
+        Ok(())
+    }
+
     /// Appends a landmark initialised from an observation through the inverse
     /// observation model `l = g(x_robot, z)`: mean `mean`, Jacobians `G_robot =
     /// dg/dx_robot` and `G_z = dg/dz`, observation noise `R`. The new rows get the
-    /// full cross-covariance `G_robot P_robot,:`. Returns the landmark's index.
+    /// full cross-covariance `G_robot P_robot,:`. Returns the landmark's index; its id
+    /// is the next unused one.
     pub fn add_landmark(
         &mut self,
         mean: &DVector<f64>,
@@ -439,8 +697,66 @@ impl Ekf {
         g_z: &DMatrix<f64>,
         r: &DMatrix<f64>,
     ) -> Result<usize> {
-        let (rd, m) = (self.robot_dim, self.landmark_dim);
-        let q = r.nrows();
+        while self.index.contains_key(&self.next_id) {
+            self.next_id += 1;
+        }
+        self.add_landmark_with_id(self.next_id, mean, g_robot, g_z, r)
+    }
+
+    /// [`Ekf::add_landmark`] with the landmark's id given; an error when a landmark
+    /// with this id is already in the state.
+    pub fn add_landmark_with_id(
+        &mut self,
+        id: u64,
+        mean: &DVector<f64>,
+        g_robot: &DMatrix<f64>,
+        g_z: &DMatrix<f64>,
+        r: &DMatrix<f64>,
+    ) -> Result<usize> {
+        if self.index.contains_key(&id) {
+            return Err(SlamError::invalid(
+                "id",
+                format!("landmark {id} is already in the state"),
+            ));
+        }
+        self.check_landmark_inputs(mean, g_robot, g_z, r)?;
+        let (rd, m, d) = (self.robot_dim, self.landmark_dim, self.dim());
+        let cols = self.robot_columns();
+        let cross = g_robot * cols.transpose(); // m x d
+        let prr = cols.rows(0, rd);
+        let pll = g_robot * prr * g_robot.transpose() + g_z * r * g_z.transpose();
+        let pll = (&pll + pll.transpose()) * 0.5;
+        // Checked before writing: a huge range times a huge R overflows to inf, which
+        // would otherwise enter P and poison every later step.
+        let finite = pll.iter().chain(cross.iter()).all(|v| v.is_finite());
+        if !finite || pll.diagonal().iter().any(|&v| v < 0.0) {
+            return Err(SlamError::Diverged(
+                "add_landmark: the new landmark's covariance is not finite or has a negative \
+                 variance"
+                    .into(),
+            ));
+        }
+        self.reserve(d + m)?;
+        // The new rows below the old block, and the new diagonal block.
+        self.cov.view_mut((d, 0), (m, d)).copy_from(&cross);
+        self.cov.view_mut((d, d), (m, m)).copy_from(&pll);
+        let x = std::mem::replace(&mut self.x, DVector::zeros(0));
+        self.x = x.resize_vertically(d + m, 0.0);
+        self.x.rows_mut(d, m).copy_from(mean);
+        let j = self.ids.len();
+        self.ids.push(id);
+        self.index.insert(id, j);
+        Ok(j)
+    }
+
+    fn check_landmark_inputs(
+        &self,
+        mean: &DVector<f64>,
+        g_robot: &DMatrix<f64>,
+        g_z: &DMatrix<f64>,
+        r: &DMatrix<f64>,
+    ) -> Result<()> {
+        let (rd, m, q) = (self.robot_dim, self.landmark_dim, r.nrows());
         if mean.len() != m
             || g_robot.shape() != (m, rd)
             || g_z.shape() != (m, q)
@@ -457,34 +773,64 @@ impl Ekf {
         ] {
             ensure_finite(what, values.iter())?;
         }
-        check_noise("R", r)?;
-        let d = self.x.len();
-        let rows = self.robot_rows();
-        let cross = g_robot * &rows; // m x d
-        let prr = rows.columns(0, rd);
-        let pll = g_robot * prr * g_robot.transpose() + g_z * r * g_z.transpose();
-        let pll = (&pll + pll.transpose()) * 0.5;
-        // Checked before writing: a huge range times a huge R overflows to inf, which
-        // would otherwise enter P and poison every later step.
-        let finite = pll.iter().chain(cross.iter()).all(|v| v.is_finite());
-        if !finite || pll.diagonal().iter().any(|&v| v < 0.0) {
-            return Err(SlamError::Diverged(
-                "add_landmark: the new landmark's covariance is not finite or has a negative \
-                 variance"
-                    .into(),
-            ));
-        }
-        let old = std::mem::replace(&mut self.cov, DMatrix::zeros(0, 0));
-        let mut cov = old.resize(d + m, d + m, 0.0);
-        // The new columns' upper part; the block below the diagonal is never read.
-        cov.view_mut((0, d), (d, m)).copy_from(&cross.transpose());
-        cov.view_mut((d, d), (m, m)).copy_from(&pll);
-        self.cov = cov;
-        let x = std::mem::replace(&mut self.x, DVector::zeros(0));
-        self.x = x.resize_vertically(d + m, 0.0);
-        self.x.rows_mut(d, m).copy_from(mean);
-        Ok(self.num_landmarks() - 1)
+        check_noise("R", r)
     }
+
+    /// Removes landmark `j` from the state (marginalisation: its rows and columns
+    /// are dropped, the rest of `P` is exact). Later landmarks move down one index.
+    /// Returns the removed landmark's id. O(n^2) memory moves, no allocation.
+    pub fn remove_landmark(&mut self, j: usize) -> Result<u64> {
+        let off = self.landmark_offset(j)?;
+        let (m, d, cap) = (self.landmark_dim, self.dim(), self.cov.nrows());
+        let data = self.cov.as_mut_slice();
+        // Columns left of the landmark: close the gap in their rows.
+        for c in 0..off {
+            let base = c * cap;
+            data.copy_within(base + off + m..base + d, base + off);
+        }
+        // Columns right of it move left by m, their lower parts up by m.
+        for c in off + m..d {
+            let (src, dst) = (c * cap + c, (c - m) * cap + (c - m));
+            data.copy_within(src..src + (d - c), dst);
+        }
+        let x = std::mem::replace(&mut self.x, DVector::zeros(0));
+        self.x = x.remove_rows(off, m);
+        let id = self.ids.remove(j);
+        self.index.remove(&id);
+        for (k, other) in self.ids.iter().enumerate().skip(j) {
+            self.index.insert(*other, k);
+        }
+        Ok(id)
+    }
+}
+
+/// Stacks `(innovation, H, R)` items into one observation with renumbered rows and a
+/// block-diagonal `R` (the items' noises are independent).
+fn stack_observations(
+    observations: &[(DVector<f64>, SparseJacobian, DMatrix<f64>)],
+) -> Result<(DVector<f64>, SparseJacobian, DMatrix<f64>)> {
+    let p: usize = observations.iter().map(|o| o.0.len()).sum();
+    let mut innovation = DVector::zeros(p);
+    let mut h = SparseJacobian::new(p);
+    let mut r = DMatrix::zeros(p, p);
+    let mut row = 0;
+    for (nu, hi, ri) in observations {
+        let k = nu.len();
+        if hi.rows != k || ri.shape() != (k, k) {
+            return Err(SlamError::dimension(format!(
+                "an observation of {k} entries needs H with {k} rows and R {k}x{k}"
+            )));
+        }
+        innovation.rows_mut(row, k).copy_from(nu);
+        r.view_mut((row, row), (k, k)).copy_from(ri);
+        h.blocks.extend(hi.blocks.iter().map(|b| JacobianBlock {
+            row: row + b.row,
+            col: b.col,
+            h: b.h.clone(),
+        }));
+        row += k;
+    }
+    Ok((innovation, h, r))
 }
 
 /// `S = H L + R` (eq. 8) with `L = P H^T`, symmetrised.
@@ -528,32 +874,38 @@ fn gain_and_nis(
     Ok((gain, innovation.dot(&chol.solve(innovation))))
 }
 
-/// `P <- P - K L^T + M K^T` on the upper triangle, one column prefix `P[0..=j, j]` at
-/// a time (contiguous in nalgebra's column-major storage), on all cores for large
-/// states. Every entry is computed by the same operations whatever the thread count,
-/// so results are bit-identical.
-fn joseph_columns(p: &mut DMatrix<f64>, k: &DMatrix<f64>, l: &DMatrix<f64>, m: &DMatrix<f64>) {
-    let d = p.nrows();
+/// `P <- P - K L^T + M K^T` on the lower triangle of the leading `d x d` block, one
+/// column suffix `P[j..d, j]` at a time (contiguous in nalgebra's column-major
+/// storage), on all cores for large states. Every entry is computed by the same
+/// operations whatever the thread count, so results are bit-identical.
+fn joseph_columns(
+    p: &mut DMatrix<f64>,
+    d: usize,
+    k: &DMatrix<f64>,
+    l: &DMatrix<f64>,
+    m: &DMatrix<f64>,
+) {
+    let cap = p.nrows();
     let obs = k.ncols();
     let (ks, ls, ms) = (k.as_slice(), l.as_slice(), m.as_slice());
     let update_column = |j: usize, col: &mut [f64]| {
-        let upper = &mut col[..=j];
+        let lower = &mut col[j..d];
         for a in 0..obs {
-            let (ka, ma) = (&ks[a * d..a * d + j + 1], &ms[a * d..a * d + j + 1]);
+            let (ka, ma) = (&ks[a * d + j..(a + 1) * d], &ms[a * d + j..(a + 1) * d]);
             let (alpha, beta) = (-ls[a * d + j], ks[a * d + j]);
-            for ((c, &kv), &mv) in upper.iter_mut().zip(ka).zip(ma) {
+            for ((c, &kv), &mv) in lower.iter_mut().zip(ka).zip(ma) {
                 *c += alpha * kv + beta * mv;
             }
         }
     };
-    let data = p.as_mut_slice();
+    let data = &mut p.as_mut_slice()[..d * cap];
     if d >= PARALLEL_MIN_DIM {
-        data.par_chunks_mut(d)
+        data.par_chunks_mut(cap)
             .with_min_len(8)
             .enumerate()
             .for_each(|(j, col)| update_column(j, col));
     } else {
-        data.chunks_mut(d)
+        data.chunks_mut(cap)
             .enumerate()
             .for_each(|(j, col)| update_column(j, col));
     }

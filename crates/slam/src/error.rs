@@ -20,6 +20,17 @@ pub enum SlamError {
     /// an unknown option name.
     #[error(transparent)]
     Core(#[from] CoreError),
+    /// An error at one event of a run, with the event's index in the stream and its
+    /// time, so a failure in a long data set names where it happened.
+    #[error("event {index} (t = {time}): {source}")]
+    AtEvent {
+        /// Position of the event in the time-ordered stream (from 0).
+        index: usize,
+        /// The event's time stamp.
+        time: f64,
+        /// What went wrong there.
+        source: Box<SlamError>,
+    },
 }
 
 /// Result alias for this crate.
@@ -53,6 +64,7 @@ impl SlamError {
                 rperc_core::ErrorClass::Numerical
             }
             SlamError::Core(e) => e.class(),
+            SlamError::AtEvent { source, .. } => source.class(),
         }
     }
 }

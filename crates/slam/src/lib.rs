@@ -7,9 +7,11 @@ mod error;
 pub mod monobot;
 pub mod motion;
 mod observation;
+pub mod planar;
 
 pub use ackermann::{Ackermann, LaserObservation};
-pub use ekf::{Ekf, JacobianBlock, SparseJacobian, Update};
+pub use ekf::{Ekf, Gated, JacobianBlock, SparseJacobian, Update};
 pub use error::{Result, SlamError};
 pub use motion::{MotionModel, Prediction, Unicycle, unicycle};
 pub use observation::{landmark_from_range_bearing, range_bearing};
+pub use planar::{PlanarConfig, PlanarSlam};

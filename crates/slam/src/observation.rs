@@ -3,7 +3,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix2x3, Point2, Vector2};
 
-use crate::ekf::{Ekf, SparseJacobian, Update};
+use crate::ekf::{Ekf, Gated, SparseJacobian, Update};
 use crate::error::{Result, SlamError};
 use rperc_core::{Pose2, wrap_angle};
 
@@ -56,15 +56,17 @@ impl Ekf {
         })
     }
 
-    /// Update with a range-bearing observation `z` of landmark `j` (noise `R`).
-    pub fn update_range_bearing(
-        &mut self,
+    /// `(innovation, H, R)` of a range-bearing observation `z` of landmark `j`, the
+    /// bearing innovation wrapped to (-pi, pi].
+    fn range_bearing_observation(
+        &self,
         j: usize,
         z: &Vector2<f64>,
         r: &Matrix2<f64>,
-    ) -> Result<Update> {
+    ) -> Result<(DVector<f64>, SparseJacobian, DMatrix<f64>)> {
         let robot = self.planar_robot()?;
         let off = self.landmark_offset(j)?;
+        rperc_core::ensure_finite("z", z.iter())?;
         let landmark = Point2::new(self.state()[off], self.state()[off + 1]);
         let (predicted, h_robot, h_landmark) =
             range_bearing(&robot, &landmark).ok_or_else(|| {
@@ -78,7 +80,50 @@ impl Ekf {
                 off,
                 DMatrix::from_column_slice(2, 2, h_landmark.as_slice()),
             );
-        self.update(&nu, &h, &DMatrix::from_column_slice(2, 2, r.as_slice()))
+        Ok((nu, h, DMatrix::from_column_slice(2, 2, r.as_slice())))
+    }
+
+    /// Update with a range-bearing observation `z` of landmark `j` (noise `R`). The
+    /// heading (state entry 2) is wrapped after the update. No gate: see
+    /// [`Ekf::update_range_bearing_gated`].
+    pub fn update_range_bearing(
+        &mut self,
+        j: usize,
+        z: &Vector2<f64>,
+        r: &Matrix2<f64>,
+    ) -> Result<Update> {
+        let (nu, h, r) = self.range_bearing_observation(j, z, r)?;
+        self.ensure_wrapped_angle(2);
+        self.update(&nu, &h, &r)
+    }
+
+    /// [`Ekf::update_range_bearing`] behind a chi-square gate on its NIS: an outlier
+    /// is reported as [`Gated::Rejected`] and changes nothing.
+    pub fn update_range_bearing_gated(
+        &mut self,
+        j: usize,
+        z: &Vector2<f64>,
+        r: &Matrix2<f64>,
+        gate: f64,
+    ) -> Result<Gated> {
+        let (nu, h, r) = self.range_bearing_observation(j, z, r)?;
+        self.ensure_wrapped_angle(2);
+        self.update_gated(&nu, &h, &r, gate)
+    }
+
+    /// All range-bearing observations `(landmark index, z)` of one scan in one stacked
+    /// update (one `S`, one Joseph pass over `P`), each with noise `R`.
+    pub fn update_range_bearing_batch(
+        &mut self,
+        observations: &[(usize, Vector2<f64>)],
+        r: &Matrix2<f64>,
+    ) -> Result<Update> {
+        let stacked = observations
+            .iter()
+            .map(|(j, z)| self.range_bearing_observation(*j, z, r))
+            .collect::<Result<Vec<_>>>()?;
+        self.ensure_wrapped_angle(2);
+        self.update_batch(&stacked)
     }
 
     /// Add a point landmark first seen at range-bearing `z` (noise `R`); returns its index.

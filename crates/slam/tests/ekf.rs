@@ -324,6 +324,202 @@ fn parallel_update_is_bit_identical_across_thread_counts() {
     assert_eq!(run(1), run(2));
 }
 
+/// An outlier behind the gate changes nothing and is reported with its NIS, which
+/// equals `nu^T S^-1 nu` computed densely here; an inlier is applied.
+#[test]
+fn gated_update_rejects_an_outlier_without_touching_the_state() {
+    let (ekf, _, _, _) = random_problem(4, 3, 2);
+    let mut ekf = ekf.with_wrapped_angle(2).unwrap();
+    let before = ekf.clone();
+    let r = Matrix2::new(0.01, 0.0, 0.0, 0.001);
+    let off = ekf.landmark_offset(1).unwrap();
+    let robot = rperc_core::Pose2::new(ekf.state()[0], ekf.state()[1], ekf.state()[2]);
+    let lm = nalgebra::Point2::new(ekf.state()[off], ekf.state()[off + 1]);
+    let (z_true, hr, hl) = slam::range_bearing(&robot, &lm).unwrap();
+    let z_far = z_true + Vector2::new(100.0, 0.0);
+    let gate = rperc_core::chi2_gate(2, 0.99).unwrap();
+    let out = ekf.update_range_bearing_gated(1, &z_far, &r, gate).unwrap();
+    let mut h = DMatrix::zeros(2, ekf.state().len());
+    h.view_mut((0, 0), (2, 3)).copy_from(&hr);
+    h.view_mut((0, off), (2, 2)).copy_from(&hl);
+    let s =
+        &h * before.covariance() * h.transpose() + DMatrix::from_column_slice(2, 2, r.as_slice());
+    let nu = DVector::from_vec(vec![100.0, 0.0]);
+    let nis = nu.dot(&(s.try_inverse().unwrap() * &nu));
+    match out {
+        slam::Gated::Rejected { nis: got, gate: g } => {
+            assert!((got - nis).abs() < 1e-9 * nis && g == gate);
+        }
+        other => panic!("expected a rejection, got {other:?}"),
+    }
+    assert_eq!(ekf, before);
+    let ok = ekf
+        .update_range_bearing_gated(1, &z_true, &r, gate)
+        .unwrap();
+    assert!(matches!(ok, slam::Gated::Applied(_)));
+    assert!(
+        ekf.update_range_bearing_gated(1, &z_true, &r, f64::NAN)
+            .is_err()
+    );
+}
+
+/// After an update that turns the heading past pi, it is back in (-pi, pi].
+#[test]
+fn heading_is_wrapped_after_every_update() {
+    let x = DVector::from_vec(vec![0.0, 0.0, 3.1, 5.0, 0.0]);
+    let p = DMatrix::from_diagonal(&DVector::from_vec(vec![0.01, 0.01, 1.0, 0.01, 0.01]));
+    let mut ekf = Ekf::new(x, p, 3, 2).unwrap();
+    // The landmark due east is predicted at bearing -3.1; seen at -3.2 (wrapped to
+    // +3.083), the heading must grow from 3.1 to about 3.2, past pi.
+    let z = Vector2::new(5.0, rperc_core::wrap_angle(-3.2));
+    let r = Matrix2::new(0.01, 0.0, 0.0, 1e-4);
+    ekf.update_range_bearing(0, &z, &r).unwrap();
+    let th = ekf.state()[2];
+    assert!(
+        th > -std::f64::consts::PI && th <= std::f64::consts::PI,
+        "{th}"
+    );
+    assert!(
+        (th - rperc_core::wrap_angle(3.2)).abs() < 1e-3,
+        "crossed pi and wrapped: {th}"
+    );
+}
+
+/// The block readers return exactly the blocks of the full covariance.
+#[test]
+fn block_readers_equal_the_blocks_of_the_full_covariance() {
+    let (ekf, _, _, _) = random_problem(8, 5, 2);
+    let p = ekf.covariance();
+    assert_eq!(ekf.robot_covariance(), p.view((0, 0), (3, 3)).into_owned());
+    for j in 0..5 {
+        let off = 3 + 2 * j;
+        assert_eq!(
+            ekf.landmark_covariance(j).unwrap(),
+            p.view((off, off), (2, 2)).into_owned()
+        );
+        assert_eq!(
+            ekf.robot_landmark_covariance(j).unwrap(),
+            p.view((0, off), (3, 2)).into_owned()
+        );
+    }
+    assert!(ekf.landmark_covariance(5).is_err());
+    assert!(ekf.covariance_block(10, 0, 5, 1).is_err());
+}
+
+/// Many landmarks added one by one (the buffer grows several times) give the same
+/// filter as the dense augmentation `G blockdiag(P, R) G^T` applied each time; then
+/// removing a landmark equals deleting its rows and columns (marginalisation), and
+/// the id map follows.
+#[test]
+fn growing_and_removing_landmarks_matches_dense_algebra() {
+    let mut ekf = Ekf::new(
+        DVector::from_vec(vec![0.5, -0.2, 0.3]),
+        DMatrix::identity(3, 3) * 0.01,
+        3,
+        2,
+    )
+    .unwrap();
+    let mut p = ekf.covariance();
+    let r = Matrix2::new(0.02, 0.001, 0.001, 0.003);
+    for k in 0..40 {
+        let z = Vector2::new(2.0 + 0.1 * k as f64, -1.5 + 0.07 * k as f64);
+        let robot = rperc_core::Pose2::new(ekf.state()[0], ekf.state()[1], ekf.state()[2]);
+        let (_, gr, gz) = slam::landmark_from_range_bearing(&robot, &z);
+        let d = p.nrows();
+        let mut g = DMatrix::zeros(d + 2, d + 2);
+        g.view_mut((0, 0), (d, d))
+            .copy_from(&DMatrix::identity(d, d));
+        g.view_mut((d, 0), (2, 3)).copy_from(&gr);
+        g.view_mut((d, d), (2, 2)).copy_from(&gz);
+        let mut ext = DMatrix::zeros(d + 2, d + 2);
+        ext.view_mut((0, 0), (d, d)).copy_from(&p);
+        ext.view_mut((d, d), (2, 2))
+            .copy_from(&DMatrix::from_column_slice(2, 2, r.as_slice()));
+        p = &g * ext * g.transpose();
+        assert_eq!(ekf.add_landmark_range_bearing(&z, &r).unwrap(), k);
+    }
+    assert!(rel_err(&ekf.covariance(), &p) < 1e-12);
+    let (x, full) = (ekf.state().clone(), ekf.covariance());
+    let id = ekf.remove_landmark(7).unwrap();
+    assert_eq!(id, 7);
+    let keep: Vec<usize> = (0..p.nrows()).filter(|&i| i != 17 && i != 18).collect();
+    let expected = full.select_rows(&keep).select_columns(&keep);
+    assert_eq!(ekf.covariance(), expected);
+    assert_eq!(*ekf.state(), x.select_rows(&keep));
+    assert_eq!(ekf.landmark_index(7), None);
+    assert_eq!(ekf.landmark_index(8), Some(7));
+    assert_eq!(ekf.landmark_id(7).unwrap(), 8);
+    // A new landmark takes a fresh id; a taken id is refused.
+    let z = Vector2::new(3.0, 0.1);
+    let j = ekf.add_landmark_range_bearing(&z, &r).unwrap();
+    assert_eq!(ekf.landmark_id(j).unwrap(), 40);
+    let zero = DMatrix::zeros(2, 3);
+    let e = ekf.add_landmark_with_id(
+        3,
+        &DVector::zeros(2),
+        &zero,
+        &DMatrix::identity(2, 2),
+        &DMatrix::identity(2, 2),
+    );
+    assert!(e.is_err());
+}
+
+/// A range-bearing batch of independent landmarks equals sequential updates when
+/// the robot is known exactly (then the observations are independent given the
+/// state and the model is linear in each landmark at a fixed robot... up to the
+/// relinearisation, which a zero robot variance removes).
+#[test]
+fn range_bearing_batch_equals_sequential_for_a_known_robot() {
+    let mut p = DMatrix::zeros(7, 7);
+    p.view_mut((3, 3), (4, 4))
+        .copy_from(&(DMatrix::identity(4, 4) * 0.04));
+    let x = DVector::from_vec(vec![0.0, 0.0, 0.2, 4.0, 1.0, -2.0, 3.0]);
+    let ekf = Ekf::new(x, p, 3, 2).unwrap();
+    let r = Matrix2::new(0.01, 0.0, 0.0, 1e-3);
+    let obs = [
+        (0usize, Vector2::new(4.2, 0.05)),
+        (1, Vector2::new(3.5, 1.9)),
+    ];
+    let mut batch = ekf.clone();
+    batch.update_range_bearing_batch(&obs, &r).unwrap();
+    let mut seq = ekf.clone();
+    for (j, z) in obs {
+        seq.update_range_bearing(j, &z, &r).unwrap();
+    }
+    assert!((batch.state() - seq.state()).amax() < 1e-9);
+    assert!(rel_err(&batch.covariance(), &seq.covariance()) < 1e-9);
+}
+
+/// The allocation-free planar prediction equals the generic one (same algebra,
+/// fixed-size matrices), and both equal `F P F^T + G V G^T` written densely.
+#[test]
+fn planar_prediction_equals_the_generic_and_dense_predictions() {
+    let (ekf, _, _, _) = random_problem(17, 6, 2);
+    let x = ekf.state().clone();
+    let pose = rperc_core::Pose2::new(x[0], x[1], x[2]);
+    let pred = slam::unicycle(&pose, 0.7, -0.3, 0.2);
+    let v = Matrix2::new(0.02, 0.001, 0.001, 0.005);
+    let mut generic = ekf.clone();
+    let (mean, fx, fv) = pred.to_dynamic();
+    let vd = DMatrix::from_column_slice(2, 2, v.as_slice());
+    generic.predict(&mean, &fx, &fv, &vd).unwrap();
+    let mut planar = ekf.clone();
+    planar
+        .predict_planar(&pred.mean, &pred.fx, &pred.fv, &v)
+        .unwrap();
+    assert!((planar.state() - generic.state()).amax() < 1e-15);
+    assert!(rel_err(&planar.covariance(), &generic.covariance()) < 1e-14);
+    let d = x.len();
+    let mut f = DMatrix::identity(d, d);
+    f.view_mut((0, 0), (3, 3)).copy_from(&fx);
+    let mut g = DMatrix::zeros(d, 2);
+    g.view_mut((0, 0), (3, 2)).copy_from(&fv);
+    let dense = &f * ekf.covariance() * f.transpose() + &g * vd * g.transpose();
+    assert!(rel_err(&planar.covariance(), &dense) < 1e-12);
+    let m3 = nalgebra::Matrix3::from_column_slice(planar.robot_covariance().as_slice());
+    assert_eq!(planar.robot_covariance_planar(), m3);
+}
+
 /// Fuzz reproducer (issue 15): a landmark seen at range 1e20 with R = diag(0, 1e300)
 /// has a covariance G_z R G_z^T that overflows to inf; it used to enter P silently.
 #[test]

@@ -52,7 +52,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from rperc.cli import demo, lines, track
+    from rperc.cli import demo, lines, slamrun, track
 
     parser = _Parser(prog="rperc", description="Robot perception in Rust, driven from Python.")
     parser.add_argument("--version", action="version", version=f"rperc {__version__}")
@@ -60,6 +60,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_demos(sub)
     lines.add_commands(sub)
     track.add_commands(sub)
+    slamrun.add_commands(sub)
     return parser
 
 

@@ -5,11 +5,23 @@
 - :mod:`rperc.slam.monobot`: the 1-D robot with the relative, anchor and external
   measurement models, Fisher information, observability and Monte Carlo consistency;
 - :mod:`rperc.slam.evaluation`: ATE with and without SE(2) alignment, heading error,
-  landmark RMSE, pose NEES and distance to GPS fixes, against ground truth.
+  landmark RMSE, pose NEES and distance to GPS fixes, against ground truth;
+- :class:`PlanarSlam` (:mod:`rperc.slam.planar`): whole recordings in one native call,
+  with known, nearest-neighbour or JCBB association, the anchor (eqs. 24-25), the
+  external sensor (eqs. 26-27) and landmark freezing.
 """
 
 from rperc._rperc import nees_bounds
 from rperc.slam import evaluation, monobot
 from rperc.slam.ekf import Ekf, EkfUpdate
+from rperc.slam.planar import PlanarSlam, SlamResult
 
-__all__ = ["Ekf", "EkfUpdate", "evaluation", "monobot", "nees_bounds"]
+__all__ = [
+    "Ekf",
+    "EkfUpdate",
+    "PlanarSlam",
+    "SlamResult",
+    "evaluation",
+    "monobot",
+    "nees_bounds",
+]

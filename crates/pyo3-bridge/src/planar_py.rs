@@ -1,0 +1,136 @@
+//! Planar EKF-SLAM (`slam::planar`): one call runs a whole recording given as columnar
+//! numpy arrays, with the GIL released, and returns the trajectory and the map as
+//! arrays moved into numpy.
+
+use numpy::{IntoPyArray, PyReadonlyArray1};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use slam::planar::{EventArrays, PlanarConfig, PlanarResult, PlanarSlam, Statistics};
+
+use crate::arrays::{shaped, tensor};
+use crate::errors::{Error, Result, detached};
+
+/// The default planar SLAM configuration as a dict.
+#[pyfunction]
+pub fn planar_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
+    crate::config::defaults::<PlanarConfig>(py)
+}
+
+/// Reads an `(N, K)` float array named `name` as rows; `None` is no rows.
+fn rows<const K: usize>(obj: Option<&Bound<'_, PyAny>>, name: &str) -> Result<Vec<[f64; K]>> {
+    let Some(obj) = obj.filter(|o| !o.is_none()) else {
+        return Ok(Vec::new());
+    };
+    let (shape, data) = tensor(obj, name, 2)?;
+    if shape[1] != K {
+        return Err(Error::Value(format!(
+            "{name} must have shape (N, {K}), got {shape:?}"
+        )));
+    }
+    Ok(data
+        .chunks_exact(K)
+        .map(|r| std::array::from_fn(|k| r[k]))
+        .collect())
+}
+
+/// Reads the detections' ids (int64, one per detection; negative: unknown).
+fn ids(obj: Option<&Bound<'_, PyAny>>, detections: usize) -> Result<Option<Vec<i64>>> {
+    let Some(obj) = obj.filter(|o| !o.is_none()) else {
+        return Ok(None);
+    };
+    let ids: PyReadonlyArray1<'_, i64> = obj
+        .extract()
+        .map_err(|_| Error::Type("detection_ids must be a 1-D int64 numpy array".into()))?;
+    let ids = ids.as_array().to_vec();
+    if ids.len() != detections {
+        return Err(Error::Value(format!(
+            "detection_ids has {} entries for {detections} detections",
+            ids.len()
+        )));
+    }
+    Ok(Some(ids))
+}
+
+/// Runs planar EKF-SLAM over a recording (GIL released): `controls` rows `(t, u0, u1)`,
+/// `detections` rows `(t, range, bearing)` (equal times form one scan), optional
+/// `detection_ids` (int64), `fixes` rows `(t, x, y, var_x, cov_xy, var_y)`. Returns a
+/// dict of arrays: the robot after every event and the final map.
+#[pyfunction]
+#[pyo3(signature = (controls, detections, detection_ids = None, fixes = None, config = None))]
+pub fn planar_slam_run<'py>(
+    py: Python<'py>,
+    controls: &Bound<'py, PyAny>,
+    detections: &Bound<'py, PyAny>,
+    detection_ids: Option<&Bound<'py, PyAny>>,
+    fixes: Option<&Bound<'py, PyAny>>,
+    config: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let config: PlanarConfig = crate::config::from_python(config, "planar")?;
+    config.validate().map_err(Error::from)?;
+    let controls = rows::<3>(Some(controls), "controls")?;
+    let detections = rows::<3>(Some(detections), "detections")?;
+    let ids = ids(detection_ids, detections.len())?;
+    let fixes = rows::<6>(fixes, "fixes")?;
+    let result = detached(py, || {
+        let mut engine = PlanarSlam::new(config)?;
+        engine.run_arrays(&EventArrays {
+            controls: &controls,
+            detections: &detections,
+            detection_ids: ids.as_deref(),
+            fixes: &fixes,
+        })?;
+        Ok(engine.finish())
+    })?;
+    result_dict(py, result)
+}
+
+/// The run's arrays, each moved into numpy.
+fn result_dict(py: Python<'_>, r: PlanarResult) -> PyResult<Bound<'_, PyDict>> {
+    let d = PyDict::new(py);
+    let tr = r.trajectory;
+    let n = tr.t.len();
+    d.set_item("t", tr.t.into_pyarray(py))?;
+    let kind: Vec<u8> = tr.kind.iter().map(|&k| k as u8).collect();
+    d.set_item("kind", kind.into_pyarray(py))?;
+    d.set_item("pose", shaped(py, tr.pose.concat(), &[n, 3])?)?;
+    d.set_item(
+        "covariance",
+        shaped(py, tr.covariance.concat(), &[n, 3, 3])?,
+    )?;
+    d.set_item("seconds", tr.seconds.into_pyarray(py))?;
+    let lm = &r.landmarks;
+    let k = lm.len();
+    let id: Vec<u64> = lm.iter().map(|l| l.id).collect();
+    d.set_item("landmark_id", id.into_pyarray(py))?;
+    let mean: Vec<f64> = lm.iter().flat_map(|l| l.mean).collect();
+    d.set_item("landmark_mean", shaped(py, mean, &[k, 2])?)?;
+    let cov: Vec<f64> = lm.iter().flat_map(|l| l.covariance).collect();
+    d.set_item("landmark_covariance", shaped(py, cov, &[k, 2, 2])?)?;
+    let revisions: Vec<u32> = lm.iter().map(|l| l.revisions).collect();
+    d.set_item("landmark_revisions", revisions.into_pyarray(py))?;
+    let frozen: Vec<bool> = lm.iter().map(|l| l.frozen).collect();
+    d.set_item("landmark_frozen", frozen.into_pyarray(py))?;
+    let anchor: Vec<bool> = lm.iter().map(|l| l.anchor).collect();
+    d.set_item("landmark_anchor", anchor.into_pyarray(py))?;
+    d.set_item("statistics", statistics(py, &r.statistics)?)?;
+    d.set_item("anchor", r.anchor.map(|a| a.to_vec()))?;
+    Ok(d)
+}
+
+fn statistics<'py>(py: Python<'py>, s: &Statistics) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    for (name, value) in [
+        ("accepted", s.accepted),
+        ("rejected", s.rejected),
+        ("new", s.new),
+        ("candidate", s.candidate),
+        ("frozen", s.frozen),
+        ("fixes_applied", s.fixes_applied),
+        ("fixes_rejected", s.fixes_rejected),
+        ("fixes_ignored", s.fixes_ignored),
+        ("jcbb_truncated", s.jcbb_truncated),
+    ] {
+        d.set_item(name, value)?;
+    }
+    Ok(d)
+}

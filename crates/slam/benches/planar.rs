@@ -1,0 +1,174 @@
+//! Criterion benches of planar EKF-SLAM: one prediction and one scan update against
+//! the number of landmarks (O(n) and O(n^2): the slopes of log time against log n
+//! should be about 1 and 2), whole simulated runs per association method, and the
+//! full MR.CLAM robot-1 run when the data set is present (`RPERC_DATA`, default
+//! `../shared/data`).
+
+use std::hint::black_box;
+use std::path::PathBuf;
+
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
+use rand::{Rng, SeedableRng, rngs::StdRng};
+use slam::planar::sim::{SimConfig, simulate};
+use slam::planar::{Association, EventArrays, PlanarConfig, PlanarSlam};
+use slam::{Ekf, unicycle};
+
+/// A filter with `n` landmarks spread around the robot and a dense SPD covariance.
+fn filter(n: usize) -> Ekf {
+    let mut rng = StdRng::seed_from_u64(1);
+    let d = 3 + 2 * n;
+    let mut x = DVector::from_fn(d, |_, _| rng.random_range(-20.0..20.0));
+    x[2] = 0.3;
+    let a = DMatrix::from_fn(d, 8, |_, _| rng.random_range(-1.0..1.0));
+    let p = &a * a.transpose() * 0.05 + DMatrix::identity(d, d) * 0.5;
+    Ekf::new(x, p, 3, 2).unwrap().with_wrapped_angle(2).unwrap()
+}
+
+const SIZES: [usize; 5] = [10, 50, 100, 500, 1000];
+
+fn bench_predict(c: &mut Criterion) {
+    let mut group = c.benchmark_group("planar/predict");
+    let v = Matrix2::new(0.01, 0.0, 0.0, 0.001);
+    for n in SIZES {
+        let mut ekf = filter(n);
+        group.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
+            b.iter(|| {
+                let x = ekf.state();
+                let pose = rperc_core::Pose2::new(x[0], x[1], x[2]);
+                let p = unicycle(&pose, 0.5, 0.1, 0.015);
+                ekf.predict_planar(black_box(&p.mean), &p.fx, &p.fv, &v)
+                    .unwrap();
+            })
+        });
+    }
+    group.finish();
+}
+
+fn bench_update(c: &mut Criterion) {
+    let mut group = c.benchmark_group("planar/update_batch3");
+    group.sample_size(20);
+    let r = Matrix2::new(0.01, 0.0, 0.0, 0.001);
+    for n in SIZES {
+        let mut ekf = filter(n);
+        let obs: Vec<_> = (0..3)
+            .map(|k| (k * n / 3, Vector2::new(10.0, 0.3)))
+            .collect();
+        group.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
+            b.iter(|| ekf.update_range_bearing_batch(black_box(&obs), &r).unwrap())
+        });
+    }
+    group.finish();
+}
+
+fn bench_simulated_runs(c: &mut Criterion) {
+    let mut group = c.benchmark_group("planar/sim_600_steps");
+    group.sample_size(10);
+    let sim = SimConfig::default();
+    let data = simulate(&sim, 1, 0);
+    for association in [
+        Association::Known,
+        Association::NearestNeighbour,
+        Association::Jcbb,
+    ] {
+        let config = PlanarConfig {
+            association,
+            ..sim.slam_config()
+        };
+        group.bench_function(association.name(), |b| {
+            b.iter(|| {
+                let mut engine = PlanarSlam::new(config.clone()).unwrap();
+                engine.run(black_box(&data.events)).unwrap();
+                engine.statistics().accepted
+            })
+        });
+    }
+    group.finish();
+}
+
+fn data_dir() -> Option<PathBuf> {
+    let dir = std::env::var_os("RPERC_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
+    dir.join("mrclam6").is_dir().then(|| dir.join("mrclam6"))
+}
+
+fn rows(path: &PathBuf) -> Vec<Vec<f64>> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.trim_start().starts_with('#') && !l.trim().is_empty())
+        .map(|l| l.split_whitespace().map(|v| v.parse().unwrap()).collect())
+        .collect()
+}
+
+/// Controls, detections, their landmark ids, the start pose.
+type MrClam = (Vec<[f64; 3]>, Vec<[f64; 3]>, Vec<i64>, [f64; 3]);
+
+/// MR.CLAM robot 1 as arrays: controls, detections of landmarks (subjects 6-20,
+/// by barcode), start pose from the first ground-truth row.
+fn mrclam() -> Option<MrClam> {
+    let dir = data_dir()?;
+    let barcode_to_subject: std::collections::HashMap<i64, i64> = rows(&dir.join("Barcodes.dat"))
+        .iter()
+        .map(|r| (r[1] as i64, r[0] as i64))
+        .collect();
+    let controls = rows(&dir.join("Robot1_Odometry.dat"))
+        .iter()
+        .map(|r| [r[0], r[1], r[2]])
+        .collect();
+    let (mut dets, mut ids) = (Vec::new(), Vec::new());
+    for r in rows(&dir.join("Robot1_Measurement.dat")) {
+        if let Some(&s) = barcode_to_subject
+            .get(&(r[1] as i64))
+            .filter(|s| (6..=20).contains(*s))
+        {
+            dets.push([r[0], r[2], r[3]]);
+            ids.push(s);
+        }
+    }
+    let g = &rows(&dir.join("Robot1_Groundtruth.dat"))[0];
+    Some((controls, dets, ids, [g[1], g[2], g[3]]))
+}
+
+fn bench_mrclam(c: &mut Criterion) {
+    let Some((controls, dets, ids, start)) = mrclam() else {
+        eprintln!("MR.CLAM data not found (RPERC_DATA): skipping planar/mrclam_robot1");
+        return;
+    };
+    let config = PlanarConfig {
+        initial_pose: start,
+        motion: slam::MotionModel::Unicycle(slam::Unicycle {
+            speed_variance: 0.1,
+            turn_rate_variance: 0.5,
+        }),
+        range_variance: 0.01,
+        bearing_variance: 0.003,
+        ..PlanarConfig::default()
+    };
+    let arrays = EventArrays {
+        controls: &controls,
+        detections: &dets,
+        detection_ids: Some(&ids),
+        fixes: &[],
+    };
+    let mut group = c.benchmark_group("planar/mrclam_robot1");
+    group.sample_size(10);
+    group.bench_function("known", |b| {
+        b.iter(|| {
+            let mut engine = PlanarSlam::new(config.clone()).unwrap();
+            engine.run_arrays(black_box(&arrays)).unwrap();
+            engine.statistics().accepted
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(
+    benches,
+    bench_predict,
+    bench_update,
+    bench_simulated_runs,
+    bench_mrclam
+);
+criterion_main!(benches);

@@ -1,0 +1,115 @@
+//! The planar engine's configuration: one struct, every field with a default, so a
+//! config file or a Python dict names only what it changes.
+
+use rperc_core::{chi2_gate, ensure_non_negative, ensure_positive};
+
+use crate::error::{Result, SlamError};
+use crate::motion::MotionModel;
+
+rperc_core::named_enum! {
+    /// How detections are paired with landmarks.
+    #[derive(Default)]
+    pub enum Association: "association" {
+        /// The detection carries the landmark's id (MR.CLAM's barcodes).
+        #[default]
+        Known = "known",
+        /// Each detection takes its most compatible landmark (Mahalanobis chi-square
+        /// gate), each landmark at most once.
+        NearestNeighbour = "nn",
+        /// Joint compatibility branch and bound (Neira & Tardos 2001).
+        Jcbb = "jcbb",
+    }
+}
+
+/// Settings of [`super::PlanarSlam`]. The seed's variants (anchor, external sensor,
+/// freezing) are fields and combine freely.
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PlanarConfig {
+    /// The vehicle, with its control noise (eqs. 1, 5). The sensor sits at the robot's
+    /// origin for the unicycle and at the laser mount for the Ackermann vehicle.
+    pub motion: MotionModel,
+    /// Range noise variance of a detection, m^2 (> 0).
+    pub range_variance: f64,
+    /// Bearing noise variance of a detection, rad^2 (> 0).
+    pub bearing_variance: f64,
+    /// Pairing method.
+    pub association: Association,
+    /// Confidence of the chi-square gates (individual, joint, fix), in (0, 1).
+    pub gate_confidence: f64,
+    /// Consistent sightings a new landmark needs before it enters the map (>= 1).
+    pub candidate_sightings: u32,
+    /// A candidate not seen again within this many seconds is dropped (> 0).
+    pub candidate_window: f64,
+    /// Joint-compatibility tests JCBB may make per scan before it settles for the
+    /// best hypothesis found so far (>= 1).
+    pub jcbb_max_nodes: usize,
+    /// Eqs. (24)-(25): the first landmark becomes the global reference.
+    pub anchor: bool,
+    /// Eqs. (26)-(27): apply the xy fixes of an external sensor (otherwise they are
+    /// counted and ignored).
+    pub external_fix: bool,
+    /// Landmarks revised more than this many times leave the state (text under
+    /// Fig. 7, where it is 50); `None` never freezes.
+    pub freeze_after: Option<u32>,
+    /// Start pose `(x, y, theta)`.
+    pub initial_pose: [f64; 3],
+    /// Variances of the start pose (>= 0; zero: a known start).
+    pub initial_pose_variance: [f64; 3],
+}
+
+impl Default for PlanarConfig {
+    fn default() -> Self {
+        Self {
+            motion: MotionModel::default(),
+            range_variance: 0.01,
+            bearing_variance: 1e-3,
+            association: Association::Known,
+            gate_confidence: 0.99,
+            candidate_sightings: 1,
+            candidate_window: 10.0,
+            jcbb_max_nodes: 20_000,
+            anchor: false,
+            external_fix: false,
+            freeze_after: None,
+            initial_pose: [0.0; 3],
+            initial_pose_variance: [0.0; 3],
+        }
+    }
+}
+
+impl PlanarConfig {
+    /// Refuses bad values with the parameter's name.
+    pub fn validate(&self) -> Result<()> {
+        self.motion.validate()?;
+        ensure_positive("range_variance", self.range_variance)?;
+        ensure_positive("bearing_variance", self.bearing_variance)?;
+        chi2_gate(2, self.gate_confidence).map_err(|_| {
+            SlamError::invalid(
+                "gate_confidence",
+                format!("must be in (0, 1), got {}", self.gate_confidence),
+            )
+        })?;
+        if self.candidate_sightings == 0 {
+            return Err(SlamError::invalid(
+                "candidate_sightings",
+                "must be >= 1".into(),
+            ));
+        }
+        ensure_positive("candidate_window", self.candidate_window)?;
+        if self.jcbb_max_nodes == 0 {
+            return Err(SlamError::invalid("jcbb_max_nodes", "must be >= 1".into()));
+        }
+        if self.freeze_after == Some(0) {
+            return Err(SlamError::invalid(
+                "freeze_after",
+                "must be >= 1 (or None)".into(),
+            ));
+        }
+        rperc_core::ensure_finite("initial_pose", self.initial_pose.iter())?;
+        for v in self.initial_pose_variance {
+            ensure_non_negative("initial_pose_variance", v)?;
+        }
+        Ok(())
+    }
+}

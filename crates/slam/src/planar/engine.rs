@@ -1,0 +1,740 @@
+//! [`PlanarSlam`]: the event loop, association, batch update, candidates, anchor,
+//! external fix and freezing.
+
+use std::collections::HashMap;
+use std::time::Instant;
+
+use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Point2, Vector2};
+use rperc_core::{Definiteness, Pose2, check_covariance, chi2_gate};
+
+use super::associate::{self, FixedPoint, Pairing, Scene, Target};
+use super::observe::{anchor_frame, anchor_observation, cartesian, fix_observation, landmark_from};
+use super::{
+    Association, Detection, Event, EventArrays, EventKind, LandmarkEstimate, PlanarConfig,
+    PlanarResult, Statistics, Trajectory,
+};
+use crate::ekf::{Ekf, Gated, SparseJacobian};
+use crate::error::{Result, SlamError, ensure_finite};
+use crate::motion::MotionModel;
+
+/// What the association of one scan found.
+#[derive(Default)]
+struct Found {
+    pairings: Vec<Pairing>,
+    unmatched: Vec<usize>,
+    rejected: u64,
+    truncated: bool,
+}
+
+/// A sighting of a landmark not yet in the map.
+#[derive(Debug, Clone, PartialEq)]
+struct Candidate {
+    id: Option<u64>,
+    mean: Point2<f64>,
+    cov: Matrix2<f64>,
+    count: u32,
+    last_seen: f64,
+}
+
+/// The planar EKF-SLAM engine (see the [module docs](super)).
+///
+/// # Examples
+/// ```
+/// use slam::planar::{Detection, Event, PlanarConfig, PlanarSlam};
+///
+/// let mut slam = PlanarSlam::new(PlanarConfig::default()).unwrap();
+/// // Drive straight at 1 m/s for 2 s, seeing landmark 7 ahead, then 1 m closer.
+/// let seen = |t: f64, range: f64| Event::Scan {
+///     t,
+///     detections: vec![Detection { range, bearing: 0.0, id: Some(7) }],
+/// };
+/// let events = [
+///     Event::Control { t: 0.0, control: [1.0, 0.0] },
+///     seen(0.0, 5.0),
+///     seen(1.0, 4.0),
+///     Event::Control { t: 2.0, control: [0.0, 0.0] },
+/// ];
+/// slam.run(&events).unwrap();
+/// let result = slam.finish();
+/// assert_eq!(result.landmarks.len(), 1);
+/// assert!((result.landmarks[0].mean[0] - 5.0).abs() < 1e-9);
+/// assert!((result.trajectory.pose.last().unwrap()[0] - 2.0).abs() < 1e-9);
+/// assert_eq!(result.statistics.accepted, 1);
+/// ```
+#[derive(Debug, Clone)]
+pub struct PlanarSlam {
+    config: PlanarConfig,
+    ekf: Ekf,
+    /// The detection noise `W` (eq. 8).
+    w: Matrix2<f64>,
+    mount: Pose2,
+    gate: f64,
+    /// `joint_gates[k]`: the chi-square gate of `k` stacked detections.
+    joint_gates: Vec<f64>,
+    time: Option<f64>,
+    control: Vector2<f64>,
+    /// The internal frame's origin in the world (the anchor's position; zero without).
+    offset: Vector2<f64>,
+    anchor: Option<u64>,
+    /// Frozen landmarks and the anchor, with their ids.
+    fixed: Vec<FixedPoint>,
+    fixed_ids: Vec<u64>,
+    revisions: HashMap<u64, u32>,
+    candidates: Vec<Candidate>,
+    next_id: u64,
+    events: usize,
+    /// Work done since the last interrupt checkpoint (Ctrl-C from Python).
+    meter: rperc_core::interrupt::Work,
+    trajectory: Trajectory,
+    stats: Statistics,
+}
+
+/// Where the sensor sits on the robot: at its origin for the unicycle, at the laser
+/// mount for the Ackermann vehicle.
+fn sensor_mount(motion: &MotionModel) -> Pose2 {
+    match motion {
+        MotionModel::Unicycle(_) => Pose2::identity(),
+        MotionModel::Ackermann(a) => Pose2::new(a.laser_forward, a.laser_left, 0.0),
+    }
+}
+
+fn dyn_mat<const R: usize, const C: usize>(m: &nalgebra::SMatrix<f64, R, C>) -> DMatrix<f64> {
+    DMatrix::from_column_slice(R, C, m.as_slice())
+}
+
+impl PlanarSlam {
+    /// An engine at `config.initial_pose` with an empty map.
+    pub fn new(config: PlanarConfig) -> Result<Self> {
+        config.validate()?;
+        let x = DVector::from_column_slice(&config.initial_pose);
+        let p = DMatrix::from_diagonal(&DVector::from_column_slice(&config.initial_pose_variance));
+        let ekf = Ekf::new(x, p, 3, 2)?.with_wrapped_angle(2)?;
+        let gate = chi2_gate(2, config.gate_confidence)?;
+        Ok(Self {
+            w: Matrix2::new(config.range_variance, 0.0, 0.0, config.bearing_variance),
+            mount: sensor_mount(&config.motion),
+            gate,
+            joint_gates: vec![0.0, gate],
+            config,
+            ekf,
+            time: None,
+            control: Vector2::zeros(),
+            offset: Vector2::zeros(),
+            anchor: None,
+            fixed: Vec::new(),
+            fixed_ids: Vec::new(),
+            revisions: HashMap::new(),
+            candidates: Vec::new(),
+            next_id: 0,
+            events: 0,
+            meter: rperc_core::interrupt::Work::new(),
+            trajectory: Trajectory::default(),
+            stats: Statistics::default(),
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &PlanarConfig {
+        &self.config
+    }
+
+    /// The filter (its state is in the internal frame: the world shifted by the
+    /// anchor's position, see [`PlanarSlam::anchor`]).
+    pub fn ekf(&self) -> &Ekf {
+        &self.ekf
+    }
+
+    fn robot(&self) -> Pose2 {
+        let x = self.ekf.state();
+        Pose2::new(x[0], x[1], x[2])
+    }
+
+    /// The robot pose in the world frame.
+    pub fn pose(&self) -> Pose2 {
+        let r = self.robot();
+        Pose2::new(r.x + self.offset.x, r.y + self.offset.y, r.theta)
+    }
+
+    /// The robot covariance `P_rr` (relative to the anchor when there is one).
+    pub fn pose_covariance(&self) -> Matrix3<f64> {
+        self.ekf.robot_covariance_planar()
+    }
+
+    /// The anchor's id and world position, once the anchor variant has one.
+    pub fn anchor(&self) -> Option<(u64, Point2<f64>)> {
+        self.anchor.map(|id| (id, Point2::from(self.offset)))
+    }
+
+    /// Counts so far.
+    pub fn statistics(&self) -> &Statistics {
+        &self.stats
+    }
+
+    /// The robot after every event so far.
+    pub fn trajectory(&self) -> &Trajectory {
+        &self.trajectory
+    }
+
+    /// Processes one event; an error names the event's index and time, and the
+    /// events before it stay applied.
+    pub fn process(&mut self, event: &Event) -> Result<()> {
+        let started = Instant::now();
+        let index = self.events;
+        let t = event.time();
+        let kind = self.dispatch(event).map_err(|e| SlamError::AtEvent {
+            index,
+            time: t,
+            source: Box::new(e),
+        })?;
+        self.events += 1;
+        self.record(t, kind, started.elapsed().as_secs_f64());
+        // An event costs about the state size (prediction) times its detections (update).
+        let detections = match event {
+            Event::Scan { detections, .. } => detections.len(),
+            _ => 0,
+        };
+        let cost = self.ekf.state().len() * (1 + detections);
+        self.meter.advance(cost as u64)?;
+        Ok(())
+    }
+
+    fn dispatch(&mut self, event: &Event) -> Result<EventKind> {
+        match event {
+            Event::Control { t, control } => {
+                ensure_finite("control", control.iter())?;
+                self.predict_to(*t)?;
+                self.control = Vector2::from(*control);
+                Ok(EventKind::Control)
+            }
+            Event::Scan { t, detections } => {
+                self.predict_to(*t)?;
+                self.scan(*t, detections)?;
+                Ok(EventKind::Scan)
+            }
+            Event::Fix { t, xy, covariance } => {
+                self.predict_to(*t)?;
+                self.fix(xy, covariance)?;
+                Ok(EventKind::Fix)
+            }
+        }
+    }
+
+    /// Processes `events` in order; an empty slice is an error.
+    pub fn run(&mut self, events: &[Event]) -> Result<()> {
+        if events.is_empty() {
+            return Err(SlamError::invalid("events", "is empty".into()));
+        }
+        events.iter().try_for_each(|e| self.process(e))
+    }
+
+    fn record(&mut self, t: f64, kind: EventKind, seconds: f64) {
+        let pose = self.pose();
+        let p = self.pose_covariance();
+        let tr = &mut self.trajectory;
+        tr.t.push(t);
+        tr.kind.push(kind);
+        tr.pose.push([pose.x, pose.y, pose.theta]);
+        tr.covariance
+            .push(std::array::from_fn(|k| p[(k / 3, k % 3)]));
+        tr.seconds.push(seconds);
+    }
+
+    /// Eqs. (3) and (5): the robot moves from the last event's time to `t` under the
+    /// control in force. Time going backwards is an error.
+    fn predict_to(&mut self, t: f64) -> Result<()> {
+        if !t.is_finite() {
+            return Err(SlamError::invalid("t", format!("must be finite, got {t}")));
+        }
+        let Some(t0) = self.time else {
+            self.time = Some(t);
+            return Ok(());
+        };
+        if t < t0 {
+            return Err(SlamError::invalid(
+                "t",
+                format!("time went backwards, from {t0} to {t}"),
+            ));
+        }
+        if t > t0 {
+            let pred = self
+                .config
+                .motion
+                .predict(&self.robot(), self.control, t - t0)?;
+            let v = self.config.motion.control_noise();
+            self.ekf
+                .predict_planar(&pred.mean, &pred.fx, &pred.fv, &v)?;
+        }
+        self.time = Some(t);
+        Ok(())
+    }
+
+    /// Eqs. (26)-(27): an xy fix of the robot, behind its chi-square gate.
+    fn fix(&mut self, xy: &[f64; 2], cov: &[f64; 3]) -> Result<()> {
+        ensure_finite("fix", xy.iter().chain(cov.iter()))?;
+        let r = DMatrix::from_row_slice(2, 2, &[cov[0], cov[1], cov[1], cov[2]]);
+        check_covariance("fix covariance", &r, Definiteness::Positive)?;
+        if !self.config.external_fix {
+            self.stats.fixes_ignored += 1;
+            return Ok(());
+        }
+        let (h, jac) = fix_observation(&self.robot(), &self.offset);
+        let nu = DVector::from_vec(vec![xy[0] - h.x, xy[1] - h.y]);
+        let hs = SparseJacobian::new(2).with_block(0, 0, dyn_mat(&jac));
+        match self.ekf.update_gated(&nu, &hs, &r, self.gate)? {
+            Gated::Applied(_) => self.stats.fixes_applied += 1,
+            Gated::Rejected { .. } => self.stats.fixes_rejected += 1,
+        }
+        Ok(())
+    }
+}
+
+/// The scan: association, one batch update, freezing, candidates.
+impl PlanarSlam {
+    fn scan(&mut self, t: f64, detections: &[Detection]) -> Result<()> {
+        let mut zs = Vec::with_capacity(detections.len());
+        for d in detections {
+            ensure_finite("detection", [d.range, d.bearing].iter())?;
+            if d.range <= 0.0 {
+                return Err(SlamError::invalid(
+                    "range",
+                    format!("must be > 0, got {}", d.range),
+                ));
+            }
+            zs.push(Vector2::new(d.range, d.bearing));
+        }
+        // Ids are the association only when it is 'known'; otherwise they are ignored
+        // (a data set's labels must not leak into NN or JCBB).
+        let known = self.config.association == Association::Known;
+        let ids: Vec<Option<u64>> = detections.iter().map(|d| d.id.filter(|_| known)).collect();
+        let (pairings, unmatched) = self.associate(&zs, &ids)?;
+        if !pairings.is_empty() {
+            self.apply(&pairings, &zs)?;
+        }
+        self.candidates
+            .retain(|c| t - c.last_seen <= self.config.candidate_window);
+        for i in unmatched {
+            self.sighting(t, &zs[i], ids[i])?;
+        }
+        Ok(())
+    }
+
+    /// Pairs the detections; returns the pairings and the detections that no
+    /// landmark explains (for the candidate list).
+    fn associate(
+        &mut self,
+        zs: &[Vector2<f64>],
+        ids: &[Option<u64>],
+    ) -> Result<(Vec<Pairing>, Vec<usize>)> {
+        while self.joint_gates.len() <= zs.len() {
+            let k = self.joint_gates.len();
+            self.joint_gates
+                .push(chi2_gate(2 * k, self.config.gate_confidence)?);
+        }
+        let scene = Scene::new(&self.ekf, self.mount, self.w, &self.fixed);
+        let found = if self.config.association == Association::Known {
+            self.associate_known(&scene, zs, ids)?
+        } else {
+            self.associate_search(&scene, zs)
+        };
+        self.stats.rejected += found.rejected;
+        self.stats.jcbb_truncated += u64::from(found.truncated);
+        Ok((found.pairings, found.unmatched))
+    }
+
+    /// Nearest neighbour or JCBB over the individually compatible pairings. A
+    /// detection compatible with some landmark but left unpaired is rejected (it is
+    /// ambiguous, not new); one compatible with none is a candidate.
+    fn associate_search(&self, scene: &Scene<'_>, zs: &[Vector2<f64>]) -> Found {
+        let options = associate::compatible(scene, zs, self.gate);
+        let (pairings, truncated) = match self.config.association {
+            Association::Jcbb => {
+                let out = associate::jcbb(
+                    scene,
+                    &options,
+                    &self.joint_gates,
+                    self.config.jcbb_max_nodes,
+                );
+                (out.pairings, out.truncated)
+            }
+            _ => (associate::nearest_neighbour(&options), false),
+        };
+        let paired: Vec<usize> = pairings.iter().map(|p| p.det).collect();
+        let mut found = Found {
+            pairings,
+            truncated,
+            ..Found::default()
+        };
+        for (i, opts) in options.iter().enumerate() {
+            if opts.is_empty() {
+                found.unmatched.push(i);
+            } else if !paired.contains(&i) {
+                found.rejected += 1;
+            }
+        }
+        found
+    }
+
+    /// Known ids: each detection is paired with its landmark behind the individual
+    /// gate; an id not in the map goes to the candidate list.
+    fn associate_known(
+        &self,
+        scene: &Scene<'_>,
+        zs: &[Vector2<f64>],
+        ids: &[Option<u64>],
+    ) -> Result<Found> {
+        let mut found = Found::default();
+        for (i, (z, id)) in zs.iter().zip(ids).enumerate() {
+            let id = id.ok_or_else(|| {
+                SlamError::invalid(
+                    "id",
+                    format!("detection {i} has no id (association 'known')"),
+                )
+            })?;
+            let target = match self.ekf.landmark_index(id) {
+                Some(j) => Some(Target::State(j)),
+                None => self
+                    .fixed_ids
+                    .iter()
+                    .position(|&f| f == id)
+                    .map(Target::Fixed),
+            };
+            match target.map(|t| scene.pairing(i, z, t)) {
+                None => found.unmatched.push(i),
+                Some(Some(p)) if p.nis <= self.gate => found.pairings.push(p),
+                Some(_) => found.rejected += 1,
+            }
+        }
+        Ok(found)
+    }
+
+    fn target_id(&self, target: Target) -> u64 {
+        match target {
+            Target::State(j) => self.ekf.landmark_ids()[j],
+            Target::Fixed(k) => self.fixed_ids[k],
+        }
+    }
+
+    /// All pairings of the scan in one stacked update (eqs. 6-9, Joseph form). An
+    /// anchor sighting uses eq. (24) as a Cartesian point with its Jacobian (25).
+    fn apply(&mut self, pairings: &[Pairing], zs: &[Vector2<f64>]) -> Result<()> {
+        let robot = self.robot();
+        let mut stacked = Vec::with_capacity(pairings.len());
+        for p in pairings {
+            let is_anchor = self.anchor.is_some_and(|a| self.target_id(p.target) == a);
+            let mut h = SparseJacobian::new(2);
+            let (nu, r) = if is_anchor {
+                let (zc, wc) = cartesian(&zs[p.det], &self.w);
+                let (pred, jac) = anchor_observation(&robot, &self.mount);
+                h = h.with_block(0, 0, dyn_mat(&jac));
+                (zc - pred, wc)
+            } else {
+                h = h.with_block(0, 0, dyn_mat(&p.h_robot));
+                if let Some(off) = p.offset {
+                    h = h.with_block(0, off, dyn_mat(&p.h_landmark));
+                }
+                (p.nu, p.r)
+            };
+            stacked.push((DVector::from_column_slice(nu.as_slice()), h, dyn_mat(&r)));
+        }
+        let ids: Vec<u64> = pairings.iter().map(|p| self.target_id(p.target)).collect();
+        self.ekf.update_batch(&stacked)?;
+        self.stats.accepted += pairings.len() as u64;
+        for id in ids {
+            let n = self.revisions.entry(id).or_insert(0);
+            *n += 1;
+            let revised = *n;
+            if self
+                .config
+                .freeze_after
+                .is_some_and(|limit| revised > limit)
+            {
+                self.freeze(id)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Text under Fig. 7: a landmark revised more than N times leaves the state
+    /// (marginalised) but stays in the map; its later sightings update the rest with
+    /// the landmark known at its frozen mean and covariance.
+    fn freeze(&mut self, id: u64) -> Result<()> {
+        let Some(j) = self.ekf.landmark_index(id) else {
+            return Ok(()); // already frozen, or the anchor
+        };
+        let off = self.ekf.landmark_offset(j)?;
+        let mean = Point2::new(self.ekf.state()[off], self.ekf.state()[off + 1]);
+        let cov = Matrix2::from_column_slice(self.ekf.landmark_covariance(j)?.as_slice());
+        self.ekf.remove_landmark(j)?;
+        self.fixed.push(FixedPoint { mean, cov });
+        self.fixed_ids.push(id);
+        self.stats.frozen += 1;
+        Ok(())
+    }
+}
+
+/// New landmarks: the candidate list and admission, and the anchor.
+impl PlanarSlam {
+    /// An unexplained detection: joins a consistent candidate (by id, or the nearest
+    /// within the Mahalanobis gate) or starts one; after `candidate_sightings`
+    /// consistent sightings the landmark enters the map.
+    fn sighting(&mut self, t: f64, z: &Vector2<f64>, id: Option<u64>) -> Result<()> {
+        let (l, g_r, g_z) = landmark_from(&self.robot(), &self.mount, z);
+        let prr = self.pose_covariance();
+        let cov = g_r * prr * g_r.transpose() + g_z * self.w * g_z.transpose();
+        let k = match self.config.association {
+            Association::Known => self.candidates.iter().position(|c| c.id == id),
+            _ => self.nearest_candidate(&l, &cov),
+        };
+        let count = match k {
+            Some(k) if self.consistent(&self.candidates[k], &l, &cov) => {
+                fuse(&mut self.candidates[k], &l, &cov, t);
+                self.candidates[k].count
+            }
+            _ => {
+                if let Some(k) = k {
+                    self.candidates.swap_remove(k);
+                }
+                self.candidates.push(Candidate {
+                    id,
+                    mean: l,
+                    cov,
+                    count: 1,
+                    last_seen: t,
+                });
+                1
+            }
+        };
+        if count < self.config.candidate_sightings {
+            self.stats.candidate += 1;
+            return Ok(());
+        }
+        let k = k.filter(|_| count > 1).unwrap_or(self.candidates.len() - 1);
+        self.candidates.swap_remove(k);
+        let id = id.unwrap_or_else(|| self.fresh_id());
+        self.admit(id, z)
+    }
+
+    fn consistent(&self, c: &Candidate, l: &Point2<f64>, cov: &Matrix2<f64>) -> bool {
+        let e = l - c.mean;
+        (c.cov + cov)
+            .try_inverse()
+            .is_some_and(|inv| e.dot(&(inv * e)) <= self.gate)
+    }
+
+    fn nearest_candidate(&self, l: &Point2<f64>, cov: &Matrix2<f64>) -> Option<usize> {
+        self.candidates
+            .iter()
+            .enumerate()
+            .filter_map(|(k, c)| {
+                let e = l - c.mean;
+                let d2 = e.dot(&((c.cov + cov).try_inverse()? * e));
+                (d2 <= self.gate).then_some((k, d2))
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(k, _)| k)
+    }
+
+    fn fresh_id(&mut self) -> u64 {
+        while self.ekf.landmark_index(self.next_id).is_some()
+            || self.fixed_ids.contains(&self.next_id)
+        {
+            self.next_id += 1;
+        }
+        self.next_id += 1;
+        self.next_id - 1
+    }
+
+    /// Initialises landmark `id` from detection `z` with its full cross-covariance;
+    /// the first one becomes the anchor when that variant is on.
+    fn admit(&mut self, id: u64, z: &Vector2<f64>) -> Result<()> {
+        self.stats.new += 1;
+        self.revisions.insert(id, 0);
+        if self.config.anchor && self.anchor.is_none() && self.ekf.num_landmarks() == 0 {
+            return self.make_anchor(id, z);
+        }
+        let (l, g_r, g_z) = landmark_from(&self.robot(), &self.mount, z);
+        self.ekf.add_landmark_with_id(
+            id,
+            &DVector::from_vec(vec![l.x, l.y]),
+            &dyn_mat(&g_r),
+            &dyn_mat(&g_z),
+            &dyn_mat(&self.w),
+        )?;
+        Ok(())
+    }
+
+    /// Eqs. (24)-(25): the landmark becomes the global reference. The map (here only
+    /// the robot: the anchor is the first landmark) is re-expressed relative to it,
+    /// `t' = t - a`, with `P' = J_r P_rr J_r^T + J_z W J_z^T`; the anchor then sits at
+    /// the origin with no uncertainty and leaves the state.
+    fn make_anchor(&mut self, id: u64, z: &Vector2<f64>) -> Result<()> {
+        let (moved, j_r, j_z, a) = anchor_frame(&self.robot(), &self.mount, z);
+        let p = j_r * self.pose_covariance() * j_r.transpose() + j_z * self.w * j_z.transpose();
+        let p = (p + p.transpose()) * 0.5;
+        self.ekf = Ekf::new(
+            DVector::from_column_slice(moved.as_slice()),
+            dyn_mat(&p),
+            3,
+            2,
+        )?
+        .with_wrapped_angle(2)?;
+        self.offset += a.coords;
+        for c in &mut self.candidates {
+            c.mean -= a.coords;
+        }
+        self.fixed.push(FixedPoint {
+            mean: Point2::origin(),
+            cov: Matrix2::zeros(),
+        });
+        self.fixed_ids.push(id);
+        self.anchor = Some(id);
+        Ok(())
+    }
+}
+
+/// Fuses a new sighting into a candidate (information form: the two estimates
+/// treated as independent, which is good enough for an admission test).
+fn fuse(c: &mut Candidate, l: &Point2<f64>, cov: &Matrix2<f64>, t: f64) {
+    if let (Some(a), Some(b)) = (c.cov.try_inverse(), cov.try_inverse())
+        && let Some(sum) = (a + b).try_inverse()
+    {
+        c.mean = Point2::from(sum * (a * c.mean.coords + b * l.coords));
+        c.cov = sum;
+    }
+    c.count += 1;
+    c.last_seen = t;
+}
+
+/// Results and the bulk entry point.
+impl PlanarSlam {
+    /// The map in the world frame, sorted by id.
+    pub fn landmarks(&self) -> Vec<LandmarkEstimate> {
+        let mut out = Vec::new();
+        for (j, &id) in self.ekf.landmark_ids().iter().enumerate() {
+            let off = 3 + 2 * j;
+            let x = self.ekf.state();
+            let c = self
+                .ekf
+                .covariance_block(off, off, 2, 2)
+                .expect("landmark block");
+            out.push(self.estimate(id, Point2::new(x[off], x[off + 1]), &c, false));
+        }
+        for (k, &id) in self.fixed_ids.iter().enumerate() {
+            let f = &self.fixed[k];
+            out.push(self.estimate(id, f.mean, &dyn_mat(&f.cov), Some(id) != self.anchor));
+        }
+        out.sort_by_key(|l| l.id);
+        out
+    }
+
+    fn estimate(
+        &self,
+        id: u64,
+        mean: Point2<f64>,
+        c: &DMatrix<f64>,
+        frozen: bool,
+    ) -> LandmarkEstimate {
+        LandmarkEstimate {
+            id,
+            mean: [mean.x + self.offset.x, mean.y + self.offset.y],
+            covariance: [c[(0, 0)], c[(0, 1)], c[(1, 0)], c[(1, 1)]],
+            revisions: self.revisions.get(&id).copied().unwrap_or(0),
+            frozen,
+            anchor: Some(id) == self.anchor,
+        }
+    }
+
+    /// The trajectory, the map and the statistics.
+    pub fn finish(self) -> PlanarResult {
+        let landmarks = self.landmarks();
+        PlanarResult {
+            anchor: self.anchor.map(|_| [self.offset.x, self.offset.y]),
+            trajectory: self.trajectory,
+            landmarks,
+            statistics: self.stats,
+        }
+    }
+
+    /// Processes a whole run given as columnar arrays ([`EventArrays`]): each array
+    /// must be sorted by time (an error names the array and row otherwise), and at
+    /// least one event is required.
+    pub fn run_arrays(&mut self, arrays: &EventArrays<'_>) -> Result<()> {
+        check_arrays(arrays)?;
+        let (c, d, f) = (arrays.controls, arrays.detections, arrays.fixes);
+        let (mut i, mut j, mut k) = (0, 0, 0);
+        while i < c.len() || j < d.len() || k < f.len() {
+            let tc = c.get(i).map_or(f64::INFINITY, |r| r[0]);
+            let td = d.get(j).map_or(f64::INFINITY, |r| r[0]);
+            let tf = f.get(k).map_or(f64::INFINITY, |r| r[0]);
+            let event = if tc <= td && tc <= tf {
+                i += 1;
+                Event::Control {
+                    t: tc,
+                    control: [c[i - 1][1], c[i - 1][2]],
+                }
+            } else if td <= tf {
+                let start = j;
+                while j < d.len() && d[j][0] == td {
+                    j += 1;
+                }
+                Event::Scan {
+                    t: td,
+                    detections: scan_rows(arrays, start, j),
+                }
+            } else {
+                k += 1;
+                let r = f[k - 1];
+                Event::Fix {
+                    t: tf,
+                    xy: [r[1], r[2]],
+                    covariance: [r[3], r[4], r[5]],
+                }
+            };
+            self.process(&event)?;
+        }
+        Ok(())
+    }
+}
+
+fn scan_rows(arrays: &EventArrays<'_>, start: usize, end: usize) -> Vec<Detection> {
+    (start..end)
+        .map(|r| Detection {
+            range: arrays.detections[r][1],
+            bearing: arrays.detections[r][2],
+            id: arrays
+                .detection_ids
+                .and_then(|ids| u64::try_from(ids[r]).ok()),
+        })
+        .collect()
+}
+
+/// Sizes and time order of the arrays, checked before anything runs.
+fn check_arrays(a: &EventArrays<'_>) -> Result<()> {
+    if a.controls.is_empty() && a.detections.is_empty() && a.fixes.is_empty() {
+        return Err(SlamError::invalid("events", "all arrays are empty".into()));
+    }
+    if let Some(ids) = a.detection_ids
+        && ids.len() != a.detections.len()
+    {
+        return Err(SlamError::dimension(format!(
+            "{} detection ids for {} detections",
+            ids.len(),
+            a.detections.len()
+        )));
+    }
+    let times: [(&'static str, Vec<f64>); 3] = [
+        ("controls", a.controls.iter().map(|r| r[0]).collect()),
+        ("detections", a.detections.iter().map(|r| r[0]).collect()),
+        ("fixes", a.fixes.iter().map(|r| r[0]).collect()),
+    ];
+    for (name, t) in times {
+        ensure_finite(name, t.iter())?;
+        if let Some(row) = t.windows(2).position(|w| w[1] < w[0]) {
+            return Err(SlamError::invalid(
+                name,
+                format!("row {}: time {} is before {}", row + 1, t[row + 1], t[row]),
+            ));
+        }
+    }
+    Ok(())
+}

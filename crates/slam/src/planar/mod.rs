@@ -1,0 +1,166 @@
+//! Planar EKF-SLAM as in section 2.2 of the seed paper: a robot `(x, y, theta)`
+//! among point landmarks seen by range and bearing, with the EKF of eqs. (1)-(9),
+//! known, nearest-neighbour or JCBB association, a candidate list for new landmarks,
+//! and the seed's variants: the anchor (eqs. 24-25), the external xy sensor
+//! (eqs. 26-27) and landmark freezing (the text under Fig. 7).
+//!
+//! The engine consumes a time-ordered stream of [`Event`]s, one at a time
+//! ([`PlanarSlam::process`]) or in bulk from columnar arrays ([`EventArrays`], what a
+//! Python caller passes as numpy arrays in one call). Controls are held constant
+//! until the next control (zero-order hold): every event first predicts the robot
+//! to its own time with the control in force, so `dt` is the gap between events.
+
+mod associate;
+mod config;
+mod engine;
+mod observe;
+pub mod sim;
+
+pub use config::{Association, PlanarConfig};
+pub use engine::PlanarSlam;
+
+/// One range-bearing detection of a scan, in the sensor frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Detection {
+    /// Range, m (> 0).
+    pub range: f64,
+    /// Bearing relative to the robot's heading, rad.
+    pub bearing: f64,
+    /// The landmark's id when the sensor knows it (barcodes); required by
+    /// [`Association::Known`], ignored otherwise.
+    pub id: Option<u64>,
+}
+
+/// One timed input of the engine.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Event {
+    /// From `t` on, the vehicle's two controls are `control` (MR.CLAM: `v`, `omega`;
+    /// Victoria Park: encoder speed, steering).
+    Control {
+        /// Time stamp, s.
+        t: f64,
+        /// The two controls.
+        control: [f64; 2],
+    },
+    /// All detections of one scan, applied in one batch update.
+    Scan {
+        /// Time stamp, s.
+        t: f64,
+        /// The detections.
+        detections: Vec<Detection>,
+    },
+    /// An external measurement of the robot's xy (eqs. 26-27), world frame.
+    Fix {
+        /// Time stamp, s.
+        t: f64,
+        /// Measured `(x, y)`.
+        xy: [f64; 2],
+        /// Its covariance `(xx, xy, yy)`.
+        covariance: [f64; 3],
+    },
+}
+
+impl Event {
+    /// The event's time stamp.
+    pub fn time(&self) -> f64 {
+        match self {
+            Event::Control { t, .. } | Event::Scan { t, .. } | Event::Fix { t, .. } => *t,
+        }
+    }
+}
+
+/// A whole run as columnar arrays, each sorted by time (numpy's `(n, k)` row-major
+/// arrays map onto these slices without copying). Detections with equal time stamps
+/// form one scan. At equal times, controls come first, then scans, then fixes.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct EventArrays<'a> {
+    /// Rows `(t, control_0, control_1)`.
+    pub controls: &'a [[f64; 3]],
+    /// Rows `(t, range, bearing)`.
+    pub detections: &'a [[f64; 3]],
+    /// One id per detection (negative: unknown), or `None` when no id is known.
+    pub detection_ids: Option<&'a [i64]>,
+    /// Rows `(t, x, y, var_x, cov_xy, var_y)`.
+    pub fixes: &'a [[f64; 6]],
+}
+
+/// What kind of event a trajectory row follows (`as u8`: 0, 1, 2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum EventKind {
+    /// A control.
+    Control = 0,
+    /// A scan.
+    Scan = 1,
+    /// An external fix.
+    Fix = 2,
+}
+
+/// The robot after every event, in the world frame: one row per event.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Trajectory {
+    /// Event times, s.
+    pub t: Vec<f64>,
+    /// Event kinds.
+    pub kind: Vec<EventKind>,
+    /// Robot poses `(x, y, theta)`.
+    pub pose: Vec<[f64; 3]>,
+    /// Robot covariances `P_rr`, row-major 3x3.
+    pub covariance: Vec<[f64; 9]>,
+    /// Wall-clock seconds spent on each event.
+    pub seconds: Vec<f64>,
+}
+
+/// A landmark of the final map, in the world frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LandmarkEstimate {
+    /// The landmark's id (the barcode's, or assigned in order of admission).
+    pub id: u64,
+    /// Position `(x, y)`.
+    pub mean: [f64; 2],
+    /// Covariance, row-major 2x2 (the anchor's is zero: it defines the frame).
+    pub covariance: [f64; 4],
+    /// How many updates used it.
+    pub revisions: u32,
+    /// Whether it left the state (freezing).
+    pub frozen: bool,
+    /// Whether it is the anchor (eqs. 24-25).
+    pub anchor: bool,
+}
+
+/// Association and update counts of a run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Statistics {
+    /// Detections paired with a landmark and applied.
+    pub accepted: u64,
+    /// Detections refused: outside the gate (known ids), or compatible with a
+    /// landmark but left out by the association.
+    pub rejected: u64,
+    /// Landmarks admitted into the map.
+    pub new: u64,
+    /// Sightings held in the candidate list without entering the map.
+    pub candidate: u64,
+    /// Landmarks frozen.
+    pub frozen: u64,
+    /// External fixes applied, refused by their gate, and ignored (variant off).
+    pub fixes_applied: u64,
+    /// See `fixes_applied`.
+    pub fixes_rejected: u64,
+    /// See `fixes_applied`.
+    pub fixes_ignored: u64,
+    /// Scans whose JCBB search hit its node budget.
+    pub jcbb_truncated: u64,
+}
+
+/// Everything a run produced.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanarResult {
+    /// The robot after every event.
+    pub trajectory: Trajectory,
+    /// The map, sorted by id.
+    pub landmarks: Vec<LandmarkEstimate>,
+    /// Association statistics.
+    pub statistics: Statistics,
+    /// The anchor's world position (the origin of the engine's internal frame).
+    pub anchor: Option<[f64; 2]>,
+}

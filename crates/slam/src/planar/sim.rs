@@ -1,0 +1,270 @@
+//! A simulated planar world for Monte Carlo consistency studies (Bailey et al. 2006):
+//! a robot drives laps of a circle among point landmarks with noisy odometry and
+//! range-bearing sightings drawn from exactly the models the filter assumes, so any
+//! inconsistency left is the EKF's own (linearisation), not a modelling error.
+
+use nalgebra::{DVector, Matrix3, Point2, Vector2};
+use rayon::prelude::*;
+use rperc_core::{Pose2, angle_diff, mahalanobis2, nees_band, rng};
+
+use super::{Detection, Event, PlanarConfig, PlanarResult, PlanarSlam};
+use crate::error::{Result, SlamError};
+use crate::motion::{MotionModel, unicycle};
+
+/// The simulated world and its noise (the truth uses the same variances as the
+/// filter's [`PlanarConfig`] built by [`SimConfig::slam_config`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimConfig {
+    /// Radius of the circle the robot drives, m.
+    pub radius: f64,
+    /// Forward speed, m/s.
+    pub speed: f64,
+    /// Time between controls (and scans), s.
+    pub dt: f64,
+    /// Number of control steps.
+    pub steps: usize,
+    /// Landmarks on two rings, `radius - ring_gap` and `radius + ring_gap`.
+    pub landmarks: usize,
+    /// Half the distance between the landmark rings, m.
+    pub ring_gap: f64,
+    /// Sensor range, m.
+    pub max_range: f64,
+    /// Speed noise variance per step, m^2/s^2.
+    pub speed_variance: f64,
+    /// Turn-rate noise variance per step, rad^2/s^2.
+    pub turn_rate_variance: f64,
+    /// Range noise variance, m^2.
+    pub range_variance: f64,
+    /// Bearing noise variance, rad^2.
+    pub bearing_variance: f64,
+    /// Start pose variances (the true start is drawn from them).
+    pub initial_pose_variance: [f64; 3],
+    /// An external xy fix every this many steps (`None`: no fixes).
+    pub fix_every: Option<usize>,
+    /// Variance of each fix coordinate, m^2.
+    pub fix_variance: f64,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        Self {
+            radius: 10.0,
+            speed: 1.0,
+            dt: 0.1,
+            steps: 600,
+            landmarks: 24,
+            ring_gap: 3.0,
+            max_range: 6.0,
+            speed_variance: 0.01,
+            turn_rate_variance: 1e-3,
+            range_variance: 0.01,
+            bearing_variance: 1e-4,
+            initial_pose_variance: [1e-4, 1e-4, 1e-5],
+            fix_every: None,
+            fix_variance: 0.01,
+        }
+    }
+}
+
+/// One simulated run: the events for the engine and the true pose after each.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimRun {
+    /// Time-ordered events (controls, scans, fixes).
+    pub events: Vec<Event>,
+    /// The true robot pose at each event's time.
+    pub truth: Vec<Pose2>,
+    /// The true landmarks (landmark `i` has id `i`).
+    pub landmarks: Vec<Point2<f64>>,
+}
+
+impl SimConfig {
+    /// The filter settings that match this world: same noise, same start.
+    pub fn slam_config(&self) -> PlanarConfig {
+        PlanarConfig {
+            motion: MotionModel::Unicycle(crate::motion::Unicycle {
+                speed_variance: self.speed_variance,
+                turn_rate_variance: self.turn_rate_variance,
+            }),
+            range_variance: self.range_variance,
+            bearing_variance: self.bearing_variance,
+            initial_pose: [self.radius, 0.0, std::f64::consts::FRAC_PI_2],
+            initial_pose_variance: self.initial_pose_variance,
+            ..PlanarConfig::default()
+        }
+    }
+
+    /// The landmarks, evenly spaced on the two rings (alternating).
+    pub fn world(&self) -> Vec<Point2<f64>> {
+        (0..self.landmarks)
+            .map(|i| {
+                let a = std::f64::consts::TAU * i as f64 / self.landmarks as f64;
+                let r = if i % 2 == 0 {
+                    self.radius - self.ring_gap
+                } else {
+                    self.radius + self.ring_gap
+                };
+                Point2::new(r * a.cos(), r * a.sin())
+            })
+            .collect()
+    }
+}
+
+fn gauss(rng: &mut rng::RngStream, variance: f64) -> f64 {
+    variance.sqrt() * rng::normal(rng)
+}
+
+fn detections(
+    cfg: &SimConfig,
+    pose: &Pose2,
+    world: &[Point2<f64>],
+    rng: &mut rng::RngStream,
+) -> Vec<Detection> {
+    world
+        .iter()
+        .enumerate()
+        .filter_map(|(i, l)| {
+            let (z, _, _) = crate::observation::range_bearing(pose, l)?;
+            (z.x <= cfg.max_range).then(|| Detection {
+                range: z.x + gauss(rng, cfg.range_variance),
+                bearing: rperc_core::wrap_angle(z.y + gauss(rng, cfg.bearing_variance)),
+                id: Some(i as u64),
+            })
+        })
+        .collect()
+}
+
+/// Run `run` of the world seeded by `seed` (stream `run` of `seed`).
+pub fn simulate(cfg: &SimConfig, seed: u64, run: u64) -> SimRun {
+    let mut rng = rng::stream(seed, run);
+    let world = cfg.world();
+    let start = cfg.slam_config().initial_pose;
+    let v = &cfg.initial_pose_variance;
+    let mut pose = Pose2::new(
+        start[0] + gauss(&mut rng, v[0]),
+        start[1] + gauss(&mut rng, v[1]),
+        start[2] + gauss(&mut rng, v[2]),
+    );
+    let omega = cfg.speed / cfg.radius;
+    let (mut events, mut truth) = (Vec::new(), Vec::new());
+    for k in 0..cfg.steps {
+        let t = k as f64 * cfg.dt;
+        let measured = [
+            cfg.speed + gauss(&mut rng, cfg.speed_variance),
+            omega + gauss(&mut rng, cfg.turn_rate_variance),
+        ];
+        events.push(Event::Control {
+            t,
+            control: measured,
+        });
+        truth.push(pose);
+        pose = unicycle(&pose, cfg.speed, omega, cfg.dt).pose();
+        let t1 = (k + 1) as f64 * cfg.dt;
+        events.push(Event::Scan {
+            t: t1,
+            detections: detections(cfg, &pose, &world, &mut rng),
+        });
+        truth.push(pose);
+        if cfg.fix_every.is_some_and(|n| (k + 1) % n == 0) {
+            let xy = [
+                pose.x + gauss(&mut rng, cfg.fix_variance),
+                pose.y + gauss(&mut rng, cfg.fix_variance),
+            ];
+            events.push(Event::Fix {
+                t: t1,
+                xy,
+                covariance: [cfg.fix_variance, 0.0, cfg.fix_variance],
+            });
+            truth.push(pose);
+        }
+    }
+    SimRun {
+        events,
+        truth,
+        landmarks: world,
+    }
+}
+
+/// The robot-pose NEES `e^T P_rr^-1 e` after every event (`NaN` where `P_rr` is
+/// singular). With an anchor the filter estimates the pose relative to it, so the
+/// error is taken relative to the anchor too: `(t - a)_est - (t - a)_true`.
+pub fn robot_nees(result: &PlanarResult, truth: &[Pose2], landmarks: &[Point2<f64>]) -> Vec<f64> {
+    let shift = result.anchor.and_then(|a| {
+        let anchor = result.landmarks.iter().find(|l| l.anchor)?;
+        let true_a = landmarks.get(anchor.id as usize)?;
+        Some(Vector2::new(a[0] - true_a.x, a[1] - true_a.y))
+    });
+    let tr = &result.trajectory;
+    tr.pose
+        .iter()
+        .zip(&tr.covariance)
+        .zip(truth)
+        .map(|((p, c), t)| {
+            let s = shift.unwrap_or_else(Vector2::zeros);
+            let e = DVector::from_vec(vec![
+                p[0] - s.x - t.x,
+                p[1] - s.y - t.y,
+                angle_diff(p[2], t.theta),
+            ]);
+            let cov = Matrix3::from_row_slice(c);
+            mahalanobis2(
+                &e,
+                &nalgebra::DMatrix::from_column_slice(3, 3, cov.as_slice()),
+            )
+            .unwrap_or(f64::NAN)
+        })
+        .collect()
+}
+
+/// Monte Carlo consistency: the run-averaged robot NEES after every scan, and the
+/// two-sided 95 % band of that average under consistency.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MonteCarlo {
+    /// Mean NEES over the runs after each scan (one entry per control step).
+    pub mean_nees: Vec<f64>,
+    /// The 95 % band of a 3-dof NEES averaged over `runs` runs.
+    pub band: (f64, f64),
+    /// Number of runs.
+    pub runs: usize,
+}
+
+/// `runs` simulated runs of `slam` in the world `sim` (seeded streams `0..runs` of
+/// `seed`, in parallel), with the robot NEES after each scan.
+pub fn monte_carlo(
+    sim: &SimConfig,
+    slam: &PlanarConfig,
+    runs: usize,
+    seed: u64,
+) -> Result<MonteCarlo> {
+    if runs == 0 || sim.steps == 0 {
+        return Err(SlamError::invalid(
+            "runs",
+            "runs and steps must be >= 1".into(),
+        ));
+    }
+    let per_run: Vec<Vec<f64>> = (0..runs as u64)
+        .into_par_iter()
+        .map(|r| {
+            let run = simulate(sim, seed, r);
+            let mut engine = PlanarSlam::new(slam.clone())?;
+            engine.run(&run.events)?;
+            let result = engine.finish();
+            let nees = robot_nees(&result, &run.truth, &run.landmarks);
+            Ok(result
+                .trajectory
+                .kind
+                .iter()
+                .zip(nees)
+                .filter(|(k, _)| **k == super::EventKind::Scan)
+                .map(|(_, n)| n)
+                .collect())
+        })
+        .collect::<Result<_>>()?;
+    let mean_nees = (0..sim.steps)
+        .map(|k| per_run.iter().map(|r| r[k]).sum::<f64>() / runs as f64)
+        .collect();
+    Ok(MonteCarlo {
+        mean_nees,
+        band: nees_band(3, runs, 0.95)?,
+        runs,
+    })
+}

@@ -1,0 +1,144 @@
+"""``rperc slam mrclam DIR`` and ``rperc slam victoria DIR``: planar EKF-SLAM on a
+recording, scored against its ground truth (MR.CLAM: Vicon path and surveyed
+landmarks; Victoria Park: GPS), with the seed's variants combinable."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rperc.cli.outputs import add_json_option, check_output_file, positive_float, write_json, wrote
+from rperc.slam import PlanarSlam, SlamResult
+from rperc.slam.planar import PRESETS, mrclam_recording, victoria_recording
+
+VARIANTS = ("plain", "anchor", "external", "freeze")
+
+
+def _variants(text: str) -> tuple[str, ...]:
+    names = tuple(v.strip() for v in text.split(",") if v.strip())
+    unknown = [v for v in names if v not in VARIANTS]
+    if not names or unknown:
+        raise argparse.ArgumentTypeError(
+            f"expected a comma-separated list of {', '.join(VARIANTS)}, got {text!r}"
+        )
+    return names
+
+
+def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser("slam", help="planar EKF-SLAM on MR.CLAM or Victoria Park")
+    kinds = p.add_subparsers(dest="dataset", required=True, metavar="DATASET")
+    m = kinds.add_parser("mrclam", help="MR.CLAM: one robot, known association (barcodes)")
+    m.add_argument("directory", type=Path, help="MR.CLAM dataset folder")
+    m.add_argument("--robot", type=int, choices=range(1, 6), default=1)
+    m.add_argument(
+        "--fix-interval", type=positive_float, default=1.0,
+        help="external variant: seconds between xy fixes made from the ground truth",
+    )  # fmt: skip
+    m.add_argument("--fix-sigma", type=positive_float, default=0.1, help="their noise (m)")
+    v = kinds.add_parser("victoria", help="Victoria Park: trees, no ids, GPS")
+    v.add_argument("directory", type=Path, help="Victoria Park folder")
+    v.add_argument("--association", choices=("nn", "jcbb"), default="jcbb")
+    v.add_argument("--gps-sigma", type=positive_float, default=2.0, help="external variant (m)")
+    for q in (m, v):
+        q.add_argument(
+            "--variant", type=_variants, default=("plain",),
+            help="comma-separated, combinable: plain, anchor, external, freeze",
+        )  # fmt: skip
+        q.add_argument("--config", type=json.loads, default={}, help="JSON config overrides")
+        q.add_argument("--tum", type=Path, help="write the estimated path (TUM format, for evo)")
+        q.add_argument("--plot", type=Path, help="write the map figure")
+        add_json_option(q)
+        q.set_defaults(run=slam_command)
+
+
+def variant_config(base: dict[str, Any], variants: tuple[str, ...]) -> dict[str, Any]:
+    cfg = dict(base)
+    cfg["anchor"] = "anchor" in variants
+    cfg["external_fix"] = "external" in variants
+    cfg["freeze_after"] = 50 if "freeze" in variants else None
+    return cfg
+
+
+def _mrclam(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dict[str, Any]]:
+    from rperc.datasets import load_mrclam
+    from rperc.slam.planar import mrclam_start
+
+    run = load_mrclam(args.directory, robot=args.robot)
+    cfg = {**PRESETS["mrclam"], **mrclam_start(run), **args.config}
+    cfg = variant_config(cfg, args.variant)
+    # Fixes only for the external variant: even ignored, each would split a prediction.
+    external = "external" in args.variant
+    interval = args.fix_interval if external else None
+    ev = mrclam_recording(run, fix_interval=interval, fix_sigma=args.fix_sigma)
+    result = PlanarSlam(cfg).run(ev)
+    truth = np.c_[run.truth_x, run.truth_y, run.truth_theta]
+    aligned = result.ate(run.truth_t, truth, align=True)
+    marks = np.c_[run.landmark_x, run.landmark_y]
+    nees = result.nees(run.truth_t, truth)
+    metrics = {
+        "ate_m": result.ate(run.truth_t, truth).rmse,
+        "ate_aligned_m": aligned.rmse,
+        "landmark_rmse_aligned_m": result.landmark_rmse(
+            run.landmark_id, marks, transform=aligned.transform
+        ).rmse,
+        "nees_mean": nees.mean,
+        "nees_in_band": float(np.mean(nees.inside)),
+    }
+    ref = {"truth": truth, "landmarks": marks, "label": "true path (Vicon)"}
+    return result, metrics, ref | {"transform": None}
+
+
+def _victoria(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dict[str, Any]]:
+    from rperc.datasets import load_victoria_park
+
+    park = load_victoria_park(args.directory)
+    cfg = {**PRESETS["victoria"], "association": args.association, **args.config}
+    cfg = variant_config(cfg, args.variant)
+    ev = victoria_recording(park, gps_sigma=args.gps_sigma if "external" in args.variant else None)
+    result = PlanarSlam(cfg).run(ev)
+    gps = np.c_[park.gps_x, park.gps_y]
+    err = result.gps_error(park.gps_t, gps)
+    metrics = {"gps_rms_aligned_m": err.rms, "gps_fixes": len(err.distance)}
+    ref = {"truth": gps, "landmarks": None, "label": "GPS fixes", "transform": err.transform}
+    return result, metrics, ref
+
+
+def slam_command(args: argparse.Namespace) -> int:
+    for path, option, figure in ((args.tum, "--tum", False), (args.plot, "--plot", True)):
+        check_output_file(path, option, figure=figure)
+    check_output_file(args.json, "--json")
+    run = _mrclam if args.dataset == "mrclam" else _victoria
+    result, metrics, ref = run(args)
+    metrics |= {
+        "variant": "+".join(args.variant),
+        "landmarks": len(result.landmark_id),
+        "statistics": result.statistics,
+        "seconds_total": float(result.seconds.sum()),
+        "seconds_per_event": float(result.seconds.mean()),
+    }
+    shown = {k: v for k, v in metrics.items() if k != "statistics"}
+    print(
+        " ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in shown.items())
+    )
+    print("association: " + " ".join(f"{k}={v}" for k, v in result.statistics.items()))
+    if args.tum is not None:
+        wrote(result.to_tum(args.tum))
+    if args.plot is not None:
+        from rperc.plot import save
+        from rperc.plot.slam import map_figure
+
+        score = ", ".join(f"{k} {v:.3g}" for k, v in shown.items() if k.endswith("_m"))
+        title = f"{args.dataset} ({metrics['variant']}): {score}"
+        fig = map_figure(
+            [(metrics["variant"], result)], ref["truth"], ref["landmarks"], title=title,
+            truth_label=ref["label"], transform=ref["transform"],
+        )  # fmt: skip
+        wrote(save(fig, args.plot))
+    write_json(args.json, metrics)
+    sys.stdout.flush()
+    return 0

@@ -1,0 +1,103 @@
+"""Figures of planar SLAM runs: the path against ground truth, the map with 2-sigma
+ellipses, and the robot's NEES against its chi-square band."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+from matplotlib.axes import Axes
+from matplotlib.collections import EllipseCollection
+from matplotlib.figure import Figure
+
+from rperc.plot import robust_limits, set_limits
+from rperc.slam.evaluation import Se2Transform
+from rperc.slam.planar import SlamResult
+
+TRUTH = "0.45"
+COLOURS = ("tab:red", "tab:blue", "tab:green", "tab:purple", "tab:orange")
+# A 2-D Gaussian's 95 % region is the ellipse at this Mahalanobis radius (chi2, 2 dof).
+SIGMA2_RADIUS = math.sqrt(-2.0 * math.log(0.05))
+
+
+def _ellipses(ax: Axes, mean: np.ndarray, cov: np.ndarray, colour: str) -> None:
+    """95 % ellipses of (K, 2) means with (K, 2, 2) covariances."""
+    if len(mean) == 0:
+        return
+    values, vectors = np.linalg.eigh(cov)
+    values = np.clip(values, 0.0, None)
+    angles = np.degrees(np.arctan2(vectors[:, 1, 1], vectors[:, 0, 1]))
+    widths = 2 * SIGMA2_RADIUS * np.sqrt(values[:, 1])
+    heights = 2 * SIGMA2_RADIUS * np.sqrt(values[:, 0])
+    ax.add_collection(
+        EllipseCollection(
+            widths,
+            heights,
+            angles,
+            units="xy",
+            offsets=mean,
+            offset_transform=ax.transData,
+            facecolors="none",
+            edgecolors=colour,
+            linewidths=0.8,
+        )
+    )
+
+
+def map_figure(
+    runs: Sequence[tuple[str, SlamResult]],
+    truth: npt.ArrayLike | None = None,
+    landmarks: npt.ArrayLike | None = None,
+    *,
+    title: str = "",
+    truth_label: str = "true path",
+    transform: Se2Transform | None = None,
+) -> Figure:
+    """Each run's path and map (95 % ellipses), against the true path and landmarks.
+    ``truth`` is (M, >= 2) positions, ``landmarks`` (L, 2). ``transform`` moves the
+    estimates into the truth's frame (an alignment), covariances rotated with them."""
+    fig = Figure(figsize=(7.5, 6.5))
+    ax = fig.add_subplot()
+    rot = np.eye(2) if transform is None else transform.rotation
+    move = (lambda p: p) if transform is None else transform.apply_points
+    shown = [move(r.pose[:, :2]) for _, r in runs] + [move(r.landmark_mean) for _, r in runs]
+    if truth is not None:
+        path = np.asarray(truth, dtype=np.float64)[:, :2]
+        ax.plot(path[:, 0], path[:, 1], color=TRUTH, lw=1.0, label=truth_label)
+        shown.append(path)
+    if landmarks is not None:
+        marks = np.asarray(landmarks, dtype=np.float64)
+        ax.plot(marks[:, 0], marks[:, 1], "k+", ms=9, label="true landmarks")
+        shown.append(marks)
+    for (name, r), colour in zip(runs, COLOURS, strict=False):
+        path, marks = move(r.pose[:, :2]), move(r.landmark_mean)
+        ax.plot(path[:, 0], path[:, 1], color=colour, lw=0.8, label=f"estimate: {name}")
+        ax.plot(*marks.T, "o", ms=3, color=colour, label=f"map: {name} (95 % ellipses)")
+        _ellipses(ax, marks, rot @ r.landmark_covariance @ rot.T, colour)
+    set_limits(ax, robust_limits(np.concatenate(shown), percentiles=(0.5, 99.5)))
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=7, loc="best")
+    return fig
+
+
+def nees_figure(
+    series: Sequence[tuple[str, npt.ArrayLike, npt.ArrayLike]],
+    band: tuple[float, float],
+    *,
+    title: str = "",
+) -> Figure:
+    """Robot-pose NEES against time for each ``(name, t, nees)``, with the band."""
+    fig = Figure(figsize=(8, 3.8))
+    ax = fig.add_subplot()
+    for (name, t, nees), colour in zip(series, COLOURS, strict=False):
+        ax.semilogy(np.asarray(t), np.asarray(nees), color=colour, lw=0.6, label=name)
+    ax.axhspan(band[0], band[1], color="0.85", zorder=0, label="95 % band (3 dof)")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("robot NEES")
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=7, loc="upper left")
+    return fig

@@ -1,0 +1,72 @@
+"""``rperc slam mrclam|victoria``: user mistakes exit 2 with one line before any work;
+on the real data (RPERC_DATA) the JSON metrics agree with the Python API and evo reads
+the TUM file."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rperc.cli import main
+
+DATA = Path(os.environ["RPERC_DATA"]) if os.environ.get("RPERC_DATA") else None
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["slam", "mrclam", ".", "--variant", "magic"], "plain, anchor, external, freeze"),
+        (["slam", "mrclam", ".", "--variant", ""], "comma-separated"),
+        (["slam", "victoria", ".", "--association", "known"], "invalid choice"),
+        (["slam", "mrclam", ".", "--robot", "9"], "invalid choice"),
+        (["slam", "mrclam", ".", "--fix-sigma", "-1"], "> 0"),
+        (["slam", "mrclam", ".", "--config", "{oops"], "--config"),
+    ],
+)
+def test_argument_mistakes_exit_2_with_one_line(argv, message, capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(argv)
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+
+
+def test_outputs_are_checked_before_the_data_is_read(tmp_path, capsys):
+    code = main(["slam", "mrclam", str(tmp_path / "absent"), "--plot", str(tmp_path)])
+    assert code == 2
+    assert "is a folder" in capsys.readouterr().err
+    code = main(["slam", "mrclam", str(tmp_path / "absent")])
+    assert code == 2
+
+
+@pytest.mark.skipif(
+    DATA is None or not (DATA / "mrclam6").is_dir(), reason="RPERC_DATA/mrclam6 is absent"
+)
+def test_mrclam_json_matches_the_api_and_evo_reads_the_tum(tmp_path):
+    from rperc.datasets import load_mrclam, read_tum
+    from rperc.slam import PlanarSlam
+    from rperc.slam.planar import PRESETS, mrclam_recording, mrclam_start
+
+    out = tmp_path / "run.json"
+    tum = tmp_path / "run.tum"
+    argv = ["slam", "mrclam", str(DATA / "mrclam6"), "--variant", "anchor"]
+    figure = tmp_path / "map.png"
+    assert main([*argv, "--json", str(out), "--tum", str(tum), "--plot", str(figure)]) == 0
+    assert figure.stat().st_size > 10_000
+    measured = json.loads(out.read_text())
+    run = load_mrclam(DATA / "mrclam6", robot=1)
+    ev = mrclam_recording(run)
+    cfg = {**PRESETS["mrclam"], **mrclam_start(run), "anchor": True}
+    result = PlanarSlam(cfg).run(ev)
+    truth = np.c_[run.truth_x, run.truth_y, run.truth_theta]
+    assert measured["ate_aligned_m"] == pytest.approx(
+        result.ate(run.truth_t, truth, align=True).rmse, rel=1e-12
+    )
+    assert measured["statistics"] == result.statistics
+    t, poses = read_tum(tum)
+    np.testing.assert_allclose(poses, result.path()[1], atol=1e-12)
+    assert len(t) == len(poses)

@@ -1,0 +1,187 @@
+"""rperc.slam.PlanarSlam (issue 10) against an independent oracle: the numpy EKF-SLAM
+of benchmarks/reference_planar_ekf.py (dense matrices, the same models written again
+in numpy), driven through the same recording, must give the same path and map; and
+the Python layer's errors, serialisation and evaluation hooks.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import os
+import pickle
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rperc.slam import PlanarSlam
+from rperc.slam.planar import defaults, mrclam_recording
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _reference():
+    spec = importlib.util.spec_from_file_location(
+        "reference_planar_ekf", ROOT / "benchmarks" / "reference_planar_ekf.py"
+    )
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["reference_planar_ekf"] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+REF = _reference()
+V = (0.05**2, 0.02**2)  # speed, turn-rate variances
+R = (0.05**2, 0.01**2)  # range, bearing variances
+
+
+def _recording(seed=0, steps=400, dt=0.1):
+    """A robot on a circle among landmarks: noisy (v, omega) and range-bearing with
+    ids, every 5th step a scan of the landmarks within 6 m."""
+    rng = np.random.default_rng(seed)
+    marks = rng.uniform(-8, 8, size=(12, 2))
+    t = np.arange(steps) * dt
+    v, w = 1.0, 0.2
+    pose, poses = np.zeros(3), []
+    for _ in t:
+        poses.append(pose.copy())
+        pose = REF.unicycle(pose, v, w, dt)[0]
+    controls = np.c_[
+        t, v + rng.normal(0, math.sqrt(V[0]), steps), w + rng.normal(0, math.sqrt(V[1]), steps)
+    ]
+    det, ids = [], []
+    for k in range(0, steps, 5):
+        x, y, th = poses[k]
+        for j, (mx, my) in enumerate(marks):
+            r = math.hypot(mx - x, my - y)
+            if r < 6:
+                b = REF.wrap(math.atan2(my - y, mx - x) - th)
+                det.append(
+                    [
+                        t[k] + 0.05,
+                        r + rng.normal(0, math.sqrt(R[0])),
+                        b + rng.normal(0, math.sqrt(R[1])),
+                    ]
+                )
+                ids.append(j)
+    return controls, np.array(det), np.array(ids), np.array(poses)
+
+
+def _config(**extra):
+    return {
+        "motion": {"unicycle": {"speed_variance": V[0], "turn_rate_variance": V[1]}},
+        "range_variance": R[0],
+        "bearing_variance": R[1],
+        **extra,
+    }
+
+
+def _reference_run(controls, det, ids):
+    slam = REF.PlanarEkfSlam(
+        pose=np.zeros(3), pose_covariance=np.zeros((3, 3)),
+        control_noise=np.diag(V), measurement_noise=np.diag(R),
+    )  # fmt: skip
+
+    def observe(a, b):
+        slam.observe_known(ids[a:b].tolist(), det[a:b, 1:])
+
+    return REF.drive(slam, controls[:, 0], controls[:, 1:], det[:, 0], observe)
+
+
+def test_the_path_and_map_equal_the_numpy_reference():
+    controls, det, ids, _ = _recording()
+    ours = PlanarSlam(_config()).run_arrays(controls, det, detection_ids=ids)
+    ref = _reference_run(controls, det, ids)
+    at_controls = ours.kind == 0
+    np.testing.assert_allclose(ours.t[at_controls], ref.t)
+    np.testing.assert_allclose(ours.pose[at_controls], ref.poses, atol=1e-9)
+    np.testing.assert_allclose(ours.covariance[at_controls], ref.covariances, atol=1e-12)
+    order = np.argsort(ref.landmark_ids)
+    np.testing.assert_array_equal(ours.landmark_id, ref.landmark_ids[order])
+    np.testing.assert_allclose(ours.landmark_mean, ref.landmarks[order], atol=1e-9)
+    assert ours.statistics["accepted"] == ref.stats.accepted
+
+
+def test_an_external_fix_makes_the_path_consistent_and_accurate():
+    controls, det, ids, truth = _recording(seed=3, steps=600)
+    t = controls[:, 0]
+    fixes = np.c_[t[::10], truth[::10, :2], np.full(60, 0.01), np.zeros(60), np.full(60, 0.01)]
+    fixes[:, 1:3] += np.random.default_rng(9).normal(0, 0.1, size=(60, 2))
+    plain = PlanarSlam(_config()).run_arrays(controls, det, detection_ids=ids)
+    known_start = {"initial_pose_variance": [1e-6] * 3}  # NEES needs a regular P
+    fixed = PlanarSlam(_config(external_fix=True, **known_start)).run_arrays(
+        controls, det, detection_ids=ids, fixes=fixes
+    )
+    assert fixed.statistics["fixes_applied"] > 50
+    assert plain.statistics["fixes_ignored"] == 0
+    err_fixed = fixed.ate(t, truth).rmse
+    assert err_fixed < 0.15  # a 0.1 m fix every second bounds the drift
+    nees = fixed.nees(t, truth)
+    assert np.mean(nees.inside) > 0.8
+
+
+def test_results_pickle_and_serialise(tmp_path):
+    controls, det, ids, _ = _recording(steps=100)
+    result = PlanarSlam(_config()).run_arrays(controls, det, detection_ids=ids)
+    back = pickle.loads(pickle.dumps(result))
+    np.testing.assert_array_equal(back.pose, result.pose)
+    assert "SlamResult(events=" in repr(result)
+    assert '"accepted"' in result.to_json()
+    from rperc.datasets import read_tum
+
+    t, _poses = read_tum(result.to_tum(tmp_path / "run.tum"))
+    assert len(t) == len(np.unique(result.t))
+
+
+def test_defaults_come_from_rust_and_bad_config_is_named():
+    d = defaults()
+    assert d["association"] == "known" and "unicycle" in d["motion"]
+    controls, det, ids, _ = _recording(steps=20)
+    with pytest.raises(TypeError, match="colour"):
+        PlanarSlam(colour=1).run_arrays(controls, det, detection_ids=ids)
+    with pytest.raises(ValueError, match="range_variance"):
+        PlanarSlam(range_variance=-1.0).run_arrays(controls, det, detection_ids=ids)
+    with pytest.raises(ValueError, match="association"):
+        PlanarSlam(association="magic").run_arrays(controls, det, detection_ids=ids)
+    with pytest.raises(ValueError, match="detections"):
+        PlanarSlam().run_arrays(controls, det[:, :2])
+    with pytest.raises(ValueError, match="detection_ids"):
+        PlanarSlam().run_arrays(controls, det, detection_ids=ids[:-1])
+    bad = controls.copy()
+    bad[3, 1] = np.nan
+    with pytest.raises(ValueError):
+        PlanarSlam().run_arrays(bad, det, detection_ids=ids)
+
+
+DATA = os.environ.get("RPERC_DATA")
+MRCLAM = Path(DATA) / "mrclam6" if DATA else None
+
+
+@pytest.mark.skipif(MRCLAM is None or not MRCLAM.is_dir(), reason="RPERC_DATA/mrclam6 is absent")
+def test_mrclam_robot1_equals_the_reference_and_scores():
+    from rperc.datasets import load_mrclam
+
+    run = load_mrclam(MRCLAM, robot=1)
+    pose0 = REF.initial_pose(run)
+    cfg = {
+        "motion": {"unicycle": {"speed_variance": 0.1**2, "turn_rate_variance": 0.2**2}},
+        "range_variance": 0.1**2,
+        "bearing_variance": 0.05**2,
+        "initial_pose": pose0.tolist(),
+        "initial_pose_variance": [1e-6] * 3,
+    }
+    ev = mrclam_recording(run)
+    ours = PlanarSlam(cfg).run(ev)
+    slam = REF.PlanarEkfSlam(
+        pose=pose0, pose_covariance=np.eye(3) * 1e-6,
+        control_noise=np.diag([0.1**2, 0.2**2]), measurement_noise=np.diag([0.1**2, 0.05**2]),
+    )  # fmt: skip
+    ref = REF.run_mrclam(run, slam)
+    at_controls = ours.kind == 0
+    np.testing.assert_allclose(ours.pose[at_controls], ref.poses, atol=1e-6)
+    assert ours.statistics["accepted"] == ref.stats.accepted
+    truth = np.c_[run.truth_x, run.truth_y, run.truth_theta]
+    assert ours.ate(run.truth_t, truth, align=True).rmse < 1.0

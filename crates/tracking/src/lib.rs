@@ -20,5 +20,6 @@ pub use condensation::{
 pub use error::{Result, TrackingError};
 pub use frame::{BoundingBox, RgbFrame, frame_from_image};
 pub use pattern::{
-    Observation, PatternConfig, PatternLikelihood, PatternModel, Region, ScaleSpace,
+    Observation, PatternConfig, PatternFrame, PatternLikelihood, PatternModel, PatternPose,
+    PatternTracker, PatternTrackerParams, Region, ScaleSpace,
 };

@@ -30,7 +30,8 @@ pub enum Region {
 }
 
 /// Parameters of model building and of the observation model.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct PatternConfig {
     /// Canny hysteresis thresholds on imageproc's Sobel magnitude scale.
     pub canny_low: f32,

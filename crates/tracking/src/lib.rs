@@ -21,5 +21,6 @@ pub use error::{Result, TrackingError};
 pub use frame::{BoundingBox, RgbFrame, frame_from_image};
 pub use pattern::{
     Observation, PatternConfig, PatternFrame, PatternLikelihood, PatternModel, PatternPose,
-    PatternTracker, PatternTrackerParams, Region, ScaleSpace,
+    PatternSequence, PatternTracker, PatternTrackerParams, Region, ScaleSpace, SequenceParams,
+    generate_sequence,
 };

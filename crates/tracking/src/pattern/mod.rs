@@ -7,8 +7,10 @@ pub mod contour;
 pub mod correlation;
 mod model;
 mod observation;
+mod sequence;
 mod tracker;
 
 pub use model::{MIN_REGION_SIDE, ModelPoint, PatternConfig, PatternModel, Region, sample_vector};
 pub use observation::{Observation, PatternLikelihood, PatternScratch, ScaleSpace, place};
+pub use sequence::{PatternSequence, SequenceParams, generate_sequence};
 pub use tracker::{PatternFrame, PatternPose, PatternTracker, PatternTrackerParams};

@@ -315,6 +315,16 @@ impl PatternModel {
         })
     }
 
+    /// The largest distance of a model point from the window centre, pixels.
+    pub fn radius(&self) -> f64 {
+        (0..self.points.len())
+            .map(|j| {
+                let o = self.offset(j);
+                o[0].hypot(o[1])
+            })
+            .fold(0.0, f64::max)
+    }
+
     /// Pixel offset of model point `j` from the window centre.
     pub fn offset(&self, j: usize) -> [f64; 2] {
         let p = &self.points[j];

@@ -214,8 +214,11 @@ impl PatternTracker {
             });
         }
         frame.to_gray(&mut self.frame);
-        // The scale space is built once per frame, never per particle (section 3.3).
-        self.space.build(&self.frame, &self.model)?;
+        // The scale space is built once per frame, never per particle (section 3.3),
+        // and only where and at the scales this frame's particles can look.
+        let (window, span) = self.reach();
+        self.space
+            .build_window(&self.frame, &self.model, window, span)?;
         let likelihood = PatternLikelihood::new(&self.model, &self.space);
         let report = self
             .filter
@@ -247,6 +250,39 @@ impl PatternTracker {
             };
         }
         Ok(self.last)
+    }
+
+    /// The frame window `[x0, y0, x1, y1)` and the scale span the particles can reach
+    /// this step: the current particles' extent grown by `REACH_SIGMAS` random-walk
+    /// steps, plus the model's radius (points and half a profile) at the largest scale.
+    /// A particle beyond (probability below 1e-5 per component) sees its points as
+    /// occluded, which only lowers its weight.
+    fn reach(&self) -> ([usize; 4], [f64; 2]) {
+        const REACH_SIGMAS: f64 = 4.5;
+        let sigma = &self.params.sigma;
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for p in self.filter.particles() {
+            for (d, k) in [0, 1, 3].into_iter().enumerate() {
+                lo[d] = lo[d].min(p[k]);
+                hi[d] = hi[d].max(p[k]);
+            }
+        }
+        let span = [
+            lo[2] - REACH_SIGMAS * sigma[3],
+            hi[2] + REACH_SIGMAS * sigma[3],
+        ];
+        let config = &self.model.config;
+        let profile = 0.5 * config.n_samples as f64 * config.delta;
+        let radius = (self.model.radius() + profile) * span[1].max(0.0) + 2.0;
+        let grow = |v: f64, d: usize, sign: f64| v + sign * (REACH_SIGMAS * sigma[d] + radius);
+        let clamp = |v: f64, n: usize| v.floor().clamp(0.0, n as f64) as usize;
+        let window = [
+            clamp(grow(lo[0], 0, -1.0), self.width),
+            clamp(grow(lo[1], 1, -1.0), self.height),
+            clamp(grow(hi[0], 0, 1.0) + 2.0, self.width),
+            clamp(grow(hi[1], 1, 1.0) + 2.0, self.height),
+        ];
+        (window, span)
     }
 
     /// The weighted mean of the particles, `theta` by the circular mean taken relative

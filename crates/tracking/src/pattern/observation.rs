@@ -4,6 +4,8 @@
 
 use super::correlation::{deviation, inter_correlation};
 use super::model::{PatternModel, sample_vector};
+use std::sync::Arc;
+
 use crate::condensation::Likelihood;
 use crate::error::Result;
 use nalgebra::SVector;
@@ -24,7 +26,18 @@ pub struct ScaleSpace {
     origin: [f64; 2],
     crop: GrayImage,
     blurred: GrayImage,
+    kernels: Vec<(f64, Arc<[f32]>)>,
     scratch: GrayImage,
+}
+
+/// The Gaussian kernel of `sigma` from `cache`, computed on first use.
+fn kernel(cache: &mut Vec<(f64, Arc<[f32]>)>, sigma: f64) -> Arc<[f32]> {
+    if let Some((_, k)) = cache.iter().find(|(s, _)| *s == sigma) {
+        return k.clone();
+    }
+    let k: Arc<[f32]> = rperc_core::image::gaussian_kernel(sigma).into();
+    cache.push((sigma, k.clone()));
+    k
 }
 
 /// Index of the entry of `scales` nearest to `s` (the first on ties).
@@ -79,7 +92,8 @@ impl ScaleSpace {
         self.origin = [x0 as f64, y0 as f64];
         for (level, &s) in self.levels.iter_mut().zip(&self.scales) {
             let sigma = config.blur_sigma * s;
-            let r = rperc_core::image::gaussian_kernel(sigma).len() / 2;
+            let kernel = kernel(&mut self.kernels, sigma);
+            let r = kernel.len() / 2;
             let grown = [
                 x0.saturating_sub(r),
                 y0.saturating_sub(r),
@@ -87,8 +101,7 @@ impl ScaleSpace {
                 (y1 + r).min(frame.height),
             ];
             copy_window(frame, grown, &mut self.crop);
-            self.crop
-                .gaussian_blur(sigma, &mut self.scratch, &mut self.blurred)?;
+            super::blur::blur(&self.crop, &kernel, &mut self.scratch, &mut self.blurred);
             let inner = [x0 - grown[0], y0 - grown[1], x1 - grown[0], y1 - grown[1]];
             copy_window(&self.blurred, inner, level);
         }

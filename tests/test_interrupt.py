@@ -28,10 +28,10 @@ CASES = {
     "simplify_many on zig-zags": ZIGZAG
     + "from rperc.linesimp import simplify_many\nprint('ready', flush=True)\n"
     + "simplify_many([pts, pts], 1e-9, method='dp', threads=2)\n",
-    "monobot with thousands of landmarks": "from rperc.slam import monobot\n"
-    + "print('ready', flush=True)\nmonobot.simulate(landmarks=3000, steps=1)\n",
+    "monobot with hundreds of landmarks": "from rperc.slam import monobot\n"
+    + "print('ready', flush=True)\nmonobot.simulate(landmarks=400, steps=1000)\n",
     "monobot Monte Carlo": "from rperc.slam import monobot\n"
-    + "print('ready', flush=True)\nmonobot.monte_carlo(runs=8, landmarks=1500, steps=50)\n",
+    + "print('ready', flush=True)\nmonobot.monte_carlo(runs=8, landmarks=400, steps=1000)\n",
 }
 
 # Far above the 20 ms poll interval (the child also needs time to unwind and exit on a

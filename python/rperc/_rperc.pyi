@@ -10,6 +10,7 @@ __all__ = [
     "Ekf",
     "NumericalError",
     "ParticleColorTracker",
+    "PatternTracker",
     "RpercError",
     "__version__",
     "effective_sample_size",
@@ -26,6 +27,8 @@ __all__ = [
     "otb_iou",
     "otb_precision",
     "otb_success_curve",
+    "pattern_defaults",
+    "pattern_sequence",
     "planar_defaults",
     "planar_slam_run",
     "pose_transform_points",
@@ -173,6 +176,31 @@ class ParticleColorTracker:
     @property
     def ess(self) -> float: ...
 
+_Corners: TypeAlias = tuple[
+    tuple[float, float], tuple[float, float], tuple[float, float], tuple[float, float]
+]
+
+@final
+class PatternTracker:
+    """CONDENSATION pattern tracker over (x, y, theta, s) (see rperc.tracking)."""
+
+    def __new__(
+        cls,
+        frame: npt.NDArray[np.uint8],
+        region: tuple[int, int, int, int] | npt.NDArray[np.bool_],
+        seed: int = 0,
+        config: dict[str, Any] | None = None,
+    ) -> PatternTracker: ...
+    def update(
+        self, frame: npt.NDArray[np.uint8]
+    ) -> tuple[float, float, float, float, float, float, bool, _Corners]: ...
+    @property
+    def n_points(self) -> int: ...
+
+def pattern_sequence(
+    patch: _ArrayLike, background: _ArrayLike, config: dict[str, Any] | None = None
+) -> tuple[npt.NDArray[np.uint8], _Array, _Array, _Array, tuple[int, int, int, int]]: ...
+def pattern_defaults() -> tuple[dict[str, Any], dict[str, Any]]: ...
 def resample(
     weights: _ArrayLike, n: int, method: str = "systematic", seed: int = 0
 ) -> npt.NDArray[np.intp]: ...

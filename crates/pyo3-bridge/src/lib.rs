@@ -11,6 +11,7 @@ mod errors;
 mod eval_py;
 mod linesimp_py;
 mod parallel;
+mod pattern_py;
 mod planar_py;
 mod slam_py;
 mod tracking_py;
@@ -34,6 +35,8 @@ mod _rperc {
         extract_lines, scan_params_defaults, simplify_indices, simplify_many_indices,
         simplify_topology_indices,
     };
+    #[pymodule_export]
+    use crate::pattern_py::{PyPatternTracker, pattern_defaults, pattern_sequence};
     #[pymodule_export]
     use crate::planar_py::{planar_defaults, planar_slam_run};
     #[pymodule_export]

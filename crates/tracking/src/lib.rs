@@ -20,5 +20,7 @@ pub use condensation::{
 pub use error::{Result, TrackingError};
 pub use frame::{BoundingBox, RgbFrame, frame_from_image};
 pub use pattern::{
-    Observation, PatternConfig, PatternLikelihood, PatternModel, Region, ScaleSpace,
+    Observation, PatternConfig, PatternFrame, PatternLikelihood, PatternModel, PatternPose,
+    PatternSequence, PatternTracker, PatternTrackerParams, Region, ScaleSpace, SequenceParams,
+    generate_sequence,
 };

@@ -537,3 +537,46 @@ fn non_finite_grey_levels_are_refused_or_occluded() {
         .observe(&SVector::from(TRUTH), &mut PatternScratch::default());
     assert!(obs.log_likelihood.is_finite() && obs.occluded_fraction > 0.2);
 }
+
+#[test]
+fn a_windowed_scale_space_equals_the_whole_frame_blur_inside_its_window() {
+    let m = model();
+    let mut frame = render(TRUTH, m.centre, FRAME);
+    add_noise(&mut frame, 3.0, 12);
+    let mut full = ScaleSpace::new();
+    full.build(&frame, &m).unwrap();
+    // A window touching the frame's left edge (reflected border) and one inside.
+    for (window, span) in [
+        ([0, 20, 90, 150], [1.1, 1.6]),
+        ([6, 5, 166, 167], [0.5, 2.2]),
+    ] {
+        let mut part = ScaleSpace::new();
+        part.build_window(&frame, &m, window, span).unwrap();
+        assert_eq!(part.origin(), [window[0] as f64, window[1] as f64]);
+        for s in [span[0], 0.5 * (span[0] + span[1]), span[1]] {
+            let (a, b) = (full.level(s), part.level(s));
+            assert_eq!(
+                (b.width, b.height),
+                (window[2] - window[0], window[3] - window[1])
+            );
+            for y in window[1]..window[3] {
+                for x in window[0]..window[2] {
+                    assert_eq!(
+                        a.at(x, y),
+                        b.at(x - window[0], y - window[1]),
+                        "({x}, {y}) s {s}"
+                    );
+                }
+            }
+        }
+        // The likelihood of a state whose points and profiles lie inside the interior
+        // window is unchanged.
+        let state = SVector::from([TRUTH[0], TRUTH[1], TRUTH[2], 1.2]);
+        let mut scratch = PatternScratch::default();
+        let whole = PatternLikelihood::new(&m, &full).observe(&state, &mut scratch);
+        let windowed = PatternLikelihood::new(&m, &part).observe(&state, &mut scratch);
+        if window[0] > 0 {
+            assert_eq!(whole, windowed);
+        }
+    }
+}

@@ -15,6 +15,10 @@ corner). The GIL is released while a frame is processed.
   optional perimeter-gradient term.
 - :class:`ParticleColorTracker`: the CONDENSATION variant over ``(x, y, scale)`` with
   the same histogram likelihood, for clutter and fast motion.
+- :class:`PatternTracker`: the 2-D pattern tracker of seed 001 (section 3): CONDENSATION
+  over ``(x, y, theta, scale)`` with grey-level profiles normal to the pattern's
+  contours, occlusion and scale space; :func:`pattern_sequence` generates the Fig. 8
+  experiment's sequences with their ground truth.
 - :func:`resample`, :func:`effective_sample_size`: the particle-filter building blocks.
 - :mod:`rperc.tracking.metrics`: IoU, success curve and AUC, precision at 20 px.
 
@@ -23,6 +27,12 @@ Girl and Couple); ``help(ColorHistogramTracker)`` lists them.
 """
 
 from rperc.tracking import metrics
+from rperc.tracking.pattern import (
+    PatternPose,
+    PatternSequence,
+    PatternTracker,
+    pattern_sequence,
+)
 from rperc.tracking.trackers import (
     ColorHistogramTracker,
     ParticleColorTracker,
@@ -34,8 +44,12 @@ from rperc.tracking.trackers import (
 __all__ = [
     "ColorHistogramTracker",
     "ParticleColorTracker",
+    "PatternPose",
+    "PatternSequence",
+    "PatternTracker",
     "TrackResult",
     "effective_sample_size",
     "metrics",
+    "pattern_sequence",
     "resample",
 ]

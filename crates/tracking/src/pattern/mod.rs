@@ -1,11 +1,17 @@
-//! The 2-D pattern tracker's model and observation model (Ait Aider, Chateau &
-//! Lapresté, sections 3.2-3.3): contour points with grey-level vectors along their
-//! gradient, the inter-correlation likelihood with occlusion and scale space.
+//! The 2-D pattern tracker (Ait Aider, Chateau & Lapresté, sections 3.1-3.3):
+//! contour points with grey-level vectors along their
+//! gradient, the inter-correlation likelihood with occlusion and scale space, and the
+//! CONDENSATION tracker over (x, y, theta, s).
 
+mod blur;
 pub mod contour;
 pub mod correlation;
 mod model;
 mod observation;
+mod sequence;
+mod tracker;
 
 pub use model::{MIN_REGION_SIDE, ModelPoint, PatternConfig, PatternModel, Region, sample_vector};
 pub use observation::{Observation, PatternLikelihood, PatternScratch, ScaleSpace, place};
+pub use sequence::{PatternSequence, SequenceParams, generate_sequence};
+pub use tracker::{PatternFrame, PatternPose, PatternTracker, PatternTrackerParams};

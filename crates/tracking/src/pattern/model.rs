@@ -30,7 +30,8 @@ pub enum Region {
 }
 
 /// Parameters of model building and of the observation model.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct PatternConfig {
     /// Canny hysteresis thresholds on imageproc's Sobel magnitude scale.
     pub canny_low: f32,
@@ -312,6 +313,16 @@ impl PatternModel {
             points,
             config: config.clone(),
         })
+    }
+
+    /// The largest distance of a model point from the window centre, pixels.
+    pub fn radius(&self) -> f64 {
+        (0..self.points.len())
+            .map(|j| {
+                let o = self.offset(j);
+                o[0].hypot(o[1])
+            })
+            .fold(0.0, f64::max)
     }
 
     /// Pixel offset of model point `j` from the window centre.

@@ -4,6 +4,8 @@
 
 use super::correlation::{deviation, inter_correlation};
 use super::model::{PatternModel, sample_vector};
+use std::sync::Arc;
+
 use crate::condensation::Likelihood;
 use crate::error::Result;
 use nalgebra::SVector;
@@ -13,11 +15,38 @@ use rperc_core::image::GrayImage;
 /// (section 3.3, "scale changing effects"): level `k` of scale `s_k` is blurred by
 /// `blur_sigma * s_k`, so that a pattern seen `s_k` times larger, once rescaled, has
 /// the blur its model was learnt with. Buffers are reused from frame to frame.
+///
+/// A stack may cover only a window of the frame and the levels a range of scales
+/// need ([`Self::build_window`]): the particles of one frame only look there, and the
+/// blur of a whole 640 x 480 frame at every level costs far more than the particles.
 #[derive(Debug, Clone, Default)]
 pub struct ScaleSpace {
     scales: Vec<f64>,
     levels: Vec<GrayImage>,
+    origin: [f64; 2],
+    crop: GrayImage,
+    blurred: GrayImage,
+    kernels: Vec<(f64, Arc<[f32]>)>,
     scratch: GrayImage,
+}
+
+/// The Gaussian kernel of `sigma` from `cache`, computed on first use.
+fn kernel(cache: &mut Vec<(f64, Arc<[f32]>)>, sigma: f64) -> Arc<[f32]> {
+    if let Some((_, k)) = cache.iter().find(|(s, _)| *s == sigma) {
+        return k.clone();
+    }
+    let k: Arc<[f32]> = rperc_core::image::gaussian_kernel(sigma).into();
+    cache.push((sigma, k.clone()));
+    k
+}
+
+/// Index of the entry of `scales` nearest to `s` (the first on ties).
+fn nearest(scales: &[f64], s: f64) -> usize {
+    scales
+        .iter()
+        .enumerate()
+        .min_by(|a, b| (a.1 - s).abs().total_cmp(&(b.1 - s).abs()))
+        .map_or(0, |(k, _)| k)
 }
 
 impl ScaleSpace {
@@ -26,27 +55,67 @@ impl ScaleSpace {
         Self::default()
     }
 
-    /// Blurs `frame` once per level of `config.scale_levels` (never per particle).
+    /// Blurs the whole `frame` once per level of `config.scale_levels` (never per
+    /// particle).
     pub fn build(&mut self, frame: &GrayImage, model: &PatternModel) -> Result<()> {
+        let window = [0, 0, frame.width, frame.height];
+        self.build_window(frame, model, window, [f64::NEG_INFINITY, f64::INFINITY])
+    }
+
+    /// Blurs only the window `[x0, y0, x1, y1)` of `frame`, at the levels nearest to
+    /// the scales of `span = [s_lo, s_hi]` and those between. Inside the window each
+    /// level equals the whole frame's blur exactly: the blur runs on the window grown
+    /// by the kernel's radius (borders reflected only at the frame's own edges).
+    /// Outside it, samples are missing and the points there count as occluded.
+    pub fn build_window(
+        &mut self,
+        frame: &GrayImage,
+        model: &PatternModel,
+        window: [usize; 4],
+        span: [f64; 2],
+    ) -> Result<()> {
         let config = &model.config;
-        self.scales.clone_from(&config.scale_levels);
+        let all = &config.scale_levels;
+        // Clamped first: infinite spans (the whole stack) would tie every level.
+        let (first, last) = (all[0], all[all.len() - 1]);
+        let lo = nearest(all, span[0].clamp(first, last));
+        let hi = nearest(all, span[1].clamp(first, last));
+        self.scales.clear();
+        self.scales.extend_from_slice(&all[lo..=hi.max(lo)]);
         self.levels
             .resize_with(self.scales.len(), GrayImage::default);
+        let [x0, y0] = [window[0].min(frame.width), window[1].min(frame.height)];
+        let [x1, y1] = [
+            window[2].clamp(x0, frame.width),
+            window[3].clamp(y0, frame.height),
+        ];
+        self.origin = [x0 as f64, y0 as f64];
         for (level, &s) in self.levels.iter_mut().zip(&self.scales) {
-            frame.gaussian_blur(config.blur_sigma * s, &mut self.scratch, level)?;
+            let sigma = config.blur_sigma * s;
+            let kernel = kernel(&mut self.kernels, sigma);
+            let r = kernel.len() / 2;
+            let grown = [
+                x0.saturating_sub(r),
+                y0.saturating_sub(r),
+                (x1 + r).min(frame.width),
+                (y1 + r).min(frame.height),
+            ];
+            copy_window(frame, grown, &mut self.crop);
+            super::blur::blur(&self.crop, &kernel, &mut self.scratch, &mut self.blurred);
+            let inner = [x0 - grown[0], y0 - grown[1], x1 - grown[0], y1 - grown[1]];
+            copy_window(&self.blurred, inner, level);
         }
         Ok(())
     }
 
+    /// Pixel coordinates of the levels' top-left pixel in the frame.
+    pub fn origin(&self) -> [f64; 2] {
+        self.origin
+    }
+
     /// The level nearest to scale `s` (the first one for `s <= 1`).
     pub fn level(&self, s: f64) -> &GrayImage {
-        let k = self
-            .scales
-            .iter()
-            .enumerate()
-            .min_by(|a, b| (a.1 - s).abs().total_cmp(&(b.1 - s).abs()))
-            .map_or(0, |(k, _)| k);
-        &self.levels[k]
+        &self.levels[nearest(&self.scales, s)]
     }
 
     /// Number of levels.
@@ -152,10 +221,12 @@ impl<'a> PatternLikelihood<'a> {
     fn fill_deviations(&self, state: &SVector<f64, 4>, scratch: &mut PatternScratch) {
         let config = &self.model.config;
         let image = self.space.level(state[3]);
+        let origin = self.space.origin();
         scratch.observed.resize(config.n_samples, 0.0);
         scratch.deviations.clear();
         for (j, point) in self.model.points.iter().enumerate() {
             let (p, phi) = place(state, self.model.offset(j), point.phi);
+            let p = [p[0] - origin[0], p[1] - origin[1]];
             let step = config.delta * state[3];
             let lambda = if sample_vector(image, p, phi, step, &mut scratch.observed) {
                 deviation(
@@ -187,5 +258,17 @@ impl Likelihood<4> for PatternLikelihood<'_> {
 
     fn log_likelihood(&self, state: &SVector<f64, 4>, scratch: &mut PatternScratch) -> f64 {
         self.observe(state, scratch).log_likelihood
+    }
+}
+
+/// Copies the window `[x0, y0, x1, y1)` of `image` into `out` (resized).
+fn copy_window(image: &GrayImage, window: [usize; 4], out: &mut GrayImage) {
+    let [x0, y0, x1, y1] = window;
+    out.width = x1 - x0;
+    out.height = y1 - y0;
+    out.data.clear();
+    for y in y0..y1 {
+        out.data
+            .extend_from_slice(&image.data[y * image.width + x0..y * image.width + x1]);
     }
 }

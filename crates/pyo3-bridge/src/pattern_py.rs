@@ -1,0 +1,226 @@
+//! Bindings of the 2-D pattern tracker (seed 001 section 3) and its Fig. 8 sequence
+//! generator (section 4.1).
+
+use numpy::{
+    IntoPyArray, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyUntypedArray,
+    PyUntypedArrayMethods,
+};
+use pyo3::prelude::*;
+use rperc_core::image::{GrayImage, GrayView, RgbView};
+use tracking::{PatternFrame, PatternPose, PatternTrackerParams, Region, SequenceParams};
+
+use crate::errors::{Error, detached, exclusive};
+
+/// An `H x W` or `H x W x 3` uint8 frame: borrowed when C-contiguous, copied otherwise.
+struct Frame<'py> {
+    borrowed: Option<numpy::PyReadonlyArrayDyn<'py, u8>>,
+    owned: Vec<u8>,
+    width: usize,
+    height: usize,
+    rgb: bool,
+}
+
+impl Frame<'_> {
+    fn view(&self) -> Result<PatternFrame<'_>, Error> {
+        let data = match &self.borrowed {
+            Some(a) => a.as_slice().map_err(|e| Error::Value(e.to_string()))?,
+            None => self.owned.as_slice(),
+        };
+        Ok(if self.rgb {
+            PatternFrame::Rgb(RgbView::new(data, self.width, self.height)?)
+        } else {
+            PatternFrame::Gray(GrayView::new(data, self.width, self.height)?)
+        })
+    }
+}
+
+fn frame<'py>(obj: &Bound<'py, PyAny>) -> Result<Frame<'py>, Error> {
+    let untyped = obj.cast::<PyUntypedArray>().map_err(|_| {
+        Error::Type("frame must be a numpy array (H x W or H x W x 3, uint8)".into())
+    })?;
+    if !untyped.dtype().is_equiv_to(&numpy::dtype::<u8>(obj.py())) {
+        return Err(Error::Type(format!(
+            "frame must have dtype uint8, got {}",
+            untyped.dtype()
+        )));
+    }
+    let shape = untyped.shape().to_vec();
+    let rgb = match shape[..] {
+        [_, _] => false,
+        [_, _, 3] => true,
+        _ => {
+            return Err(Error::Value(format!(
+                "frame must have shape (H, W) or (H, W, 3), got {shape:?}"
+            )));
+        }
+    };
+    let array = obj
+        .cast::<PyArrayDyn<u8>>()
+        .map_err(|e| Error::Type(e.to_string()))?
+        .try_readonly()
+        .map_err(|e| Error::Value(format!("frame is being written elsewhere: {e}")))?;
+    let (borrowed, owned) = if array.is_c_contiguous() {
+        (Some(array), Vec::new())
+    } else {
+        (None, array.as_array().iter().copied().collect())
+    };
+    Ok(Frame {
+        borrowed,
+        owned,
+        width: shape[1],
+        height: shape[0],
+        rgb,
+    })
+}
+
+/// A box `(x, y, w, h)` of non-negative integers, or a boolean mask the frame's size.
+fn region(obj: &Bound<'_, PyAny>, width: usize, height: usize) -> Result<Region, Error> {
+    if let Ok(mask) = obj.cast::<numpy::PyArray2<bool>>() {
+        let shape = mask.shape();
+        if shape != [height, width] {
+            return Err(Error::Value(format!(
+                "region mask must have the frame's shape ({height}, {width}), got {shape:?}"
+            )));
+        }
+        let cells = mask.readonly().as_array().iter().copied().collect();
+        return Ok(Region::Mask(cells));
+    }
+    let v: Vec<i64> = obj.extract().map_err(|_| {
+        Error::Type("region must be 4 integers (x, y, w, h) or a boolean mask".into())
+    })?;
+    let [x, y, w, h] = v[..] else {
+        return Err(Error::Value(format!(
+            "region must have 4 integers (x, y, w, h), got {}",
+            v.len()
+        )));
+    };
+    let as_usize = |v: i64| usize::try_from(v).ok();
+    match (as_usize(x), as_usize(y), as_usize(w), as_usize(h)) {
+        (Some(x), Some(y), Some(w), Some(h)) => Ok(Region::Box { x, y, w, h }),
+        _ => Err(Error::Value(format!(
+            "region ({x}, {y}, {w}, {h}) is not inside the {width}x{height} frame"
+        ))),
+    }
+}
+
+/// `(x, y, theta, scale, score, occluded_fraction, lost, corners)`.
+type Answer = (f64, f64, f64, f64, f64, f64, bool, [[f64; 2]; 4]);
+
+fn answer(p: PatternPose) -> Answer {
+    let [x, y, theta, s] = p.state;
+    (
+        x,
+        y,
+        theta,
+        s,
+        p.score,
+        p.occluded_fraction,
+        p.lost,
+        p.corners,
+    )
+}
+
+/// The CONDENSATION pattern tracker over (x, y, theta, s).
+#[pyclass(name = "PatternTracker", module = "rperc._rperc")]
+pub struct PyPatternTracker {
+    inner: tracking::PatternTracker,
+}
+
+#[pymethods]
+impl PyPatternTracker {
+    /// `config` holds `PatternTrackerParams` fields (`pattern`, `filter` nested).
+    #[new]
+    #[pyo3(signature = (frame, region, seed = 0, config = None))]
+    fn new(
+        py: Python<'_>,
+        frame: &Bound<'_, PyAny>,
+        region: &Bound<'_, PyAny>,
+        seed: u64,
+        config: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let params: PatternTrackerParams = crate::config::from_python(config, "PatternTracker")?;
+        let f = self::frame(frame)?;
+        let r = self::region(region, f.width, f.height)?;
+        let view = f.view()?;
+        let inner = detached(py, || {
+            Ok(tracking::PatternTracker::new(view, r, params, seed)?)
+        })?;
+        Ok(Self { inner })
+    }
+
+    /// One step on the next frame (GIL released).
+    fn update(slf: &Bound<'_, Self>, py: Python<'_>, frame: &Bound<'_, PyAny>) -> PyResult<Answer> {
+        let mut this = exclusive(slf)?;
+        let tracker = &mut this.inner;
+        let f = self::frame(frame)?;
+        let view = f.view()?;
+        Ok(answer(detached(py, || Ok(tracker.update(view)?))?))
+    }
+
+    /// Number of points of the learnt model.
+    #[getter]
+    fn n_points(slf: &Bound<'_, Self>) -> PyResult<usize> {
+        Ok(crate::errors::shared(slf)?.inner.model().points.len())
+    }
+}
+
+/// A 2-D float array as a grey image.
+fn gray_image(obj: &Bound<'_, PyAny>, name: &str) -> Result<GrayImage, Error> {
+    let (shape, data) = crate::arrays::tensor(obj, name, 2)?;
+    Ok(GrayImage {
+        data: data.into_iter().map(|v| v as f32).collect(),
+        width: shape[1],
+        height: shape[0],
+    })
+}
+
+/// The generated sequence: frames `(n, H, W)` uint8, truth `(n, 4)`, occlusion `(n,)`,
+/// illumination `(n, 2)`, and the region `(x, y, w, h)` of frame 0.
+type SequenceAnswer<'py> = (
+    Bound<'py, PyArrayDyn<u8>>,
+    Bound<'py, PyArrayDyn<f64>>,
+    Bound<'py, PyArrayDyn<f64>>,
+    Bound<'py, PyArrayDyn<f64>>,
+    [usize; 4],
+);
+
+/// The Fig. 8 sequence (section 4.1) of `patch` over `background` (GIL released).
+#[pyfunction]
+#[pyo3(signature = (patch, background, config = None))]
+pub fn pattern_sequence<'py>(
+    py: Python<'py>,
+    patch: &Bound<'py, PyAny>,
+    background: &Bound<'py, PyAny>,
+    config: Option<&Bound<'py, PyAny>>,
+) -> PyResult<SequenceAnswer<'py>> {
+    let params: SequenceParams = crate::config::from_python(config, "pattern_sequence")?;
+    let patch = gray_image(patch, "patch")?;
+    let background = gray_image(background, "background")?;
+    let seq = detached(py, || {
+        Ok(tracking::generate_sequence(&patch, &background, &params)?)
+    })?;
+    let n = seq.truth.len();
+    let frames = numpy::ndarray::ArrayD::from_shape_vec(
+        numpy::ndarray::IxDyn(&[n, params.height, params.width]),
+        seq.frames,
+    )
+    .map_err(|e| Error::Value(format!("internal shape error: {e}")))?;
+    let flat = |rows: Vec<[f64; 4]>| rows.into_iter().flatten().collect::<Vec<f64>>();
+    let illumination: Vec<f64> = seq.illumination.into_iter().flatten().collect();
+    Ok((
+        frames.into_pyarray(py),
+        crate::arrays::shaped(py, flat(seq.truth), &[n, 4])?,
+        crate::arrays::shaped(py, seq.occlusion, &[n])?,
+        crate::arrays::shaped(py, illumination, &[n, 2])?,
+        seq.region,
+    ))
+}
+
+/// Default configs as dicts: `(tracker, sequence)`.
+#[pyfunction]
+pub fn pattern_defaults(py: Python<'_>) -> PyResult<(Bound<'_, PyAny>, Bound<'_, PyAny>)> {
+    Ok((
+        crate::config::defaults::<PatternTrackerParams>(py)?,
+        crate::config::defaults::<SequenceParams>(py)?,
+    ))
+}

@@ -1,0 +1,186 @@
+"""The 2-D pattern tracker (seed 001 section 3) and its Fig. 8 sequence generator, from
+Python: OpenCV's getRotationMatrix2D / warpAffine / transform as the oracle of the pose
+and corner convention, and bad input."""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from rperc.tracking import PatternPose, PatternTracker, pattern_sequence
+
+H, W = 160, 200
+BOX = (60, 50, 64, 52)
+
+
+def _patch() -> np.ndarray:
+    """Rectangles, a disc and a bar of distinct grey levels, 52 x 64."""
+    p = np.full((52, 64), 60, np.uint8)
+    p[6:23, 8:27] = 200
+    p[30:45, 34:57] = 150
+    yy, xx = np.mgrid[0:52, 0:64]
+    p[(xx - 18) ** 2 + (yy - 37) ** 2 <= 81] = 230
+    p[4:25, 40:45] = 20
+    return p
+
+
+def _background() -> np.ndarray:
+    yy, xx = np.mgrid[0:H, 0:W].astype(np.float64)
+    g = 120 + 30 * np.sin(0.07 * xx + 0.03 * yy) + 20 * np.cos(0.05 * yy - 0.02 * xx)
+    return g.astype(np.uint8)
+
+
+def _first_frame() -> np.ndarray:
+    f = _background()
+    x, y, w, h = BOX
+    f[y : y + h, x : x + w] = _patch()
+    return f
+
+
+def _warp(first: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """The patch of ``first`` moved by the affine ``m`` over the background."""
+    mask = np.zeros_like(first)
+    x, y, w, h = BOX
+    mask[y : y + h, x : x + w] = 255
+    moved = cv2.warpAffine(first, m, (W, H), flags=cv2.INTER_LINEAR)
+    inside = cv2.warpAffine(mask, m, (W, H), flags=cv2.INTER_LINEAR) == 255
+    out = _background()
+    out[inside] = moved[inside]
+    return out
+
+
+def _opencv_pose(theta: float, scale: float, shift: tuple[float, float]) -> np.ndarray:
+    """getRotationMatrix2D about the region centre (angle in degrees, CCW on screen),
+    then a translation."""
+    x, y, w, h = BOX
+    centre = (x + (w - 1) / 2, y + (h - 1) / 2)
+    m = cv2.getRotationMatrix2D(centre, math.degrees(theta), scale)
+    m[:, 2] += np.asarray(shift, dtype=np.float64)
+    return m
+
+
+def test_corners_and_pose_follow_opencv_get_rotation_matrix_2d() -> None:
+    first = _first_frame()
+    tracker = PatternTracker(first, BOX, seed=3)
+    x, y, w, h = BOX
+    box_corners = np.array(
+        [
+            [x - 0.5, y - 0.5],
+            [x + w - 0.5, y - 0.5],
+            [x + w - 0.5, y + h - 0.5],
+            [x - 0.5, y + h - 0.5],
+        ]
+    )
+    np.testing.assert_array_equal(tracker.initial.corners_array(), box_corners)
+    for k in range(1, 9):
+        theta, scale, shift = math.radians(1.0 * k), 1.0 + 0.015 * k, (0.8 * k, -0.5 * k)
+        m = _opencv_pose(theta, scale, shift)
+        pose = tracker.update(_warp(first, m))
+        assert not pose.lost
+    oracle = cv2.transform(box_corners[None], m)[0]
+    err = np.linalg.norm(pose.corners_array() - oracle, axis=1).max()
+    assert err < 1.5, (pose, oracle)
+    assert abs(math.degrees(pose.theta - theta)) < 1.0
+    assert abs(pose.scale / scale - 1) < 0.02
+    centre = cv2.transform(np.array([[[x + (w - 1) / 2, y + (h - 1) / 2]]]), m)[0, 0]
+    assert math.hypot(pose.x - centre[0], pose.y - centre[1]) < 1.0
+
+
+def test_rgb_and_mask_regions_track_like_grey_and_box() -> None:
+    first = _first_frame()
+    mask = np.zeros((H, W), bool)
+    x, y, w, h = BOX
+    mask[y : y + h, x : x + w] = True
+    moved = np.roll(first, (2, 3), axis=(0, 1))
+    grey = PatternTracker(first, BOX, seed=1).update(moved)
+    rgb = PatternTracker(np.dstack([first] * 3), mask, seed=1).update(np.dstack([moved] * 3))
+    for a, b in zip(
+        (grey.x, grey.y, grey.theta, grey.scale), (rgb.x, rgb.y, rgb.theta, rgb.scale), strict=True
+    ):
+        assert a == pytest.approx(b, abs=1e-4)
+    assert abs(grey.x - (x + (w - 1) / 2 + 3)) < 0.5 and abs(grey.y - (y + (h - 1) / 2 + 2)) < 0.5
+
+
+def test_an_all_black_frame_is_lost_with_the_pose_kept() -> None:
+    first = _first_frame()
+    tracker = PatternTracker(first, BOX, seed=2)
+    good = tracker.update(first)
+    black = tracker.update(np.zeros_like(first))
+    assert isinstance(black, PatternPose) and black.lost and not good.lost
+    assert (black.x, black.y, black.theta, black.scale) == (good.x, good.y, good.theta, good.scale)
+    assert black.corners == good.corners
+
+
+def test_the_same_seed_gives_the_same_track() -> None:
+    first = _first_frame()
+    moved = np.roll(first, 4, axis=1)
+    a = PatternTracker(first, BOX, seed=9, parallel=True).update(moved)
+    b = PatternTracker(first, BOX, seed=9, parallel=False).update(moved)
+    assert a == b
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "needle"),
+    [
+        ({"region": (190, 10, 40, 40)}, ValueError, "region"),
+        ({"region": (60, 50, 4, 4)}, ValueError, "region"),
+        ({"region": (-1, 50, 64, 52)}, ValueError, "region"),
+        ({"region": (60.5, 50, 64, 52)}, ValueError, "region"),
+        ({"region": np.zeros((3, 3), bool)}, ValueError, "region"),
+        ({"n_particles": 0}, ValueError, "n_particles"),
+        ({"sigma": (5, 5, math.nan, 0.1)}, ValueError, "sigma"),
+        ({"sigma": (5, 5, 0.1)}, ValueError, "sigma"),
+        ({"frame": np.zeros((H, W), np.float32)}, TypeError, "uint8"),
+        ({"frame": np.zeros((H, W, 4), np.uint8)}, ValueError, "shape"),
+        ({"frame": np.full((H, W), 128, np.uint8)}, ValueError, "region"),
+    ],
+)
+def test_bad_input_is_refused_by_name(kwargs: dict, error: type, needle: str) -> None:
+    args = {"frame": _first_frame(), "region": BOX, **kwargs}
+    frame, region = args.pop("frame"), args.pop("region")
+    with pytest.raises(error, match=needle):
+        PatternTracker(frame, region, **args)
+
+
+def test_a_frame_of_another_size_is_refused() -> None:
+    tracker = PatternTracker(_first_frame(), BOX)
+    with pytest.raises(ValueError, match="frame size changed"):
+        tracker.update(np.zeros((H, W + 1), np.uint8))
+
+
+def test_the_generated_sequence_starts_on_its_region_and_is_seeded() -> None:
+    patch, bg = _patch(), _background()
+    seq = pattern_sequence(patch, bg, n_frames=5, size=(W, H), noise=0.0, seed=4)
+    assert seq.frames.shape == (5, H, W) and seq.frames.dtype == np.uint8
+    assert seq.truth.shape == (5, 4) and seq.occlusion.shape == (5,)
+    x, y, w, h = seq.region
+    np.testing.assert_array_equal(seq.frames[0, y : y + h, x : x + w], patch)
+    assert tuple(seq.truth[0]) == (x + (w - 1) / 2, y + (h - 1) / 2, 0.0, 1.0)
+    again = pattern_sequence(patch, bg, n_frames=5, size=(W, H), noise=0.0, seed=4)
+    np.testing.assert_array_equal(seq.frames, again.frames)
+    with pytest.raises(ValueError, match="max_occlusion"):
+        pattern_sequence(patch, bg, n_frames=2, size=(W, H), max_occlusion=2.0)
+    with pytest.raises(ValueError, match="patch"):
+        pattern_sequence(patch, bg, n_frames=2, size=(40, 40))
+
+
+def test_a_real_patch_over_real_clutter_is_tracked(data) -> None:  # type: ignore[no-untyped-def]
+    images = data / "images"
+    camera = cv2.imread(str(images / "camera.png"), cv2.IMREAD_GRAYSCALE)
+    grass = cv2.imread(str(images / "grass.png"), cv2.IMREAD_GRAYSCALE)
+    if camera is None or grass is None:
+        pytest.skip("images/camera.png or images/grass.png missing")
+    patch = camera[60:160, 200:300]
+    seq = pattern_sequence(
+        patch, grass, n_frames=24, size=(320, 240), max_step_sigmas=2.0, max_occlusion=0.3, seed=1
+    )
+    tracker = PatternTracker(seq.frames[0], seq.region, seed=1)
+    errors = []
+    for frame, truth in zip(seq.frames[1:], seq.truth[1:], strict=True):
+        pose = tracker.update(frame)
+        assert not pose.lost
+        errors.append(math.hypot(pose.x - truth[0], pose.y - truth[1]))
+    assert float(np.sqrt(np.mean(np.square(errors)))) < 1.0

@@ -79,7 +79,7 @@ def _mrclam(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dict[
     truth = np.c_[run.truth_x, run.truth_y, run.truth_theta]
     aligned = result.ate(run.truth_t, truth, align=True)
     marks = np.c_[run.landmark_x, run.landmark_y]
-    nees = result.nees(run.truth_t, truth)
+    nees = result.nees(run.truth_t, truth, reference_landmarks=(run.landmark_id, marks))
     metrics = {
         "ate_m": result.ate(run.truth_t, truth).rmse,
         "ate_aligned_m": aligned.rmse,

@@ -125,12 +125,42 @@ class SlamResult:
         return evaluation.ate(t, pose, t_reference, reference, align=align)
 
     def nees(
-        self, t_reference: npt.ArrayLike, reference: npt.ArrayLike, confidence: float = 0.95
+        self,
+        t_reference: npt.ArrayLike,
+        reference: npt.ArrayLike,
+        confidence: float = 0.95,
+        *,
+        reference_landmarks: tuple[npt.ArrayLike, npt.ArrayLike] | None = None,
     ) -> evaluation.NeesResult:
-        """Robot-pose NEES at every matched event, with its chi-square band."""
+        """Robot-pose NEES at every matched event, with its chi-square band.
+
+        An anchored run (eqs. 24-25) estimates the robot relative to its anchor, and its
+        covariance says so: the error is then taken relative to the anchor too, which
+        needs the true landmarks, ``reference_landmarks=(ids, xy)``."""
         t, pose, cov = self.path()
-        assoc = evaluation.associate(t, pose, t_reference, reference)
+        ref = np.array(reference, dtype=np.float64)
+        if self.anchor is not None:
+            ref[:, :2] += self._anchor_offset(reference_landmarks)
+        assoc = evaluation.associate(t, pose, t_reference, ref)
         return evaluation.pose_nees(assoc, cov, confidence=confidence)
+
+    def _anchor_offset(
+        self, reference_landmarks: tuple[npt.ArrayLike, npt.ArrayLike] | None
+    ) -> np.ndarray:
+        """Estimated minus true position of the anchor landmark."""
+        if reference_landmarks is None:
+            raise ValueError(
+                "an anchored run's NEES is relative to its anchor: "
+                "pass reference_landmarks=(ids, xy)"
+            )
+        ids = np.asarray(reference_landmarks[0])
+        xy = np.asarray(reference_landmarks[1], dtype=np.float64)
+        anchor_id = self.landmark_id[self.landmark_anchor]
+        match = np.flatnonzero(ids == anchor_id[0]) if len(anchor_id) else np.empty(0, int)
+        if len(match) != 1:
+            raise ValueError("reference_landmarks must hold the anchor's id exactly once")
+        offset: np.ndarray = np.asarray(self.anchor) - xy[match[0]]
+        return offset
 
     def gps_error(self, t_gps: npt.ArrayLike, gps: npt.ArrayLike) -> evaluation.GpsError:
         """Distance to each GPS fix after one rigid alignment of the whole path."""

@@ -52,7 +52,10 @@ def wrap_angle(angle: npt.ArrayLike) -> np.ndarray:
     arr = np.asarray(angle)
     if arr.dtype.kind not in "fiub":
         raise TypeError(f"angle must hold real numbers, got dtype {arr.dtype}")
-    w = np.mod(arr.astype(np.float64), 2.0 * math.pi)
+    a = arr.astype(np.float64)
+    if not np.isfinite(a).all():
+        raise ValueError("angle must be finite (an infinite angle has no direction)")
+    w = np.mod(a, 2.0 * math.pi)
     return np.where(w > math.pi, w - 2.0 * math.pi, w)
 
 

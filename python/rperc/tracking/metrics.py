@@ -27,6 +27,8 @@ def _overlaps(o: npt.ArrayLike) -> np.ndarray:
     arr = np.asarray(o, dtype=np.float64)
     if arr.ndim != 1:
         raise ValueError(f"overlaps must be 1-D, got shape {arr.shape}")
+    if len(arr) == 0:
+        raise ValueError("overlaps is empty: a success rate of no frames is undefined")
     return arr
 
 
@@ -58,4 +60,6 @@ def precision(pred: npt.ArrayLike, truth: npt.ArrayLike, threshold: float = 20.0
     limit = real_number(threshold, "threshold")
     if math.isnan(limit):
         raise ValueError("threshold must be a number of pixels, got nan")
+    if len(_boxes(pred, "pred")) == 0:
+        raise ValueError("pred is empty: a precision over no frames is undefined")
     return float(_rperc.otb_precision(center_error(pred, truth), limit))

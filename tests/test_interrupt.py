@@ -39,9 +39,15 @@ CASES = {
 DEADLINE_S = 5.0
 
 
+# A shell without job control starts background jobs with SIGINT ignored, and the
+# child would inherit that (Python then installs no KeyboardInterrupt handler): the
+# child restores Python's own handler first, as an interactive session has it.
+DEFAULT_SIGINT = "import signal\nsignal.signal(signal.SIGINT, signal.default_int_handler)\n"
+
+
 def _interrupt(code: str) -> tuple[float, str]:
     child = subprocess.Popen(
-        [sys.executable, "-c", code],
+        [sys.executable, "-c", DEFAULT_SIGINT + code],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

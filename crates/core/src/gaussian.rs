@@ -29,8 +29,9 @@ impl Definiteness {
 
 /// Largest `|C - C^T|` entry relative to the largest `|C|` entry.
 pub fn asymmetry(c: &DMatrix<f64>) -> f64 {
+    // Divided first: the difference of two entries near f64::MAX overflows.
     let scale = c.amax().max(f64::MIN_POSITIVE);
-    (c - c.transpose()).amax() / scale
+    (c / scale - c.transpose() / scale).amax()
 }
 
 /// Smallest eigenvalue of the symmetric part of `C`, relative to the largest `|C|`.
@@ -38,9 +39,10 @@ pub fn min_relative_eigenvalue(c: &DMatrix<f64>) -> f64 {
     if c.is_empty() {
         return 0.0;
     }
-    let sym = (c + c.transpose()) * 0.5;
+    // Normalised before the sum, which would overflow near f64::MAX.
     let scale = c.amax().max(f64::MIN_POSITIVE);
-    sym.symmetric_eigenvalues().min() / scale
+    let sym = (c / scale + c.transpose() / scale) * 0.5;
+    sym.symmetric_eigenvalues().min()
 }
 
 /// Checks that `c` (named `name` in the error) is square, finite, symmetric and
@@ -110,7 +112,9 @@ fn entrywise_violation(c: &DMatrix<f64>) -> Option<String> {
     }
     for i in 0..n {
         for j in i + 1..n {
-            let bound = (c[(i, i)].max(0.0) * c[(j, j)].max(0.0)).sqrt()
+            // The geometric mean as a product of roots: the product of the variances
+            // underflows to 0 below 1e-154 and overflows to inf above 1e154.
+            let bound = c[(i, i)].max(0.0).sqrt() * c[(j, j)].max(0.0).sqrt()
                 + COVARIANCE_RTOL * row_scale[i].max(row_scale[j]);
             let cij = c[(i, j)].abs().max(c[(j, i)].abs());
             if cij > bound * (1.0 + COVARIANCE_RTOL) {

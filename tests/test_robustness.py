@@ -201,6 +201,18 @@ FUZZ_REPRODUCERS = [
      "threshold"),
     ("to_world([0.0, 0.0, 0.0], np.zeros((2, 3)))", ValueError, "shape (N, 2)"),
     ("wrap_angle(np.array([1j]))", TypeError, "real numbers"),
+    # Variances whose products under- or overflow inside the filter: named, not
+    # "covariance 'covariance' is not positive definite".
+    ("monobot.simulate(landmarks=2, steps=3, initial_variance=1e300)", ValueError,
+     "initial_variance"),
+    ("monobot.simulate(landmarks=2, steps=3, measurement_noise=('constant', 1e-320))",
+     ValueError, "measurement_noise"),
+    ("monobot.simulate(landmarks=2, steps=3, plant_noise=('proportional', 1e60))",
+     ValueError, "plant_noise"),
+    ("ParticleColorTracker(FRAME, (8, 8, 12, 12), position_noise=1e300)", ValueError,
+     "position_noise"),
+    ("ParticleColorTracker(FRAME, (8, 8, 12, 12), scale_noise=1e-320)", ValueError,
+     "scale_noise"),
 ]  # fmt: skip
 
 

@@ -14,7 +14,7 @@ mod monte_carlo;
 mod observability;
 mod run;
 
-pub use model::{MeasurementModel, MonobotConfig, Noise, NoiseKind};
+pub use model::{MeasurementModel, MonobotConfig, Noise, NoiseKind, USABLE_VARIANCE};
 pub use monte_carlo::{MonteCarloSummary, RunErrors, monte_carlo, summarize};
 pub use observability::{
     InformationSpectrum, information_spectrum, observability_matrix, observability_rank,

@@ -106,8 +106,33 @@ impl Noise {
         let v = match self {
             Noise::Constant(v) | Noise::Proportional(v) => v,
         };
-        Ok(rperc_core::ensure_non_negative(name, v)?)
+        rperc_core::ensure_non_negative(name, v)?;
+        // A proportional k is a standard deviation per metre: its square is the scale.
+        let variance = match self {
+            Noise::Constant(v) => v,
+            Noise::Proportional(k) => k * k,
+        };
+        if variance == 0.0 {
+            return Ok(());
+        }
+        usable_variance(name, variance)
     }
+}
+
+/// The filter multiplies variances together (`P^2 / S` in the gain), so a variance
+/// outside [`USABLE_VARIANCE`] under- or overflows inside the run; it is refused up
+/// front with the parameter's name rather than as a singular matrix later.
+pub const USABLE_VARIANCE: (f64, f64) = (1e-100, 1e100);
+
+fn usable_variance(name: &'static str, variance: f64) -> Result<()> {
+    let (lo, hi) = USABLE_VARIANCE;
+    if (lo..=hi).contains(&variance) {
+        return Ok(());
+    }
+    Err(SlamError::invalid(
+        name,
+        format!("gives a variance of {variance:e}, outside the usable [{lo:e}, {hi:e}]"),
+    ))
 }
 
 /// The monobot experiment. Defaults are the paper's run (Figs. 4 to 6).
@@ -201,6 +226,7 @@ impl MonobotConfig {
                 ),
             );
         }
+        usable_variance("initial_variance", self.initial_variance)?;
         for (name, v) in [("noise_floor", self.noise_floor)] {
             if !(v.is_finite() && v >= 0.0) {
                 return bad(name, format!("must be finite and >= 0, got {v}"));

@@ -250,6 +250,20 @@ fn random_walk_filter(
     seed: u64,
 ) -> Result<ParticleFilter<3>> {
     let sp = params.position_noise * semi_axis;
+    // A standard deviation whose square under- or overflows has no usable covariance;
+    // say which parameter, not "covariance".
+    for (name, sd) in [("position_noise", sp), ("scale_noise", params.scale_noise)] {
+        if !(sd * sd).is_normal() {
+            return Err(TrackingError::InvalidParameter {
+                name,
+                reason: format!(
+                    "a standard deviation of {sd:e} (times the box's semi-axis for \
+                     position_noise) squares to {:e}; use a value between 1e-150 and 1e150",
+                    sd * sd
+                ),
+            });
+        }
+    }
     let noise = Vector3::new(sp, sp, params.scale_noise);
     let cov = Matrix3::from_diagonal(&noise.component_mul(&noise));
     ParticleFilter::new(

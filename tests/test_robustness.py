@@ -11,6 +11,8 @@ import textwrap
 
 import pytest
 
+from rperc import NumericalError
+
 
 def run(code: str, timeout: float = 60.0) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
@@ -213,6 +215,9 @@ FUZZ_REPRODUCERS = [
      "position_noise"),
     ("ParticleColorTracker(FRAME, (8, 8, 12, 12), scale_noise=1e-320)", ValueError,
      "scale_noise"),
+    # In range, but 1e18 beside a landmark's 1e-2 leaves P numerically singular.
+    ("monobot.simulate(landmarks=2, steps=3, initial_variance=2**62)", NumericalError,
+     "initial_variance"),
 ]  # fmt: skip
 
 

@@ -31,6 +31,11 @@ from hypothesis import HealthCheck, settings
 
 TESTS = Path(__file__).resolve().parent.parent
 MEMORY_LIMIT = 2 << 30  # bytes of address space per child
+# rperc's own request limit in the child (RPERC_MAX_ALLOCATION_BYTES), well under the
+# address space: a request may allocate its buffer a few times over (particles, their
+# spare set, weights) beside the interpreter, and every request rperc accepts must then
+# succeed. Under the default 4 GiB, a 3 GiB request would pass the check and abort.
+ALLOCATION_LIMIT = MEMORY_LIMIT // 8
 # Seconds one example may take before it counts as a hang (the canary test shortens it).
 EXAMPLE_TIMEOUT = float(os.environ.get("RPERC_FUZZ_EXAMPLE_TIMEOUT", "20"))
 LONG = os.environ.get("RPERC_FUZZ") == "long"
@@ -97,6 +102,8 @@ def outcome(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> tuple[bool, An
 
 
 def _limit_memory() -> None:
+    # Before rperc's first size check, which reads the variable once.
+    os.environ["RPERC_MAX_ALLOCATION_BYTES"] = str(ALLOCATION_LIMIT)
     _, hard = resource.getrlimit(resource.RLIMIT_AS)
     cap = MEMORY_LIMIT if hard == resource.RLIM_INFINITY else min(MEMORY_LIMIT, hard)
     resource.setrlimit(resource.RLIMIT_AS, (cap, hard))

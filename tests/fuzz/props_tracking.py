@@ -19,10 +19,13 @@ from rperc.tracking import (
     resample,
 )
 
-from fuzz.harness import case, examples, outcome
+from fuzz.harness import ALLOCATION_LIMIT, case, examples, outcome
 from fuzz.strategies import EDGE_NUMBERS, HOSTILE, same_values
 
 RESAMPLERS = st.sampled_from(["systematic", "multinomial", "stratified", "residual"])
+# Index counts (8 bytes each) a quarter of the child's allocation limit, which must be
+# drawn, and one past it, which must be refused.
+AROUND_THE_LIMIT = [ALLOCATION_LIMIT // 32, ALLOCATION_LIMIT // 8 + 1]
 
 
 @st.composite
@@ -43,7 +46,8 @@ def _valid(w: np.ndarray) -> bool:
 @examples(150)
 @given(
     weights(),
-    st.one_of(st.integers(0, 40), EDGE_NUMBERS),
+    # Either side of the child's allocation limit: refused with MemoryError, or drawn.
+    st.one_of(st.integers(0, 40), EDGE_NUMBERS, st.sampled_from(AROUND_THE_LIMIT)),
     RESAMPLERS,
     st.one_of(st.integers(0, 2**64 - 1), EDGE_NUMBERS),
     st.data(),

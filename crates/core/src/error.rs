@@ -37,7 +37,7 @@ pub enum CoreError {
         count: u128,
         /// The bytes it would need.
         bytes: u128,
-        /// [`MAX_ALLOCATION_BYTES`].
+        /// [`max_allocation_bytes`].
         limit: u128,
     },
     /// The caller asked the work to stop (Ctrl-C in Python): see [`crate::interrupt`].
@@ -63,13 +63,33 @@ fn quoted(names: &[&str]) -> String {
         .join(", ")
 }
 
-/// The most memory one request may ask rperc to allocate (4 GiB): a size above it is
-/// refused with [`CoreError::TooLarge`] before anything is allocated, so a typo such as
-/// `n_particles=10**13` is an error, not an aborted process.
+/// The most memory one request may ask rperc to allocate by default (4 GiB): a size
+/// above the limit is refused with [`CoreError::TooLarge`] before anything is
+/// allocated, so a typo such as `n_particles=10**13` is an error, not an aborted
+/// process.
 pub const MAX_ALLOCATION_BYTES: u128 = 4 << 30;
 
-/// `Err(TooLarge)` when `count` items of `bytes_each` bytes exceed
+/// The environment variable that replaces [`MAX_ALLOCATION_BYTES`] for the process
+/// (read once, at the first check): a machine, container or test harness with less
+/// memory than the default sets it below what it can really allocate, so that every
+/// accepted request also succeeds. A value that is not a positive integer is ignored.
+pub const MAX_ALLOCATION_ENV: &str = "RPERC_MAX_ALLOCATION_BYTES";
+
+/// The limit in force: [`MAX_ALLOCATION_ENV`] if set to a positive integer, else
 /// [`MAX_ALLOCATION_BYTES`].
+pub fn max_allocation_bytes() -> u128 {
+    static LIMIT: std::sync::OnceLock<u128> = std::sync::OnceLock::new();
+    *LIMIT.get_or_init(|| {
+        std::env::var(MAX_ALLOCATION_ENV)
+            .ok()
+            .and_then(|v| v.trim().parse::<u128>().ok())
+            .filter(|&v| v > 0)
+            .unwrap_or(MAX_ALLOCATION_BYTES)
+    })
+}
+
+/// `Err(TooLarge)` when `count` items of `bytes_each` bytes exceed
+/// [`max_allocation_bytes`].
 ///
 /// # Examples
 /// ```
@@ -79,14 +99,15 @@ pub const MAX_ALLOCATION_BYTES: u128 = 4 << 30;
 /// ```
 pub fn check_allocation(name: &'static str, count: u128, bytes_each: u128) -> Result<()> {
     let bytes = count.saturating_mul(bytes_each);
-    if bytes <= MAX_ALLOCATION_BYTES {
+    let limit = max_allocation_bytes();
+    if bytes <= limit {
         Ok(())
     } else {
         Err(CoreError::TooLarge {
             name,
             count,
             bytes,
-            limit: MAX_ALLOCATION_BYTES,
+            limit,
         })
     }
 }

@@ -284,7 +284,18 @@ impl<'a> Simulation<'a> {
             self.run.std.push(cov[(i, i)].max(0.0).sqrt());
             err[i] = est[i] - t;
         }
-        self.run.nees.push(rperc_core::mahalanobis2(&err, &cov)?);
+        // P is PSD by construction; it loses definiteness only when the variances
+        // differ by more than double precision holds (a robot variance of 1e18 swallows
+        // a landmark's 1e-2), so say which parameters set them.
+        let nees = rperc_core::mahalanobis2(&err, &cov).map_err(|_| {
+            SlamError::Diverged(format!(
+                "the covariance of step {}: numerically singular, so the NEES is undefined; \
+                 initial_variance, plant_noise and measurement_noise span more than double \
+                 precision holds (keep their ratios under about 1e12)",
+                self.run.nees.len()
+            ))
+        })?;
+        self.run.nees.push(nees);
         Ok(())
     }
 }

@@ -186,3 +186,15 @@ pub fn shaped<'py>(
         .map(|a| a.into_pyarray(py))
         .map_err(|e| Error::Value(format!("internal shape error: {e}")))
 }
+
+/// Loads numpy's C API at import. The numpy crate loads it lazily, on the first array,
+/// by running Python code, and panics if that code raises; a Ctrl-C that arrived
+/// during native work is raised by exactly that code, so a long run interrupted just
+/// before it returns its arrays would end in a panic instead of KeyboardInterrupt.
+pub fn load_numpy_api(py: Python<'_>) -> PyResult<()> {
+    py.import("numpy")?;
+    std::panic::catch_unwind(|| {
+        numpy::PyArray1::<f64>::zeros(py, 0, false);
+    })
+    .map_err(|_| pyo3::exceptions::PyImportError::new_err("rperc could not load numpy's C API"))
+}

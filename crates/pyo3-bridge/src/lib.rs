@@ -55,6 +55,6 @@ mod _rperc {
     #[pymodule_init]
     fn init(m: &Bound<'_, PyModule>) -> PyResult<()> {
         m.add("__version__", env!("CARGO_PKG_VERSION"))?;
-        Ok(())
+        crate::arrays::load_numpy_api(m.py())
     }
 }

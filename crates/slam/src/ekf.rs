@@ -16,7 +16,10 @@ use std::collections::HashMap;
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Matrix3x2, Vector3};
 use rayon::prelude::*;
 
-use rperc_core::{Definiteness, check_allocation, check_covariance, wrap_angle};
+use rperc_core::{
+    Definiteness, check_allocation, check_covariance, cholesky_lower, cholesky_solve_mut,
+    wrap_angle,
+};
 
 use crate::error::{Result, SlamError, ensure_finite};
 
@@ -102,6 +105,14 @@ pub struct Update {
 /// States at least this large update `P` on all cores; below it, threads cost more
 /// than they save.
 const PARALLEL_MIN_DIM: usize = 384;
+
+/// State rows per block of the O(n m^2) products of an update, between which a Ctrl-C
+/// is heard (about 10 ms per block at m = 3000).
+pub(crate) const INTERRUPTIBLE_ROWS: usize = 256;
+
+/// Joseph updates of more multiply-adds than this (about 0.1 s) go through a copy of
+/// `P` so that Ctrl-C can stop them without leaving `P` half written.
+const INTERRUPTIBLE_JOSEPH_FLOPS: usize = 100_000_000;
 
 /// Refuses a noise covariance (`V`, `R`) that is not symmetric positive
 /// semi-definite: a negative variance would make `P` indefinite without any error
@@ -590,10 +601,10 @@ impl Ekf {
         // Joseph form, eq. (9), expanded for the sparse H:
         // (I - K H) P (I - K H)^T + K R K^T = P - K L^T - L K^T + K S K^T
         //                                   = P - K L^T + (K S - L) K^T.
-        let ks_minus_l = &p.gain * &p.s - &p.l;
+        let ks_minus_l = ks_minus_l(&p)?;
         self.check_updated_diagonal(&p.gain, &p.l, &ks_minus_l)?;
         let d = self.dim();
-        joseph_columns(&mut self.cov, d, &p.gain, &p.l, &ks_minus_l);
+        joseph_columns(&mut self.cov, d, &p.gain, &p.l, &ks_minus_l)?;
         self.x += dx;
         self.wrap_angles();
         Ok(Update {
@@ -852,6 +863,19 @@ fn innovation_covariance(h: &SparseJacobian, l: &DMatrix<f64>, r: &DMatrix<f64>)
     (&s + s.transpose()) * 0.5
 }
 
+/// `K S - L`, a block of state rows at a time with a Ctrl-C checkpoint between
+/// blocks (O(n m^2); nothing is written to the filter yet, so stopping is safe).
+fn ks_minus_l(p: &Prepared) -> Result<DMatrix<f64>> {
+    let mut out = -p.l.clone();
+    for start in (0..out.nrows()).step_by(INTERRUPTIBLE_ROWS) {
+        let rows = INTERRUPTIBLE_ROWS.min(out.nrows() - start);
+        let mut block = out.rows_mut(start, rows);
+        block.gemm(1.0, &p.gain.rows(start, rows), &p.s, 1.0);
+        rperc_core::interrupt::checkpoint()?;
+    }
+    Ok(out)
+}
+
 /// The gain `K = L S^-1` (eq. 7, from `S K^T = L^T`) and the NIS `nu^T S^-1 nu`;
 /// an error when `S` has no Cholesky factor or the gain is not finite.
 fn gain_and_nis(
@@ -862,32 +886,48 @@ fn gain_and_nis(
     if !s.iter().all(|v| v.is_finite()) {
         return Err(SlamError::SingularInnovation("S is not finite".into()));
     }
-    let chol = s.clone().cholesky().ok_or_else(|| {
+    let factor = cholesky_lower(s)?.ok_or_else(|| {
         SlamError::SingularInnovation(format!("S = {s:.3e} has no Cholesky factor"))
     })?;
-    let gain = chol.solve(&l.transpose()).transpose();
+    // K^T = S^-1 L^T, a block of state rows at a time: with every landmark observed
+    // (monobot) it is O(n^3), seconds at n = 3000, and Ctrl-C is heard between blocks.
+    let mut gain = DMatrix::<f64>::zeros(l.nrows(), l.ncols());
+    for start in (0..l.nrows()).step_by(INTERRUPTIBLE_ROWS) {
+        let rows = INTERRUPTIBLE_ROWS.min(l.nrows() - start);
+        let mut block = l.rows(start, rows).transpose();
+        cholesky_solve_mut(&factor, &mut block);
+        gain.rows_mut(start, rows).copy_from(&block.transpose());
+        rperc_core::interrupt::checkpoint()?;
+    }
     if !gain.iter().all(|v| v.is_finite()) {
         return Err(SlamError::SingularInnovation(
             "the gain is not finite (S is numerically singular)".into(),
         ));
     }
-    Ok((gain, innovation.dot(&chol.solve(innovation))))
+    let mut whitened = DMatrix::from_column_slice(innovation.len(), 1, innovation.as_slice());
+    cholesky_solve_mut(&factor, &mut whitened);
+    Ok((gain, innovation.dot(&whitened.column(0))))
 }
 
 /// `P <- P - K L^T + M K^T` on the lower triangle of the leading `d x d` block, one
 /// column suffix `P[j..d, j]` at a time (contiguous in nalgebra's column-major
 /// storage), on all cores for large states. Every entry is computed by the same
 /// operations whatever the thread count, so results are bit-identical.
+///
+/// A large update (seconds with thousands of observations at once) is written to a
+/// copy, a block of columns at a time with a Ctrl-C checkpoint between blocks, and
+/// copied back only when complete: an interrupted update leaves `P` as it was.
 fn joseph_columns(
     p: &mut DMatrix<f64>,
     d: usize,
     k: &DMatrix<f64>,
     l: &DMatrix<f64>,
     m: &DMatrix<f64>,
-) {
+) -> Result<()> {
     let cap = p.nrows();
     let obs = k.ncols();
     let (ks, ls, ms) = (k.as_slice(), l.as_slice(), m.as_slice());
+    // Column `j` of `P`, whole (`cap` rows); only rows `j..d` change.
     let update_column = |j: usize, col: &mut [f64]| {
         let lower = &mut col[j..d];
         for a in 0..obs {
@@ -898,15 +938,30 @@ fn joseph_columns(
             }
         }
     };
+    let update_columns = |first: usize, cols: &mut [f64]| {
+        if d >= PARALLEL_MIN_DIM {
+            cols.par_chunks_mut(cap)
+                .with_min_len(8)
+                .enumerate()
+                .for_each(|(j, col)| update_column(first + j, col));
+        } else {
+            cols.chunks_mut(cap)
+                .enumerate()
+                .for_each(|(j, col)| update_column(first + j, col));
+        }
+    };
     let data = &mut p.as_mut_slice()[..d * cap];
-    if d >= PARALLEL_MIN_DIM {
-        data.par_chunks_mut(cap)
-            .with_min_len(8)
-            .enumerate()
-            .for_each(|(j, col)| update_column(j, col));
-    } else {
-        data.chunks_mut(cap)
-            .enumerate()
-            .for_each(|(j, col)| update_column(j, col));
+    if (d * d / 2).saturating_mul(obs) < INTERRUPTIBLE_JOSEPH_FLOPS {
+        update_columns(0, data);
+        return Ok(());
     }
+    check_allocation("covariance copy of a large update", (d * cap) as u128, 8)?;
+    let mut copy = data.to_vec();
+    for first in (0..d).step_by(INTERRUPTIBLE_ROWS) {
+        let cols = INTERRUPTIBLE_ROWS.min(d - first);
+        update_columns(first, &mut copy[first * cap..(first + cols) * cap]);
+        rperc_core::interrupt::checkpoint()?;
+    }
+    data.copy_from_slice(&copy);
+    Ok(())
 }

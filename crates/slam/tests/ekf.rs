@@ -544,3 +544,66 @@ fn an_overflowing_new_landmark_is_refused_and_changes_nothing() {
     );
     assert_eq!(ekf, before);
 }
+
+/// Issue 15: with every landmark observed at once an update is O(n^3), seconds at a
+/// few thousand; Ctrl-C must stop it, and an interrupted update must leave the
+/// filter exactly as it was (the covariance is written through a copy). The signal
+/// arrives at the 1st, 2nd, 4th, ... poll until the update completes, so every stage
+/// (factorisation, gain, covariance write) is hit.
+#[test]
+fn an_interrupted_large_update_leaves_the_filter_unchanged() {
+    let mut rng = StdRng::seed_from_u64(15);
+    let n = 600; // 1-D landmarks, all observed relative to a 1-D robot
+    let p = random_spd(&mut rng, n + 1);
+    let x = DVector::from_fn(n + 1, |_, _| rng.random_range(-1.0..1.0));
+    let before = Ekf::new(x.clone(), p.clone(), 1, 1).unwrap();
+    let h = SparseJacobian::new(n)
+        .with_block(0, 0, DMatrix::from_element(n, 1, -1.0))
+        .with_block(0, 1, DMatrix::identity(n, n));
+    let nu = DVector::from_fn(n, |_, _| rng.random_range(-0.1..0.1));
+    let r = DMatrix::identity(n, n) * 0.01;
+    let mut fire_at = 1;
+    let ekf = loop {
+        let mut ekf = before.clone();
+        let mut polls = 0;
+        let poll = move || {
+            polls += 1;
+            polls >= fire_at
+        };
+        match rperc_core::interrupt::run_polled(poll, || ekf.update(&nu, &h, &r)) {
+            Err(SlamError::Core(CoreError::Interrupted)) => {
+                assert_eq!(
+                    ekf, before,
+                    "interrupted at poll {fire_at}: the filter changed"
+                );
+                fire_at *= 4;
+            }
+            out => {
+                out.unwrap();
+                break ekf;
+            }
+        }
+    };
+    assert!(fire_at > 1, "the update was never interrupted");
+    // The oracle: the same observations one by one (R is diagonal, so sequential
+    // equals batch), each a small in-place update; the dense O(n^3) oracle takes
+    // tens of seconds in a debug build.
+    let mut sequential = before.clone();
+    let x0 = before.state().clone();
+    sequential
+        .update_sequential(n, |x, i| {
+            // Linear: z_i = l_i - x_r, so the innovation shifts with the state.
+            let shift = (x[i + 1] - x0[i + 1]) - (x[0] - x0[0]);
+            let hi = SparseJacobian::new(1)
+                .with_block(0, 0, DMatrix::from_element(1, 1, -1.0))
+                .with_block(0, i + 1, DMatrix::from_element(1, 1, 1.0));
+            Ok((
+                DVector::from_element(1, nu[i] - shift),
+                hi,
+                DMatrix::identity(1, 1) * 0.01,
+            ))
+        })
+        .unwrap();
+    assert!(rel_err(&ekf.covariance(), &sequential.covariance()) < 1e-9);
+    assert!((ekf.state() - sequential.state()).amax() < 1e-9);
+}

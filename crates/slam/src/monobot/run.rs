@@ -2,11 +2,12 @@
 //! information accumulated along the way.
 
 use nalgebra::{DMatrix, DVector};
+use rperc_core::CoreError;
 use rperc_core::rng::{RngStream, normal, stream};
 
 use super::model::{MeasurementModel, MonobotConfig};
 use super::monte_carlo::RunErrors;
-use crate::ekf::{Ekf, SparseJacobian, Update};
+use crate::ekf::{Ekf, INTERRUPTIBLE_ROWS, SparseJacobian, Update};
 use crate::error::{Result, SlamError};
 
 /// One simulated run. Per-step arrays are row-major; index 0 is the state after the
@@ -255,15 +256,26 @@ impl<'a> Simulation<'a> {
         (z, r)
     }
 
-    /// Eq. (14): `J += H^T S^-1 H`.
+    /// Eq. (14): `J += H^T S^-1 H = W^T W` with `W = F^-1 H` (`S = F F^T`). Both
+    /// products are O(n^3) with every landmark observed, so they run a block of
+    /// columns at a time, with a Ctrl-C checkpoint between blocks.
     fn accumulate_fisher(&mut self, update: &Update) -> Result<()> {
-        let s_inv = update
-            .innovation_cov
-            .clone()
-            .cholesky()
-            .ok_or_else(|| SlamError::SingularInnovation("S lost definiteness".into()))?
-            .inverse();
-        self.run.fisher += self.h_dense.transpose() * s_inv * &self.h_dense;
+        let factor = rperc_core::cholesky_lower(&update.innovation_cov)?
+            .ok_or_else(|| SlamError::SingularInnovation("S lost definiteness".into()))?;
+        let mut w = self.h_dense.clone();
+        let d = w.ncols();
+        for start in (0..d).step_by(INTERRUPTIBLE_ROWS) {
+            let cols = INTERRUPTIBLE_ROWS.min(d - start);
+            let mut block = w.columns_mut(start, cols);
+            factor.solve_lower_triangular_mut(&mut block);
+            rperc_core::interrupt::checkpoint()?;
+        }
+        for start in (0..d).step_by(INTERRUPTIBLE_ROWS) {
+            let cols = INTERRUPTIBLE_ROWS.min(d - start);
+            let mut fisher = self.run.fisher.columns_mut(start, cols);
+            fisher.gemm_tr(1.0, &w, &w.columns(start, cols), 1.0);
+            rperc_core::interrupt::checkpoint()?;
+        }
         self.run.fisher_00.push(self.run.fisher[(0, 0)]);
         Ok(())
     }
@@ -287,13 +299,14 @@ impl<'a> Simulation<'a> {
         // P is PSD by construction; it loses definiteness only when the variances
         // differ by more than double precision holds (a robot variance of 1e18 swallows
         // a landmark's 1e-2), so say which parameters set them.
-        let nees = rperc_core::mahalanobis2(&err, &cov).map_err(|_| {
-            SlamError::Diverged(format!(
+        let nees = rperc_core::mahalanobis2(&err, &cov).map_err(|e| match e {
+            CoreError::NotPositiveDefinite { .. } => SlamError::Diverged(format!(
                 "the covariance of step {}: numerically singular, so the NEES is undefined; \
                  initial_variance, plant_noise and measurement_noise span more than double \
                  precision holds (keep their ratios under about 1e12)",
                 self.run.nees.len()
-            ))
+            )),
+            other => other.into(),
         })?;
         self.run.nees.push(nees);
         Ok(())

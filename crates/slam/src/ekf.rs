@@ -313,6 +313,19 @@ impl Ekf {
         }))
     }
 
+    /// The block `P[row..row + R, col..col + C]` as a fixed-size matrix, read from
+    /// the stored lower triangle without allocating (the association reads many
+    /// 2x2 and 3x2 blocks per scan); `None` when it does not fit.
+    pub fn covariance_block_fixed<const R: usize, const C: usize>(
+        &self,
+        row: usize,
+        col: usize,
+    ) -> Option<nalgebra::SMatrix<f64, R, C>> {
+        let d = self.dim();
+        (row + R <= d && col + C <= d)
+            .then(|| nalgebra::SMatrix::from_fn(|i, j| self.cov_at(row + i, col + j)))
+    }
+
     /// The robot block `P_rr` (`robot_dim x robot_dim`).
     pub fn robot_covariance(&self) -> DMatrix<f64> {
         let r = self.robot_dim;
@@ -865,7 +878,9 @@ fn gain_and_nis(
     let chol = s.clone().cholesky().ok_or_else(|| {
         SlamError::SingularInnovation(format!("S = {s:.3e} has no Cholesky factor"))
     })?;
-    let gain = chol.solve(&l.transpose()).transpose();
+    // `S^-1` is small (m x m): `K = L S^-1` is then one matrix product, which is much
+    // faster than m triangular solves against the d columns of `L^T`.
+    let gain = l * chol.inverse();
     if !gain.iter().all(|v| v.is_finite()) {
         return Err(SlamError::SingularInnovation(
             "the gain is not finite (S is numerically singular)".into(),
@@ -874,10 +889,17 @@ fn gain_and_nis(
     Ok((gain, innovation.dot(&chol.solve(innovation))))
 }
 
-/// `P <- P - K L^T + M K^T` on the lower triangle of the leading `d x d` block, one
-/// column suffix `P[j..d, j]` at a time (contiguous in nalgebra's column-major
-/// storage), on all cores for large states. Every entry is computed by the same
-/// operations whatever the thread count, so results are bit-identical.
+/// Width of the column blocks of the Joseph update: each block is one matrix product
+/// `[K M] [-L K]^T` restricted to the rows on and below the block, so `K` and `M`
+/// are streamed once per block rather than once per column.
+const JOSEPH_BLOCK: usize = 48;
+
+/// `P <- P - K L^T + M K^T` on the lower triangle of the leading `d x d` block, as
+/// `P[j0.., J] += [K M][j0.., :] [-L K][J, :]^T` for column blocks `J = j0..j0 + w`
+/// (cache-blocked products; the diagonal blocks also write the part of the block
+/// above the diagonal, which is never read), on all cores for large states. Every
+/// entry is computed by the same operations whatever the thread count, so results
+/// are bit-identical.
 fn joseph_columns(
     p: &mut DMatrix<f64>,
     d: usize,
@@ -887,26 +909,33 @@ fn joseph_columns(
 ) {
     let cap = p.nrows();
     let obs = k.ncols();
-    let (ks, ls, ms) = (k.as_slice(), l.as_slice(), m.as_slice());
-    let update_column = |j: usize, col: &mut [f64]| {
-        let lower = &mut col[j..d];
-        for a in 0..obs {
-            let (ka, ma) = (&ks[a * d + j..(a + 1) * d], &ms[a * d + j..(a + 1) * d]);
-            let (alpha, beta) = (-ls[a * d + j], ks[a * d + j]);
-            for ((c, &kv), &mv) in lower.iter_mut().zip(ka).zip(ma) {
-                *c += alpha * kv + beta * mv;
-            }
-        }
+    let mut a = DMatrix::<f64>::zeros(d, 2 * obs);
+    a.columns_mut(0, obs).copy_from(k);
+    a.columns_mut(obs, obs).copy_from(m);
+    // `B^T` stored so that the block product reads contiguous columns.
+    let mut bt = DMatrix::<f64>::zeros(2 * obs, d);
+    bt.rows_mut(0, obs).copy_from(&(-l.transpose()));
+    bt.rows_mut(obs, obs).copy_from(&k.transpose());
+    let update_block = |b: usize, block: &mut [f64]| {
+        let j0 = b * JOSEPH_BLOCK;
+        let w = JOSEPH_BLOCK.min(d - j0);
+        let mut c = nalgebra::DMatrixViewMut::from_slice_with_strides_mut(
+            &mut block[j0..],
+            d - j0,
+            w,
+            1,
+            cap,
+        );
+        c.gemm(1.0, &a.rows(j0, d - j0), &bt.columns(j0, w), 1.0);
     };
     let data = &mut p.as_mut_slice()[..d * cap];
     if d >= PARALLEL_MIN_DIM {
-        data.par_chunks_mut(cap)
-            .with_min_len(8)
+        data.par_chunks_mut(cap * JOSEPH_BLOCK)
             .enumerate()
-            .for_each(|(j, col)| update_column(j, col));
+            .for_each(|(b, block)| update_block(b, block));
     } else {
-        data.chunks_mut(cap)
+        data.chunks_mut(cap * JOSEPH_BLOCK)
             .enumerate()
-            .for_each(|(j, col)| update_column(j, col));
+            .for_each(|(b, block)| update_block(b, block));
     }
 }

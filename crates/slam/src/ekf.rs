@@ -324,6 +324,19 @@ impl Ekf {
         }))
     }
 
+    /// The block `P[row..row + R, col..col + C]` as a fixed-size matrix, read from
+    /// the stored lower triangle without allocating (the association reads many
+    /// 2x2 and 3x2 blocks per scan); `None` when it does not fit.
+    pub fn covariance_block_fixed<const R: usize, const C: usize>(
+        &self,
+        row: usize,
+        col: usize,
+    ) -> Option<nalgebra::SMatrix<f64, R, C>> {
+        let d = self.dim();
+        (row + R <= d && col + C <= d)
+            .then(|| nalgebra::SMatrix::from_fn(|i, j| self.cov_at(row + i, col + j)))
+    }
+
     /// The robot block `P_rr` (`robot_dim x robot_dim`).
     pub fn robot_covariance(&self) -> DMatrix<f64> {
         let r = self.robot_dim;
@@ -889,14 +902,17 @@ fn gain_and_nis(
     let factor = cholesky_lower(s)?.ok_or_else(|| {
         SlamError::SingularInnovation(format!("S = {s:.3e} has no Cholesky factor"))
     })?;
-    // K^T = S^-1 L^T, a block of state rows at a time: with every landmark observed
-    // (monobot) it is O(n^3), seconds at n = 3000, and Ctrl-C is heard between blocks.
+    // `S^-1` is small (m x m): `K = L S^-1` is then a matrix product, much faster than
+    // m triangular solves against the d columns of `L^T`. It runs a block of state
+    // rows at a time: with every landmark observed (monobot) it is O(n^3), seconds at
+    // n = 3000, and Ctrl-C is heard between blocks.
+    let mut s_inv = DMatrix::<f64>::identity(s.nrows(), s.ncols());
+    cholesky_solve_mut(&factor, &mut s_inv);
     let mut gain = DMatrix::<f64>::zeros(l.nrows(), l.ncols());
     for start in (0..l.nrows()).step_by(INTERRUPTIBLE_ROWS) {
         let rows = INTERRUPTIBLE_ROWS.min(l.nrows() - start);
-        let mut block = l.rows(start, rows).transpose();
-        cholesky_solve_mut(&factor, &mut block);
-        gain.rows_mut(start, rows).copy_from(&block.transpose());
+        let mut block = gain.rows_mut(start, rows);
+        block.gemm(1.0, &l.rows(start, rows), &s_inv, 0.0);
         rperc_core::interrupt::checkpoint()?;
     }
     if !gain.iter().all(|v| v.is_finite()) {
@@ -909,14 +925,24 @@ fn gain_and_nis(
     Ok((gain, innovation.dot(&whitened.column(0))))
 }
 
-/// `P <- P - K L^T + M K^T` on the lower triangle of the leading `d x d` block, one
-/// column suffix `P[j..d, j]` at a time (contiguous in nalgebra's column-major
-/// storage), on all cores for large states. Every entry is computed by the same
-/// operations whatever the thread count, so results are bit-identical.
+/// Width of the column blocks of the Joseph update: each block is one matrix product
+/// `[K M] [-L K]^T` restricted to the rows on and below the block, so `K` and `M`
+/// are streamed once per block rather than once per column.
+const JOSEPH_BLOCK: usize = 48;
+
+/// Joseph column blocks between two Ctrl-C checkpoints of a large update.
+const JOSEPH_BLOCKS_PER_CHECKPOINT: usize = 5;
+
+/// `P <- P - K L^T + M K^T` on the lower triangle of the leading `d x d` block, as
+/// `P[j0.., J] += [K M][j0.., :] [-L K][J, :]^T` for column blocks `J = j0..j0 + w`
+/// (cache-blocked products; the diagonal blocks also write the part of the block
+/// above the diagonal, which is never read), on all cores for large states. Every
+/// entry is computed by the same operations whatever the thread count, so results
+/// are bit-identical.
 ///
 /// A large update (seconds with thousands of observations at once) is written to a
-/// copy, a block of columns at a time with a Ctrl-C checkpoint between blocks, and
-/// copied back only when complete: an interrupted update leaves `P` as it was.
+/// copy, a few blocks at a time with a Ctrl-C checkpoint between them, and copied
+/// back only when complete: an interrupted update leaves `P` as it was.
 fn joseph_columns(
     p: &mut DMatrix<f64>,
     d: usize,
@@ -926,40 +952,52 @@ fn joseph_columns(
 ) -> Result<()> {
     let cap = p.nrows();
     let obs = k.ncols();
-    let (ks, ls, ms) = (k.as_slice(), l.as_slice(), m.as_slice());
-    // Column `j` of `P`, whole (`cap` rows); only rows `j..d` change.
-    let update_column = |j: usize, col: &mut [f64]| {
-        let lower = &mut col[j..d];
-        for a in 0..obs {
-            let (ka, ma) = (&ks[a * d + j..(a + 1) * d], &ms[a * d + j..(a + 1) * d]);
-            let (alpha, beta) = (-ls[a * d + j], ks[a * d + j]);
-            for ((c, &kv), &mv) in lower.iter_mut().zip(ka).zip(ma) {
-                *c += alpha * kv + beta * mv;
-            }
-        }
+    let mut a = DMatrix::<f64>::zeros(d, 2 * obs);
+    a.columns_mut(0, obs).copy_from(k);
+    a.columns_mut(obs, obs).copy_from(m);
+    // `B^T` stored so that the block product reads contiguous columns.
+    let mut bt = DMatrix::<f64>::zeros(2 * obs, d);
+    bt.rows_mut(0, obs).copy_from(&(-l.transpose()));
+    bt.rows_mut(obs, obs).copy_from(&k.transpose());
+    // Block `b` of columns, `block` starting at row 0 of its first column.
+    let update_block = |b: usize, block: &mut [f64]| {
+        let j0 = b * JOSEPH_BLOCK;
+        let w = JOSEPH_BLOCK.min(d - j0);
+        let mut c = nalgebra::DMatrixViewMut::from_slice_with_strides_mut(
+            &mut block[j0..],
+            d - j0,
+            w,
+            1,
+            cap,
+        );
+        c.gemm(1.0, &a.rows(j0, d - j0), &bt.columns(j0, w), 1.0);
     };
-    let update_columns = |first: usize, cols: &mut [f64]| {
+    // Whole blocks, the first of them block `first`.
+    let update_blocks = |first: usize, cols: &mut [f64]| {
         if d >= PARALLEL_MIN_DIM {
-            cols.par_chunks_mut(cap)
-                .with_min_len(8)
+            cols.par_chunks_mut(cap * JOSEPH_BLOCK)
                 .enumerate()
-                .for_each(|(j, col)| update_column(first + j, col));
+                .for_each(|(b, block)| update_block(first + b, block));
         } else {
-            cols.chunks_mut(cap)
+            cols.chunks_mut(cap * JOSEPH_BLOCK)
                 .enumerate()
-                .for_each(|(j, col)| update_column(first + j, col));
+                .for_each(|(b, block)| update_block(first + b, block));
         }
     };
     let data = &mut p.as_mut_slice()[..d * cap];
     if (d * d / 2).saturating_mul(obs) < INTERRUPTIBLE_JOSEPH_FLOPS {
-        update_columns(0, data);
+        update_blocks(0, data);
         return Ok(());
     }
     check_allocation("covariance copy of a large update", (d * cap) as u128, 8)?;
     let mut copy = data.to_vec();
-    for first in (0..d).step_by(INTERRUPTIBLE_ROWS) {
-        let cols = INTERRUPTIBLE_ROWS.min(d - first);
-        update_columns(first, &mut copy[first * cap..(first + cols) * cap]);
+    let step = JOSEPH_BLOCK * JOSEPH_BLOCKS_PER_CHECKPOINT;
+    for first in (0..d).step_by(step) {
+        let cols = step.min(d - first);
+        update_blocks(
+            first / JOSEPH_BLOCK,
+            &mut copy[first * cap..(first + cols) * cap],
+        );
         rperc_core::interrupt::checkpoint()?;
     }
     data.copy_from_slice(&copy);

@@ -63,6 +63,24 @@ fn random_problem(
     (Ekf::new(x, p, rd, md).unwrap(), nu, h, r)
 }
 
+/// States large enough for the update's column blocks (several, the last one
+/// partial) and for its parallel path: the blocked products equal the dense Joseph
+/// form written out with the full H.
+#[test]
+fn blocked_joseph_equals_dense_joseph_on_large_states() {
+    for (seed, landmarks, obs) in [(1, 30, 2), (2, 47, 4), (3, 230, 6)] {
+        let (mut ekf, nu, h, r) = random_problem(seed, landmarks, obs);
+        let (x0, p0) = (ekf.state().clone(), ekf.covariance().clone());
+        let (x1, p1) = dense_joseph(&x0, &p0, &nu, &h.to_dense(x0.len()), &r);
+        ekf.update(&nu, &h, &r).unwrap();
+        assert!((ekf.state() - &x1).amax() < 1e-9 * (1.0 + x1.amax()));
+        assert!(
+            rel_err(&ekf.covariance(), &p1) < 1e-9,
+            "{landmarks} landmarks"
+        );
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(200))]
 

@@ -95,15 +95,26 @@ def _mrclam(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dict[
 
 def _victoria(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dict[str, Any]]:
     from rperc.datasets import load_victoria_park
+    from rperc.datasets.victoria_park import LASER_MOUNT
 
     park = load_victoria_park(args.directory)
     cfg = {**PRESETS["victoria"], "association": args.association, **args.config}
     cfg = variant_config(cfg, args.variant)
     ev = victoria_recording(park, gps_sigma=args.gps_sigma if "external" in args.variant else None)
     result = PlanarSlam(cfg).run(ev)
-    gps = np.c_[park.gps_x, park.gps_y]
-    err = result.gps_error(park.gps_t, gps)
-    metrics = {"gps_rms_aligned_m": err.rms, "gps_fixes": len(err.distance)}
+    # Scored at the laser (the point Guivant and Nebot's filter estimates; a GPS lever
+    # arm fitted on the first half of the run alone lands within 0.25 m of it), against
+    # the fixes that are not receiver glitches.
+    keep = park.gps_plausible()
+    t_gps, gps = park.gps_t[keep], np.c_[park.gps_x, park.gps_y][keep]
+    err = result.gps_error(t_gps, gps, lever_arm=LASER_MOUNT)
+    axle = result.gps_error(t_gps, gps)
+    metrics = {
+        "gps_rms_aligned_m": err.rms,
+        "gps_rms_aligned_rear_axle_m": axle.rms,
+        "gps_fixes": len(err.distance),
+        "gps_fixes_implausible": int(np.count_nonzero(~keep)),
+    }
     ref = {"truth": gps, "landmarks": None, "label": "GPS fixes", "transform": err.transform}
     return result, metrics, ref
 

@@ -43,6 +43,7 @@ __all__ = [
     "defaults",
     "mrclam_recording",
     "mrclam_start",
+    "point_path",
     "victoria_recording",
 ]
 
@@ -62,6 +63,8 @@ PRESETS: dict[str, dict[str, Any]] = {
         "bearing_variance": float(np.radians(3.0) ** 2),
         "association": "jcbb",
         "candidate_sightings": 3,
+        # The GPS is compared at the laser (external variant, eqs. 26-27).
+        "fix_lever_arm": [3.78, 0.50],
     },
 }
 
@@ -162,10 +165,20 @@ class SlamResult:
         offset: np.ndarray = np.asarray(self.anchor) - xy[match[0]]
         return offset
 
-    def gps_error(self, t_gps: npt.ArrayLike, gps: npt.ArrayLike) -> evaluation.GpsError:
-        """Distance to each GPS fix after one rigid alignment of the whole path."""
+    def gps_error(
+        self,
+        t_gps: npt.ArrayLike,
+        gps: npt.ArrayLike,
+        *,
+        lever_arm: tuple[float, float] = (0.0, 0.0),
+    ) -> evaluation.GpsError:
+        """Distance to each GPS fix after one rigid alignment of the whole path.
+
+        ``lever_arm`` is where the GPS point sits on the robot (m, forward and left of
+        the pose's origin): the path compared is that point's, ``t + R(theta) arm``.
+        """
         t, pose, _ = self.path()
-        return evaluation.gps_error(t, pose, t_gps, gps)
+        return evaluation.gps_error(t, point_path(pose, lever_arm), t_gps, gps)
 
     def landmark_rmse(
         self,
@@ -202,6 +215,18 @@ class SlamResult:
                 "seconds": float(self.seconds.sum()),
             }
         )
+
+
+def point_path(pose: npt.ArrayLike, offset: tuple[float, float]) -> np.ndarray:
+    """The path ``(N, 2)`` of the point ``offset`` (m, forward and left) of the robot
+    whose poses ``(N, 3)`` are given: ``t + R(theta) offset``."""
+    p = np.asarray(pose, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 3:
+        raise ValueError(f"pose must have shape (N, 3), got {p.shape}")
+    c, s = np.cos(p[:, 2]), np.sin(p[:, 2])
+    fx, fy = float(offset[0]), float(offset[1])
+    out: np.ndarray = np.c_[p[:, 0] + c * fx - s * fy, p[:, 1] + s * fx + c * fy]
+    return out
 
 
 @dataclass(frozen=True)

@@ -3,7 +3,7 @@
 //! compatibility branch and bound (JCBB, Neira & Tardos 2001) searched with an
 //! explicit stack and a bound on the number of nodes visited.
 
-use nalgebra::{DMatrix, DVector, Matrix2, Matrix2x3, Matrix3, Matrix3x2, Point2, Vector2};
+use nalgebra::{Matrix2, Matrix2x3, Matrix3, Matrix3x2, Point2, Vector2};
 use rperc_core::{Pose2, wrap_angle};
 
 use super::observe::observe;
@@ -52,14 +52,6 @@ pub(crate) struct Scene<'a> {
     pub w: Matrix2<f64>,
     pub fixed: &'a [FixedPoint],
     prr: Matrix3<f64>,
-}
-
-fn fixed3x2(m: &DMatrix<f64>) -> Matrix3x2<f64> {
-    Matrix3x2::from_column_slice(m.as_slice())
-}
-
-fn fixed2(m: &DMatrix<f64>) -> Matrix2<f64> {
-    Matrix2::from_column_slice(m.as_slice())
 }
 
 impl<'a> Scene<'a> {
@@ -117,57 +109,100 @@ impl<'a> Scene<'a> {
         p.nis.is_finite().then_some(p)
     }
 
-    /// `H_a P H_b^T` from the robot, landmark and cross blocks of `P`.
+    /// `H_a P H_b^T` from the robot, landmark and cross blocks of `P` (read as
+    /// fixed-size blocks, no allocation: JCBB calls this at every node).
     pub fn cross(&self, a: &Pairing, b: &Pairing) -> Matrix2<f64> {
+        let block = |r: usize, c: usize| -> Matrix3x2<f64> {
+            self.ekf
+                .covariance_block_fixed::<3, 2>(r, c)
+                .expect("landmark offset inside the state")
+        };
         let mut s = a.h_robot * self.prr * b.h_robot.transpose();
         if let Some(ob) = b.offset {
-            let prb = fixed3x2(&self.ekf.covariance_block(0, ob, 3, 2).expect("offset"));
-            s += a.h_robot * prb * b.h_landmark.transpose();
+            s += a.h_robot * block(0, ob) * b.h_landmark.transpose();
         }
         if let Some(oa) = a.offset {
-            let pra = fixed3x2(&self.ekf.covariance_block(0, oa, 3, 2).expect("offset"));
-            s += a.h_landmark * pra.transpose() * b.h_robot.transpose();
+            s += a.h_landmark * block(0, oa).transpose() * b.h_robot.transpose();
             if let Some(ob) = b.offset {
-                let pab = fixed2(&self.ekf.covariance_block(oa, ob, 2, 2).expect("offset"));
+                let pab = self
+                    .ekf
+                    .covariance_block_fixed::<2, 2>(oa, ob)
+                    .expect("landmark offsets inside the state");
                 s += a.h_landmark * pab * b.h_landmark.transpose();
             }
         }
         s
     }
+}
 
-    /// The joint NIS `nu_H^T S_H^-1 nu_H` of a hypothesis (eq. 8 stacked); `None`
-    /// when `S_H` has no Cholesky factor.
-    pub fn joint_nis(&self, hyp: &[&Pairing]) -> Option<f64> {
-        let k = hyp.len();
-        let mut s = DMatrix::zeros(2 * k, 2 * k);
-        let mut nu = DVector::zeros(2 * k);
-        for (i, a) in hyp.iter().enumerate() {
-            nu.fixed_rows_mut::<2>(2 * i).copy_from(&a.nu);
-            for (j, b) in hyp.iter().enumerate().skip(i) {
-                let mut block = self.cross(a, b);
-                if i == j {
-                    block += a.r;
-                }
-                s.fixed_view_mut::<2, 2>(2 * i, 2 * j).copy_from(&block);
-                s.fixed_view_mut::<2, 2>(2 * j, 2 * i)
-                    .copy_from(&block.transpose());
-            }
+/// A cheap, conservative screen of one target: its predicted range and bearing and
+/// upper bounds of the diagonal of `S` for any detection of it.
+///
+/// For any SPD `S`, `nu^T S^-1 nu >= nu_i^2 / S_ii` (Cauchy-Schwarz), and for the PSD
+/// joint covariance of robot and landmark, `h P h^T <= 2 (|h_r|^2 tr P_rr + |h_l|^2
+/// tr P_ll)`. With `|dr/d robot|^2 <= 1 + |m|^2`, `|dr/dl| = 1`, `|db/d robot|^2 <=
+/// 1/r^2 + (1 + |m|/r)^2` and `|db/dl| = 1/r` (`m` the sensor mount), a detection whose
+/// range or bearing innovation exceeds `gate * bound` cannot be individually
+/// compatible: the screen never drops a pairing the full test would keep.
+struct Screen {
+    range: f64,
+    bearing: f64,
+    range_bound: f64,
+    bearing_bound: f64,
+}
+
+impl Scene<'_> {
+    fn screen(&self, target: Target) -> Option<Screen> {
+        let (l, offset) = self.landmark(target);
+        let sensor = self.robot.compose(&self.mount);
+        let (dx, dy) = (l.x - sensor.x, l.y - sensor.y);
+        let r = dx.hypot(dy);
+        // A landmark on the sensor (or a NaN) has no bearing: `pairing` refuses it too.
+        if r.is_nan() || r <= 0.0 {
+            return None;
         }
-        let chol = s.cholesky()?;
-        Some(nu.dot(&chol.solve(&nu)))
+        let tr_landmark = match (target, offset) {
+            (Target::State(_), Some(o)) => {
+                let x = self.ekf.covariance_block_fixed::<2, 2>(o, o)?;
+                x.trace()
+            }
+            (Target::Fixed(k), _) => self.fixed[k].cov.trace(),
+            _ => 0.0,
+        };
+        let tr_robot = self.prr.trace();
+        let m = self.mount.translation().norm();
+        let range_bound = 2.0 * ((1.0 + m * m) * tr_robot + tr_landmark) + self.w[(0, 0)];
+        let hb = 1.0 / (r * r) + (1.0 + m / r).powi(2);
+        let bearing_bound = 2.0 * (hb * tr_robot + tr_landmark / (r * r)) + self.w[(1, 1)];
+        Some(Screen {
+            range: r,
+            bearing: wrap_angle(dy.atan2(dx) - sensor.theta),
+            range_bound,
+            bearing_bound,
+        })
+    }
+}
+
+impl Screen {
+    fn may_pass(&self, z: &Vector2<f64>, gate: f64) -> bool {
+        let (er, eb) = (z.x - self.range, wrap_angle(z.y - self.bearing));
+        er * er <= gate * self.range_bound && eb * eb <= gate * self.bearing_bound
     }
 }
 
 /// Every pairing of each detection with each target whose NIS is within `gate`
-/// (individual compatibility), sorted by NIS.
+/// (individual compatibility), sorted by NIS. Targets are first screened by
+/// [`Screen`] (exact: it only skips pairings that would fail the gate), so the
+/// full linearisation is made only for the landmarks near each detection.
 pub(crate) fn compatible(
     scene: &Scene<'_>,
     detections: &[Vector2<f64>],
     gate: f64,
 ) -> Vec<Vec<Pairing>> {
-    let targets: Vec<Target> = (0..scene.ekf.num_landmarks())
+    let targets: Vec<(Target, Screen)> = (0..scene.ekf.num_landmarks())
         .map(Target::State)
         .chain((0..scene.fixed.len()).map(Target::Fixed))
+        .filter_map(|t| scene.screen(t).map(|s| (t, s)))
         .collect();
     detections
         .iter()
@@ -175,7 +210,8 @@ pub(crate) fn compatible(
         .map(|(i, z)| {
             let mut options: Vec<Pairing> = targets
                 .iter()
-                .filter_map(|&t| scene.pairing(i, z, t))
+                .filter(|(_, screen)| screen.may_pass(z, gate))
+                .filter_map(|&(t, _)| scene.pairing(i, z, t))
                 .filter(|p| p.nis <= gate)
                 .collect();
             options.sort_by(|a, b| a.nis.total_cmp(&b.nis));
@@ -210,125 +246,201 @@ pub(crate) struct JcbbOutcome {
     pub truncated: bool,
 }
 
-/// The search state of JCBB: one level per detection, each trying its compatible
-/// targets in order of NIS and then "no target" (the null pairing).
-struct Search<'s> {
-    options: &'s [Vec<Pairing>],
-    /// Next option to try at each level (`options[level].len()` is the null option).
-    next: Vec<usize>,
-    /// The option taken at each level on the current path (`None`: null).
-    taken: Vec<Option<usize>>,
-    best: Vec<(usize, usize)>,
+/// The Cholesky factor of the joint innovation covariance `S_H` of the current
+/// hypothesis, grown by two rows per pairing and shrunk by forgetting them, so a
+/// node of the search costs O(k^2) (one forward substitution) instead of the O(k^3)
+/// of a new factorisation. Buffers are sized once per scan: no allocation per node.
+struct JointFactor<'s> {
+    /// Row-major lower-triangular factor, `dim x dim`.
+    chol: Vec<f64>,
+    /// `y = chol^-1 nu_H`: the joint NIS is `|y|^2`.
+    y: Vec<f64>,
+    /// `nis[k]`: the joint NIS of the first `k` pairings.
+    nis: Vec<f64>,
+    /// The pairings of the hypothesis, in order.
+    hyp: Vec<&'s Pairing>,
+    /// Scratch: the two new columns of `S_H` and their forward substitution.
+    x: Vec<[f64; 2]>,
+    dim: usize,
 }
 
-impl Search<'_> {
-    fn hypothesis(&self) -> Vec<&Pairing> {
-        self.taken
-            .iter()
-            .enumerate()
-            .filter_map(|(lvl, o)| o.map(|k| &self.options[lvl][k]))
-            .collect()
+impl<'s> JointFactor<'s> {
+    fn new(max_pairings: usize) -> Self {
+        let dim = 2 * max_pairings;
+        Self {
+            chol: vec![0.0; dim * dim],
+            y: vec![0.0; dim],
+            nis: {
+                let mut v = Vec::with_capacity(max_pairings + 1);
+                v.push(0.0);
+                v
+            },
+            hyp: Vec::with_capacity(max_pairings),
+            x: vec![[0.0; 2]; dim],
+            dim,
+        }
     }
 
-    fn used(&self, target: Target) -> bool {
-        self.hypothesis().iter().any(|p| p.target == target)
+    fn len(&self) -> usize {
+        self.hyp.len()
+    }
+
+    fn joint_nis(&self) -> f64 {
+        self.nis[self.len()]
+    }
+
+    /// Appends `p` when the extended hypothesis has a Cholesky factor and its joint
+    /// NIS is within `gate`; `false` (and nothing changed) otherwise.
+    fn push(&mut self, scene: &Scene<'_>, p: &'s Pairing, gate: f64) -> bool {
+        let n = 2 * self.len();
+        // New columns B = S_H[0..n, new] and their forward substitution X = L^-1 B.
+        for (i, q) in self.hyp.iter().enumerate() {
+            let b = scene.cross(q, p);
+            self.x[2 * i] = [b[(0, 0)], b[(0, 1)]];
+            self.x[2 * i + 1] = [b[(1, 0)], b[(1, 1)]];
+        }
+        for r in 0..n {
+            let row = &self.chol[r * self.dim..r * self.dim + r + 1];
+            for c in 0..2 {
+                let dot: f64 = (0..r).map(|k| row[k] * self.x[k][c]).sum();
+                self.x[r][c] = (self.x[r][c] - dot) / row[r];
+            }
+        }
+        // The new 2x2 diagonal block: chol(D - X^T X).
+        let mut d = scene.cross(p, p) + p.r;
+        let mut rhs = p.nu;
+        for r in 0..n {
+            let xr = self.x[r];
+            for (i, j) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+                d[(i, j)] -= xr[i] * xr[j];
+            }
+            rhs[0] -= xr[0] * self.y[r];
+            rhs[1] -= xr[1] * self.y[r];
+        }
+        let l00 = d[(0, 0)].sqrt();
+        let l10 = d[(1, 0)] / l00;
+        let l11 = (d[(1, 1)] - l10 * l10).sqrt();
+        // Not positive definite (or NaN): no factor, so not jointly compatible.
+        let positive = l00 > 0.0 && l11 > 0.0 && l10.is_finite();
+        if !positive {
+            return false;
+        }
+        let y0 = rhs[0] / l00;
+        let y1 = (rhs[1] - l10 * y0) / l11;
+        let nis = self.joint_nis() + y0 * y0 + y1 * y1;
+        if nis.is_nan() || nis > gate {
+            return false;
+        }
+        for (r, diag) in [(n, [l00, 0.0]), (n + 1, [l10, l11])] {
+            let row = &mut self.chol[r * self.dim..r * self.dim + n + 2];
+            for (k, v) in row[..n].iter_mut().enumerate() {
+                *v = self.x[k][r - n];
+            }
+            row[n..n + 2].copy_from_slice(&diag);
+        }
+        (self.y[n], self.y[n + 1]) = (y0, y1);
+        self.nis.push(nis);
+        self.hyp.push(p);
+        true
+    }
+
+    fn pop(&mut self) {
+        self.hyp.pop();
+        self.nis.pop();
     }
 }
 
-/// JCBB (Neira & Tardos 2001): the hypothesis with the most pairings whose joint NIS
-/// is within the chi-square gate of its dimension (`joint_gates[k]` for `k`
-/// pairings), found depth-first with an explicit stack; a branch is cut when even
-/// pairing every remaining detection could not beat the best so far. At most
-/// `max_nodes` joint-compatibility tests are made.
+/// JCBB (Neira & Tardos 2001): among the hypotheses (each detection paired with one
+/// of its individually compatible targets, or with none; each target used at most
+/// once) whose joint NIS is within the chi-square gate of its dimension
+/// (`joint_gates[k]` for `k` pairings), the one with the most pairings, ties broken
+/// by the smaller joint NIS. Depth first over the detections that have options, with
+/// an explicit stack and the factor of `S_H` grown incrementally ([`JointFactor`]);
+/// a branch is cut when even pairing every remaining detection could not beat the
+/// best (the joint NIS only grows as pairings are added). At most `max_nodes`
+/// joint-compatibility tests are made.
 pub(crate) fn jcbb(
     scene: &Scene<'_>,
     options: &[Vec<Pairing>],
     joint_gates: &[f64],
     max_nodes: usize,
 ) -> JcbbOutcome {
-    let n = options.len();
-    let mut s = Search {
-        options,
-        next: vec![0; n + 1],
-        taken: Vec::with_capacity(n),
-        best: Vec::new(),
-    };
+    let levels: Vec<&[Pairing]> = options
+        .iter()
+        .filter(|o| !o.is_empty())
+        .map(Vec::as_slice)
+        .collect();
+    let n = levels.len();
+    let mut factor = JointFactor::new(n);
+    // `next[level]`: the next option to try (`len()`: the null pairing); `paired[level]`:
+    // whether the level took a pairing on the current path.
+    let mut next = vec![0usize; n + 1];
+    let mut paired: Vec<bool> = Vec::with_capacity(n);
+    let mut best: Vec<&Pairing> = Vec::new();
+    let mut best_nis = f64::INFINITY;
     let (mut nodes, mut truncated) = (0usize, false);
     loop {
-        let level = s.taken.len();
-        let pairs = s.taken.iter().flatten().count();
-        if level == n || pairs + (n - level) <= s.best.len() {
-            if level == n && pairs > s.best.len() {
-                s.best = s
-                    .taken
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(l, o)| o.map(|k| (l, k)))
-                    .collect();
+        let level = paired.len();
+        let (pairs, nis) = (factor.len(), factor.joint_nis());
+        let reach = pairs + (n - level);
+        let hopeless =
+            reach < best.len() || (reach == best.len() && !best.is_empty() && nis >= best_nis);
+        if level == n || hopeless {
+            if level == n && (pairs > best.len() || (pairs == best.len() && nis < best_nis)) {
+                best.clone_from(&factor.hyp);
+                best_nis = nis;
             }
-            if !backtrack(&mut s) {
+            if !backtrack(&mut paired, &mut factor) {
                 break;
             }
             continue;
         }
-        let k = s.next[level];
-        s.next[level] += 1;
-        if k < options[level].len() {
+        let k = next[level];
+        next[level] += 1;
+        if k < levels[level].len() {
+            let candidate = &levels[level][k];
+            if factor.hyp.iter().any(|q| q.target == candidate.target) {
+                continue;
+            }
             nodes += 1;
             if nodes > max_nodes {
                 truncated = true;
                 break;
             }
-            if descend_if_compatible(scene, &mut s, level, k, joint_gates) {
-                continue;
+            if factor.push(scene, candidate, joint_gates[pairs + 1]) {
+                paired.push(true);
+                next[level + 1] = 0;
             }
-        } else if k == options[level].len() {
-            s.taken.push(None);
-            s.next[level + 1] = 0;
-        } else if !backtrack(&mut s) {
+        } else if k == levels[level].len() {
+            paired.push(false);
+            next[level + 1] = 0;
+        } else if !backtrack(&mut paired, &mut factor) {
             break;
         }
     }
-    let pairings = s.best.iter().map(|&(l, k)| options[l][k].clone()).collect();
     JcbbOutcome {
-        pairings,
+        pairings: best.into_iter().cloned().collect(),
         truncated,
     }
 }
 
-/// Takes option `k` at `level` when its target is free and the extended hypothesis
-/// is jointly compatible.
-fn descend_if_compatible(
-    scene: &Scene<'_>,
-    s: &mut Search<'_>,
-    level: usize,
-    k: usize,
-    joint_gates: &[f64],
-) -> bool {
-    let candidate = &s.options[level][k];
-    if s.used(candidate.target) {
-        return false;
-    }
-    let mut hyp = s.hypothesis();
-    hyp.push(candidate);
-    let ok = scene
-        .joint_nis(&hyp)
-        .is_some_and(|nis| nis <= joint_gates[hyp.len()]);
-    if ok {
-        s.taken.push(Some(k));
-        s.next[level + 1] = 0;
-    }
-    ok
-}
-
 /// Leaves the current level for the one above; `false` when the search is over.
-fn backtrack(s: &mut Search<'_>) -> bool {
-    s.taken.pop().is_some()
+fn backtrack(paired: &mut Vec<bool>, factor: &mut JointFactor<'_>) -> bool {
+    match paired.pop() {
+        Some(true) => {
+            factor.pop();
+            true
+        }
+        Some(false) => true,
+        None => false,
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::{DMatrix, DVector};
+    use rand::{Rng, SeedableRng, rngs::StdRng};
     use rperc_core::chi2_gate;
 
     /// A robot with a large lateral uncertainty before three known landmarks; A at
@@ -357,11 +469,12 @@ mod tests {
     }
 
     /// The oracle: every assignment of detections to compatible targets or none,
-    /// its joint NIS computed from the dense `H P H^T + R`; the largest jointly
-    /// compatible hypothesis wins.
-    fn brute_force(ekf: &Ekf, options: &[Vec<Pairing>], gates: &[f64]) -> usize {
+    /// its joint NIS computed from the dense `H P H^T + R` and a fresh inverse; the
+    /// jointly compatible hypothesis with the most pairings wins, ties broken by the
+    /// smaller joint NIS. Returns its `(detection, target)` pairs, sorted.
+    fn brute_force(ekf: &Ekf, options: &[Vec<Pairing>], gates: &[f64]) -> Vec<(usize, Target)> {
         let p = ekf.covariance();
-        let mut best = 0;
+        let mut best: (usize, f64, Vec<(usize, Target)>) = (0, f64::INFINITY, Vec::new());
         let mut choice = vec![0usize; options.len()];
         loop {
             let hyp: Vec<&Pairing> = choice
@@ -389,8 +502,10 @@ mod tests {
                 }
                 let s = &h * &p * h.transpose() + r;
                 let nis = nu.dot(&(s.try_inverse().unwrap() * &nu));
-                if nis <= gates[k] {
-                    best = best.max(k);
+                if nis <= gates[k] && (k > best.0 || (k == best.0 && nis < best.1)) {
+                    let mut pairs: Vec<_> = hyp.iter().map(|a| (a.det, a.target)).collect();
+                    pairs.sort_by_key(|p| p.0);
+                    best = (k, nis, pairs);
                 }
             }
             // Next assignment (odometer over options + the null choice).
@@ -404,7 +519,91 @@ mod tests {
                 i += 1;
             }
             if i == choice.len() {
-                return best;
+                return best.2;
+            }
+        }
+    }
+
+    fn sorted(out: &JcbbOutcome) -> Vec<(usize, Target)> {
+        let mut got: Vec<_> = out.pairings.iter().map(|p| (p.det, p.target)).collect();
+        got.sort_by_key(|p| p.0);
+        got
+    }
+
+    /// A random small world: a robot with an uncertain pose, `n` landmarks in a
+    /// cluster (so that several are individually compatible with one detection),
+    /// a dense random SPD covariance, and detections of some landmarks plus clutter.
+    fn random_case(rng: &mut StdRng) -> (Ekf, Vec<Vector2<f64>>) {
+        let n = rng.random_range(2..6);
+        let d = 3 + 2 * n;
+        let mut x = DVector::zeros(d);
+        x[2] = rng.random_range(-0.3..0.3);
+        for j in 0..n {
+            x[3 + 2 * j] = rng.random_range(4.0..8.0);
+            x[4 + 2 * j] = rng.random_range(-2.0..2.0);
+        }
+        let a = DMatrix::from_fn(d, d, |_, _| rng.random_range(-0.15..0.15));
+        let p = &a * a.transpose() + DMatrix::identity(d, d) * 0.01;
+        let ekf = Ekf::new(x.clone(), p, 3, 2)
+            .unwrap()
+            .with_wrapped_angle(2)
+            .unwrap();
+        let mut dets = Vec::new();
+        for j in 0..n {
+            if rng.random_bool(0.8) {
+                let lx = x[3 + 2 * j] + rng.random_range(-0.3..0.3);
+                let ly = x[4 + 2 * j] + rng.random_range(-0.3..0.3);
+                let (c, s) = (x[2].cos(), x[2].sin());
+                dets.push(rb(c * lx + s * ly, -s * lx + c * ly));
+            }
+        }
+        if rng.random_bool(0.5) {
+            dets.push(rb(rng.random_range(4.0..8.0), rng.random_range(-2.0..2.0)));
+        }
+        (ekf, dets)
+    }
+
+    /// JCBB (incremental factor, branch and bound) returns exactly the hypothesis of
+    /// the exhaustive search, on random small cases with ambiguous detections.
+    #[test]
+    fn jcbb_equals_brute_force_on_random_cases() {
+        let mut rng = StdRng::seed_from_u64(10);
+        let w = Matrix2::new(0.02, 0.0, 0.0, 1e-3);
+        let mut ambiguous = 0;
+        for _ in 0..300 {
+            let (ekf, dets) = random_case(&mut rng);
+            let scene = Scene::new(&ekf, Pose2::new(0.5, 0.2, 0.0), w, &[]);
+            let options = compatible(&scene, &dets, chi2_gate(2, 0.99).unwrap());
+            ambiguous += usize::from(options.iter().any(|o| o.len() > 1));
+            let g = gates(dets.len());
+            let out = jcbb(&scene, &options, &g, 1_000_000);
+            assert!(!out.truncated);
+            assert_eq!(sorted(&out), brute_force(&ekf, &options, &g));
+        }
+        // The cases exercise the search, not only unambiguous pairings.
+        assert!(ambiguous > 50, "{ambiguous}");
+    }
+
+    /// The screen in `compatible` is exact: it keeps every pairing whose full NIS is
+    /// within the gate (compared with linearising every detection-target pair).
+    #[test]
+    fn screening_keeps_every_compatible_pairing() {
+        let mut rng = StdRng::seed_from_u64(11);
+        let w = Matrix2::new(0.02, 0.0, 0.0, 1e-3);
+        let gate = chi2_gate(2, 0.99).unwrap();
+        for _ in 0..300 {
+            let (ekf, dets) = random_case(&mut rng);
+            let scene = Scene::new(&ekf, Pose2::new(0.5, 0.2, 0.0), w, &[]);
+            let screened = compatible(&scene, &dets, gate);
+            for (i, z) in dets.iter().enumerate() {
+                let mut all: Vec<Target> = (0..ekf.num_landmarks())
+                    .map(Target::State)
+                    .filter(|&t| scene.pairing(i, z, t).is_some_and(|p| p.nis <= gate))
+                    .collect();
+                let mut got: Vec<Target> = screened[i].iter().map(|p| p.target).collect();
+                all.sort_by_key(|t| format!("{t:?}"));
+                got.sort_by_key(|t| format!("{t:?}"));
+                assert_eq!(got, all);
             }
         }
     }
@@ -434,7 +633,7 @@ mod tests {
             (out.pairings[0].det, out.pairings[0].target),
             (0, Target::State(0))
         );
-        assert_eq!(out.pairings.len(), brute_force(&ekf, &options, &g));
+        assert_eq!(sorted(&out), brute_force(&ekf, &options, &g));
     }
 
     /// With honest detections of all three, JCBB pairs each with its own landmark,
@@ -459,7 +658,7 @@ mod tests {
                 (2, Target::State(1))
             ]
         );
-        assert_eq!(out.pairings.len(), brute_force(&ekf, &options, &g));
+        assert_eq!(got, brute_force(&ekf, &options, &g));
         // A budget of one node stops the search and says so.
         assert!(jcbb(&scene, &options, &g, 1).truncated);
     }

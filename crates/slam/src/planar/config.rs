@@ -49,6 +49,10 @@ pub struct PlanarConfig {
     /// Eqs. (26)-(27): apply the xy fixes of an external sensor (otherwise they are
     /// counted and ignored).
     pub external_fix: bool,
+    /// Where the external sensor's point sits on the robot, m (forward, left of the
+    /// pose's origin): a fix measures `t + R(theta) lever_arm` (Victoria Park's GPS
+    /// is compared at the laser, 3.78 m ahead and 0.5 m left of the rear axle).
+    pub fix_lever_arm: [f64; 2],
     /// Landmarks revised more than this many times leave the state (text under
     /// Fig. 7, where it is 50); `None` never freezes.
     pub freeze_after: Option<u32>,
@@ -71,6 +75,7 @@ impl Default for PlanarConfig {
             jcbb_max_nodes: 20_000,
             anchor: false,
             external_fix: false,
+            fix_lever_arm: [0.0; 2],
             freeze_after: None,
             initial_pose: [0.0; 3],
             initial_pose_variance: [0.0; 3],
@@ -107,6 +112,7 @@ impl PlanarConfig {
             ));
         }
         rperc_core::ensure_finite("initial_pose", self.initial_pose.iter())?;
+        rperc_core::ensure_finite("fix_lever_arm", self.fix_lever_arm.iter())?;
         for v in self.initial_pose_variance {
             ensure_non_negative("initial_pose_variance", v)?;
         }

@@ -277,7 +277,8 @@ impl PlanarSlam {
             self.stats.fixes_ignored += 1;
             return Ok(());
         }
-        let (h, jac) = fix_observation(&self.robot(), &self.offset);
+        let lever = Vector2::from(self.config.fix_lever_arm);
+        let (h, jac) = fix_observation(&self.robot(), &self.offset, &lever);
         let nu = DVector::from_vec(vec![xy[0] - h.x, xy[1] - h.y]);
         let hs = SparseJacobian::new(2).with_block(0, 0, dyn_mat(&jac));
         match self.ekf.update_gated(&nu, &hs, &r, self.gate)? {

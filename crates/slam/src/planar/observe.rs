@@ -84,14 +84,19 @@ pub(crate) fn cartesian(z: &Vector2<f64>, w: &Matrix2<f64>) -> (Vector2<f64>, Ma
 }
 
 /// Eqs. (26)-(27): an external sensor measures the robot's xy, `h = t + offset`
-/// (`offset` maps the engine's internal frame to the world), `H = [I 0]`.
+/// (`offset` maps the engine's internal frame to the world), `H = [I 0]`; with the
+/// sensor's point `lever` (robot frame) off the pose's origin, `h = t + R(theta) lever
+/// + offset` and `H = [I, dR/dtheta lever]`.
 pub(crate) fn fix_observation(
     robot: &Pose2,
     offset: &Vector2<f64>,
+    lever: &Vector2<f64>,
 ) -> (Vector2<f64>, Matrix2x3<f64>) {
+    let (s, c) = robot.theta.sin_cos();
+    let arm = Vector2::new(c * lever.x - s * lever.y, s * lever.x + c * lever.y);
     (
-        robot.translation() + offset,
-        Matrix2x3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0),
+        robot.translation() + arm + offset,
+        Matrix2x3::new(1.0, 0.0, -arm.y, 0.0, 1.0, arm.x),
     )
 }
 
@@ -186,9 +191,28 @@ mod tests {
     fn fix_jacobian_is_eq_27() {
         let x0 = DVector::from_vec(vec![5.0, -1.0, 0.3]);
         let off = Vector2::new(2.0, 3.0);
-        let (h, jac) = fix_observation(&pose(&x0), &off);
+        let (h, jac) = fix_observation(&pose(&x0), &off, &Vector2::zeros());
         assert_eq!(h, Vector2::new(7.0, 2.0));
-        let num = numeric(|x| dyn2(fix_observation(&pose(x), &off).0), &x0);
+        let num = numeric(
+            |x| dyn2(fix_observation(&pose(x), &off, &Vector2::zeros()).0),
+            &x0,
+        );
         assert!((num - DMatrix::from_column_slice(2, 3, jac.as_slice())).amax() < 1e-9);
+    }
+
+    /// With a lever arm, the fix is the point `lever` of the robot: at heading pi/2 the
+    /// arm (3, 0.5) points along +y and to -x (closed form), and the Jacobian matches
+    /// central differences.
+    #[test]
+    fn fix_with_a_lever_arm_is_that_point_of_the_robot() {
+        let lever = Vector2::new(3.0, 0.5);
+        let up = Pose2::new(1.0, 2.0, std::f64::consts::FRAC_PI_2);
+        let (h, _) = fix_observation(&up, &Vector2::zeros(), &lever);
+        assert!((h - Vector2::new(0.5, 5.0)).norm() < 1e-12);
+        let x0 = DVector::from_vec(vec![5.0, -1.0, 0.3]);
+        let off = Vector2::new(2.0, 3.0);
+        let (_, jac) = fix_observation(&pose(&x0), &off, &lever);
+        let num = numeric(|x| dyn2(fix_observation(&pose(x), &off, &lever).0), &x0);
+        assert!((num - DMatrix::from_column_slice(2, 3, jac.as_slice())).amax() < 1e-8);
     }
 }

@@ -3,6 +3,7 @@
 
 use rperc_core::{chi2_gate, ensure_non_negative, ensure_positive};
 
+use super::SensorBias;
 use crate::error::{Result, SlamError};
 use crate::motion::MotionModel;
 
@@ -56,6 +57,10 @@ pub struct PlanarConfig {
     pub initial_pose: [f64; 3],
     /// Variances of the start pose (>= 0; zero: a known start).
     pub initial_pose_variance: [f64; 3],
+    /// Systematic sensor and odometry errors, removed from every detection and
+    /// control before use (identity by default; MR.CLAM's are calibrated offline).
+    /// `range_variance` and `bearing_variance` are the noise left after it.
+    pub bias: SensorBias,
 }
 
 impl Default for PlanarConfig {
@@ -74,6 +79,7 @@ impl Default for PlanarConfig {
             freeze_after: None,
             initial_pose: [0.0; 3],
             initial_pose_variance: [0.0; 3],
+            bias: SensorBias::default(),
         }
     }
 }
@@ -110,6 +116,6 @@ impl PlanarConfig {
         for v in self.initial_pose_variance {
             ensure_non_negative("initial_pose_variance", v)?;
         }
-        Ok(())
+        self.bias.validate()
     }
 }

@@ -203,7 +203,7 @@ impl PlanarSlam {
             Event::Control { t, control } => {
                 ensure_finite("control", control.iter())?;
                 self.predict_to(*t)?;
-                self.control = Vector2::from(*control);
+                self.control = Vector2::from(self.config.bias.correct_control(*control));
                 Ok(EventKind::Control)
             }
             Event::Scan { t, detections } => {
@@ -294,13 +294,15 @@ impl PlanarSlam {
         let mut zs = Vec::with_capacity(detections.len());
         for d in detections {
             ensure_finite("detection", [d.range, d.bearing].iter())?;
-            if d.range <= 0.0 {
+            // The calibrated biases come off first; the range must be positive after.
+            let (range, bearing) = self.config.bias.correct_detection(d.range, d.bearing)?;
+            if range <= 0.0 {
                 return Err(SlamError::invalid(
                     "range",
-                    format!("must be > 0, got {}", d.range),
+                    format!("must be > 0, got {} ({range} unbiased)", d.range),
                 ));
             }
-            zs.push(Vector2::new(d.range, d.bearing));
+            zs.push(Vector2::new(range, bearing));
         }
         // Ids are the association only when it is 'known'; otherwise they are ignored
         // (a data set's labels must not leak into NN or JCBB).

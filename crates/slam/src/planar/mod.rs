@@ -11,11 +11,13 @@
 //! to its own time with the control in force, so `dt` is the gap between events.
 
 mod associate;
+mod bias;
 mod config;
 mod engine;
 mod observe;
 pub mod sim;
 
+pub use bias::SensorBias;
 pub use config::{Association, PlanarConfig};
 pub use engine::PlanarSlam;
 

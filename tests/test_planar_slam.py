@@ -156,6 +156,21 @@ def test_defaults_come_from_rust_and_bad_config_is_named():
         PlanarSlam().run_arrays(bad, det, detection_ids=ids)
 
 
+def test_detection_ids_must_be_integral():
+    controls, det, ids, _ = _recording(steps=20)
+    expected = PlanarSlam(_config()).run_arrays(controls, det, detection_ids=ids)
+    # Whole numbers stored as floats are the same ids.
+    as_float = PlanarSlam(_config()).run_arrays(controls, det, detection_ids=ids.astype(float))
+    np.testing.assert_array_equal(as_float.pose, expected.pose)
+    for value, match in ((0.5, "integral.*index 3"), (np.nan, "integral"), (np.inf, "integral")):
+        bad = ids.astype(float)
+        bad[3] = value
+        with pytest.raises(ValueError, match=match):
+            PlanarSlam().run_arrays(controls, det, detection_ids=bad)
+    with pytest.raises(TypeError, match="integers"):
+        PlanarSlam().run_arrays(controls, det, detection_ids=ids.astype(str))
+
+
 DATA = os.environ.get("RPERC_DATA")
 MRCLAM = Path(DATA) / "mrclam6" if DATA else None
 

@@ -92,6 +92,27 @@ def _rows(a: npt.ArrayLike, k: int, name: str) -> npt.NDArray[np.float64]:
     return np.ascontiguousarray(arr)
 
 
+def _integral_ids(detection_ids: npt.ArrayLike) -> npt.NDArray[np.int64]:
+    """The ids as int64; a fractional, non-finite or non-numeric id is an error (a
+    cast would turn landmark 7.5 into landmark 7)."""
+    arr = np.asarray(detection_ids)
+    if arr.dtype.kind in "iu":
+        if arr.dtype.kind == "u" and arr.size and arr.max() > np.iinfo(np.int64).max:
+            raise ValueError("detection_ids must fit in int64")
+        return np.ascontiguousarray(arr, dtype=np.int64)
+    if arr.dtype.kind != "f":
+        raise TypeError(f"detection_ids must be integers, got dtype {arr.dtype}")
+    bad = np.flatnonzero(~np.isfinite(arr) | (arr != np.round(arr)))
+    if len(bad):
+        raise ValueError(
+            f"detection_ids must be integral: {len(bad)} are not, the first at index "
+            f"{bad[0]} ({arr.flat[bad[0]]!r})"
+        )
+    if arr.size and np.abs(arr).max() > 2**53:
+        raise ValueError("detection_ids beyond 2**53 are not exact as floats")
+    return np.ascontiguousarray(arr, dtype=np.int64)
+
+
 @dataclass(frozen=True, repr=False)
 class SlamResult:
     """A run: the robot after every event, the final map and the association counts.
@@ -318,9 +339,7 @@ class PlanarSlam:
         u1)``, ``detections`` rows ``(t, range, bearing)`` (equal times form one scan),
         ``detection_ids`` one int per detection (negative: unknown), ``fixes`` rows
         ``(t, x, y, var_x, cov_xy, var_y)``."""
-        ids = None
-        if detection_ids is not None:
-            ids = np.ascontiguousarray(np.asarray(detection_ids), dtype=np.int64)
+        ids = None if detection_ids is None else _integral_ids(detection_ids)
         out = _rperc.planar_slam_run(
             _rows(controls, 3, "controls"),
             _rows(detections, 3, "detections"),

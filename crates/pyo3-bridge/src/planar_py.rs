@@ -5,10 +5,11 @@
 use numpy::{IntoPyArray, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use slam::planar::sim::{SimConfig, run_nees};
 use slam::planar::{EventArrays, PlanarConfig, PlanarResult, PlanarSlam, Statistics};
 
 use crate::arrays::{shaped, tensor};
-use crate::errors::{Error, Result, detached};
+use crate::errors::{Error, Result, detached, detached_parallel};
 
 /// The default planar SLAM configuration as a dict.
 #[pyfunction]
@@ -133,4 +134,56 @@ fn statistics<'py>(py: Python<'py>, s: &Statistics) -> PyResult<Bound<'py, PyDic
         d.set_item(name, value)?;
     }
     Ok(d)
+}
+
+/// The default simulated world (`slam::planar::sim::SimConfig`) as a dict.
+#[pyfunction]
+pub fn planar_sim_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
+    crate::config::defaults::<SimConfig>(py)
+}
+
+fn sim_config(obj: Option<&Bound<'_, PyAny>>) -> Result<SimConfig> {
+    let sim: SimConfig = crate::config::from_python(obj, "planar sim")?;
+    sim.validate()?;
+    Ok(sim)
+}
+
+/// The filter config that matches a simulated world (same noise, same start), as a
+/// dict for the caller to change (the variants) before a Monte Carlo.
+#[pyfunction]
+#[pyo3(signature = (sim = None))]
+pub fn planar_sim_slam_config<'py>(
+    py: Python<'py>,
+    sim: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let cfg = sim_config(sim)?.slam_config();
+    serde_pyobject::to_pyobject(py, &cfg).map_err(PyErr::from)
+}
+
+/// The robot NEES after each scan of runs `first..first + runs` of the simulated world
+/// seeded by `seed` (run `i` draws from stream `i`), as a `(runs, steps)` array; the
+/// runs go in parallel on all cores with the GIL released.
+#[pyfunction]
+#[pyo3(signature = (sim, slam, seed, first, runs))]
+pub fn planar_sim_nees<'py>(
+    py: Python<'py>,
+    sim: Option<&Bound<'py, PyAny>>,
+    slam: Option<&Bound<'py, PyAny>>,
+    seed: u64,
+    first: u64,
+    runs: u64,
+) -> PyResult<Bound<'py, numpy::PyArrayDyn<f64>>> {
+    let sim = sim_config(sim)?;
+    let slam: PlanarConfig = crate::config::from_python(slam, "planar")?;
+    slam.validate().map_err(Error::from)?;
+    let steps = sim.steps;
+    let nees = detached_parallel(py, || {
+        use rayon::prelude::*;
+        let per_run = (first..first + runs)
+            .into_par_iter()
+            .map(|r| run_nees(&sim, &slam, seed, r))
+            .collect::<slam::Result<Vec<_>>>()?;
+        Ok(per_run.concat())
+    })?;
+    Ok(shaped(py, nees, &[runs as usize, steps])?)
 }

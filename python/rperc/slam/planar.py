@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping
+from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -33,17 +34,24 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
+from rperc._args import whole_number
 from rperc.slam import evaluation
 
 __all__ = [
     "MRCLAM_CALIBRATION_SECONDS",
     "PRESETS",
+    "VARIANTS",
+    "PlanarMonteCarlo",
     "PlanarSlam",
     "Recording",
     "SlamResult",
+    "consistency",
     "defaults",
+    "monte_carlo",
     "mrclam_recording",
     "mrclam_start",
+    "sim_defaults",
+    "sim_slam_config",
     "victoria_recording",
 ]
 
@@ -355,3 +363,124 @@ class PlanarSlam:
             anchor=None if anchor is None else (float(anchor[0]), float(anchor[1])),
             config=dict(self.config),
         )
+
+
+# --- Monte Carlo consistency in the simulated world (Bailey et al. 2006) ----------
+
+#: The seed's variants a consistency study compares, as filter-config overrides.
+#: ``external`` also needs fixes in the world: :func:`consistency` adds them.
+VARIANTS: dict[str, dict[str, Any]] = {
+    "plain": {},
+    "anchor": {"anchor": True},
+    "external": {"external_fix": True},
+}
+
+
+def sim_defaults() -> dict[str, Any]:
+    """The default simulated world (from the Rust crate): a robot driving laps of a
+    circle among landmarks on two rings, with the noise levels the filter assumes."""
+    return dict(_rperc.planar_sim_defaults())
+
+
+def sim_slam_config(sim: Mapping[str, Any] | None = None, **overrides: Any) -> dict[str, Any]:
+    """The filter config that matches the world ``sim`` (same noise, same start), with
+    ``overrides`` (e.g. ``anchor=True``) on top."""
+    return {**_rperc.planar_sim_slam_config(dict(sim or {})), **overrides}
+
+
+@dataclass(frozen=True, repr=False)
+class PlanarMonteCarlo:
+    """Robot-pose NEES after every scan of ``runs`` seeded runs, its mean over the runs
+    and the two-sided band of that mean for a consistent filter (chi-square with
+    ``3 * runs`` degrees of freedom, divided by ``runs``)."""
+
+    run_nees: np.ndarray  # (runs, steps)
+    mean_nees: np.ndarray  # (steps,)
+    band: tuple[float, float]
+    sim: dict[str, Any]
+    slam: dict[str, Any]
+
+    @property
+    def runs(self) -> int:
+        return int(self.run_nees.shape[0])
+
+    @property
+    def in_band(self) -> float:
+        """Fraction of steps whose run-averaged NEES lies inside the band."""
+        lo, hi = self.band
+        return float(np.mean((self.mean_nees >= lo) & (self.mean_nees <= hi)))
+
+    def __repr__(self) -> str:
+        return (
+            f"PlanarMonteCarlo(runs={self.runs}, steps={len(self.mean_nees)}, mean NEES "
+            f"{float(np.mean(self.mean_nees)):.2f}, band [{self.band[0]:.2f}, "
+            f"{self.band[1]:.2f}], {100 * self.in_band:.0f}% of steps in band)"
+        )
+
+
+def _sim_run_nees(sim: dict[str, Any], slam: dict[str, Any], seed: int, run: int) -> np.ndarray:
+    """Run ``run``'s NEES series; a top-level function so process pools and Dask can
+    pickle it. It draws from stream ``run`` of ``seed``, as the native batch does."""
+    out: np.ndarray = _rperc.planar_sim_nees(sim, slam, seed, run, 1)[0]
+    return out
+
+
+def monte_carlo(
+    config: Mapping[str, Any] | None = None,
+    *,
+    slam: Mapping[str, Any] | None = None,
+    runs: int = 50,
+    seed: int = 0,
+    executor: Executor | None = None,
+    confidence: float = 0.95,
+) -> PlanarMonteCarlo:
+    """Monte Carlo consistency of planar EKF-SLAM in the simulated world ``config``
+    (see :func:`sim_defaults`), with the filter ``slam`` (default: the matched config
+    of :func:`sim_slam_config`; pass it with your overrides for a variant).
+
+    Without ``executor`` the runs go in parallel on all cores (rayon, GIL released).
+    With any :class:`concurrent.futures.Executor` (a process pool, Dask's
+    ``client.get_executor()``) each run is submitted to it. Run ``i`` is seeded from
+    ``(seed, i)`` either way, so both give identical results.
+    """
+    sim = dict(config or {})
+    filt = dict(slam) if slam is not None else sim_slam_config(sim)
+    runs = whole_number(runs, "runs", 1)
+    seed = whole_number(seed, "seed", 0, limit=2**64)
+    if executor is None:
+        nees = _rperc.planar_sim_nees(sim, filt, seed, 0, runs)
+    else:
+        _rperc.planar_sim_nees({**sim, "steps": 1}, filt, seed, 0, 1)  # validate early
+        futures = [executor.submit(_sim_run_nees, sim, filt, seed, i) for i in range(runs)]
+        nees = np.stack([f.result() for f in futures])
+    lo, hi = _rperc.nees_bounds(3, runs, confidence)
+    return PlanarMonteCarlo(
+        run_nees=np.asarray(nees),
+        mean_nees=np.asarray(nees).mean(axis=0),
+        band=(float(lo), float(hi)),
+        sim=sim,
+        slam=filt,
+    )
+
+
+def consistency(
+    config: Mapping[str, Any] | None = None,
+    *,
+    variants: tuple[str, ...] = ("plain", "anchor", "external"),
+    fix_every: int = 10,
+    runs: int = 50,
+    seed: int = 0,
+    executor: Executor | None = None,
+) -> dict[str, PlanarMonteCarlo]:
+    """:func:`monte_carlo` of each of the seed's variants in the same world and
+    seeds; the external one sees an xy fix every ``fix_every`` steps."""
+    out = {}
+    for name in variants:
+        if name not in VARIANTS:
+            raise ValueError(f"unknown variant {name!r}; expected one of {list(VARIANTS)}")
+        sim = dict(config or {})
+        if name == "external":
+            sim["fix_every"] = fix_every
+        slam = sim_slam_config(sim, **VARIANTS[name])
+        out[name] = monte_carlo(sim, slam=slam, runs=runs, seed=seed, executor=executor)
+    return out

@@ -524,3 +524,46 @@ fn calibrated_bias_recovers_the_unbiased_run() {
     let (a, b) = (last(&corrected), last(&truth));
     assert!((a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9);
 }
+
+/// Freezing as the seed does it (marginalise, then use the landmark as known with its
+/// covariance added to the noise) double counts that covariance at every sighting:
+/// the run-averaged NEES leaves the band far above. Holding frozen landmarks as
+/// consider states (Schmidt) keeps the cross-covariances and the NEES in the band of
+/// the unfrozen filter (same world and seeds as the short-horizon test).
+#[test]
+fn consider_freezing_keeps_the_nees_in_band_where_marginalising_does_not() {
+    use slam::planar::FreezeMode;
+    let sim = SimConfig {
+        steps: 300,
+        ..SimConfig::default()
+    };
+    let with = |mode| PlanarConfig {
+        freeze_after: Some(20),
+        freeze_mode: mode,
+        ..sim.slam_config()
+    };
+    let consider = monte_carlo(&sim, &with(FreezeMode::Consider), 50, 11).unwrap();
+    let (mean, inside) = summary("freeze/consider", &consider, 5);
+    assert!(inside >= 0.85, "consider: {inside} of steps in band");
+    assert!(
+        consider.band.0 < mean && mean < consider.band.1,
+        "consider mean {mean}"
+    );
+    let marginal = monte_carlo(&sim, &with(FreezeMode::Marginalise), 50, 11).unwrap();
+    let (mean, _) = summary("freeze/marginalise", &marginal, 5);
+    assert!(
+        mean > marginal.band.1,
+        "marginalise mean {mean} is not over the band"
+    );
+    // The consider run still freezes: its landmarks are frozen, their sightings used.
+    let data = simulate(&sim, 4, 0);
+    let result = run(with(FreezeMode::Consider), &data.events);
+    let frozen = result.landmarks.iter().filter(|l| l.frozen).count();
+    assert!(frozen > 0 && result.statistics.frozen == frozen as u64);
+    assert!(
+        result
+            .landmarks
+            .iter()
+            .any(|l| l.frozen && l.revisions > 21)
+    );
+}

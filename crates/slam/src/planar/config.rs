@@ -22,6 +22,23 @@ rperc_core::named_enum! {
     }
 }
 
+rperc_core::named_enum! {
+    /// What freezing does to a landmark (text under Fig. 7).
+    #[derive(Default)]
+    pub enum FreezeMode: "freeze_mode" {
+        /// The seed's: the landmark leaves the state (marginalised) and is then used
+        /// as known with its covariance added to the detection noise. Its correlation
+        /// with the robot is lost, so every later sighting counts that covariance
+        /// again as if it were new: the robot becomes over-confident.
+        #[default]
+        Marginalise = "marginalise",
+        /// The landmark stays in the state as a consider state (Schmidt-Kalman): its
+        /// mean and covariance are fixed, its cross-covariances kept exact, so its
+        /// sightings correct the rest without over-confidence. No state reduction.
+        Consider = "consider",
+    }
+}
+
 /// Settings of [`super::PlanarSlam`]. The seed's variants (anchor, external sensor,
 /// freezing) are fields and combine freely.
 #[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
@@ -53,6 +70,8 @@ pub struct PlanarConfig {
     /// Landmarks revised more than this many times leave the state (text under
     /// Fig. 7, where it is 50); `None` never freezes.
     pub freeze_after: Option<u32>,
+    /// How a landmark is frozen.
+    pub freeze_mode: FreezeMode,
     /// Start pose `(x, y, theta)`.
     pub initial_pose: [f64; 3],
     /// Variances of the start pose (>= 0; zero: a known start).
@@ -77,6 +96,7 @@ impl Default for PlanarConfig {
             anchor: false,
             external_fix: false,
             freeze_after: None,
+            freeze_mode: FreezeMode::Marginalise,
             initial_pose: [0.0; 3],
             initial_pose_variance: [0.0; 3],
             bias: SensorBias::default(),

@@ -10,8 +10,8 @@ use rperc_core::{Definiteness, Pose2, check_covariance, chi2_gate};
 use super::associate::{self, FixedPoint, Pairing, Scene, Target};
 use super::observe::{anchor_frame, anchor_observation, cartesian, fix_observation, landmark_from};
 use super::{
-    Association, Detection, Event, EventArrays, EventKind, LandmarkEstimate, PlanarConfig,
-    PlanarResult, Statistics, Trajectory,
+    Association, Detection, Event, EventArrays, EventKind, FreezeMode, LandmarkEstimate,
+    PlanarConfig, PlanarResult, Statistics, Trajectory,
 };
 use crate::ekf::{Ekf, Gated, SparseJacobian};
 use crate::error::{Result, SlamError, ensure_finite};
@@ -463,6 +463,13 @@ impl PlanarSlam {
         let Some(j) = self.ekf.landmark_index(id) else {
             return Ok(()); // already frozen, or the anchor
         };
+        if self.config.freeze_mode == FreezeMode::Consider {
+            if !self.ekf.is_consider(j) {
+                self.ekf.set_consider(j)?;
+                self.stats.frozen += 1;
+            }
+            return Ok(());
+        }
         let off = self.ekf.landmark_offset(j)?;
         let mean = Point2::new(self.ekf.state()[off], self.ekf.state()[off + 1]);
         let cov = Matrix2::from_column_slice(self.ekf.landmark_covariance(j)?.as_slice());
@@ -619,7 +626,8 @@ impl PlanarSlam {
                 .ekf
                 .covariance_block(off, off, 2, 2)
                 .expect("landmark block");
-            out.push(self.estimate(id, Point2::new(x[off], x[off + 1]), &c, false));
+            let frozen = self.ekf.is_consider(j);
+            out.push(self.estimate(id, Point2::new(x[off], x[off + 1]), &c, frozen));
         }
         for (k, &id) in self.fixed_ids.iter().enumerate() {
             let f = &self.fixed[k];

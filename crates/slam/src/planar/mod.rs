@@ -18,7 +18,7 @@ mod observe;
 pub mod sim;
 
 pub use bias::SensorBias;
-pub use config::{Association, PlanarConfig};
+pub use config::{Association, FreezeMode, PlanarConfig};
 pub use engine::PlanarSlam;
 
 /// One range-bearing detection of a scan, in the sensor frame.

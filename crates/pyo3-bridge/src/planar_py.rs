@@ -6,7 +6,7 @@ use numpy::{IntoPyArray, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use slam::planar::sim::{SimConfig, run_nees};
-use slam::planar::{EventArrays, PlanarConfig, PlanarResult, PlanarSlam, Statistics};
+use slam::planar::{Event, EventArrays, PlanarConfig, PlanarResult, PlanarSlam, Statistics};
 
 use crate::arrays::{shaped, tensor};
 use crate::errors::{Error, Result, detached, detached_parallel};
@@ -186,4 +186,59 @@ pub fn planar_sim_nees<'py>(
         Ok(per_run.concat())
     })?;
     Ok(shaped(py, nees, &[runs as usize, steps])?)
+}
+
+/// Run `run` of the simulated world seeded by `seed` as the columnar arrays
+/// `PlanarSlam` reads (`controls`, `detections`, `detection_ids`, `fixes`), with the
+/// true pose after every event (`truth`, rows `t, x, y, theta`) and the true
+/// `landmarks` (landmark `i` has id `i`).
+#[pyfunction]
+#[pyo3(signature = (sim, seed, run = 0))]
+pub fn planar_simulate<'py>(
+    py: Python<'py>,
+    sim: Option<&Bound<'py, PyAny>>,
+    seed: u64,
+    run: u64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let sim = sim_config(sim)?;
+    let data = detached(py, || Ok(slam::planar::sim::simulate(&sim, seed, run)))?;
+    let (mut controls, mut detections, mut ids, mut fixes, mut truth) = (
+        Vec::new(),
+        Vec::new(),
+        Vec::<i64>::new(),
+        Vec::new(),
+        Vec::new(),
+    );
+    for (event, pose) in data.events.iter().zip(&data.truth) {
+        truth.extend([event.time(), pose.x, pose.y, pose.theta]);
+        match event {
+            Event::Control { t, control } => controls.extend([*t, control[0], control[1]]),
+            Event::Scan { t, detections: ds } => {
+                for d in ds {
+                    detections.extend([*t, d.range, d.bearing]);
+                    ids.push(d.id.map_or(-1, |i| i as i64));
+                }
+            }
+            Event::Fix { t, xy, covariance } => {
+                fixes.extend([*t, xy[0], xy[1]]);
+                fixes.extend(covariance);
+            }
+        }
+    }
+    let d = PyDict::new(py);
+    let rows = |v: &Vec<f64>, k: usize| v.len() / k;
+    d.set_item(
+        "controls",
+        shaped(py, controls.clone(), &[rows(&controls, 3), 3])?,
+    )?;
+    d.set_item(
+        "detections",
+        shaped(py, detections.clone(), &[rows(&detections, 3), 3])?,
+    )?;
+    d.set_item("detection_ids", ids.into_pyarray(py))?;
+    d.set_item("fixes", shaped(py, fixes.clone(), &[rows(&fixes, 6), 6])?)?;
+    d.set_item("truth", shaped(py, truth.clone(), &[rows(&truth, 4), 4])?)?;
+    let marks: Vec<f64> = data.landmarks.iter().flat_map(|p| [p.x, p.y]).collect();
+    d.set_item("landmarks", shaped(py, marks, &[data.landmarks.len(), 2])?)?;
+    Ok(d)
 }

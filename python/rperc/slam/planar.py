@@ -44,6 +44,7 @@ __all__ = [
     "PlanarMonteCarlo",
     "PlanarSlam",
     "Recording",
+    "SimulatedRun",
     "SlamResult",
     "consistency",
     "defaults",
@@ -52,6 +53,7 @@ __all__ = [
     "mrclam_start",
     "sim_defaults",
     "sim_slam_config",
+    "simulate",
     "victoria_recording",
 ]
 
@@ -380,6 +382,37 @@ def sim_defaults() -> dict[str, Any]:
     """The default simulated world (from the Rust crate): a robot driving laps of a
     circle among landmarks on two rings, with the noise levels the filter assumes."""
     return dict(_rperc.planar_sim_defaults())
+
+
+@dataclass(frozen=True)
+class SimulatedRun:
+    """One run of the simulated world: the :class:`Recording` the filter reads, the
+    true pose after every event (``truth`` rows ``t, x, y, theta``) and the true
+    landmarks (landmark ``i`` has id ``i``)."""
+
+    recording: Recording
+    truth: np.ndarray
+    landmarks: np.ndarray
+
+    def truth_path(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(t, pose)`` with one row per distinct time (the last, as
+        :meth:`SlamResult.path` keeps)."""
+        t = self.truth[:, 0]
+        last = np.r_[t[1:] != t[:-1], True]
+        return t[last], self.truth[last, 1:]
+
+
+def simulate(
+    config: Mapping[str, Any] | None = None, *, seed: int = 0, run: int = 0
+) -> SimulatedRun:
+    """Run ``run`` of the simulated world ``config`` seeded by ``seed`` (the same
+    stream the Monte Carlo's run ``run`` uses)."""
+    seed = whole_number(seed, "seed", 0, limit=2**64)
+    run = whole_number(run, "run", 0, limit=2**64)
+    d = _rperc.planar_simulate(dict(config or {}), seed, run)
+    fixes = d["fixes"] if len(d["fixes"]) else None
+    rec = Recording(d["controls"], d["detections"], d["detection_ids"], fixes)
+    return SimulatedRun(recording=rec, truth=d["truth"], landmarks=d["landmarks"])
 
 
 def sim_slam_config(sim: Mapping[str, Any] | None = None, **overrides: Any) -> dict[str, Any]:

@@ -11,7 +11,13 @@ import numpy as np
 import pytest
 
 from rperc.datasets.mrclam import MrclamRun
-from rperc.slam.calibration import calibrate_mrclam, mrclam_window, true_range_bearing
+from rperc.slam.calibration import (
+    calibrate_mrclam,
+    gate_inflation,
+    inflated,
+    mrclam_window,
+    true_range_bearing,
+)
 from rperc.slam.planar import PRESETS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -120,8 +126,11 @@ def test_the_mrclam_preset_is_the_calibration_of_robot1_first_half():
     from rperc.slam.planar import MRCLAM_CALIBRATION_SECONDS
 
     run = load_mrclam(MRCLAM, robot=1)
-    cal = calibrate_mrclam(mrclam_window(run, 0.0, MRCLAM_CALIBRATION_SECONDS))
-    expected = cal.config()
+    half = mrclam_window(run, 0.0, MRCLAM_CALIBRATION_SECONDS)
+    fitted = calibrate_mrclam(half).config()
+    detection, control, _ = gate_inflation(half, fitted)
+    assert (detection, control) == (4.0, 2.0)
+    expected = inflated(fitted, detection, control)
     preset = PRESETS["mrclam"]
     assert preset["bias"]["range_is_depth"] is True
     for key in ("range_offset", "range_scale", "bearing_offset", "bearing_scale"):
@@ -134,3 +143,30 @@ def test_the_mrclam_preset_is_the_calibration_of_robot1_first_half():
     motion = preset["motion"]["unicycle"]
     for key, value in expected["motion"]["unicycle"].items():
         assert motion[key] == pytest.approx(value, rel=1e-3)
+
+
+def test_gate_inflation_is_the_smallest_that_meets_the_gate_rate():
+    """Brute force over the grid: every pair's refusals counted with its own run, the
+    rule (smallest product, then smaller detection factor, with refusals <= 1 % of
+    the sightings) applied here. On this synthetic run drawn from the model, 4 % are
+    refused without inflation: correcting a depth to a range divides its noise by
+    cos(b), so a constant range variance is too small off-axis."""
+    from rperc.slam.planar import PlanarSlam, mrclam_recording, mrclam_start
+
+    run = _synthetic(seconds=300.0)
+    config = calibrate_mrclam(run).config()
+    grid = (1.0, 2.0, 4.0)
+    refused = {}
+    for fr in grid:
+        for fq in grid:
+            cfg = {**inflated(config, fr, fq), **mrclam_start(run)}
+            refused[fr, fq] = PlanarSlam(cfg).run(mrclam_recording(run)).statistics["rejected"]
+    ok = [p for p, n in refused.items() if n <= 0.01 * len(run.measurement_t)]
+    best = min(ok, key=lambda p: (p[0] * p[1], p[0]))
+    assert gate_inflation(run, config, factors=grid) == (*best, refused[best])
+    assert refused[1.0, 1.0] > 0.01 * len(run.measurement_t)
+    shrunk = inflated(config, 0.25, 2.0)
+    assert shrunk["range_variance"] == config["range_variance"] / 4
+    assert shrunk["motion"]["unicycle"]["turn_rate_variance"] == pytest.approx(
+        config["motion"]["unicycle"]["turn_rate_variance"] * 2, rel=1e-15
+    )

@@ -29,7 +29,14 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["MrclamCalibration", "calibrate_mrclam", "mrclam_window", "true_range_bearing"]
+__all__ = [
+    "MrclamCalibration",
+    "calibrate_mrclam",
+    "gate_inflation",
+    "inflated",
+    "mrclam_window",
+    "true_range_bearing",
+]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -205,3 +212,52 @@ def mrclam_window(run: Any, start: float, stop: float) -> Any:
         truth_y=run.truth_y[g],
         truth_theta=run.truth_theta[g],
     )
+
+
+def gate_inflation(
+    run: Any,
+    config: dict[str, Any],
+    *,
+    factors: tuple[float, ...] = (1.0, 2.0, 4.0),
+) -> tuple[float, float, int]:
+    """The smallest inflation ``(detection, control)`` of the noise variances of
+    ``config`` under which the run's known-association sightings are refused by the
+    chi-square gate no more often than the gate's own rate, ``1 - gate_confidence``.
+
+    The variances fitted by :func:`calibrate_mrclam` are those of single residuals;
+    the filter also needs the errors that repeat (time stamps, slowly varying odometry
+    slip, the surveyed positions), which inflate every innovation. The innovation test
+    needs no ground truth (only the start pose), so this is the consistency a run can
+    check by itself; it is fitted on the calibration data like the rest. Ties in the
+    product of the two factors go to the smaller detection factor. Returns the two
+    factors and the refused count."""
+    from rperc.slam.planar import PlanarSlam, defaults, mrclam_recording, mrclam_start
+
+    rate = 1.0 - float(config.get("gate_confidence", defaults()["gate_confidence"]))
+    recording = mrclam_recording(run)
+    allowed = rate * len(run.measurement_t)
+    pairs = sorted(
+        ((fr, fq) for fr in factors for fq in factors), key=lambda p: (p[0] * p[1], p[0])
+    )
+    refused = -1
+    for fr, fq in pairs:
+        cfg = inflated(config, fr, fq)
+        result = PlanarSlam({**cfg, **mrclam_start(run)}).run(recording)
+        refused = int(result.statistics["rejected"])
+        if refused <= allowed:
+            return fr, fq, refused
+    raise ValueError(f"no inflation in {factors} brings the refusals ({refused}) to {allowed:.1f}")
+
+
+def inflated(config: dict[str, Any], detection: float, control: float) -> dict[str, Any]:
+    """``config`` with its detection variances times ``detection`` and its unicycle
+    control variances times ``control``."""
+    unicycle = dict(config["motion"]["unicycle"])
+    for key in ("speed_variance", "turn_rate_variance"):
+        unicycle[key] *= control
+    return {
+        **config,
+        "motion": {"unicycle": unicycle},
+        "range_variance": config["range_variance"] * detection,
+        "bearing_variance": config["bearing_variance"] * detection,
+    }

@@ -58,6 +58,10 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         q.add_argument("--config", type=json.loads, default={}, help="JSON config overrides")
         q.add_argument("--tum", type=Path, help="write the estimated path (TUM format, for evo)")
         q.add_argument("--plot", type=Path, help="write the map figure")
+        q.add_argument(
+            "--rerun", type=Path, metavar="FILE.rrd",
+            help="write the run for the rerun viewer (needs pip install rperc[viz])",
+        )  # fmt: skip
         add_json_option(q)
         q.set_defaults(run=slam_command)
 
@@ -99,7 +103,7 @@ def _mrclam(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dict[
         "nees_mean": nees.mean,
         "nees_in_band": float(np.mean(nees.inside)),
     }
-    ref = {"truth": truth, "landmarks": marks, "label": "true path (Vicon)"}
+    ref = {"truth": truth, "landmarks": marks, "label": "true path (Vicon)", "nees": nees}
     return result, metrics, ref | {"transform": None}
 
 
@@ -114,7 +118,8 @@ def _victoria(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dic
     gps = np.c_[park.gps_x, park.gps_y]
     err = result.gps_error(park.gps_t, gps)
     metrics = {"gps_rms_aligned_m": err.rms, "gps_fixes": len(err.distance)}
-    ref = {"truth": gps, "landmarks": None, "label": "GPS fixes", "transform": err.transform}
+    ref = {"truth": gps, "landmarks": None, "label": "GPS fixes", "transform": err.transform,
+           "nees": None}  # fmt: skip
     return result, metrics, ref
 
 
@@ -122,6 +127,12 @@ def slam_command(args: argparse.Namespace) -> int:
     for path, option, figure in ((args.tum, "--tum", False), (args.plot, "--plot", True)):
         check_output_file(path, option, figure=figure)
     check_output_file(args.json, "--json")
+    check_output_file(args.rerun, "--rerun")
+    if args.rerun is not None:
+        import importlib.util
+
+        if importlib.util.find_spec("rerun") is None:
+            raise ValueError("--rerun needs the viz extra: pip install rperc[viz]")
     run = _mrclam if args.dataset == "mrclam" else _victoria
     result, metrics, ref = run(args)
     metrics |= {
@@ -149,6 +160,14 @@ def slam_command(args: argparse.Namespace) -> int:
             truth_label=ref["label"], transform=ref["transform"],
         )  # fmt: skip
         wrote(save(fig, args.plot))
+    if args.rerun is not None:
+        from rperc.slam.rerun_log import log_run
+
+        # GPS fixes are points, not a path: only the map's truth is drawn for them.
+        truth = ref["truth"] if args.dataset == "mrclam" else None
+        wrote(
+            log_run(result, args.rerun, truth=truth, landmarks=ref["landmarks"], nees=ref["nees"])
+        )
     write_json(args.json, metrics)
     sys.stdout.flush()
     return 0

@@ -170,3 +170,29 @@ def test_gate_inflation_is_the_smallest_that_meets_the_gate_rate():
     assert shrunk["motion"]["unicycle"]["turn_rate_variance"] == pytest.approx(
         config["motion"]["unicycle"]["turn_rate_variance"] * 2, rel=1e-15
     )
+
+
+def test_external_fixes_start_with_the_run_not_with_the_truth():
+    """The Vicon record of MR.CLAM starts before the odometry; fixes from then would
+    start the filter before (and away from) its start pose. Here the truth starts
+    3 s before the odometry: the first fix is at the first odometry row, and every
+    fix is the truth there (zero-noise stand-in: sigma tiny)."""
+    from dataclasses import replace
+
+    from rperc.slam.planar import mrclam_recording
+
+    run = _synthetic(seconds=20.0)
+    early = np.arange(-3.0, 0.0, 0.01)
+    run = replace(
+        run,
+        truth_t=np.r_[early, run.truth_t],
+        truth_x=np.r_[np.zeros_like(early), run.truth_x],
+        truth_y=np.r_[np.zeros_like(early), run.truth_y],
+        truth_theta=np.r_[np.zeros_like(early), run.truth_theta],
+    )
+    fixes = mrclam_recording(run, fix_interval=1.0, fix_sigma=1e-9).fixes
+    assert fixes is not None
+    assert fixes[0, 0] == run.odometry_t[0]
+    np.testing.assert_allclose(fixes[:, 0], np.arange(0.0, run.truth_t[-1], 1.0))
+    k = np.searchsorted(run.truth_t, fixes[:, 0])
+    np.testing.assert_allclose(fixes[:, 1], run.truth_x[k], atol=1e-6)

@@ -287,7 +287,11 @@ def mrclam_recording(
     if fix_interval is not None:
         if not fix_interval > 0 or not fix_sigma > 0:
             raise ValueError("fix_interval and fix_sigma must be > 0")
-        t = np.arange(run.truth_t[0], run.truth_t[-1], fix_interval)
+        # From the run's start (its first odometry row, where mrclam_start puts the
+        # robot): MR.CLAM's Vicon starts 12 s earlier, and fixes from then would
+        # start the filter 12 s early, away from its start pose.
+        start = max(float(run.truth_t[0]), float(run.odometry_t[0]))
+        t = np.arange(start, run.truth_t[-1], fix_interval)
         xy = np.c_[np.interp(t, run.truth_t, run.truth_x), np.interp(t, run.truth_t, run.truth_y)]
         xy += np.random.default_rng(seed).normal(scale=fix_sigma, size=xy.shape)
         var = fix_sigma**2

@@ -115,6 +115,7 @@ fn result_dict(py: Python<'_>, r: PlanarResult) -> PyResult<Bound<'_, PyDict>> {
     d.set_item("landmark_anchor", anchor.into_pyarray(py))?;
     d.set_item("statistics", statistics(py, &r.statistics)?)?;
     d.set_item("anchor", r.anchor.map(|a| a.to_vec()))?;
+    d.set_item("anchor_time", r.anchor_time)?;
     Ok(d)
 }
 

@@ -149,6 +149,7 @@ class SlamResult:
     statistics: dict[str, int]
     anchor: tuple[float, float] | None
     config: dict[str, Any] = field(default_factory=dict)
+    anchor_time: float | None = None  # when the anchor was made (eqs. 24-25)
 
     def __repr__(self) -> str:
         s = self.statistics
@@ -188,7 +189,9 @@ class SlamResult:
         t, pose, cov = self.path()
         ref = np.array(reference, dtype=np.float64)
         if self.anchor is not None:
-            ref[:, :2] += self._anchor_offset(reference_landmarks)
+            # Only from the anchoring on: before it the run is in the world frame.
+            after = np.asarray(t_reference, dtype=np.float64) >= (self.anchor_time or -np.inf)
+            ref[after, :2] += self._anchor_offset(reference_landmarks)
         assoc = evaluation.associate(t, pose, t_reference, ref)
         return evaluation.pose_nees(assoc, cov, confidence=confidence)
 
@@ -365,12 +368,14 @@ class PlanarSlam:
             self.config or None,
         )
         anchor = out.pop("anchor")
+        anchor_time = out.pop("anchor_time")
         stats = {k: int(v) for k, v in out.pop("statistics").items()}
         return SlamResult(
             **out,
             statistics=stats,
             anchor=None if anchor is None else (float(anchor[0]), float(anchor[1])),
             config=dict(self.config),
+            anchor_time=None if anchor_time is None else float(anchor_time),
         )
 
 

@@ -76,6 +76,8 @@ pub struct PlanarSlam {
     /// The internal frame's origin in the world (the anchor's position; zero without).
     offset: Vector2<f64>,
     anchor: Option<u64>,
+    /// When the anchor was made (before it, the state is in the world frame).
+    anchor_time: Option<f64>,
     /// Frozen landmarks and the anchor, with their ids.
     fixed: Vec<FixedPoint>,
     fixed_ids: Vec<u64>,
@@ -121,6 +123,7 @@ impl PlanarSlam {
             control: Vector2::zeros(),
             offset: Vector2::zeros(),
             anchor: None,
+            anchor_time: None,
             fixed: Vec::new(),
             fixed_ids: Vec::new(),
             revisions: HashMap::new(),
@@ -597,6 +600,7 @@ impl PlanarSlam {
         });
         self.fixed_ids.push(id);
         self.anchor = Some(id);
+        self.anchor_time = self.time;
         Ok(())
     }
 }
@@ -659,6 +663,7 @@ impl PlanarSlam {
         let landmarks = self.landmarks();
         PlanarResult {
             anchor: self.anchor.map(|_| [self.offset.x, self.offset.y]),
+            anchor_time: self.anchor_time,
             trajectory: self.trajectory,
             landmarks,
             statistics: self.stats,

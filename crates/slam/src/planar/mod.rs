@@ -165,4 +165,7 @@ pub struct PlanarResult {
     pub statistics: Statistics,
     /// The anchor's world position (the origin of the engine's internal frame).
     pub anchor: Option<[f64; 2]>,
+    /// The time the anchor was made: the robot covariance is relative to the anchor
+    /// from then on, in the world frame before.
+    pub anchor_time: Option<f64>,
 }

@@ -70,3 +70,32 @@ def test_mrclam_json_matches_the_api_and_evo_reads_the_tum(tmp_path):
     t, poses = read_tum(tum)
     np.testing.assert_allclose(poses, result.path()[1], atol=1e-12)
     assert len(t) == len(poses)
+
+
+@pytest.mark.skipif(
+    DATA is None or not (DATA / "mrclam6").is_dir(), reason="RPERC_DATA/mrclam6 is absent"
+)
+def test_mrclam_span_runs_the_held_out_part(tmp_path):
+    from rperc.datasets import load_mrclam
+    from rperc.slam import PlanarSlam
+    from rperc.slam.calibration import mrclam_window
+    from rperc.slam.planar import (
+        MRCLAM_CALIBRATION_SECONDS,
+        PRESETS,
+        mrclam_recording,
+        mrclam_start,
+    )
+
+    out = tmp_path / "run.json"
+    start = str(MRCLAM_CALIBRATION_SECONDS)
+    argv = ["slam", "mrclam", str(DATA / "mrclam6"), "--span", start, "1e9", "--json", str(out)]
+    assert main(argv) == 0
+    run = load_mrclam(DATA / "mrclam6", robot=1)
+    t0 = run.odometry_t[0]
+    part = mrclam_window(run, MRCLAM_CALIBRATION_SECONDS, 1e9)
+    assert part.measurement_t.min() >= t0 + MRCLAM_CALIBRATION_SECONDS
+    result = PlanarSlam({**PRESETS["mrclam"], **mrclam_start(part)}).run(mrclam_recording(part))
+    truth = np.c_[part.truth_x, part.truth_y, part.truth_theta]
+    measured = json.loads(out.read_text())
+    assert measured["ate_m"] == pytest.approx(result.ate(part.truth_t, truth).rmse, rel=1e-12)
+    assert result.t.min() >= t0 + MRCLAM_CALIBRATION_SECONDS

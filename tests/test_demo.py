@@ -228,3 +228,36 @@ def test_a_new_capability_is_one_registry_entry(tmp_path, capsys, monkeypatch):
     assert main(["demo", "fake", "--out", str(tmp_path), "--size", "5"]) == 0
     assert capsys.readouterr().out == "fake: 5 points, seed 0\n"
     assert (tmp_path / "fake.png").is_file()
+
+
+def test_slam_demo_numbers_are_recomputed_from_the_truth(demo_all):
+    """The slam line: each variant's ATE of run 0 recomputed as the RMS distance from
+    the true position to the estimate at the same event (brute force, no
+    interpolation); the band from scipy's chi-square quantiles; the mean NEES from the
+    per-run series averaged here."""
+    scipy_stats = pytest.importorskip("scipy.stats")
+    from rperc.cli.slamrun import DEMO_FIX_EVERY, DEMO_WORLD
+    from rperc.slam import PlanarSlam
+    from rperc.slam.planar import VARIANTS, monte_carlo, sim_slam_config, simulate
+
+    line = demo_all["summary"]["slam"]
+    measured = demo_all["measured"]["slam"]
+    runs = measured["runs"]
+    ates = grab(r"ATE " + r" / ".join([NUMBER] * 3) + " m", line)
+    lo, hi = grab(r"band \[" + NUMBER + ", " + NUMBER + r"\]", line)
+    assert lo == pytest.approx(scipy_stats.chi2.ppf(0.025, 3 * runs) / runs, abs=0.006)
+    assert hi == pytest.approx(scipy_stats.chi2.ppf(0.975, 3 * runs) / runs, abs=0.006)
+    for (name, over), ate in zip(VARIANTS.items(), ates, strict=True):
+        world = {**DEMO_WORLD, "fix_every": DEMO_FIX_EVERY} if name == "external" else DEMO_WORLD
+        sim = simulate(world, seed=0, run=0)
+        result = PlanarSlam(sim_slam_config(world, **over)).run(sim.recording)
+        est = {float(t): p[:2] for t, p in zip(result.t, result.pose, strict=True)}
+        true = {float(row[0]): row[1:3] for row in sim.truth}
+        sq = [float(np.sum((est[t] - xy) ** 2)) for t, xy in true.items()]
+        assert ate == pytest.approx(math.sqrt(sum(sq) / len(sq)), abs=6e-4)
+        mc = monte_carlo(world, slam=sim_slam_config(world, **over), runs=runs, seed=0)
+        mean = float(np.mean([np.mean(mc.run_nees[:, k]) for k in range(mc.run_nees.shape[1])]))
+        assert measured[name]["mean_nees"] == pytest.approx(mean, rel=1e-12)
+        text = grab(name + " " + NUMBER + " \\(" + NUMBER + "% in band\\)", line)
+        assert text[0] == pytest.approx(mean, abs=0.006)
+    assert (demo_all["out"] / "slam_variants.png").stat().st_size > 10_000

@@ -156,6 +156,21 @@ def test_defaults_come_from_rust_and_bad_config_is_named():
         PlanarSlam().run_arrays(bad, det, detection_ids=ids)
 
 
+def test_detection_ids_must_be_integral():
+    controls, det, ids, _ = _recording(steps=20)
+    expected = PlanarSlam(_config()).run_arrays(controls, det, detection_ids=ids)
+    # Whole numbers stored as floats are the same ids.
+    as_float = PlanarSlam(_config()).run_arrays(controls, det, detection_ids=ids.astype(float))
+    np.testing.assert_array_equal(as_float.pose, expected.pose)
+    for value, match in ((0.5, "integral.*index 3"), (np.nan, "integral"), (np.inf, "integral")):
+        bad = ids.astype(float)
+        bad[3] = value
+        with pytest.raises(ValueError, match=match):
+            PlanarSlam().run_arrays(controls, det, detection_ids=bad)
+    with pytest.raises(TypeError, match="integers"):
+        PlanarSlam().run_arrays(controls, det, detection_ids=ids.astype(str))
+
+
 DATA = os.environ.get("RPERC_DATA")
 MRCLAM = Path(DATA) / "mrclam6" if DATA else None
 
@@ -199,3 +214,25 @@ def test_an_anchored_runs_nees_is_taken_relative_to_its_anchor():
     # Relative to the anchor the error is what P_rr describes: the median NEES of one
     # run sits inside the 95 % band (for 3 dof its median is 2.37).
     assert np.isfinite(nees.nees).all() and np.median(nees.nees) < nees.band[1]
+
+
+def test_before_the_anchor_is_made_the_nees_is_in_the_world_frame():
+    """The anchor is made at the first sighting (here at 3 s): before it, the run is
+    in the world frame, so its NEES there is the world-frame one, recomputed here by
+    hand (e = pose - truth, heading wrapped, e^T P^-1 e at the same event)."""
+    controls, det, ids, truth = _recording(seed=5, steps=300)
+    late = det[:, 0] >= 3.0
+    marks = np.random.default_rng(5).uniform(-8, 8, size=(12, 2))
+    cfg = _config(anchor=True, initial_pose_variance=[1e-4] * 3)
+    result = PlanarSlam(cfg).run_arrays(controls, det[late], detection_ids=ids[late])
+    assert result.anchor_time == pytest.approx(det[late][0, 0])
+    nees = result.nees(controls[:, 0], truth, reference_landmarks=(np.arange(12), marks))
+    t, pose, cov = result.path()
+    before = np.flatnonzero(t < result.anchor_time)
+    assert len(before) > 20
+    for k in before:
+        e = pose[k] - truth[k]
+        e[2] = math.remainder(e[2], 2 * math.pi)
+        expected = e @ np.linalg.solve(cov[k], e)
+        assert nees.nees[k] == pytest.approx(expected, rel=1e-9)
+    assert np.median(nees.nees[: len(before)]) < nees.band[1]

@@ -30,6 +30,10 @@ __all__ = [
     "pattern_defaults",
     "pattern_sequence",
     "planar_defaults",
+    "planar_sim_defaults",
+    "planar_sim_nees",
+    "planar_sim_slam_config",
+    "planar_simulate",
     "planar_slam_run",
     "pose_transform_points",
     "resample",
@@ -127,6 +131,12 @@ def monobot_monte_carlo(
 ) -> tuple[_Array, _Array, _Array, _Array]: ...
 def monobot_defaults() -> dict[str, Any]: ...
 def planar_defaults() -> dict[str, Any]: ...
+def planar_sim_defaults() -> dict[str, Any]: ...
+def planar_simulate(sim: dict[str, Any] | None, seed: int, run: int = 0) -> dict[str, Any]: ...
+def planar_sim_slam_config(sim: dict[str, Any] | None = None) -> dict[str, Any]: ...
+def planar_sim_nees(
+    sim: dict[str, Any] | None, slam: dict[str, Any] | None, seed: int, first: int, runs: int
+) -> _Array: ...
 def planar_slam_run(
     controls: npt.NDArray[np.float64],
     detections: npt.NDArray[np.float64],

@@ -38,7 +38,10 @@ mod _rperc {
     #[pymodule_export]
     use crate::pattern_py::{PyPatternTracker, pattern_defaults, pattern_sequence};
     #[pymodule_export]
-    use crate::planar_py::{planar_defaults, planar_slam_run};
+    use crate::planar_py::{
+        planar_defaults, planar_sim_defaults, planar_sim_nees, planar_sim_slam_config,
+        planar_simulate, planar_slam_run,
+    };
     #[pymodule_export]
     use crate::slam_py::{
         PyEkf, information_spectrum, monobot_defaults, monobot_monte_carlo,

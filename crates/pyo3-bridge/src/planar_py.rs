@@ -5,10 +5,11 @@
 use numpy::{IntoPyArray, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use slam::planar::{EventArrays, PlanarConfig, PlanarResult, PlanarSlam, Statistics};
+use slam::planar::sim::{SimConfig, run_nees};
+use slam::planar::{Event, EventArrays, PlanarConfig, PlanarResult, PlanarSlam, Statistics};
 
 use crate::arrays::{shaped, tensor};
-use crate::errors::{Error, Result, detached};
+use crate::errors::{Error, Result, detached, detached_parallel};
 
 /// The default planar SLAM configuration as a dict.
 #[pyfunction]
@@ -114,6 +115,7 @@ fn result_dict(py: Python<'_>, r: PlanarResult) -> PyResult<Bound<'_, PyDict>> {
     d.set_item("landmark_anchor", anchor.into_pyarray(py))?;
     d.set_item("statistics", statistics(py, &r.statistics)?)?;
     d.set_item("anchor", r.anchor.map(|a| a.to_vec()))?;
+    d.set_item("anchor_time", r.anchor_time)?;
     Ok(d)
 }
 
@@ -132,5 +134,112 @@ fn statistics<'py>(py: Python<'py>, s: &Statistics) -> PyResult<Bound<'py, PyDic
     ] {
         d.set_item(name, value)?;
     }
+    Ok(d)
+}
+
+/// The default simulated world (`slam::planar::sim::SimConfig`) as a dict.
+#[pyfunction]
+pub fn planar_sim_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
+    crate::config::defaults::<SimConfig>(py)
+}
+
+fn sim_config(obj: Option<&Bound<'_, PyAny>>) -> Result<SimConfig> {
+    let sim: SimConfig = crate::config::from_python(obj, "planar sim")?;
+    sim.validate()?;
+    Ok(sim)
+}
+
+/// The filter config that matches a simulated world (same noise, same start), as a
+/// dict for the caller to change (the variants) before a Monte Carlo.
+#[pyfunction]
+#[pyo3(signature = (sim = None))]
+pub fn planar_sim_slam_config<'py>(
+    py: Python<'py>,
+    sim: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let cfg = sim_config(sim)?.slam_config();
+    serde_pyobject::to_pyobject(py, &cfg).map_err(PyErr::from)
+}
+
+/// The robot NEES after each scan of runs `first..first + runs` of the simulated world
+/// seeded by `seed` (run `i` draws from stream `i`), as a `(runs, steps)` array; the
+/// runs go in parallel on all cores with the GIL released.
+#[pyfunction]
+#[pyo3(signature = (sim, slam, seed, first, runs))]
+pub fn planar_sim_nees<'py>(
+    py: Python<'py>,
+    sim: Option<&Bound<'py, PyAny>>,
+    slam: Option<&Bound<'py, PyAny>>,
+    seed: u64,
+    first: u64,
+    runs: u64,
+) -> PyResult<Bound<'py, numpy::PyArrayDyn<f64>>> {
+    let sim = sim_config(sim)?;
+    let slam: PlanarConfig = crate::config::from_python(slam, "planar")?;
+    slam.validate().map_err(Error::from)?;
+    let steps = sim.steps;
+    let nees = detached_parallel(py, || {
+        use rayon::prelude::*;
+        let per_run = (first..first + runs)
+            .into_par_iter()
+            .map(|r| run_nees(&sim, &slam, seed, r))
+            .collect::<slam::Result<Vec<_>>>()?;
+        Ok(per_run.concat())
+    })?;
+    Ok(shaped(py, nees, &[runs as usize, steps])?)
+}
+
+/// Run `run` of the simulated world seeded by `seed` as the columnar arrays
+/// `PlanarSlam` reads (`controls`, `detections`, `detection_ids`, `fixes`), with the
+/// true pose after every event (`truth`, rows `t, x, y, theta`) and the true
+/// `landmarks` (landmark `i` has id `i`).
+#[pyfunction]
+#[pyo3(signature = (sim, seed, run = 0))]
+pub fn planar_simulate<'py>(
+    py: Python<'py>,
+    sim: Option<&Bound<'py, PyAny>>,
+    seed: u64,
+    run: u64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let sim = sim_config(sim)?;
+    let data = detached(py, || Ok(slam::planar::sim::simulate(&sim, seed, run)))?;
+    let (mut controls, mut detections, mut ids, mut fixes, mut truth) = (
+        Vec::new(),
+        Vec::new(),
+        Vec::<i64>::new(),
+        Vec::new(),
+        Vec::new(),
+    );
+    for (event, pose) in data.events.iter().zip(&data.truth) {
+        truth.extend([event.time(), pose.x, pose.y, pose.theta]);
+        match event {
+            Event::Control { t, control } => controls.extend([*t, control[0], control[1]]),
+            Event::Scan { t, detections: ds } => {
+                for d in ds {
+                    detections.extend([*t, d.range, d.bearing]);
+                    ids.push(d.id.map_or(-1, |i| i as i64));
+                }
+            }
+            Event::Fix { t, xy, covariance } => {
+                fixes.extend([*t, xy[0], xy[1]]);
+                fixes.extend(covariance);
+            }
+        }
+    }
+    let d = PyDict::new(py);
+    let rows = |v: &Vec<f64>, k: usize| v.len() / k;
+    d.set_item(
+        "controls",
+        shaped(py, controls.clone(), &[rows(&controls, 3), 3])?,
+    )?;
+    d.set_item(
+        "detections",
+        shaped(py, detections.clone(), &[rows(&detections, 3), 3])?,
+    )?;
+    d.set_item("detection_ids", ids.into_pyarray(py))?;
+    d.set_item("fixes", shaped(py, fixes.clone(), &[rows(&fixes, 6), 6])?)?;
+    d.set_item("truth", shaped(py, truth.clone(), &[rows(&truth, 4), 4])?)?;
+    let marks: Vec<f64> = data.landmarks.iter().flat_map(|p| [p.x, p.y]).collect();
+    d.set_item("landmarks", shaped(py, marks, &[data.landmarks.len(), 2])?)?;
     Ok(d)
 }

@@ -185,6 +185,9 @@ pub struct Ekf {
     ids: Vec<u64>,
     index: HashMap<u64, usize>,
     next_id: u64,
+    /// Ids of the landmarks held as consider states (Schmidt): zero gain, so their
+    /// means and own covariances stay fixed while their cross-covariances stay exact.
+    consider: Vec<u64>,
 }
 
 impl Ekf {
@@ -229,6 +232,7 @@ impl Ekf {
             ids,
             index,
             next_id: n as u64,
+            consider: Vec::new(),
         })
     }
 
@@ -599,7 +603,11 @@ impl Ekf {
         check_noise("R", r)?;
         let l = self.cross_covariance(h);
         let s = innovation_covariance(h, &l, r);
-        let (gain, nis) = gain_and_nis(&s, &l, innovation)?;
+        let (mut gain, nis) = gain_and_nis(&s, &l, innovation)?;
+        for id in &self.consider {
+            let off = self.robot_dim + self.index[id] * self.landmark_dim;
+            gain.rows_mut(off, self.landmark_dim).fill(0.0);
+        }
         Ok(Prepared { l, s, gain, nis })
     }
 
@@ -800,6 +808,24 @@ impl Ekf {
         check_noise("R", r)
     }
 
+    /// Holds landmark `j` as a consider state (the Schmidt-Kalman filter): from now
+    /// on no update changes its mean or its own covariance (its rows of the gain are
+    /// zero), while the Joseph form keeps every cross-covariance exact for that gain.
+    /// The landmark still informs the rest of the state through its correlations, so
+    /// a landmark treated as known stays honest about what it is not known to.
+    pub fn set_consider(&mut self, j: usize) -> Result<()> {
+        let id = self.landmark_id(j)?;
+        if !self.consider.contains(&id) {
+            self.consider.push(id);
+        }
+        Ok(())
+    }
+
+    /// Whether landmark `j` is a consider state (see [`Ekf::set_consider`]).
+    pub fn is_consider(&self, j: usize) -> bool {
+        self.ids.get(j).is_some_and(|id| self.consider.contains(id))
+    }
+
     /// Removes landmark `j` from the state (marginalisation: its rows and columns
     /// are dropped, the rest of `P` is exact). Later landmarks move down one index.
     /// Returns the removed landmark's id. O(n^2) memory moves, no allocation.
@@ -821,6 +847,7 @@ impl Ekf {
         self.x = x.remove_rows(off, m);
         let id = self.ids.remove(j);
         self.index.remove(&id);
+        self.consider.retain(|&c| c != id);
         for (k, other) in self.ids.iter().enumerate().skip(j) {
             self.index.insert(*other, k);
         }

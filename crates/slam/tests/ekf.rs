@@ -625,3 +625,41 @@ fn an_interrupted_large_update_leaves_the_filter_unchanged() {
     assert!(rel_err(&ekf.covariance(), &sequential.covariance()) < 1e-9);
     assert!((ekf.state() - sequential.state()).amax() < 1e-9);
 }
+
+/// The Schmidt-Kalman consider state against the dense definition: the optimal gain
+/// with the consider rows set to zero, and the Joseph form (valid for any gain) for
+/// `P`. The consider landmark's mean and block stay exactly as they were.
+#[test]
+fn consider_state_is_the_dense_schmidt_update() {
+    let mut rng = StdRng::seed_from_u64(42);
+    let d = 3 + 2 * 3;
+    let x = DVector::from_fn(d, |_, _| rng.random_range(-2.0..2.0));
+    let p = random_spd(&mut rng, d);
+    let mut ekf = Ekf::new(x.clone(), p.clone(), 3, 2).unwrap();
+    ekf.set_consider(1).unwrap();
+    assert!(ekf.is_consider(1) && !ekf.is_consider(0));
+    // An observation of landmarks 0 and 1 relative to the robot.
+    let hr = DMatrix::from_fn(4, 3, |_, _| rng.random_range(-1.0..1.0));
+    let mut h = SparseJacobian::new(4)
+        .with_block(0, 0, hr.clone())
+        .with_block(0, 3, DMatrix::identity(2, 2));
+    h = h.with_block(2, 5, DMatrix::identity(2, 2));
+    let r = DMatrix::from_diagonal(&DVector::from_element(4, 0.05));
+    let nu = DVector::from_fn(4, |_, _| rng.random_range(-0.3..0.3));
+    ekf.update(&nu, &h, &r).unwrap();
+
+    let hd = h.to_dense(d);
+    let s = &hd * &p * hd.transpose() + &r;
+    let mut k = &p * hd.transpose() * s.try_inverse().unwrap();
+    k.rows_mut(5, 2).fill(0.0);
+    let ikh = DMatrix::identity(d, d) - &k * &hd;
+    let p_new = &ikh * &p * ikh.transpose() + &k * &r * k.transpose();
+    let x_new = &x + &k * &nu;
+    assert!((ekf.state() - &x_new).amax() < 1e-12);
+    assert!((ekf.covariance() - &p_new).amax() < 1e-12);
+    assert_eq!(ekf.state().rows(5, 2), x.rows(5, 2));
+    assert!((ekf.covariance().view((5, 5), (2, 2)) - p.view((5, 5), (2, 2))).amax() < 1e-15);
+    // Removing a consider landmark forgets it; the next one is not a consider state.
+    ekf.remove_landmark(1).unwrap();
+    assert!(!ekf.is_consider(1));
+}

@@ -440,3 +440,130 @@ fn nn_ignores_detection_ids() {
     assert_eq!(ids.len(), result.landmarks.len());
     assert_eq!(result.statistics.new, ids.len() as u64);
 }
+
+/// A biased sensor and odometry (a depth camera with offset and scales, odometry
+/// reading long): with the bias in the config, the run equals the run on the unbiased
+/// data (the oracle), to round-off; without it, the map is off.
+#[test]
+fn calibrated_bias_recovers_the_unbiased_run() {
+    use slam::planar::SensorBias;
+    let sim = SimConfig {
+        steps: 300,
+        ..SimConfig::default()
+    };
+    // A camera sees ahead only: keep the detections within 70 degrees.
+    let events: Vec<Event> = simulate(&sim, 8, 0)
+        .events
+        .into_iter()
+        .map(|e| match e {
+            Event::Scan { t, detections } => Event::Scan {
+                t,
+                detections: detections
+                    .into_iter()
+                    .filter(|d| d.bearing.abs() < 70f64.to_radians())
+                    .collect(),
+            },
+            other => other,
+        })
+        .collect();
+    let bias = SensorBias {
+        range_offset: 0.05,
+        range_scale: 1.02,
+        range_is_depth: true,
+        bearing_offset: 0.01,
+        bearing_scale: 0.97,
+        control_scale: [0.95, 0.9],
+    };
+    let biased: Vec<Event> = events
+        .iter()
+        .map(|e| match e {
+            Event::Control { t, control } => Event::Control {
+                t: *t,
+                control: [control[0] / 0.95, control[1] / 0.9],
+            },
+            Event::Scan { t, detections } => Event::Scan {
+                t: *t,
+                detections: detections
+                    .iter()
+                    .map(|d| {
+                        let (range, bearing) = bias.distort_detection(d.range, d.bearing);
+                        Detection {
+                            range,
+                            bearing,
+                            ..*d
+                        }
+                    })
+                    .collect(),
+            },
+            other => other.clone(),
+        })
+        .collect();
+    let truth = run(sim.slam_config(), &events);
+    let corrected = run(
+        PlanarConfig {
+            bias,
+            ..sim.slam_config()
+        },
+        &biased,
+    );
+    let uncorrected = run(sim.slam_config(), &biased);
+    let worst = |r: &slam::planar::PlanarResult| {
+        r.landmarks
+            .iter()
+            .zip(&truth.landmarks)
+            .map(|(a, b)| (a.mean[0] - b.mean[0]).hypot(a.mean[1] - b.mean[1]))
+            .fold(0.0, f64::max)
+    };
+    assert!(worst(&corrected) < 1e-9, "corrected: {}", worst(&corrected));
+    assert!(
+        worst(&uncorrected) > 0.05,
+        "uncorrected: {}",
+        worst(&uncorrected)
+    );
+    let last = |r: &slam::planar::PlanarResult| *r.trajectory.pose.last().unwrap();
+    let (a, b) = (last(&corrected), last(&truth));
+    assert!((a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9);
+}
+
+/// Freezing as the seed does it (marginalise, then use the landmark as known with its
+/// covariance added to the noise) double counts that covariance at every sighting:
+/// the run-averaged NEES leaves the band far above. Holding frozen landmarks as
+/// consider states (Schmidt) keeps the cross-covariances and the NEES in the band of
+/// the unfrozen filter (same world and seeds as the short-horizon test).
+#[test]
+fn consider_freezing_keeps_the_nees_in_band_where_marginalising_does_not() {
+    use slam::planar::FreezeMode;
+    let sim = SimConfig {
+        steps: 300,
+        ..SimConfig::default()
+    };
+    let with = |mode| PlanarConfig {
+        freeze_after: Some(20),
+        freeze_mode: mode,
+        ..sim.slam_config()
+    };
+    let consider = monte_carlo(&sim, &with(FreezeMode::Consider), 50, 11).unwrap();
+    let (mean, inside) = summary("freeze/consider", &consider, 5);
+    assert!(inside >= 0.85, "consider: {inside} of steps in band");
+    assert!(
+        consider.band.0 < mean && mean < consider.band.1,
+        "consider mean {mean}"
+    );
+    let marginal = monte_carlo(&sim, &with(FreezeMode::Marginalise), 50, 11).unwrap();
+    let (mean, _) = summary("freeze/marginalise", &marginal, 5);
+    assert!(
+        mean > marginal.band.1,
+        "marginalise mean {mean} is not over the band"
+    );
+    // The consider run still freezes: its landmarks are frozen, their sightings used.
+    let data = simulate(&sim, 4, 0);
+    let result = run(with(FreezeMode::Consider), &data.events);
+    let frozen = result.landmarks.iter().filter(|l| l.frozen).count();
+    assert!(frozen > 0 && result.statistics.frozen == frozen as u64);
+    assert!(
+        result
+            .landmarks
+            .iter()
+            .any(|l| l.frozen && l.revisions > 21)
+    );
+}

@@ -68,7 +68,7 @@ class Demo:
 def registry() -> tuple[Demo, ...]:
     """Every demo, in the order ``demo all`` runs them. (Built on first use: the demo
     functions live in the command modules, which import this one.)"""
-    from rperc.cli import lines, slam, track
+    from rperc.cli import lines, slam, slamrun, track
 
     return (
         Demo("lines", "Douglas-Peucker on a noisy spiral, deviation vs epsilon", lines.demo_lines),
@@ -78,6 +78,12 @@ def registry() -> tuple[Demo, ...]:
             "EKF-SLAM observability study (Figs. 3-6, Monte Carlo)",
             slam.demo_monobot,
             (Option("--runs", "runs", count_at_least(2), 100, "Monte Carlo runs (default 100)"),),
+        ),
+        Demo(
+            "slam",
+            "planar EKF-SLAM variants in a simulated world: maps, paths, Monte Carlo NEES",
+            slamrun.demo_slam,
+            (Option("--runs", "runs", count_at_least(2), 20, "Monte Carlo runs (default 20)"),),
         ),
         Demo(
             "tracking",

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from rperc.cli.demo import DemoResult
 from rperc.cli.outputs import add_json_option, check_output_file, positive_float, write_json, wrote
 from rperc.slam import PlanarSlam, SlamResult
 from rperc.slam.planar import PRESETS, mrclam_recording, victoria_recording
@@ -40,6 +41,11 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         help="external variant: seconds between xy fixes made from the ground truth",
     )  # fmt: skip
     m.add_argument("--fix-sigma", type=positive_float, default=0.1, help="their noise (m)")
+    m.add_argument(
+        "--span", type=float, nargs=2, metavar=("START", "STOP"),
+        help="only seconds [START, STOP) after the first odometry row (the mrclam preset "
+        "is calibrated on robot 1's first 444 s: report on what follows or on robots 2-5)",
+    )  # fmt: skip
     v = kinds.add_parser("victoria", help="Victoria Park: trees, no ids, GPS")
     v.add_argument("directory", type=Path, help="Victoria Park folder")
     v.add_argument("--association", choices=("nn", "jcbb"), default="jcbb")
@@ -52,6 +58,10 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         q.add_argument("--config", type=json.loads, default={}, help="JSON config overrides")
         q.add_argument("--tum", type=Path, help="write the estimated path (TUM format, for evo)")
         q.add_argument("--plot", type=Path, help="write the map figure")
+        q.add_argument(
+            "--rerun", type=Path, metavar="FILE.rrd",
+            help="write the run for the rerun viewer (needs pip install rperc[viz])",
+        )  # fmt: skip
         add_json_option(q)
         q.set_defaults(run=slam_command)
 
@@ -69,6 +79,10 @@ def _mrclam(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dict[
     from rperc.slam.planar import mrclam_start
 
     run = load_mrclam(args.directory, robot=args.robot)
+    if args.span is not None:
+        from rperc.slam.calibration import mrclam_window
+
+        run = mrclam_window(run, *args.span)
     cfg = {**PRESETS["mrclam"], **mrclam_start(run), **args.config}
     cfg = variant_config(cfg, args.variant)
     # Fixes only for the external variant: even ignored, each would split a prediction.
@@ -89,7 +103,7 @@ def _mrclam(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dict[
         "nees_mean": nees.mean,
         "nees_in_band": float(np.mean(nees.inside)),
     }
-    ref = {"truth": truth, "landmarks": marks, "label": "true path (Vicon)"}
+    ref = {"truth": truth, "landmarks": marks, "label": "true path (Vicon)", "nees": nees}
     return result, metrics, ref | {"transform": None}
 
 
@@ -115,7 +129,8 @@ def _victoria(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dic
         "gps_fixes": len(err.distance),
         "gps_fixes_implausible": int(np.count_nonzero(~keep)),
     }
-    ref = {"truth": gps, "landmarks": None, "label": "GPS fixes", "transform": err.transform}
+    ref = {"truth": gps, "landmarks": None, "label": "GPS fixes", "transform": err.transform,
+           "nees": None}  # fmt: skip
     return result, metrics, ref
 
 
@@ -123,6 +138,12 @@ def slam_command(args: argparse.Namespace) -> int:
     for path, option, figure in ((args.tum, "--tum", False), (args.plot, "--plot", True)):
         check_output_file(path, option, figure=figure)
     check_output_file(args.json, "--json")
+    check_output_file(args.rerun, "--rerun")
+    if args.rerun is not None:
+        import importlib.util
+
+        if importlib.util.find_spec("rerun") is None:
+            raise ValueError("--rerun needs the viz extra: pip install rperc[viz]")
     run = _mrclam if args.dataset == "mrclam" else _victoria
     result, metrics, ref = run(args)
     metrics |= {
@@ -150,6 +171,80 @@ def slam_command(args: argparse.Namespace) -> int:
             truth_label=ref["label"], transform=ref["transform"],
         )  # fmt: skip
         wrote(save(fig, args.plot))
+    if args.rerun is not None:
+        from rperc.slam.rerun_log import log_run
+
+        # GPS fixes are points, not a path: only the map's truth is drawn for them.
+        truth = ref["truth"] if args.dataset == "mrclam" else None
+        wrote(
+            log_run(result, args.rerun, truth=truth, landmarks=ref["landmarks"], nees=ref["nees"])
+        )
     write_json(args.json, metrics)
     sys.stdout.flush()
     return 0
+
+
+# The demo world: the Rust crate's drifting world (heading noise 0.05 rad^2/s^2 per
+# step, 12 landmarks seen within 4.5 m), where Bailey et al.'s long-run inconsistency
+# shows; the external variant sees an xy fix every 10 steps (1 s).
+DEMO_WORLD: dict[str, Any] = {
+    "steps": 1500,
+    "turn_rate_variance": 0.05,
+    "bearing_variance": 1e-3,
+    "landmarks": 12,
+    "max_range": 4.5,
+}
+DEMO_FIX_EVERY = 10
+
+
+def demo_slam(out: Path, seed: int, runs: int = 20) -> DemoResult:
+    """Planar EKF-SLAM's variants (plain, anchor, external) in the simulated world:
+    one seeded run each for the maps, and a Monte Carlo for the NEES."""
+    from rperc.plot import save
+    from rperc.plot.slam import variants_figure
+    from rperc.slam.planar import (
+        VARIANTS,
+        consistency,
+        sim_defaults,
+        sim_slam_config,
+        simulate,
+    )
+
+    mc = consistency(DEMO_WORLD, runs=runs, seed=seed, fix_every=DEMO_FIX_EVERY)
+    maps, measured = [], {}
+    for name, over in VARIANTS.items():
+        world = {**DEMO_WORLD, "fix_every": DEMO_FIX_EVERY} if name == "external" else DEMO_WORLD
+        sim = simulate(world, seed=seed, run=0)
+        result = PlanarSlam(sim_slam_config(world, **over)).run(sim.recording)
+        t, pose = sim.truth_path()
+        ate = result.ate(t, pose).rmse
+        ids = np.arange(len(sim.landmarks))
+        lm = result.landmark_rmse(ids, sim.landmarks).rmse
+        m = mc[name]
+        measured[name] = {
+            "ate_m": ate,
+            "landmark_rmse_m": lm,
+            "mean_nees": float(np.mean(m.mean_nees)),
+            "nees_in_band": m.in_band,
+            "band": list(m.band),
+        }
+        maps.append((name, result, f"ATE {ate:.3f} m, landmarks {lm:.3f} m (run 0)"))
+    band = mc["plain"].band
+    nees_text = ", ".join(
+        f"{n} {mc[n].mean_nees.mean():.2f} ({100 * mc[n].in_band:.0f}% in band)" for n in VARIANTS
+    )
+    title = (
+        f"planar EKF-SLAM, simulated world, {DEMO_WORLD['steps']} steps: estimate vs truth; "
+        f"{runs}-run mean robot NEES {nees_text}, band [{band[0]:.2f}, {band[1]:.2f}]"
+    )
+    series = [(n, mc[n].mean_nees) for n in VARIANTS]
+    dt = float(sim_defaults()["dt"])
+    fig = variants_figure(maps, sim.truth[:, 1:3], sim.landmarks, series, band, title=title, dt=dt)
+    path = save(fig, out / "slam_variants.png")
+    summary = (
+        "slam: simulated world, ATE "
+        + " / ".join(f"{measured[n]['ate_m']:.3f}" for n in VARIANTS)
+        + f" m (plain / anchor / external, run 0); {runs}-run mean robot NEES {nees_text}, "
+        + f"band [{band[0]:.2f}, {band[1]:.2f}]"
+    )
+    return DemoResult(summary, [path], {"runs": runs, "seed": seed, **measured})

@@ -59,7 +59,23 @@ def map_figure(
     ``truth`` is (M, >= 2) positions, ``landmarks`` (L, 2). ``transform`` moves the
     estimates into the truth's frame (an alignment), covariances rotated with them."""
     fig = Figure(figsize=(7.5, 6.5))
-    ax = fig.add_subplot()
+    draw_map(fig.add_subplot(), runs, truth, landmarks, title=title, truth_label=truth_label,
+             transform=transform)  # fmt: skip
+    return fig
+
+
+def draw_map(
+    ax: Axes,
+    runs: Sequence[tuple[str, SlamResult]],
+    truth: npt.ArrayLike | None = None,
+    landmarks: npt.ArrayLike | None = None,
+    *,
+    title: str = "",
+    truth_label: str = "true path",
+    transform: Se2Transform | None = None,
+    colours: Sequence[str] = COLOURS,
+) -> None:
+    """:func:`map_figure`'s drawing, into ``ax``."""
     rot = np.eye(2) if transform is None else transform.rotation
     move = (lambda p: p) if transform is None else transform.apply_points
     shown = [move(r.pose[:, :2]) for _, r in runs] + [move(r.landmark_mean) for _, r in runs]
@@ -71,17 +87,19 @@ def map_figure(
         marks = np.asarray(landmarks, dtype=np.float64)
         ax.plot(marks[:, 0], marks[:, 1], "k+", ms=9, label="true landmarks")
         shown.append(marks)
-    for (name, r), colour in zip(runs, COLOURS, strict=False):
+    for (name, r), colour in zip(runs, colours, strict=False):
         path, marks = move(r.pose[:, :2]), move(r.landmark_mean)
         ax.plot(path[:, 0], path[:, 1], color=colour, lw=0.8, label=f"estimate: {name}")
         ax.plot(*marks.T, "o", ms=3, color=colour, label=f"map: {name} (95 % ellipses)")
         _ellipses(ax, marks, rot @ r.landmark_covariance @ rot.T, colour)
-    set_limits(ax, robust_limits(np.concatenate(shown), percentiles=(0.5, 99.5)))
+    # The truth (path and landmarks) is always in view; stray estimates may be cut.
+    kept = [np.asarray(a, dtype=np.float64)[:, :2] for a in (truth, landmarks) if a is not None]
+    include = np.concatenate(kept) if kept else None
+    set_limits(ax, robust_limits(np.concatenate(shown), include=include, percentiles=(0.5, 99.5)))
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_title(title, fontsize=9)
     ax.legend(fontsize=7, loc="best")
-    return fig
 
 
 def nees_figure(
@@ -100,4 +118,34 @@ def nees_figure(
     ax.set_ylabel("robot NEES")
     ax.set_title(title, fontsize=9)
     ax.legend(fontsize=7, loc="upper left")
+    return fig
+
+
+def variants_figure(
+    runs: Sequence[tuple[str, SlamResult, str]],
+    truth: npt.ArrayLike,
+    landmarks: npt.ArrayLike,
+    nees: Sequence[tuple[str, npt.ArrayLike]],
+    band: tuple[float, float],
+    *,
+    title: str = "",
+    dt: float = 1.0,
+) -> Figure:
+    """The seed's variants side by side: one map per ``(name, result, score)`` with
+    the true path and landmarks, and below them the run-averaged robot NEES of each
+    variant (one value per step of ``dt`` seconds) against its band."""
+    fig = Figure(figsize=(5.0 * len(runs), 9.0))
+    grid = fig.add_gridspec(2, len(runs), height_ratios=(2.2, 1.0))
+    for k, ((name, result, score), colour) in enumerate(zip(runs, COLOURS, strict=False)):
+        draw_map(fig.add_subplot(grid[0, k]), [(name, result)], truth, landmarks,
+                 title=f"{name}: {score}", colours=(colour,))  # fmt: skip
+    ax = fig.add_subplot(grid[1, :])
+    for (name, series), colour in zip(nees, COLOURS, strict=False):
+        values = np.asarray(series, dtype=np.float64)
+        ax.semilogy(dt * np.arange(1, len(values) + 1), values, color=colour, lw=0.8, label=name)
+    ax.axhspan(band[0], band[1], color="0.85", zorder=0, label="95 % band of the mean (3 dof)")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("run-averaged robot NEES")
+    ax.legend(fontsize=7, loc="upper left")
+    fig.suptitle(title, fontsize=10)
     return fig

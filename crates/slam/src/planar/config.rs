@@ -3,6 +3,7 @@
 
 use rperc_core::{chi2_gate, ensure_non_negative, ensure_positive};
 
+use super::SensorBias;
 use crate::error::{Result, SlamError};
 use crate::motion::MotionModel;
 
@@ -18,6 +19,23 @@ rperc_core::named_enum! {
         NearestNeighbour = "nn",
         /// Joint compatibility branch and bound (Neira & Tardos 2001).
         Jcbb = "jcbb",
+    }
+}
+
+rperc_core::named_enum! {
+    /// What freezing does to a landmark (text under Fig. 7).
+    #[derive(Default)]
+    pub enum FreezeMode: "freeze_mode" {
+        /// The seed's: the landmark leaves the state (marginalised) and is then used
+        /// as known with its covariance added to the detection noise. Its correlation
+        /// with the robot is lost, so every later sighting counts that covariance
+        /// again as if it were new: the robot becomes over-confident.
+        #[default]
+        Marginalise = "marginalise",
+        /// The landmark stays in the state as a consider state (Schmidt-Kalman): its
+        /// mean and covariance are fixed, its cross-covariances kept exact, so its
+        /// sightings correct the rest without over-confidence. No state reduction.
+        Consider = "consider",
     }
 }
 
@@ -56,10 +74,16 @@ pub struct PlanarConfig {
     /// Landmarks revised more than this many times leave the state (text under
     /// Fig. 7, where it is 50); `None` never freezes.
     pub freeze_after: Option<u32>,
+    /// How a landmark is frozen.
+    pub freeze_mode: FreezeMode,
     /// Start pose `(x, y, theta)`.
     pub initial_pose: [f64; 3],
     /// Variances of the start pose (>= 0; zero: a known start).
     pub initial_pose_variance: [f64; 3],
+    /// Systematic sensor and odometry errors, removed from every detection and
+    /// control before use (identity by default; MR.CLAM's are calibrated offline).
+    /// `range_variance` and `bearing_variance` are the noise left after it.
+    pub bias: SensorBias,
 }
 
 impl Default for PlanarConfig {
@@ -77,8 +101,10 @@ impl Default for PlanarConfig {
             external_fix: false,
             fix_lever_arm: [0.0; 2],
             freeze_after: None,
+            freeze_mode: FreezeMode::Marginalise,
             initial_pose: [0.0; 3],
             initial_pose_variance: [0.0; 3],
+            bias: SensorBias::default(),
         }
     }
 }
@@ -116,6 +142,6 @@ impl PlanarConfig {
         for v in self.initial_pose_variance {
             ensure_non_negative("initial_pose_variance", v)?;
         }
-        Ok(())
+        self.bias.validate()
     }
 }

@@ -10,8 +10,8 @@ use rperc_core::{Definiteness, Pose2, check_covariance, chi2_gate};
 use super::associate::{self, FixedPoint, Pairing, Scene, Target};
 use super::observe::{anchor_frame, anchor_observation, cartesian, fix_observation, landmark_from};
 use super::{
-    Association, Detection, Event, EventArrays, EventKind, LandmarkEstimate, PlanarConfig,
-    PlanarResult, Statistics, Trajectory,
+    Association, Detection, Event, EventArrays, EventKind, FreezeMode, LandmarkEstimate,
+    PlanarConfig, PlanarResult, Statistics, Trajectory,
 };
 use crate::ekf::{Ekf, Gated, SparseJacobian};
 use crate::error::{Result, SlamError, ensure_finite};
@@ -76,6 +76,8 @@ pub struct PlanarSlam {
     /// The internal frame's origin in the world (the anchor's position; zero without).
     offset: Vector2<f64>,
     anchor: Option<u64>,
+    /// When the anchor was made (before it, the state is in the world frame).
+    anchor_time: Option<f64>,
     /// Frozen landmarks and the anchor, with their ids.
     fixed: Vec<FixedPoint>,
     fixed_ids: Vec<u64>,
@@ -121,6 +123,7 @@ impl PlanarSlam {
             control: Vector2::zeros(),
             offset: Vector2::zeros(),
             anchor: None,
+            anchor_time: None,
             fixed: Vec::new(),
             fixed_ids: Vec::new(),
             revisions: HashMap::new(),
@@ -203,7 +206,7 @@ impl PlanarSlam {
             Event::Control { t, control } => {
                 ensure_finite("control", control.iter())?;
                 self.predict_to(*t)?;
-                self.control = Vector2::from(*control);
+                self.control = Vector2::from(self.config.bias.correct_control(*control));
                 Ok(EventKind::Control)
             }
             Event::Scan { t, detections } => {
@@ -295,13 +298,15 @@ impl PlanarSlam {
         let mut zs = Vec::with_capacity(detections.len());
         for d in detections {
             ensure_finite("detection", [d.range, d.bearing].iter())?;
-            if d.range <= 0.0 {
+            // The calibrated biases come off first; the range must be positive after.
+            let (range, bearing) = self.config.bias.correct_detection(d.range, d.bearing)?;
+            if range <= 0.0 {
                 return Err(SlamError::invalid(
                     "range",
-                    format!("must be > 0, got {}", d.range),
+                    format!("must be > 0, got {} ({range} unbiased)", d.range),
                 ));
             }
-            zs.push(Vector2::new(d.range, d.bearing));
+            zs.push(Vector2::new(range, bearing));
         }
         // Ids are the association only when it is 'known'; otherwise they are ignored
         // (a data set's labels must not leak into NN or JCBB).
@@ -462,6 +467,13 @@ impl PlanarSlam {
         let Some(j) = self.ekf.landmark_index(id) else {
             return Ok(()); // already frozen, or the anchor
         };
+        if self.config.freeze_mode == FreezeMode::Consider {
+            if !self.ekf.is_consider(j) {
+                self.ekf.set_consider(j)?;
+                self.stats.frozen += 1;
+            }
+            return Ok(());
+        }
         let off = self.ekf.landmark_offset(j)?;
         let mean = Point2::new(self.ekf.state()[off], self.ekf.state()[off + 1]);
         let cov = Matrix2::from_column_slice(self.ekf.landmark_covariance(j)?.as_slice());
@@ -589,6 +601,7 @@ impl PlanarSlam {
         });
         self.fixed_ids.push(id);
         self.anchor = Some(id);
+        self.anchor_time = self.time;
         Ok(())
     }
 }
@@ -618,7 +631,8 @@ impl PlanarSlam {
                 .ekf
                 .covariance_block(off, off, 2, 2)
                 .expect("landmark block");
-            out.push(self.estimate(id, Point2::new(x[off], x[off + 1]), &c, false));
+            let frozen = self.ekf.is_consider(j);
+            out.push(self.estimate(id, Point2::new(x[off], x[off + 1]), &c, frozen));
         }
         for (k, &id) in self.fixed_ids.iter().enumerate() {
             let f = &self.fixed[k];
@@ -650,6 +664,7 @@ impl PlanarSlam {
         let landmarks = self.landmarks();
         PlanarResult {
             anchor: self.anchor.map(|_| [self.offset.x, self.offset.y]),
+            anchor_time: self.anchor_time,
             trajectory: self.trajectory,
             landmarks,
             statistics: self.stats,

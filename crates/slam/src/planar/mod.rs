@@ -11,12 +11,14 @@
 //! to its own time with the control in force, so `dt` is the gap between events.
 
 mod associate;
+mod bias;
 mod config;
 mod engine;
 mod observe;
 pub mod sim;
 
-pub use config::{Association, PlanarConfig};
+pub use bias::SensorBias;
+pub use config::{Association, FreezeMode, PlanarConfig};
 pub use engine::PlanarSlam;
 
 /// One range-bearing detection of a scan, in the sensor frame.
@@ -163,4 +165,7 @@ pub struct PlanarResult {
     pub statistics: Statistics,
     /// The anchor's world position (the origin of the engine's internal frame).
     pub anchor: Option<[f64; 2]>,
+    /// The time the anchor was made: the robot covariance is relative to the anchor
+    /// from then on, in the world frame before.
+    pub anchor_time: Option<f64>,
 }

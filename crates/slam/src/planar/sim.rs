@@ -13,7 +13,8 @@ use crate::motion::{MotionModel, unicycle};
 
 /// The simulated world and its noise (the truth uses the same variances as the
 /// filter's [`PlanarConfig`] built by [`SimConfig::slam_config`]).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct SimConfig {
     /// Radius of the circle the robot drives, m.
     pub radius: f64,
@@ -78,6 +79,45 @@ pub struct SimRun {
 }
 
 impl SimConfig {
+    /// Refuses bad values with the field's name.
+    pub fn validate(&self) -> Result<()> {
+        use rperc_core::{ensure_non_negative, ensure_positive};
+        for (name, v) in [
+            ("radius", self.radius),
+            ("speed", self.speed),
+            ("dt", self.dt),
+            ("ring_gap", self.ring_gap),
+            ("max_range", self.max_range),
+            ("range_variance", self.range_variance),
+            ("bearing_variance", self.bearing_variance),
+            ("fix_variance", self.fix_variance),
+        ] {
+            ensure_positive(name, v)?;
+        }
+        for (name, v) in [
+            ("speed_variance", self.speed_variance),
+            ("turn_rate_variance", self.turn_rate_variance),
+        ] {
+            ensure_non_negative(name, v)?;
+        }
+        for v in self.initial_pose_variance {
+            ensure_non_negative("initial_pose_variance", v)?;
+        }
+        if self.steps == 0 || self.landmarks == 0 || self.fix_every == Some(0) {
+            return Err(SlamError::invalid(
+                "steps",
+                "steps, landmarks and fix_every must be >= 1".into(),
+            ));
+        }
+        if self.ring_gap >= self.radius {
+            return Err(SlamError::invalid(
+                "ring_gap",
+                format!("must be < radius {}, got {}", self.radius, self.ring_gap),
+            ));
+        }
+        Ok(())
+    }
+
     /// The filter settings that match this world: same noise, same start.
     pub fn slam_config(&self) -> PlanarConfig {
         PlanarConfig {
@@ -215,6 +255,24 @@ pub fn robot_nees(result: &PlanarResult, truth: &[Pose2], landmarks: &[Point2<f6
         .collect()
 }
 
+/// Run `run` of `seed` (as [`simulate`]) through `slam`: the robot NEES after each
+/// scan, one per control step. What one worker of a Monte Carlo computes.
+pub fn run_nees(sim: &SimConfig, slam: &PlanarConfig, seed: u64, run: u64) -> Result<Vec<f64>> {
+    let data = simulate(sim, seed, run);
+    let mut engine = PlanarSlam::new(slam.clone())?;
+    engine.run(&data.events)?;
+    let result = engine.finish();
+    let nees = robot_nees(&result, &data.truth, &data.landmarks);
+    Ok(result
+        .trajectory
+        .kind
+        .iter()
+        .zip(nees)
+        .filter(|(k, _)| **k == super::EventKind::Scan)
+        .map(|(_, n)| n)
+        .collect())
+}
+
 /// Monte Carlo consistency: the run-averaged robot NEES after every scan, and the
 /// two-sided 95 % band of that average under consistency.
 #[derive(Debug, Clone, PartialEq)]
@@ -241,23 +299,10 @@ pub fn monte_carlo(
             "runs and steps must be >= 1".into(),
         ));
     }
+    sim.validate()?;
     let per_run: Vec<Vec<f64>> = (0..runs as u64)
         .into_par_iter()
-        .map(|r| {
-            let run = simulate(sim, seed, r);
-            let mut engine = PlanarSlam::new(slam.clone())?;
-            engine.run(&run.events)?;
-            let result = engine.finish();
-            let nees = robot_nees(&result, &run.truth, &run.landmarks);
-            Ok(result
-                .trajectory
-                .kind
-                .iter()
-                .zip(nees)
-                .filter(|(k, _)| **k == super::EventKind::Scan)
-                .map(|(_, n)| n)
-                .collect())
-        })
+        .map(|r| run_nees(sim, slam, seed, r))
         .collect::<Result<_>>()?;
     let mean_nees = (0..sim.steps)
         .map(|k| per_run.iter().map(|r| r[k]).sum::<f64>() / runs as f64)

@@ -1,0 +1,263 @@
+"""Offline calibration of MR.CLAM's sensor biases and noise levels from one robot's
+ground truth, for the ``mrclam`` preset of :mod:`rperc.slam.planar`.
+
+The ground truth is read here, once, offline; the filter then runs with the constants
+this returns and never sees ground truth (only the start pose, the dataset's surveyed
+start). Fit on one part of the data (robot 1, or its first half) and report the
+scores on data the fit has not seen.
+
+What is fitted (the model of :class:`SensorBias` in the Rust crate):
+
+- camera bearing ``b_measured = bearing_offset + bearing_scale * b``;
+- camera range ``r_measured = range_offset + range_scale * r cos(b)``: MR.CLAM's
+  camera sizes a barcode by its image height, which gives the depth along the optical
+  axis, not the range (off-axis landmarks read short: 0.2 m at 0.5 rad on robot 1);
+- odometry scales: the true distance and turn over ``window`` seconds against the
+  odometry's, integrated from the true start of each window;
+- the noise left after the correction: detection variances are the mean squares of
+  the residuals within 5 robust sigmas (heavier tails than a Gaussian, so not the
+  MAD), control variances are the residual variances of the windows divided by the
+  mean of ``sum(dt^2)`` over a window, as the engine's prediction holds the control
+  noise over each step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = [
+    "MrclamCalibration",
+    "calibrate_mrclam",
+    "gate_inflation",
+    "inflated",
+    "mrclam_window",
+    "true_range_bearing",
+]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class MrclamCalibration:
+    """Biases and noise variances fitted by :func:`calibrate_mrclam`, with the sizes
+    of the samples they come from."""
+
+    range_offset: float
+    range_scale: float
+    bearing_offset: float
+    bearing_scale: float
+    speed_scale: float
+    turn_rate_scale: float
+    range_variance: float
+    bearing_variance: float
+    speed_variance: float
+    turn_rate_variance: float
+    detections: int
+    outliers: int
+    windows: int
+
+    def config(self) -> dict[str, Any]:
+        """The fields of a :class:`rperc.slam.PlanarSlam` config."""
+        return {
+            "motion": {
+                "unicycle": {
+                    "speed_variance": self.speed_variance,
+                    "turn_rate_variance": self.turn_rate_variance,
+                }
+            },
+            "range_variance": self.range_variance,
+            "bearing_variance": self.bearing_variance,
+            "bias": {
+                "range_offset": self.range_offset,
+                "range_scale": self.range_scale,
+                "range_is_depth": True,
+                "bearing_offset": self.bearing_offset,
+                "bearing_scale": self.bearing_scale,
+                "control_scale": [self.speed_scale, self.turn_rate_scale],
+            },
+        }
+
+
+def _heading(run: Any) -> FloatArray:
+    return np.asarray(np.unwrap(run.truth_theta), dtype=np.float64)
+
+
+def true_range_bearing(run: Any) -> tuple[FloatArray, FloatArray]:
+    """The true range and bearing of every landmark sighting, from the ground-truth
+    pose interpolated at the sighting's time and the surveyed landmark."""
+    t = run.measurement_t
+    x = np.interp(t, run.truth_t, run.truth_x)
+    y = np.interp(t, run.truth_t, run.truth_y)
+    theta = np.interp(t, run.truth_t, _heading(run))
+    where = {int(i): k for k, i in enumerate(run.landmark_id)}
+    missing = sorted({int(i) for i in run.measurement_landmark} - set(where))
+    if missing:
+        raise ValueError(f"sightings of landmarks {missing} have no ground truth")
+    k = np.array([where[int(i)] for i in run.measurement_landmark], dtype=np.int64)
+    dx = run.landmark_x[k] - x
+    dy = run.landmark_y[k] - y
+    bearing = np.angle(np.exp(1j * (np.arctan2(dy, dx) - theta)))
+    return np.hypot(dx, dy), bearing
+
+
+def _robust_line(
+    regressor: FloatArray, measured: FloatArray
+) -> tuple[float, float, FloatArray, npt.NDArray[np.bool_]]:
+    """``measured = offset + scale * regressor`` by least squares, refitted without the
+    residuals beyond 5 robust sigmas until the inlier set settles."""
+    inlier = np.ones(len(measured), dtype=bool)
+    for _ in range(10):
+        a = np.c_[np.ones(int(inlier.sum())), regressor[inlier]]
+        offset, scale = np.linalg.lstsq(a, measured[inlier], rcond=None)[0]
+        residual = measured - offset - scale * regressor
+        mad = 1.4826 * np.median(np.abs(residual[inlier] - np.median(residual[inlier])))
+        now = np.abs(residual) <= 5.0 * mad
+        if np.array_equal(now, inlier):
+            break
+        inlier = now
+    return float(offset), float(scale), residual, inlier
+
+
+def _windows(run: Any, window: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Per window of ``window`` s: (true, odometry) distance, (true, odometry) turn,
+    and the sum of the squared odometry steps. Odometry is integrated (Euler, as
+    logged) in the frame of the window's true start."""
+    t = run.odometry_t
+    dt = np.diff(t)
+    phi = np.r_[0.0, np.cumsum(run.odometry_omega[:-1] * dt)]
+    c = np.r_[0.0, np.cumsum(run.odometry_v[:-1] * dt * np.exp(1j * phi[:-1]))]
+    sq = np.r_[0.0, np.cumsum(dt * dt)]
+    i0 = np.searchsorted(t, np.arange(t[0], t[-1] - window, window))
+    i1 = np.searchsorted(t, t[i0] + window)
+    i0, i1 = i0[i1 < len(t)], i1[i1 < len(t)]
+    heading = _heading(run)
+    xy = np.interp(t, run.truth_t, run.truth_x) + 1j * np.interp(t, run.truth_t, run.truth_y)
+    th = np.interp(t, run.truth_t, heading)
+    distance = np.c_[np.abs(xy[i1] - xy[i0]), np.abs(c[i1] - c[i0])]
+    turn = np.c_[th[i1] - th[i0], phi[i1] - phi[i0]]
+    return distance, turn, sq[i1] - sq[i0]
+
+
+def _scale_and_variance(pairs: FloatArray, sum_dt2: FloatArray) -> tuple[float, float]:
+    true, odo = pairs[:, 0], pairs[:, 1]
+    scale = float(np.sum(true * odo) / np.sum(odo * odo))
+    residual = true - scale * odo
+    return scale, float(np.mean(residual**2) / np.mean(sum_dt2))
+
+
+def calibrate_mrclam(run: Any, *, window: float = 1.0) -> MrclamCalibration:
+    """Fits the camera and odometry biases and noise of a
+    :class:`rperc.datasets.MrclamRun` against its ground truth (see the module docs).
+    Use :func:`mrclam_window` to fit on part of a run."""
+    if len(run.measurement_t) < 10 or len(run.odometry_t) < 10:
+        raise ValueError("calibration needs at least 10 sightings and 10 odometry rows")
+    if not window > 0:
+        raise ValueError(f"window must be > 0, got {window}")
+    r, b = true_range_bearing(run)
+    b_off, b_scale, b_res, b_in = _robust_line(b, run.measurement_bearing)
+    depth = r * np.cos(b)
+    r_off, r_scale, r_res, r_in = _robust_line(depth, run.measurement_range)
+    inlier = b_in & r_in
+    distance, turn, sum_dt2 = _windows(run, window)
+    if len(sum_dt2) < 10:
+        raise ValueError("calibration needs at least 10 odometry windows")
+    v_scale, v_var = _scale_and_variance(distance, sum_dt2)
+    w_scale, w_var = _scale_and_variance(turn, sum_dt2)
+    # The filter sees corrected detections: residuals are divided by the scales.
+    return MrclamCalibration(
+        range_offset=r_off,
+        range_scale=r_scale,
+        bearing_offset=b_off,
+        bearing_scale=b_scale,
+        speed_scale=v_scale,
+        turn_rate_scale=w_scale,
+        range_variance=float(np.mean((r_res[inlier] / r_scale) ** 2)),
+        bearing_variance=float(np.mean((b_res[inlier] / b_scale) ** 2)),
+        speed_variance=v_var,
+        turn_rate_variance=w_var,
+        detections=int(inlier.sum()),
+        outliers=int((~inlier).sum()),
+        windows=len(sum_dt2),
+    )
+
+
+def mrclam_window(run: Any, start: float, stop: float) -> Any:
+    """The part of a :class:`rperc.datasets.MrclamRun` with times in ``[start, stop)``
+    seconds after its first odometry row (all its time series cut alike)."""
+    t0 = float(run.odometry_t[0])
+    if not 0 <= start < stop:
+        raise ValueError(f"need 0 <= start < stop, got {start}, {stop}")
+
+    def cut(t: FloatArray) -> npt.NDArray[np.bool_]:
+        return np.asarray((t >= t0 + start) & (t < t0 + stop))
+
+    o, m, g = cut(run.odometry_t), cut(run.measurement_t), cut(run.truth_t)
+    if not (o.any() and m.any() and g.any()):
+        raise ValueError(f"[{start}, {stop}) s holds no odometry, sightings or truth")
+    return replace(
+        run,
+        odometry_t=run.odometry_t[o],
+        odometry_v=run.odometry_v[o],
+        odometry_omega=run.odometry_omega[o],
+        measurement_t=run.measurement_t[m],
+        measurement_landmark=run.measurement_landmark[m],
+        measurement_range=run.measurement_range[m],
+        measurement_bearing=run.measurement_bearing[m],
+        truth_t=run.truth_t[g],
+        truth_x=run.truth_x[g],
+        truth_y=run.truth_y[g],
+        truth_theta=run.truth_theta[g],
+    )
+
+
+def gate_inflation(
+    run: Any,
+    config: dict[str, Any],
+    *,
+    factors: tuple[float, ...] = (1.0, 2.0, 4.0),
+) -> tuple[float, float, int]:
+    """The smallest inflation ``(detection, control)`` of the noise variances of
+    ``config`` under which the run's known-association sightings are refused by the
+    chi-square gate no more often than the gate's own rate, ``1 - gate_confidence``.
+
+    The variances fitted by :func:`calibrate_mrclam` are those of single residuals;
+    the filter also needs the errors that repeat (time stamps, slowly varying odometry
+    slip, the surveyed positions), which inflate every innovation. The innovation test
+    needs no ground truth (only the start pose), so this is the consistency a run can
+    check by itself; it is fitted on the calibration data like the rest. Ties in the
+    product of the two factors go to the smaller detection factor. Returns the two
+    factors and the refused count."""
+    from rperc.slam.planar import PlanarSlam, defaults, mrclam_recording, mrclam_start
+
+    rate = 1.0 - float(config.get("gate_confidence", defaults()["gate_confidence"]))
+    recording = mrclam_recording(run)
+    allowed = rate * len(run.measurement_t)
+    pairs = sorted(
+        ((fr, fq) for fr in factors for fq in factors), key=lambda p: (p[0] * p[1], p[0])
+    )
+    refused = -1
+    for fr, fq in pairs:
+        cfg = inflated(config, fr, fq)
+        result = PlanarSlam({**cfg, **mrclam_start(run)}).run(recording)
+        refused = int(result.statistics["rejected"])
+        if refused <= allowed:
+            return fr, fq, refused
+    raise ValueError(f"no inflation in {factors} brings the refusals ({refused}) to {allowed:.1f}")
+
+
+def inflated(config: dict[str, Any], detection: float, control: float) -> dict[str, Any]:
+    """``config`` with its detection variances times ``detection`` and its unicycle
+    control variances times ``control``."""
+    unicycle = dict(config["motion"]["unicycle"])
+    for key in ("speed_variance", "turn_rate_variance"):
+        unicycle[key] *= control
+    return {
+        **config,
+        "motion": {"unicycle": unicycle},
+        "range_variance": config["range_variance"] * detection,
+        "bearing_variance": config["bearing_variance"] * detection,
+    }

@@ -15,7 +15,7 @@ demo: install
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[test,geo]" "maturin>=1.9.4,<2"
+	$(BIN)/python -m pip install --quiet -e ".[test,geo,viz]" "maturin>=1.9.4,<2"
 	touch $(STAMP)
 
 install: $(STAMP) develop

@@ -293,3 +293,36 @@ def test_model_error_floor_on_simulated_rooms():
         off = within(model_error_nees(False, sigma_true, wave, 0.01, seed=22))
         on = within(model_error_nees(True, sigma_true, wave, 0.01, seed=22))
         assert on - off > 3 * math.sqrt(0.1 * 0.9 / 1000), (sigma_true, wave, off, on)
+
+
+def cluttered_room(rng: np.random.Generator, boxes: int) -> np.ndarray:
+    """The room plus ``boxes`` small square obstacles (0.05 to 0.3 m: chair legs, bins)."""
+    out = [room_walls()]
+    corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) / 2
+    for _ in range(boxes):
+        sq = rng.uniform([0.5, 0.5], [9.5, 5.5]) + rng.uniform(0.05, 0.3) * corners
+        out.append(np.array([(sq[i], sq[(i + 1) % 4]) for i in range(4)]))
+    return np.concatenate(out)
+
+
+def test_wall_readings_go_to_the_right_wall_in_a_cluttered_room():
+    """Oracle: the ray caster's label of each beam. Of the readings that hit a room
+    wall (not clutter), at least 95 % must end up in a found wall whose readings hit
+    mostly that same wall (issue 11, part 2)."""
+    rng = np.random.default_rng(1)
+    n_room = len(room_walls())
+    angles = np.radians(np.arange(-90.0, 90.0))
+    total = right = 0
+    for _ in range(200):
+        walls = cluttered_room(rng, 8)
+        pose = np.array([rng.uniform(0.5, 9.5), rng.uniform(0.5, 5.5), rng.uniform(-3, 3)])
+        scan = ray_cast(walls, pose, angles, sigma_range=SIGMA, rng=rng)
+        found = extract_lines(scan.ranges, angles, max_range=scan.max_range)
+        label = np.full(len(angles), -1)
+        for idx in found.indices:
+            hits = scan.wall[idx]
+            label[idx] = np.bincount(hits[hits >= 0], minlength=len(walls)).argmax()
+        on_wall = (scan.wall >= 0) & (scan.wall < n_room)
+        total += int(on_wall.sum())
+        right += int((on_wall & (label == scan.wall)).sum())
+    assert right / total >= 0.95, right / total

@@ -10,7 +10,9 @@
 //! 5. give each line the 2 x 2 covariance of `(rho, alpha)` propagated to first order
 //!    from the range and bearing noise of its points, inflated when the residuals show
 //!    model error (a rough or bent wall, range quantisation, noise above its sigma);
-//! 6. merge neighbours whose lines agree under a chi-square test, refitting;
+//! 6. merge neighbours whose lines agree under a chi-square test, refitting, also
+//!    across breakpoints between readings that are neighbours in bearing, where a
+//!    run too short to be a wall joins a wall whose line its readings lie on;
 //! 7. project the end points onto the line;
 //! 8. drop segments with too few points or too short a length.
 
@@ -223,14 +225,17 @@ impl LineExtractor {
         self.collect_valid(ranges, angles);
         let mut walls = Vec::new();
         self.scatter.clear();
+        self.pieces.clear();
         let n = self.points.len();
         let mut start = 0;
         for k in 1..=n {
             if k == n || self.is_breakpoint(k) {
-                self.extract_run(start, k, &mut walls);
+                self.split_run(start, k);
                 start = k;
             }
         }
+        self.merge_pieces();
+        self.emit_walls(&mut walls);
         if self.params.model_error {
             let factor = pooled_scatter_factor(&self.scatter);
             for w in &mut walls {
@@ -272,40 +277,42 @@ impl LineExtractor {
         (self.points[k] - self.points[k - 1]).norm() > d_max
     }
 
-    /// Steps 3 to 8 on the run of valid points `[a, b)`.
-    fn extract_run(&mut self, a: usize, b: usize, walls: &mut Vec<WallSegment>) {
-        if b - a < self.params.min_points {
+    /// Step 3: iterative end-point fit of the run of valid points `[a, b)`, appended
+    /// to `self.pieces` (a run of one reading is a piece of one point, which only a
+    /// merge can keep). A split vertex sits near a corner and may belong to either
+    /// wall: the pieces are fitted without it, then it goes to the piece whose line it
+    /// is closer to.
+    fn split_run(&mut self, a: usize, b: usize) {
+        let base = self.pieces.len();
+        if b - a < 2 {
+            let fit = self.fit(a, b);
+            self.pieces.push((a, b, fit));
             return;
         }
-        if self.split_run(a, b) {
-            self.merge_pieces();
-            self.emit_walls(walls);
-        }
-    }
-
-    /// Step 3: iterative end-point fit into `self.pieces`. A split vertex sits near a
-    /// corner and may belong to either wall: the pieces are fitted without it, then it
-    /// goes to the piece whose line it is closer to. `false` if the run cannot be split.
-    fn split_run(&mut self, a: usize, b: usize) -> bool {
         let Ok(kept) = self
             .simplifier
             .indices(&self.points[a..b], self.params.split_epsilon)
         else {
-            return false; // unreachable: points are finite and epsilon was checked
+            return; // unreachable: points are finite and epsilon was checked
         };
         let last = kept.len() - 2;
-        self.pieces.clear();
         for (w, pair) in kept.windows(2).enumerate() {
             let lo = a + pair[0] + usize::from(w > 0);
             let hi = a + pair[1] + usize::from(w == last);
             let fit = self.fit(lo, hi);
             self.pieces.push((lo, hi, fit));
         }
-        for w in 1..self.pieces.len() {
+        for w in base + 1..self.pieces.len() {
             self.assign_split_vertex(w);
         }
-        self.pieces.retain(|&(lo, hi, _)| hi - lo >= 2);
-        true
+        let mut w = base;
+        while w < self.pieces.len() {
+            if self.pieces[w].1 - self.pieces[w].0 < 2 {
+                self.pieces.remove(w);
+            } else {
+                w += 1;
+            }
+        }
     }
 
     /// Gives the vertex between pieces `w - 1` and `w` to the one whose line fits it.
@@ -327,17 +334,17 @@ impl LineExtractor {
         }
     }
 
-    /// Step 6: merge neighbours whose lines agree under the chi-square test, until
-    /// none do. The confidence was checked by `validate`, so the gate exists.
+    /// Step 6: merge neighbouring pieces, within a run and across breakpoints, until
+    /// none merge. The confidence was checked by `validate`, so the gates exist.
     fn merge_pieces(&mut self) {
-        let gate = rperc_core::chi2_gate(2, self.params.merge_confidence).unwrap_or(f64::INFINITY);
+        let conf = self.params.merge_confidence;
+        let gate_line = rperc_core::chi2_gate(2, conf).unwrap_or(f64::INFINITY);
+        let gate_point = rperc_core::chi2_gate(1, conf).unwrap_or(f64::INFINITY);
         let mut k = 0;
         while k + 1 < self.pieces.len() {
-            let (lo, _, f1) = self.pieces[k];
-            let (_, hi, f2) = self.pieces[k + 1];
-            if same_line(&f1, &f2) < gate {
-                let merged = self.fit(lo, hi);
-                self.pieces[k] = (lo, hi, merged);
+            if self.may_merge(k, gate_line, gate_point) {
+                let (lo, hi) = (self.pieces[k].0, self.pieces[k + 1].1);
+                self.pieces[k] = (lo, hi, self.fit(lo, hi));
                 self.pieces.remove(k + 1);
                 k = k.saturating_sub(1);
             } else {
@@ -346,9 +353,61 @@ impl LineExtractor {
         }
     }
 
+    /// Whether pieces `k` and `k + 1` are one wall. Within a run: their lines agree
+    /// under the chi-square test (2 dof). Across a breakpoint (a range jump: a
+    /// dropout, a mixed reading, a grazing beam), only between readings that are
+    /// neighbours in bearing (a gap of lambda or more is an opening, not a wall):
+    /// two pieces of at least `min_points` by the same line test; a shorter piece,
+    /// too short to be a wall of its own, when each of its readings lies on the other
+    /// piece's line under the chi-square test (1 dof) of its residual, whose variance
+    /// is the reading's noise along the normal plus the line's own uncertainty there.
+    fn may_merge(&self, k: usize, gate_line: f64, gate_point: f64) -> bool {
+        let ((lo1, hi1, f1), (lo2, hi2, f2)) = (self.pieces[k], self.pieces[k + 1]);
+        if hi1 != lo2 {
+            return false; // a dropped split vertex lies between them
+        }
+        if !self.is_breakpoint(lo2) {
+            return same_line(&f1, &f2) < gate_line;
+        }
+        if (self.bearings[lo2] - self.bearings[hi1 - 1]).abs() >= self.params.breakpoint_lambda {
+            return false;
+        }
+        let long = self.params.min_points.max(3);
+        match (hi1 - lo1 >= long, hi2 - lo2 >= long) {
+            (true, true) => same_line(&f1, &f2) < gate_line,
+            (true, false) => self.readings_on_line(&f1, lo2, hi2, gate_point),
+            (false, true) => self.readings_on_line(&f2, lo1, hi1, gate_point),
+            (false, false) => false,
+        }
+    }
+
+    /// Every reading of `[lo, hi)` passes the residual test against the line `fit`.
+    fn readings_on_line(&self, fit: &LineFit, lo: usize, hi: usize, gate: f64) -> bool {
+        if !(fit.cov.iter().all(|v| v.is_finite()) && fit.rho.is_finite()) {
+            return false;
+        }
+        let (sa, ca) = fit.alpha.sin_cos();
+        let (var_r, var_b) = (
+            self.params.sigma_range.powi(2),
+            self.params.sigma_bearing.powi(2),
+        );
+        (lo..hi).all(|k| {
+            let q = self.points[k].coords;
+            let e = q.x * ca + q.y * sa - fit.rho;
+            // e = n(alpha).q - rho: de/drho = -1, de/dalpha = t.q.
+            let j = Vector2::new(-1.0, -q.x * sa + q.y * ca);
+            let (sb, cb) = self.bearings[k].sin_cos();
+            let (along, across) = (ca * cb + sa * sb, -ca * sb + sa * cb);
+            let noise = var_r * along * along + var_b * (self.ranges[k] * across).powi(2);
+            let var = j.dot(&(fit.cov * j)) + noise;
+            var > 0.0 && e * e < gate * var
+        })
+    }
+
     /// Steps 7 and 8: end points projected onto the lines; short or sparse walls dropped.
     fn emit_walls(&mut self, walls: &mut Vec<WallSegment>) {
-        for &(lo, hi, fit) in &self.pieces {
+        for w in 0..self.pieces.len() {
+            let (lo, hi, fit) = self.pieces[w];
             if hi - lo < self.params.min_points {
                 continue;
             }

@@ -84,3 +84,19 @@ def test_cli_lines_nees_writes_what_it_prints(tmp_path, capsys):
     measured = json.loads(js.read_text())
     assert f"{measured['pairs']} wall pairs" in out and measured["scans"] == 12
     assert measured["pose_sigma_theta_deg"] == 0.1 and measured["model_error"] is True
+
+
+def test_reading_shares_add_up_and_match_the_extractor():
+    from rperc.linesimp import extract_lines
+    from rperc.wallcheck import reading_shares
+
+    scans, _ = simulated_scans(5, 0.01, np.zeros(3), seed=4)
+    scans.ranges[0, :3] = np.nan  # three invalid readings
+    shares = reading_shares(scans)
+    parts = ("on_walls", "short_walls", "sparse", "isolated")
+    assert sum(shares[k] for k in parts) == shares["valid"]
+    assert shares["valid"] + shares["invalid"] == 5 * 180 and shares["invalid"] >= 3
+    on_walls = sum(
+        len(extract_lines(scans.ranges[k], ANGLES, max_range=30.0).flat_indices) for k in range(5)
+    )
+    assert shares["on_walls"] == on_walls

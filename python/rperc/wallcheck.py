@@ -129,3 +129,39 @@ def consecutive_wall_nees(
                 nees.append(float(d @ np.linalg.solve(prev.cov[i] + world.cov[j], d)))
         prev = world
     return NeesSummary(np.asarray(nees), used, walls)
+
+
+def reading_shares(scans: LaserScans, **extract: Any) -> dict[str, int]:
+    """Where the readings of a log go, by category (counts of readings):
+
+    - ``invalid``: NaN, at or below ``min_range`` or at or beyond ``max_range``;
+    - ``on_walls``: in a wall that was kept;
+    - ``short_walls``: in a line of at least ``min_points`` readings that is shorter
+      than ``min_length`` (a door frame, a table leg seen broadside, a box);
+    - ``sparse``: in a line of fewer than ``min_points`` readings (clutter, a corner
+      seen by a few beams, readings too far apart to group);
+    - ``isolated``: in no line of two readings or more (single readings between range
+      jumps, a split vertex given to neither neighbour).
+
+    Found by extracting again with the limits relaxed, so the categories come from
+    the extractor's own output, not from a model of it."""
+    counts = dict.fromkeys(("valid", "invalid", "on_walls", "short_walls", "sparse"), 0)
+    min_range = float(extract.get("min_range", 0.0))
+    for k in range(len(scans)):
+        n = int(scans.num_beams[k])
+        ranges, angles = scans.ranges[k, :n], scans.angles(k)
+        options = {"max_range": float(scans.max_range[k]), **extract}
+        with np.errstate(invalid="ignore"):
+            valid = (ranges > min_range) & (ranges > 0) & (ranges < options["max_range"])
+        kept = extract_lines(ranges, angles, **options).flat_indices
+        any_length = extract_lines(ranges, angles, **{**options, "min_length": 0.0})
+        any_line = extract_lines(ranges, angles, **{**options, "min_length": 0.0, "min_points": 2})
+        counts["valid"] += int(valid.sum())
+        counts["invalid"] += n - int(valid.sum())
+        counts["on_walls"] += len(kept)
+        counts["short_walls"] += len(np.setdiff1d(any_length.flat_indices, kept))
+        counts["sparse"] += len(np.setdiff1d(any_line.flat_indices, any_length.flat_indices))
+    counts["isolated"] = (
+        counts["valid"] - counts["on_walls"] - counts["short_walls"] - counts["sparse"]
+    )
+    return counts

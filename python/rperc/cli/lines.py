@@ -249,7 +249,7 @@ def _walls_of_log(
 
 
 def nees_command(args: argparse.Namespace) -> int:
-    from rperc.wallcheck import consecutive_wall_nees
+    from rperc.wallcheck import consecutive_wall_nees, reading_shares
 
     check_output_file(args.json, "--json")
     log = load_carmen(args.log)
@@ -263,9 +263,20 @@ def nees_command(args: argparse.Namespace) -> int:
         model_error=not args.no_model_error,
     )
     print(f"{args.log.name}: {result}")
+    shares = reading_shares(log.scans, sigma_range=args.sigma_range)
+    valid = max(shares["valid"], 1)
+    print(
+        f"{args.log.name}: of {shares['valid']} valid readings "
+        + ", ".join(
+            f"{100 * shares[key] / valid:.1f} % {key.replace('_', ' ')}"
+            for key in ("on_walls", "short_walls", "sparse", "isolated")
+        )
+        + f" ({shares['invalid']} invalid)"
+    )
     write_json(
         args.json,
         {
+            "readings": shares,
             "log": args.log,
             "pose_sigma_xy": args.pose_sigma_xy,
             "pose_sigma_theta_deg": args.pose_sigma_theta,

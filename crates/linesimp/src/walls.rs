@@ -177,6 +177,8 @@ pub struct LineExtractor {
     points: Vec<Point2<f64>>,
     ranges: Vec<f64>,
     bearings: Vec<f64>,
+    /// `(cos, sin)` of each bearing, computed once: every fit needs them.
+    beams: Vec<Vector2<f64>>,
     source: Vec<usize>,
     simplifier: Simplifier,
     /// Point ranges `[a, b)` of the pieces of the current run.
@@ -251,6 +253,7 @@ impl LineExtractor {
         self.points.clear();
         self.ranges.clear();
         self.bearings.clear();
+        self.beams.clear();
         self.source.clear();
         for (k, (&r, &a)) in ranges.iter().zip(angles).enumerate() {
             if r.is_finite() && r > p.min_range && r > 0.0 && r < p.max_range {
@@ -258,6 +261,7 @@ impl LineExtractor {
                 self.points.push(Point2::new(r * c, r * s));
                 self.ranges.push(r);
                 self.bearings.push(a);
+                self.beams.push(Vector2::new(c, s));
                 self.source.push(k);
             }
         }
@@ -396,7 +400,7 @@ impl LineExtractor {
             let e = q.x * ca + q.y * sa - fit.rho;
             // e = n(alpha).q - rho: de/drho = -1, de/dalpha = t.q.
             let j = Vector2::new(-1.0, -q.x * sa + q.y * ca);
-            let (sb, cb) = self.bearings[k].sin_cos();
+            let (cb, sb) = (self.beams[k].x, self.beams[k].y);
             let (along, across) = (ca * cb + sa * sb, -ca * sb + sa * cb);
             let noise = var_r * along * along + var_b * (self.ranges[k] * across).powi(2);
             let var = j.dot(&(fit.cov * j)) + noise;
@@ -500,7 +504,7 @@ impl LineExtractor {
             // Rows: d g1 / d p = -n^T, d g2 / d p = tp n^T + e t^T.
             let dg = Matrix2::new(-n.x, -n.y, tp * n.x + e * t.x, tp * n.y + e * t.y);
             let a = -h_inv * dg;
-            let (sb, cb) = self.bearings[k].sin_cos();
+            let (cb, sb) = (self.beams[k].x, self.beams[k].y);
             let r = self.ranges[k];
             let d_range = a * Vector2::new(cb, sb);
             let d_bearing = a * Vector2::new(-r * sb, r * cb);
@@ -539,7 +543,7 @@ impl LineExtractor {
         let (mut sum_e2, mut sum_lag, mut sum_s2, mut last) = (0.0, 0.0, 0.0, None);
         for k in lo..hi {
             let e = n.dot(&self.points[k].coords) - rho;
-            let (sb, cb) = self.bearings[k].sin_cos();
+            let (cb, sb) = (self.beams[k].x, self.beams[k].y);
             let (along, across) = (n.x * cb + n.y * sb, -n.x * sb + n.y * cb);
             sum_s2 += var_r * along * along + var_b * (self.ranges[k] * across).powi(2);
             sum_e2 += e * e;

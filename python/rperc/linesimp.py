@@ -362,27 +362,26 @@ class WallSegments:
     def length(self) -> np.ndarray:
         return np.hypot(*(self.end - self.start).T) if len(self) else np.zeros(0)
 
-    def to_world(self, pose: npt.ArrayLike) -> WallSegments:
+    def to_world(self, pose: npt.ArrayLike, pose_cov: npt.ArrayLike | None = None) -> WallSegments:
         """The same walls seen from the world frame, for a sensor at ``pose = (x, y,
-        theta)``: end points move, ``(rho, alpha)`` and the covariance transform with
-        the rigid motion (to first order, taking the pose as exact)."""
-        x, y, th = np.asarray(pose, dtype=np.float64)
+        theta)`` with 3 x 3 covariance ``pose_cov`` (default: the pose taken as exact).
+
+        End points move with the rigid motion; ``(rho, alpha)`` become
+        ``alpha_w = alpha + theta``, ``rho_w = rho + x cos(alpha_w) + y sin(alpha_w)``
+        (flipped to ``rho_w >= 0``), and the covariance is propagated to first order,
+        ``J_w C J_w^T + J_p P J_p^T`` with the Jacobians of :func:`wall_to_world_jacobians`
+        (the wall's and the pose's errors are independent).
+        """
+        x, y, th = _pose3(pose)
+        pose_cov_arr = _pose_covariance(pose_cov)
         start = pose_to_world((x, y, th), self.start)
         end = pose_to_world((x, y, th), self.end)
-        alpha = self.alpha + th
-        rho = self.rho + x * np.cos(alpha) + y * np.sin(alpha)
-        # d rho_w / d alpha_s = -x sin(alpha_w) + y cos(alpha_w); d alpha_w / d alpha_s = 1.
-        jac = np.zeros((len(self), 2, 2))
-        jac[:, 0, 0] = 1.0
-        jac[:, 0, 1] = -x * np.sin(alpha) + y * np.cos(alpha)
-        jac[:, 1, 1] = 1.0
-        flip = rho < 0
-        rho = np.where(flip, -rho, rho)
-        alpha = np.where(flip, alpha + np.pi, alpha)
-        jac[flip, 0, :] *= -1
-        alpha = (alpha + np.pi) % (2 * np.pi) - np.pi
-        alpha = np.where(alpha == -np.pi, np.pi, alpha)
-        cov = jac @ self.cov @ jac.transpose(0, 2, 1)
+        rho, alpha, jac_wall, jac_pose = wall_to_world_jacobians(
+            self.rho, self.alpha, np.array([x, y, th])
+        )
+        cov = jac_wall @ self.cov @ jac_wall.transpose(0, 2, 1)
+        if pose_cov_arr is not None:
+            cov = cov + jac_pose @ pose_cov_arr @ jac_pose.transpose(0, 2, 1)
         return WallSegments(rho, alpha, cov, start, end, self.flat_indices, self.offsets)
 
     def __repr__(self) -> str:
@@ -395,6 +394,64 @@ class WallSegments:
                 f"length {self.length[k]:5.2f} m, {self.offsets[k + 1] - self.offsets[k]} points"
             )
         return "\n".join(lines)
+
+
+def wall_to_world_jacobians(
+    rho: npt.ArrayLike, alpha: npt.ArrayLike, pose: npt.ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """World lines of sensor-frame lines ``(rho, alpha)`` seen from ``pose = (x, y,
+    theta)``, and the Jacobians of ``(rho_w, alpha_w)`` with respect to ``(rho, alpha)``
+    ((K, 2, 2)) and to the pose ((K, 2, 3)).
+
+    ``alpha_w = alpha + theta`` and ``rho_w = rho + x cos(alpha_w) + y sin(alpha_w)``, so
+    ``d rho_w = d rho + cos(alpha_w) dx + sin(alpha_w) dy + m (d alpha + d theta)`` with
+    ``m = -x sin(alpha_w) + y cos(alpha_w)``, and ``d alpha_w = d alpha + d theta``. When
+    ``rho_w < 0`` the line is written ``(-rho_w, alpha_w + pi)``: the rho row changes
+    sign. ``alpha_w`` is wrapped to (-pi, pi].
+    """
+    rho = np.asarray(rho, dtype=np.float64)
+    alpha = np.asarray(alpha, dtype=np.float64)
+    x, y, th = _pose3(pose)
+    alpha_w = alpha + th
+    c, s = np.cos(alpha_w), np.sin(alpha_w)
+    rho_w = rho + x * c + y * s
+    lever = -x * s + y * c
+    k = len(rho)
+    jac_wall = np.zeros((k, 2, 2))
+    jac_wall[:, 0, 0] = 1.0
+    jac_wall[:, 0, 1] = lever
+    jac_wall[:, 1, 1] = 1.0
+    jac_pose = np.zeros((k, 2, 3))
+    jac_pose[:, 0, 0], jac_pose[:, 0, 1], jac_pose[:, 0, 2] = c, s, lever
+    jac_pose[:, 1, 2] = 1.0
+    flip = rho_w < 0
+    rho_w = np.where(flip, -rho_w, rho_w)
+    alpha_w = np.where(flip, alpha_w + np.pi, alpha_w)
+    jac_wall[flip, 0, :] *= -1
+    jac_pose[flip, 0, :] *= -1
+    alpha_w = (alpha_w + np.pi) % (2 * np.pi) - np.pi
+    alpha_w = np.where(alpha_w == -np.pi, np.pi, alpha_w)
+    return rho_w, alpha_w, jac_wall, jac_pose
+
+
+def _pose3(pose: npt.ArrayLike) -> tuple[float, float, float]:
+    arr = np.asarray(pose, dtype=np.float64)
+    if arr.shape != (3,) or not np.isfinite(arr).all():
+        raise ValueError(f"pose must be 3 finite numbers (x, y, theta), got {arr!r}")
+    return float(arr[0]), float(arr[1]), float(arr[2])
+
+
+def _pose_covariance(pose_cov: npt.ArrayLike | None) -> np.ndarray | None:
+    if pose_cov is None:
+        return None
+    cov = np.asarray(pose_cov, dtype=np.float64)
+    if cov.shape != (3, 3) or not np.isfinite(cov).all():
+        raise ValueError(f"pose_cov must be a finite 3 x 3 matrix, got shape {cov.shape}")
+    if not np.allclose(cov, cov.T, rtol=1e-9, atol=0.0):
+        raise ValueError("pose_cov must be symmetric")
+    if np.linalg.eigvalsh(cov).min() < -1e-12 * max(1.0, float(np.abs(cov).max())):
+        raise ValueError("pose_cov must be positive semi-definite")
+    return cov
 
 
 def extract_lines(
@@ -410,6 +467,7 @@ def extract_lines(
     merge_confidence: float = 0.99,
     min_points: int = 6,
     min_length: float = 0.3,
+    model_error: bool = True,
 ) -> WallSegments:
     """Extract walls (line segments) from one 2-D laser scan.
 
@@ -440,6 +498,11 @@ def extract_lines(
         below the chi-square (2 dof) quantile of this confidence, in (0, 1).
     min_points, min_length:
         Walls with fewer readings (>= 2) or shorter than this (m) are dropped.
+    model_error:
+        Inflate a wall's covariance when its fit residuals show more scatter, or more
+        correlation from reading to reading, than the noise explains (a rough or bent
+        wall, range quantisation, noise above its sigma); both tested at 95 %, so
+        walls whose residuals are plain noise keep the propagated covariance.
 
     Returns
     -------
@@ -478,9 +541,16 @@ def extract_lines(
         "merge_confidence": real_number(merge_confidence, "merge_confidence"),
         "min_points": _count(min_points, "min_points"),
         "min_length": real_number(min_length, "min_length"),
+        "model_error": _flag(model_error, "model_error"),
     }
     rho, alpha, cov, start, end, flat, offsets = _rperc.extract_lines(r, a, params)
     return WallSegments(rho, alpha, cov, start, end, flat, offsets)
+
+
+def _flag(value: bool, name: str) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a bool, got {type(value).__name__}")
+    return bool(value)
 
 
 def _count(value: int, name: str) -> int:

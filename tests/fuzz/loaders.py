@@ -41,9 +41,12 @@ def carmen(draw: st.DrawFn) -> Fixture:
             "odom": _stack(o.pose, o.velocity, o.timestamp).reshape(-1, 7),
         }
 
+    expected = scans.copy()
+    # Negative ranges are invalid readings: the reader stores them as NaN (and counts them).
+    expected[:, :n] = np.where(expected[:, :n] < 0, np.nan, expected[:, :n])
     return Fixture(
         files={"log.txt": lines},
-        records={"scans": scans, "odom": odom},
+        records={"scans": expected, "odom": odom},
         data_lines={"log.txt": data},
         load=lambda folder: datasets.load_carmen(folder / "log.txt"),
         extract=extract,

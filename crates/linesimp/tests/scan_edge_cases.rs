@@ -543,3 +543,53 @@ fn unsorted_bearings_are_an_error_naming_the_reading() {
         LineSimpError::InvalidParameter { name: "angles", .. }
     ));
 }
+
+#[test]
+fn readings_at_grazing_incidence_extend_the_wall_they_lie_on() {
+    // The wall y = 1 seen from 2 to 80 degrees, 1 degree apart. Borges & Aldon's
+    // detector breaks between every two readings whose beams meet the wall at less than
+    // lambda = 10 degrees (consecutive points are then farther apart than d_max), so
+    // those readings are runs of one point. They lie on the wall's line, so the wall
+    // takes them all.
+    let angles = bearings(79, 2.0, 80.0);
+    let ranges: Vec<f64> = angles.iter().map(|&a| range_to(1.0, PI / 2.0, a)).collect();
+    let params = ScanParams::default();
+    let reading = |k: usize| Vector2::new(ranges[k] * angles[k].cos(), ranges[k] * angles[k].sin());
+    let d_max = |k: usize| {
+        let dphi = angles[k] - angles[k - 1];
+        ranges[k - 1] * dphi.sin() / (params.breakpoint_lambda - dphi).sin()
+            + 3.0 * params.sigma_range
+    };
+    // The oracle of the premise: the formula breaks the first readings apart.
+    assert!((reading(1) - reading(0)).norm() > d_max(1));
+    let walls = extract_lines(&ranges, &angles, &params).unwrap();
+    assert_eq!(walls.len(), 1, "{walls:?}");
+    assert_eq!(walls[0].indices, (0..79).collect::<Vec<_>>());
+    assert!((walls[0].rho - 1.0).abs() < 1e-9 && angle_diff(walls[0].alpha, PI / 2.0).abs() < 1e-9);
+}
+
+#[test]
+fn a_short_run_off_the_wall_is_not_merged() {
+    // A box corner 0.3 m in front of the wall x = 3: its few readings form their own
+    // short run, off the wall's line, so the wall does not take them.
+    let angles = bearings(121, -30.0, 30.0);
+    let ranges: Vec<f64> = angles
+        .iter()
+        .enumerate()
+        .map(|(k, &a)| {
+            let wall = range_to(3.0, 0.0, a);
+            if (100..104).contains(&k) {
+                wall - 0.3
+            } else {
+                wall
+            }
+        })
+        .collect();
+    let walls = extract_lines(&ranges, &angles, &ScanParams::default()).unwrap();
+    assert!(
+        walls
+            .iter()
+            .all(|w| w.indices.iter().all(|k| !(100..104).contains(k)))
+    );
+    assert!((walls[0].rho - 3.0).abs() < 1e-9);
+}

@@ -340,6 +340,7 @@ fn covariance_equals_first_order_propagation_through_an_independent_fit() {
         sigma_range: sr,
         sigma_bearing: sb,
         split_epsilon: 1.0,
+        model_error: false, // the propagation alone; the floor is tested on its own
         ..ScanParams::default()
     };
     let walls = linesimp::extract_lines(&ranges, &angles, &params).unwrap();

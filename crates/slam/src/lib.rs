@@ -8,6 +8,7 @@ pub mod monobot;
 pub mod motion;
 mod observation;
 pub mod planar;
+pub mod wall;
 
 pub use ackermann::{Ackermann, LaserObservation};
 pub use ekf::{Ekf, Gated, JacobianBlock, SparseJacobian, Update};

@@ -1,5 +1,6 @@
-"""``rperc lines extract``, ``rperc lines simplify`` and the demos ``lines`` (Douglas-
-Peucker against its input) and ``walls`` (wall extraction against the ray-cast truth)."""
+"""``rperc lines extract``, ``rperc lines nees``, ``rperc lines simplify`` and the demos
+``lines`` (Douglas-Peucker against its input) and ``walls`` (wall extraction against the
+ray-cast truth)."""
 
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ from rperc.cli.outputs import (
     add_json_option,
     check_output_file,
     count_at_least,
+    non_negative_float,
     positive_float,
     write_json,
     wrote,
@@ -49,6 +51,27 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     ex.add_argument("--min-length", type=positive_float, default=0.3, help="shortest wall, m")
     add_json_option(ex)
     ex.set_defaults(run=extract_command)
+
+    ne = cmds.add_parser(
+        "nees",
+        help="NEES of walls seen in consecutive scans of a CARMEN log (world frame, "
+        "logged poses): 2 on average when the wall covariances are honest",
+    )
+    ne.add_argument("log", type=Path, help="CARMEN log (FLASER / ROBOTLASER1 lines)")
+    ne.add_argument("--sigma-range", type=positive_float, default=0.01, help="range noise, m")
+    ne.add_argument(
+        "--pose-sigma-xy", type=non_negative_float, default=0.0, help="pose sd per axis, m"
+    )
+    ne.add_argument(
+        "--pose-sigma-theta", type=non_negative_float, default=0.0, help="heading sd, degrees"
+    )
+    ne.add_argument(
+        "--no-model-error",
+        action="store_true",
+        help="covariance from the range noise alone, without the residual floor",
+    )
+    add_json_option(ne)
+    ne.set_defaults(run=nees_command)
 
     si = cmds.add_parser(
         "simplify", help="simplify the lines and polygons of a WKT, GeoJSON or CSV file"
@@ -223,6 +246,45 @@ def _walls_of_log(
         "readings_on_walls": on_walls / max(valid, 1),
     }
     return counts, np.concatenate(segments), np.concatenate(points), scans.pose[:, :2]
+
+
+def nees_command(args: argparse.Namespace) -> int:
+    from rperc.wallcheck import consecutive_wall_nees, reading_shares
+
+    check_output_file(args.json, "--json")
+    log = load_carmen(args.log)
+    print(log.summary(), file=sys.stderr)
+    sd = np.array([args.pose_sigma_xy, args.pose_sigma_xy, math.radians(args.pose_sigma_theta)])
+    pose_cov = np.diag(sd**2) if sd.any() else None
+    result = consecutive_wall_nees(
+        log.scans,
+        pose_cov=pose_cov,
+        sigma_range=args.sigma_range,
+        model_error=not args.no_model_error,
+    )
+    print(f"{args.log.name}: {result}")
+    shares = reading_shares(log.scans, sigma_range=args.sigma_range)
+    valid = max(shares["valid"], 1)
+    print(
+        f"{args.log.name}: of {shares['valid']} valid readings "
+        + ", ".join(
+            f"{100 * shares[key] / valid:.1f} % {key.replace('_', ' ')}"
+            for key in ("on_walls", "short_walls", "sparse", "isolated")
+        )
+        + f" ({shares['invalid']} invalid)"
+    )
+    write_json(
+        args.json,
+        {
+            "readings": shares,
+            "log": args.log,
+            "pose_sigma_xy": args.pose_sigma_xy,
+            "pose_sigma_theta_deg": args.pose_sigma_theta,
+            "model_error": not args.no_model_error,
+            **result.as_dict(),
+        },
+    )
+    return 0
 
 
 def extract_command(args: argparse.Namespace) -> int:

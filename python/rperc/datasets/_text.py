@@ -57,3 +57,29 @@ def split_lines(text: str) -> list[str]:
 def read_lines(path: str | Path) -> list[str]:
     """:func:`read_text` split into lines by :func:`split_lines`."""
     return split_lines(read_text(path))
+
+
+def decode_lines(path: str | Path) -> list[str | DatasetFormatError]:
+    """The file's lines like :func:`read_lines`, except that a line holding a byte that
+    is not UTF-8 comes back as the :class:`DatasetFormatError` naming it (line and
+    byte offset) instead of aborting the read, so a reader can skip it and go on."""
+    path = Path(path)
+    raw = read_bytes(path)
+    if raw.startswith(_BOM):
+        raw = raw[len(_BOM) :]
+    try:
+        return list(split_lines(raw.decode("utf-8")))
+    except UnicodeDecodeError:
+        pass  # rare: decode line by line to find every bad line
+    lines: list[str | DatasetFormatError] = []
+    chunks = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n").split(b"\n")
+    if chunks[-1] == b"":
+        chunks.pop()
+    for lineno, chunk in enumerate(chunks, start=1):
+        try:
+            lines.append(chunk.decode("utf-8"))
+        except UnicodeDecodeError as exc:
+            byte = chunk[exc.start]
+            reason = f"byte {exc.start} of the line (0x{byte:02x}) is not UTF-8"
+            lines.append(DatasetFormatError(path, lineno, reason))
+    return lines

@@ -1,18 +1,29 @@
-"""CARMEN laser logs (``FLASER``, ``RLASER``, ``ROBOTLASER1``, ``ODOM``).
+"""CARMEN laser logs (``FLASER``, ``RLASER``, ``ROBOTLASER1``, ``RAWLASER1``, ``ODOM``,
+``PARAM``).
 
 Line formats (CARMEN 0.7 / Radish):
 
 - ``FLASER n r1..rn x y theta odom_x odom_y odom_theta timestamp host logger_timestamp``
-  (``RLASER`` alike): n readings over a 180 degree field of view starting at -90
-  degrees; ``x y theta`` is the laser pose (corrected by a published SLAM run in the
+  (``RLASER`` alike, the rear laser): n readings over the field of view starting at
+  -fov/2; ``x y theta`` is the laser pose (corrected by a published SLAM run in the
   Radish logs), ``odom_*`` the raw odometry.
 - ``ROBOTLASER1 type start_angle fov resolution max_range accuracy remission_mode
   n r1..rn m e1..em laser_x laser_y laser_theta robot_x robot_y robot_theta tv rv
   forward_safety side_safety turn_axis timestamp host logger_timestamp``.
+- ``RAWLASER1 type start_angle fov resolution max_range accuracy remission_mode
+  n r1..rn m e1..em timestamp host logger_timestamp``: no pose in the line; the pose
+  is the odometry interpolated at the scan's timestamp (NaN outside the odometry's
+  time span, counted in the summary).
 - ``ODOM x y theta tv rv accel timestamp host logger_timestamp``.
+- ``PARAM name value host timestamp``: read into :attr:`CarmenLog.params`. The laser
+  lines that follow use ``robot_front_laser_max`` / ``robot_rear_laser_max`` (m),
+  ``laser_front_laser_fov`` / ``laser_rear_laser_fov`` (degrees) and
+  ``laser_front_laser_resolution`` / ``laser_rear_laser_resolution`` (degrees), the
+  names CARMEN's ini files and MRPT's reader use, for FLASER and RLASER lines.
 
-Old-style FLASER lines carry no angular resolution; we use pi/n for even n (180, 360
-beams: 1 and 0.5 degree steps) and pi/(n-1) for odd n (181, 361: both ends included).
+Old-style FLASER lines carry no angular resolution: without a resolution parameter we
+use fov/n for even n (180, 360 beams: 1 and 0.5 degree steps over 180 degrees) and
+fov/(n-1) for odd n (181, 361: both ends included).
 """
 
 from __future__ import annotations
@@ -21,22 +32,30 @@ import math
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
-from rperc.datasets._text import read_lines
+from rperc.datasets._text import decode_lines
 from rperc.datasets.errors import DatasetFormatError
 
 # FLASER max range is not in the line; SICK LMS scanners of those logs report 81.9 m
 # for "no return", which is beyond any indoor wall.
 FLASER_MAX_RANGE = 81.83
-SKIPPED_TYPES = frozenset({"PARAM", "SYNC"})
+FLASER_FOV = math.pi
+SKIPPED_TYPES = frozenset({"SYNC"})
+_LASER_PARAMS = {
+    "FLASER": ("robot_front_laser_max", "laser_front_laser_fov", "laser_front_laser_resolution"),
+    "RLASER": ("robot_rear_laser_max", "laser_rear_laser_fov", "laser_rear_laser_resolution"),
+}
 
 
 @dataclass(frozen=True, repr=False)
 class LaserScans:
     """S scans of up to n beams each. Scans with fewer beams are NaN-padded (NaN
-    readings are invalid everywhere in rperc); ``num_beams`` keeps the true count."""
+    readings are invalid everywhere in rperc); ``num_beams`` keeps the true count.
+    Readings the file gives as NaN, infinite or negative are stored as NaN and counted
+    per scan in ``invalid``."""
 
     ranges: np.ndarray  # (S, n) float64
     num_beams: np.ndarray  # (S,) int
@@ -47,6 +66,10 @@ class LaserScans:
     odom: np.ndarray  # (S, 3) raw odometry pose
     timestamp: np.ndarray  # (S,)
     line: np.ndarray  # (S,) line number of each scan in the file
+    invalid: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    """(S,) readings of each scan that were NaN, infinite or negative in the file."""
+    kind: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype="<U11"))
+    """(S,) the record type of each scan (``FLASER``, ``RAWLASER1``, ...)."""
 
     def __len__(self) -> int:
         return len(self.ranges)
@@ -77,6 +100,14 @@ class Odometry:
 
 
 @dataclass(frozen=True)
+class SkippedLine:
+    """A malformed line that ``on_error="skip"`` left out, and why."""
+
+    line: int
+    reason: str
+
+
+@dataclass(frozen=True)
 class CarmenLog:
     """A parsed CARMEN log."""
 
@@ -84,18 +115,42 @@ class CarmenLog:
     scans: LaserScans
     odometry: Odometry
     skipped: dict[str, int] = field(default_factory=dict)
-    """Records rperc does not read, by type (``PARAM``, ``SYNC``, ``NEFF``, ...): counted,
-    never silently lost."""
+    """Records rperc does not read, by type (``SYNC``, ``NEFF``, ...): counted, never
+    silently lost. ``PARAM`` lines are counted here too (and read into ``params``)."""
     first_line: dict[str, int] = field(default_factory=dict)
     """The 1-based line of the first record of each skipped type."""
+    params: dict[str, str] = field(default_factory=dict)
+    """``PARAM`` name to value (the last one read when a name repeats)."""
+    errors: tuple[SkippedLine, ...] = ()
+    """Malformed lines left out by ``on_error="skip"``, in file order."""
+    scans_without_pose: int = 0
+    """RAWLASER1 scans outside the odometry's time span (their pose is NaN)."""
 
     def summary(self) -> str:
-        """Every count: scans, odometry records and each skipped type with its first line."""
-        parts = [f"{len(self.scans)} scans", f"{len(self.odometry)} odometry records"]
+        """Every count: scans by type, invalid readings, odometry records, PARAM lines,
+        malformed lines skipped, and each record type not read with its first line."""
+        kinds = Counter(self.scans.kind.tolist())
+        by_kind = ", ".join(f"{n} {k}" for k, n in sorted(kinds.items()))
+        bad = int(self.scans.invalid.sum())
+        parts = [f"{len(self.scans)} scans" + (f" ({by_kind})" if by_kind else "")]
+        parts.append(
+            f"{bad} invalid readings (NaN, inf or negative) in "
+            f"{int(np.count_nonzero(self.scans.invalid))} scans"
+        )
+        if self.scans_without_pose:
+            parts.append(f"{self.scans_without_pose} RAWLASER1 scans without a pose")
+        parts.append(f"{len(self.odometry)} odometry records")
+        parts.append(f"{len(self.errors)} malformed lines skipped")
+        if self.errors:
+            parts[-1] += f" (first at line {self.errors[0].line}: {self.errors[0].reason})"
         parts += [
             f"{n} {kind} skipped (first at line {self.first_line[kind]})"
             for kind, n in sorted(self.skipped.items())
+            if kind != "PARAM"
         ]
+        if "PARAM" in self.skipped:
+            n = self.skipped["PARAM"]
+            parts.append(f"{n} PARAM read (first at line {self.first_line['PARAM']})")
         return f"{self.path.name}: " + ", ".join(parts)
 
 
@@ -107,25 +162,58 @@ def _floats(path: Path, lineno: int, fields: list[str], what: str) -> list[float
     return values
 
 
+def _finite(path: Path, lineno: int, values: list[float], what: str) -> list[float]:
+    """Poses and timestamps must be finite: a NaN pose would put walls nowhere."""
+    if not all(math.isfinite(v) for v in values):
+        raise DatasetFormatError(path, lineno, f"{what} not finite: {values}")
+    return values
+
+
+def _int(path: Path, lineno: int, tok: list[str], k: int, what: str) -> int:
+    try:
+        return int(tok[k])
+    except (ValueError, IndexError):
+        got = repr(tok[k]) if k < len(tok) else "nothing"
+        raise DatasetFormatError(path, lineno, f"{tok[0]} {what}: got {got}") from None
+
+
 class _ScanRows:
     def __init__(self) -> None:
-        self.ranges: list[list[float]] = []
+        self.ranges: list[np.ndarray] = []
         self.meta: list[tuple[float, ...]] = []
         self.lines: list[int] = []
+        self.kinds: list[str] = []
 
-    def add(self, ranges: list[float], meta: tuple[float, ...], lineno: int) -> None:
-        self.ranges.append(ranges)
+    def add(self, kind: str, ranges: list[float], meta: tuple[float, ...], lineno: int) -> None:
+        self.ranges.append(np.asarray(ranges, dtype=np.float64))
         self.meta.append(meta)
         self.lines.append(lineno)
+        self.kinds.append(kind)
 
 
-def _parse_flaser(path: Path, lineno: int, tok: list[str], rows: _ScanRows) -> None:
-    if len(tok) < 2:
-        raise DatasetFormatError(path, lineno, f"{tok[0]} without a beam count")
-    try:
-        n = int(tok[1])
-    except ValueError:
-        raise DatasetFormatError(path, lineno, f"bad beam count {tok[1]!r}") from None
+def _flaser_geometry(kind: str, n: int, params: dict[str, str]) -> tuple[float, float, float]:
+    """``(angle_min, step, max_range)`` of an old-style line from the PARAMs read so far."""
+    max_name, fov_name, res_name = _LASER_PARAMS[kind]
+
+    def value(name: str, default: float) -> float:
+        try:
+            return float(params.get(name, default))
+        except ValueError:
+            return default
+
+    max_range = value(max_name, FLASER_MAX_RANGE)
+    fov = math.radians(value(fov_name, 180.0))
+    if res_name in params:
+        step = math.radians(value(res_name, 1.0))
+    else:
+        step = fov / n if n % 2 == 0 or n == 1 else fov / (n - 1)
+    return -fov / 2, step, max_range
+
+
+def _parse_flaser(
+    path: Path, lineno: int, tok: list[str], rows: _ScanRows, params: dict[str, str]
+) -> None:
+    n = _int(path, lineno, tok, 1, "without a beam count")
     if n <= 0:
         raise DatasetFormatError(path, lineno, f"beam count must be positive, got {n}")
     expected = 2 + n + 9
@@ -134,78 +222,163 @@ def _parse_flaser(path: Path, lineno: int, tok: list[str], rows: _ScanRows) -> N
             path, lineno, f"{tok[0]} with {n} beams needs {expected} fields, got {len(tok)}"
         )
     ranges = _floats(path, lineno, tok[2 : 2 + n], "ranges")
-    x, y, th, ox, oy, oth, ts = _floats(path, lineno, tok[2 + n : 2 + n + 7], "poses")
-    step = math.pi / n if n % 2 == 0 else math.pi / (n - 1)
-    rows.add(ranges, (-math.pi / 2, step, FLASER_MAX_RANGE, x, y, th, ox, oy, oth, ts), lineno)
+    pose = _finite(path, lineno, _floats(path, lineno, tok[2 + n : 2 + n + 7], "poses"), "pose")
+    start, step, max_range = _flaser_geometry(tok[0], n, params)
+    rows.add(tok[0], ranges, (start, step, max_range, *pose), lineno)
+
+
+def _laser_config(path: Path, lineno: int, tok: list[str]) -> tuple[int, int, list[float]]:
+    """Beam and remission counts and ``start fov res max_range`` of a CARMEN 0.7 line."""
+    n = _int(path, lineno, tok, 8, "beam count")
+    m = _int(path, lineno, tok, 9 + n, "remission count") if n >= 0 else -1
+    if n <= 0 or m < 0:
+        raise DatasetFormatError(path, lineno, f"{tok[0]} with bad counts ({n} beams, {m})")
+    config = _finite(path, lineno, _floats(path, lineno, tok[2:6], "laser config"), "config")
+    return n, m, config
 
 
 def _parse_robotlaser(path: Path, lineno: int, tok: list[str], rows: _ScanRows) -> None:
-    try:
-        n = int(tok[8])
-        m = int(tok[9 + n])
-    except (ValueError, IndexError):
-        raise DatasetFormatError(path, lineno, "ROBOTLASER1 with bad counts") from None
+    n, m, (start, _fov, res, max_range) = _laser_config(path, lineno, tok)
     expected = 10 + n + m + 14
-    if len(tok) != expected or n <= 0 or m < 0:
+    if len(tok) != expected:
         raise DatasetFormatError(
             path,
             lineno,
             f"ROBOTLASER1 with {n} beams and {m} remissions needs {expected} fields, "
             f"got {len(tok)}",
         )
-    start, _fov, res, max_range = _floats(path, lineno, tok[2:6], "laser config")
     ranges = _floats(path, lineno, tok[9 : 9 + n], "ranges")
     tail = _floats(path, lineno, tok[10 + n + m : 10 + n + m + 12], "poses")
-    lx, ly, lth, rx, ry, rth = tail[:6]
-    ts = tail[11]
-    rows.add(ranges, (start, res, max_range, lx, ly, lth, rx, ry, rth, ts), lineno)
+    lx, ly, lth, rx, ry, rth = _finite(path, lineno, tail[:6], "pose")
+    ts = _finite(path, lineno, tail[11:12], "timestamp")[0]
+    rows.add(tok[0], ranges, (start, res, max_range, lx, ly, lth, rx, ry, rth, ts), lineno)
 
 
-def load_carmen(path: str | Path, *, strict: bool = False) -> CarmenLog:
+def _parse_rawlaser(path: Path, lineno: int, tok: list[str], rows: _ScanRows) -> None:
+    n, m, (start, _fov, res, max_range) = _laser_config(path, lineno, tok)
+    expected = 10 + n + m + 3
+    if len(tok) != expected:
+        raise DatasetFormatError(
+            path,
+            lineno,
+            f"RAWLASER1 with {n} beams and {m} remissions needs {expected} fields, got {len(tok)}",
+        )
+    ranges = _floats(path, lineno, tok[9 : 9 + n], "ranges")
+    ts = _finite(path, lineno, _floats(path, lineno, tok[10 + n + m : 11 + n + m], "time"), "ts")
+    nan = math.nan  # the pose comes from the odometry once all of it is read
+    rows.add(tok[0], ranges, (start, res, max_range, nan, nan, nan, nan, nan, nan, ts[0]), lineno)
+
+
+def _parse_odom(path: Path, lineno: int, tok: list[str], odom: list[list[float]]) -> None:
+    if len(tok) != 10:
+        raise DatasetFormatError(path, lineno, f"ODOM needs 10 fields, got {len(tok)}")
+    values = _floats(path, lineno, tok[1:8], "ODOM values")
+    _finite(path, lineno, values[:3], "pose")
+    odom.append(values)
+
+
+def _parse_param(path: Path, lineno: int, tok: list[str], params: dict[str, str]) -> None:
+    if len(tok) < 3:
+        raise DatasetFormatError(path, lineno, "PARAM needs a name and a value")
+    params[tok[1]] = tok[2]
+
+
+def load_carmen(
+    path: str | Path, *, strict: bool = False, on_error: Literal["raise", "skip"] = "raise"
+) -> CarmenLog:
     """Read a CARMEN log (plain or gzip, with or without a UTF-8 byte-order mark).
 
-    Raises :class:`DatasetFormatError` (a ``ValueError``) naming the file and line for a
-    malformed record or a byte that is not UTF-8, and ``FileNotFoundError`` when the
-    file is absent. Record types rperc does not read are counted with their first line
-    in :attr:`CarmenLog.skipped` and :attr:`CarmenLog.first_line`; with ``strict=True``
-    an unknown type (anything but the known ones and ``PARAM``/``SYNC``) is an error.
-    Type names are matched as written: ``flaser`` is not ``FLASER``.
+    A malformed record (wrong field count, as a truncated last line has; a number that
+    does not parse; a NaN or infinite pose) or a byte that is not UTF-8 raises
+    :class:`DatasetFormatError` (a ``ValueError``) naming the file and line; with
+    ``on_error="skip"`` the line is left out instead, and listed in
+    :attr:`CarmenLog.errors`. A missing file is ``FileNotFoundError`` either way.
+    Readings that are NaN, infinite or negative are kept as invalid (NaN) readings and
+    counted per scan in ``scans.invalid``. Record types rperc does not read are counted
+    with their first line in :attr:`CarmenLog.skipped` and :attr:`CarmenLog.first_line`;
+    with ``strict=True`` an unknown type (anything but the known ones and ``SYNC``) is
+    an error. Type names are matched as written: ``flaser`` is not ``FLASER``.
     """
+    if on_error not in ("raise", "skip"):
+        raise ValueError(f"on_error must be 'raise' or 'skip', got {on_error!r}")
     path = Path(path)
-    rows = _ScanRows()
-    odom: list[list[float]] = []
+    rows, odom, params = _ScanRows(), list[list[float]](), dict[str, str]()
     skipped: Counter[str] = Counter()
     first_line: dict[str, int] = {}
-    for lineno, raw in enumerate(read_lines(path), start=1):
-        tok = raw.split()
-        if not tok or tok[0].startswith("#"):
+    errors: list[SkippedLine] = []
+    for lineno, raw in enumerate(decode_lines(path), start=1):
+        try:
+            kind = _read_record(path, lineno, raw, rows, odom, params, strict)
+        except DatasetFormatError as exc:
+            if on_error == "raise":
+                raise
+            errors.append(SkippedLine(exc.line, exc.reason))
             continue
-        kind = tok[0]
-        if kind in ("FLASER", "RLASER"):
-            _parse_flaser(path, lineno, tok, rows)
-        elif kind == "ROBOTLASER1":
-            _parse_robotlaser(path, lineno, tok, rows)
-        elif kind == "ODOM":
-            if len(tok) != 10:
-                raise DatasetFormatError(path, lineno, f"ODOM needs 10 fields, got {len(tok)}")
-            odom.append(_floats(path, lineno, tok[1:8], "ODOM values"))
-        else:
-            if strict and kind not in SKIPPED_TYPES:
-                raise DatasetFormatError(path, lineno, f"unknown record type {kind!r}")
+        if kind is not None:
             skipped[kind] += 1
             first_line.setdefault(kind, lineno)
-    scans, odometry = _stack_scans(rows), _stack_odometry(odom)
-    return CarmenLog(path, scans, odometry, dict(skipped), first_line)
+    odometry = _stack_odometry(odom)
+    scans, no_pose = _stack_scans(rows, odometry)
+    return CarmenLog(
+        path, scans, odometry, dict(skipped), first_line, params, tuple(errors), no_pose
+    )
 
 
-def _stack_scans(rows: _ScanRows) -> LaserScans:
+def _read_record(
+    path: Path,
+    lineno: int,
+    raw: str | DatasetFormatError,
+    rows: _ScanRows,
+    odom: list[list[float]],
+    params: dict[str, str],
+    strict: bool,
+) -> str | None:
+    """Parses one line into ``rows``, ``odom`` or ``params``; returns the type of a
+    record that is only counted (PARAM too), else None."""
+    if isinstance(raw, DatasetFormatError):
+        raise raw
+    tok = raw.split()
+    if not tok or tok[0].startswith("#"):
+        return None
+    kind = tok[0]
+    if kind in ("FLASER", "RLASER"):
+        _parse_flaser(path, lineno, tok, rows, params)
+    elif kind == "ROBOTLASER1":
+        _parse_robotlaser(path, lineno, tok, rows)
+    elif kind == "RAWLASER1":
+        _parse_rawlaser(path, lineno, tok, rows)
+    elif kind == "ODOM":
+        _parse_odom(path, lineno, tok, odom)
+    elif kind == "PARAM":
+        _parse_param(path, lineno, tok, params)
+        return kind
+    else:
+        if strict and kind not in SKIPPED_TYPES:
+            raise DatasetFormatError(path, lineno, f"unknown record type {kind!r}")
+        return kind
+    return None
+
+
+def _stack_scans(rows: _ScanRows, odometry: Odometry) -> tuple[LaserScans, int]:
+    """The scans as arrays, and how many RAWLASER1 scans got no pose."""
     count = len(rows.ranges)
     width = max((len(r) for r in rows.ranges), default=0)
     ranges = np.full((count, width), np.nan)
+    invalid = np.zeros(count, dtype=np.int64)
     for k, r in enumerate(rows.ranges):
-        ranges[k, : len(r)] = r
+        bad = ~np.isfinite(r) | (r < 0)
+        invalid[k] = np.count_nonzero(bad)
+        ranges[k, : len(r)] = np.where(bad, np.nan, r)
     meta = np.asarray(rows.meta, dtype=np.float64).reshape(count, 10)
-    return LaserScans(
+    kind = np.asarray(rows.kinds, dtype="<U11").reshape(count)
+    raw = kind == "RAWLASER1"
+    no_pose = 0
+    if raw.any():
+        pose = _interpolate_odometry(odometry, meta[raw, 9])
+        meta[raw, 3:6] = pose
+        meta[raw, 6:9] = pose
+        no_pose = int(np.count_nonzero(np.isnan(pose[:, 0])))
+    scans = LaserScans(
         ranges=ranges,
         num_beams=np.array([len(r) for r in rows.ranges], dtype=np.int64),
         angle_min=meta[:, 0].copy(),
@@ -215,7 +388,32 @@ def _stack_scans(rows: _ScanRows) -> LaserScans:
         odom=meta[:, 6:9].copy(),
         timestamp=meta[:, 9].copy(),
         line=np.asarray(rows.lines, dtype=np.int64),
+        invalid=invalid,
+        kind=kind,
     )
+    return scans, no_pose
+
+
+def _interpolate_odometry(odometry: Odometry, times: np.ndarray) -> np.ndarray:
+    """Odometry poses at ``times``, linear between records (heading along the shorter
+    arc); NaN outside the records' time span, where there is nothing to interpolate."""
+    out = np.full((len(times), 3), np.nan)
+    t = odometry.timestamp
+    if len(t) == 0:
+        return out
+    order = np.argsort(t, kind="stable")
+    t, pose = t[order], odometry.pose[order]
+    inside = (times >= t[0]) & (times <= t[-1])
+    q = times[inside]
+    hi = np.clip(np.searchsorted(t, q, side="left"), 1, max(len(t) - 1, 1))
+    lo = hi - 1 if len(t) > 1 else hi
+    span = t[hi] - t[lo]
+    w = np.divide(q - t[lo], span, out=np.zeros_like(q), where=span > 0)
+    dth = np.angle(np.exp(1j * (pose[hi, 2] - pose[lo, 2])))
+    xy = pose[lo, :2] + w[:, None] * (pose[hi, :2] - pose[lo, :2])
+    th = np.angle(np.exp(1j * (pose[lo, 2] + w * dth)))
+    out[inside] = np.c_[xy, th]
+    return out
 
 
 def _stack_odometry(odom: list[list[float]]) -> Odometry:

@@ -1,0 +1,261 @@
+//! Wall (infinite line) landmarks in Hessian form, seed 000 section 2.1: the world
+//! wall `x cos(alpha) + y sin(alpha) = rho` with `rho >= 0` and `alpha` in (-pi, pi],
+//! its observation `(rho, alpha)` in the robot frame with analytic Jacobians, and the
+//! inverse (a world wall from a robot-frame one) for initialising a new landmark.
+//!
+//! Seen from the robot `(x, y, theta)`, the world wall is
+//! `alpha_r = alpha - theta`, `rho_r = rho - x cos(alpha) - y sin(alpha)`; a negative
+//! `rho_r` (the robot on the other side of the line from the world origin) is written
+//! `(-rho_r, alpha_r + pi)`, which flips the sign of the `rho` row of the Jacobians.
+//! Not wired into the planar engine yet.
+
+use std::f64::consts::PI;
+
+use nalgebra::{Matrix2, Matrix2x3, Vector2};
+use rperc_core::{Pose2, wrap_angle};
+
+/// A predicted or inverted wall with its Jacobians.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WallJacobians {
+    /// `(rho, alpha)`, `rho >= 0`, `alpha` in (-pi, pi].
+    pub wall: Vector2<f64>,
+    /// Derivative with respect to the robot pose `(x, y, theta)` (2 x 3).
+    pub d_pose: Matrix2x3<f64>,
+    /// Derivative with respect to the input wall `(rho, alpha)` (2 x 2).
+    pub d_wall: Matrix2<f64>,
+}
+
+/// The wall `world = (rho, alpha)` as the robot at `robot` observes it, with the
+/// Jacobians with respect to the robot pose and to the world wall. `None` when an
+/// input is not finite.
+///
+/// # Examples
+/// ```
+/// use nalgebra::Vector2;
+/// use rperc_core::Pose2;
+/// use slam::wall::observe_wall;
+///
+/// // The wall x = 5 seen from (2, 1) facing +y: 3 m away, normal at -90 degrees.
+/// let robot = Pose2 { x: 2.0, y: 1.0, theta: std::f64::consts::FRAC_PI_2 };
+/// let z = observe_wall(&robot, &Vector2::new(5.0, 0.0)).unwrap();
+/// assert!((z.wall.x - 3.0).abs() < 1e-12);
+/// assert!((z.wall.y + std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+/// ```
+pub fn observe_wall(robot: &Pose2, world: &Vector2<f64>) -> Option<WallJacobians> {
+    if ![robot.x, robot.y, robot.theta, world.x, world.y]
+        .iter()
+        .all(|v| v.is_finite())
+    {
+        return None;
+    }
+    let (s, c) = world.y.sin_cos();
+    let rho = world.x - robot.x * c - robot.y * s;
+    let lever = robot.x * s - robot.y * c; // d rho_r / d alpha
+    let mut d_pose = Matrix2x3::new(-c, -s, 0.0, 0.0, 0.0, -1.0);
+    let mut d_wall = Matrix2::new(1.0, lever, 0.0, 1.0);
+    Some(flipped(
+        rho,
+        world.y - robot.theta,
+        &mut d_pose,
+        &mut d_wall,
+    ))
+}
+
+/// The world wall of a wall `z = (rho, alpha)` observed in the robot frame from
+/// `robot`, with the Jacobians with respect to the robot pose and to `z` (the inverse
+/// of [`observe_wall`], for a new landmark's mean and covariance). `None` when an
+/// input is not finite.
+pub fn wall_to_world(robot: &Pose2, z: &Vector2<f64>) -> Option<WallJacobians> {
+    if ![robot.x, robot.y, robot.theta, z.x, z.y]
+        .iter()
+        .all(|v| v.is_finite())
+    {
+        return None;
+    }
+    let alpha = z.y + robot.theta;
+    let (s, c) = alpha.sin_cos();
+    let rho = z.x + robot.x * c + robot.y * s;
+    let lever = -robot.x * s + robot.y * c; // d rho_w / d alpha_w
+    let mut d_pose = Matrix2x3::new(c, s, lever, 0.0, 0.0, 1.0);
+    let mut d_wall = Matrix2::new(1.0, lever, 0.0, 1.0);
+    Some(flipped(rho, alpha, &mut d_pose, &mut d_wall))
+}
+
+/// `(rho, alpha)` written with `rho >= 0` and `alpha` wrapped, the rho rows of the
+/// Jacobians negated when the line had to be flipped.
+fn flipped(
+    rho: f64,
+    alpha: f64,
+    d_pose: &mut Matrix2x3<f64>,
+    d_wall: &mut Matrix2<f64>,
+) -> WallJacobians {
+    let (rho, alpha) = if rho < 0.0 {
+        d_pose.row_mut(0).neg_mut();
+        d_wall.row_mut(0).neg_mut();
+        (-rho, alpha + PI)
+    } else {
+        (rho, alpha)
+    };
+    WallJacobians {
+        wall: Vector2::new(rho, wrap_angle(alpha)),
+        d_pose: *d_pose,
+        d_wall: *d_wall,
+    }
+}
+
+/// The innovation `z - predicted` of an observed wall, and the sign to apply to the
+/// rho rows of the prediction's Jacobians. Near `rho = 0` noise can put the observed
+/// and the predicted line in opposite forms (`alpha` about pi apart); the observation
+/// is then compared with the predicted line's other form `(-rho, alpha + pi)`, whose
+/// Jacobian has its rho row negated (the returned sign is -1).
+pub fn wall_innovation(z: &Vector2<f64>, predicted: &Vector2<f64>) -> (Vector2<f64>, f64) {
+    let d_alpha = wrap_angle(z.y - predicted.y);
+    if d_alpha.abs() <= PI / 2.0 {
+        (Vector2::new(z.x - predicted.x, d_alpha), 1.0)
+    } else {
+        (
+            Vector2::new(z.x + predicted.x, wrap_angle(z.y - predicted.y - PI)),
+            -1.0,
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Central differences of `f` at `(pose, wall)` with respect to both, alpha
+    /// differences wrapped.
+    fn numeric(
+        f: fn(&Pose2, &Vector2<f64>) -> Option<WallJacobians>,
+        pose: &Pose2,
+        wall: &Vector2<f64>,
+    ) -> (Matrix2x3<f64>, Matrix2<f64>) {
+        let h = 1e-6;
+        let diff = |a: Vector2<f64>, b: Vector2<f64>| {
+            Vector2::new((a.x - b.x) / (2.0 * h), wrap_angle(a.y - b.y) / (2.0 * h))
+        };
+        let mut d_pose = Matrix2x3::zeros();
+        for i in 0..3 {
+            let shift = |d: f64| {
+                let mut p = *pose;
+                match i {
+                    0 => p.x += d,
+                    1 => p.y += d,
+                    _ => p.theta += d,
+                }
+                f(&p, wall).unwrap().wall
+            };
+            d_pose.set_column(i, &diff(shift(h), shift(-h)));
+        }
+        let mut d_wall = Matrix2::zeros();
+        for i in 0..2 {
+            let mut e = Vector2::zeros();
+            e[i] = h;
+            d_wall.set_column(
+                i,
+                &diff(
+                    f(pose, &(wall + e)).unwrap().wall,
+                    f(pose, &(wall - e)).unwrap().wall,
+                ),
+            );
+        }
+        (d_pose, d_wall)
+    }
+
+    fn pose_and_wall() -> impl Strategy<Value = (Pose2, Vector2<f64>)> {
+        (
+            -20.0..20.0f64,
+            -20.0..20.0f64,
+            -PI..PI,
+            0.0..15.0f64,
+            -PI..PI,
+        )
+            .prop_map(|(x, y, theta, rho, alpha)| (Pose2 { x, y, theta }, Vector2::new(rho, alpha)))
+    }
+
+    proptest! {
+        #[test]
+        fn observation_jacobians_match_central_differences((pose, wall) in pose_and_wall()) {
+            let z = observe_wall(&pose, &wall).unwrap();
+            // At rho_r = 0 the flip makes the observation non-differentiable.
+            prop_assume!(z.wall.x > 1e-3);
+            let (d_pose, d_wall) = numeric(observe_wall, &pose, &wall);
+            prop_assert!((z.d_pose - d_pose).abs().max() < 1e-6, "{} vs {}", z.d_pose, d_pose);
+            prop_assert!((z.d_wall - d_wall).abs().max() < 1e-6, "{} vs {}", z.d_wall, d_wall);
+            prop_assert!(z.wall.x >= 0.0 && z.wall.y > -PI && z.wall.y <= PI);
+        }
+
+        #[test]
+        fn inverse_jacobians_match_central_differences((pose, z) in pose_and_wall()) {
+            let w = wall_to_world(&pose, &z).unwrap();
+            prop_assume!(w.wall.x > 1e-3);
+            let (d_pose, d_wall) = numeric(wall_to_world, &pose, &z);
+            prop_assert!((w.d_pose - d_pose).abs().max() < 1e-6, "{} vs {}", w.d_pose, d_pose);
+            prop_assert!((w.d_wall - d_wall).abs().max() < 1e-6, "{} vs {}", w.d_wall, d_wall);
+        }
+
+        #[test]
+        fn the_inverse_undoes_the_observation((pose, wall) in pose_and_wall()) {
+            prop_assume!(wall.x > 1e-6);
+            let z = observe_wall(&pose, &wall).unwrap();
+            prop_assume!(z.wall.x > 1e-6);
+            let back = wall_to_world(&pose, &z.wall).unwrap();
+            prop_assert!((back.wall.x - wall.x).abs() < 1e-9);
+            prop_assert!(wrap_angle(back.wall.y - wall.y).abs() < 1e-9);
+            // And the Jacobians are inverse to each other with respect to the wall.
+            let product = back.d_wall * z.d_wall;
+            prop_assert!((product - Matrix2::identity()).abs().max() < 1e-9, "{}", product);
+        }
+
+        #[test]
+        fn the_observation_is_the_line_through_transformed_points((pose, wall) in pose_and_wall()) {
+            // Independent oracle: two points of the world line, taken to the robot
+            // frame, give the observed line through them.
+            let (s, c) = wall.y.sin_cos();
+            let foot = Vector2::new(wall.x * c, wall.x * s);
+            let along = Vector2::new(-s, c);
+            let to_robot = |p: Vector2<f64>| {
+                let d = p - Vector2::new(pose.x, pose.y);
+                let (st, ct) = pose.theta.sin_cos();
+                Vector2::new(ct * d.x + st * d.y, -st * d.x + ct * d.y)
+            };
+            let (a, b) = (to_robot(foot - along * 3.0), to_robot(foot + along * 5.0));
+            let t = (b - a).normalize();
+            let mut n = Vector2::new(-t.y, t.x);
+            if n.dot(&a) < 0.0 {
+                n = -n;
+            }
+            let z = observe_wall(&pose, &wall).unwrap();
+            prop_assume!(z.wall.x > 1e-6);
+            prop_assert!((z.wall.x - n.dot(&a)).abs() < 1e-9);
+            prop_assert!(wrap_angle(z.wall.y - n.y.atan2(n.x)).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn innovation_compares_the_right_forms_near_rho_zero() {
+        // Predicted (0.01, 0.3); observed just across zero, written (0.02, 0.3 + pi).
+        let (nu, sign) = wall_innovation(
+            &Vector2::new(0.02, wrap_angle(0.3 + PI)),
+            &Vector2::new(0.01, 0.3),
+        );
+        assert_eq!(sign, -1.0);
+        assert!((nu.x - 0.03).abs() < 1e-12 && nu.y.abs() < 1e-12);
+        let (nu, sign) = wall_innovation(&Vector2::new(2.0, 3.1), &Vector2::new(1.9, -3.1));
+        assert_eq!(sign, 1.0);
+        assert!((nu.x - 0.1).abs() < 1e-12 && (nu.y - (6.2 - 2.0 * PI)).abs() < 1e-12);
+        assert!(
+            observe_wall(
+                &Pose2 {
+                    x: f64::NAN,
+                    y: 0.0,
+                    theta: 0.0
+                },
+                &Vector2::new(1.0, 0.0)
+            )
+            .is_none()
+        );
+    }
+}

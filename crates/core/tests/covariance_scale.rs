@@ -5,7 +5,7 @@
 //! covariance passed Cauchy-Schwarz.
 use nalgebra::DMatrix;
 use proptest::prelude::*;
-use rperc_core::{check_covariance, Definiteness};
+use rperc_core::{Definiteness, check_covariance};
 
 /// `J D J^T` (PSD by construction, rank <= 2) plus `eps` on the diagonal, symmetrised.
 fn psd(j: &[f64], d: (f64, f64), eps: f64) -> DMatrix<f64> {
@@ -53,6 +53,9 @@ proptest! {
 fn extreme_scales_near_the_float_limits() {
     let c = DMatrix::from_row_slice(2, 2, &[2.0, 1.0, 1.0, 1.0]);
     for s in [1e-300, 1e-200, 1e200, 5e307] {
-        assert!(check_covariance("C", &(&c * s), Definiteness::Positive).is_ok(), "{s:e}");
+        assert!(
+            check_covariance("C", &(&c * s), Definiteness::Positive).is_ok(),
+            "{s:e}"
+        );
     }
 }

@@ -39,6 +39,14 @@ pub struct ColorShapeParams {
     pub snake_iterations: usize,
     /// Radius of the opening and closing that clean `S(n)`, pixels. Default 1.
     pub morphology_radius: u8,
+    /// Refine the best sample's contour on the image edges (seed 000 "contour
+    /// updating"). Default true.
+    pub refine: bool,
+    /// The refined contour replaces the best sample's only when at least this fraction
+    /// of its points lie on the masked image edges: where the target's grey level
+    /// matches the background, `grad I` has no edge and the sample's contour is kept.
+    /// Default 0.5.
+    pub refine_min_support: f64,
     /// Dilation radius of `grad S` masking the image edges in the refinement. Default 2.
     pub edge_dilation: u8,
     /// Canny thresholds (low, high) for the image edges `grad I`. Default (20, 50).
@@ -72,6 +80,8 @@ impl Default for ColorShapeParams {
             search: 12,
             snake_iterations: 6,
             morphology_radius: 1,
+            refine: true,
+            refine_min_support: 0.5,
             edge_dilation: 2,
             canny: [20.0, 50.0],
             roi_margin: 0.5,
@@ -114,6 +124,7 @@ impl ColorShapeParams {
         ensure_non_negative("hole_penalty", self.hole_penalty)?;
         ensure_non_negative("roi_margin", self.roi_margin)?;
         ensure_in_range("lost_below", self.lost_below, 0.0, 1.0)?;
+        ensure_in_range("refine_min_support", self.refine_min_support, 0.0, 1.0)?;
         let [lo, hi] = self.canny.map(f64::from);
         ensure_non_negative("canny", lo)?;
         if !(hi.is_finite() && hi >= lo) {

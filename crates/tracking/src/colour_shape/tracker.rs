@@ -358,14 +358,18 @@ impl ColorShapeTracker {
         });
         let lost = terms.is_none() || score < self.params.lost_below;
         if let (Some(t), false) = (terms, lost) {
-            let refined = refine(
-                &frame,
-                roi,
-                &ctx,
-                t.fit.affine,
-                &mut self.scratch[0],
-                &mut self.refine,
-            );
+            let refined = if !self.params.refine {
+                self.scratch[0].snake.contour().to_vec()
+            } else {
+                refine(
+                    &frame,
+                    roi,
+                    &ctx,
+                    t.fit.affine,
+                    &mut self.scratch[0],
+                    &mut self.refine,
+                )
+            };
             self.areas = [polygon_area(&refined), a1];
             self.contour = refined;
         }
@@ -415,7 +419,8 @@ impl ColorShapeTracker {
 /// Contour refinement: the snake, started from the best sample's fit, is fitted to the
 /// image edges `grad I` (Canny) masked by the dilated boundary of the best sample's blob,
 /// `grad I . dil(grad S)`: the object's true edges, without the clutter. Falls back to the
-/// sample's own fit when the masked image has no edge on the snake.
+/// sample's own fit when fewer than `refine_min_support` of the snake's points end on
+/// those edges.
 fn refine(
     frame: &RgbFrame<'_>,
     roi: Roi,
@@ -436,7 +441,7 @@ fn refine(
     let image_edges = imageproc::edges::canny(&gray, p.canny[0], p.canny[1]);
     let masked = |x: i64, y: i64| on(&best.edges, roi, x, y) && on(&image_edges, roi, x, y);
     let fit = fit_snake(ctx.previous, start, &ctx.snake, masked, snake);
-    if fit.on_edge > 0.0 {
+    if fit.on_edge >= p.refine_min_support {
         snake.contour().to_vec()
     } else {
         sample_contour

@@ -3,8 +3,7 @@
 //! its boundary `grad S(n)`.
 
 use image::{GrayImage, Luma};
-use imageproc::distance_transform::Norm;
-use imageproc::morphology::{close_mut, open_mut};
+use imageproc::morphology::{Mask, grayscale_close, grayscale_open};
 use imageproc::region_labelling::{Connectivity, connected_components};
 
 use crate::colour::ColorSpace;
@@ -68,12 +67,15 @@ pub fn segment(bins: &[u16], lut: &[u8], roi: Roi, seg: &mut GrayImage) {
     }
 }
 
-/// Opening then closing with an `L_inf` radius: removes isolated pixels, then fills
+/// Opening then closing with a square of half-side `radius` (the `L_inf` ball): removes isolated pixels, then fills
 /// pinholes and gaps narrower than `2 radius + 1`.
 pub fn clean(seg: &mut GrayImage, radius: u8) {
     if radius > 0 {
-        open_mut(seg, Norm::LInf, radius);
-        close_mut(seg, Norm::LInf, radius);
+        // imageproc's mask filters beat its distance-transform `open_mut`/`close_mut`
+        // by a third of the whole update at radius 1, at the cost of two images per call.
+        let mask = Mask::square(radius);
+        *seg = grayscale_open(seg, &mask);
+        *seg = grayscale_close(seg, &mask);
     }
 }
 

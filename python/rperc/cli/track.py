@@ -26,13 +26,16 @@ from rperc.datasets import load_otb
 from rperc.tracking import metrics
 
 TRACKERS = ("color", "color-pf")
+# The colour+shape tracker is offered by `rperc track` only: the tracking demo's scores
+# are of the two colour trackers.
+CLI_TRACKERS = (*TRACKERS, "color-shape")
 STRIP_FRAMES = 6
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = sub.add_parser("track", help="run a tracker on an OTB sequence (AUC, precision, fps)")
     p.add_argument("sequence", type=Path, help="OTB sequence folder (img/, groundtruth_rect.txt)")
-    p.add_argument("--tracker", choices=TRACKERS, default="color")
+    p.add_argument("--tracker", choices=CLI_TRACKERS, default="color")
     p.add_argument("--seed", type=seed_type, default=0, help="seed of the particle filter")
     p.add_argument("--strip", type=Path, help="write a figure strip of annotated frames")
     p.add_argument(
@@ -51,6 +54,7 @@ class TrackerRun:
     boxes: np.ndarray  # (N, 4)
     lost: np.ndarray  # (N,) bool
     seconds: float
+    contours: tuple[np.ndarray, ...] | None = None  # (M, 2) per frame, color-shape only
 
 
 def run_tracker(
@@ -58,7 +62,7 @@ def run_tracker(
 ) -> TrackerRun:
     """Run tracker ``name`` from ``first_box`` over ``frames``. This is the one place
     that calls the trackers' Python API (construction and ``update``)."""
-    from rperc.tracking import ColorHistogramTracker, ParticleColorTracker
+    from rperc.tracking import ColorHistogramTracker, ColorShapeTracker, ParticleColorTracker
 
     x, y, w, h = (float(v) for v in first_box)
     box = (x, y, w, h)
@@ -67,16 +71,22 @@ def run_tracker(
         tracker: Any = ColorHistogramTracker(frames[0], box)
     elif name == "color-pf":
         tracker = ParticleColorTracker(frames[0], box, seed=seed)
+    elif name == "color-shape":
+        tracker = ColorShapeTracker(frames[0], box, seed=seed)
     else:
-        raise ValueError(f"unknown tracker {name!r}; expected one of {', '.join(TRACKERS)}")
+        raise ValueError(f"unknown tracker {name!r}; expected one of {', '.join(CLI_TRACKERS)}")
     boxes: list[tuple[float, ...]] = [box]
     lost = [False]
+    corners = np.array([[x, y], [x + w - 1, y], [x + w - 1, y + h - 1], [x, y + h - 1]])
+    contours: list[np.ndarray] = [corners]
     for frame in progress(frames[1:], desc=f"tracking ({name})", unit="frame"):
-        new_box, _score, is_lost = tracker.update(frame)  # a TrackResult unpacks
-        boxes.append(tuple(new_box))
-        lost.append(bool(is_lost))
+        r = tracker.update(frame)
+        boxes.append(tuple(r.box))
+        lost.append(bool(r.lost))
+        contours.append(getattr(r, "contour", corners))
     seconds = time.perf_counter() - start
-    return TrackerRun(name, np.asarray(boxes, dtype=np.float64), np.asarray(lost), seconds)
+    shapes = tuple(contours) if name == "color-shape" else None
+    return TrackerRun(name, np.asarray(boxes, dtype=np.float64), np.asarray(lost), seconds, shapes)
 
 
 def scores(run: TrackerRun, truth: np.ndarray) -> dict[str, Any]:
@@ -125,6 +135,7 @@ def track_command(args: argparse.Namespace) -> int:
             {args.tracker: run.boxes},
             title=f"{seq.name} (OTB), {len(seq)} frames",
             truth_label="ground truth (OTB)",
+            contours={args.tracker: run.contours} if run.contours else None,
         )
         wrote(save(fig, args.strip))
     write_json(args.json, {"sequence": seq.name, **s})

@@ -112,7 +112,8 @@ def _circles(
     frames, masks = [], []
     for _ in range(n):
         image = np.full((HEIGHT, WIDTH, 3), 110.0)
-        for i in range(k):
+        # The target (disc 0) is drawn last, on top: its truth is its whole disc.
+        for i in reversed(range(k)):
             disc = np.hypot(xx - pos[i, 0], yy - pos[i, 1]) <= radius
             image[disc] = colour[i]
             if i == 0:

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import shapely
 
 from rperc.cli import demo as demo_module
 from rperc.cli import lines as lines_cli
@@ -261,3 +262,27 @@ def test_slam_demo_numbers_are_recomputed_from_the_truth(demo_all):
         text = grab(name + " " + NUMBER + " \\(" + NUMBER + "% in band\\)", line)
         assert text[0] == pytest.approx(mean, abs=0.006)
     assert (demo_all["out"] / "slam_variants.png").stat().st_size > 10_000
+
+
+def test_color_shape_contour_iou_is_recomputed_against_the_generator(demo_all):
+    from rperc.tracking.shape_sequences import shape_sequence
+
+    line = demo_all["summary"]["color_shape"]
+    (frames, seed, printed) = grab(
+        rf"\({NUMBER} frames, seed {NUMBER}\) against its truth masks: color-shape contour "
+        rf"IoU {NUMBER}",
+        line,
+    )
+    seq = shape_sequence("rectangle", frames=int(frames), seed=int(seed))
+    contours = demo_all["measured"]["color_shape"]["contours"]
+    assert len(contours) == len(seq)
+    # Oracle: shapely's area of each contour against the truth rectangle (pixel j spans
+    # [j, j + 1), so a pixel-centre contour is shifted by half a pixel).
+    ious = []
+    for c, m in zip(contours[1:], seq.masks[1:], strict=True):
+        ys, xs = np.nonzero(m)
+        truth = shapely.box(xs.min(), ys.min(), xs.max() + 1, ys.max() + 1)
+        poly = shapely.Polygon(np.asarray(c) + 0.5).buffer(0)
+        ious.append(poly.intersection(truth).area / poly.union(truth).area)
+    # Rasterised IoU (printed) and exact areas differ by the boundary pixels only.
+    assert printed == pytest.approx(np.mean(ious), abs=0.03)

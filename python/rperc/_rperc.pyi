@@ -7,12 +7,14 @@ import numpy.typing as npt
 
 __all__ = [
     "ColorHistogramTracker",
+    "ColorShapeTracker",
     "Ekf",
     "NumericalError",
     "ParticleColorTracker",
     "PatternTracker",
     "RpercError",
     "__version__",
+    "color_shape_defaults",
     "effective_sample_size",
     "extract_lines",
     "information_spectrum",
@@ -185,6 +187,23 @@ class ParticleColorTracker:
     def update(self, frame: npt.NDArray[np.uint8]) -> tuple[_Box, float, bool]: ...
     @property
     def ess(self) -> float: ...
+
+@final
+class ColorShapeTracker:
+    """CONDENSATION over colour distributions with an affine snake (see rperc.tracking)."""
+
+    def __new__(
+        cls,
+        frame: npt.NDArray[np.uint8],
+        bbox: _Box | list[float] | _ArrayLike | None = None,
+        contour: _ArrayLike | None = None,
+        config: dict[str, Any] | None = None,
+    ) -> ColorShapeTracker: ...
+    def update(
+        self, frame: npt.NDArray[np.uint8]
+    ) -> tuple[npt.NDArray[np.float64], _Box, list[float], float, bool, float]: ...
+
+def color_shape_defaults() -> dict[str, Any]: ...
 
 _Corners: TypeAlias = tuple[
     tuple[float, float], tuple[float, float], tuple[float, float], tuple[float, float]

@@ -6,6 +6,7 @@
 //! package `rperc`.
 
 mod arrays;
+mod colour_shape_py;
 mod config;
 mod errors;
 mod eval_py;
@@ -21,6 +22,8 @@ use pyo3::prelude::*;
 /// Native core of rperc. Use the `rperc` package, not this module directly.
 #[pymodule]
 mod _rperc {
+    #[pymodule_export]
+    use crate::colour_shape_py::{PyColorShapeTracker, color_shape_defaults};
     #[pymodule_export]
     use crate::errors::NumericalError;
     #[pymodule_export]

@@ -13,19 +13,19 @@ use tracking::{
 use crate::errors::{Error, detached, exclusive, shared};
 
 /// An H x W x 3 uint8 frame: borrowed when C-contiguous, copied otherwise.
-enum FrameBuffer<'py> {
+pub(crate) enum FrameBuffer<'py> {
     Borrowed(numpy::PyReadonlyArray3<'py, u8>),
     Owned(Vec<u8>),
 }
 
-struct Frame<'py> {
+pub(crate) struct Frame<'py> {
     buffer: FrameBuffer<'py>,
     width: usize,
     height: usize,
 }
 
 impl Frame<'_> {
-    fn view(&self) -> Result<RgbFrame<'_>, Error> {
+    pub(crate) fn view(&self) -> Result<RgbFrame<'_>, Error> {
         let data = match &self.buffer {
             FrameBuffer::Borrowed(a) => a.as_slice().map_err(|e| Error::Value(e.to_string()))?,
             FrameBuffer::Owned(v) => v.as_slice(),
@@ -34,7 +34,7 @@ impl Frame<'_> {
     }
 }
 
-fn frame<'py>(obj: &Bound<'py, PyAny>) -> Result<Frame<'py>, Error> {
+pub(crate) fn frame<'py>(obj: &Bound<'py, PyAny>) -> Result<Frame<'py>, Error> {
     let untyped = obj
         .cast::<PyUntypedArray>()
         .map_err(|_| Error::Type("frame must be a numpy array (H x W x 3, uint8)".into()))?;
@@ -69,7 +69,7 @@ fn frame<'py>(obj: &Bound<'py, PyAny>) -> Result<Frame<'py>, Error> {
 }
 
 /// A box `(x, y, w, h)` from any sequence of four numbers (tuple, list, ndarray).
-fn bbox(obj: &Bound<'_, PyAny>) -> Result<BoundingBox, Error> {
+pub(crate) fn bbox(obj: &Bound<'_, PyAny>) -> Result<BoundingBox, Error> {
     let v: Vec<f64> = obj
         .extract()
         .map_err(|_| Error::Type("box must be a sequence of 4 numbers (x, y, w, h)".into()))?;

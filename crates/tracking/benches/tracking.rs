@@ -7,8 +7,9 @@ use std::hint::black_box;
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{SMatrix, SVector};
 use tracking::{
-    BoundingBox, ColorHistogramTracker, ColorTrackerParams, FilterParams, LinearGaussian,
-    ParticleColorTracker, ParticleFilter, ParticleTrackerParams, Resampler, RgbFrame,
+    BoundingBox, ColorHistogramTracker, ColorShapeParams, ColorShapeTracker, ColorTrackerParams,
+    FilterParams, LinearGaussian, ParticleColorTracker, ParticleFilter, ParticleTrackerParams,
+    Resampler, RgbFrame,
 };
 
 fn particle_filter_step(c: &mut Criterion) {
@@ -147,8 +148,58 @@ fn pattern_likelihood(c: &mut Criterion) {
     group.finish();
 }
 
+/// A 320 x 240 frame with a 50 x 36 blue rectangle at `x0` on a horizontal ramp.
+fn rectangle_frame(x0: usize) -> Vec<u8> {
+    let (w, h) = (320, 240);
+    let mut px = vec![0u8; w * h * 3];
+    for y in 0..h {
+        for x in 0..w {
+            let g = (60 + x * 120 / w) as u8;
+            let c = if (x0..x0 + 50).contains(&x) && (100..136).contains(&y) {
+                [60, 90, 190]
+            } else {
+                [g, g, g]
+            };
+            px[(y * w + x) * 3..][..3].copy_from_slice(&c);
+        }
+    }
+    px
+}
+
+/// One colour+shape update, 100 samples, the speed goal of issue 14 (>= 100 fps).
+fn color_shape_update(c: &mut Criterion) {
+    let frames: Vec<Vec<u8>> = (0..8).map(|k| rectangle_frame(100 + 2 * k)).collect();
+    let view = |k: usize| RgbFrame::new(&frames[k % 8], 320, 240).unwrap();
+    let outline = [
+        [100.0, 100.0],
+        [149.0, 100.0],
+        [149.0, 135.0],
+        [100.0, 135.0],
+    ];
+    let mut group = c.benchmark_group("color_shape_update");
+    for parallel in [false, true] {
+        let mut params = ColorShapeParams::default();
+        params.filter.parallel = parallel;
+        let mut t = ColorShapeTracker::new(view(0), &outline, params).unwrap();
+        let mut k = 0;
+        let label = if parallel {
+            "100_parallel"
+        } else {
+            "100_serial"
+        };
+        group.bench_function(label, |b| {
+            b.iter(|| {
+                k += 1;
+                black_box(t.update(view(k)).unwrap())
+            })
+        });
+    }
+    group.finish();
+}
+
 criterion_group!(
     benches,
+    color_shape_update,
     particle_filter_step,
     tracker_update,
     pattern_likelihood

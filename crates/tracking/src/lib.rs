@@ -2,6 +2,7 @@
 #![deny(missing_docs)]
 
 mod colour;
+mod colour_shape;
 mod condensation;
 mod error;
 mod frame;
@@ -12,6 +13,9 @@ pub mod pattern;
 pub use colour::{
     AppearanceParams, ColorHistogramTracker, ColorSpace, ColorTrackerParams, MAX_BINS_PER_AXIS,
     ModelKind, ParticleColorTracker, ParticleTrackerParams, TrackResult,
+};
+pub use colour_shape::{
+    ColorShapeParams, ColorShapeResult, ColorShapeTracker, ColourDistribution, ColourDynamics,
 };
 pub use condensation::{
     FilterParams, Likelihood, LinearGaussian, ParticleFilter, ResamplePolicy, Resampler,

@@ -92,6 +92,12 @@ def registry() -> tuple[Demo, ...]:
             # 1000 frames of 320 x 240 RGB are 230 MB: a bound well above any use.
             (Option("--frames", "frames", count_at_least(2, 1000), 150, "frames (default 150)"),),
         ),
+        Demo(
+            "color_shape",
+            "colour+shape tracker vs colour alone, rectangle under changing light",
+            track.demo_color_shape,
+            (Option("--frames", "frames", count_at_least(2, 1000), 60, "frames (default 60)"),),
+        ),
     )
 
 

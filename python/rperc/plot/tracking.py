@@ -8,7 +8,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
-from matplotlib.patches import Rectangle
+from matplotlib.patches import Polygon, Rectangle
 
 from rperc.tracking import metrics
 
@@ -33,13 +33,16 @@ def strip_figure(
     *,
     title: str,
     truth_label: str = "ground truth",
+    contours: Mapping[str, Sequence[np.ndarray]] | None = None,
 ) -> Figure:
     """One panel per picked frame with the truth box and each tracker's box, and below
     them every tracker's IoU with the truth over the sequence.
 
     ``frames[j]`` is frame ``indices[j]``; ``truth`` and each ``tracks[name]`` hold one
     ``(x, y, w, h)`` box (pixels) per frame of the whole sequence. The title gets one
-    score line per tracker (AUC, precision, mean IoU against ``truth``).
+    score line per tracker (AUC, precision, mean IoU against ``truth``). A tracker in
+    ``contours`` (one ``(N, 2)`` polygon ``(x, y)`` per frame) also gets its contour drawn,
+    dashed, in its colour.
     """
     if len(frames) != len(indices):
         raise ValueError(f"{len(frames)} frames for {len(indices)} indices")
@@ -52,6 +55,10 @@ def strip_figure(
         drawn = [(truth[k], TRUTH_COLOUR)] + [(tracks[n][k], colours[n]) for n in tracks]
         for b, colour in drawn:
             ax.add_patch(Rectangle((b[0], b[1]), b[2], b[3], fill=False, color=colour, lw=1.5))
+        for n, polys in (contours or {}).items():
+            ax.add_patch(
+                Polygon(polys[k], closed=True, fill=False, color=colours[n], lw=1, ls="--")
+            )
         ious = " / ".join(f"{metrics.iou(tracks[n][k], truth[k])[0]:.2f}" for n in tracks)
         ax.set_title(f"frame {k + 1}, IoU {ious}", fontsize=7)
         ax.set_xticks([])
@@ -68,6 +75,10 @@ def strip_figure(
     handles = [Line2D([], [], color=TRUTH_COLOUR, lw=2, label=f"{truth_label} (box)")]
     handles += [
         Line2D([], [], color=colours[n], lw=2, label=f"tracker {n} (box, IoU)") for n in tracks
+    ]
+    handles += [
+        Line2D([], [], color=colours[n], lw=1, ls="--", label=f"tracker {n} (contour)")
+        for n in contours or {}
     ]
     ax.legend(handles=handles, loc="lower left", fontsize=8, ncol=len(handles))
     scores = "\n".join(score_line(n, b, truth) for n, b in tracks.items())

@@ -19,6 +19,10 @@ corner). The GIL is released while a frame is processed.
   over ``(x, y, theta, scale)`` with grey-level profiles normal to the pattern's
   contours, occlusion and scale space; :func:`pattern_sequence` generates the Fig. 8
   experiment's sequences with their ground truth.
+- :class:`ColorShapeTracker`: the colour+shape tracker of seed 000 section 3.3,
+  CONDENSATION over the target's colour distribution weighted by an affine snake, with
+  a contour per frame; :mod:`rperc.tracking.shape_sequences` generates the four
+  experiments of section 3.4 with truth masks.
 - :func:`resample`, :func:`effective_sample_size`: the particle-filter building blocks.
 - :mod:`rperc.tracking.metrics`: IoU, success curve and AUC, precision at 20 px.
 
@@ -35,6 +39,8 @@ from rperc.tracking.pattern import (
 )
 from rperc.tracking.trackers import (
     ColorHistogramTracker,
+    ColorShapeResult,
+    ColorShapeTracker,
     ParticleColorTracker,
     TrackResult,
     effective_sample_size,
@@ -43,6 +49,8 @@ from rperc.tracking.trackers import (
 
 __all__ = [
     "ColorHistogramTracker",
+    "ColorShapeResult",
+    "ColorShapeTracker",
     "ParticleColorTracker",
     "PatternPose",
     "PatternSequence",

@@ -63,3 +63,26 @@ def precision(pred: npt.ArrayLike, truth: npt.ArrayLike, threshold: float = 20.0
     if len(_boxes(pred, "pred")) == 0:
         raise ValueError("pred is empty: a precision over no frames is undefined")
     return float(_rperc.otb_precision(center_error(pred, truth), limit))
+
+
+def polygon_mask(polygon: npt.ArrayLike, shape: tuple[int, int]) -> np.ndarray:
+    """The pixels of an ``(H, W)`` image whose centres (at integer ``(x, y)``) lie inside
+    a closed ``(N, 2)`` polygon of ``(x, y)`` points."""
+    from matplotlib.path import Path
+
+    poly = np.asarray(polygon, dtype=np.float64)
+    if poly.ndim != 2 or poly.shape[1] != 2 or len(poly) < 3:
+        raise ValueError(f"polygon must have shape (N >= 3, 2), got {poly.shape}")
+    h, w = shape
+    yy, xx = np.mgrid[0:h, 0:w]
+    inside = Path(poly).contains_points(np.stack([xx.ravel(), yy.ravel()], axis=1))
+    return np.asarray(inside.reshape(h, w), dtype=bool)
+
+
+def mask_iou(a: npt.ArrayLike, b: npt.ArrayLike) -> float:
+    """Intersection over union of two boolean masks of one shape (1 when both are empty)."""
+    ma, mb = np.asarray(a, dtype=bool), np.asarray(b, dtype=bool)
+    if ma.shape != mb.shape:
+        raise ValueError(f"masks differ in shape: {ma.shape} and {mb.shape}")
+    union = int(np.count_nonzero(ma | mb))
+    return 1.0 if union == 0 else int(np.count_nonzero(ma & mb)) / union

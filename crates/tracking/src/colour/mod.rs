@@ -12,5 +12,6 @@ mod tracker;
 
 pub use model::{AppearanceParams, ModelKind};
 pub use particle_tracker::{ParticleColorTracker, ParticleTrackerParams};
+pub(crate) use space::check_bins;
 pub use space::{ColorSpace, MAX_BINS_PER_AXIS};
 pub use tracker::{ColorHistogramTracker, ColorTrackerParams, TrackResult};

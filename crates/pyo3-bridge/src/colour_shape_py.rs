@@ -1,0 +1,99 @@
+//! Bindings of the colour+shape tracker (`tracking::ColorShapeTracker`).
+
+use numpy::PyArray2;
+use pyo3::prelude::*;
+use tracking::{ColorShapeParams, ColorShapeResult};
+
+use crate::errors::{Error, detached, exclusive};
+use crate::tracking_py::{bbox, frame};
+
+/// `(contour (N x 2), (x, y, w, h), distribution (8), score, lost, ess)`.
+type Answer<'py> = (
+    Bound<'py, PyArray2<f64>>,
+    (f64, f64, f64, f64),
+    Vec<f64>,
+    f64,
+    bool,
+    f64,
+);
+
+fn answer(py: Python<'_>, r: ColorShapeResult) -> PyResult<Answer<'_>> {
+    let n = r.contour.len();
+    let flat: Vec<f64> = r.contour.iter().flatten().copied().collect();
+    let contour = numpy::ndarray::Array2::from_shape_vec((n, 2), flat)
+        .map_err(|e| Error::Value(format!("internal shape error: {e}")))?;
+    let [x, y, w, h] = r.bbox.to_array();
+    Ok((
+        numpy::IntoPyArray::into_pyarray(contour, py),
+        (x, y, w, h),
+        r.distribution.to_vec(),
+        r.score,
+        r.lost,
+        r.ess,
+    ))
+}
+
+/// CONDENSATION over the target's colour distribution, weighted by an affine snake.
+#[pyclass(name = "ColorShapeTracker", module = "rperc._rperc")]
+pub struct PyColorShapeTracker {
+    inner: tracking::ColorShapeTracker,
+}
+
+#[pymethods]
+impl PyColorShapeTracker {
+    /// Starts on `frame` from a closed `contour` ((N, 2) floats, x then y) or, when
+    /// `contour` is None, from the ellipse inscribed in `bbox`. `config` holds
+    /// `ColorShapeParams` fields.
+    #[new]
+    #[pyo3(signature = (frame, bbox = None, contour = None, config = None))]
+    fn new(
+        py: Python<'_>,
+        frame: &Bound<'_, PyAny>,
+        bbox: Option<&Bound<'_, PyAny>>,
+        contour: Option<&Bound<'_, PyAny>>,
+        config: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let params: ColorShapeParams = crate::config::from_python(config, "ColorShapeTracker")?;
+        let f = self::frame(frame)?;
+        let view = f.view()?;
+        let inner = match (contour, bbox) {
+            (Some(c), _) => {
+                let rows = crate::arrays::point_rows(c, "contour")?;
+                let pts: Vec<[f64; 2]> = rows.as_points().iter().map(|p| [p.x, p.y]).collect();
+                detached(py, || {
+                    Ok(tracking::ColorShapeTracker::new(view, &pts, params)?)
+                })?
+            }
+            (None, Some(b)) => {
+                let b = self::bbox(b)?;
+                detached(py, || {
+                    Ok(tracking::ColorShapeTracker::from_box(view, b, params)?)
+                })?
+            }
+            (None, None) => {
+                return Err(Error::Value("give a box or a contour".into()).into());
+            }
+        };
+        Ok(Self { inner })
+    }
+
+    /// Tracks into `frame`: `(contour, box, distribution, score, lost, ess)`.
+    fn update<'py>(
+        slf: &Bound<'py, Self>,
+        py: Python<'py>,
+        frame: &Bound<'py, PyAny>,
+    ) -> PyResult<Answer<'py>> {
+        let mut this = exclusive(slf)?;
+        let tracker = &mut this.inner;
+        let f = self::frame(frame)?;
+        let view = f.view()?;
+        let r = detached(py, || Ok(tracker.update(view)?))?;
+        answer(py, r)
+    }
+}
+
+/// The default `ColorShapeParams` as a dict.
+#[pyfunction]
+pub fn color_shape_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
+    crate::config::defaults::<ColorShapeParams>(py)
+}

@@ -1,0 +1,199 @@
+//! The typed configuration of the colour+shape tracker.
+
+use rperc_core::{ensure_in_range, ensure_non_negative, ensure_positive};
+
+use super::state::{ColourDynamics, colour_coords};
+use crate::colour::ColorSpace;
+use crate::condensation::FilterParams;
+use crate::error::{Result, TrackingError};
+
+/// Parameters of a [`ColorShapeTracker`](super::ColorShapeTracker) (seed 000 section 3.3).
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ColorShapeParams {
+    /// Colour space of the distribution: `rgb` or `opponent` (B-G, G-R, R+G+B), the
+    /// seed's choice against specular highlights. Default opponent.
+    pub color_space: ColorSpace,
+    /// Histogram bins per axis of `H(n)`, 1..=64 each. Default 16 x 16 x 16.
+    pub bins: [usize; 3],
+    /// Number of samples `N`. Default 100.
+    pub n_samples: usize,
+    /// Process noise `B` of `s = A s' + B w`.
+    pub dynamics: ColourDynamics,
+    /// `sigma` of the weight `exp(-rho^2 / (2 sigma^2))`. Default 0.3.
+    pub sigma: f64,
+    /// `mu_1, mu_2, mu_3` weighting `1 - Phi_affine`, `1 - Phi_area`, `1 - Phi_quality`
+    /// in `rho`, each >= 0, not all zero. Default (1, 1, 0.5).
+    pub mu: [f64; 3],
+    /// `mu` of the area prediction `A_{t-1} + mu (A_{t-1} - A_{t-2})`, in [0, 1].
+    /// Default 0.5.
+    pub area_momentum: f64,
+    /// Drop of `Phi_quality` per hole: `Phi_quality = clamp(1 - k (1 - E), 0, 1)` with
+    /// `E` the blob's Euler number. Default 0.25.
+    pub hole_penalty: f64,
+    /// Points on the snake, >= 8. Default 48.
+    pub contour_points: usize,
+    /// Edge search along each normal, pixels, >= 1. Default 12.
+    pub search: usize,
+    /// Snake fit iterations, >= 1. Default 6.
+    pub snake_iterations: usize,
+    /// Radius of the opening and closing that clean `S(n)`, pixels. Default 1.
+    pub morphology_radius: u8,
+    /// Refine the best sample's contour on the image edges (seed 000 "contour
+    /// updating"). Default true.
+    pub refine: bool,
+    /// The refined contour replaces the best sample's only when at least this fraction
+    /// of its points lie on the masked image edges: where the target's grey level
+    /// matches the background, `grad I` has no edge and the sample's contour is kept.
+    /// Default 0.5.
+    pub refine_min_support: f64,
+    /// Dilation radius of `grad S` masking the image edges in the refinement. Default 2.
+    pub edge_dilation: u8,
+    /// Canny thresholds (low, high) for the image edges `grad I`. Default (20, 50).
+    pub canny: [f32; 2],
+    /// Window margin around the previous contour, as a fraction of its size (plus the
+    /// edge search). Default 0.5.
+    pub roi_margin: f64,
+    /// Most reference colours kept in the cloud that samples warp. Default 512.
+    pub cloud_points: usize,
+    /// The target is lost when the best sample's weight is below this. Default 0.05.
+    pub lost_below: f64,
+    /// Seed of the sampler.
+    pub seed: u64,
+    /// Particle-filter settings. The default chunk of 16 samples gives several chunks
+    /// to the thread pool for the default 100 samples, each costing a segmentation.
+    pub filter: FilterParams,
+}
+
+impl Default for ColorShapeParams {
+    fn default() -> Self {
+        Self {
+            color_space: ColorSpace::Opponent,
+            bins: [16, 16, 16],
+            n_samples: 100,
+            dynamics: ColourDynamics::default(),
+            sigma: 0.3,
+            mu: [1.0, 1.0, 0.5],
+            area_momentum: 0.5,
+            hole_penalty: 0.25,
+            contour_points: 48,
+            search: 12,
+            snake_iterations: 6,
+            morphology_radius: 1,
+            refine: true,
+            refine_min_support: 0.5,
+            edge_dilation: 2,
+            canny: [20.0, 50.0],
+            roi_margin: 0.5,
+            cloud_points: 512,
+            lost_below: 0.05,
+            seed: 0,
+            filter: FilterParams {
+                chunk_size: 16,
+                ..FilterParams::default()
+            },
+        }
+    }
+}
+
+impl ColorShapeParams {
+    /// Checks every field.
+    ///
+    /// # Errors
+    /// [`TrackingError::InvalidParameter`] naming the first bad field.
+    pub fn validate(&self) -> Result<()> {
+        colour_coords(self.color_space, [0, 0, 0])?;
+        crate::colour::check_bins(self.bins)?;
+        self.dynamics.validate()?;
+        at_least("n_samples", self.n_samples, 1)?;
+        at_least("contour_points", self.contour_points, 8)?;
+        at_least("search", self.search, 1)?;
+        at_least("snake_iterations", self.snake_iterations, 1)?;
+        at_least("cloud_points", self.cloud_points, 1)?;
+        ensure_positive("sigma", self.sigma)?;
+        for m in self.mu {
+            ensure_non_negative("mu", m)?;
+        }
+        if self.mu.iter().sum::<f64>() <= 0.0 {
+            return Err(TrackingError::InvalidParameter {
+                name: "mu",
+                reason: "at least one weight must be > 0".into(),
+            });
+        }
+        ensure_in_range("area_momentum", self.area_momentum, 0.0, 1.0)?;
+        ensure_non_negative("hole_penalty", self.hole_penalty)?;
+        ensure_non_negative("roi_margin", self.roi_margin)?;
+        ensure_in_range("lost_below", self.lost_below, 0.0, 1.0)?;
+        ensure_in_range("refine_min_support", self.refine_min_support, 0.0, 1.0)?;
+        let [lo, hi] = self.canny.map(f64::from);
+        ensure_non_negative("canny", lo)?;
+        if !(hi.is_finite() && hi >= lo) {
+            return Err(TrackingError::InvalidParameter {
+                name: "canny",
+                reason: format!("need 0 <= low <= high, got ({lo}, {hi})"),
+            });
+        }
+        Ok(())
+    }
+
+    /// Floor on the principal spreads: half of the finest bin, so a uniform target's cloud
+    /// still covers its bin.
+    pub(crate) fn min_spread(&self) -> f64 {
+        0.5 / *self.bins.iter().max().unwrap_or(&1) as f64
+    }
+}
+
+fn at_least(name: &'static str, value: usize, min: usize) -> Result<()> {
+    if value >= min {
+        Ok(())
+    } else {
+        Err(TrackingError::InvalidParameter {
+            name,
+            reason: format!("must be >= {min}, got {value}"),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_validate_and_bad_fields_are_named() {
+        ColorShapeParams::default().validate().unwrap();
+        let cases: [(&str, ColorShapeParams); 4] = [
+            (
+                "n_samples",
+                ColorShapeParams {
+                    n_samples: 0,
+                    ..Default::default()
+                },
+            ),
+            (
+                "mu",
+                ColorShapeParams {
+                    mu: [0.0; 3],
+                    ..Default::default()
+                },
+            ),
+            (
+                "color_space",
+                ColorShapeParams {
+                    color_space: ColorSpace::Hsv,
+                    ..Default::default()
+                },
+            ),
+            (
+                "canny",
+                ColorShapeParams {
+                    canny: [5.0, 1.0],
+                    ..Default::default()
+                },
+            ),
+        ];
+        for (name, p) in cases {
+            let e = p.validate().unwrap_err();
+            assert_eq!(e.parameter(), Some(name), "{e}");
+        }
+    }
+}

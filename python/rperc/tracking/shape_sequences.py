@@ -1,0 +1,201 @@
+"""Seeded synthetic sequences with truth masks for the four experiments of seed 000
+section 3.4 (Fig. 13), for the colour+shape tracker.
+
+1. ``circles``: discs moving on a plain background while their colours random-walk
+   (tracked in RGB).
+2. ``rectangle``: a coloured rectangle under changing illumination with a moving
+   specular highlight (tracked in the opponent space (B-G, G-R, R+G+B)).
+3. ``nonrigid``: a blob whose outline deforms every frame, over a textured background.
+4. ``clutter``: a blob over a textured background among distractors of the same colour
+   but other shapes, which cross its path.
+
+Textured backgrounds come from the grey images in ``$RPERC_DATA/images`` when present
+(tinted to colour); otherwise a seeded noise texture is used, so the sequences never
+need downloaded data. Each sequence gives the frames, the truth mask of the target in
+every frame, and the target's outline in frame 0 (to start a tracker from).
+
+Examples
+--------
+>>> from rperc.tracking.shape_sequences import shape_sequence
+>>> seq = shape_sequence("circles", frames=4, seed=1)
+>>> seq.frames.shape, seq.masks.shape, seq.masks.dtype
+((4, 240, 320, 3), (4, 240, 320), dtype('bool'))
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from rperc._args import whole_number
+
+__all__ = ["EXPERIMENTS", "ShapeSequence", "shape_sequence"]
+
+Experiment = Literal["circles", "rectangle", "nonrigid", "clutter"]
+EXPERIMENTS: tuple[Experiment, ...] = ("circles", "rectangle", "nonrigid", "clutter")
+HEIGHT, WIDTH = 240, 320
+NOISE = 4.0  # sensor noise, grey levels (std)
+
+
+@dataclass(frozen=True, repr=False)
+class ShapeSequence:
+    """Frames (N x H x W x 3 uint8 RGB), the target's truth masks (N x H x W bool), its
+    outline in frame 0 as an (M, 2) polygon ``(x, y)`` in pixel coordinates (pixel
+    centres at integers), and the colour space the seed tracks it in."""
+
+    name: str
+    frames: np.ndarray
+    masks: np.ndarray
+    outline: np.ndarray
+    color_space: Literal["rgb", "opponent"]
+    seed: int
+
+    def __len__(self) -> int:
+        return len(self.frames)
+
+    def __repr__(self) -> str:
+        n, h, w, _ = self.frames.shape
+        return f"ShapeSequence({self.name!r}, {n} frames of {w} x {h}, seed {self.seed})"
+
+
+def _grid() -> tuple[np.ndarray, np.ndarray]:
+    yy, xx = np.mgrid[0:HEIGHT, 0:WIDTH]
+    return xx.astype(np.float64), yy.astype(np.float64)
+
+
+def _texture(rng: np.random.Generator, name: str) -> np.ndarray:
+    """A colour texture (H x W x 3 float): a data image tinted, or seeded noise."""
+    root = Path(os.environ.get("RPERC_DATA", "")) / "images" / f"{name}.png"
+    if root.is_file():
+        from PIL import Image
+
+        grey = np.asarray(Image.open(root).convert("L").resize((WIDTH, HEIGHT)), np.float64)
+    else:
+        grey = rng.normal(128.0, 40.0, (HEIGHT // 8, WIDTH // 8)).repeat(8, 0).repeat(8, 1)
+    tint = np.array([0.75, 0.85, 0.7])
+    out: np.ndarray = np.clip(grey[..., None] * tint + 20.0, 0.0, 255.0)
+    return out
+
+
+def _star(cx: float, cy: float, r0: float, phase: float, n: int = 120) -> np.ndarray:
+    """The deforming outline r(t) = r0 (1 + 0.18 sin(3 t + phase) + 0.08 cos(2 t - phase))."""
+    t = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
+    r = r0 * (1 + 0.18 * np.sin(3 * t + phase) + 0.08 * np.cos(2 * t - 1.7 * phase))
+    return np.stack([cx + r * np.cos(t), cy + r * np.sin(t)], axis=1)
+
+
+def _polygon_mask(poly: np.ndarray) -> np.ndarray:
+    from matplotlib.path import Path as MplPath
+
+    xx, yy = _grid()
+    pts = np.stack([xx.ravel(), yy.ravel()], axis=1)
+    return np.asarray(MplPath(poly).contains_points(pts).reshape(HEIGHT, WIDTH), dtype=bool)
+
+
+def _finish(rng: np.random.Generator, image: np.ndarray) -> np.ndarray:
+    noisy = image + rng.normal(0.0, NOISE, image.shape)
+    return np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
+
+
+def _circles(
+    rng: np.random.Generator, n: int
+) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray]:
+    k, radius = 3, 18.0
+    pos = np.array([[90.0, 80.0], [220.0, 150.0], [160.0, 60.0]])
+    vel = rng.normal(0.0, 2.0, (k, 2))
+    colour = np.array([[200.0, 60.0, 60.0], [60.0, 180.0, 70.0], [70.0, 80.0, 200.0]])
+    xx, yy = _grid()
+    frames, masks = [], []
+    for _ in range(n):
+        image = np.full((HEIGHT, WIDTH, 3), 110.0)
+        # The target (disc 0) is drawn last, on top: its truth is its whole disc.
+        for i in reversed(range(k)):
+            disc = np.hypot(xx - pos[i, 0], yy - pos[i, 1]) <= radius
+            image[disc] = colour[i]
+            if i == 0:
+                masks.append(disc)
+        frames.append(_finish(rng, image))
+        pos += vel
+        for i in range(k):
+            for d, hi in ((0, WIDTH), (1, HEIGHT)):
+                if not radius + 2 < pos[i, d] < hi - radius - 2:
+                    vel[i, d] = -vel[i, d]
+        # The colours wander at random (the seed's experiment 1).
+        colour = np.clip(colour + rng.normal(0.0, 3.0, colour.shape), 30.0, 225.0)
+    t = np.linspace(0.0, 2 * np.pi, 64, endpoint=False)
+    outline = np.stack([90.0 + radius * np.cos(t), 80.0 + radius * np.sin(t)], axis=1)
+    return frames, masks, outline
+
+
+def _rectangle(
+    rng: np.random.Generator, n: int
+) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray]:
+    xx, yy = _grid()
+    frames, masks = [], []
+    w, h = 60.0, 40.0
+    for f in range(n):
+        x0 = 60.0 + 140.0 * (0.5 - 0.5 * np.cos(2 * np.pi * f / 120))
+        y0 = 70.0 + 60.0 * np.sin(2 * np.pi * f / 90)
+        gain = 1.0 + 0.3 * np.sin(2 * np.pi * f / 70)
+        image = np.full((HEIGHT, WIDTH, 3), 120.0) + 30 * np.sin(xx / 40.0)[..., None]
+        rect = (xx >= x0) & (xx < x0 + w) & (yy >= y0) & (yy < y0 + h)
+        image[rect] = (60.0, 90.0, 190.0)
+        # A specular highlight: a white lobe sliding over the rectangle.
+        hx = x0 + w * (0.5 + 0.35 * np.sin(2 * np.pi * f / 40))
+        lobe = 110.0 * np.exp(-((xx - hx) ** 2 + (yy - y0 - h / 2) ** 2) / (2 * 6.0**2))
+        image[rect] += lobe[rect][:, None]
+        frames.append(_finish(rng, image * gain))
+        masks.append(rect)
+    x0, y0 = 60.0, 70.0
+    outline = np.array([[x0, y0], [x0 + w - 1, y0], [x0 + w - 1, y0 + h - 1], [x0, y0 + h - 1]])
+    return frames, masks, outline
+
+
+def _blob_track(f: int) -> tuple[float, float]:
+    return 160.0 + 90.0 * np.sin(2 * np.pi * f / 150), 120.0 + 55.0 * np.sin(2 * np.pi * f / 110)
+
+
+def _nonrigid(
+    rng: np.random.Generator, n: int, clutter: bool
+) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray]:
+    background = _texture(rng, "grass" if clutter else "brick")
+    xx, yy = _grid()
+    colour = np.array([230.0, 200.0, 40.0])
+    frames, masks = [], []
+    for f in range(n):
+        cx, cy = _blob_track(f)
+        poly = _star(cx, cy, 24.0, 0.15 * f)
+        mask = _polygon_mask(poly)
+        image = background.copy()
+        if clutter:
+            # Same-colour distractors of other shapes: a long bar sweeping across the
+            # path and a thin ring, both where the target passes.
+            bx = 160.0 + 120.0 * np.sin(2 * np.pi * f / 97 + 1.0)
+            bar = (np.abs(xx - bx) < 5) & (np.abs(yy - 120.0) < 70)
+            ring = np.abs(np.hypot(xx - 230.0, yy - 90.0) - 22.0) < 3.0
+            image[(bar | ring) & ~mask] = colour
+        image[mask] = colour
+        frames.append(_finish(rng, image))
+        masks.append(mask)
+    return frames, masks, _star(*_blob_track(0), 24.0, 0.0)
+
+
+def shape_sequence(name: Experiment, frames: int = 120, seed: int = 0) -> ShapeSequence:
+    """The seeded sequence of experiment ``name`` (see the module's documentation)."""
+    n = whole_number(frames, "frames", 1, limit=100_000)
+    seed = whole_number(seed, "seed", 0, limit=2**63)
+    rng = np.random.default_rng(seed)
+    if name == "circles":
+        f, m, outline = _circles(rng, n)
+    elif name == "rectangle":
+        f, m, outline = _rectangle(rng, n)
+    elif name in ("nonrigid", "clutter"):
+        f, m, outline = _nonrigid(rng, n, clutter=name == "clutter")
+    else:
+        raise ValueError(f"experiment must be one of {EXPERIMENTS}, got {name!r}")
+    space: Literal["rgb", "opponent"] = "rgb" if name == "circles" else "opponent"
+    return ShapeSequence(name, np.stack(f), np.stack(m), np.asarray(outline, float), space, seed)

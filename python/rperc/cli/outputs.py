@@ -74,7 +74,8 @@ def check_output_file(path: Path | None, option: str, *, figure: bool = False) -
     if path is None:
         return
     if path.is_dir():
-        example = path / ("figure.png" if figure else "out.json")
+        suffix = {"--rerun": ".rrd", "--tum": ".tum", "--csv": ".csv"}.get(option, ".json")
+        example = path / ("figure.png" if figure else "out" + suffix)
         raise ValueError(f"{option} {path} is a folder; give a file name such as {example}")
     folder = path.parent
     if not folder.is_dir():

@@ -29,6 +29,8 @@ def test_intel_log_reads_every_record(data):
         kind: sum(line.startswith(kind + " ") for line in text) for kind in ("NEFF", "PARAM")
     }
     assert log.skipped == counted  # PARAM lines are counted too, never silently dropped
+    assert log.comments == sum(line.startswith("#") for line in text) > 0
+    assert f"{log.comments} comment lines" in log.summary()
     assert log.scans.ranges.shape[1] == 180
     first = next(line for line in text if line.startswith("FLASER "))
     np.testing.assert_allclose(log.scans.ranges[0], [float(v) for v in first.split()[2:182]])

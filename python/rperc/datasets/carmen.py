@@ -125,6 +125,8 @@ class CarmenLog:
     """Malformed lines left out by ``on_error="skip"``, in file order."""
     scans_without_pose: int = 0
     """RAWLASER1 scans outside the odometry's time span (their pose is NaN)."""
+    comments: int = 0
+    """Lines starting with ``#`` (CARMEN's header comments): counted, not records."""
 
     def summary(self) -> str:
         """Every count: scans by type, invalid readings, odometry records, PARAM lines,
@@ -140,6 +142,7 @@ class CarmenLog:
         if self.scans_without_pose:
             parts.append(f"{self.scans_without_pose} RAWLASER1 scans without a pose")
         parts.append(f"{len(self.odometry)} odometry records")
+        parts.append(f"{self.comments} comment lines")
         parts.append(f"{len(self.errors)} malformed lines skipped")
         if self.errors:
             parts[-1] += f" (first at line {self.errors[0].line}: {self.errors[0].reason})"
@@ -306,6 +309,7 @@ def load_carmen(
     skipped: Counter[str] = Counter()
     first_line: dict[str, int] = {}
     errors: list[SkippedLine] = []
+    comments = 0
     for lineno, raw in enumerate(decode_lines(path), start=1):
         try:
             kind = _read_record(path, lineno, raw, rows, odom, params, strict)
@@ -314,14 +318,21 @@ def load_carmen(
                 raise
             errors.append(SkippedLine(exc.line, exc.reason))
             continue
-        if kind is not None:
+        if kind == COMMENT:
+            comments += 1
+        elif kind is not None:
             skipped[kind] += 1
             first_line.setdefault(kind, lineno)
     odometry = _stack_odometry(odom)
     scans, no_pose = _stack_scans(rows, odometry)
     return CarmenLog(
-        path, scans, odometry, dict(skipped), first_line, params, tuple(errors), no_pose
-    )
+        path, scans, odometry, dict(skipped), first_line, params, tuple(errors), no_pose,
+        comments,
+    )  # fmt: skip
+
+
+# What _read_record returns for a comment line (no record type starts with '#').
+COMMENT = "#"
 
 
 def _read_record(
@@ -334,12 +345,14 @@ def _read_record(
     strict: bool,
 ) -> str | None:
     """Parses one line into ``rows``, ``odom`` or ``params``; returns the type of a
-    record that is only counted (PARAM too), else None."""
+    record that is only counted (PARAM too), :data:`COMMENT` for a comment, else None."""
     if isinstance(raw, DatasetFormatError):
         raise raw
     tok = raw.split()
-    if not tok or tok[0].startswith("#"):
+    if not tok:
         return None
+    if tok[0].startswith("#"):
+        return COMMENT
     kind = tok[0]
     if kind in ("FLASER", "RLASER"):
         _parse_flaser(path, lineno, tok, rows, params)

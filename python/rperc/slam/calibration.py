@@ -13,7 +13,10 @@ What is fitted (the model of :class:`SensorBias` in the Rust crate):
   camera sizes a barcode by its image height, which gives the depth along the optical
   axis, not the range (off-axis landmarks read short: 0.2 m at 0.5 rad on robot 1);
 - odometry scales: the true distance and turn over ``window`` seconds against the
-  odometry's, integrated from the true start of each window;
+  odometry's, integrated from the true start of each window. The window is the
+  odometry error's correlation time (:func:`correlation_window`): MR.CLAM's speed
+  error is slip that persists for seconds, so a white per-step noise fitted over
+  1 s windows under-states the error over the 5-10 s between corrections;
 - the noise left after the correction: detection variances are the mean squares of
   the residuals within 5 robust sigmas (heavier tails than a Gaussian, so not the
   MAD), control variances are the residual variances of the windows divided by the
@@ -23,6 +26,7 @@ What is fitted (the model of :class:`SensorBias` in the Rust crate):
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -32,6 +36,7 @@ import numpy.typing as npt
 __all__ = [
     "MrclamCalibration",
     "calibrate_mrclam",
+    "correlation_window",
     "gate_inflation",
     "inflated",
     "mrclam_window",
@@ -39,6 +44,9 @@ __all__ = [
 ]
 
 FloatArray = npt.NDArray[np.float64]
+# Odometry windows tried by correlation_window, seconds (doubling: the growth of the
+# variance per doubling is what the rule tests).
+CANDIDATE_WINDOWS = (1.0, 2.0, 4.0, 8.0, 16.0, 32.0)
 
 
 @dataclass(frozen=True)
@@ -59,6 +67,7 @@ class MrclamCalibration:
     detections: int
     outliers: int
     windows: int
+    window: float  # seconds: the odometry windows the scales and variances come from
 
     def config(self) -> dict[str, Any]:
         """The fields of a :class:`rperc.slam.PlanarSlam` config."""
@@ -123,21 +132,27 @@ def _robust_line(
 
 
 def _windows(run: Any, window: float) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Per window of ``window`` s: (true, odometry) distance, (true, odometry) turn,
-    and the sum of the squared odometry steps. Odometry is integrated (Euler, as
-    logged) in the frame of the window's true start."""
+    """Per window of ``window`` s: (true, odometry) distance along the track, (true,
+    odometry) turn, and the sum of the squared odometry steps.
+
+    The true distance is the truth's displacement projected on its own heading, step
+    by step, so that it is the arc the wheels rolled: a chord between the window's
+    ends would mix the turn-rate noise into the speed error, and more so the longer
+    and the more curved the window."""
     t = run.odometry_t
     dt = np.diff(t)
+    heading = _heading(run)
+    xy = np.interp(t, run.truth_t, run.truth_x) + 1j * np.interp(t, run.truth_t, run.truth_y)
+    th = np.interp(t, run.truth_t, heading)
+    along = np.real(np.diff(xy) * np.exp(-0.5j * (th[1:] + th[:-1])))
+    arc = np.r_[0.0, np.cumsum(along)]
+    rolled = np.r_[0.0, np.cumsum(run.odometry_v[:-1] * dt)]
     phi = np.r_[0.0, np.cumsum(run.odometry_omega[:-1] * dt)]
-    c = np.r_[0.0, np.cumsum(run.odometry_v[:-1] * dt * np.exp(1j * phi[:-1]))]
     sq = np.r_[0.0, np.cumsum(dt * dt)]
     i0 = np.searchsorted(t, np.arange(t[0], t[-1] - window, window))
     i1 = np.searchsorted(t, t[i0] + window)
     i0, i1 = i0[i1 < len(t)], i1[i1 < len(t)]
-    heading = _heading(run)
-    xy = np.interp(t, run.truth_t, run.truth_x) + 1j * np.interp(t, run.truth_t, run.truth_y)
-    th = np.interp(t, run.truth_t, heading)
-    distance = np.c_[np.abs(xy[i1] - xy[i0]), np.abs(c[i1] - c[i0])]
+    distance = np.c_[arc[i1] - arc[i0], rolled[i1] - rolled[i0]]
     turn = np.c_[th[i1] - th[i0], phi[i1] - phi[i0]]
     return distance, turn, sq[i1] - sq[i0]
 
@@ -149,12 +164,57 @@ def _scale_and_variance(pairs: FloatArray, sum_dt2: FloatArray) -> tuple[float, 
     return scale, float(np.mean(residual**2) / np.mean(sum_dt2))
 
 
-def calibrate_mrclam(run: Any, *, window: float = 1.0) -> MrclamCalibration:
+def _control_variances(run: Any, window: float) -> tuple[float, float, int]:
+    """Per-step speed and turn-rate variances fitted over ``window`` s, and the
+    number of windows."""
+    distance, turn, sum_dt2 = _windows(run, window)
+    if len(sum_dt2) < 10:
+        raise ValueError(f"calibration needs at least 10 odometry windows of {window} s")
+    return (
+        _scale_and_variance(distance, sum_dt2)[1],
+        _scale_and_variance(turn, sum_dt2)[1],
+        len(sum_dt2),
+    )
+
+
+def correlation_window(run: Any, *, candidates: tuple[float, ...] = CANDIDATE_WINDOWS) -> float:
+    """The odometry error's correlation time: the shortest candidate window whose
+    doubling raises neither fitted per-step variance (speed, turn rate) by more than
+    two standard errors of that variance, ``2 sqrt(2 / n)`` for ``n`` windows
+    (a one-sided test at about 2.5 %: a flat doubling is seldom taken for growth).
+
+    A white per-step noise sums to a variance linear in the window, so the per-step
+    variance fitted from white errors is the same over any window; errors that persist
+    (slip, a miscalibrated wheel) make it grow until the window outlasts them. Beyond
+    that time the white model is honest; below it, it is over-confident over the
+    horizons a filter integrates between corrections. With no candidate pair left
+    (too few windows), the longest window that still has ten is returned."""
+    usable = []
+    for w in sorted(candidates):
+        if not w > 0:
+            raise ValueError(f"candidate windows must be > 0, got {w}")
+        try:
+            usable.append((w, _control_variances(run, w)))
+        except ValueError:
+            break
+    if not usable:
+        raise ValueError("calibration needs at least 10 odometry windows")
+    for (w, (v1, t1, _)), (_, (v2, t2, n2)) in itertools.pairwise(usable):
+        limit = 1.0 + 2.0 * np.sqrt(2.0 / n2)
+        if v2 <= limit * v1 and t2 <= limit * t1:
+            return float(w)
+    return float(usable[-1][0])
+
+
+def calibrate_mrclam(run: Any, *, window: float | None = None) -> MrclamCalibration:
     """Fits the camera and odometry biases and noise of a
     :class:`rperc.datasets.MrclamRun` against its ground truth (see the module docs).
-    Use :func:`mrclam_window` to fit on part of a run."""
+    ``window`` (s) defaults to :func:`correlation_window` of the run. Use
+    :func:`mrclam_window` to fit on part of a run."""
     if len(run.measurement_t) < 10 or len(run.odometry_t) < 10:
         raise ValueError("calibration needs at least 10 sightings and 10 odometry rows")
+    if window is None:
+        window = correlation_window(run)
     if not window > 0:
         raise ValueError(f"window must be > 0, got {window}")
     r, b = true_range_bearing(run)
@@ -182,6 +242,7 @@ def calibrate_mrclam(run: Any, *, window: float = 1.0) -> MrclamCalibration:
         detections=int(inlier.sum()),
         outliers=int((~inlier).sum()),
         windows=len(sum_dt2),
+        window=float(window),
     )
 
 

@@ -16,6 +16,7 @@ MODULES = [
     "props_linesimp",
     "props_slam",
     "props_tracking",
+    "props_navigation",
     "props_eval",
     "props_files",
     "props_cli",

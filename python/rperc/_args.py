@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from typing import Any
 
 
 def whole_number(value: object, name: str, minimum: int, limit: int = 2**63) -> int:
@@ -42,3 +43,19 @@ def real_number(value: object, name: str) -> float:
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise ValueError(f"{name} must be a real number, got {value!r}")
     return float(value)
+
+
+def float_array(values: object, name: str) -> Any:
+    """``values`` (numbers, nested lists, any numeric array) as a float64 array; a
+    ragged list, strings, objects, complex numbers or dates are a TypeError naming
+    ``name`` (numpy's own messages, ``could not convert string to float``, name
+    nothing)."""
+    import numpy as np
+
+    try:
+        arr = np.asarray(values)
+    except ValueError as exc:  # ragged nesting
+        raise TypeError(f"{name} must be a rectangular array of numbers: {exc}") from None
+    if arr.dtype.kind not in "fiub":
+        raise TypeError(f"{name} must hold real numbers, got dtype {arr.dtype}")
+    return arr.astype(np.float64, copy=False)

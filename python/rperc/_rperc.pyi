@@ -6,6 +6,7 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = [
+    "CeilingWorld",
     "ColorHistogramTracker",
     "ColorShapeTracker",
     "Ekf",
@@ -14,6 +15,8 @@ __all__ = [
     "PatternTracker",
     "RpercError",
     "__version__",
+    "ceiling_defaults",
+    "ceiling_drive",
     "color_shape_defaults",
     "effective_sample_size",
     "extract_lines",
@@ -243,3 +246,34 @@ def otb_groundtruth(text: str, name: str) -> _Array: ...
 def pose_transform_points(
     pose: _ArrayLike, points: _ArrayLike, inverse: bool = False
 ) -> _Array: ...
+
+@final
+class CeilingWorld:
+    def __new__(
+        cls,
+        ceiling: dict[str, Any] | None = None,
+        camera: dict[str, Any] | None = None,
+        render: dict[str, Any] | None = None,
+    ) -> CeilingWorld: ...
+    def render(
+        self, poses: npt.NDArray[np.float64], first_frame: int = 0
+    ) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    def project(
+        self, pose: npt.NDArray[np.float64], xy: npt.NDArray[np.float64]
+    ) -> npt.NDArray[np.float64]: ...
+    def matrices(self, pose: npt.NDArray[np.float64]) -> list[npt.NDArray[np.float64]]: ...
+    def texture(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def resolution(self) -> float: ...
+    def patterns(
+        self,
+    ) -> tuple[list[str], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    def configs(self) -> tuple[dict[str, Any], dict[str, Any]]: ...
+
+def ceiling_drive(
+    start: npt.NDArray[np.float64],
+    commands: npt.NDArray[np.float64],
+    dt: float,
+    noise: dict[str, Any] | None = None,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+def ceiling_defaults() -> tuple[dict[str, Any], dict[str, Any], dict[str, Any], dict[str, Any]]: ...

@@ -9,6 +9,42 @@ use nalgebra::{Matrix2, Matrix2x3, Matrix3, Point2, Vector2, Vector3};
 
 use crate::angle::wrap_angle;
 
+/// Below this turn angle `|omega dt|` the arc functions use their Taylor series: the
+/// closed forms lose digits to cancellation there (`phi cos phi - sin phi ~ -phi^3/3`),
+/// and the series truncated after these terms is exact to ~1e-19 for `|phi| < 1e-2`.
+const SERIES_BELOW: f64 = 1e-2;
+
+/// `sin(phi)/phi` and `(1 - cos phi)/phi` with their derivatives `(f, df, g, dg)`:
+/// the chord of an arc of unit length turning by `phi`, in the frame of its start.
+/// Continuous through `phi = 0`, where the arc becomes a straight line.
+///
+/// # Examples
+/// ```
+/// use rperc_core::pose::arc_functions;
+///
+/// // A half turn: the chord of a unit arc is its diameter, 2 / pi, straight left.
+/// let (f, _, g, _) = arc_functions(std::f64::consts::PI);
+/// assert!(f.abs() < 1e-15 && (g - 2.0 / std::f64::consts::PI).abs() < 1e-15);
+/// ```
+pub fn arc_functions(phi: f64) -> (f64, f64, f64, f64) {
+    if phi.abs() < SERIES_BELOW {
+        let p2 = phi * phi;
+        let f = 1.0 - p2 / 6.0 * (1.0 - p2 / 20.0 * (1.0 - p2 / 42.0));
+        let df = -phi / 3.0 * (1.0 - p2 / 10.0 * (1.0 - p2 / 28.0));
+        let g = phi / 2.0 * (1.0 - p2 / 12.0 * (1.0 - p2 / 30.0 * (1.0 - p2 / 56.0)));
+        let dg = 0.5 * (1.0 - p2 / 4.0 * (1.0 - p2 / 18.0 * (1.0 - p2 / 40.0)));
+        return (f, df, g, dg);
+    }
+    let (s, c) = phi.sin_cos();
+    // 1 - cos(phi) = 2 sin^2(phi / 2), without cancellation.
+    let one_minus_cos = 2.0 * (phi / 2.0).sin().powi(2);
+    let f = s / phi;
+    let g = one_minus_cos / phi;
+    let df = (phi * c - s) / (phi * phi);
+    let dg = (phi * s - one_minus_cos) / (phi * phi);
+    (f, df, g, dg)
+}
+
 /// A planar pose: position and heading (radians, wrapped into (-pi, pi]).
 ///
 /// # Examples
@@ -45,6 +81,14 @@ impl Pose2 {
     /// The identity pose.
     pub fn identity() -> Self {
         Self::default()
+    }
+
+    /// The pose after driving at speed `v` and turn rate `omega` for `dt` (exactly,
+    /// on an arc; the unicycle of MR.CLAM's robots and of the ceiling world).
+    pub fn advance(&self, v: f64, omega: f64, dt: f64) -> Pose2 {
+        let phi = omega * dt;
+        let (f, _, g, _) = arc_functions(phi);
+        self.compose(&Pose2::new(v * dt * f, v * dt * g, phi))
     }
 
     /// From `[x, y, theta]` (heading wrapped).
@@ -186,5 +230,40 @@ impl Pose2 {
             dth.y,
         );
         (self.inverse_transform_point(p), j_pose, rt)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn arc_functions_are_continuous_across_the_series_switch() {
+        for phi in [SERIES_BELOW, -SERIES_BELOW] {
+            let below = arc_functions(phi * (1.0 - 1e-12));
+            let above = arc_functions(phi * (1.0 + 1e-12));
+            for (a, b) in [
+                (below.0, above.0),
+                (below.1, above.1),
+                (below.2, above.2),
+                (below.3, above.3),
+            ] {
+                assert!(
+                    (a - b).abs() <= 1e-11 * (1.0 + a.abs().max(b.abs())),
+                    "{a} vs {b} at {phi}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn advance_is_the_exact_arc() {
+        // A quarter circle of radius 2 from the origin facing +x ends at (2, 2) facing +y.
+        let p = Pose2::identity().advance(2.0, 1.0, std::f64::consts::FRAC_PI_2);
+        assert!((p.x - 2.0).abs() < 1e-12 && (p.y - 2.0).abs() < 1e-12);
+        assert!((p.theta - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        // Straight on: no turn.
+        let q = Pose2::new(1.0, 1.0, 0.5).advance(1.0, 0.0, 2.0);
+        assert!((q.x - 1.0 - 2.0 * 0.5f64.cos()).abs() < 1e-12);
     }
 }

@@ -6,6 +6,7 @@
 //! package `rperc`.
 
 mod arrays;
+mod ceiling_py;
 mod colour_shape_py;
 mod config;
 mod errors;
@@ -22,6 +23,8 @@ use pyo3::prelude::*;
 /// Native core of rperc. Use the `rperc` package, not this module directly.
 #[pymodule]
 mod _rperc {
+    #[pymodule_export]
+    use crate::ceiling_py::{PyCeilingWorld, ceiling_defaults, ceiling_drive};
     #[pymodule_export]
     use crate::colour_shape_py::{PyColorShapeTracker, color_shape_defaults};
     #[pymodule_export]

@@ -14,32 +14,8 @@ use crate::ackermann::Ackermann;
 use crate::error::{Result, SlamError};
 use rperc_core::{Pose2, wrap_angle};
 
-/// Below this turn angle `|omega dt|` the arc functions use their Taylor series: the
-/// closed forms lose digits to cancellation there (`phi cos phi - sin phi ~ -phi^3/3`),
-/// and the series truncated after these terms is exact to ~1e-19 for `|phi| < 1e-2`.
-const SERIES_BELOW: f64 = 1e-2;
-
-/// `sin(phi)/phi` and `(1 - cos phi)/phi` with their derivatives: the chord of an arc
-/// of unit length turning by `phi`, in the frame of its start. Continuous through
-/// `phi = 0`, where the arc becomes a straight line.
-fn arc_functions(phi: f64) -> (f64, f64, f64, f64) {
-    if phi.abs() < SERIES_BELOW {
-        let p2 = phi * phi;
-        let f = 1.0 - p2 / 6.0 * (1.0 - p2 / 20.0 * (1.0 - p2 / 42.0));
-        let df = -phi / 3.0 * (1.0 - p2 / 10.0 * (1.0 - p2 / 28.0));
-        let g = phi / 2.0 * (1.0 - p2 / 12.0 * (1.0 - p2 / 30.0 * (1.0 - p2 / 56.0)));
-        let dg = 0.5 * (1.0 - p2 / 4.0 * (1.0 - p2 / 18.0 * (1.0 - p2 / 40.0)));
-        return (f, df, g, dg);
-    }
-    let (s, c) = phi.sin_cos();
-    // 1 - cos(phi) = 2 sin^2(phi / 2), without cancellation.
-    let one_minus_cos = 2.0 * (phi / 2.0).sin().powi(2);
-    let f = s / phi;
-    let g = one_minus_cos / phi;
-    let df = (phi * c - s) / (phi * phi);
-    let dg = (phi * s - one_minus_cos) / (phi * phi);
-    (f, df, g, dg)
-}
+// The chord of an arc, shared with the ceiling world's robot (one place: the core).
+pub(crate) use rperc_core::pose::arc_functions;
 
 /// A predicted robot pose with its Jacobians.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -228,22 +204,6 @@ pub(crate) mod tests {
 
     fn close(a: f64, b: f64, tol: f64) -> bool {
         (a - b).abs() <= tol * (1.0 + a.abs().max(b.abs()))
-    }
-
-    #[test]
-    fn arc_functions_are_continuous_across_the_series_switch() {
-        for phi in [SERIES_BELOW, -SERIES_BELOW] {
-            let below = arc_functions(phi * (1.0 - 1e-12));
-            let above = arc_functions(phi * (1.0 + 1e-12));
-            for (a, b) in [
-                (below.0, above.0),
-                (below.1, above.1),
-                (below.2, above.2),
-                (below.3, above.3),
-            ] {
-                assert!(close(a, b, 1e-11), "{a} vs {b} at {phi}");
-            }
-        }
     }
 
     #[test]

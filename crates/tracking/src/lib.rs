@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 #![deny(missing_docs)]
 
+pub mod ceiling;
 mod colour;
 mod colour_shape;
 mod condensation;

@@ -7,6 +7,7 @@ mod colour_shape;
 mod condensation;
 mod error;
 mod frame;
+pub mod memory;
 pub mod metrics;
 pub mod otb;
 pub mod pattern;

@@ -366,3 +366,45 @@ fn pyramid_levels_are_box_averages_centred_where_the_docs_say() {
         }
     }
 }
+
+#[test]
+fn the_corrected_image_is_the_ideal_cameras_image() {
+    // Anisotropic pixels as well as a tilt and an offset: the ideal camera has
+    // square pixels, so its image is a similarity of the ceiling.
+    let ceiling = small_ceiling(9);
+    let real = CeilingCamera {
+        fy: 150.0,
+        ..tilted(0.04, -0.03, 0.02, [0.08, -0.05, 0.3])
+    };
+    let ideal = CeilingCamera::default();
+    let pose = Pose2::new(3.0, 2.0, 0.3);
+    let (mut seen, mut want) = (Vec::new(), Vec::new());
+    render(&ceiling, &real, &pose, &clean(), 0, &mut seen).unwrap();
+    render(&ceiling, &ideal, &pose, &clean(), 0, &mut want).unwrap();
+    let frame = rperc_core::image::GrayImage {
+        data: seen.iter().map(|&g| f32::from(g)).collect(),
+        width: real.width,
+        height: real.height,
+    };
+    let mut corrected = rperc_core::image::GrayImage::default();
+    tracking::ceiling::correct_image(&real, &frame, -1.0, &mut corrected).unwrap();
+    let mut diffs: Vec<f64> = corrected
+        .data
+        .iter()
+        .zip(&want)
+        .filter(|(c, _)| **c >= 0.0)
+        .map(|(c, w)| (f64::from(*c) - f64::from(*w)).abs())
+        .collect();
+    assert!(
+        diffs.len() > want.len() * 6 / 10,
+        "only {} pixels seen",
+        diffs.len()
+    );
+    diffs.sort_by(f64::total_cmp);
+    let median = diffs[diffs.len() / 2];
+    let mean = diffs.iter().sum::<f64>() / diffs.len() as f64;
+    // Resampling twice blurs edges a little; the geometry must be right everywhere.
+    assert!(median < 2.0 && mean < 5.0, "median {median}, mean {mean}");
+    let wrong = rperc_core::image::GrayImage::zeros(10, 10);
+    assert!(tracking::ceiling::correct_image(&real, &wrong, 0.0, &mut corrected).is_err());
+}

@@ -6,9 +6,10 @@
 //! - the robot frame `F_R`: x forward, y left, z up, its origin on the floor;
 //! - the camera frame `F_C`: the pinhole frame, z along the optical axis, x towards
 //!   growing image columns `u`, y towards growing rows `v`;
-//! - the ideal camera has `C T_R = I`: its optical axis is the robot's z (straight up),
-//!   so a ceiling point `(X, Y)` of the robot frame at height `d` is seen at
-//!   `u = cx + fx X / d`, `v = cy + fy Y / d`.
+//! - the ideal camera has `C T_R = I` and square pixels: its optical axis is the
+//!   robot's z (straight up), so a ceiling point `(X, Y)` of the robot frame at height
+//!   `d` is seen at `u = cx + fx X / d`, `v = cy + fx Y / d` (its focal length is `fx`
+//!   on both axes, so that its image is a similarity of the ceiling).
 //!
 //! Looking up, the image is the plan view of the ceiling mirrored (a rotation of the
 //! robot by `+phi` turns the image content by `-phi` in the `(u, v)` axes).
@@ -139,15 +140,22 @@ impl CeilingCamera {
         Matrix3::new(self.fx, 0.0, self.cx, 0.0, self.fy, self.cy, 0.0, 0.0, 1.0)
     }
 
-    /// Eq. 1, `C H_R = K (R - t n^T / d) K^-1`: ideal-image pixels (the image the
-    /// camera would take with `C T_R = I`) to real-image pixels, for points of the
-    /// ceiling. `(R, t)` is `C T_R`, `n = (0, 0, -1)` the ceiling's normal towards the
-    /// robot and `d` the ceiling's distance from the robot frame.
+    /// The ideal camera's intrinsics: `K` with `fy` set to `fx` (square pixels).
+    pub fn ideal_intrinsics(&self) -> Matrix3<f64> {
+        Matrix3::new(self.fx, 0.0, self.cx, 0.0, self.fx, self.cy, 0.0, 0.0, 1.0)
+    }
+
+    /// Eq. 1, `C H_R = K (R - t n^T / d) K'^-1`: ideal-image pixels (the image the
+    /// camera would take with `C T_R = I`, intrinsics `K'` of
+    /// [`Self::ideal_intrinsics`]) to real-image pixels, for points of the ceiling.
+    /// `(R, t)` is `C T_R`, `n = (0, 0, -1)` the ceiling's normal towards the robot
+    /// and `d` the ceiling's distance from the robot frame. (The seed writes `K` on
+    /// both sides; with square pixels `K' = K`.)
     pub fn robot_to_camera_homography(&self) -> Matrix3<f64> {
         let (r, t) = self.mount.camera_from_robot();
         let n = Vector3::new(0.0, 0.0, -1.0);
         let k = self.intrinsics();
-        k * (r - t * n.transpose() / self.ceiling_height) * self.intrinsics_inverse()
+        k * (r - t * n.transpose() / self.ceiling_height) * self.ideal_inverse()
     }
 
     /// The correction of eq. 1: real-image pixels to ideal-image pixels (the inverse
@@ -158,14 +166,15 @@ impl CeilingCamera {
             .ok_or_else(|| invalid("mount", "the camera-robot homography is singular"))
     }
 
-    fn intrinsics_inverse(&self) -> Matrix3<f64> {
+    fn ideal_inverse(&self) -> Matrix3<f64> {
+        let f = self.fx;
         Matrix3::new(
-            1.0 / self.fx,
+            1.0 / f,
             0.0,
-            -self.cx / self.fx,
+            -self.cx / f,
             0.0,
-            1.0 / self.fy,
-            -self.cy / self.fy,
+            1.0 / f,
+            -self.cy / f,
             0.0,
             0.0,
             1.0,
@@ -177,7 +186,7 @@ impl CeilingCamera {
         let d = self.ceiling_height;
         // Ideal pixel -> robot-frame ceiling point (X, Y) = d K^-1 (u, v, 1).
         let to_robot = Matrix3::new(d, 0.0, 0.0, 0.0, d, 0.0, 0.0, 0.0, 1.0);
-        world_from_robot(pose) * to_robot * self.intrinsics_inverse()
+        world_from_robot(pose) * to_robot * self.ideal_inverse()
     }
 
     /// Real-image pixels to world `(x, y)` on the ceiling (the renderer's warp).
@@ -190,7 +199,7 @@ impl CeilingCamera {
         let p = pose.inverse_transform_point(&nalgebra::Point2::new(xy[0], xy[1]));
         [
             self.cx + self.fx * p.x / self.ceiling_height,
-            self.cy + self.fy * p.y / self.ceiling_height,
+            self.cy + self.fx * p.y / self.ceiling_height,
         ]
     }
 
@@ -204,7 +213,7 @@ impl CeilingCamera {
         (c.z > 1e-9).then(|| [self.cx + self.fx * c.x / c.z, self.cy + self.fy * c.y / c.z])
     }
 
-    /// Metres of ceiling per ideal-image pixel along u: `Z / f`, the scale of eq. 2.
+    /// Metres of ceiling per ideal-image pixel: `Z / f`, the scale of eq. 2.
     pub fn metres_per_pixel(&self) -> f64 {
         self.ceiling_height / self.fx
     }
@@ -214,6 +223,40 @@ impl CeilingCamera {
 pub fn world_from_robot(pose: &Pose2) -> Matrix3<f64> {
     let (s, c) = pose.theta.sin_cos();
     Matrix3::new(c, -s, pose.x, s, c, pose.y, 0.0, 0.0, 1.0)
+}
+
+/// Refills `out` with the ideal image of `frame` (eq. 1's correction applied to the
+/// image data, section 2.1): each ideal pixel samples the real frame bilinearly where
+/// `C H_R` sends it; pixels that fall outside the real frame get `fill`.
+pub fn correct_image(
+    camera: &CeilingCamera,
+    frame: &rperc_core::image::GrayImage,
+    fill: f32,
+    out: &mut rperc_core::image::GrayImage,
+) -> Result<()> {
+    camera.validate()?;
+    if (frame.width, frame.height) != (camera.width, camera.height) {
+        return Err(TrackingError::FrameSizeChanged {
+            expected_width: camera.width,
+            expected_height: camera.height,
+            width: frame.width,
+            height: frame.height,
+        });
+    }
+    let h = camera.robot_to_camera_homography();
+    out.width = camera.width;
+    out.height = camera.height;
+    out.data.clear();
+    out.data.reserve(camera.width * camera.height);
+    for v in 0..camera.height {
+        for u in 0..camera.width {
+            let level = apply_homography(&h, [u as f64, v as f64])
+                .and_then(|p| frame.sample_bilinear(p[0], p[1]))
+                .unwrap_or(fill);
+            out.data.push(level);
+        }
+    }
+    Ok(())
 }
 
 /// Applies a homography to a point; `None` when it maps to infinity.

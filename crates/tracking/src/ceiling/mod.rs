@@ -11,7 +11,7 @@ mod drive;
 mod render;
 mod world;
 
-pub use camera::{CameraMount, CeilingCamera, apply_homography, world_from_robot};
+pub use camera::{CameraMount, CeilingCamera, apply_homography, correct_image, world_from_robot};
 pub use drive::{Drive, OdometryNoise, drive};
 pub use render::{RenderParams, RenderTruth, render, render_sequence};
 pub use world::{Ceiling, CeilingParams, CeilingPattern, PatternKind};

@@ -1,0 +1,96 @@
+//! The geometry of section 2.2-2.3: a model's image pose as the planar transform
+//! `C T_i` (eq. 2's), the robot's pose in the mosaic from any tracked model (eq. 2),
+//! a new model's pose from the robot's (eq. 3), and the inverse used to re-acquire a
+//! model that comes back into view.
+//!
+//! All of it lives in the ideal image (corrected by eq. 1, square pixels), whose `(u,
+//! v)` axes are the robot's `(x, y)` axes scaled by `f / Z`: the image is a similarity
+//! of the ceiling, so a model's image pose is a planar rigid transform once its
+//! position is multiplied by `Z / f`. That factor is [`ImageScale::metres_per_pixel`];
+//! with it set to 1 the mosaic and the robot are in pixels, "up to the scale factor
+//! Z/f" of the seed, which is all visual servoing needs.
+
+use rperc_core::{Pose2, wrap_angle};
+
+/// The ideal camera's principal point and the scale `Z / f` of eq. 2.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ImageScale {
+    /// Metres of ceiling per ideal-image pixel (`Z / f`), or 1 for a mosaic in pixels.
+    pub metres_per_pixel: f64,
+    /// The principal point `(cx, cy)`, pixels.
+    pub principal: [f64; 2],
+}
+
+impl ImageScale {
+    /// `C T_i`: the model frame seen from the robot (the projection of the camera frame
+    /// on the ceiling), from a tracker state `(x, y, theta, s)`. The tracker's `theta`
+    /// is counter-clockwise on screen, which is clockwise in the `(u, v)` axes (`v`
+    /// points down), so the model turned by `-theta` there; the model frame of a
+    /// freshly created model is the image axes, centred on its region.
+    ///
+    /// # Examples
+    /// ```
+    /// use tracking::memory::ImageScale;
+    ///
+    /// let scale = ImageScale { metres_per_pixel: 0.01, principal: [160.0, 120.0] };
+    /// let t = scale.camera_to_model([260.0, 120.0, 0.5, 1.0]);
+    /// // 100 px along u is 1 m ahead of the robot; the image turn is -theta.
+    /// assert!((t.x - 1.0).abs() < 1e-12 && t.y.abs() < 1e-12 && (t.theta + 0.5).abs() < 1e-12);
+    /// ```
+    pub fn camera_to_model(&self, state: [f64; 4]) -> Pose2 {
+        let m = self.metres_per_pixel;
+        Pose2::new(
+            m * (state[0] - self.principal[0]),
+            m * (state[1] - self.principal[1]),
+            -state[2],
+        )
+    }
+
+    /// The tracker state `(x, y, theta, 1)` at which a model at `model_in_mosaic` is
+    /// seen from a robot at `robot_in_mosaic`: the inverse of eq. 2, used to restart
+    /// the tracker of a model that comes back into view.
+    pub fn predicted_state(&self, robot_in_mosaic: &Pose2, model_in_mosaic: &Pose2) -> [f64; 4] {
+        let c_t_i = robot_in_mosaic.between(model_in_mosaic);
+        [
+            self.principal[0] + c_t_i.x / self.metres_per_pixel,
+            self.principal[1] + c_t_i.y / self.metres_per_pixel,
+            -c_t_i.theta,
+            1.0,
+        ]
+    }
+}
+
+/// Eq. 2: `M T_C = M T_i (C T_i)^-1`, the robot in the mosaic from one model.
+pub fn robot_in_mosaic(model_in_mosaic: &Pose2, camera_to_model: &Pose2) -> Pose2 {
+    model_in_mosaic.compose(&camera_to_model.inverse())
+}
+
+/// Eq. 3 (and its generalisation to any model `m_j` in view): `M T_i = M T_C C T_i`,
+/// a new model's pose in the mosaic from the robot's pose there, which itself comes
+/// from the models already in the mosaic (eq. 2); `M T_C = M T_j (C T_j)^-1` makes
+/// this `M T_j (j T_i)`, the composition the seed writes.
+pub fn new_model_in_mosaic(robot_in_mosaic: &Pose2, camera_to_new: &Pose2) -> Pose2 {
+    robot_in_mosaic.compose(camera_to_new)
+}
+
+/// The weighted mean of several estimates of one pose (positions averaged, headings
+/// by their mean unit vector); `None` for no estimate or no positive weight.
+pub fn fuse(estimates: &[(Pose2, f64)]) -> Option<Pose2> {
+    let total: f64 = estimates
+        .iter()
+        .filter(|(_, w)| *w > 0.0 && w.is_finite())
+        .map(|(_, w)| w)
+        .sum();
+    if total <= 0.0 || !total.is_finite() {
+        return None;
+    }
+    let (mut x, mut y, mut c, mut s) = (0.0, 0.0, 0.0, 0.0);
+    for (p, w) in estimates.iter().filter(|(_, w)| *w > 0.0 && w.is_finite()) {
+        let k = w / total;
+        x += k * p.x;
+        y += k * p.y;
+        c += k * p.theta.cos();
+        s += k * p.theta.sin();
+    }
+    Some(Pose2::new(x, y, wrap_angle(s.atan2(c))))
+}

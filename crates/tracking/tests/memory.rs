@@ -1,0 +1,186 @@
+//! The visual memory's geometry (eqs. 2-3) against the ceiling world's ground truth:
+//! tracker states made from the true poses through the camera's own projection, then
+//! the robot and the models recovered in the mosaic frame of model 0.
+
+use proptest::prelude::*;
+use rperc_core::Pose2;
+use tracking::ceiling::CeilingCamera;
+use tracking::memory::{ImageScale, fuse, new_model_in_mosaic, robot_in_mosaic};
+
+/// A model created at robot pose `created`, centred on the ceiling point `origin`:
+/// its world frame (the image axes at creation are the robot's axes).
+fn model_frame(created: &Pose2, origin: [f64; 2]) -> Pose2 {
+    Pose2::new(origin[0], origin[1], created.theta)
+}
+
+/// The tracker state of a model with world frame `model` seen from `robot`: the
+/// ideal camera's projection of its origin, and its turn since creation.
+fn state(camera: &CeilingCamera, robot: &Pose2, model: &Pose2) -> [f64; 4] {
+    let uv = camera.project_ideal(robot, [model.x, model.y]);
+    [
+        uv[0],
+        uv[1],
+        rperc_core::wrap_angle(robot.theta - model.theta),
+        1.0,
+    ]
+}
+
+fn scale(camera: &CeilingCamera, metric: bool) -> ImageScale {
+    ImageScale {
+        metres_per_pixel: if metric {
+            camera.metres_per_pixel()
+        } else {
+            1.0
+        },
+        principal: [camera.cx, camera.cy],
+    }
+}
+
+fn close(a: &Pose2, b: &Pose2, tol: f64) -> bool {
+    (a.x - b.x).abs() < tol
+        && (a.y - b.y).abs() < tol
+        && rperc_core::angle_diff(a.theta, b.theta).abs() < 1e-9
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+
+    /// Model 0 defines the mosaic; model 1 is placed by eq. 3 from model 0 while both
+    /// are in view; model 2 from model 1 after model 0 has left. Eq. 2 from model 2
+    /// alone then gives the true robot pose in model 0's frame, in metres when
+    /// calibrated and in pixels (metres / (Z / f)) when not.
+    #[test]
+    fn chained_models_localise_the_robot(
+        r0 in prop::array::uniform3(-5.0f64..5.0),
+        steps in prop::collection::vec(prop::array::uniform3(-0.6f64..0.6), 3),
+        offsets in prop::collection::vec(prop::array::uniform2(-0.8f64..0.8), 3),
+        metric in any::<bool>(),
+    ) {
+        let camera = CeilingCamera::default();
+        let s = scale(&camera, metric);
+        let unit = if metric { 1.0 } else { camera.metres_per_pixel() };
+        let robot0 = Pose2::new(r0[0], r0[1], r0[2]);
+        let robot1 = robot0.compose(&Pose2::new(steps[0][0], steps[0][1], steps[0][2]));
+        let robot2 = robot1.compose(&Pose2::new(steps[1][0], steps[1][1], steps[1][2]));
+        let robot3 = robot2.compose(&Pose2::new(steps[2][0], steps[2][1], steps[2][2]));
+        let near = |r: &Pose2, o: [f64; 2]| r.transform_point(&nalgebra::Point2::new(o[0], o[1]));
+        let p0 = near(&robot0, offsets[0]);
+        let w0 = model_frame(&robot0, [p0.x, p0.y]);
+        let p1 = near(&robot1, offsets[1]);
+        let w1 = model_frame(&robot1, [p1.x, p1.y]);
+        let p2 = near(&robot2, offsets[2]);
+        let w2 = model_frame(&robot2, [p2.x, p2.y]);
+        // Mosaic: M T_0 = I. Model 1 at time 1 from model 0; model 2 at time 2 from 1.
+        let m0 = Pose2::identity();
+        let robot_at1 = robot_in_mosaic(&m0, &s.camera_to_model(state(&camera, &robot1, &w0)));
+        let m1 = new_model_in_mosaic(&robot_at1, &s.camera_to_model(state(&camera, &robot1, &w1)));
+        let robot_at2 = robot_in_mosaic(&m1, &s.camera_to_model(state(&camera, &robot2, &w1)));
+        let m2 = new_model_in_mosaic(&robot_at2, &s.camera_to_model(state(&camera, &robot2, &w2)));
+        let estimate = robot_in_mosaic(&m2, &s.camera_to_model(state(&camera, &robot3, &w2)));
+        let truth = w0.between(&robot3);
+        let truth = Pose2::new(truth.x / unit, truth.y / unit, truth.theta);
+        prop_assert!(close(&estimate, &truth, 1e-7 / unit), "{estimate:?} vs {truth:?}");
+        // The models themselves, against their true frames seen from model 0.
+        let t2 = w0.between(&w2);
+        prop_assert!(close(&m2, &Pose2::new(t2.x / unit, t2.y / unit, t2.theta), 1e-7 / unit));
+        // Re-acquisition: the predicted state is the one the camera shows.
+        let predicted = s.predicted_state(&estimate, &m1);
+        let seen = state(&camera, &robot3, &w1);
+        for k in 0..3 {
+            let d = if k == 2 { rperc_core::angle_diff(predicted[k], seen[k]) } else { predicted[k] - seen[k] };
+            prop_assert!(d.abs() < 1e-6, "state {k}: {predicted:?} vs {seen:?}");
+        }
+    }
+}
+
+#[test]
+fn fusion_is_a_weighted_mean_with_a_circular_heading() {
+    let a = Pose2::new(1.0, 2.0, 3.1);
+    let b = Pose2::new(3.0, 4.0, -3.1);
+    let f = fuse(&[(a, 1.0), (b, 3.0)]).unwrap();
+    assert!((f.x - 2.5).abs() < 1e-12 && (f.y - 3.5).abs() < 1e-12);
+    // Across +-pi: near pi, not near 0.
+    assert!(f.theta.abs() > 3.0);
+    assert!(fuse(&[]).is_none());
+    assert!(fuse(&[(a, 0.0), (b, f64::NAN)]).is_none());
+}
+
+/// Proposals against the world's truth: over random poses, every light, vent and sign
+/// wholly in view gets a proposal holding its centre, and every proposal holds a
+/// pattern's centre.
+#[test]
+fn proposals_find_the_patterns_in_view_and_only_them() {
+    use tracking::ceiling::{Ceiling, CeilingParams, PatternKind, RenderParams, render};
+    use tracking::memory::{ProposalParams, propose_regions};
+    let ceiling = Ceiling::generate(&CeilingParams {
+        seed: 11,
+        ..Default::default()
+    })
+    .unwrap();
+    let camera = CeilingCamera::default();
+    let params = ProposalParams::default();
+    let mut rng_state = 12345u64;
+    let mut next = || {
+        rng_state = rng_state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (rng_state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let (mut expected, mut found, mut proposals, mut hits) = (0, 0, 0, 0);
+    let mut frame = Vec::new();
+    for k in 0..40 {
+        let pose = Pose2::new(1.5 + 9.0 * next(), 1.5 + 5.0 * next(), 6.28 * next());
+        render(
+            &ceiling,
+            &camera,
+            &pose,
+            &RenderParams::default(),
+            k,
+            &mut frame,
+        )
+        .unwrap();
+        let image = rperc_core::image::GrayImage {
+            data: frame.iter().map(|&g| f32::from(g)).collect(),
+            width: camera.width,
+            height: camera.height,
+        };
+        let regions = propose_regions(&image, &[], &params).unwrap();
+        let inside = |r: &[usize; 4], uv: [f64; 2]| {
+            uv[0] >= r[0] as f64
+                && uv[0] < (r[0] + r[2]) as f64
+                && uv[1] >= r[1] as f64
+                && uv[1] < (r[1] + r[3]) as f64
+        };
+        let centres: Vec<([f64; 2], f64, PatternKind)> = ceiling
+            .patterns
+            .iter()
+            .map(|p| {
+                let radius =
+                    0.5 * p.kind.size()[0].hypot(p.kind.size()[1]) / camera.metres_per_pixel();
+                (camera.project_ideal(&pose, p.centre), radius, p.kind)
+            })
+            .collect();
+        let clear = (params.border + params.margin + 1) as f64;
+        for (uv, radius, kind) in &centres {
+            let in_view = uv[0] - radius > clear
+                && uv[1] - radius > clear
+                && uv[0] + radius < camera.width as f64 - clear
+                && uv[1] + radius < camera.height as f64 - clear;
+            if in_view && *kind != PatternKind::Detector {
+                expected += 1;
+                if regions.iter().any(|r| inside(r, *uv)) {
+                    found += 1;
+                }
+            }
+        }
+        for r in &regions {
+            proposals += 1;
+            if centres.iter().any(|(uv, _, _)| inside(r, *uv)) {
+                hits += 1;
+            }
+        }
+    }
+    assert!(expected >= 20, "only {expected} patterns wholly in view");
+    assert_eq!(found, expected, "recall {found}/{expected}");
+    assert_eq!(hits, proposals, "precision {hits}/{proposals}");
+}

@@ -129,7 +129,11 @@ fn proposals_find_the_patterns_in_view_and_only_them() {
     let (mut expected, mut found, mut proposals, mut hits) = (0, 0, 0, 0);
     let mut frame = Vec::new();
     for k in 0..40 {
-        let pose = Pose2::new(1.5 + 9.0 * next(), 1.5 + 5.0 * next(), 6.28 * next());
+        let pose = Pose2::new(
+            1.5 + 9.0 * next(),
+            1.5 + 5.0 * next(),
+            std::f64::consts::TAU * next(),
+        );
         render(
             &ceiling,
             &camera,

@@ -188,3 +188,162 @@ fn proposals_find_the_patterns_in_view_and_only_them() {
     assert_eq!(found, expected, "recall {found}/{expected}");
     assert_eq!(hits, proposals, "precision {hits}/{proposals}");
 }
+
+mod keys_and_servo {
+    use rperc_core::Pose2;
+    use tracking::ceiling::CeilingCamera;
+    use tracking::memory::{
+        KeyImage, KeyImageParams, LearntFrame, ServoParams, TrackedModel, check_chain, command,
+        key_error, select_key_images, separation,
+    };
+
+    use super::{model_frame, state};
+
+    /// A ceiling of point models on a 0.5 m grid, and what the ideal camera tracks of
+    /// them from `robot`: every model whose centre is 30 px inside the image.
+    fn seen(camera: &CeilingCamera, robot: &Pose2, models: &[Pose2]) -> Vec<TrackedModel> {
+        models
+            .iter()
+            .enumerate()
+            .filter_map(|(id, m)| {
+                let s = state(camera, robot, m);
+                let ok = s[0] > 30.0 && s[1] > 30.0 && s[0] < 290.0 && s[1] < 210.0;
+                ok.then_some(TrackedModel {
+                    id,
+                    state: s,
+                    score: 1.0,
+                })
+            })
+            .collect()
+    }
+
+    fn grid() -> Vec<Pose2> {
+        let created = Pose2::new(0.0, 0.0, 0.3);
+        (0..20)
+            .flat_map(|i| (0..12).map(move |j| (i, j)))
+            .map(|(i, j)| model_frame(&created, [0.5 * i as f64, 0.5 * j as f64]))
+            .collect()
+    }
+
+    /// A learning run along an S-curve: 0.3 m/s, turning left then right.
+    fn learning_path() -> Vec<Pose2> {
+        let mut pose = Pose2::new(1.0, 2.0, 0.0);
+        let mut path = vec![pose];
+        for k in 0..200 {
+            let omega = if k < 100 { 0.25 } else { -0.25 };
+            pose = pose.advance(0.3, omega, 0.1);
+            path.push(pose);
+        }
+        path
+    }
+
+    fn learnt(camera: &CeilingCamera, models: &[Pose2], path: &[Pose2]) -> Vec<LearntFrame> {
+        path.iter()
+            .enumerate()
+            .map(|(frame, p)| LearntFrame {
+                frame,
+                models: seen(camera, p, models),
+                pose: Some(*p),
+            })
+            .collect()
+    }
+
+    #[test]
+    fn key_images_meet_both_conditions_from_a_to_b() {
+        let camera = CeilingCamera::default();
+        let models = grid();
+        let path = learning_path();
+        let params = KeyImageParams::default();
+        let keys = select_key_images(&learnt(&camera, &models, &path), &params).unwrap();
+        assert_eq!(keys.first().unwrap().frame, 0);
+        assert_eq!(keys.last().unwrap().frame, path.len() - 1);
+        assert!(keys.len() >= 4, "{} key images over 6 m", keys.len());
+        check_chain(&keys, &params).unwrap();
+        // Brute force over the chain: a shared model, turns and shifts within limits.
+        for pair in keys.windows(2) {
+            let (turn, shift) = separation(&pair[0].models, &pair[1].models).unwrap();
+            assert!(turn <= params.max_turn && shift <= params.max_shift);
+        }
+        // A broken chain is refused, naming the pair.
+        let mut broken = keys.clone();
+        broken[1].models.clear();
+        let err = check_chain(&broken, &params).unwrap_err().to_string();
+        assert!(
+            err.contains("key images 0 and 1") && err.contains("condition i"),
+            "{err}"
+        );
+        // A learning run that jumps (the view changes entirely between two frames).
+        let mut jump = learnt(&camera, &models, &path);
+        for f in &mut jump[100..] {
+            for m in &mut f.models {
+                m.id += 1000;
+            }
+        }
+        assert!(select_key_images(&jump, &params).is_err());
+    }
+
+    /// The servoing law closes the loop on perfect image measurements: from perturbed
+    /// starts the robot passes every key image and stops at B within a few pixels.
+    #[test]
+    fn servoing_replays_the_path_from_perturbed_starts() {
+        let camera = CeilingCamera::default();
+        let models = grid();
+        let path = learning_path();
+        let keys = select_key_images(&learnt(&camera, &models, &path), &KeyImageParams::default())
+            .unwrap();
+        let params = ServoParams::default();
+        let m_per_px = camera.metres_per_pixel();
+        for (dx, dy, dth) in [(0.1, -0.1, 0.15), (-0.15, 0.05, -0.2), (0.0, 0.15, 0.0)] {
+            let mut robot = path[0].compose(&Pose2::new(dx, dy, dth));
+            let mut k = 1;
+            let dt = 0.1;
+            let mut steps = 0;
+            let final_error = loop {
+                steps += 1;
+                assert!(steps < 3000, "did not reach B");
+                let now = seen(&camera, &robot, &models);
+                let error =
+                    key_error(&now, &keys[k], [camera.cx, camera.cy]).expect("a shared model");
+                let last = k + 1 == keys.len();
+                let distance = error.x.hypot(error.y);
+                if !last && distance < params.switch_error {
+                    k += 1;
+                    continue;
+                }
+                if last && distance < params.final_error {
+                    break robot.between(&keys[k].pose);
+                }
+                let (v, omega) = command(&error, &params);
+                robot = robot.advance(v * m_per_px, omega, dt);
+            };
+            let metres = final_error.x.hypot(final_error.y);
+            assert!(
+                metres < 0.05,
+                "final error {metres} m from ({dx}, {dy}, {dth})"
+            );
+        }
+    }
+
+    #[test]
+    fn key_error_is_the_key_pose_seen_from_the_robot() {
+        let camera = CeilingCamera::default();
+        let models = grid();
+        let robot = Pose2::new(3.0, 2.5, 0.4);
+        let then = Pose2::new(3.3, 2.4, 0.1);
+        let key = KeyImage {
+            frame: 0,
+            models: seen(&camera, &then, &models),
+            pose: then,
+        };
+        let error = key_error(
+            &seen(&camera, &robot, &models),
+            &key,
+            [camera.cx, camera.cy],
+        )
+        .unwrap();
+        let truth = robot.between(&then);
+        let px = camera.metres_per_pixel();
+        assert!((error.x * px - truth.x).abs() < 1e-9 && (error.y * px - truth.y).abs() < 1e-9);
+        assert!(rperc_core::angle_diff(error.theta, truth.theta).abs() < 1e-9);
+    }
+}

@@ -1,10 +1,16 @@
 //! Visual memory (second seed, section 2): the mosaic of ceiling models with their
 //! poses, localisation from any tracked model (eq. 2), new models placed by eq. 3,
-//! automatic model generation, key images, and the geometry that links image poses to
-//! robot poses.
+//! automatic model generation, key images, and visual servoing from key image to key
+//! image.
 
 mod geometry;
+mod keyimages;
 mod salient;
+mod servo;
 
 pub use geometry::{ImageScale, fuse, new_model_in_mosaic, robot_in_mosaic};
+pub use keyimages::{
+    KeyImage, KeyImageParams, LearntFrame, TrackedModel, check_chain, select_key_images, separation,
+};
 pub use salient::{ProposalParams, propose_regions};
+pub use servo::{ServoParams, command, key_error};

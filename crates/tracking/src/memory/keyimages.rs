@@ -136,10 +136,10 @@ pub fn select_key_images(frames: &[LearntFrame], params: &KeyImageParams) -> Res
         }
         keys.push(key(prev));
     }
-    if let Some(last) = usable.last() {
-        if keys.last().map(|k| k.frame) != Some(last.frame) {
-            keys.push(key(last));
-        }
+    if let Some(last) = usable.last()
+        && keys.last().map(|k| k.frame) != Some(last.frame)
+    {
+        keys.push(key(last));
     }
     Ok(keys)
 }

@@ -272,35 +272,46 @@ impl GrayImage {
         if !(inside(start) && inside(end)) {
             return false;
         }
-        // Fixed-point positions need `w * 2^24` to fit an i64.
+        // Fixed point with FRACTION_BITS fractional bits (positions exact to 6e-8 px):
+        // integer steps and a shift instead of a saturating float-to-int cast per
+        // sample, which cost more than the interpolation. Segments within MARGIN px of
+        // the last row or column (where the right or lower neighbour does not exist)
+        // or of the first (where the fixed-point rounding, a unit per sample, could
+        // cross them), segments of more than 1024 samples, and images too small or too
+        // large for it, go point by point.
+        const FRACTION_BITS: u32 = 24;
+        const MARGIN: f64 = 1e-4;
+        let fast = |p: [f64; 2]| {
+            p[0] >= MARGIN && p[1] >= MARGIN && p[0] <= w - 1.0 - MARGIN && p[1] <= h - 1.0 - MARGIN
+        };
         let huge = 1usize << 36;
-        if self.width < 2 || self.height < 2 || self.width > huge || self.height > huge {
+        if !(fast(start) && fast(end))
+            || out.len() > 1024
+            || self.width < 2
+            || self.height < 2
+            || self.width > huge
+            || self.height > huge
+        {
             return self.sample_line_checked(start, step, out);
         }
-        // The top-left neighbour is clamped to the last full cell, so that a sample on
-        // the last row or column reads it with weight 1 and the cell stays in bounds.
-        // Fixed point with FRACTION_BITS fractional bits (positions exact to 6e-8 px):
-        // integer steps and shifts instead of a saturating float-to-int cast per
-        // sample, which cost more than the interpolation. The top-left neighbour is
-        // clamped to the last full cell, so that a sample on the last row or column
-        // reads it with weight 1 and the cell stays in bounds.
-        const FRACTION_BITS: u32 = 24;
         let one = f64::from(1u32 << FRACTION_BITS);
-        let unit = 1.0 / one as f32;
+        let (unit, mask) = (1.0 / one as f32, (1u64 << FRACTION_BITS) - 1);
         // Truncated (no libm call): at most one unit, 6e-8 px, off.
         let fixed = |v: f64| (v * one) as i64;
         let (mut fx, mut fy) = (fixed(start[0]), fixed(start[1]));
         let (dx, dy) = (fixed(step[0]), fixed(step[1]));
         let w = self.width;
-        let (xmax, ymax) = ((w - 2) as i64, (self.height - 2) as i64);
         for g in out.iter_mut() {
+            // Non-negative and below (size - 1) * 2^24: the ends are MARGIN = 1677
+            // units inside and the rounding drifts by at most 1024 units.
+            let (ux, uy) = (fx as u64, fy as u64);
             let (x0, y0) = (
-                (fx >> FRACTION_BITS).clamp(0, xmax),
-                (fy >> FRACTION_BITS).clamp(0, ymax),
+                (ux >> FRACTION_BITS) as usize,
+                (uy >> FRACTION_BITS) as usize,
             );
-            let tx = (fx - (x0 << FRACTION_BITS)) as f32 * unit;
-            let ty = (fy - (y0 << FRACTION_BITS)) as f32 * unit;
-            let i = y0 as usize * w + x0 as usize;
+            let tx = (ux & mask) as f32 * unit;
+            let ty = (uy & mask) as f32 * unit;
+            let i = y0 * w + x0;
             // Two two-pixel slices: one bounds check each, not one per pixel.
             let (top, bottom) = (&self.data[i..i + 2], &self.data[i + w..i + w + 2]);
             let upper = top[0] + tx * (top[1] - top[0]);
@@ -312,8 +323,8 @@ impl GrayImage {
         true
     }
 
-    /// [`Self::sample_line`] point by point through [`Self::sample_bilinear`] (images
-    /// a single pixel wide or high, or wider than 2^36).
+    /// [`Self::sample_line`] point by point through [`Self::sample_bilinear`] (near the
+    /// image's edges, and images a single pixel wide or high, or wider than 2^36).
     fn sample_line_checked(&self, start: [f64; 2], step: [f64; 2], out: &mut [f32]) -> bool {
         for (l, g) in out.iter_mut().enumerate() {
             let x = start[0] + l as f64 * step[0];

@@ -87,6 +87,23 @@ impl ScaleSpace {
         window: [usize; 4],
         span: [f64; 2],
     ) -> Result<()> {
+        let size = [frame.width, frame.height];
+        let copy = |grown: [usize; 4], crop: &mut GrayImage| copy_window(frame, grown, crop);
+        self.build_window_with(size, copy, model, window, span)
+    }
+
+    /// [`Self::build_window`] on a frame of `size = [width, height]` that `crop` reads
+    /// on demand: `crop(window, out)` fills `out` with the frame's grey levels inside
+    /// `window = [x0, y0, x1, y1)` (a tracker converts only that part of an 8-bit frame,
+    /// not all of it).
+    pub fn build_window_with(
+        &mut self,
+        size: [usize; 2],
+        crop: impl FnOnce([usize; 4], &mut GrayImage),
+        model: &PatternModel,
+        window: [usize; 4],
+        span: [f64; 2],
+    ) -> Result<()> {
         let config = &model.config;
         let all = &config.scale_levels;
         // Clamped first: infinite spans (the whole stack) would tie every level.
@@ -99,11 +116,9 @@ impl ScaleSpace {
         for (level, &s) in self.levels.iter_mut().zip(&self.scales) {
             level.kernel = kernel(&mut self.kernels, config.blur_sigma * s);
         }
-        let [x0, y0] = [window[0].min(frame.width), window[1].min(frame.height)];
-        let [x1, y1] = [
-            window[2].clamp(x0, frame.width),
-            window[3].clamp(y0, frame.height),
-        ];
+        let [width, height] = size;
+        let [x0, y0] = [window[0].min(width), window[1].min(height)];
+        let [x1, y1] = [window[2].clamp(x0, width), window[3].clamp(y0, height)];
         self.origin = [x0 as f64, y0 as f64];
         // One crop, grown by the widest kernel's radius: every level blurs all of it
         // and keeps the window, which lies at least its own radius inside the crop
@@ -117,10 +132,10 @@ impl ScaleSpace {
         let grown = [
             x0.saturating_sub(r),
             y0.saturating_sub(r),
-            (x1 + r).min(frame.width),
-            (y1 + r).min(frame.height),
+            (x1 + r).min(width),
+            (y1 + r).min(height),
         ];
-        copy_window(frame, grown, &mut self.crop);
+        crop(grown, &mut self.crop);
         let inner = [x0 - grown[0], y0 - grown[1], x1 - grown[0], y1 - grown[1]];
         let crop = &self.crop;
         let blur = |level: &mut Level| {

@@ -3,7 +3,7 @@
 //! `X_k = X_{k-1} + v` and the inter-correlation likelihood of eq. 6.
 
 use nalgebra::{SMatrix, SVector};
-use rperc_core::image::{GrayImage, GrayView, RgbView};
+use rperc_core::image::{GrayImage, GrayView, RgbView, luma};
 
 use super::model::{PatternConfig, PatternModel, Region};
 use super::observation::{Observation, PatternLikelihood, PatternScratch, ScaleSpace, place};
@@ -33,6 +33,28 @@ impl PatternFrame<'_> {
         match self {
             PatternFrame::Gray(v) => out.set_from_gray(&v),
             PatternFrame::Rgb(v) => out.set_from_rgb(&v),
+        }
+    }
+
+    /// Refills `out` with the grey levels of `window = [x0, y0, x1, y1)` only (the
+    /// same values as [`Self::to_gray`] there).
+    fn window_to_gray(self, window: [usize; 4], out: &mut GrayImage) {
+        let [x0, y0, x1, y1] = window;
+        out.width = x1 - x0;
+        out.height = y1 - y0;
+        out.data.clear();
+        for y in y0..y1 {
+            match self {
+                PatternFrame::Gray(v) => {
+                    let row = &v.data()[y * v.width()..][x0..x1];
+                    out.data.extend(row.iter().map(|&g| f32::from(g)));
+                }
+                PatternFrame::Rgb(v) => {
+                    let row = &v.row(y)[3 * x0..3 * x1];
+                    out.data
+                        .extend(row.chunks_exact(3).map(|p| luma(p[0], p[1], p[2])));
+                }
+            }
         }
     }
 }
@@ -140,7 +162,6 @@ pub struct PatternTracker {
     width: usize,
     height: usize,
     filter: ParticleFilter<4>,
-    frame: GrayImage,
     space: ScaleSpace,
     scratch: Vec<PatternScratch>,
     last: PatternPose,
@@ -187,7 +208,6 @@ impl PatternTracker {
             params,
             model,
             filter,
-            frame: image,
             space: ScaleSpace::new(),
             scratch: Vec::new(),
             last,
@@ -220,14 +240,14 @@ impl PatternTracker {
                 height,
             });
         }
-        frame.to_gray(&mut self.frame);
         let resampled = self.filter.predict();
         // The scale space is built once per frame, never per particle (section 3.3),
         // and only where and at the scales this frame's predicted particles and the
         // refinement look.
         let (window, span) = self.reach();
+        let crop = |grown: [usize; 4], out: &mut GrayImage| frame.window_to_gray(grown, out);
         self.space
-            .build_window(&self.frame, &self.model, window, span)?;
+            .build_window_with([width, height], crop, &self.model, window, span)?;
         let likelihood = PatternLikelihood::new(&self.model, &self.space);
         let report = self
             .filter
@@ -412,6 +432,38 @@ impl Refinement<'_, '_> {
             if tried.log_likelihood > centre {
                 *state = probe;
                 *best = tried;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The window conversion against the whole-frame conversion, cropped.
+    #[test]
+    fn a_window_converts_as_the_whole_frame_does_there() {
+        let (w, h) = (13, 7);
+        let grey: Vec<u8> = (0..w * h).map(|i| (i * 37 % 251) as u8).collect();
+        let rgb: Vec<u8> = (0..w * h * 3).map(|i| (i * 53 % 241) as u8).collect();
+        let frames = [
+            PatternFrame::Gray(GrayView::new(&grey, w, h).unwrap()),
+            PatternFrame::Rgb(RgbView::new(&rgb, w, h).unwrap()),
+        ];
+        for frame in frames {
+            let mut whole = GrayImage::default();
+            frame.to_gray(&mut whole);
+            for window in [[0, 0, w, h], [2, 1, 9, 6], [12, 6, 13, 7], [4, 3, 4, 5]] {
+                let mut part = GrayImage::default();
+                frame.window_to_gray(window, &mut part);
+                let [x0, y0, x1, y1] = window;
+                assert_eq!((part.width, part.height), (x1 - x0, y1 - y0));
+                let want: Vec<f32> = (y0..y1)
+                    .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+                    .map(|(x, y)| whole.at(x, y))
+                    .collect();
+                assert_eq!(part.data, want, "{window:?}");
             }
         }
     }

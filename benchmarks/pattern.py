@@ -4,6 +4,11 @@ same run: accuracy by per-frame step (in sigma) and frames per second against th
 of particles.
 
     python benchmarks/pattern.py [--frames 40] [--size 640 480] [--particles 50 100 200 500 1000]
+        [--points 25 50 100 200] [--sizes 320x240 640x480 1280x960]
+
+Speed is reported against the number of particles, the number of model points and the
+frame size, each with ECC (affine) timed on the same frames in the same run and the
+fitted power-law exponent of the time per frame.
 
 The patch is cut from ``images/camera.png`` and moved over ``images/grass.png`` of the
 shared data (``RPERC_DATA``); without them a synthetic patch and clutter are used.
@@ -53,9 +58,13 @@ def images() -> tuple[np.ndarray, np.ndarray, str]:
     return patch, bg, "synthetic patch and block clutter"
 
 
-def run_rperc(seq: PatternSequence, n_particles: int) -> tuple[np.ndarray, int, float]:
+def run_rperc(
+    seq: PatternSequence, n_particles: int, max_points: int = 200
+) -> tuple[np.ndarray, int, float]:
     """(estimates (n-1, 4), lost frames, seconds per update)."""
-    tracker = PatternTracker(seq.frames[0], seq.region, n_particles=n_particles, seed=1)
+    tracker = PatternTracker(
+        seq.frames[0], seq.region, n_particles=n_particles, seed=1, max_points=max_points
+    )
     out, lost = [], 0
     t0 = time.perf_counter()
     for frame in seq.frames[1:]:
@@ -127,6 +136,8 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=40)
     ap.add_argument("--size", type=int, nargs=2, default=(640, 480))
     ap.add_argument("--particles", type=int, nargs="+", default=[50, 100, 200, 500, 1000])
+    ap.add_argument("--points", type=int, nargs="+", default=[25, 50, 100, 200])
+    ap.add_argument("--sizes", nargs="+", default=["320x240", "640x480", "1280x960"])
     args = ap.parse_args()
     patch, bg, source = images()
     print(
@@ -167,12 +178,67 @@ def main() -> None:
         _, _, dt_e = run_ecc(seq, cv2.MOTION_AFFINE)
         ecc_fps = 1 / dt_e
         speed_rows.append(["cv2.findTransformECC (affine)", "-", f"{ecc_fps:.1f}", "1.00"])
+    times = []
     for n in args.particles:
         _, _, dt = run_rperc(seq, n)
+        times.append(dt)
         ratio = f"{(1 / dt) / ecc_fps:.2f}" if ecc_fps else "-"
         speed_rows.append(["rperc PatternTracker", str(n), f"{1 / dt:.1f}", ratio])
     print_table(
-        "frames per second (steps <= 1 sigma)", ["tracker", "particles", "fps", "x ECC"], speed_rows
+        "frames per second against particles (steps <= 1 sigma)",
+        ["tracker", "particles", "fps", "x ECC"],
+        speed_rows,
+    )
+    print(f"scaling: time per frame ~ particles^{slope(args.particles, times):.2f}")
+    sweep_points(seq, args.points, ecc_fps)
+    sweep_sizes(patch, bg, args)
+
+
+def slope(x: list[int], t: list[float]) -> float:
+    """The exponent of a power law fitted to ``t`` against ``x`` (log-log least squares)."""
+    if len(x) < 2:
+        return math.nan
+    return float(np.polyfit(np.log(x), np.log(t), 1)[0])
+
+
+def sweep_points(seq: PatternSequence, points: list[int], ecc_fps: float | None) -> None:
+    """fps against the model's largest number of points (200 particles)."""
+    rows, used, times = [], [], []
+    for m in points:
+        n_points = PatternTracker(seq.frames[0], seq.region, max_points=m).n_points
+        _, _, dt = run_rperc(seq, 200, max_points=m)
+        used.append(n_points)
+        times.append(dt)
+        ratio = f"{(1 / dt) / ecc_fps:.2f}" if ecc_fps else "-"
+        rows.append([str(m), str(n_points), f"{1 / dt:.1f}", ratio])
+    print_table(
+        "frames per second against model points (200 particles)",
+        ["max_points", "points", "fps", "x ECC"],
+        rows,
+    )
+    print(f"scaling: time per frame ~ points^{slope(used, times):.2f}")
+
+
+def sweep_sizes(patch: np.ndarray, bg: np.ndarray, args: argparse.Namespace) -> None:
+    """fps against the frame size (200 particles), ECC affine on the same frames."""
+    rows = []
+    for size in args.sizes:
+        w, h = (int(v) for v in size.split("x"))
+        seq = pattern_sequence(
+            patch, bg, n_frames=args.frames, size=(w, h), seed=3, max_step_sigmas=1.0
+        )
+        _, _, dt = run_rperc(seq, 200)
+        if cv2 is not None:
+            _, _, dt_e = run_ecc(seq, cv2.MOTION_AFFINE)
+            ecc = f"{1 / dt_e:.1f}"
+            ratio = f"{dt_e / dt:.2f}"
+        else:
+            ecc, ratio = "-", "-"
+        rows.append([size, f"{1 / dt:.1f}", ecc, ratio])
+    print_table(
+        "frames per second against frame size (200 particles)",
+        ["size", "rperc fps", "ECC affine fps", "x ECC"],
+        rows,
     )
 
 

@@ -370,3 +370,78 @@ def test_track_command_scores_a_sequence(tmp_path, data, capsys):
     out = capsys.readouterr().out
     assert "AUC" in out and "fps" in out
     assert strip.stat().st_size > 10_000
+
+
+@pytest.fixture(scope="module")
+def pattern_folder(tmp_path_factory):
+    """A generated pattern sequence written as PNG files, with its truth."""
+    from PIL import Image
+
+    from rperc.cli.pattern import demo_images
+    from rperc.tracking import pattern_sequence
+
+    patch, background = demo_images(0)
+    seq = pattern_sequence(
+        patch, background, n_frames=8, size=(320, 240), seed=1, max_step_sigmas=0.5
+    )
+    folder = tmp_path_factory.mktemp("pattern")
+    for k, frame in enumerate(seq.frames):
+        Image.fromarray(frame).save(folder / f"{k:04d}.png")
+    return folder, seq
+
+
+def test_track_pattern_follows_a_generated_sequence(pattern_folder, tmp_path, capsys):
+    folder, seq = pattern_folder
+    region = ",".join(str(v) for v in seq.region)
+    out, strip = tmp_path / "poses.json", tmp_path / "strip.png"
+    argv = ["track-pattern", str(folder), "--region", region, "--json", str(out)]
+    assert main([*argv, "--strip", str(strip), "--frames", "3"]) == 0
+    assert "8 frames" in capsys.readouterr().out
+    doc = json.loads(out.read_text())
+    assert doc["frames"] == 8 and len(doc["poses"]) == 8
+    est = np.array([[p["x"], p["y"]] for p in doc["poses"]])
+    # Steps within half a sigma on the generator's clean frames: within 2 px of its truth.
+    err = np.hypot(*(est - seq.truth[:, :2]).T)
+    assert err.max() < 2.0, err
+    corners = np.asarray(doc["poses"][0]["corners"])
+    x, y, w, h = seq.region
+    np.testing.assert_allclose(
+        corners,
+        [
+            [x - 0.5, y - 0.5],
+            [x + w - 0.5, y - 0.5],
+            [x + w - 0.5, y + h - 0.5],
+            [x - 0.5, y + h - 0.5],
+        ],
+    )
+    assert strip.stat().st_size > 10_000
+
+
+@pytest.mark.parametrize(
+    ("extra", "needle"),
+    [
+        (["--region", "1,2,3"], "--region must be x,y,w,h"),
+        (["--region", "300,200,80,80"], "region"),
+        (["--region", "0,0,4,4"], "smaller than"),
+    ],
+)
+def test_track_pattern_refuses_bad_regions_in_one_line(pattern_folder, extra, needle, capsys):
+    folder, _ = pattern_folder
+    try:
+        code = main(["track-pattern", str(folder), *extra])
+    except SystemExit as e:
+        code = e.code
+    assert code == 2
+    assert needle in one_error_line(capsys)
+
+
+def test_track_pattern_refuses_a_missing_source_and_a_bad_animation(
+    pattern_folder, tmp_path, capsys
+):
+    folder, seq = pattern_folder
+    region = ",".join(str(v) for v in seq.region)
+    assert main(["track-pattern", str(tmp_path / "nope.mp4"), "--region", region]) == 2
+    assert "does not exist" in one_error_line(capsys)
+    bad = tmp_path / "a.avi"
+    assert main(["track-pattern", str(folder), "--region", region, "--animation", str(bad)]) == 2
+    assert ".gif or .mp4" in one_error_line(capsys)

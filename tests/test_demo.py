@@ -286,3 +286,44 @@ def test_color_shape_contour_iou_is_recomputed_against_the_generator(demo_all):
         ious.append(poly.intersection(truth).area / poly.union(truth).area)
     # Rasterised IoU (printed) and exact areas differ by the boundary pixels only.
     assert printed == pytest.approx(np.mean(ious), abs=0.03)
+
+
+def test_pattern_fig8_errors_are_recomputed_against_the_generator(demo_all):
+    from rperc.cli.pattern import demo_images
+    from rperc.tracking import pattern_sequence
+
+    line = demo_all["summary"]["pattern"]
+    frames, seed = grab(rf"\({NUMBER} frames, seed {NUMBER}, steps to 4 sigma\)", line)
+    pos, ang, scl, lost = grab(
+        rf"RMS {NUMBER} px, {NUMBER} deg, {NUMBER} % scale, lost {NUMBER}", line
+    )
+    patch, background = demo_images(int(seed))
+    truth = pattern_sequence(
+        patch, background, n_frames=int(frames), seed=int(seed), max_step_sigmas=4.0
+    ).truth
+    est = np.asarray(demo_all["measured"]["pattern"]["estimates"])
+    assert est.shape == (len(truth) - 1, 4)
+    sigma = (5.0, 5.0, math.radians(3.0), 0.1)
+    sq: list[tuple[float, float, float]] = []
+    for k in range(1, len(truth)):  # frame k sweeps component (k - 1) % 4
+        d = (k - 1) % 4
+        if abs(truth[k][d] - truth[k - 1][d]) / sigma[d] > 3.0:
+            continue
+        e, t = est[k - 1], truth[k]
+        sq.append(
+            (
+                (e[0] - t[0]) ** 2 + (e[1] - t[1]) ** 2,
+                math.degrees(e[2] - t[2]) ** 2,
+                (100 * (e[3] / t[3] - 1)) ** 2,
+            )
+        )
+    rms = [math.sqrt(sum(v[i] for v in sq) / len(sq)) for i in range(3)]
+    assert pos == pytest.approx(rms[0], abs=0.006)
+    assert ang == pytest.approx(rms[1], abs=0.006)
+    assert scl == pytest.approx(rms[2], abs=0.06)
+    assert lost == demo_all["measured"]["pattern"]["lost"]
+    table = (demo_all["out"] / "pattern_harness.txt").read_text()
+    for name in ("rperc pattern", "ECC affine", "ECC euclidean", "matchTemplate", "CSRT"):
+        assert name in table
+    # Every harness row is scored on at least one frame.
+    assert all(row["frames"] >= 1 for row in demo_all["measured"]["pattern"]["harness"])

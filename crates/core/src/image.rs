@@ -201,36 +201,165 @@ impl GrayImage {
         out: &mut GrayImage,
     ) -> Result<()> {
         crate::error::ensure_non_negative("sigma", sigma)?;
-        let kernel = gaussian_kernel(sigma);
-        scratch.resize(self.width, self.height);
-        out.resize(self.width, self.height);
-        let r = kernel.len() / 2;
-        for y in 0..self.height {
-            let row = &self.data[y * self.width..(y + 1) * self.width];
-            let dst = &mut scratch.data[y * self.width..(y + 1) * self.width];
-            for (x, d) in dst.iter_mut().enumerate() {
-                *d = kernel
-                    .iter()
-                    .enumerate()
-                    .map(|(k, &w)| {
-                        w * row[reflect101(x as isize + k as isize - r as isize, self.width)]
-                    })
-                    .sum();
-            }
-        }
-        for y in 0..self.height {
-            for x in 0..self.width {
-                out.data[y * self.width + x] = kernel
-                    .iter()
-                    .enumerate()
-                    .map(|(k, &w)| {
-                        let yy = reflect101(y as isize + k as isize - r as isize, self.height);
-                        w * scratch.data[yy * self.width + x]
-                    })
-                    .sum();
-            }
-        }
+        self.convolve_separable(&gaussian_kernel(sigma), scratch, out);
         Ok(())
+    }
+
+    /// Convolves rows then columns with the odd-length `kernel` into `out`, borders
+    /// reflected as `BORDER_REFLECT_101` (the blur of [`Self::gaussian_blur`] with a
+    /// kernel computed once by the caller, e.g. once per scale-space level).
+    ///
+    /// The reflection is paid only within the kernel's radius of the edges: the
+    /// interior runs on plain slices, and the vertical pass accumulates whole rows, so
+    /// that it vectorises. Each output is the sum over taps in kernel order.
+    pub fn convolve_separable(&self, kernel: &[f32], scratch: &mut GrayImage, out: &mut GrayImage) {
+        let (w, h) = (self.width, self.height);
+        for img in [&mut *scratch, &mut *out] {
+            img.width = w;
+            img.height = h;
+            img.data.clear();
+            img.data.resize(w * h, 0.0);
+        }
+        if w == 0 || h == 0 || kernel.is_empty() {
+            return;
+        }
+        for y in 0..h {
+            let row = &self.data[y * w..(y + 1) * w];
+            convolve_row(row, kernel, &mut scratch.data[y * w..(y + 1) * w]);
+        }
+        let r = kernel.len() / 2;
+        for y in 0..h {
+            let dst = &mut out.data[y * w..(y + 1) * w];
+            for (k, &wk) in kernel.iter().enumerate() {
+                let yy = reflect101(y as isize + k as isize - r as isize, h);
+                let line = &scratch.data[yy * w..(yy + 1) * w];
+                for (d, &s) in dst.iter_mut().zip(line) {
+                    *d += wk * s;
+                }
+            }
+        }
+    }
+
+    /// Bilinear samples at `start + l * step`, `l = 0..out.len()`, into `out` (the
+    /// grey-level profile along a segment); `false`, with `out` partly written, when
+    /// a sample falls outside `[0, w-1] x [0, h-1]` (or is NaN).
+    ///
+    /// Equal to [`Self::sample_bilinear`] at each point up to the rounding of the
+    /// positions to 2^-24 px, but the bounds are checked once, at the two ends: the
+    /// points of a segment lie between them.
+    ///
+    /// # Examples
+    /// ```
+    /// use rperc_core::image::GrayImage;
+    ///
+    /// let img = GrayImage { data: vec![0.0, 10.0, 20.0, 30.0], width: 2, height: 2 };
+    /// let mut out = [0.0; 3];
+    /// assert!(img.sample_line([0.0, 0.0], [0.5, 0.5], &mut out));
+    /// assert_eq!(out, [0.0, 15.0, 30.0]);
+    /// assert!(!img.sample_line([0.0, 0.0], [1.0, 0.0], &mut out));
+    /// ```
+    #[inline]
+    pub fn sample_line(&self, start: [f64; 2], step: [f64; 2], out: &mut [f32]) -> bool {
+        let Some(last) = out.len().checked_sub(1) else {
+            return true;
+        };
+        let end = [
+            start[0] + last as f64 * step[0],
+            start[1] + last as f64 * step[1],
+        ];
+        let (w, h) = (self.width as f64, self.height as f64);
+        let inside = |p: [f64; 2]| p[0] >= 0.0 && p[1] >= 0.0 && p[0] <= w - 1.0 && p[1] <= h - 1.0;
+        if !(inside(start) && inside(end)) {
+            return false;
+        }
+        // Fixed point with FRACTION_BITS fractional bits (positions exact to 6e-8 px):
+        // integer steps and a shift instead of a saturating float-to-int cast per
+        // sample, which cost more than the interpolation. Segments within MARGIN px of
+        // the last row or column (where the right or lower neighbour does not exist)
+        // or of the first (where the fixed-point rounding, a unit per sample, could
+        // cross them), segments of more than 1024 samples, and images too small or too
+        // large for it, go point by point.
+        const FRACTION_BITS: u32 = 24;
+        const MARGIN: f64 = 1e-4;
+        let fast = |p: [f64; 2]| {
+            p[0] >= MARGIN && p[1] >= MARGIN && p[0] <= w - 1.0 - MARGIN && p[1] <= h - 1.0 - MARGIN
+        };
+        let huge = 1usize << 36;
+        if !(fast(start) && fast(end))
+            || out.len() > 1024
+            || self.width < 2
+            || self.height < 2
+            || self.width > huge
+            || self.height > huge
+        {
+            return self.sample_line_checked(start, step, out);
+        }
+        let one = f64::from(1u32 << FRACTION_BITS);
+        let (unit, mask) = (1.0 / one as f32, (1u64 << FRACTION_BITS) - 1);
+        // Truncated (no libm call): at most one unit, 6e-8 px, off.
+        let fixed = |v: f64| (v * one) as i64;
+        let (mut fx, mut fy) = (fixed(start[0]), fixed(start[1]));
+        let (dx, dy) = (fixed(step[0]), fixed(step[1]));
+        let w = self.width;
+        for g in out.iter_mut() {
+            // Non-negative and below (size - 1) * 2^24: the ends are MARGIN = 1677
+            // units inside and the rounding drifts by at most 1024 units.
+            let (ux, uy) = (fx as u64, fy as u64);
+            let (x0, y0) = (
+                (ux >> FRACTION_BITS) as usize,
+                (uy >> FRACTION_BITS) as usize,
+            );
+            let tx = (ux & mask) as f32 * unit;
+            let ty = (uy & mask) as f32 * unit;
+            let i = y0 * w + x0;
+            // Two two-pixel slices: one bounds check each, not one per pixel.
+            let (top, bottom) = (&self.data[i..i + 2], &self.data[i + w..i + w + 2]);
+            let upper = top[0] + tx * (top[1] - top[0]);
+            let lower = bottom[0] + tx * (bottom[1] - bottom[0]);
+            *g = upper + ty * (lower - upper);
+            fx += dx;
+            fy += dy;
+        }
+        true
+    }
+
+    /// [`Self::sample_line`] point by point through [`Self::sample_bilinear`] (near the
+    /// image's edges, and images a single pixel wide or high, or wider than 2^36).
+    fn sample_line_checked(&self, start: [f64; 2], step: [f64; 2], out: &mut [f32]) -> bool {
+        for (l, g) in out.iter_mut().enumerate() {
+            let x = start[0] + l as f64 * step[0];
+            let y = start[1] + l as f64 * step[1];
+            match self.sample_bilinear(x, y) {
+                Some(v) => *g = v,
+                None => return false,
+            }
+        }
+        true
+    }
+}
+
+/// One row convolved with `kernel`, reflected at its ends.
+fn convolve_row(row: &[f32], kernel: &[f32], dst: &mut [f32]) {
+    let (w, r) = (row.len(), kernel.len() / 2);
+    let reflected = |x: usize| {
+        kernel.iter().enumerate().fold(0.0f32, |acc, (k, &wk)| {
+            acc + wk * row[reflect101(x as isize + k as isize - r as isize, w)]
+        })
+    };
+    if w <= 2 * r {
+        for (x, d) in dst.iter_mut().enumerate() {
+            *d = reflected(x);
+        }
+        return;
+    }
+    for x in (0..r).chain(w - r..w) {
+        dst[x] = reflected(x);
+    }
+    for (x, d) in dst.iter_mut().enumerate().take(w - r).skip(r) {
+        *d = kernel
+            .iter()
+            .zip(&row[x - r..=x + r])
+            .fold(0.0f32, |acc, (&wk, &g)| acc + wk * g);
     }
 }
 
@@ -273,31 +402,42 @@ mod tests {
     /// The separable blur against a direct 2-D convolution with the product kernel.
     #[test]
     fn blur_matches_direct_convolution() {
-        let (w, h) = (13, 9);
-        let img = GrayImage {
-            data: (0..w * h).map(|i| ((i * 37) % 101) as f32).collect(),
-            width: w,
-            height: h,
-        };
-        let sigma = 1.3;
-        let (mut scratch, mut out) = (GrayImage::default(), GrayImage::default());
-        img.gaussian_blur(sigma, &mut scratch, &mut out).unwrap();
-        let r = (3.0 * sigma).ceil() as isize;
-        let g = |k: isize| (-(k * k) as f64 / (2.0 * sigma * sigma)).exp();
-        let norm: f64 = (-r..=r).map(g).sum();
-        for y in 0..h {
-            for x in 0..w {
-                let mut s = 0.0;
-                for dy in -r..=r {
-                    for dx in -r..=r {
-                        let xx = reflect101(x as isize + dx, w);
-                        let yy = reflect101(y as isize + dy, h);
-                        s += g(dx) * g(dy) / (norm * norm) * f64::from(img.at(xx, yy));
+        // Interior and border paths, and images narrower than the kernel.
+        for (w, h, sigma) in [
+            (13, 9, 1.3),
+            (3, 40, 2.0),
+            (64, 2, 0.8),
+            (31, 27, 3.0),
+            (1, 1, 1.0),
+        ] {
+            let img = GrayImage {
+                data: (0..w * h).map(|i| ((i * 37) % 101) as f32).collect(),
+                width: w,
+                height: h,
+            };
+            let (mut scratch, mut out) = (GrayImage::default(), GrayImage::default());
+            img.gaussian_blur(sigma, &mut scratch, &mut out).unwrap();
+            assert_eq!((out.width, out.height), (w, h));
+            let r = (3.0 * sigma).ceil() as isize;
+            let g = |k: isize| (-(k * k) as f64 / (2.0 * sigma * sigma)).exp();
+            let norm: f64 = (-r..=r).map(g).sum();
+            for y in 0..h {
+                for x in 0..w {
+                    let mut s = 0.0;
+                    for dy in -r..=r {
+                        for dx in -r..=r {
+                            let xx = reflect101(x as isize + dx, w);
+                            let yy = reflect101(y as isize + dy, h);
+                            s += g(dx) * g(dy) / (norm * norm) * f64::from(img.at(xx, yy));
+                        }
                     }
+                    let got = f64::from(out.at(x, y));
+                    assert!((got - s).abs() < 1e-3, "{w}x{h} ({x}, {y})");
                 }
-                assert!((f64::from(out.at(x, y)) - s).abs() < 1e-3, "({x}, {y})");
             }
         }
+        let (w, h) = (13, 9);
+        let (mut scratch, mut out) = (GrayImage::default(), GrayImage::default());
         // A constant image stays constant.
         let flat = GrayImage {
             data: vec![7.0; w * h],
@@ -325,6 +465,33 @@ mod tests {
         }
         assert_eq!(img.sample_bilinear(-0.01, 1.0), None);
         assert_eq!(img.sample_bilinear(1.0, f64::NAN), None);
+    }
+
+    proptest::proptest! {
+        /// The segment sampler equals the point sampler at every sample, and refuses a
+        /// segment exactly when some point sampler refuses one of its samples.
+        #[test]
+        fn sample_line_equals_point_samples(
+            x in -3.0f64..12.0, y in -3.0f64..10.0, dx in -2.0f64..2.0, dy in -2.0f64..2.0,
+            n in 1usize..16, w in 1usize..10, h in 1usize..8,
+        ) {
+            let img = GrayImage {
+                data: (0..w * h).map(|i| ((i * 53) % 97) as f32 * 1.3).collect(),
+                width: w,
+                height: h,
+            };
+            let mut out = vec![0.0; n];
+            let ok = img.sample_line([x, y], [dx, dy], &mut out);
+            let each: Option<Vec<f32>> = (0..n)
+                .map(|l| img.sample_bilinear(x + l as f64 * dx, y + l as f64 * dy))
+                .collect();
+            proptest::prop_assert_eq!(ok, each.is_some());
+            if let Some(each) = each {
+                for (a, b) in out.iter().zip(&each) {
+                    proptest::prop_assert!((a - b).abs() <= 1e-4 * b.abs().max(1.0), "{} {}", a, b);
+                }
+            }
+        }
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! Hot paths of the crate: one particle-filter step (weighting + resampling), and one
 //! update of each colour tracker on a 320 x 240 frame, and the pattern likelihood of one
-//! state with its per-frame scale space.
+//! state with its per-frame scale space, and one pattern-tracker update (200 particles,
+//! 640 x 480, the speed goal of issue 12).
 
 use std::hint::black_box;
 
@@ -148,6 +149,49 @@ fn pattern_likelihood(c: &mut Criterion) {
     group.finish();
 }
 
+/// A 640 x 480 grey frame: the pattern scene pasted at `(x0, 160)` over a hashed
+/// texture.
+fn pattern_frame(x0: usize) -> Vec<u8> {
+    let (w, h) = (640, 480);
+    let scene = pattern_scene();
+    (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            if (x0..x0 + scene.width).contains(&x) && (160..160 + scene.height).contains(&y) {
+                scene.at(x - x0, y - 160) as u8
+            } else {
+                (90 + (i * 2_654_435_761) % 41) as u8
+            }
+        })
+        .collect()
+}
+
+/// One pattern-tracker update, 200 particles on 640 x 480 (issue 12: >= 500 fps).
+fn pattern_update(c: &mut Criterion) {
+    use tracking::{PatternFrame, PatternTracker, PatternTrackerParams, Region};
+    let frames = [pattern_frame(240), pattern_frame(241)];
+    let view = |k: usize| {
+        PatternFrame::Gray(rperc_core::image::GrayView::new(&frames[k % 2], 640, 480).unwrap())
+    };
+    let region = Region::Box {
+        x: 260,
+        y: 190,
+        w: 110,
+        h: 85,
+    };
+    let mut tracker =
+        PatternTracker::new(view(0), region, PatternTrackerParams::default(), 0).unwrap();
+    let mut k = 0;
+    let mut group = c.benchmark_group("pattern");
+    group.bench_function("update_640x480_200", |b| {
+        b.iter(|| {
+            k += 1;
+            black_box(tracker.update(view(k)).unwrap())
+        })
+    });
+    group.finish();
+}
+
 /// A 320 x 240 frame with a 50 x 36 blue rectangle at `x0` on a horizontal ramp.
 fn rectangle_frame(x0: usize) -> Vec<u8> {
     let (w, h) = (320, 240);
@@ -202,6 +246,7 @@ criterion_group!(
     color_shape_update,
     particle_filter_step,
     tracker_update,
-    pattern_likelihood
+    pattern_likelihood,
+    pattern_update
 );
 criterion_main!(benches);

@@ -160,8 +160,9 @@ fn the_seeds_plain_weighted_mean_is_coarser_than_the_refined_estimate() {
     assert!(pos < pos0 && ang < ang0);
 }
 
-/// The (x, y, theta, s) bits of every pose of a short run on `threads` threads.
-fn run_on_threads(threads: usize) -> Vec<[u64; 4]> {
+/// The (x, y, theta, s) bits of every pose of a short run on `threads` threads, with
+/// the filter's (and the refinement's and the scale space's) parallel paths or not.
+fn run_on_threads(threads: usize, parallel: bool) -> Vec<[u64; 4]> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -171,6 +172,7 @@ fn run_on_threads(threads: usize) -> Vec<[u64; 4]> {
         let first = render(&p, initial_state(), 2.0, 100);
         let mut params = PatternTrackerParams::default();
         params.filter.chunk_size = 16;
+        params.filter.parallel = parallel;
         let mut tracker = PatternTracker::new(gray(&first), region(), params, 11).unwrap();
         trajectory(4, 2)
             .iter()
@@ -189,8 +191,11 @@ fn run_on_threads(threads: usize) -> Vec<[u64; 4]> {
 
 #[test]
 fn a_seed_gives_bit_identical_tracks_on_any_thread_count() {
-    assert_eq!(run_on_threads(1), run_on_threads(2));
-    assert_eq!(run_on_threads(1), run_on_threads(3));
+    let serial = run_on_threads(1, false);
+    assert_eq!(serial, run_on_threads(1, true));
+    assert_eq!(serial, run_on_threads(2, true));
+    assert_eq!(serial, run_on_threads(3, true));
+    assert_eq!(serial, run_on_threads(2, false));
 }
 
 #[test]

@@ -8,6 +8,9 @@
     rperc lines extract LOG     walls from a CARMEN log, in the world frame
     rperc lines simplify FILE   Douglas-Peucker on a WKT or CSV polyline
     rperc track SEQ_DIR         colour tracker on an OTB sequence (AUC, precision, fps)
+    rperc track-pattern SOURCE --region x,y,w,h
+                                planar pattern tracker on a video or image folder
+    rperc demo pattern          pattern tracker: Fig. 8 and the harness vs OpenCV
 
 Run ``rperc COMMAND --help`` for the options of each. Results go to stdout, notes
 ("wrote ...", progress) to stderr; ``--json PATH`` writes the measured figures. A
@@ -52,7 +55,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from rperc.cli import demo, lines, slamrun, track
+    from rperc.cli import demo, lines, pattern, slamrun, track
 
     parser = _Parser(prog="rperc", description="Robot perception in Rust, driven from Python.")
     parser.add_argument("--version", action="version", version=f"rperc {__version__}")
@@ -60,6 +63,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_demos(sub)
     lines.add_commands(sub)
     track.add_commands(sub)
+    pattern.add_commands(sub)
     slamrun.add_commands(sub)
     return parser
 

@@ -68,7 +68,7 @@ class Demo:
 def registry() -> tuple[Demo, ...]:
     """Every demo, in the order ``demo all`` runs them. (Built on first use: the demo
     functions live in the command modules, which import this one.)"""
-    from rperc.cli import lines, slam, slamrun, track
+    from rperc.cli import lines, pattern, slam, slamrun, track
 
     return (
         Demo("lines", "Douglas-Peucker on a noisy spiral, deviation vs epsilon", lines.demo_lines),
@@ -97,6 +97,13 @@ def registry() -> tuple[Demo, ...]:
             "colour+shape tracker vs colour alone, rectangle under changing light",
             track.demo_color_shape,
             (Option("--frames", "frames", count_at_least(2, 1000), 60, "frames (default 60)"),),
+        ),
+        Demo(
+            "pattern",
+            "pattern tracker: Fig. 8 on a generated sequence, harness vs ECC/matchTemplate/CSRT",
+            pattern.demo_pattern,
+            # 640 x 480 grey frames: 1000 of them are 300 MB.
+            (Option("--frames", "frames", count_at_least(9, 1000), 60, "frames (default 60)"),),
         ),
     )
 

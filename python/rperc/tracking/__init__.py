@@ -25,12 +25,15 @@ corner). The GIL is released while a frame is processed.
   experiments of section 3.4 with truth masks.
 - :func:`resample`, :func:`effective_sample_size`: the particle-filter building blocks.
 - :mod:`rperc.tracking.metrics`: IoU, success curve and AUC, precision at 20 px.
+- :mod:`rperc.tracking.planar`: the planar-tracking harness (corner alignment error,
+  precision at 5 and 15 px, success rate, fps) running the pattern tracker against
+  OpenCV's ECC, rotation/scale ``matchTemplate`` and CSRT on the same frames.
 
 Parameters are keyword arguments with the defaults of the Rust configs (tuned on OTB
 Girl and Couple); ``help(ColorHistogramTracker)`` lists them.
 """
 
-from rperc.tracking import metrics
+from rperc.tracking import metrics, planar
 from rperc.tracking.pattern import (
     PatternPose,
     PatternSequence,
@@ -59,5 +62,6 @@ __all__ = [
     "effective_sample_size",
     "metrics",
     "pattern_sequence",
+    "planar",
     "resample",
 ]

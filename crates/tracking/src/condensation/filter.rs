@@ -285,8 +285,30 @@ impl<const D: usize> ParticleFilter<D> {
         likelihood: &L,
         scratch: &mut Vec<L::Scratch>,
     ) -> StepReport {
+        let resampled = self.predict();
+        self.correct_with_scratch(likelihood, scratch, resampled)
+    }
+
+    /// The first half of [`step`](Self::step): resample when due, then propagate by the
+    /// dynamics. Returns whether it resampled. A caller that prepares its likelihood
+    /// from where the predicted particles are (a tracker that builds image data only
+    /// where they look) calls this, then [`correct_with_scratch`](Self::correct_with_scratch):
+    /// the two together are exactly one `step`.
+    pub fn predict(&mut self) -> bool {
         let resampled = self.resample_if_needed();
         self.propagate();
+        resampled
+    }
+
+    /// The second half of [`step`](Self::step), after [`predict`](Self::predict)
+    /// (whose answer is `resampled`): weigh, normalise, and re-draw the set on a total
+    /// loss.
+    pub fn correct_with_scratch<L: Likelihood<D>>(
+        &mut self,
+        likelihood: &L,
+        scratch: &mut Vec<L::Scratch>,
+        resampled: bool,
+    ) -> StepReport {
         self.weigh(likelihood, scratch);
         let lost = !self.normalise();
         if lost {

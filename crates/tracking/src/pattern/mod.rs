@@ -3,7 +3,6 @@
 //! gradient, the inter-correlation likelihood with occlusion and scale space, and the
 //! CONDENSATION tracker over (x, y, theta, s).
 
-mod blur;
 pub mod contour;
 pub mod correlation;
 mod model;

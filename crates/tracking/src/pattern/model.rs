@@ -257,16 +257,23 @@ fn gradient_orientation(blurred: &GrayImage, p: Point2<f64>) -> Option<f64> {
 /// Fills `out` with the grey-level vector at `p` along direction `phi`: `N_s` bilinear
 /// samples `step` apart, centred on `p`. `false` if a sample leaves the image.
 pub fn sample_vector(image: &GrayImage, p: [f64; 2], phi: f64, step: f64, out: &mut [f32]) -> bool {
-    let (c, s) = (phi.cos(), phi.sin());
+    let (s, c) = phi.sin_cos();
+    sample_along(image, p, [c, s], step, out)
+}
+
+/// [`sample_vector`] with the direction given by its unit vector `(cos phi, sin phi)`
+/// (the observation model rotates it without an angle).
+#[inline]
+pub(crate) fn sample_along(
+    image: &GrayImage,
+    p: [f64; 2],
+    direction: [f64; 2],
+    step: f64,
+    out: &mut [f32],
+) -> bool {
     let half = 0.5 * (out.len() as f64 - 1.0);
-    for (l, g) in out.iter_mut().enumerate() {
-        let t = (l as f64 - half) * step;
-        match image.sample_bilinear(p[0] + t * c, p[1] + t * s) {
-            Some(v) => *g = v,
-            None => return false,
-        }
-    }
-    true
+    let (dx, dy) = (step * direction[0], step * direction[1]);
+    image.sample_line([p[0] - half * dx, p[1] - half * dy], [dx, dy], out)
 }
 
 impl PatternModel {

@@ -2,8 +2,9 @@
 //! `X = (x, y, theta, s)` from the inter-correlation of each model point's stored and
 //! observed grey-level vectors, with occlusion and scale space handling.
 
-use super::correlation::{deviation, inter_correlation};
-use super::model::{PatternModel, sample_vector};
+use super::correlation::{deviation, energy, inter_correlation_with_energy};
+use super::model::{PatternModel, sample_along};
+use rayon::prelude::*;
 use std::sync::Arc;
 
 use crate::condensation::Likelihood;
@@ -22,13 +23,25 @@ use rperc_core::image::GrayImage;
 #[derive(Debug, Clone, Default)]
 pub struct ScaleSpace {
     scales: Vec<f64>,
-    levels: Vec<GrayImage>,
+    levels: Vec<Level>,
     origin: [f64; 2],
     crop: GrayImage,
-    blurred: GrayImage,
     kernels: Vec<(f64, Arc<[f32]>)>,
+}
+
+/// One level of a [`ScaleSpace`] with its own work buffers, so that levels blur in
+/// parallel.
+#[derive(Debug, Clone, Default)]
+struct Level {
+    image: GrayImage,
+    kernel: Arc<[f32]>,
+    blurred: GrayImage,
     scratch: GrayImage,
 }
+
+/// Below this many pixel-taps (crop pixels times kernel taps over all levels) the
+/// levels blur serially: a rayon task would cost more than it saves.
+const PARALLEL_BLUR_WORK: usize = 200_000;
 
 /// The Gaussian kernel of `sigma` from `cache`, computed on first use.
 fn kernel(cache: &mut Vec<(f64, Arc<[f32]>)>, sigma: f64) -> Arc<[f32]> {
@@ -74,6 +87,23 @@ impl ScaleSpace {
         window: [usize; 4],
         span: [f64; 2],
     ) -> Result<()> {
+        let size = [frame.width, frame.height];
+        let copy = |grown: [usize; 4], crop: &mut GrayImage| copy_window(frame, grown, crop);
+        self.build_window_with(size, copy, model, window, span)
+    }
+
+    /// [`Self::build_window`] on a frame of `size = [width, height]` that `crop` reads
+    /// on demand: `crop(window, out)` fills `out` with the frame's grey levels inside
+    /// `window = [x0, y0, x1, y1)` (a tracker converts only that part of an 8-bit frame,
+    /// not all of it).
+    pub fn build_window_with(
+        &mut self,
+        size: [usize; 2],
+        crop: impl FnOnce([usize; 4], &mut GrayImage),
+        model: &PatternModel,
+        window: [usize; 4],
+        span: [f64; 2],
+    ) -> Result<()> {
         let config = &model.config;
         let all = &config.scale_levels;
         // Clamped first: infinite spans (the whole stack) would tie every level.
@@ -82,28 +112,41 @@ impl ScaleSpace {
         let hi = nearest(all, span[1].clamp(first, last));
         self.scales.clear();
         self.scales.extend_from_slice(&all[lo..=hi.max(lo)]);
-        self.levels
-            .resize_with(self.scales.len(), GrayImage::default);
-        let [x0, y0] = [window[0].min(frame.width), window[1].min(frame.height)];
-        let [x1, y1] = [
-            window[2].clamp(x0, frame.width),
-            window[3].clamp(y0, frame.height),
-        ];
-        self.origin = [x0 as f64, y0 as f64];
+        self.levels.resize_with(self.scales.len(), Level::default);
         for (level, &s) in self.levels.iter_mut().zip(&self.scales) {
-            let sigma = config.blur_sigma * s;
-            let kernel = kernel(&mut self.kernels, sigma);
-            let r = kernel.len() / 2;
-            let grown = [
-                x0.saturating_sub(r),
-                y0.saturating_sub(r),
-                (x1 + r).min(frame.width),
-                (y1 + r).min(frame.height),
-            ];
-            copy_window(frame, grown, &mut self.crop);
-            super::blur::blur(&self.crop, &kernel, &mut self.scratch, &mut self.blurred);
-            let inner = [x0 - grown[0], y0 - grown[1], x1 - grown[0], y1 - grown[1]];
-            copy_window(&self.blurred, inner, level);
+            level.kernel = kernel(&mut self.kernels, config.blur_sigma * s);
+        }
+        let [width, height] = size;
+        let [x0, y0] = [window[0].min(width), window[1].min(height)];
+        let [x1, y1] = [window[2].clamp(x0, width), window[3].clamp(y0, height)];
+        self.origin = [x0 as f64, y0 as f64];
+        // One crop, grown by the widest kernel's radius: every level blurs all of it
+        // and keeps the window, which lies at least its own radius inside the crop
+        // wherever the crop does not stop at the frame's edge.
+        let r = self
+            .levels
+            .iter()
+            .map(|l| l.kernel.len() / 2)
+            .max()
+            .unwrap_or(0);
+        let grown = [
+            x0.saturating_sub(r),
+            y0.saturating_sub(r),
+            (x1 + r).min(width),
+            (y1 + r).min(height),
+        ];
+        crop(grown, &mut self.crop);
+        let inner = [x0 - grown[0], y0 - grown[1], x1 - grown[0], y1 - grown[1]];
+        let crop = &self.crop;
+        let blur = |level: &mut Level| {
+            crop.convolve_separable(&level.kernel, &mut level.scratch, &mut level.blurred);
+            copy_window(&level.blurred, inner, &mut level.image);
+        };
+        let taps: usize = self.levels.iter().map(|l| l.kernel.len()).sum();
+        if self.levels.len() > 1 && crop.data.len() * taps >= PARALLEL_BLUR_WORK {
+            self.levels.par_iter_mut().for_each(blur);
+        } else {
+            self.levels.iter_mut().for_each(blur);
         }
         Ok(())
     }
@@ -115,7 +158,7 @@ impl ScaleSpace {
 
     /// The level nearest to scale `s` (the first one for `s <= 1`).
     pub fn level(&self, s: f64) -> &GrayImage {
-        &self.levels[nearest(&self.scales, s)]
+        &self.levels[nearest(&self.scales, s)].image
     }
 
     /// Number of levels.
@@ -148,10 +191,21 @@ pub struct PatternScratch {
 }
 
 /// The observation model of one frame: a model and the frame's scale space.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct PatternLikelihood<'a> {
     model: &'a PatternModel,
     space: &'a ScaleSpace,
+    points: Vec<PointGeometry>,
+}
+
+/// What a particle needs of a model point besides its vector, computed once per frame
+/// (not per particle): its pixel offset, the unit vector of its gradient direction, and
+/// its vector's energy.
+#[derive(Debug, Clone, Copy)]
+struct PointGeometry {
+    offset: [f64; 2],
+    direction: [f64; 2],
+    energy: f64,
 }
 
 /// Where model point offset `(dx, dy)` and direction `phi` land for state `x`: the
@@ -168,7 +222,22 @@ pub fn place(state: &SVector<f64, 4>, offset: [f64; 2], phi: f64) -> ([f64; 2], 
 impl<'a> PatternLikelihood<'a> {
     /// The observation model of `model` in the frame whose scale space is `space`.
     pub fn new(model: &'a PatternModel, space: &'a ScaleSpace) -> Self {
-        Self { model, space }
+        let points = (0..model.points.len())
+            .map(|j| {
+                let point = &model.points[j];
+                let (s, c) = point.phi.sin_cos();
+                PointGeometry {
+                    offset: model.offset(j),
+                    direction: [c, s],
+                    energy: energy(&point.vector),
+                }
+            })
+            .collect();
+        Self {
+            model,
+            space,
+            points,
+        }
     }
 
     /// The likelihood and occlusion fraction of `state` (eqs. 5-6).
@@ -218,21 +287,35 @@ impl<'a> PatternLikelihood<'a> {
 
     /// The deviation of every model point for `state` into `scratch.deviations`
     /// (infinite when the observed vector leaves the frame).
+    ///
+    /// The similarity of [`place`] with `sin theta` and `cos theta` taken once per
+    /// state: a point's position is `centre + s R (dx, dy)` and its direction `R (cos
+    /// phi, sin phi)`, i.e. `phi - theta`, with `R = [[c, s], [-s, c]]`.
     fn fill_deviations(&self, state: &SVector<f64, 4>, scratch: &mut PatternScratch) {
         let config = &self.model.config;
         let image = self.space.level(state[3]);
         let origin = self.space.origin();
+        let (sin, cos) = state[2].sin_cos();
+        let scale = state[3];
+        let centre = [state[0] - origin[0], state[1] - origin[1]];
+        let step = config.delta * scale;
         scratch.observed.resize(config.n_samples, 0.0);
         scratch.deviations.clear();
-        for (j, point) in self.model.points.iter().enumerate() {
-            let (p, phi) = place(state, self.model.offset(j), point.phi);
-            let p = [p[0] - origin[0], p[1] - origin[1]];
-            let step = config.delta * state[3];
-            let lambda = if sample_vector(image, p, phi, step, &mut scratch.observed) {
-                deviation(
-                    inter_correlation(&point.vector, &scratch.observed),
-                    point.slope,
-                )
+        for (point, geometry) in self.model.points.iter().zip(&self.points) {
+            let [dx, dy] = geometry.offset;
+            let p = [
+                centre[0] + scale * (cos * dx + sin * dy),
+                centre[1] + scale * (-sin * dx + cos * dy),
+            ];
+            let [u, v] = geometry.direction;
+            let direction = [cos * u + sin * v, -sin * u + cos * v];
+            let lambda = if sample_along(image, p, direction, step, &mut scratch.observed) {
+                let c = inter_correlation_with_energy(
+                    &point.vector,
+                    geometry.energy,
+                    &scratch.observed,
+                );
+                deviation(c, point.slope)
             } else {
                 f64::INFINITY
             };

@@ -3,7 +3,7 @@
 //! `X_k = X_{k-1} + v` and the inter-correlation likelihood of eq. 6.
 
 use nalgebra::{SMatrix, SVector};
-use rperc_core::image::{GrayImage, GrayView, RgbView};
+use rperc_core::image::{GrayImage, GrayView, RgbView, luma};
 
 use super::model::{PatternConfig, PatternModel, Region};
 use super::observation::{Observation, PatternLikelihood, PatternScratch, ScaleSpace, place};
@@ -35,6 +35,28 @@ impl PatternFrame<'_> {
             PatternFrame::Rgb(v) => out.set_from_rgb(&v),
         }
     }
+
+    /// Refills `out` with the grey levels of `window = [x0, y0, x1, y1)` only (the
+    /// same values as [`Self::to_gray`] there).
+    fn window_to_gray(self, window: [usize; 4], out: &mut GrayImage) {
+        let [x0, y0, x1, y1] = window;
+        out.width = x1 - x0;
+        out.height = y1 - y0;
+        out.data.clear();
+        for y in y0..y1 {
+            match self {
+                PatternFrame::Gray(v) => {
+                    let row = &v.data()[y * v.width()..][x0..x1];
+                    out.data.extend(row.iter().map(|&g| f32::from(g)));
+                }
+                PatternFrame::Rgb(v) => {
+                    let row = &v.row(y)[3 * x0..3 * x1];
+                    out.data
+                        .extend(row.chunks_exact(3).map(|p| luma(p[0], p[1], p[2])));
+                }
+            }
+        }
+    }
 }
 
 /// Parameters of a [`PatternTracker`].
@@ -56,7 +78,8 @@ pub struct PatternTrackerParams {
     pub refine_steps: usize,
     /// Model building and observation model (sections 3.2-3.3).
     pub pattern: PatternConfig,
-    /// Particle-filter settings (resampler, policy, chunking, parallelism).
+    /// Particle-filter settings (resampler, policy, chunking, parallelism). Default
+    /// chunks of 16 particles.
     pub filter: FilterParams,
 }
 
@@ -68,7 +91,13 @@ impl Default for PatternTrackerParams {
             lost_occluded_fraction: 0.6,
             refine_steps: 4,
             pattern: PatternConfig::default(),
-            filter: FilterParams::default(),
+            // A particle costs tens of microseconds here: chunks of 16 still outweigh
+            // a rayon task, and 200 particles split into 13 chunks balance two cores
+            // (64 left one core with 128 particles and the other with 72).
+            filter: FilterParams {
+                chunk_size: 16,
+                ..FilterParams::default()
+            },
         }
     }
 }
@@ -133,7 +162,6 @@ pub struct PatternTracker {
     width: usize,
     height: usize,
     filter: ParticleFilter<4>,
-    frame: GrayImage,
     space: ScaleSpace,
     scratch: Vec<PatternScratch>,
     last: PatternPose,
@@ -180,7 +208,6 @@ impl PatternTracker {
             params,
             model,
             filter,
-            frame: image,
             space: ScaleSpace::new(),
             scratch: Vec::new(),
             last,
@@ -213,22 +240,34 @@ impl PatternTracker {
                 height,
             });
         }
-        frame.to_gray(&mut self.frame);
+        let resampled = self.filter.predict();
         // The scale space is built once per frame, never per particle (section 3.3),
-        // and only where and at the scales this frame's particles can look.
+        // and only where and at the scales this frame's predicted particles and the
+        // refinement look.
         let (window, span) = self.reach();
+        let crop = |grown: [usize; 4], out: &mut GrayImage| frame.window_to_gray(grown, out);
         self.space
-            .build_window(&self.frame, &self.model, window, span)?;
+            .build_window_with([width, height], crop, &self.model, window, span)?;
         let likelihood = PatternLikelihood::new(&self.model, &self.space);
         let report = self
             .filter
-            .step_with_scratch(&likelihood, &mut self.scratch);
+            .correct_with_scratch(&likelihood, &mut self.scratch, resampled);
         let mut estimate = self.estimate();
-        let scratch = &mut self.scratch[0];
-        let mut observation = likelihood.observe(&estimate, scratch);
+        while self.scratch.len() < 2 {
+            self.scratch.push(PatternScratch::default());
+        }
+        let (first, second) = self.scratch.split_at_mut(1);
+        let scratch = [&mut first[0], &mut second[0]];
+        let mut observation = likelihood.observe(&estimate, scratch[0]);
         let mut step = SVector::from(self.params.sigma) / 4.0;
+        let parallel = self.params.filter.parallel;
+        let mut search = Refinement {
+            likelihood: &likelihood,
+            scratch,
+            parallel,
+        };
         for _ in 0..self.params.refine_steps {
-            refine(&likelihood, scratch, &mut estimate, &mut observation, &step);
+            search.round(&mut estimate, &mut observation, &step);
             step /= 2.0;
         }
         let lost = report.lost
@@ -252,13 +291,15 @@ impl PatternTracker {
         Ok(self.last)
     }
 
-    /// The frame window `[x0, y0, x1, y1)` and the scale span the particles can reach
-    /// this step: the current particles' extent grown by `REACH_SIGMAS` random-walk
-    /// steps, plus the model's radius (points and half a profile) at the largest scale.
-    /// A particle beyond (probability below 1e-5 per component) sees its points as
-    /// occluded, which only lowers its weight.
+    /// The frame window `[x0, y0, x1, y1)` and the scale span this frame's likelihood
+    /// reads: the predicted particles' extent, grown by half a random-walk sigma (the
+    /// refinement starts at the weighted mean, inside the extent, and its moves and
+    /// probes add up to at most `sigma / 4 * (1 + 1/2 + ...) = sigma / 2`), plus the
+    /// model's radius (points and half a profile) at the largest scale. Every state
+    /// weighed or probed this frame therefore reads the same values as from a scale
+    /// space of the whole frame.
     fn reach(&self) -> ([usize; 4], [f64; 2]) {
-        const REACH_SIGMAS: f64 = 4.5;
+        const MARGIN_SIGMAS: f64 = 0.5;
         let sigma = &self.params.sigma;
         let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
         for p in self.filter.particles() {
@@ -268,13 +309,13 @@ impl PatternTracker {
             }
         }
         let span = [
-            lo[2] - REACH_SIGMAS * sigma[3],
-            hi[2] + REACH_SIGMAS * sigma[3],
+            lo[2] - MARGIN_SIGMAS * sigma[3],
+            hi[2] + MARGIN_SIGMAS * sigma[3],
         ];
         let config = &self.model.config;
         let profile = 0.5 * config.n_samples as f64 * config.delta;
         let radius = (self.model.radius() + profile) * span[1].max(0.0) + 2.0;
-        let grow = |v: f64, d: usize, sign: f64| v + sign * (REACH_SIGMAS * sigma[d] + radius);
+        let grow = |v: f64, d: usize, sign: f64| v + sign * (MARGIN_SIGMAS * sigma[d] + radius);
         let clamp = |v: f64, n: usize| v.floor().clamp(0.0, n as f64) as usize;
         let window = [
             clamp(grow(lo[0], 0, -1.0), self.width),
@@ -335,40 +376,95 @@ fn corners(model: &PatternModel, state: &SVector<f64, 4>) -> [[f64; 2]; 4] {
     [[-hw, -hh], [hw, -hh], [hw, hh], [-hw, hh]].map(|offset| place(state, offset, 0.0).0)
 }
 
-/// One round of the coordinate search: for each state component, the log-likelihoods
-/// at `x - h`, `x`, `x + h` give a parabola whose vertex (clamped to `[-h, h]`; the
-/// better neighbour when the parabola is not concave) is tried; the move is kept when
-/// it raises the log-likelihood of eq. 6.
-fn refine(
-    likelihood: &PatternLikelihood<'_>,
-    scratch: &mut PatternScratch,
-    state: &mut SVector<f64, 4>,
-    best: &mut Observation,
-    step: &SVector<f64, 4>,
-) {
-    for d in 0..4 {
-        let h = step[d];
-        let mut probe = *state;
-        probe[d] = state[d] - h;
-        let minus = likelihood.observe(&probe, scratch).log_likelihood;
-        probe[d] = state[d] + h;
-        let plus = likelihood.observe(&probe, scratch).log_likelihood;
-        let centre = best.log_likelihood;
-        let curvature = plus + minus - 2.0 * centre;
-        let shift = if curvature < 0.0 && curvature.is_finite() {
-            (0.5 * h * (minus - plus) / curvature).clamp(-h, h)
-        } else if plus > minus {
-            h
-        } else if minus > plus {
-            -h
+/// The local search of [`PatternTracker::update`] on one frame's likelihood, with two
+/// work buffers so that the two probes of a coordinate run at once.
+struct Refinement<'a, 'b> {
+    likelihood: &'a PatternLikelihood<'a>,
+    scratch: [&'b mut PatternScratch; 2],
+    parallel: bool,
+}
+
+impl Refinement<'_, '_> {
+    /// The log-likelihoods of `a` and `b`, in parallel when allowed (each on its own
+    /// buffer: the same numbers either way).
+    fn pair(&mut self, a: &SVector<f64, 4>, b: &SVector<f64, 4>) -> (f64, f64) {
+        let likelihood = self.likelihood;
+        let [sa, sb] = &mut self.scratch;
+        let observe =
+            |x: &SVector<f64, 4>, s: &mut PatternScratch| likelihood.observe(x, s).log_likelihood;
+        if self.parallel {
+            rayon::join(|| observe(a, sa), || observe(b, sb))
         } else {
-            continue;
-        };
-        probe[d] = state[d] + shift;
-        let tried = likelihood.observe(&probe, scratch);
-        if tried.log_likelihood > centre {
-            *state = probe;
-            *best = tried;
+            (observe(a, sa), observe(b, sb))
+        }
+    }
+
+    /// One round of the coordinate search: for each state component, the
+    /// log-likelihoods at `x - h`, `x`, `x + h` give a parabola whose vertex (clamped
+    /// to `[-h, h]`; the better neighbour when the parabola is not concave) is tried;
+    /// the move is kept when it raises the log-likelihood of eq. 6.
+    fn round(
+        &mut self,
+        state: &mut SVector<f64, 4>,
+        best: &mut Observation,
+        step: &SVector<f64, 4>,
+    ) {
+        for d in 0..4 {
+            let h = step[d];
+            let (mut below, mut above) = (*state, *state);
+            below[d] -= h;
+            above[d] += h;
+            let (minus, plus) = self.pair(&below, &above);
+            let centre = best.log_likelihood;
+            let curvature = plus + minus - 2.0 * centre;
+            let shift = if curvature < 0.0 && curvature.is_finite() {
+                (0.5 * h * (minus - plus) / curvature).clamp(-h, h)
+            } else if plus > minus {
+                h
+            } else if minus > plus {
+                -h
+            } else {
+                continue;
+            };
+            let mut probe = *state;
+            probe[d] += shift;
+            let tried = self.likelihood.observe(&probe, self.scratch[0]);
+            if tried.log_likelihood > centre {
+                *state = probe;
+                *best = tried;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The window conversion against the whole-frame conversion, cropped.
+    #[test]
+    fn a_window_converts_as_the_whole_frame_does_there() {
+        let (w, h) = (13, 7);
+        let grey: Vec<u8> = (0..w * h).map(|i| (i * 37 % 251) as u8).collect();
+        let rgb: Vec<u8> = (0..w * h * 3).map(|i| (i * 53 % 241) as u8).collect();
+        let frames = [
+            PatternFrame::Gray(GrayView::new(&grey, w, h).unwrap()),
+            PatternFrame::Rgb(RgbView::new(&rgb, w, h).unwrap()),
+        ];
+        for frame in frames {
+            let mut whole = GrayImage::default();
+            frame.to_gray(&mut whole);
+            for window in [[0, 0, w, h], [2, 1, 9, 6], [12, 6, 13, 7], [4, 3, 4, 5]] {
+                let mut part = GrayImage::default();
+                frame.window_to_gray(window, &mut part);
+                let [x0, y0, x1, y1] = window;
+                assert_eq!((part.width, part.height), (x1 - x0, y1 - y0));
+                let want: Vec<f32> = (y0..y1)
+                    .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+                    .map(|(x, y)| whole.at(x, y))
+                    .collect();
+                assert_eq!(part.data, want, "{window:?}");
+            }
         }
     }
 }

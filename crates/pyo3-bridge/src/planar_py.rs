@@ -224,6 +224,8 @@ pub fn planar_simulate<'py>(
                 fixes.extend([*t, xy[0], xy[1]]);
                 fixes.extend(covariance);
             }
+            // The point-landmark simulator makes no wall scans.
+            Event::Walls { .. } => {}
         }
     }
     let d = PyDict::new(py);

@@ -151,6 +151,7 @@ fn bench_mrclam(c: &mut Criterion) {
         detections: &dets,
         detection_ids: Some(&ids),
         fixes: &[],
+        walls: &[],
     };
     let mut group = c.benchmark_group("planar/mrclam_robot1");
     group.sample_size(10);

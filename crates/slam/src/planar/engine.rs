@@ -12,7 +12,7 @@ use super::observe::{anchor_frame, anchor_observation, cartesian, fix_observatio
 use super::walls::{Extent, FixedWall};
 use super::{
     Association, Detection, Event, EventArrays, EventKind, FreezeMode, LandmarkEstimate,
-    PlanarConfig, PlanarResult, Statistics, Trajectory,
+    PlanarConfig, PlanarResult, Statistics, Trajectory, WallDetection,
 };
 use crate::ekf::{Ekf, Gated, SparseJacobian};
 use crate::error::{Result, SlamError, ensure_finite};
@@ -738,19 +738,25 @@ impl PlanarSlam {
     /// least one event is required.
     pub fn run_arrays(&mut self, arrays: &EventArrays<'_>) -> Result<()> {
         check_arrays(arrays)?;
-        let (c, d, f) = (arrays.controls, arrays.detections, arrays.fixes);
-        let (mut i, mut j, mut k) = (0, 0, 0);
-        while i < c.len() || j < d.len() || k < f.len() {
+        let (c, d, f, w) = (
+            arrays.controls,
+            arrays.detections,
+            arrays.fixes,
+            arrays.walls,
+        );
+        let (mut i, mut j, mut k, mut l) = (0, 0, 0, 0);
+        while i < c.len() || j < d.len() || k < f.len() || l < w.len() {
             let tc = c.get(i).map_or(f64::INFINITY, |r| r[0]);
             let td = d.get(j).map_or(f64::INFINITY, |r| r[0]);
             let tf = f.get(k).map_or(f64::INFINITY, |r| r[0]);
-            let event = if tc <= td && tc <= tf {
+            let tw = w.get(l).map_or(f64::INFINITY, |r| r[0]);
+            let event = if tc <= td && tc <= tf && tc <= tw {
                 i += 1;
                 Event::Control {
                     t: tc,
                     control: [c[i - 1][1], c[i - 1][2]],
                 }
-            } else if td <= tf {
+            } else if td <= tf && td <= tw {
                 let start = j;
                 while j < d.len() && d[j][0] == td {
                     j += 1;
@@ -758,6 +764,15 @@ impl PlanarSlam {
                 Event::Scan {
                     t: td,
                     detections: scan_rows(arrays, start, j),
+                }
+            } else if tw <= tf {
+                let start = l;
+                while l < w.len() && w[l][0] == tw {
+                    l += 1;
+                }
+                Event::Walls {
+                    t: tw,
+                    walls: w[start..l].iter().map(wall_row).collect(),
                 }
             } else {
                 k += 1;
@@ -771,6 +786,16 @@ impl PlanarSlam {
             self.process(&event)?;
         }
         Ok(())
+    }
+}
+
+fn wall_row(r: &[f64; 10]) -> WallDetection {
+    WallDetection {
+        rho: r[1],
+        alpha: r[2],
+        covariance: [r[3], r[4], r[4], r[5]],
+        start: [r[6], r[7]],
+        end: [r[8], r[9]],
     }
 }
 
@@ -788,7 +813,8 @@ fn scan_rows(arrays: &EventArrays<'_>, start: usize, end: usize) -> Vec<Detectio
 
 /// Sizes and time order of the arrays, checked before anything runs.
 fn check_arrays(a: &EventArrays<'_>) -> Result<()> {
-    if a.controls.is_empty() && a.detections.is_empty() && a.fixes.is_empty() {
+    if a.controls.is_empty() && a.detections.is_empty() && a.fixes.is_empty() && a.walls.is_empty()
+    {
         return Err(SlamError::invalid("events", "all arrays are empty".into()));
     }
     if let Some(ids) = a.detection_ids
@@ -800,10 +826,11 @@ fn check_arrays(a: &EventArrays<'_>) -> Result<()> {
             a.detections.len()
         )));
     }
-    let times: [(&'static str, Vec<f64>); 3] = [
+    let times: [(&'static str, Vec<f64>); 4] = [
         ("controls", a.controls.iter().map(|r| r[0]).collect()),
         ("detections", a.detections.iter().map(|r| r[0]).collect()),
         ("fixes", a.fixes.iter().map(|r| r[0]).collect()),
+        ("walls", a.walls.iter().map(|r| r[0]).collect()),
     ];
     for (name, t) in times {
         ensure_finite(name, t.iter())?;

@@ -91,7 +91,8 @@ impl Event {
 
 /// A whole run as columnar arrays, each sorted by time (numpy's `(n, k)` row-major
 /// arrays map onto these slices without copying). Detections with equal time stamps
-/// form one scan. At equal times, controls come first, then scans, then fixes.
+/// form one scan, and so do walls. At equal times, controls come first, then scans,
+/// then walls, then fixes.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct EventArrays<'a> {
     /// Rows `(t, control_0, control_1)`.
@@ -102,6 +103,9 @@ pub struct EventArrays<'a> {
     pub detection_ids: Option<&'a [i64]>,
     /// Rows `(t, x, y, var_x, cov_xy, var_y)`.
     pub fixes: &'a [[f64; 6]],
+    /// Wall rows `(t, rho, alpha, var_rho, cov, var_alpha, x0, y0, x1, y1)` in the
+    /// sensor frame (see [`WallDetection`]).
+    pub walls: &'a [[f64; 10]],
 }
 
 /// One wall of a scan in the sensor frame: the line `x cos(alpha) + y sin(alpha) =

@@ -240,10 +240,13 @@ impl PlanarSlam {
         targets
     }
 
-    /// JCBB when configured, nearest neighbour otherwise (walls carry no ids).
+    /// JCBB when configured (one detection per wall), otherwise each detection its
+    /// nearest wall: unlike a point, a wall is often seen as two segments in one
+    /// scan (split by an occluding object), and each is a sighting of it with its
+    /// own noise (walls carry no ids).
     fn choose(&mut self, options: &[Vec<Pairing>]) -> Vec<Pairing> {
         if self.config.association != Association::Jcbb {
-            return associate::nearest_neighbour(options);
+            return options.iter().filter_map(|o| o.first().cloned()).collect();
         }
         let out = associate::jcbb(
             &self.scene(),

@@ -236,3 +236,29 @@ def test_before_the_anchor_is_made_the_nees_is_in_the_world_frame():
         expected = e @ np.linalg.solve(cov[k], e)
         assert nees.nees[k] == pytest.approx(expected, rel=1e-9)
     assert np.median(nees.nees[: len(before)]) < nees.band[1]
+
+
+def test_bridge_runs_wall_landmarks_with_their_full_covariance() -> None:
+    """The wall x = 3 seen from the origin (heading +x) with an uncertain start: the
+    new wall's covariance is ``G_r P G_r^T + R`` with ``G_r = [[1, 0, 0], [0, 0, 1]]``
+    (closed form), its extent is the seen segment, and a bad array names ``walls``."""
+    from rperc import _rperc
+
+    walls = np.array([[0.0, 3.0, 0.0, 1e-4, 0.0, 4e-4, 3.0, -1.0, 3.0, 1.0]])
+    out = _rperc.planar_slam_run(
+        np.zeros((0, 3)),
+        np.zeros((0, 3)),
+        None,
+        None,
+        {"initial_pose_variance": [0.04, 0.09, 0.01]},
+        walls,
+    )
+    np.testing.assert_allclose(out["wall_line"], [[3.0, 0.0]], atol=1e-12)
+    np.testing.assert_allclose(
+        out["wall_covariance"][0], [[0.04 + 1e-4, 0.0], [0.0, 0.01 + 4e-4]], atol=1e-12
+    )
+    np.testing.assert_allclose(out["wall_ends"][0], [[3.0, -1.0], [3.0, 1.0]], atol=1e-12)
+    assert out["statistics"]["walls_new"] == 1
+    assert out["kind"].tolist() == [3]
+    with pytest.raises(ValueError, match="walls"):
+        _rperc.planar_slam_run(np.zeros((0, 3)), np.zeros((0, 3)), None, None, None, walls[:, :9])

@@ -236,3 +236,108 @@ def test_before_the_anchor_is_made_the_nees_is_in_the_world_frame():
         expected = e @ np.linalg.solve(cov[k], e)
         assert nees.nees[k] == pytest.approx(expected, rel=1e-9)
     assert np.median(nees.nees[: len(before)]) < nees.band[1]
+
+
+def test_bridge_runs_wall_landmarks_with_their_full_covariance() -> None:
+    """The wall x = 3 seen from the origin (heading +x) with an uncertain start: the
+    new wall's covariance is ``G_r P G_r^T + R`` with ``G_r = [[1, 0, 0], [0, 0, 1]]``
+    (closed form), its extent is the seen segment, and a bad array names ``walls``."""
+    from rperc import _rperc
+
+    walls = np.array([[0.0, 3.0, 0.0, 1e-4, 0.0, 4e-4, 3.0, -1.0, 3.0, 1.0]])
+    out = _rperc.planar_slam_run(
+        np.zeros((0, 3)),
+        np.zeros((0, 3)),
+        None,
+        None,
+        {"initial_pose_variance": [0.04, 0.09, 0.01]},
+        walls,
+    )
+    np.testing.assert_allclose(out["wall_line"], [[3.0, 0.0]], atol=1e-12)
+    np.testing.assert_allclose(
+        out["wall_covariance"][0], [[0.04 + 1e-4, 0.0], [0.0, 0.01 + 4e-4]], atol=1e-12
+    )
+    np.testing.assert_allclose(out["wall_ends"][0], [[3.0, -1.0], [3.0, 1.0]], atol=1e-12)
+    assert out["statistics"]["walls_new"] == 1
+    assert out["kind"].tolist() == [3]
+    with pytest.raises(ValueError, match="walls"):
+        _rperc.planar_slam_run(np.zeros((0, 3)), np.zeros((0, 3)), None, None, None, walls[:, :9])
+
+
+def _wall_reference():
+    spec = importlib.util.spec_from_file_location(
+        "reference_wall_ekf", ROOT / "benchmarks" / "reference_wall_ekf.py"
+    )
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["reference_wall_ekf"] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def _room_recording(seed: int = 0, steps: int = 200) -> tuple[np.ndarray, np.ndarray]:
+    """A robot on a circle of radius 2 in a 12 x 8 m room with a partition (two
+    collinear walls): noisy (v, omega) every 0.1 s, each wall within 5 m seen as a
+    noisy line with its end points, in the robot frame."""
+    rng = np.random.default_rng(seed)
+    segs = np.array(
+        [
+            [-6, -4, 6, -4],
+            [6, -4, 6, 4],
+            [6, 4, -6, 4],
+            [-6, 4, -6, -4],
+            [-5, -3, -2, -3],
+            [2, -3, 5, -3],
+        ],
+        dtype=float,
+    )
+    pose, dt, controls, rows = np.array([2.0, 0.0, math.pi / 2]), 0.1, [], []
+    var = np.array([4e-4, 3e-4])
+    for k in range(steps):
+        controls.append(
+            [k * dt, 1.0 + 0.1 * rng.standard_normal(), 0.5 + 0.03 * rng.standard_normal()]
+        )
+        pose = REF.unicycle(pose, 1.0, 0.5, dt)[0]
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        for x0, y0, x1, y1 in segs:
+            mid = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+            if np.hypot(*(mid - pose[:2])) > 5.0:
+                continue
+            d = np.array([x1 - x0, y1 - y0]) / math.hypot(x1 - x0, y1 - y0)
+            n = np.array([d[1], -d[0]])
+            rho = n @ [x0, y0]
+            if rho < 0:
+                rho, n = -rho, -n
+            line = np.array([rho, math.atan2(n[1], n[0])])
+            z = WREF.observe_wall(pose, line)[0] + np.sqrt(var) * rng.standard_normal(2)
+            ends = [
+                np.array([[c, s], [-s, c]]) @ (np.array(p) - pose[:2]) for p in ((x0, y0), (x1, y1))
+            ]
+            rows.append([(k + 1) * dt, abs(z[0]), z[1], var[0], 0.0, var[1], *ends[0], *ends[1]])
+    return np.array(controls), np.array(rows)
+
+
+WREF = _wall_reference()
+
+
+def test_wall_landmarks_match_the_numpy_reference_filter() -> None:
+    """The engine with wall landmarks (plain, nearest neighbour) against the same
+    filter written out in numpy (``benchmarks/reference_wall_ekf.py``): the same
+    trajectory after every wall scan and the same walls, in a simulated room with
+    two collinear walls that only segment overlap keeps apart."""
+    from rperc import _rperc
+
+    controls, walls = _room_recording()
+    v = np.diag([0.1**2, 0.03**2])
+    config = {
+        "motion": {"unicycle": {"speed_variance": v[0, 0], "turn_rate_variance": v[1, 1]}},
+        "association": "nn",
+        "initial_pose": [2.0, 0.0, math.pi / 2],
+    }
+    out = _rperc.planar_slam_run(controls, np.zeros((0, 3)), None, None, config, walls)
+    ref = WREF.WallEkfSlam(np.array([2.0, 0.0, math.pi / 2]), v)
+    poses = WREF.run(controls, walls, ref)
+    np.testing.assert_allclose(out["pose"][out["kind"] == 3], poses, atol=1e-9)
+    assert len(out["wall_id"]) == len(ref.extents) == 6
+    lines = ref.x[3:].reshape(-1, 2)
+    np.testing.assert_allclose(out["wall_line"], lines, atol=1e-9)

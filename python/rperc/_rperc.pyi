@@ -148,6 +148,7 @@ def planar_slam_run(
     detection_ids: npt.NDArray[np.int64] | None = None,
     fixes: npt.NDArray[np.float64] | None = None,
     config: dict[str, Any] | None = None,
+    walls: npt.NDArray[np.float64] | None = None,
 ) -> dict[str, Any]: ...
 def monobot_summarize(
     nees: _ArrayLike,

@@ -6,7 +6,9 @@ use numpy::{IntoPyArray, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use slam::planar::sim::{SimConfig, run_nees};
-use slam::planar::{Event, EventArrays, PlanarConfig, PlanarResult, PlanarSlam, Statistics};
+use slam::planar::{
+    Event, EventArrays, PlanarConfig, PlanarResult, PlanarSlam, Statistics, WallEstimate,
+};
 
 use crate::arrays::{shaped, tensor};
 use crate::errors::{Error, Result, detached, detached_parallel};
@@ -54,10 +56,12 @@ fn ids(obj: Option<&Bound<'_, PyAny>>, detections: usize) -> Result<Option<Vec<i
 
 /// Runs planar EKF-SLAM over a recording (GIL released): `controls` rows `(t, u0, u1)`,
 /// `detections` rows `(t, range, bearing)` (equal times form one scan), optional
-/// `detection_ids` (int64), `fixes` rows `(t, x, y, var_x, cov_xy, var_y)`. Returns a
-/// dict of arrays: the robot after every event and the final map.
+/// `detection_ids` (int64), `fixes` rows `(t, x, y, var_x, cov_xy, var_y)`, `walls`
+/// rows `(t, rho, alpha, var_rho, cov, var_alpha, x0, y0, x1, y1)` (sensor frame,
+/// equal times form one scan). Returns a dict of arrays: the robot after every event
+/// and the final maps.
 #[pyfunction]
-#[pyo3(signature = (controls, detections, detection_ids = None, fixes = None, config = None))]
+#[pyo3(signature = (controls, detections, detection_ids = None, fixes = None, config = None, walls = None))]
 pub fn planar_slam_run<'py>(
     py: Python<'py>,
     controls: &Bound<'py, PyAny>,
@@ -65,6 +69,7 @@ pub fn planar_slam_run<'py>(
     detection_ids: Option<&Bound<'py, PyAny>>,
     fixes: Option<&Bound<'py, PyAny>>,
     config: Option<&Bound<'py, PyAny>>,
+    walls: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let config: PlanarConfig = crate::config::from_python(config, "planar")?;
     config.validate().map_err(Error::from)?;
@@ -72,6 +77,7 @@ pub fn planar_slam_run<'py>(
     let detections = rows::<3>(Some(detections), "detections")?;
     let ids = ids(detection_ids, detections.len())?;
     let fixes = rows::<6>(fixes, "fixes")?;
+    let walls = rows::<10>(walls, "walls")?;
     let result = detached(py, || {
         let mut engine = PlanarSlam::new(config)?;
         engine.run_arrays(&EventArrays {
@@ -79,6 +85,7 @@ pub fn planar_slam_run<'py>(
             detections: &detections,
             detection_ids: ids.as_deref(),
             fixes: &fixes,
+            walls: &walls,
         })?;
         Ok(engine.finish())
     })?;
@@ -113,10 +120,34 @@ fn result_dict(py: Python<'_>, r: PlanarResult) -> PyResult<Bound<'_, PyDict>> {
     d.set_item("landmark_frozen", frozen.into_pyarray(py))?;
     let anchor: Vec<bool> = lm.iter().map(|l| l.anchor).collect();
     d.set_item("landmark_anchor", anchor.into_pyarray(py))?;
+    wall_items(py, &d, &r.walls)?;
     d.set_item("statistics", statistics(py, &r.statistics)?)?;
     d.set_item("anchor", r.anchor.map(|a| a.to_vec()))?;
     d.set_item("anchor_time", r.anchor_time)?;
     Ok(d)
+}
+
+/// The wall map's arrays (`wall_*`), each moved into numpy.
+fn wall_items(py: Python<'_>, d: &Bound<'_, PyDict>, walls: &[WallEstimate]) -> PyResult<()> {
+    let k = walls.len();
+    let id: Vec<u64> = walls.iter().map(|w| w.id).collect();
+    d.set_item("wall_id", id.into_pyarray(py))?;
+    let line: Vec<f64> = walls.iter().flat_map(|w| w.line).collect();
+    d.set_item("wall_line", shaped(py, line, &[k, 2])?)?;
+    let cov: Vec<f64> = walls.iter().flat_map(|w| w.covariance).collect();
+    d.set_item("wall_covariance", shaped(py, cov, &[k, 2, 2])?)?;
+    let ends: Vec<f64> = walls
+        .iter()
+        .flat_map(|w| [w.start, w.end].concat())
+        .collect();
+    d.set_item("wall_ends", shaped(py, ends, &[k, 2, 2])?)?;
+    let revisions: Vec<u32> = walls.iter().map(|w| w.revisions).collect();
+    d.set_item("wall_revisions", revisions.into_pyarray(py))?;
+    let frozen: Vec<bool> = walls.iter().map(|w| w.frozen).collect();
+    d.set_item("wall_frozen", frozen.into_pyarray(py))?;
+    let anchor: Vec<bool> = walls.iter().map(|w| w.anchor).collect();
+    d.set_item("wall_anchor", anchor.into_pyarray(py))?;
+    Ok(())
 }
 
 fn statistics<'py>(py: Python<'py>, s: &Statistics) -> PyResult<Bound<'py, PyDict>> {
@@ -131,6 +162,9 @@ fn statistics<'py>(py: Python<'py>, s: &Statistics) -> PyResult<Bound<'py, PyDic
         ("fixes_rejected", s.fixes_rejected),
         ("fixes_ignored", s.fixes_ignored),
         ("jcbb_truncated", s.jcbb_truncated),
+        ("walls_accepted", s.walls_accepted),
+        ("walls_rejected", s.walls_rejected),
+        ("walls_new", s.walls_new),
     ] {
         d.set_item(name, value)?;
     }
@@ -224,6 +258,8 @@ pub fn planar_simulate<'py>(
                 fixes.extend([*t, xy[0], xy[1]]);
                 fixes.extend(covariance);
             }
+            // The point-landmark simulator makes no wall scans.
+            Event::Walls { .. } => {}
         }
     }
     let d = PyDict::new(py);

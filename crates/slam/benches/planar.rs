@@ -2,7 +2,7 @@
 //! the number of landmarks (O(n) and O(n^2): the slopes of log time against log n
 //! should be about 1 and 2), whole simulated runs per association method, and the
 //! full MR.CLAM robot-1 run when the data set is present (`RPERC_DATA`, default
-//! `../shared/data`).
+//! `../shared/data`), and a whole simulated room run with wall landmarks.
 
 use std::hint::black_box;
 use std::path::PathBuf;
@@ -151,6 +151,7 @@ fn bench_mrclam(c: &mut Criterion) {
         detections: &dets,
         detection_ids: Some(&ids),
         fixes: &[],
+        walls: &[],
     };
     let mut group = c.benchmark_group("planar/mrclam_robot1");
     group.sample_size(10);
@@ -164,11 +165,35 @@ fn bench_mrclam(c: &mut Criterion) {
     group.finish();
 }
 
+/// Wall landmarks: a whole simulated room run (300 wall scans of about 5 walls, 6
+/// walls in the map), per association method; 300 / time is the scans per second.
+fn bench_wall_room(c: &mut Criterion) {
+    use slam::planar::room::{RoomConfig, simulate_room};
+    let room = RoomConfig::default();
+    let data = simulate_room(&room, 3, 0);
+    let mut group = c.benchmark_group("planar/wall_room_300_scans");
+    for association in [Association::NearestNeighbour, Association::Jcbb] {
+        let config = PlanarConfig {
+            association,
+            ..room.slam_config()
+        };
+        group.bench_function(format!("{association}"), |b| {
+            b.iter(|| {
+                let mut engine = PlanarSlam::new(config.clone()).unwrap();
+                engine.run(black_box(&data.events)).unwrap();
+                engine.statistics().walls_accepted
+            })
+        });
+    }
+    group.finish();
+}
+
 criterion_group!(
     benches,
     bench_predict,
     bench_update,
     bench_simulated_runs,
-    bench_mrclam
+    bench_mrclam,
+    bench_wall_room
 );
 criterion_main!(benches);

@@ -7,7 +7,7 @@
 //! `alpha_r = alpha - theta`, `rho_r = rho - x cos(alpha) - y sin(alpha)`; a negative
 //! `rho_r` (the robot on the other side of the line from the world origin) is written
 //! `(-rho_r, alpha_r + pi)`, which flips the sign of the `rho` row of the Jacobians.
-//! Not wired into the planar engine yet.
+//! The planar engine uses these for its wall landmarks ([`crate::planar`]).
 
 use std::f64::consts::PI;
 

@@ -270,6 +270,7 @@ fn arrays_equal_events() {
         detections: &detections,
         detection_ids: Some(&ids),
         fixes: &fixes,
+        walls: &[],
     })
     .unwrap();
     let det = |range, bearing, id| Detection {

@@ -395,6 +395,8 @@ class PlanarSlam:
             None if fixes is None else _rows(fixes, 6, "fixes"),
             self.config or None,
         )
+        for key in [k for k in out if k.startswith("wall_")]:
+            del out[key]  # no walls in a point-landmark recording
         anchor = out.pop("anchor")
         anchor_time = out.pop("anchor_time")
         stats = {k: int(v) for k, v in out.pop("statistics").items()}

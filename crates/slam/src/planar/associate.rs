@@ -16,6 +16,8 @@ pub(crate) enum Target {
     State(usize),
     /// Entry `k` of the fixed points (frozen landmarks, the anchor).
     Fixed(usize),
+    /// Entry `k` of the fixed walls (frozen walls, a wall anchor).
+    FixedWall(usize),
 }
 
 /// A point the filter no longer estimates (a frozen landmark, or the anchor with a
@@ -52,6 +54,9 @@ pub(crate) struct Scene<'a> {
     pub w: Matrix2<f64>,
     pub fixed: &'a [FixedPoint],
     prr: Matrix3<f64>,
+    /// `walls[j]`: state landmark `j` is a wall (empty: no walls), so point
+    /// detections are never tried against it.
+    walls: Vec<bool>,
 }
 
 impl<'a> Scene<'a> {
@@ -66,33 +71,47 @@ impl<'a> Scene<'a> {
             w,
             fixed,
             prr,
+            walls: Vec::new(),
         }
     }
 
-    fn landmark(&self, target: Target) -> (Point2<f64>, Option<usize>) {
+    /// Marks which state landmarks are walls (see [`Scene::is_wall`]).
+    pub fn with_walls(mut self, walls: Vec<bool>) -> Self {
+        self.walls = walls;
+        self
+    }
+
+    /// Whether state landmark `j` is a wall.
+    pub fn is_wall(&self, j: usize) -> bool {
+        self.walls.get(j).copied().unwrap_or(false)
+    }
+
+    /// A point target's position and state offset; `None` for a wall.
+    fn landmark(&self, target: Target) -> Option<(Point2<f64>, Option<usize>)> {
         match target {
-            Target::State(j) => {
+            Target::State(j) if !self.is_wall(j) => {
                 let off = 3 + 2 * j;
                 let x = self.ekf.state();
-                (Point2::new(x[off], x[off + 1]), Some(off))
+                Some((Point2::new(x[off], x[off + 1]), Some(off)))
             }
-            Target::Fixed(k) => (self.fixed[k].mean, None),
+            Target::Fixed(k) => Some((self.fixed[k].mean, None)),
+            _ => None,
         }
     }
 
     /// The pairing of detection `det` (measured `z`) with `target`; `None` when the
     /// target sits on the sensor or `S` is singular.
     pub fn pairing(&self, det: usize, z: &Vector2<f64>, target: Target) -> Option<Pairing> {
-        let (l, offset) = self.landmark(target);
+        let (l, offset) = self.landmark(target)?;
         let (zp, h_robot, h_l) = observe(&self.robot, &self.mount, &l)?;
         let nu = Vector2::new(z.x - zp.x, wrap_angle(z.y - zp.y));
         let (h_landmark, r) = match target {
-            Target::State(_) => (h_l, self.w),
             // Frozen: the landmark is known with its frozen covariance (text under Fig. 7).
             Target::Fixed(k) => (
                 Matrix2::zeros(),
                 self.w + h_l * self.fixed[k].cov * h_l.transpose(),
             ),
+            _ => (h_l, self.w),
         };
         let mut p = Pairing {
             det,
@@ -153,7 +172,7 @@ struct Screen {
 
 impl Scene<'_> {
     fn screen(&self, target: Target) -> Option<Screen> {
-        let (l, offset) = self.landmark(target);
+        let (l, offset) = self.landmark(target)?;
         let sensor = self.robot.compose(&self.mount);
         let (dx, dy) = (l.x - sensor.x, l.y - sensor.y);
         let r = dx.hypot(dy);

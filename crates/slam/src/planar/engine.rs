@@ -9,9 +9,10 @@ use rperc_core::{Definiteness, Pose2, check_covariance, chi2_gate};
 
 use super::associate::{self, FixedPoint, Pairing, Scene, Target};
 use super::observe::{anchor_frame, anchor_observation, cartesian, fix_observation, landmark_from};
+use super::walls::{Extent, FixedWall};
 use super::{
     Association, Detection, Event, EventArrays, EventKind, FreezeMode, LandmarkEstimate,
-    PlanarConfig, PlanarResult, Statistics, Trajectory,
+    PlanarConfig, PlanarResult, Statistics, Trajectory, WallDetection,
 };
 use crate::ekf::{Ekf, Gated, SparseJacobian};
 use crate::error::{Result, SlamError, ensure_finite};
@@ -63,32 +64,39 @@ struct Candidate {
 /// ```
 #[derive(Debug, Clone)]
 pub struct PlanarSlam {
-    config: PlanarConfig,
-    ekf: Ekf,
+    pub(super) config: PlanarConfig,
+    pub(super) ekf: Ekf,
     /// The detection noise `W` (eq. 8).
     w: Matrix2<f64>,
-    mount: Pose2,
-    gate: f64,
+    pub(super) mount: Pose2,
+    pub(super) gate: f64,
     /// `joint_gates[k]`: the chi-square gate of `k` stacked detections.
-    joint_gates: Vec<f64>,
-    time: Option<f64>,
+    pub(super) joint_gates: Vec<f64>,
+    pub(super) time: Option<f64>,
     control: Vector2<f64>,
     /// The internal frame's origin in the world (the anchor's position; zero without).
-    offset: Vector2<f64>,
-    anchor: Option<u64>,
+    pub(super) offset: Vector2<f64>,
+    pub(super) anchor: Option<u64>,
     /// When the anchor was made (before it, the state is in the world frame).
-    anchor_time: Option<f64>,
+    pub(super) anchor_time: Option<f64>,
     /// Frozen landmarks and the anchor, with their ids.
     fixed: Vec<FixedPoint>,
     fixed_ids: Vec<u64>,
-    revisions: HashMap<u64, u32>,
+    /// Frozen walls and a wall anchor, with their ids.
+    pub(super) fixed_walls: Vec<FixedWall>,
+    pub(super) fixed_wall_ids: Vec<u64>,
+    /// Every wall's seen extent (state, frozen or anchor), in the internal frame.
+    pub(super) walls: HashMap<u64, Extent>,
+    /// The last wall scan: each detection's wall id (paired or admitted), or `None`.
+    pub(super) wall_pairing: Vec<Option<u64>>,
+    pub(super) revisions: HashMap<u64, u32>,
     candidates: Vec<Candidate>,
     next_id: u64,
     events: usize,
     /// Work done since the last interrupt checkpoint (Ctrl-C from Python).
     meter: rperc_core::interrupt::Work,
     trajectory: Trajectory,
-    stats: Statistics,
+    pub(super) stats: Statistics,
 }
 
 /// Where the sensor sits on the robot: at its origin for the unicycle, at the laser
@@ -100,7 +108,9 @@ fn sensor_mount(motion: &MotionModel) -> Pose2 {
     }
 }
 
-fn dyn_mat<const R: usize, const C: usize>(m: &nalgebra::SMatrix<f64, R, C>) -> DMatrix<f64> {
+pub(super) fn dyn_mat<const R: usize, const C: usize>(
+    m: &nalgebra::SMatrix<f64, R, C>,
+) -> DMatrix<f64> {
     DMatrix::from_column_slice(R, C, m.as_slice())
 }
 
@@ -126,6 +136,10 @@ impl PlanarSlam {
             anchor_time: None,
             fixed: Vec::new(),
             fixed_ids: Vec::new(),
+            fixed_walls: Vec::new(),
+            fixed_wall_ids: Vec::new(),
+            walls: HashMap::new(),
+            wall_pairing: Vec::new(),
             revisions: HashMap::new(),
             candidates: Vec::new(),
             next_id: 0,
@@ -147,7 +161,7 @@ impl PlanarSlam {
         &self.ekf
     }
 
-    fn robot(&self) -> Pose2 {
+    pub(super) fn robot(&self) -> Pose2 {
         let x = self.ekf.state();
         Pose2::new(x[0], x[1], x[2])
     }
@@ -194,6 +208,7 @@ impl PlanarSlam {
         // An event costs about the state size (prediction) times its detections (update).
         let detections = match event {
             Event::Scan { detections, .. } => detections.len(),
+            Event::Walls { walls, .. } => walls.len(),
             _ => 0,
         };
         let cost = self.ekf.state().len() * (1 + detections);
@@ -213,6 +228,11 @@ impl PlanarSlam {
                 self.predict_to(*t)?;
                 self.scan(*t, detections)?;
                 Ok(EventKind::Scan)
+            }
+            Event::Walls { t, walls } => {
+                self.predict_to(*t)?;
+                self.wall_scan(walls)?;
+                Ok(EventKind::Walls)
             }
             Event::Fix { t, xy, covariance } => {
                 self.predict_to(*t)?;
@@ -315,6 +335,7 @@ impl PlanarSlam {
         let (pairings, unmatched) = self.associate(&zs, &ids)?;
         if !pairings.is_empty() {
             self.apply(&pairings, &zs)?;
+            self.stats.accepted += pairings.len() as u64;
         }
         self.candidates
             .retain(|c| t - c.last_seen <= self.config.candidate_window);
@@ -331,12 +352,8 @@ impl PlanarSlam {
         zs: &[Vector2<f64>],
         ids: &[Option<u64>],
     ) -> Result<(Vec<Pairing>, Vec<usize>)> {
-        while self.joint_gates.len() <= zs.len() {
-            let k = self.joint_gates.len();
-            self.joint_gates
-                .push(chi2_gate(2 * k, self.config.gate_confidence)?);
-        }
-        let scene = Scene::new(&self.ekf, self.mount, self.w, &self.fixed);
+        self.grow_joint_gates(zs.len())?;
+        let scene = self.scene();
         let found = if self.config.association == Association::Known {
             self.associate_known(&scene, zs, ids)?
         } else {
@@ -345,6 +362,27 @@ impl PlanarSlam {
         self.stats.rejected += found.rejected;
         self.stats.jcbb_truncated += u64::from(found.truncated);
         Ok((found.pairings, found.unmatched))
+    }
+
+    /// `joint_gates[k]` for every `k <= n`.
+    pub(super) fn grow_joint_gates(&mut self, n: usize) -> Result<()> {
+        while self.joint_gates.len() <= n {
+            let k = self.joint_gates.len();
+            self.joint_gates
+                .push(chi2_gate(2 * k, self.config.gate_confidence)?);
+        }
+        Ok(())
+    }
+
+    /// The prior the association works against, with the walls marked.
+    pub(super) fn scene(&self) -> Scene<'_> {
+        let walls = self
+            .ekf
+            .landmark_ids()
+            .iter()
+            .map(|id| self.walls.contains_key(id))
+            .collect();
+        Scene::new(&self.ekf, self.mount, self.w, &self.fixed).with_walls(walls)
     }
 
     /// Nearest neighbour or JCBB over the individually compatible pairings. A
@@ -396,6 +434,12 @@ impl PlanarSlam {
                     format!("detection {i} has no id (association 'known')"),
                 )
             })?;
+            if self.walls.contains_key(&id) {
+                return Err(SlamError::invalid(
+                    "id",
+                    format!("detection {i} has id {id}, which is a wall's"),
+                ));
+            }
             let target = match self.ekf.landmark_index(id) {
                 Some(j) => Some(Target::State(j)),
                 None => self
@@ -413,20 +457,24 @@ impl PlanarSlam {
         Ok(found)
     }
 
-    fn target_id(&self, target: Target) -> u64 {
+    pub(super) fn target_id(&self, target: Target) -> u64 {
         match target {
             Target::State(j) => self.ekf.landmark_ids()[j],
             Target::Fixed(k) => self.fixed_ids[k],
+            Target::FixedWall(k) => self.fixed_wall_ids[k],
         }
     }
 
     /// All pairings of the scan in one stacked update (eqs. 6-9, Joseph form). An
     /// anchor sighting uses eq. (24) as a Cartesian point with its Jacobian (25).
-    fn apply(&mut self, pairings: &[Pairing], zs: &[Vector2<f64>]) -> Result<()> {
+    pub(super) fn apply(&mut self, pairings: &[Pairing], zs: &[Vector2<f64>]) -> Result<()> {
         let robot = self.robot();
         let mut stacked = Vec::with_capacity(pairings.len());
         for p in pairings {
-            let is_anchor = self.anchor.is_some_and(|a| self.target_id(p.target) == a);
+            // A wall anchor is a fixed wall like a frozen one: only a point anchor
+            // is observed through eq. (24).
+            let is_anchor = matches!(p.target, Target::Fixed(_))
+                && self.anchor.is_some_and(|a| self.target_id(p.target) == a);
             let mut h = SparseJacobian::new(2);
             let (nu, r) = if is_anchor {
                 let (zc, wc) = cartesian(&zs[p.det], &self.w);
@@ -444,7 +492,6 @@ impl PlanarSlam {
         }
         let ids: Vec<u64> = pairings.iter().map(|p| self.target_id(p.target)).collect();
         self.ekf.update_batch(&stacked)?;
-        self.stats.accepted += pairings.len() as u64;
         for id in ids {
             let n = self.revisions.entry(id).or_insert(0);
             *n += 1;
@@ -475,11 +522,19 @@ impl PlanarSlam {
             return Ok(());
         }
         let off = self.ekf.landmark_offset(j)?;
-        let mean = Point2::new(self.ekf.state()[off], self.ekf.state()[off + 1]);
+        let mean = Vector2::new(self.ekf.state()[off], self.ekf.state()[off + 1]);
         let cov = Matrix2::from_column_slice(self.ekf.landmark_covariance(j)?.as_slice());
         self.ekf.remove_landmark(j)?;
-        self.fixed.push(FixedPoint { mean, cov });
-        self.fixed_ids.push(id);
+        if self.walls.contains_key(&id) {
+            self.fixed_walls.push(FixedWall { line: mean, cov });
+            self.fixed_wall_ids.push(id);
+        } else {
+            self.fixed.push(FixedPoint {
+                mean: Point2::from(mean),
+                cov,
+            });
+            self.fixed_ids.push(id);
+        }
         self.stats.frozen += 1;
         Ok(())
     }
@@ -547,9 +602,10 @@ impl PlanarSlam {
             .map(|(k, _)| k)
     }
 
-    fn fresh_id(&mut self) -> u64 {
+    pub(super) fn fresh_id(&mut self) -> u64 {
         while self.ekf.landmark_index(self.next_id).is_some()
             || self.fixed_ids.contains(&self.next_id)
+            || self.walls.contains_key(&self.next_id)
         {
             self.next_id += 1;
         }
@@ -625,6 +681,9 @@ impl PlanarSlam {
     pub fn landmarks(&self) -> Vec<LandmarkEstimate> {
         let mut out = Vec::new();
         for (j, &id) in self.ekf.landmark_ids().iter().enumerate() {
+            if self.walls.contains_key(&id) {
+                continue;
+            }
             let off = 3 + 2 * j;
             let x = self.ekf.state();
             let c = self
@@ -662,8 +721,11 @@ impl PlanarSlam {
     /// The trajectory, the map and the statistics.
     pub fn finish(self) -> PlanarResult {
         let landmarks = self.landmarks();
+        let walls = self.walls();
+        let point_anchor = self.anchor.filter(|id| !self.walls.contains_key(id));
         PlanarResult {
-            anchor: self.anchor.map(|_| [self.offset.x, self.offset.y]),
+            anchor: point_anchor.map(|_| [self.offset.x, self.offset.y]),
+            walls,
             anchor_time: self.anchor_time,
             trajectory: self.trajectory,
             landmarks,
@@ -676,19 +738,25 @@ impl PlanarSlam {
     /// least one event is required.
     pub fn run_arrays(&mut self, arrays: &EventArrays<'_>) -> Result<()> {
         check_arrays(arrays)?;
-        let (c, d, f) = (arrays.controls, arrays.detections, arrays.fixes);
-        let (mut i, mut j, mut k) = (0, 0, 0);
-        while i < c.len() || j < d.len() || k < f.len() {
+        let (c, d, f, w) = (
+            arrays.controls,
+            arrays.detections,
+            arrays.fixes,
+            arrays.walls,
+        );
+        let (mut i, mut j, mut k, mut l) = (0, 0, 0, 0);
+        while i < c.len() || j < d.len() || k < f.len() || l < w.len() {
             let tc = c.get(i).map_or(f64::INFINITY, |r| r[0]);
             let td = d.get(j).map_or(f64::INFINITY, |r| r[0]);
             let tf = f.get(k).map_or(f64::INFINITY, |r| r[0]);
-            let event = if tc <= td && tc <= tf {
+            let tw = w.get(l).map_or(f64::INFINITY, |r| r[0]);
+            let event = if tc <= td && tc <= tf && tc <= tw {
                 i += 1;
                 Event::Control {
                     t: tc,
                     control: [c[i - 1][1], c[i - 1][2]],
                 }
-            } else if td <= tf {
+            } else if td <= tf && td <= tw {
                 let start = j;
                 while j < d.len() && d[j][0] == td {
                     j += 1;
@@ -696,6 +764,15 @@ impl PlanarSlam {
                 Event::Scan {
                     t: td,
                     detections: scan_rows(arrays, start, j),
+                }
+            } else if tw <= tf {
+                let start = l;
+                while l < w.len() && w[l][0] == tw {
+                    l += 1;
+                }
+                Event::Walls {
+                    t: tw,
+                    walls: w[start..l].iter().map(wall_row).collect(),
                 }
             } else {
                 k += 1;
@@ -709,6 +786,16 @@ impl PlanarSlam {
             self.process(&event)?;
         }
         Ok(())
+    }
+}
+
+fn wall_row(r: &[f64; 10]) -> WallDetection {
+    WallDetection {
+        rho: r[1],
+        alpha: r[2],
+        covariance: [r[3], r[4], r[4], r[5]],
+        start: [r[6], r[7]],
+        end: [r[8], r[9]],
     }
 }
 
@@ -726,7 +813,8 @@ fn scan_rows(arrays: &EventArrays<'_>, start: usize, end: usize) -> Vec<Detectio
 
 /// Sizes and time order of the arrays, checked before anything runs.
 fn check_arrays(a: &EventArrays<'_>) -> Result<()> {
-    if a.controls.is_empty() && a.detections.is_empty() && a.fixes.is_empty() {
+    if a.controls.is_empty() && a.detections.is_empty() && a.fixes.is_empty() && a.walls.is_empty()
+    {
         return Err(SlamError::invalid("events", "all arrays are empty".into()));
     }
     if let Some(ids) = a.detection_ids
@@ -738,10 +826,11 @@ fn check_arrays(a: &EventArrays<'_>) -> Result<()> {
             a.detections.len()
         )));
     }
-    let times: [(&'static str, Vec<f64>); 3] = [
+    let times: [(&'static str, Vec<f64>); 4] = [
         ("controls", a.controls.iter().map(|r| r[0]).collect()),
         ("detections", a.detections.iter().map(|r| r[0]).collect()),
         ("fixes", a.fixes.iter().map(|r| r[0]).collect()),
+        ("walls", a.walls.iter().map(|r| r[0]).collect()),
     ];
     for (name, t) in times {
         ensure_finite(name, t.iter())?;

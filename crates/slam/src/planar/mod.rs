@@ -9,13 +9,21 @@
 //! Python caller passes as numpy arrays in one call). Controls are held constant
 //! until the next control (zero-order hold): every event first predicts the robot
 //! to its own time with the control in force, so `dt` is the gap between events.
+//!
+//! Walls (infinite lines in Hessian form, section 2.1, seen as [`WallDetection`]s in
+//! [`Event::Walls`]) are a second landmark kind in the same state and filter: their
+//! world `(rho, alpha)` is estimated with the observation model of [`crate::wall`],
+//! paired by a Mahalanobis gate plus segment overlap, and frozen and anchored by the
+//! same config as the points (see [`PlanarSlam`]).
 
 mod associate;
 mod bias;
 mod config;
 mod engine;
 mod observe;
+pub mod room;
 pub mod sim;
+mod walls;
 
 pub use bias::SensorBias;
 pub use config::{Association, FreezeMode, PlanarConfig};
@@ -51,6 +59,13 @@ pub enum Event {
         /// The detections.
         detections: Vec<Detection>,
     },
+    /// The walls extracted from one laser scan, applied in one batch update.
+    Walls {
+        /// Time stamp, s.
+        t: f64,
+        /// The walls, in the sensor frame.
+        walls: Vec<WallDetection>,
+    },
     /// An external measurement of the robot's xy (eqs. 26-27), world frame.
     Fix {
         /// Time stamp, s.
@@ -66,14 +81,18 @@ impl Event {
     /// The event's time stamp.
     pub fn time(&self) -> f64 {
         match self {
-            Event::Control { t, .. } | Event::Scan { t, .. } | Event::Fix { t, .. } => *t,
+            Event::Control { t, .. }
+            | Event::Scan { t, .. }
+            | Event::Walls { t, .. }
+            | Event::Fix { t, .. } => *t,
         }
     }
 }
 
 /// A whole run as columnar arrays, each sorted by time (numpy's `(n, k)` row-major
 /// arrays map onto these slices without copying). Detections with equal time stamps
-/// form one scan. At equal times, controls come first, then scans, then fixes.
+/// form one scan, and so do walls. At equal times, controls come first, then scans,
+/// then walls, then fixes.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct EventArrays<'a> {
     /// Rows `(t, control_0, control_1)`.
@@ -84,9 +103,29 @@ pub struct EventArrays<'a> {
     pub detection_ids: Option<&'a [i64]>,
     /// Rows `(t, x, y, var_x, cov_xy, var_y)`.
     pub fixes: &'a [[f64; 6]],
+    /// Wall rows `(t, rho, alpha, var_rho, cov, var_alpha, x0, y0, x1, y1)` in the
+    /// sensor frame (see [`WallDetection`]).
+    pub walls: &'a [[f64; 10]],
 }
 
-/// What kind of event a trajectory row follows (`as u8`: 0, 1, 2).
+/// One wall of a scan in the sensor frame: the line `x cos(alpha) + y sin(alpha) =
+/// rho` with its covariance, and the seen segment's end points (outside the state:
+/// they grow the wall's drawn extent and decide segment overlap).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WallDetection {
+    /// Distance from the sensor to the line, m (>= 0).
+    pub rho: f64,
+    /// Direction of the line's normal, rad.
+    pub alpha: f64,
+    /// Covariance of `(rho, alpha)`, row-major 2x2 (symmetric positive definite).
+    pub covariance: [f64; 4],
+    /// First end point of the seen segment, m.
+    pub start: [f64; 2],
+    /// Last end point of the seen segment, m.
+    pub end: [f64; 2],
+}
+
+/// What kind of event a trajectory row follows (`as u8`: 0, 1, 2, 3).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[repr(u8)]
 pub enum EventKind {
@@ -96,6 +135,8 @@ pub enum EventKind {
     Scan = 1,
     /// An external fix.
     Fix = 2,
+    /// A scan's walls.
+    Walls = 3,
 }
 
 /// The robot after every event, in the world frame: one row per event.
@@ -130,6 +171,27 @@ pub struct LandmarkEstimate {
     pub anchor: bool,
 }
 
+/// A wall of the final map, in the world frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WallEstimate {
+    /// The wall's id (assigned in order of admission, shared with the points' ids).
+    pub id: u64,
+    /// `(rho, alpha)`, `rho >= 0`, `alpha` in (-pi, pi].
+    pub line: [f64; 2],
+    /// Covariance of `(rho, alpha)`, row-major 2x2 (the anchor's is zero).
+    pub covariance: [f64; 4],
+    /// The seen extent: the union of the segments paired with it, on its line, m.
+    pub start: [f64; 2],
+    /// See `start`.
+    pub end: [f64; 2],
+    /// How many updates used it.
+    pub revisions: u32,
+    /// Whether it left the state (freezing).
+    pub frozen: bool,
+    /// Whether it is the anchor.
+    pub anchor: bool,
+}
+
 /// Association and update counts of a run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Statistics {
@@ -152,6 +214,12 @@ pub struct Statistics {
     pub fixes_ignored: u64,
     /// Scans whose JCBB search hit its node budget.
     pub jcbb_truncated: u64,
+    /// Wall detections paired with a wall and applied.
+    pub walls_accepted: u64,
+    /// Wall detections compatible with a wall but left out by the association.
+    pub walls_rejected: u64,
+    /// Walls admitted into the map.
+    pub walls_new: u64,
 }
 
 /// Everything a run produced.
@@ -159,11 +227,14 @@ pub struct Statistics {
 pub struct PlanarResult {
     /// The robot after every event.
     pub trajectory: Trajectory,
-    /// The map, sorted by id.
+    /// The point map, sorted by id.
     pub landmarks: Vec<LandmarkEstimate>,
+    /// The wall map, sorted by id.
+    pub walls: Vec<WallEstimate>,
     /// Association statistics.
     pub statistics: Statistics,
-    /// The anchor's world position (the origin of the engine's internal frame).
+    /// The point anchor's world position (the origin of the engine's internal
+    /// frame); `None` without an anchor or when the anchor is a wall.
     pub anchor: Option<[f64; 2]>,
     /// The time the anchor was made: the robot covariance is relative to the anchor
     /// from then on, in the world frame before.

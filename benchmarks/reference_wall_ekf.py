@@ -1,0 +1,193 @@
+"""A numpy EKF-SLAM with wall landmarks, the peer of rperc's planar engine with walls
+(``crates/slam/src/planar/walls.rs``) in ``benchmarks/wall_slam.py``: the same filter
+written out in numpy, for the plain variant (no anchor, no freezing), term for term:
+
+- the unicycle of ``reference_planar_ekf`` (the sensor at the robot's origin);
+- world walls ``(rho, alpha)`` observed as ``rho_r = rho - x cos a - y sin a``,
+  ``alpha_r = alpha - theta``, written with ``rho_r >= 0`` (``crates/slam/src/wall.rs``),
+  the innovation compared with the line's other form when the angles are more than
+  pi/2 apart;
+- pairing: segment overlap on the wall's line (gap <= ``overlap_gap``) and the
+  Mahalanobis gate; each detection takes its nearest wall; a detection with no wall
+  inside the gate becomes new only outside the admission gate of every overlapping
+  wall;
+- one stacked Joseph-form update per scan (the structured O(n^2) form), extents grown
+  with the updated pose, new walls with ``G_r P G_r^T + G_z R G_z^T`` and their
+  cross-covariance ``G_r P_r,:``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from reference_planar_ekf import chi2_quantile_2dof, unicycle, wrap
+
+
+def observe_wall(pose: np.ndarray, line: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    s, c = math.sin(line[1]), math.cos(line[1])
+    rho = line[0] - pose[0] * c - pose[1] * s
+    h_r = np.array([[-c, -s, 0.0], [0.0, 0.0, -1.0]])
+    h_l = np.array([[1.0, pose[0] * s - pose[1] * c], [0.0, 1.0]])
+    alpha = line[1] - pose[2]
+    if rho < 0:
+        rho, alpha = -rho, alpha + math.pi
+        h_r[0], h_l[0] = -h_r[0], -h_l[0]
+    return np.array([rho, wrap(alpha)]), h_r, h_l
+
+
+def wall_to_world(pose: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    alpha = z[1] + pose[2]
+    s, c = math.sin(alpha), math.cos(alpha)
+    rho = z[0] + pose[0] * c + pose[1] * s
+    lever = -pose[0] * s + pose[1] * c
+    g_r = np.array([[c, s, lever], [0.0, 0.0, 1.0]])
+    g_z = np.array([[1.0, lever], [0.0, 1.0]])
+    if rho < 0:
+        rho, alpha = -rho, alpha + math.pi
+        g_r[0], g_z[0] = -g_r[0], -g_z[0]
+    return np.array([rho, wrap(alpha)]), g_r, g_z
+
+
+def to_world(pose: np.ndarray, p: np.ndarray) -> np.ndarray:
+    s, c = math.sin(pose[2]), math.cos(pose[2])
+    return np.array([pose[0] + c * p[0] - s * p[1], pose[1] + s * p[0] + c * p[1]])
+
+
+def along(line: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, float]:
+    s, c = math.sin(line[1]), math.cos(line[1])
+    n = np.array([c, s])
+    return p - n * (n @ p - line[0]), -s * p[0] + c * p[1]
+
+
+def covering(line: np.ndarray, points: list[np.ndarray]) -> list[np.ndarray]:
+    feet = [along(line, p) for p in points]
+    return [min(feet, key=lambda f: f[1])[0], max(feet, key=lambda f: f[1])[0]]
+
+
+def gap(line: np.ndarray, a: list[np.ndarray], b: list[np.ndarray]) -> float:
+    a0, a1, b0, b1 = (along(line, p)[1] for p in (*a, *b))
+    return max(min(a0, a1), min(b0, b1)) - min(max(a0, a1), max(b0, b1))
+
+
+@dataclass
+class WallEkfSlam:
+    """Plain wall-landmark EKF-SLAM over ``[x, y, theta, rho1, alpha1, ...]``."""
+
+    pose: np.ndarray
+    control_noise: np.ndarray
+    gate: float = 0.99
+    admission: float = 0.999999
+    overlap_gap: float = 0.5
+    x: np.ndarray = field(init=False)
+    P: np.ndarray = field(init=False)
+    extents: list[list[np.ndarray]] = field(init=False, default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.x = np.array(self.pose, dtype=float)
+        self.P = np.zeros((3, 3))
+        self.gate_d2 = chi2_quantile_2dof(self.gate)
+        self.new_d2 = chi2_quantile_2dof(self.admission)
+
+    def predict(self, v: float, w: float, dt: float) -> None:
+        mean, fx, fv = unicycle(self.x[:3], v, w, dt)
+        self.x[:3] = mean
+        self.P[:3, :] = fx @ self.P[:3, :]
+        self.P[:, :3] = self.P[:, :3] @ fx.T
+        self.P[:3, :3] += fv @ self.control_noise @ fv.T
+
+    def _pairing(
+        self, j: int, z: np.ndarray, r: np.ndarray
+    ) -> tuple[float, np.ndarray, np.ndarray]:
+        o = 3 + 2 * j
+        pred, h_r, h_l = observe_wall(self.x[:3], self.x[o : o + 2])
+        d = wrap(z[1] - pred[1])
+        if abs(d) <= math.pi / 2:
+            nu = np.array([z[0] - pred[0], d])
+        else:
+            nu = np.array([z[0] + pred[0], wrap(z[1] - pred[1] - math.pi)])
+            h_r[0], h_l[0] = -h_r[0], -h_l[0]
+        h = np.hstack([h_r, h_l])
+        idx = [0, 1, 2, o, o + 1]
+        s = h @ self.P[np.ix_(idx, idx)] @ h.T + r
+        return float(nu @ np.linalg.solve(s, nu)), nu, h
+
+    def scan(self, walls: np.ndarray) -> None:
+        """One scan's rows ``(t, rho, alpha, var_rho, cov, var_alpha, x0, y0, x1, y1)``."""
+        zs = [np.array([w[1], wrap(w[2])]) for w in walls]
+        rs = [np.array([[w[3], w[4]], [w[4], w[5]]]) for w in walls]
+        local = [[w[6:8], w[8:10]] for w in walls]
+        best, near = [], []
+        for z, r, seg in zip(zs, rs, local, strict=True):
+            ends = [to_world(self.x[:3], p) for p in seg]
+            opts = []
+            for j, ext in enumerate(self.extents):
+                o = 3 + 2 * j
+                if gap(self.x[o : o + 2], ext, ends) <= self.overlap_gap:
+                    nis, nu, h = self._pairing(j, z, r)
+                    if nis <= self.new_d2:
+                        opts.append((nis, j, nu, h))
+            near.append(bool(opts))
+            opts = sorted((p for p in opts if p[0] <= self.gate_d2), key=lambda p: p[0])
+            best.append(opts[0] if opts else None)
+        paired = [(i, b) for i, b in enumerate(best) if b is not None]
+        if paired:
+            self._update([(b[1], b[2], b[3], rs[i]) for i, b in paired])
+            for i, b in paired:
+                j = b[1]
+                o = 3 + 2 * j
+                ends = [to_world(self.x[:3], p) for p in local[i]]
+                self.extents[j] = covering(self.x[o : o + 2], [*self.extents[j], *ends])
+        for i in range(len(zs)):
+            if best[i] is None and not near[i]:
+                self._admit(zs[i], rs[i], local[i])
+
+    def _update(self, pairs: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]]) -> None:
+        n, m = len(self.x), len(pairs)
+        nu, h, r = np.zeros(2 * m), np.zeros((2 * m, n)), np.zeros((2 * m, 2 * m))
+        for k, (j, nu_k, h_k, r_k) in enumerate(pairs):
+            o = 3 + 2 * j
+            nu[2 * k : 2 * k + 2] = nu_k
+            h[2 * k : 2 * k + 2, :3], h[2 * k : 2 * k + 2, o : o + 2] = h_k[:, :3], h_k[:, 3:]
+            r[2 * k : 2 * k + 2, 2 * k : 2 * k + 2] = r_k
+        cols = np.flatnonzero(np.any(h != 0.0, axis=0))
+        pht = self.P[:, cols] @ h[:, cols].T
+        s = h[:, cols] @ pht[cols] + r
+        k = np.linalg.solve(s, pht.T).T
+        self.P += -k @ pht.T - pht @ k.T + k @ s @ k.T
+        self.P = 0.5 * (self.P + self.P.T)
+        self.x += k @ nu
+        self.x[2] = wrap(self.x[2])
+
+    def _admit(self, z: np.ndarray, r: np.ndarray, seg: list[np.ndarray]) -> None:
+        line, g_r, g_z = wall_to_world(self.x[:3], z)
+        cross = g_r @ self.P[:3, :]
+        pll = g_r @ self.P[:3, :3] @ g_r.T + g_z @ r @ g_z.T
+        n = len(self.x)
+        p = np.zeros((n + 2, n + 2))
+        p[:n, :n], p[n:, :n], p[:n, n:], p[n:, n:] = self.P, cross, cross.T, 0.5 * (pll + pll.T)
+        self.P = p
+        self.x = np.r_[self.x, line]
+        self.extents.append(covering(line, [to_world(self.x[:3], q) for q in seg]))
+
+
+def run(controls: np.ndarray, walls: np.ndarray, slam: WallEkfSlam) -> np.ndarray:
+    """Events merged as the engine does (controls first at equal times, walls of equal
+    time one scan); the robot pose after each wall scan."""
+    scans = np.split(walls, np.flatnonzero(np.diff(walls[:, 0])) + 1) if len(walls) else []
+    i, t, u, out = 0, controls[0, 0], (0.0, 0.0), []
+    for scan in scans:
+        ts = scan[0, 0]
+        while i < len(controls) and controls[i, 0] <= ts:
+            if controls[i, 0] > t:
+                slam.predict(*u, controls[i, 0] - t)
+                t = controls[i, 0]
+            u = (controls[i, 1], controls[i, 2])
+            i += 1
+        if ts > t:
+            slam.predict(*u, ts - t)
+            t = ts
+        slam.scan(scan)
+        out.append(slam.x[:3].copy())
+    return np.array(out)

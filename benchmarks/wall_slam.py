@@ -1,0 +1,98 @@
+"""Wall-landmark SLAM on the CARMEN logs, end to end (issue 11, part 7): read the log,
+extract every scan's walls, run the plain EKF with wall landmarks from noisy odometry
+(``wall_fig7``'s, seed 0), in scans per second per stage; the SLAM stage against
+``reference_wall_ekf``, the same filter in numpy, in the same run, which must give
+the same trajectory.
+
+    python benchmarks/wall_slam.py [--logs intel.log aces.log]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+from _timing import print_table
+from reference_wall_ekf import WallEkfSlam
+from reference_wall_ekf import run as run_reference
+from wall_fig7 import SPEED_SIGMA, TURN_SIGMA, increments, noisy_controls, wall_rows
+
+from rperc import _rperc
+from rperc.datasets.carmen import load_carmen
+
+
+def seconds(fn: object, repeat: int = 3) -> tuple[float, object]:
+    best, out = float("inf"), None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()  # type: ignore[operator]
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
+def bench(path: Path) -> list[str]:
+    t_read, log = seconds(lambda: load_carmen(path))
+    ref = log.scans.pose
+    exact, t = increments(ref)
+    t_extract, (walls, _) = seconds(lambda: wall_rows(log, t))
+    controls = np.r_[noisy_controls(exact, 0), [[t[-1], 0.0, 0.0]]]
+    config = {
+        "motion": {
+            "unicycle": {"speed_variance": SPEED_SIGMA**2, "turn_rate_variance": TURN_SIGMA**2}
+        },
+        "association": "nn",
+        "initial_pose": ref[0].tolist(),
+    }
+    empty = np.zeros((0, 3))
+    t_slam, out = seconds(
+        lambda: _rperc.planar_slam_run(controls, empty, None, None, config, walls)
+    )
+    v = np.diag([SPEED_SIGMA**2, TURN_SIGMA**2])
+    t_numpy, est_np = seconds(
+        lambda: run_reference(controls, walls, WallEkfSlam(ref[0], v)), repeat=1
+    )
+    rows = out["pose"][out["kind"] == 3]  # type: ignore[index]
+    diff = float(np.max(np.abs(rows - est_np))) if rows.shape == est_np.shape else float("nan")
+    n = len(ref)
+    total = t_read + t_extract + t_slam
+    return [
+        path.name,
+        str(n),
+        f"{n / t_read:,.0f}",
+        f"{n / t_extract:,.0f}",
+        f"{n / t_slam:,.0f}",
+        f"{n / total:,.0f}",
+        f"{n / t_numpy:,.0f}",
+        f"{t_numpy / t_slam:.0f}x",
+        f"{diff:.1e}",
+    ]
+
+
+def main() -> None:
+    data = Path(os.environ.get("RPERC_DATA", "data")) / "carmen"
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--logs", nargs="+", default=[str(data / "intel.log"), str(data / "aces.log")])
+    args = ap.parse_args()
+    rows = [bench(Path(p)) for p in args.logs]
+    print_table(
+        "wall SLAM, scans per second per stage (best of 3; numpy once)",
+        [
+            "log",
+            "scans",
+            "read",
+            "extract",
+            "SLAM",
+            "end to end",
+            "numpy SLAM",
+            "rperc/numpy",
+            "max |pose diff|",
+        ],
+        rows,
+    )
+
+
+if __name__ == "__main__":
+    main()

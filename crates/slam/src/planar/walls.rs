@@ -1,0 +1,432 @@
+//! Walls in the planar engine, the second landmark kind: each scan's walls are
+//! paired with the map by a Mahalanobis gate on `(rho, alpha)` plus segment overlap,
+//! applied in one batch update with the observation model of [`crate::wall`], and the
+//! rest admitted with their full covariance (the inverse model, with the robot's
+//! covariance and cross-covariances). Freezing and the anchor follow the config
+//! shared with the points. A wall's seen extent is kept outside the state: grown as
+//! the wall is seen, it draws the map and decides overlap.
+
+use std::f64::consts::PI;
+
+use nalgebra::{DVector, Matrix2, Matrix2x3, Matrix3, Matrix3x2, Point2, Vector2};
+use rperc_core::{Definiteness, Pose2, check_covariance, chi2_gate, wrap_angle};
+
+use super::associate::{self, Pairing, Scene, Target};
+use super::engine::dyn_mat;
+use super::{Association, PlanarSlam, WallDetection, WallEstimate};
+use crate::ekf::Ekf;
+use crate::error::{Result, SlamError, ensure_finite};
+use crate::wall::{WallJacobians, observe_wall, wall_innovation, wall_to_world};
+
+/// A wall the filter no longer estimates (frozen, or a wall anchor with a zero
+/// covariance): observed as known, its covariance added to the noise.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct FixedWall {
+    pub line: Vector2<f64>,
+    pub cov: Matrix2<f64>,
+}
+
+/// A wall's seen extent: two points on its line, in the internal frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Extent {
+    pub start: Point2<f64>,
+    pub end: Point2<f64>,
+}
+
+/// A checked wall detection: `z = (rho, alpha)`, its noise `r`, and the seen
+/// segment's end points in the sensor frame.
+struct Seen {
+    z: Vector2<f64>,
+    r: Matrix2<f64>,
+    local: [Point2<f64>; 2],
+}
+
+fn checked(i: usize, d: &WallDetection) -> Result<Seen> {
+    let values = [d.rho, d.alpha]
+        .into_iter()
+        .chain(d.covariance)
+        .chain(d.start)
+        .chain(d.end)
+        .collect::<Vec<_>>();
+    ensure_finite("wall", values.iter())?;
+    if d.rho < 0.0 {
+        return Err(SlamError::invalid(
+            "rho",
+            format!("wall {i}: must be >= 0, got {}", d.rho),
+        ));
+    }
+    let r = Matrix2::from_row_slice(&d.covariance);
+    check_covariance("wall covariance", &dyn_mat(&r), Definiteness::Positive)?;
+    Ok(Seen {
+        z: Vector2::new(d.rho, wrap_angle(d.alpha)),
+        r,
+        local: [Point2::from(d.start), Point2::from(d.end)],
+    })
+}
+
+/// The foot of `p` on `line` and its coordinate along the line.
+fn along(line: &Vector2<f64>, p: &Point2<f64>) -> (Point2<f64>, f64) {
+    let (s, c) = line.y.sin_cos();
+    let n = Vector2::new(c, s);
+    (p - n * (n.dot(&p.coords) - line.x), -s * p.x + c * p.y)
+}
+
+/// The shortest extent on `line` covering the feet of `points`.
+fn covering(line: &Vector2<f64>, points: &[Point2<f64>]) -> Extent {
+    let feet: Vec<(Point2<f64>, f64)> = points.iter().map(|p| along(line, p)).collect();
+    let lo = feet.iter().min_by(|a, b| a.1.total_cmp(&b.1));
+    let hi = feet.iter().max_by(|a, b| a.1.total_cmp(&b.1));
+    let (lo, hi) = (
+        lo.map_or(Point2::origin(), |f| f.0),
+        hi.map_or(Point2::origin(), |f| f.0),
+    );
+    Extent { start: lo, end: hi }
+}
+
+/// The gap between an extent and a segment, both projected on `line` (negative when
+/// they overlap).
+fn gap(line: &Vector2<f64>, a: &Extent, b: &[Point2<f64>; 2]) -> f64 {
+    let t = |p: &Point2<f64>| along(line, p).1;
+    let (a0, a1, b0, b1) = (t(&a.start), t(&a.end), t(&b[0]), t(&b[1]));
+    a0.min(a1).max(b0.min(b1)) - a0.max(a1).min(b0.max(b1))
+}
+
+/// A map wall a detection may be paired with: a state wall, or a fixed one with its
+/// covariance.
+struct WallTarget<'a> {
+    target: Target,
+    line: Vector2<f64>,
+    fixed: Option<&'a Matrix2<f64>>,
+    extent: &'a Extent,
+}
+
+/// The pairing of detection `det` with `wall`, seen from the sensor (with its
+/// Jacobian with respect to the robot). The prediction's Jacobians take the other
+/// form of the line when the innovation does ([`wall_innovation`]).
+fn wall_pairing(
+    scene: &Scene<'_>,
+    (sensor, j_sensor): &(Pose2, Matrix3<f64>),
+    det: usize,
+    seen: &Seen,
+    wall: &WallTarget<'_>,
+) -> Option<Pairing> {
+    let (target, fixed) = (wall.target, wall.fixed);
+    let pred = observe_wall(sensor, &wall.line)?;
+    let (nu, sign) = wall_innovation(&seen.z, &pred.wall);
+    let mut h_robot = pred.d_pose * j_sensor;
+    let mut h_l = pred.d_wall;
+    if sign < 0.0 {
+        h_robot.row_mut(0).neg_mut();
+        h_l.row_mut(0).neg_mut();
+    }
+    let (h_landmark, r, offset) = match (target, fixed) {
+        (Target::State(j), _) => (h_l, seen.r, Some(3 + 2 * j)),
+        (_, Some(c)) => (Matrix2::zeros(), seen.r + h_l * c * h_l.transpose(), None),
+        _ => return None,
+    };
+    let mut p = Pairing {
+        det,
+        target,
+        nu,
+        h_robot,
+        h_landmark,
+        offset,
+        r,
+        nis: 0.0,
+    };
+    let s = scene.cross(&p, &p) + p.r;
+    p.nis = nu.dot(&(s.try_inverse()? * nu));
+    p.nis.is_finite().then_some(p)
+}
+
+impl PlanarSlam {
+    fn sensor(&self) -> (Pose2, Matrix3<f64>) {
+        let (sensor, j_robot, _) = self.robot().compose_with_jacobians(&self.mount);
+        (sensor, j_robot)
+    }
+
+    /// A wall scan: association, one batch update, extents grown, new walls admitted.
+    pub(super) fn wall_scan(&mut self, detections: &[WallDetection]) -> Result<()> {
+        let seen = detections
+            .iter()
+            .enumerate()
+            .map(|(i, d)| checked(i, d))
+            .collect::<Result<Vec<_>>>()?;
+        self.grow_joint_gates(seen.len())?;
+        let new_gate = chi2_gate(2, self.config.wall_admission_confidence)?;
+        let (options, near) = self.wall_options(&seen, new_gate);
+        let pairings = self.choose(&options);
+        self.wall_pairing = vec![None; seen.len()];
+        if !pairings.is_empty() {
+            let ids: Vec<u64> = pairings.iter().map(|p| self.target_id(p.target)).collect();
+            let zs: Vec<Vector2<f64>> = seen.iter().map(|s| s.z).collect();
+            self.apply(&pairings, &zs)?;
+            self.stats.walls_accepted += pairings.len() as u64;
+            for (p, id) in pairings.iter().zip(ids) {
+                self.extend(id, &seen[p.det]);
+                self.wall_pairing[p.det] = Some(id);
+            }
+        }
+        for (i, opts) in options.iter().enumerate() {
+            if self.wall_pairing[i].is_some() {
+                continue;
+            }
+            if opts.is_empty() && !near[i] {
+                let id = self.fresh_id();
+                self.admit_wall(id, &seen[i])?;
+                self.wall_pairing[i] = Some(id);
+            } else {
+                // Compatible with a wall but left out, or outside the gate of an
+                // overlapping wall but inside the admission gate (the gate's tail:
+                // it would otherwise duplicate a wall every few scans): ambiguous,
+                // not new.
+                self.stats.walls_rejected += 1;
+            }
+        }
+        Ok(())
+    }
+
+    /// Every wall (state or fixed) whose extent overlaps the detection's segment
+    /// within `wall_overlap_gap` and whose pairing passes the gate, by NIS; and
+    /// whether some overlapping wall is within `new_gate`, the wider gate a detection
+    /// must fail for every wall to become a new one.
+    fn wall_options(&self, seen: &[Seen], new_gate: f64) -> (Vec<Vec<Pairing>>, Vec<bool>) {
+        let scene = self.scene();
+        let sensor = self.sensor();
+        let targets = self.wall_targets();
+        seen.iter()
+            .enumerate()
+            .map(|(i, s)| {
+                let ends = s.local.map(|p| sensor.0.transform_point(&p));
+                let mut o: Vec<Pairing> = targets
+                    .iter()
+                    .filter(|w| gap(&w.line, w.extent, &ends) <= self.config.wall_overlap_gap)
+                    .filter_map(|w| wall_pairing(&scene, &sensor, i, s, w))
+                    .filter(|p| p.nis <= new_gate)
+                    .collect();
+                let near = !o.is_empty();
+                o.retain(|p| p.nis <= self.gate);
+                o.sort_by(|a, b| a.nis.total_cmp(&b.nis));
+                (o, near)
+            })
+            .unzip()
+    }
+
+    /// The walls of the map: in the state, then fixed.
+    fn wall_targets(&self) -> Vec<WallTarget<'_>> {
+        let x = self.ekf.state();
+        let mut targets = Vec::new();
+        for (j, id) in self.ekf.landmark_ids().iter().enumerate() {
+            if let Some(extent) = self.walls.get(id) {
+                targets.push(WallTarget {
+                    target: Target::State(j),
+                    line: Vector2::new(x[3 + 2 * j], x[4 + 2 * j]),
+                    fixed: None,
+                    extent,
+                });
+            }
+        }
+        let fixed = self.fixed_walls.iter().zip(&self.fixed_wall_ids);
+        for (k, (f, id)) in fixed.enumerate() {
+            if let Some(extent) = self.walls.get(id) {
+                targets.push(WallTarget {
+                    target: Target::FixedWall(k),
+                    line: f.line,
+                    fixed: Some(&f.cov),
+                    extent,
+                });
+            }
+        }
+        targets
+    }
+
+    /// JCBB when configured (one detection per wall), otherwise each detection its
+    /// nearest wall: unlike a point, a wall is often seen as two segments in one
+    /// scan (split by an occluding object), and each is a sighting of it with its
+    /// own noise (walls carry no ids).
+    fn choose(&mut self, options: &[Vec<Pairing>]) -> Vec<Pairing> {
+        if self.config.association != Association::Jcbb {
+            return options.iter().filter_map(|o| o.first().cloned()).collect();
+        }
+        let out = associate::jcbb(
+            &self.scene(),
+            options,
+            &self.joint_gates,
+            self.config.jcbb_max_nodes,
+        );
+        self.stats.jcbb_truncated += u64::from(out.truncated);
+        out.pairings
+    }
+
+    /// Wall `id`'s line, covariance and whether it is frozen, from the state or the
+    /// fixed walls (internal frame).
+    fn wall_line(&self, id: u64) -> Option<(Vector2<f64>, Matrix2<f64>, bool)> {
+        if let Some(j) = self.ekf.landmark_index(id) {
+            let off = 3 + 2 * j;
+            let x = self.ekf.state();
+            let c = self.ekf.covariance_block_fixed::<2, 2>(off, off)?;
+            return Some((Vector2::new(x[off], x[off + 1]), c, self.ekf.is_consider(j)));
+        }
+        let k = self.fixed_wall_ids.iter().position(|&f| f == id)?;
+        let f = &self.fixed_walls[k];
+        Some((f.line, f.cov, true))
+    }
+
+    /// Grows wall `id`'s extent by the detection's segment, placed with the updated
+    /// pose and projected on the updated line.
+    fn extend(&mut self, id: u64, seen: &Seen) {
+        let (sensor, _) = self.sensor();
+        let Some((line, _, _)) = self.wall_line(id) else {
+            return;
+        };
+        if let Some(e) = self.walls.get_mut(&id) {
+            let [a, b] = seen.local.map(|p| sensor.transform_point(&p));
+            *e = covering(&line, &[e.start, e.end, a, b]);
+        }
+    }
+
+    /// A new wall from detection `seen`: `l = g(robot, z)` with the full
+    /// cross-covariance; the first landmark becomes the anchor when that variant is on.
+    fn admit_wall(&mut self, id: u64, seen: &Seen) -> Result<()> {
+        let (sensor, j_sensor) = self.sensor();
+        let w = wall_to_world(&sensor, &seen.z)
+            .ok_or_else(|| SlamError::invalid("wall", "is not finite".into()))?;
+        let g_robot = w.d_pose * j_sensor;
+        let ends = seen.local.map(|p| sensor.transform_point(&p));
+        if self.config.anchor && self.anchor.is_none() && self.ekf.num_landmarks() == 0 {
+            self.make_wall_anchor(id, &w, &g_robot, &seen.r)?;
+        } else {
+            self.ekf.add_landmark_with_id(
+                id,
+                &DVector::from_column_slice(w.wall.as_slice()),
+                &dyn_mat(&g_robot),
+                &dyn_mat(&w.d_wall),
+                &dyn_mat(&seen.r),
+            )?;
+        }
+        self.walls.insert(id, covering(&w.wall, &ends));
+        self.revisions.insert(id, 0);
+        self.stats.walls_new += 1;
+        Ok(())
+    }
+
+    /// The first wall as the global reference (the wall form of eqs. 24-25): it is
+    /// fixed at its first estimate `w^`, and the robot is re-expressed in the frame
+    /// where the true wall sits there. That frame is the world rotated about its
+    /// origin by `alpha^ - alpha` and moved along the normal by `rho^ - rho`, so to
+    /// first order the robot's error becomes `J_r e + J_z e_z` with
+    /// `J_r = I + M G_r`, `J_z = M G_z`, and `M`'s columns the robot's motion per unit
+    /// of the wall's rho and alpha: `(-cos a, -sin a, 0)` and `(y, -x, -1)`. The
+    /// distance to the wall and the heading then carry only the sighting's noise; the
+    /// position along the wall keeps its prior uncertainty.
+    fn make_wall_anchor(
+        &mut self,
+        id: u64,
+        w: &WallJacobians,
+        g_robot: &Matrix2x3<f64>,
+        r: &Matrix2<f64>,
+    ) -> Result<()> {
+        let robot = self.robot();
+        let (s, c) = w.wall.y.sin_cos();
+        let m = Matrix3x2::new(-c, robot.y, -s, -robot.x, 0.0, -1.0);
+        let j_r = Matrix3::identity() + m * g_robot;
+        let j_z = m * w.d_wall;
+        let p = j_r * self.pose_covariance() * j_r.transpose() + j_z * r * j_z.transpose();
+        let p = (p + p.transpose()) * 0.5;
+        let x = self.ekf.state().rows(0, 3).into_owned();
+        self.ekf = Ekf::new(x, dyn_mat(&p), 3, 2)?.with_wrapped_angle(2)?;
+        self.fixed_walls.push(FixedWall {
+            line: w.wall,
+            cov: Matrix2::zeros(),
+        });
+        self.fixed_wall_ids.push(id);
+        self.anchor = Some(id);
+        self.anchor_time = self.time;
+        Ok(())
+    }
+}
+
+/// The wall map and the last scan's pairing.
+impl PlanarSlam {
+    /// The walls in the world frame, sorted by id.
+    pub fn walls(&self) -> Vec<WallEstimate> {
+        let mut out: Vec<WallEstimate> = self
+            .walls
+            .iter()
+            .filter_map(|(&id, e)| {
+                let (line, cov, frozen) = self.wall_line(id)?;
+                Some(self.wall_estimate(id, line, cov, frozen, e))
+            })
+            .collect();
+        out.sort_by_key(|w| w.id);
+        out
+    }
+
+    /// For each wall of the last wall scan, the wall it was paired with or admitted
+    /// as (`None`: compatible with some wall but left out).
+    pub fn last_wall_pairing(&self) -> &[Option<u64>] {
+        &self.wall_pairing
+    }
+
+    /// An internal-frame wall in the world frame (shifted by a point anchor's
+    /// offset), written with `rho >= 0`: the flip `(-rho, alpha + pi)` negates the
+    /// covariance's off-diagonal.
+    fn wall_estimate(
+        &self,
+        id: u64,
+        line: Vector2<f64>,
+        cov: Matrix2<f64>,
+        frozen: bool,
+        e: &Extent,
+    ) -> WallEstimate {
+        let (s, c) = line.y.sin_cos();
+        let rho = line.x + c * self.offset.x + s * self.offset.y;
+        let (rho, alpha, sign) = if rho < 0.0 {
+            (-rho, line.y + PI, -1.0)
+        } else {
+            (rho, line.y, 1.0)
+        };
+        let anchor = Some(id) == self.anchor;
+        let (o, a, b) = (self.offset, e.start, e.end);
+        WallEstimate {
+            id,
+            line: [rho, wrap_angle(alpha)],
+            covariance: [
+                cov[(0, 0)],
+                sign * cov[(0, 1)],
+                sign * cov[(1, 0)],
+                cov[(1, 1)],
+            ],
+            start: [a.x + o.x, a.y + o.y],
+            end: [b.x + o.x, b.y + o.y],
+            revisions: self.revisions.get(&id).copied().unwrap_or(0),
+            frozen: frozen && !anchor,
+            anchor,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn extents_cover_and_gaps_measure_along_the_line() {
+        // The line y = 2 (rho 2, alpha pi/2): along-coordinate is -x.
+        let line = Vector2::new(2.0, PI / 2.0);
+        let e = covering(
+            &line,
+            &[
+                Point2::new(1.0, 2.1),
+                Point2::new(-1.0, 1.9),
+                Point2::new(0.0, 2.0),
+            ],
+        );
+        assert!((e.start - Point2::new(1.0, 2.0)).norm() < 1e-12);
+        assert!((e.end - Point2::new(-1.0, 2.0)).norm() < 1e-12);
+        let seg = [Point2::new(3.0, 2.0), Point2::new(4.0, 2.0)];
+        assert!((gap(&line, &e, &seg) - 2.0).abs() < 1e-12);
+        let seg = [Point2::new(0.5, 2.0), Point2::new(4.0, 2.0)];
+        assert!((gap(&line, &e, &seg) + 0.5).abs() < 1e-12);
+    }
+}

@@ -347,3 +347,32 @@ mod keys_and_servo {
         assert!(rperc_core::angle_diff(error.theta, truth.theta).abs() < 1e-9);
     }
 }
+
+proptest! {
+    /// The rigid fit recovers the transform that made the points, and with noise it
+    /// is no worse (in weighted squared residual) than the transform itself.
+    #[test]
+    fn fit_pose_recovers_the_transform(
+        t in prop::array::uniform3(-5.0f64..5.0),
+        points in prop::collection::vec(prop::array::uniform2(-3.0f64..3.0), 2..8),
+        noise in prop::collection::vec(prop::array::uniform2(-0.01f64..0.01), 8),
+    ) {
+        use tracking::memory::fit_pose;
+        let truth = Pose2::new(t[0], t[1], t[2]);
+        let spread = points.iter().any(|p| (p[0] - points[0][0]).hypot(p[1] - points[0][1]) > 0.5);
+        prop_assume!(spread);
+        let pairs: Vec<([f64; 2], [f64; 2], f64)> = points.iter().map(|p| {
+            let q = truth.transform_point(&nalgebra::Point2::new(p[0], p[1]));
+            ([q.x, q.y], *p, 1.0)
+        }).collect();
+        let fit = fit_pose(&pairs).unwrap();
+        prop_assert!(close(&fit, &truth, 1e-9), "{fit:?} vs {truth:?}");
+        let noisy: Vec<_> = pairs.iter().zip(&noise).map(|(p, n)| ([p.0[0] + n[0], p.0[1] + n[1]], p.1, 1.0)).collect();
+        let residual = |pose: &Pose2| noisy.iter().map(|(m, r, _)| {
+            let q = pose.transform_point(&nalgebra::Point2::new(r[0], r[1]));
+            (q.x - m[0]).powi(2) + (q.y - m[1]).powi(2)
+        }).sum::<f64>();
+        let fit = fit_pose(&noisy).unwrap();
+        prop_assert!(residual(&fit) <= residual(&truth) + 1e-12);
+    }
+}

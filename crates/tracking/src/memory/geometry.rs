@@ -94,3 +94,50 @@ pub fn fuse(estimates: &[(Pose2, f64)]) -> Option<Pose2> {
     }
     Some(Pose2::new(x, y, wrap_angle(s.atan2(c))))
 }
+
+/// `(mosaic point, robot-frame point, weight)`.
+pub type PointPair = ([f64; 2], [f64; 2], f64);
+
+/// The pose `T` that best maps robot-frame points onto their mosaic positions,
+/// `mosaic ~ T (robot)`, by weighted least squares (the 2-D Kabsch / Umeyama fit
+/// without scale); `None` with fewer than two points of positive weight or all
+/// points at one place.
+///
+/// With several models in view this is eq. 2 fused through the models' positions:
+/// the robot's heading then comes from the baseline between models (a hundred
+/// pixels) rather than from each tracker's rotation (a model's own contours, tens of
+/// pixels), so it is several times more precise.
+pub fn fit_pose(pairs: &[([f64; 2], [f64; 2], f64)]) -> Option<Pose2> {
+    let used: Vec<&([f64; 2], [f64; 2], f64)> = pairs
+        .iter()
+        .filter(|p| p.2 > 0.0 && p.2.is_finite())
+        .collect();
+    if used.len() < 2 {
+        return None;
+    }
+    let total: f64 = used.iter().map(|p| p.2).sum();
+    let mean = |pick: fn(&PointPair) -> [f64; 2]| {
+        used.iter().fold([0.0, 0.0], |acc, p| {
+            let q = pick(p);
+            [acc[0] + p.2 * q[0] / total, acc[1] + p.2 * q[1] / total]
+        })
+    };
+    let cm = mean(|p| p.0);
+    let cr = mean(|p| p.1);
+    let (mut dot, mut cross) = (0.0, 0.0);
+    for (m, r, w) in &used {
+        let (a, b) = ([r[0] - cr[0], r[1] - cr[1]], [m[0] - cm[0], m[1] - cm[1]]);
+        dot += w * (a[0] * b[0] + a[1] * b[1]);
+        cross += w * (a[0] * b[1] - a[1] * b[0]);
+    }
+    if dot == 0.0 && cross == 0.0 {
+        return None;
+    }
+    let theta = cross.atan2(dot);
+    let (s, c) = theta.sin_cos();
+    Some(Pose2::new(
+        cm[0] - (c * cr[0] - s * cr[1]),
+        cm[1] - (s * cr[0] + c * cr[1]),
+        theta,
+    ))
+}

@@ -5,12 +5,18 @@
 
 mod geometry;
 mod keyimages;
+mod mosaic;
+mod run;
 mod salient;
 mod servo;
 
-pub use geometry::{ImageScale, fuse, new_model_in_mosaic, robot_in_mosaic};
+pub use geometry::{ImageScale, PointPair, fit_pose, fuse, new_model_in_mosaic, robot_in_mosaic};
 pub use keyimages::{
     KeyImage, KeyImageParams, LearntFrame, TrackedModel, check_chain, select_key_images, separation,
+};
+pub use mosaic::{FrameReport, MosaicBuilder, MosaicModel, MosaicParams, rotation_lever};
+pub use run::{
+    LearnParams, Learning, Replay, ReplayOutcome, ReplayParams, VisualMemory, World, learn, replay,
 };
 pub use salient::{ProposalParams, propose_regions};
 pub use servo::{ServoParams, command, key_error};

@@ -11,7 +11,7 @@
 
 use rperc_core::{Pose2, wrap_angle};
 
-use super::geometry::{ImageScale, fuse};
+use super::geometry::{ImageScale, fit_pose, fuse};
 use super::keyimages::{KeyImage, TrackedModel};
 use crate::error::Result;
 
@@ -44,7 +44,7 @@ impl Default for ServoParams {
             gain_bearing: 1.5,
             gain_heading: 0.8,
             max_speed: 25.0,
-            max_turn_rate: 0.6,
+            max_turn_rate: 0.25,
             switch_error: 12.0,
             final_error: 1.5,
             align_radius: 4.0,
@@ -68,24 +68,46 @@ impl ServoParams {
     }
 }
 
-/// The key image's robot pose seen from the current one (pixels), fused over the
-/// shared models by score; `None` when no model is shared.
+/// The key image's robot pose seen from the current one (pixels), from the models
+/// shared by the current image and the key image: with two or more spread over the
+/// image, the rigid fit of their key-image positions onto their current ones
+/// ([`fit_pose`]); with fewer, each shared model's own image pose (its rotation
+/// included), fused by score. `None` when no model is shared.
 pub fn key_error(current: &[TrackedModel], key: &KeyImage, principal: [f64; 2]) -> Option<Pose2> {
     let pixels = ImageScale {
         metres_per_pixel: 1.0,
         principal,
     };
-    let estimates: Vec<(Pose2, f64)> = current
+    let mut pairs = Vec::new();
+    let mut single = Vec::new();
+    for m in current {
+        let Some(k) = key.models.iter().find(|k| k.id == m.id) else {
+            continue;
+        };
+        let now = pixels.camera_to_model(m.state);
+        let then = pixels.camera_to_model(k.state);
+        // Robot-frame positions: the model now, and at the key image.
+        pairs.push(([now.x, now.y], [then.x, then.y], m.score));
+        single.push((now.compose(&then.inverse()), m.score));
+    }
+    let spread = pairs
         .iter()
-        .filter_map(|m| {
-            let k = key.models.iter().find(|k| k.id == m.id)?;
-            let now = pixels.camera_to_model(m.state);
-            let then = pixels.camera_to_model(k.state);
-            Some((now.compose(&then.inverse()), m.score))
+        .flat_map(|a| {
+            pairs
+                .iter()
+                .map(move |b| (a.0[0] - b.0[0]).hypot(a.0[1] - b.0[1]))
         })
-        .collect();
-    fuse(&estimates)
+        .fold(0.0, f64::max);
+    let fitted = if spread >= MIN_BASELINE {
+        fit_pose(&pairs)
+    } else {
+        None
+    };
+    fitted.or_else(|| fuse(&single))
 }
+
+/// Shared models at least this far apart (pixels) give the error by their positions.
+const MIN_BASELINE: f64 = 40.0;
 
 /// The command `(v, omega)` (pixels per second, rad/s) towards a goal seen at `error`
 /// (from [`key_error`]).

@@ -145,7 +145,7 @@ impl PatternConfig {
 }
 
 /// One model point: `U(j) = (x, y, phi)`, `V(j)` and `W(j)` of eq. 4.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
 pub struct ModelPoint {
     /// `x(j) = (u - x_c) / Delta_x`, normalised in the window.
     pub x: f64,
@@ -159,8 +159,9 @@ pub struct ModelPoint {
     pub slope: f64,
 }
 
-/// A learnt pattern: its window and model points.
-#[derive(Debug, Clone, PartialEq)]
+/// A learnt pattern: its window and model points (serialisable, so that a mosaic
+/// stores its models as learnt).
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
 pub struct PatternModel {
     /// Window centre `(x_c, y_c)`, pixels.
     pub centre: [f64; 2],

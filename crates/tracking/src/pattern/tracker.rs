@@ -184,7 +184,33 @@ impl PatternTracker {
         let mut image = GrayImage::default();
         frame.to_gray(&mut image);
         let model = PatternModel::from_region(&image, region, &params.pattern)?;
-        let state = SVector::from([model.centre[0], model.centre[1], 0.0, 1.0]);
+        let state = [model.centre[0], model.centre[1], 0.0, 1.0];
+        Self::from_model(model, image.width, image.height, state, params, seed)
+    }
+
+    /// A tracker of an already learnt `model` in frames of `width x height`, its
+    /// particles spread around `state` with the random walk's covariance: how a model
+    /// of a mosaic is tracked again when it comes back into view (second seed,
+    /// section 2.3), without learning it anew.
+    ///
+    /// # Errors
+    /// Invalid parameters (named), a non-finite state or a scale `<= 0`.
+    pub fn from_model(
+        model: PatternModel,
+        width: usize,
+        height: usize,
+        state: [f64; 4],
+        params: PatternTrackerParams,
+        seed: u64,
+    ) -> Result<Self> {
+        params.validate()?;
+        if !state.iter().all(|v| v.is_finite()) || state[3] <= 0.0 {
+            return Err(TrackingError::InvalidParameter {
+                name: "state",
+                reason: format!("must be finite with a scale > 0, got {state:?}"),
+            });
+        }
+        let state = SVector::from(state);
         let sigma = SVector::from(params.sigma);
         let covariance = SMatrix::from_diagonal(&sigma.component_mul(&sigma));
         let filter = ParticleFilter::new(
@@ -203,8 +229,8 @@ impl PatternTracker {
             corners: corners(&model, &state),
         };
         Ok(Self {
-            width: image.width,
-            height: image.height,
+            width,
+            height,
             params,
             model,
             filter,
@@ -371,6 +397,12 @@ impl PatternTracker {
 
 /// The model window's outer corners moved by the similarity of `state` (the same map
 /// as the model points, [`place`]).
+/// The corners of `model`'s window (top-left, top-right, bottom-right, bottom-left,
+/// outer pixel edges) placed at tracker state `(x, y, theta, s)`.
+pub fn corners_of(model: &PatternModel, state: [f64; 4]) -> [[f64; 2]; 4] {
+    corners(model, &SVector::from(state))
+}
+
 fn corners(model: &PatternModel, state: &SVector<f64, 4>) -> [[f64; 2]; 4] {
     let (hw, hh) = (0.5 * model.size[0], 0.5 * model.size[1]);
     [[-hw, -hh], [hw, -hh], [hw, hh], [-hw, hh]].map(|offset| place(state, offset, 0.0).0)

@@ -1,0 +1,65 @@
+//! Learns an S-shaped path in the default ceiling world and replays it from perturbed
+//! starts, printing the mosaic, localisation and replay errors against the truth.
+//!
+//! cargo run --release -p tracking --example visual_memory
+
+use rperc_core::Pose2;
+use tracking::ceiling::{Ceiling, CeilingCamera, CeilingParams, RenderParams};
+use tracking::memory::{ImageScale, LearnParams, ReplayParams, World, learn, replay};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let ceiling = Ceiling::generate(&CeilingParams::default())?;
+    let camera = CeilingCamera::default();
+    let render = RenderParams::default();
+    let world = World {
+        ceiling: &ceiling,
+        camera: &camera,
+        render: &render,
+    };
+    let start = Pose2::new(2.0, 2.0, 0.2);
+    let commands: Vec<[f64; 2]> = (0..150)
+        .map(|k| [0.3, if k < 75 { 0.15 } else { -0.15 }])
+        .collect();
+    let learnt = learn(world, start, &commands, 0.1, &LearnParams::default(), 1)?;
+    let frames = learnt.seconds.len() as f64;
+    println!(
+        "learnt: {} models, {} key images, {:.1} ms/frame",
+        learnt.memory.models.len(),
+        learnt.memory.key_images.len(),
+        1e3 * learnt.seconds.iter().sum::<f64>() / frames
+    );
+    // The mosaic frame in the world: the true robot at model 0's creation, times C T_0.
+    let m0 = &learnt.memory.models[0];
+    let scale = ImageScale {
+        metres_per_pixel: camera.metres_per_pixel(),
+        principal: [camera.cx, camera.cy],
+    };
+    let c_t_0 = scale.camera_to_model([m0.model.centre[0], m0.model.centre[1], 0.0, 1.0]);
+    let w_t_m = learnt.truth[m0.created].compose(&c_t_0);
+    let mut worst = (0.0f64, 0.0f64);
+    for (report, truth) in learnt.reports.iter().zip(&learnt.truth) {
+        if let (Some(p), false) = (report.pose, report.lost) {
+            let e = w_t_m.compose(&p).between(truth);
+            worst = (worst.0.max(e.x.hypot(e.y)), worst.1.max(e.theta.abs()));
+        }
+    }
+    println!(
+        "learning localisation, worst frame: {:.3} m, {:.2} deg",
+        worst.0,
+        worst.1.to_degrees()
+    );
+    let b = learnt.truth.last().copied().unwrap_or(start);
+    for (dx, dy, dth) in [(0.0, 0.0, 0.0), (0.1, -0.1, 0.1), (-0.1, 0.15, -0.15)] {
+        let s = start.compose(&Pose2::new(dx, dy, dth));
+        let run = replay(world, &learnt.memory, s, &ReplayParams::default(), 3)?;
+        let end = run.truth.last().copied().unwrap_or(s).between(&b);
+        println!(
+            "replay from ({dx}, {dy}, {dth}): {:?} after {} frames, {:.3} m from B, {:.1} ms/frame",
+            run.outcome,
+            run.truth.len(),
+            end.x.hypot(end.y),
+            1e3 * run.seconds.iter().sum::<f64>() / run.seconds.len() as f64,
+        );
+    }
+    Ok(())
+}

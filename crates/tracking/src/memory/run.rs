@@ -1,0 +1,323 @@
+//! The two phases of section 2.4 in the ceiling world, closed-loop: a learning run
+//! drives A -> B, builds the mosaic and picks the key images; a replay starts near A
+//! and servoes from key image to key image to B. The world renders each frame at the
+//! true pose; the robot sees only its images (and its odometry while lost). Timings
+//! cover the robot's own work (eq. 1, the trackers, eq. 2-3, the control), not the
+//! rendering.
+
+use std::time::Instant;
+
+use rperc_core::Pose2;
+use rperc_core::image::GrayView;
+use rperc_core::rng::{normal, stream};
+
+use super::keyimages::{KeyImage, KeyImageParams, LearntFrame, select_key_images};
+
+use super::mosaic::{FrameReport, MosaicBuilder, MosaicModel, MosaicParams};
+use super::servo::{ServoParams, command, key_error};
+use crate::ceiling::{Ceiling, CeilingCamera, OdometryNoise, RenderParams, render};
+use crate::error::{Result, TrackingError};
+
+/// The world a run happens in.
+#[derive(Debug, Clone, Copy)]
+pub struct World<'a> {
+    /// The ceiling.
+    pub ceiling: &'a Ceiling,
+    /// The robot's camera.
+    pub camera: &'a CeilingCamera,
+    /// How frames are rendered.
+    pub render: &'a RenderParams,
+}
+
+impl World<'_> {
+    fn frame(&self, pose: &Pose2, index: u64, out: &mut Vec<u8>) -> Result<()> {
+        render(self.ceiling, self.camera, pose, self.render, index, out).map(|_| ())
+    }
+
+    fn view<'b>(&self, bytes: &'b [u8]) -> Result<GrayView<'b>> {
+        Ok(GrayView::new(bytes, self.camera.width, self.camera.height)?)
+    }
+}
+
+/// A visual memory: the mosaic and the key images of one learnt path.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VisualMemory {
+    /// The mosaic's models with their poses.
+    pub models: Vec<MosaicModel>,
+    /// The key images from A to B.
+    pub key_images: Vec<KeyImage>,
+}
+
+/// What a learning run produced.
+#[derive(Debug, Clone)]
+pub struct Learning {
+    /// The memory.
+    pub memory: VisualMemory,
+    /// Each frame's report.
+    pub reports: Vec<FrameReport>,
+    /// The true pose of each frame.
+    pub truth: Vec<Pose2>,
+    /// The robot's processing time of each frame, seconds.
+    pub seconds: Vec<f64>,
+}
+
+/// How a learning run goes.
+#[derive(Debug, Clone, PartialEq, Default, serde::Deserialize, serde::Serialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LearnParams {
+    /// Mosaic building.
+    pub mosaic: MosaicParams,
+    /// Key image selection.
+    pub keys: KeyImageParams,
+    /// How the odometry errs (the robot drives the commands exactly; its odometry
+    /// reads them with these errors).
+    pub odometry: OdometryNoise,
+}
+
+/// Drives `commands` (`(v, omega)` held `dt` s each) from `start`, building the mosaic
+/// from the images (and the odometry, for the heading while only a small model is in
+/// view), then picks the key images.
+pub fn learn(
+    world: World<'_>,
+    start: Pose2,
+    commands: &[[f64; 2]],
+    dt: f64,
+    params: &LearnParams,
+    seed: u64,
+) -> Result<Learning> {
+    let drive = crate::ceiling::drive(start, commands, dt, &params.odometry)?;
+    let mut builder = MosaicBuilder::new(*world.camera, params.mosaic.clone(), seed)?;
+    let (mut reports, mut seconds) = (Vec::new(), Vec::new());
+    let mut bytes = Vec::new();
+    for (k, pose) in drive.truth.iter().enumerate() {
+        rperc_core::interrupt::checkpoint()?;
+        world.frame(pose, k as u64, &mut bytes)?;
+        let odometry = k
+            .checked_sub(1)
+            .map(|j| Pose2::identity().advance(drive.measured[j][0], drive.measured[j][1], dt));
+        let clock = Instant::now();
+        let report = builder.process(world.view(&bytes)?, odometry)?;
+        seconds.push(clock.elapsed().as_secs_f64());
+        reports.push(report);
+    }
+    let truth = drive.truth;
+    let frames: Vec<LearntFrame> = reports
+        .iter()
+        .enumerate()
+        .map(|(frame, r)| LearntFrame {
+            frame,
+            models: r.tracked.clone(),
+            pose: if r.lost { None } else { r.pose },
+        })
+        .collect();
+    let key_images = select_key_images(&frames, &params.keys)?;
+    Ok(Learning {
+        memory: VisualMemory {
+            models: builder.models().to_vec(),
+            key_images,
+        },
+        reports,
+        truth,
+        seconds,
+    })
+}
+
+/// How a replay runs.
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ReplayParams {
+    /// The localiser (tracker parameters; mapping is off).
+    pub mosaic: MosaicParams,
+    /// The servoing law.
+    pub servo: ServoParams,
+    /// Control period, seconds (one frame per period).
+    pub dt: f64,
+    /// The replay gives up after this many frames.
+    pub max_frames: usize,
+    /// The robot gives up after this many frames in a row without a model shared with
+    /// its current key image.
+    pub max_blind_frames: usize,
+    /// Metres per ideal-image pixel the controller assumes to turn its pixel commands
+    /// into wheel speeds (a gain: any rough value of `Z / f` will do).
+    pub metres_per_pixel: f64,
+    /// How the wheels err: the true motion is the command with these scale errors and
+    /// noise; the odometry reads the command.
+    pub actuation: OdometryNoise,
+}
+
+impl Default for ReplayParams {
+    fn default() -> Self {
+        Self {
+            mosaic: MosaicParams::default(),
+            servo: ServoParams::default(),
+            dt: 0.1,
+            max_frames: 1500,
+            max_blind_frames: 20,
+            metres_per_pixel: 0.015,
+            actuation: OdometryNoise::default(),
+        }
+    }
+}
+
+impl ReplayParams {
+    /// Refuses bad values with the parameter's name.
+    pub fn validate(&self) -> Result<()> {
+        self.mosaic.validate()?;
+        self.servo.validate()?;
+        rperc_core::ensure_positive("dt", self.dt)?;
+        rperc_core::ensure_positive("metres_per_pixel", self.metres_per_pixel)?;
+        if self.max_frames == 0 {
+            return Err(TrackingError::InvalidParameter {
+                name: "max_frames",
+                reason: "must be >= 1".into(),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// How a replay ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReplayOutcome {
+    /// The last key image was reached.
+    Reached,
+    /// No model shared with the current key image for too long: every model lost.
+    Lost,
+    /// `max_frames` ran out.
+    TimedOut,
+}
+
+/// A replay: the true and estimated paths, the key image followed at each frame.
+#[derive(Debug, Clone)]
+pub struct Replay {
+    /// How it ended.
+    pub outcome: ReplayOutcome,
+    /// True pose at each frame.
+    pub truth: Vec<Pose2>,
+    /// Each frame's report (its pose is eq. 2's estimate in the mosaic).
+    pub reports: Vec<FrameReport>,
+    /// The key image being servoed to at each frame.
+    pub key_index: Vec<usize>,
+    /// Processing time of each frame (localisation and control), seconds.
+    pub seconds: Vec<f64>,
+}
+
+/// Replays `memory` from the true pose `start`, the robot believing it starts at the
+/// first key image.
+pub fn replay(
+    world: World<'_>,
+    memory: &VisualMemory,
+    start: Pose2,
+    params: &ReplayParams,
+    seed: u64,
+) -> Result<Replay> {
+    params.validate()?;
+    let keys = &memory.key_images;
+    let first = keys
+        .first()
+        .ok_or_else(|| TrackingError::InvalidParameter {
+            name: "key_images",
+            reason: "the memory holds no key image".into(),
+        })?;
+    let mut localiser = MosaicBuilder::localiser(
+        *world.camera,
+        params.mosaic.clone(),
+        memory.models.clone(),
+        first.pose,
+        seed,
+    )?;
+    let principal = [world.camera.cx, world.camera.cy];
+    let mut rng = stream(params.actuation.seed, 7);
+    let mut out = Replay {
+        outcome: ReplayOutcome::TimedOut,
+        truth: Vec::new(),
+        reports: Vec::new(),
+        key_index: Vec::new(),
+        seconds: Vec::new(),
+    };
+    let (mut pose, mut k, mut blind, mut last_command) =
+        (start, 1.min(keys.len() - 1), 0, (0.0, 0.0));
+    let mut bytes = Vec::new();
+    for frame in 0..params.max_frames {
+        rperc_core::interrupt::checkpoint()?;
+        world.frame(&pose, frame as u64, &mut bytes)?;
+        let clock = Instant::now();
+        let odometry = Pose2::identity().advance(last_command.0, last_command.1, params.dt);
+        let wanted: Vec<usize> = keys[k].models.iter().map(|m| m.id).collect();
+        localiser.set_priority(&wanted);
+        let report = localiser.process(world.view(&bytes)?, Some(odometry))?;
+        let step = next_command(&report, keys, &mut k, principal, &params.servo);
+        out.seconds.push(clock.elapsed().as_secs_f64());
+        out.truth.push(pose);
+        out.reports.push(report);
+        out.key_index.push(k);
+        let (v_px, omega) = match step {
+            Step::Reached => {
+                out.outcome = ReplayOutcome::Reached;
+                break;
+            }
+            Step::Blind => {
+                blind += 1;
+                if blind > params.max_blind_frames {
+                    out.outcome = ReplayOutcome::Lost;
+                    break;
+                }
+                (0.0, 0.0) // stop and wait for a model to come back
+            }
+            Step::Drive(v, w) => {
+                blind = 0;
+                (v, w)
+            }
+        };
+        let v = v_px * params.metres_per_pixel;
+        last_command = (v, omega);
+        pose = actuate(&pose, v, omega, params, &mut rng);
+    }
+    Ok(out)
+}
+
+enum Step {
+    Reached,
+    Blind,
+    Drive(f64, f64),
+}
+
+/// The servoing command of this frame, passing intermediate key images whose error
+/// fell under the switching threshold.
+fn next_command(
+    report: &FrameReport,
+    keys: &[KeyImage],
+    k: &mut usize,
+    principal: [f64; 2],
+    servo: &ServoParams,
+) -> Step {
+    loop {
+        let Some(error) = key_error(&report.tracked, &keys[*k], principal) else {
+            return Step::Blind;
+        };
+        let distance = error.x.hypot(error.y);
+        let last = *k + 1 == keys.len();
+        if last && distance < servo.final_error {
+            return Step::Reached;
+        }
+        if !last && distance < servo.switch_error {
+            *k += 1;
+            continue;
+        }
+        let (v, w) = command(&error, servo);
+        return Step::Drive(v, w);
+    }
+}
+
+/// The true motion under a command: scale errors and white noise on each wheel rate.
+fn actuate<R: rand::Rng>(pose: &Pose2, v: f64, omega: f64, p: &ReplayParams, rng: &mut R) -> Pose2 {
+    let a = &p.actuation;
+    // A robot standing still does not drift.
+    if v == 0.0 && omega == 0.0 {
+        return *pose;
+    }
+    let tv = v * (1.0 + a.speed_scale_error) + a.speed_sigma * normal(rng);
+    let tw = omega * (1.0 + a.turn_scale_error) + a.turn_sigma * normal(rng);
+    pose.advance(tv, tw, p.dt)
+}

@@ -514,8 +514,9 @@ def opencv(
     >>> frame = np.full((60, 80, 3), 90, np.uint8); frame[22:38, 22:38] = (30, 30, 220)
     >>> t = opencv("color")
     >>> t.init(frame, (22, 22, 16, 16))
-    >>> t.update(np.roll(frame, 3, axis=1))
-    (True, (25, 22, 16, 16))
+    >>> ok, (x, y, w, h) = t.update(np.roll(frame, 3, axis=1))
+    >>> ok, x, y
+    (True, 25, 22)
     """
     if isinstance(tracker, str):
         if tracker not in _BY_NAME:

@@ -350,6 +350,16 @@ impl ParticleColorTracker {
             });
         }
         let use_gradient = self.prepare_frame(&frame);
+        if self.image.bins.iter().all(|&b| b == self.image.bins[0]) {
+            // One colour everywhere (a black frame): nothing to weigh the particles by;
+            // the set and the box stay as they were.
+            self.last = TrackResult {
+                score: 0.0,
+                lost: true,
+                ..self.last
+            };
+            return Ok(self.last);
+        }
         let app = &self.params.appearance;
         let likelihood = HistogramLikelihood {
             image: &self.image,

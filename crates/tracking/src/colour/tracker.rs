@@ -32,7 +32,7 @@ pub struct ColorTrackerParams {
     /// at `search_radius`.
     pub velocity_gain: f64,
     /// Largest half-size of the window, whether grown by speed or while the target is
-    /// lost (it widens by `search_radius` every lost frame), >= `search_radius`, <= 512.
+    /// lost (it doubles every lost frame), >= `search_radius`, <= 512.
     /// Default 60.
     pub max_search_radius: usize,
     /// The target is lost when the intersection falls below this fraction of its
@@ -426,14 +426,18 @@ impl ColorHistogramTracker {
         self.last
     }
 
-    /// The half-size of this frame's search window: `search_radius` grown with the
-    /// estimated speed, or by `search_radius` for every frame the target has been lost.
+    /// The half-size of the next frame's search window: `search_radius` grown with the
+    /// estimated speed, or doubled for every frame the target has been lost, up to
+    /// `max_search_radius`.
     pub fn search_radius(&self) -> usize {
         let p = &self.params;
         let grown = if self.lost_frames > 0 {
-            p.search_radius.saturating_mul(self.lost_frames + 1)
+            // Doubling: a target that kept moving while lost is caught up with.
+            p.search_radius
+                .saturating_mul(1usize << self.lost_frames.min(16))
         } else {
-            p.search_radius + (p.velocity_gain * self.speed).ceil() as usize
+            // Rounded, so sub-pixel jitter of a still target does not widen it.
+            p.search_radius + (p.velocity_gain * self.speed).round() as usize
         };
         grown.clamp(p.search_radius, p.max_search_radius)
     }

@@ -243,7 +243,7 @@ def test_the_opencv_adapter_runs_where_an_opencv_tracker_runs():
     cv2 = pytest.importorskip("cv2")
     seq = challenge_sequence("distractors", frames=20, seed=1)
     bgr = [np.ascontiguousarray(f[:, :, ::-1]) for f in seq.frames]
-    box = tuple(int(round(v)) for v in seq.boxes[0])
+    box = tuple(round(float(v)) for v in seq.boxes[0])
     theirs = opencv_style_loop(cv2.TrackerCSRT_create(), [f.copy() for f in bgr], box)
     ours = opencv_style_loop(opencv("color"), [f.copy() for f in bgr], box)
     assert len(ours) == len(theirs)

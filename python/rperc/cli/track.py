@@ -65,7 +65,10 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     )
     p.add_argument("--csv", type=Path, metavar="PATH", help="write every frame's box as CSV")
     p.add_argument(
-        "--video", type=Path, metavar="PATH", help="write the frames with the box drawn (.gif, .mp4)"
+        "--video",
+        type=Path,
+        metavar="PATH",
+        help="write the frames with the box drawn (.gif, .mp4)",
     )
     p.add_argument("--tracker", choices=CLI_TRACKERS, default="color")
     p.add_argument("--seed", type=seed_type, default=0, help="seed of the particle filter")
@@ -257,18 +260,18 @@ def read_video(path: Path) -> tuple[list[np.ndarray], float]:
     try:
         import imageio.v3 as iio
     except ImportError:
-        raise ValueError(
-            f"reading {path} needs imageio: pip install 'rperc[video]'"
-        ) from None
+        raise ValueError(f"reading {path} needs imageio: pip install 'rperc[video]'") from None
     frames = []
-    for frame in iio.imiter(path):
-        arr = np.asarray(frame)
-        if arr.ndim == 3 and arr.shape[2] == 4:
-            arr = arr[:, :, :3]  # drop a GIF's alpha
-        frames.append(np.ascontiguousarray(arr))
+    # The file is closed (and ffmpeg's pipes with it) before the frames are tracked.
+    with iio.imopen(path, "r") as video:
+        meta = video.metadata()
+        for frame in video.iter():
+            arr = np.asarray(frame)
+            if arr.ndim == 3 and arr.shape[2] == 4:
+                arr = arr[:, :, :3]  # drop a GIF's alpha
+            frames.append(np.ascontiguousarray(arr))
     if len(frames) < 2:
         raise ValueError(f"{path}: {len(frames)} frame(s); tracking needs at least 2")
-    meta = iio.immeta(path)
     fps = float(meta.get("fps") or 0) or 1000.0 / float(meta.get("duration") or 40)
     return frames, fps
 

@@ -61,7 +61,7 @@ def _texture(rng: np.random.Generator, seed: int) -> np.ndarray:
         grey = grey[y0 : y0 + HEIGHT, x0 : x0 + WIDTH]
     else:
         blocks = rng.normal(128.0, 40.0, (HEIGHT // 8, WIDTH // 8))
-        grey = np.kron(blocks, np.ones((8, 8)))
+        grey = np.kron(blocks, np.ones((8, 8))).astype(np.float64)
     tint = rng.uniform(0.6, 0.9, size=3)
     return np.asarray(np.clip(grey[..., None] * tint + 20.0, 0.0, 255.0))
 

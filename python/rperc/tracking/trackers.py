@@ -14,12 +14,11 @@ released while a frame is processed.
 
 from __future__ import annotations
 
+import math
+import warnings
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
-
-import math
-import warnings
 
 import numpy as np
 import numpy.typing as npt
@@ -113,8 +112,7 @@ def _first_box(box: Sequence[float] | npt.ArrayLike, frame: np.ndarray) -> Box:
         )
     clipped = (x0, y0, x1 - x0, y1 - y0)
     warnings.warn(
-        f"box {(x, y, w, h)} is partly outside the {width} x {height} frame; "
-        f"clipped to {clipped}",
+        f"box {(x, y, w, h)} is partly outside the {width} x {height} frame; clipped to {clipped}",
         UserWarning,
         stacklevel=3,
     )
@@ -160,8 +158,13 @@ class ColorHistogramTracker:
     exceeds the ring's around it by less than this), ``ring_weight`` (weight of that
     contrast when the scales compete), ``scale_prior`` (weight of ``ln(s /
     s_confident)^2``), ``scale_step`` (relative), ``min_scale`` and ``max_scale``
-    (relative to the first box), ``momentum`` (constant-velocity prediction, 0..1), ``parallel`` (search the scales on several threads; same result),
-    ``channels`` (``"rgb"``, or ``"bgr"`` for OpenCV frames).
+    (relative to the first box), ``momentum`` (constant-velocity prediction, 0..1),
+    ``parallel`` (search the scales on several threads; same result), ``channels``
+    (``"rgb"``, or ``"bgr"`` for OpenCV frames).
+
+    When the target is lost (:attr:`TrackResult.lost`) the box stays where it was last
+    seen and the search window doubles every frame (up to ``max_search_radius``) until
+    the target is found again; a single-colour frame (all black) is lost.
 
     Examples
     --------

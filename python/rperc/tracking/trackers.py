@@ -269,10 +269,14 @@ class ParticleColorTracker:
     search, for clutter and fast motion. Same appearance parameters as
     :class:`ColorHistogramTracker`, plus ``n_particles``, ``position_noise`` (random-walk
     standard deviation as a fraction of the box's mean semi-axis), ``scale_noise``,
-    ``sigma`` of the likelihood ``exp(-(1 - score)^2 / 2 sigma^2)``, ``resampler``,
+    ``sigma`` of the likelihood ``exp(-(1 - score)^2 / 2 sigma^2)``, ``mix_fraction``
+    (share of the particles redrawn each frame around the best centre of a coarse
+    local search within ``search_radius`` px, grown by ``velocity_gain`` times the
+    estimated speed up to ``max_search_radius``: a mixture proposal that keeps
+    particles on a target that jumped; 0 is plain CONDENSATION), ``resampler``,
     ``resample_below`` (resample only when the ESS falls below this fraction; ``None``:
-    every step, as the seed does), ``chunk_size`` and ``parallel``. A seed gives the
-    same track on any number of threads.
+    every step, as the seed does), ``chunk_size``, ``parallel`` and ``channels``. A seed
+    gives the same track on any number of threads.
     """
 
     def __init__(
@@ -287,6 +291,10 @@ class ParticleColorTracker:
         sigma: float = _PARTICLE["sigma"],
         min_scale: float = _PARTICLE["min_scale"],
         max_scale: float = _PARTICLE["max_scale"],
+        mix_fraction: float = _PARTICLE["mix_fraction"],
+        search_radius: int = _PARTICLE["search_radius"],
+        velocity_gain: float = _PARTICLE["velocity_gain"],
+        max_search_radius: int = _PARTICLE["max_search_radius"],
         resampler: ResamplerName = _FILTER["resampler"],
         resample_below: float | None = _FILTER["resample_below"],
         chunk_size: int = _FILTER["chunk_size"],
@@ -326,6 +334,10 @@ class ParticleColorTracker:
                 sigma=sigma,
                 min_scale=min_scale,
                 max_scale=max_scale,
+                mix_fraction=mix_fraction,
+                search_radius=search_radius,
+                velocity_gain=velocity_gain,
+                max_search_radius=max_search_radius,
             ),
         }
         seed = whole_number(seed, "seed", 0, limit=2**64)

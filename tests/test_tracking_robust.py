@@ -143,6 +143,37 @@ def test_the_box_follows_a_target_that_doubles_and_shrinks(seed):
     assert 0.75 < ratio.min() and ratio.max() < 1.33, (ratio.min(), ratio.max())
 
 
+def edge_ring_scales(**params) -> list[float]:
+    """A still disc of radius 12 inside a thin white circle of radius 17 or 20 (a strong
+    edge just outside the target, as a door frame around a head): the scale after 40
+    noisy frames, for 3 seeds and both radii."""
+    yy, xx = np.mgrid[0:H, 0:W] + 0.5
+    scales = []
+    for radius in (17, 20):
+        for seed in range(3):
+            rng = np.random.default_rng(seed)
+            bg = textured(seed)
+            d = np.hypot(xx - 100, yy - 60)
+            bg[(d > radius - 1.5) & (d < radius + 1.5)] = (250, 250, 250)
+            frame = with_disc(bg, 100, 60, r=12).astype(np.int16)
+            t = ColorHistogramTracker(frame.astype(np.uint8), disc_box(100, 60, r=12), **params)
+            for _ in range(40):
+                noisy = frame + rng.integers(-10, 11, (H, W, 3))
+                t.update(np.clip(noisy, 0, 255).astype(np.uint8))
+            scales.append(t.scale)
+    return scales
+
+
+def test_a_strong_edge_around_the_target_does_not_pull_the_box_out():
+    """The true scale is 1 throughout (the generator's disc never changes)."""
+    held = edge_ring_scales()
+    assert all(0.9 < s < 1.1 for s in held), held
+    # Without the scale prior and the ring term the perimeter gradient drags the box
+    # out to the white circle (so the test can fail).
+    drifted = edge_ring_scales(scale_prior=0.0, ring_weight=0.0)
+    assert max(drifted) > 1.2, drifted
+
+
 def test_an_oversized_box_does_not_grow_on_a_target_of_constant_size():
     """A still disc under 60 frames of noise: the box must not drift in size. (A guard
     only: the tracker without the ring and prior terms passes it too.)"""

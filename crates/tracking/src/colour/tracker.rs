@@ -288,6 +288,25 @@ struct Candidate {
     contrast: f64,
 }
 
+/// The best `(total, window index)` of one scale's search by `total(colour, gradient)`,
+/// ties going to the position nearest the window's centre.
+fn top_position(s: &ScaleSearch, window: Window, total: impl Fn(f32, f32) -> f32) -> (f32, usize) {
+    let mid = (window.side / 2) as i64;
+    let mut top = (f32::NEG_INFINITY, i64::MAX, 0usize);
+    for (i, (&c, &g)) in s.colour.iter().zip(&s.gradient).enumerate() {
+        let t = total(c, g);
+        let (dx, dy) = (
+            (i % window.side) as i64 - mid,
+            (i / window.side) as i64 - mid,
+        );
+        let d2 = dx * dx + dy * dy;
+        if t > top.0 || (t == top.0 && d2 < top.1) {
+            top = (t, d2, i);
+        }
+    }
+    (top.0, top.2)
+}
+
 /// Weight of the newest value in the running average of the confident score.
 const RUNNING_RATE: f64 = 0.1;
 /// Weight of the newest displacement in the running speed: fast, so a sudden move
@@ -518,23 +537,13 @@ impl ColorHistogramTracker {
             (0.0, 0.0)
         };
         let wg = self.params.appearance.gradient_weight as f32;
-        let mid = (window.side / 2) as i64;
         let mut best: Option<(f64, Candidate)> = None;
         // Scale 0 is the current one, so ties keep the size.
         for (si, s) in self.searches.iter().enumerate() {
-            let mut top = (f32::NEG_INFINITY, i64::MAX, 0usize);
-            for (i, (&c, &g)) in s.colour.iter().zip(&s.gradient).enumerate() {
-                let total = (c - c_lo) * c_inv + wg * (g - g_lo) * g_inv;
-                let (dx, dy) = (
-                    (i % window.side) as i64 - mid,
-                    (i / window.side) as i64 - mid,
-                );
-                let d2 = dx * dx + dy * dy;
-                if total > top.0 || (total == top.0 && d2 < top.1) {
-                    top = (total, d2, i);
-                }
-            }
-            let index = top.2;
+            let top = top_position(s, window, |c, g| {
+                (c - c_lo) * c_inv + wg * (g - g_lo) * g_inv
+            });
+            let index = top.1;
             let (cx, cy) = (
                 window.x0 + (index % window.side) as i32,
                 window.y0 + (index / window.side) as i32,

@@ -1,7 +1,13 @@
-"""rperc's trackers against OpenCV's on OTB sequences, in the same run: success AUC,
-precision at 20 px and frames per second (tracking only; JPEG decoding excluded).
+"""rperc's trackers against OpenCV's on OTB sequences and the seeded challenge
+sequences, in the same run: success AUC, precision at 20 px and frames per second
+(tracking only; JPEG decoding excluded), the lost flag's precision and recall against
+the frames where IoU = 0, and the particle trackers' mean effective sample size.
 
-    python benchmarks/tracking.py [--sequences Girl Couple]
+    python benchmarks/tracking.py [--sequences Girl Couple] [--challenge-seed 7]
+
+Defaults of the issue-14 terms were set on the challenge sequences of seeds 0-2 and on
+Couple; Girl is held out, and so is the challenge seed 7 used here. "before" rows run
+the colour trackers with those terms switched off (the previous defaults).
 
 OpenCV peers (when opencv-python is installed): meanShift and CamShift on a hue
 back-projection (as in OpenCV's tutorial), CSRT, KCF (``detect_thresh=0``, else it
@@ -22,6 +28,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _timing import print_table
 
 from rperc.datasets import data_dir, load_otb
+from rperc.tracking.challenges import CHALLENGES, challenge_sequence
 from rperc.tracking.metrics import auc, iou, precision
 
 try:
@@ -30,27 +37,68 @@ except ImportError:  # pragma: no cover - optional peer
     cv2 = None
 
 Box = tuple[float, float, float, float]
-# A tracker factory: (first frame RGB, first box) -> per-frame update returning a box.
-Factory = Callable[[np.ndarray, Box], Callable[[np.ndarray], Box]]
+# What one update gives: the box, whether the tracker says the target is lost, and the
+# particle set's ESS (None for other trackers).
+Step = tuple[Box, bool, float | None]
+# A tracker factory: (first frame RGB, first box) -> per-frame update.
+Factory = Callable[[np.ndarray, Box], Callable[[np.ndarray], Step]]
+
+# The issue-14 terms off: the colour trackers as they were before.
+BEFORE_COLOUR = {
+    "velocity_gain": 0.0,
+    "lost_ratio": 0.0,
+    "lost_contrast": -1.0,
+    "ring_weight": 0.0,
+    "scale_prior": 0.0,
+}
+BEFORE_PARTICLE = {"mix_fraction": 0.0}
 
 
 def rperc_trackers() -> dict[str, Factory]:
     out: dict[str, Factory] = {}
     try:
-        from rperc.tracking import ColorHistogramTracker, ParticleColorTracker
+        from rperc.tracking import ColorHistogramTracker, ColorShapeTracker, ParticleColorTracker
     except ImportError:
         return out
 
-    def colour(frame: np.ndarray, box: Box):
-        t = ColorHistogramTracker(frame, box)
-        return lambda f: t.update(f).box
+    def colour(**params: float) -> Factory:
+        def make(frame: np.ndarray, box: Box):
+            t = ColorHistogramTracker(frame, box, **params)
 
-    def particles(frame: np.ndarray, box: Box):
-        t = ParticleColorTracker(frame, box, seed=0)
-        return lambda f: t.update(f).box
+            def update(f: np.ndarray) -> Step:
+                r = t.update(f)
+                return r.box, r.lost, None
 
-    out["rperc colour"] = colour
-    out["rperc colour PF"] = particles
+            return update
+
+        return make
+
+    def particles(**params: float) -> Factory:
+        def make(frame: np.ndarray, box: Box):
+            t = ParticleColorTracker(frame, box, seed=0, **params)
+
+            def update(f: np.ndarray) -> Step:
+                r = t.update(f)
+                return r.box, r.lost, t.ess
+
+            return update
+
+        return make
+
+    def shape(frame: np.ndarray, box: Box):
+        t = ColorShapeTracker(frame, box, seed=0)
+
+        def update(f: np.ndarray) -> Step:
+            r = t.update(f)
+            return r.box, r.lost, r.ess
+
+        return update
+
+    out["rperc colour"] = colour()
+    out["rperc colour (before)"] = colour(**BEFORE_COLOUR)
+    out["rperc colour PF"] = particles()
+    out["rperc colour PF (before)"] = particles(**BEFORE_PARTICLE)
+    out["rperc colour+shape"] = shape
     return out
 
 
@@ -69,7 +117,7 @@ def opencv_trackers() -> dict[str, Factory]:
             term = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 10, 1)
             state = {"win": (x, y, max(w, 1), max(h, 1))}
 
-            def update(f: np.ndarray) -> Box:
+            def update(f: np.ndarray) -> Step:
                 back = cv2.calcBackProject(
                     [cv2.cvtColor(f, cv2.COLOR_RGB2HSV)], [0], hist, [0, 180], 1
                 )
@@ -79,7 +127,7 @@ def opencv_trackers() -> dict[str, Factory]:
                     _, win = cv2.meanShift(back, state["win"], term)
                 if win[2] > 0 and win[3] > 0:
                     state["win"] = win
-                return tuple(float(v) for v in state["win"])
+                return tuple(float(v) for v in state["win"]), False, None
 
             return update
 
@@ -91,11 +139,11 @@ def opencv_trackers() -> dict[str, Factory]:
             t.init(cv2.cvtColor(frame, cv2.COLOR_RGB2BGR), tuple(round(v) for v in box))
             last = {"box": box}
 
-            def update(f: np.ndarray) -> Box:
+            def update(f: np.ndarray) -> Step:
                 ok, b = t.update(cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
                 if ok:
                     last["box"] = tuple(float(v) for v in b)
-                return last["box"]
+                return last["box"], not ok, None
 
             return update
 
@@ -115,54 +163,114 @@ def opencv_trackers() -> dict[str, Factory]:
     }
 
 
-def run(factory: Factory, frames: list[np.ndarray], first: Box) -> tuple[np.ndarray, float]:
+# Per (tracker, sequence): AUC, P@20, fps, lost precision, lost recall, mean ESS.
+Row = tuple[float, float, float, float, float, float]
+
+
+def run(factory: Factory, frames: list[np.ndarray], truth: np.ndarray) -> Row:
+    first = tuple(float(v) for v in truth[0])
     t0 = time.perf_counter()
     update = factory(frames[0], first)
-    boxes = [first]
-    for f in frames[1:]:
-        boxes.append(update(f))
-    return np.asarray(boxes, dtype=float), time.perf_counter() - t0
+    steps = [update(f) for f in frames[1:]]
+    seconds = time.perf_counter() - t0
+    boxes = np.asarray([first] + [b for b, _, _ in steps], dtype=float)
+    overlaps = iou(boxes, truth)
+    zero = overlaps[1:] == 0
+    lost = np.array([lo for _, lo, _ in steps])
+    hits = int((lost & zero).sum())
+    lost_precision = hits / lost.sum() if lost.any() else float("nan")
+    lost_recall = hits / zero.sum() if zero.any() else float("nan")
+    ess = [e for _, _, e in steps if e is not None]
+    mean_ess = float(np.mean(ess)) if ess else float("nan")
+    fps = len(frames) / seconds
+    return (auc(overlaps), precision(boxes, truth), fps, lost_precision, lost_recall, mean_ess)
+
+
+def sequences(names: list[str], challenge_seed: int) -> dict[str, tuple[list, np.ndarray]]:
+    root = data_dir()
+    out: dict[str, tuple[list, np.ndarray]] = {}
+    for name in names:
+        if root is None:
+            sys.exit("no data folder (set RPERC_DATA)")
+        seq = load_otb(root / "otb" / name)
+        out[name] = (list(seq.frames()), seq.boxes)
+    for kind in CHALLENGES:
+        syn = challenge_sequence(kind, frames=150, seed=challenge_seed)
+        out[syn.name] = (list(syn.frames), syn.boxes)
+    return out
+
+
+def fmt(v: float, digits: int = 3) -> str:
+    return "-" if not np.isfinite(v) else f"{v:.{digits}f}"
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--sequences", nargs="+", default=["Girl", "Couple"])
+    ap.add_argument("--challenge-seed", type=int, default=7)
     args = ap.parse_args()
-    root = data_dir()
-    if root is None:
-        sys.exit("no data folder (set RPERC_DATA)")
     trackers = rperc_trackers() | opencv_trackers()
-    results: dict[str, dict[str, tuple[float, float, float]]] = {name: {} for name in trackers}
-    all_overlaps: dict[str, list[np.ndarray]] = {name: [] for name in trackers}
-    for seq_name in args.sequences:
-        seq = load_otb(root / "otb" / seq_name)
-        frames = list(seq.frames())
-        first = tuple(float(v) for v in seq.boxes[0])
-        for name, factory in trackers.items():
-            boxes, seconds = run(factory, frames, first)
-            ov = iou(boxes, seq.boxes)
-            all_overlaps[name].append(ov)
-            results[name][seq_name] = (auc(ov), precision(boxes, seq.boxes), len(frames) / seconds)
-    best_peer = max(
-        (auc(np.concatenate(all_overlaps[n])) for n in trackers if n.startswith("OpenCV")),
-        default=None,
+    missing = [n for n in ("CSRT", "KCF", "MIL") if f"OpenCV {n}" not in trackers]
+    seqs = sequences(args.sequences, args.challenge_seed)
+    results = {
+        (name, seq): run(factory, frames, truth)
+        for seq, (frames, truth) in seqs.items()
+        for name, factory in trackers.items()
+    }
+    rows = [
+        [
+            name,
+            seq,
+            *(fmt(v) for v in r[:2]),
+            fmt(r[2], 0),
+            *(fmt(v, 2) for v in r[3:5]),
+            fmt(r[5], 1),
+        ]
+        for (name, seq), r in results.items()
+    ]
+    header = ["tracker", "sequence", "AUC", "P@20", "fps", "lost prec", "lost rec", "ESS"]
+    print_table("tracking, every tracker on every sequence (same run)", header, rows)
+    summary(trackers, seqs, results, args.sequences)
+    print(f"\nOpenCV trackers missing from this cv2: {', '.join(missing) or 'none'}")
+
+
+def summary(trackers, seqs, results, otb: list[str]) -> None:
+    """Mean AUC and P@20 over the OTB and the challenge sequences, mean fps and the
+    speed ratio to CSRT."""
+    synthetic = [s for s in seqs if s not in otb]
+    csrt_fps = (
+        np.mean([results[("OpenCV CSRT", s)][2] for s in seqs])
+        if "OpenCV CSRT" in trackers
+        else float("nan")
     )
     rows = []
     for name in trackers:
-        row = [name]
-        for seq_name in args.sequences:
-            a, p, fps = results[name][seq_name]
-            row += [f"{a:.3f}", f"{p:.3f}", f"{fps:8.0f}"]
-        total = auc(np.concatenate(all_overlaps[name]))
-        row.append(f"{total:.3f}")
-        row.append(f"{np.mean([results[name][s][0] for s in args.sequences]):.3f}")
-        row.append(f"{total / best_peer:.2f}x" if best_peer else "-")
-        rows.append(row)
-    header = ["tracker"]
-    for seq_name in args.sequences:
-        header += [f"{seq_name} AUC", f"{seq_name} P@20", f"{seq_name} fps"]
-    header += ["AUC all frames", "mean AUC", "vs best OpenCV"]
-    print_table("OTB tracking (same run, same frames)", header, rows)
+
+        def mean(group: list[str], k: int, name: str = name) -> float:
+            return float(np.mean([results[(name, s)][k] for s in group]))
+
+        fps = mean(list(seqs), 2)
+        rows.append(
+            [
+                name,
+                fmt(mean(otb, 0)),
+                fmt(mean(otb, 1)),
+                fmt(mean(synthetic, 0)),
+                fmt(mean(synthetic, 1)),
+                fmt(fps, 0),
+                fmt(fps / csrt_fps, 1) + "x",
+            ]
+        )
+    header = [
+        "tracker",
+        "OTB AUC",
+        "OTB P@20",
+        "synthetic AUC",
+        "synthetic P@20",
+        "fps",
+        "speed vs CSRT",
+    ]
+    print_table(f"means: OTB {', '.join(otb)}; synthetic {', '.join(synthetic)}", header, rows)
 
 
 if __name__ == "__main__":

@@ -282,6 +282,9 @@ def test_track_scores_an_otb_folder_against_its_ground_truth(otb_folder, tmp_pat
         (["track", "SEQ", "--frames", "two"], "argument --frames: expected an integer"),
         (["track", "SEQ", "--seed", "-1"], "argument --seed: must be an integer >= 0"),
         (["track", "SEQ", "--seed", str(2**64)], "argument --seed: must be an integer <= "),
+        (["track", "V.mp4", "--box", "1,2,3"], "argument --box: expected 4 finite numbers"),
+        (["track", "V.mp4", "--box", "1,2,0,4"], "argument --box: w and h must be > 0"),
+        (["track", "V.mp4", "--box", "a,2,3,4"], "argument --box: expected x,y,w,h"),
         (["demo", "tracking", "--frames", "1001"], "argument --frames: must be an integer <= 1000"),
         (["demo", "tracking", "--frames", "1"], "argument --frames"),
         (["demo", "monobot", "--runs", "1"], "argument --runs"),
@@ -445,3 +448,103 @@ def test_track_pattern_refuses_a_missing_source_and_a_bad_animation(
     bad = tmp_path / "a.avi"
     assert main(["track-pattern", str(folder), "--region", region, "--animation", str(bad)]) == 2
     assert ".gif or .mp4" in one_error_line(capsys)
+
+
+def _otb_copy(root: Path, name: str, seed: int, frames: int = 10) -> Path:
+    """A synthetic sequence written as an OTB folder (PNG frames, 1-based boxes)."""
+    seq = synthetic_sequence(frames, seed=seed)
+    folder = root / name
+    (folder / "img").mkdir(parents=True)
+    for k, frame in enumerate(seq.frames):
+        Image.fromarray(frame).save(folder / "img" / f"{k + 1:04d}.png")
+    rows = [",".join(f"{v:.6f}" for v in (x + 1, y + 1, w, h)) for x, y, w, h in seq.boxes]
+    (folder / "groundtruth_rect.txt").write_text("\n".join(rows) + "\n")
+    return folder
+
+
+def test_track_all_tables_every_otb_folder_and_its_json_holds_every_box(tmp_path, capsys):
+    parent = tmp_path / "otb"
+    _otb_copy(parent, "Alpha", seed=4)
+    _otb_copy(parent, "Beta", seed=5, frames=8)
+    (parent / "notes").mkdir()  # not a sequence: skipped
+    js = tmp_path / "all.json"
+    assert main(["track", "--all", str(parent), "--json", str(js)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert [line.split()[0] for line in out[2:5]] == ["Alpha", "Beta", "mean"]
+    measured = json.loads(js.read_text())
+    rows = measured["sequences"]
+    aucs = []
+    for row, seed, n in zip(rows, (4, 5), (10, 8), strict=True):
+        truth = synthetic_sequence(n, seed=seed).boxes
+        boxes = np.asarray(row["boxes"])
+        assert boxes.shape == (n, 4) and len(row["scores"]) == n and len(row["lost"]) == n
+        aucs.append(brute_force_auc(boxes, truth))
+        assert row["auc"] == pytest.approx(aucs[-1], abs=5e-4)
+    assert measured["mean_auc"] == pytest.approx(np.mean(aucs), abs=5e-4)
+    assert float(out[4].split()[1]) == pytest.approx(np.mean(aucs), abs=6e-4)
+
+
+def test_track_a_video_with_a_box_writes_csv_json_and_an_annotated_gif(tmp_path, capsys):
+    iio = pytest.importorskip("imageio.v3")
+    seq = synthetic_sequence(10, seed=6)
+    video, csv, js, gif = (tmp_path / n for n in ("in.gif", "b.csv", "b.json", "out.gif"))
+    iio.imwrite(video, seq.frames, duration=40, loop=0)
+    box = ",".join(f"{v:.2f}" for v in seq.boxes[0])
+    argv = ["track", str(video), "--box", box, "--csv", str(csv), "--json", str(js)]
+    assert main([*argv, "--video", str(gif)]) == 0
+    err = capsys.readouterr().err
+    assert all(f"wrote {p}" in err for p in (csv, js, gif))
+    lines = csv.read_text().splitlines()
+    assert lines[0] == "frame,x,y,w,h,score,lost" and len(lines) == 11
+    boxes = np.array([[float(v) for v in line.split(",")[1:5]] for line in lines[1:]])
+    np.testing.assert_allclose(boxes, json.loads(js.read_text())["boxes"], atol=0.006)
+    # GIF frames are palette-quantised: the tracker still follows the generator's truth.
+    assert (
+        np.mean(
+            [
+                np.hypot(*(b[:2] + b[2:] / 2 - t[:2] - t[2:] / 2))
+                for b, t in zip(boxes, seq.boxes, strict=True)
+            ]
+        )
+        < 5.0
+    )
+    with iio.imopen(gif, "r") as f:
+        drawn = f.read(index=None)
+    assert drawn.shape[:3] == (10, *seq.frames.shape[1:3])
+    x, y = round(boxes[5, 0]), round(boxes[5, 1])
+    # The box's top-left corner is drawn in red (tracking) in frame 5.
+    assert drawn[5, y, x + 3, 0] > 200 and drawn[5, y, x + 3, 1] < 100
+
+
+# imageio's ffmpeg reader (imageio 2.38) leaves its pipe file objects to the garbage
+# collector when the video is closed; that is imageio's, not ours.
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+def test_track_an_mp4_round_trip(tmp_path, capsys):
+    iio = pytest.importorskip("imageio.v3")
+    pytest.importorskip("imageio_ffmpeg")
+    seq = synthetic_sequence(8, seed=7)
+    video, out = tmp_path / "in.mp4", tmp_path / "out.mp4"
+    iio.imwrite(video, seq.frames, fps=10, codec="libx264", macro_block_size=1)
+    box = ",".join(f"{v:.2f}" for v in seq.boxes[0])
+    assert main(["track", str(video), "--box", box, "--video", str(out)]) == 0
+    assert "8 frames" in capsys.readouterr().out
+    with iio.imopen(out, "r") as f:
+        assert f.read(index=None).shape[0] == 8
+
+
+@pytest.mark.parametrize(
+    ("argv", "needle"),
+    [
+        (["track", "{video}"], "give the initial box with --box"),
+        (["track", "{video}", "--box", "1,2,3,4", "--video", "{tmp}/o.avi"], ".gif or .mp4"),
+        (["track"], "give one sequence folder or video, or --all"),
+        (["track", "--all", "{tmp}"], "no OTB sequence folder"),
+    ],
+)
+def test_track_video_and_all_mistakes_are_one_line_errors(tmp_path, capsys, argv, needle):
+    video = tmp_path / "v.gif"
+    video.write_bytes(b"GIF89a")
+    args = [a.format(video=video, tmp=tmp_path) for a in argv]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert needle in err and len(err.strip().splitlines()) == 1, err

@@ -298,3 +298,24 @@ def test_a_16_bit_frame_is_scaled_not_clipped(tmp_path):
     assert frame.shape == (8, 8, 3) and frame.dtype == np.uint8
     np.testing.assert_array_equal(frame[:, :, 0], (ramp >> 8).astype(np.uint8))
     assert len(np.unique(frame)) > 10  # not all 255
+
+
+def test_load_otb_with_more_images_than_boxes_uses_the_boxes_and_warns(tmp_path):
+    """OTB's Football1 has 74 boxes for 75 images."""
+    from PIL import Image
+
+    seq = tmp_path / "Football1"
+    (seq / "img").mkdir(parents=True)
+    for k in range(5):
+        Image.fromarray(np.full((8, 8, 3), k, np.uint8)).save(seq / "img" / f"{k + 1:04d}.jpg")
+    (seq / "groundtruth_rect.txt").write_text("1,1,4,4\n2,3,4,4\n3,3,4,4\n4,3,4,4\n")
+    with pytest.warns(UserWarning, match="5 images but 4 boxes"):
+        loaded = load_otb(seq)
+    assert len(loaded) == 4 and loaded.boxes.shape == (4, 4)
+    assert [p.name for p in loaded.frame_paths] == [f"{k:04d}.jpg" for k in range(1, 5)]
+    (seq / "img" / "0005.jpg").unlink()
+    (seq / "img" / "0004.jpg").unlink()
+    with pytest.raises(DatasetFormatError, match="4 boxes for 3 frames"):
+        load_otb(seq)
+    # The docstring states the conversion the test of Girl's first box checks.
+    assert "1-based" in (load_otb.__doc__ or "") and "0-based" in (load_otb.__doc__ or "")

@@ -117,7 +117,7 @@ def test_bad_frames_boxes_and_parameters_raise():
     with pytest.raises(ValueError, match=r"\(H, W, 3\)"):
         ColorHistogramTracker(np.zeros((96, 128, 4), np.uint8), boxes[0])
     with pytest.raises(ValueError, match=r"\(H, W, 3\)"):
-        ColorHistogramTracker(np.zeros((96, 128), np.uint8), boxes[0])
+        ColorHistogramTracker(np.zeros((96,), np.uint8), boxes[0])
     with pytest.raises(ValueError):
         ColorHistogramTracker(f, (500.0, 10.0, 20.0, 20.0))  # outside the frame
     with pytest.raises(ValueError):

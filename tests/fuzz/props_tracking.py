@@ -179,8 +179,16 @@ TRACKER_PARAMS = {
     "min_scale": EDGE_NUMBERS,
     "max_scale": EDGE_NUMBERS,
     "momentum": EDGE_NUMBERS,
+    "velocity_gain": EDGE_NUMBERS,
+    "max_search_radius": EDGE_NUMBERS,
+    "lost_ratio": EDGE_NUMBERS,
+    "lost_contrast": EDGE_NUMBERS,
+    "ring_weight": EDGE_NUMBERS,
+    "scale_prior": EDGE_NUMBERS,
+    "channels": st.sampled_from(["rgb", "bgr", "BGR", "", "gray"]),
 }
 PARTICLE_PARAMS = {
+    "mix_fraction": EDGE_NUMBERS,
     "n_particles": st.one_of(st.sampled_from([0, 1, 2, 10**13, 2**62]), EDGE_NUMBERS),
     "position_noise": EDGE_NUMBERS,
     "scale_noise": EDGE_NUMBERS,

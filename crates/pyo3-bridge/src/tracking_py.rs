@@ -129,6 +129,18 @@ impl PyColorHistogramTracker {
     fn scale(slf: &Bound<'_, Self>) -> PyResult<f64> {
         Ok(shared(slf)?.inner.scale())
     }
+
+    /// Half-size in pixels of the next frame's search window.
+    #[getter]
+    fn search_radius(slf: &Bound<'_, Self>) -> PyResult<usize> {
+        Ok(shared(slf)?.inner.search_radius())
+    }
+
+    /// Frames in a row the target has been lost (0 while tracked).
+    #[getter]
+    fn lost_frames(slf: &Bound<'_, Self>) -> PyResult<usize> {
+        Ok(shared(slf)?.inner.lost_frames())
+    }
 }
 
 /// The CONDENSATION colour tracker over (x, y, scale).

@@ -8,6 +8,8 @@
     rperc lines extract LOG     walls from a CARMEN log, in the world frame
     rperc lines simplify FILE   Douglas-Peucker on a WKT or CSV polyline
     rperc track SEQ_DIR         colour tracker on an OTB sequence (AUC, precision, fps)
+    rperc track --all PARENT    one table row per OTB sequence folder in PARENT
+    rperc track VIDEO --box x,y,w,h   your own video: boxes (--csv/--json), --video OUT.gif
     rperc track-pattern SOURCE --region x,y,w,h
                                 planar pattern tracker on a video or image folder
     rperc demo pattern          pattern tracker: Fig. 8 and the harness vs OpenCV

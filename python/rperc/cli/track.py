@@ -1,5 +1,14 @@
-"""``rperc track SEQ_DIR`` (a tracker on an OTB sequence, scored against its ground
-truth) and ``rperc demo tracking`` (both trackers on a synthetic sequence)."""
+"""``rperc track`` and ``rperc demo tracking``.
+
+- ``rperc track SEQ_DIR``: a tracker on any OTB-format folder (``img/`` and
+  ``groundtruth_rect.txt``), scored against its ground truth;
+- ``rperc track --all PARENT_DIR``: every OTB folder under a parent, one table row each;
+- ``rperc track VIDEO --box x,y,w,h``: a video or GIF without ground truth (read with
+  imageio), the boxes written with ``--csv``/``--json`` and the video with the box
+  drawn with ``--video OUT.gif|OUT.mp4``;
+- ``rperc demo tracking``: both colour trackers on a synthetic sequence.
+
+``--json`` holds every frame's box, score and lost flag."""
 
 from __future__ import annotations
 
@@ -33,8 +42,34 @@ STRIP_FRAMES = 6
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser("track", help="run a tracker on an OTB sequence (AUC, precision, fps)")
-    p.add_argument("sequence", type=Path, help="OTB sequence folder (img/, groundtruth_rect.txt)")
+    p = sub.add_parser(
+        "track", help="run a tracker on an OTB sequence or a video (AUC, precision, fps)"
+    )
+    p.add_argument(
+        "sequence",
+        type=Path,
+        nargs="?",
+        help="OTB sequence folder (img/, groundtruth_rect.txt), or a video/GIF file with --box",
+    )
+    p.add_argument(
+        "--all",
+        type=Path,
+        metavar="PARENT_DIR",
+        help="run on every OTB sequence folder in PARENT_DIR and print a table",
+    )
+    p.add_argument(
+        "--box",
+        type=box_type,
+        metavar="X,Y,W,H",
+        help="initial box of a video (0-based top-left corner, pixels)",
+    )
+    p.add_argument("--csv", type=Path, metavar="PATH", help="write every frame's box as CSV")
+    p.add_argument(
+        "--video",
+        type=Path,
+        metavar="PATH",
+        help="write the frames with the box drawn (.gif, .mp4)",
+    )
     p.add_argument("--tracker", choices=CLI_TRACKERS, default="color")
     p.add_argument("--seed", type=seed_type, default=0, help="seed of the particle filter")
     p.add_argument("--strip", type=Path, help="write a figure strip of annotated frames")
@@ -55,6 +90,22 @@ class TrackerRun:
     lost: np.ndarray  # (N,) bool
     seconds: float
     contours: tuple[np.ndarray, ...] | None = None  # (M, 2) per frame, color-shape only
+    scores: np.ndarray | None = None  # (N,) the tracker's score (1 for the first frame)
+
+
+def box_type(text: str) -> tuple[float, float, float, float]:
+    """An argparse type: ``x,y,w,h`` as four finite numbers with ``w, h > 0``."""
+    parts = text.split(",")
+    try:
+        values = [float(v) for v in parts]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected x,y,w,h (numbers), got {text!r}") from None
+    if len(values) != 4 or not np.isfinite(values).all():
+        raise argparse.ArgumentTypeError(f"expected 4 finite numbers x,y,w,h, got {text!r}")
+    x, y, w, h = values
+    if w <= 0 or h <= 0:
+        raise argparse.ArgumentTypeError(f"w and h must be > 0, got {text!r}")
+    return (x, y, w, h)
 
 
 def run_tracker(
@@ -76,17 +127,26 @@ def run_tracker(
     else:
         raise ValueError(f"unknown tracker {name!r}; expected one of {', '.join(CLI_TRACKERS)}")
     boxes: list[tuple[float, ...]] = [box]
+    scores = [1.0]
     lost = [False]
     corners = np.array([[x, y], [x + w - 1, y], [x + w - 1, y + h - 1], [x, y + h - 1]])
     contours: list[np.ndarray] = [corners]
     for frame in progress(frames[1:], desc=f"tracking ({name})", unit="frame"):
         r = tracker.update(frame)
         boxes.append(tuple(r.box))
+        scores.append(float(r.score))
         lost.append(bool(r.lost))
         contours.append(getattr(r, "contour", corners))
     seconds = time.perf_counter() - start
     shapes = tuple(contours) if name == "color-shape" else None
-    return TrackerRun(name, np.asarray(boxes, dtype=np.float64), np.asarray(lost), seconds, shapes)
+    return TrackerRun(
+        name,
+        np.asarray(boxes, dtype=np.float64),
+        np.asarray(lost),
+        seconds,
+        shapes,
+        np.asarray(scores, dtype=np.float64),
+    )
 
 
 def scores(run: TrackerRun, truth: np.ndarray) -> dict[str, Any]:
@@ -101,6 +161,9 @@ def scores(run: TrackerRun, truth: np.ndarray) -> dict[str, Any]:
         "lost_frames": int(run.lost.sum()),
         "fps": len(truth) / run.seconds if run.seconds > 0 else float("inf"),
         "boxes": run.boxes,
+        "scores": run.scores,
+        "lost": run.lost,
+        "iou": overlaps,
     }
 
 
@@ -114,6 +177,18 @@ def strip_indices(n_frames: int, count: int) -> np.ndarray:
 def track_command(args: argparse.Namespace) -> int:
     check_output_file(args.strip, "--strip", figure=True)
     check_output_file(args.json, "--json")
+    check_output_file(args.csv, "--csv")
+    check_output_file(args.video, "--video")
+    if args.video is not None and args.video.suffix.lower() not in VIDEO_SUFFIXES:
+        raise ValueError(f"--video {args.video}: use a .gif or .mp4 file name")
+    if (args.all is None) == (args.sequence is None):
+        raise ValueError("give one sequence folder or video, or --all PARENT_DIR")
+    if args.all is not None:
+        return track_all(args)
+    if args.sequence.is_file():
+        return track_video(args)
+    if args.box is not None:
+        raise ValueError("--box is for a video file; an OTB folder starts from its first box")
     seq = load_otb(args.sequence)
     picks = strip_indices(len(seq), args.frames) if args.strip else None
     frames = [seq.frame(k) for k in progress(range(len(seq)), desc="decoding", unit="frame")]
@@ -138,8 +213,163 @@ def track_command(args: argparse.Namespace) -> int:
             contours={args.tracker: run.contours} if run.contours else None,
         )
         wrote(save(fig, args.strip))
-    write_json(args.json, {"sequence": seq.name, **s})
+    write_outputs(args, frames, run, {"sequence": seq.name, **s})
     return 0
+
+
+VIDEO_SUFFIXES = (".gif", ".mp4")
+
+
+def otb_folders(parent: Path) -> list[Path]:
+    """The OTB sequence folders directly inside ``parent``, sorted by name."""
+    if not parent.is_dir():
+        raise ValueError(f"--all {parent}: not a folder")
+    found = sorted(p for p in parent.iterdir() if (p / "groundtruth_rect.txt").is_file())
+    if not found:
+        raise ValueError(f"--all {parent}: no OTB sequence folder (img/, groundtruth_rect.txt)")
+    return found
+
+
+def track_all(args: argparse.Namespace) -> int:
+    """One run per OTB folder under ``--all``: a table and the mean AUC and P@20."""
+    if args.box is not None or args.strip or args.csv or args.video:
+        raise ValueError("--all prints a table and writes --json only")
+    rows = []
+    for folder in otb_folders(args.all):
+        seq = load_otb(folder)
+        frames = [seq.frame(k) for k in range(len(seq))]
+        run = run_tracker(args.tracker, frames, seq.boxes[0], args.seed)
+        rows.append({"sequence": seq.name, **scores(run, seq.boxes)})
+    print(f"tracker {args.tracker} on {len(rows)} sequences in {args.all}")
+    print(f"{'sequence':<20} {'frames':>6} {'AUC':>6} {'P@20':>6} {'fps':>7} {'lost':>5}")
+    for r in rows:
+        print(
+            f"{r['sequence']:<20} {r['frames']:>6d} {r['auc']:>6.3f} "
+            f"{r['precision_20px']:>6.3f} {r['fps']:>7.0f} {r['lost_frames']:>5d}"
+        )
+    mean_auc = float(np.mean([r["auc"] for r in rows]))
+    mean_p20 = float(np.mean([r["precision_20px"] for r in rows]))
+    print(f"{'mean':<20} {'':>6} {mean_auc:>6.3f} {mean_p20:>6.3f}")
+    summary = {"tracker": args.tracker, "mean_auc": mean_auc, "mean_precision_20px": mean_p20}
+    write_json(args.json, {**summary, "sequences": rows})
+    return 0
+
+
+def read_video(path: Path) -> tuple[list[np.ndarray], float]:
+    """The frames of a video or animated GIF as RGB arrays, and its frame rate."""
+    try:
+        import imageio.v3 as iio
+    except ImportError:
+        raise ValueError(f"reading {path} needs imageio: pip install 'rperc[video]'") from None
+    frames = []
+    # The file is closed (and ffmpeg's pipes with it) before the frames are tracked.
+    with iio.imopen(path, "r") as video:
+        meta = video.metadata()
+        for frame in video.iter():
+            arr = np.asarray(frame)
+            if arr.ndim == 3 and arr.shape[2] == 4:
+                arr = arr[:, :, :3]  # drop a GIF's alpha
+            frames.append(np.ascontiguousarray(arr))
+    if len(frames) < 2:
+        raise ValueError(f"{path}: {len(frames)} frame(s); tracking needs at least 2")
+    fps = float(meta.get("fps") or 0) or 1000.0 / float(meta.get("duration") or 40)
+    return frames, fps
+
+
+def track_video(args: argparse.Namespace) -> int:
+    """A user's own video: no ground truth, so boxes, scores and fps only."""
+    if args.box is None:
+        raise ValueError(f"{args.sequence} is a file: give the initial box with --box x,y,w,h")
+    if args.strip:
+        raise ValueError("--strip needs ground truth (an OTB folder); use --video")
+    frames, fps = read_video(args.sequence)
+    run = run_tracker(args.tracker, frames, args.box, args.seed)
+    rate = len(frames) / run.seconds if run.seconds > 0 else float("inf")
+    print(
+        f"{args.sequence.name}: {len(frames)} frames, tracker {args.tracker}: "
+        f"{rate:.0f} fps, lost in {int(run.lost.sum())} frames"
+    )
+    measured = {
+        "video": args.sequence.name,
+        "tracker": run.name,
+        "frames": len(frames),
+        "fps": rate,
+        "lost_frames": int(run.lost.sum()),
+        "boxes": run.boxes,
+        "scores": run.scores,
+        "lost": run.lost,
+    }
+    write_outputs(args, frames, run, measured, video_fps=fps)
+    return 0
+
+
+def write_outputs(
+    args: argparse.Namespace,
+    frames: Sequence[np.ndarray],
+    run: TrackerRun,
+    measured: dict[str, Any],
+    video_fps: float = 25.0,
+) -> None:
+    """``--json`` (``measured``), ``--csv`` (one box per frame) and ``--video``."""
+    write_json(args.json, measured)
+    if args.csv is not None:
+        write_boxes_csv(args.csv, run)
+        wrote(args.csv)
+    if args.video is not None:
+        write_annotated(args.video, frames, run, video_fps)
+        wrote(args.video)
+
+
+def write_boxes_csv(path: Path, run: TrackerRun) -> None:
+    """``frame,x,y,w,h,score,lost`` per frame (0-based frame index and corner)."""
+    scores = run.scores if run.scores is not None else np.ones(len(run.boxes))
+    lines = ["frame,x,y,w,h,score,lost"]
+    for k, (b, sc, lo) in enumerate(zip(run.boxes, scores, run.lost, strict=True)):
+        lines.append(f"{k},{b[0]:.2f},{b[1]:.2f},{b[2]:.2f},{b[3]:.2f},{sc:.4f},{int(lo)}")
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+def draw_box(frame: np.ndarray, box: Sequence[float], colour: Sequence[int]) -> np.ndarray:
+    """A copy of ``frame`` (RGB or greyscale) with a 2-pixel outline of ``box``."""
+    out = np.array(frame, dtype=np.uint8, copy=True)
+    if out.ndim == 2:
+        out = np.repeat(out[:, :, None], 3, axis=2)
+    h, w = out.shape[:2]
+    x0, y0 = round(box[0]), round(box[1])
+    x1, y1 = round(box[0] + box[2]) - 1, round(box[1] + box[3]) - 1
+    xs = slice(max(x0, 0), min(x1 + 1, w))
+    ys = slice(max(y0, 0), min(y1 + 1, h))
+    for t in range(2):
+        if 0 <= y0 + t < h:
+            out[y0 + t, xs] = colour
+        if 0 <= y1 - t < h:
+            out[y1 - t, xs] = colour
+        if 0 <= x0 + t < w:
+            out[ys, x0 + t] = colour
+        if 0 <= x1 - t < w:
+            out[ys, x1 - t] = colour
+    return out
+
+
+TRACKING_COLOUR, LOST_COLOUR = (255, 40, 40), (255, 220, 0)
+
+
+def write_annotated(path: Path, frames: Sequence[np.ndarray], run: TrackerRun, fps: float) -> None:
+    """The frames with the tracker's box drawn: red while tracking, yellow when lost."""
+    try:
+        import imageio.v3 as iio
+    except ImportError:
+        raise ValueError(f"writing {path} needs imageio: pip install 'rperc[video]'") from None
+    drawn = np.stack(
+        [
+            draw_box(f, b, LOST_COLOUR if lost else TRACKING_COLOUR)
+            for f, b, lost in zip(frames, run.boxes, run.lost, strict=True)
+        ]
+    )
+    if path.suffix.lower() == ".gif":
+        iio.imwrite(path, drawn, duration=1000.0 / fps, loop=0)
+    else:
+        iio.imwrite(path, drawn, fps=fps, codec="libx264", macro_block_size=1)
 
 
 def demo_tracking(out: Path, seed: int, frames: int = 150) -> DemoResult:

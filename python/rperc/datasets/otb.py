@@ -5,6 +5,7 @@ separated by tabs, commas or spaces)."""
 from __future__ import annotations
 
 import re
+import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -75,19 +76,37 @@ _LOCATION = re.compile(r"^(?P<path>.*):(?P<line>\d+): (?P<reason>.*)$", re.S)
 
 
 def load_otb(path: str | Path) -> OtbSequence:
-    """Read an OTB sequence folder. Frames are read lazily (:meth:`OtbSequence.frame`).
+    """Read an OTB sequence folder: ``img/`` (frames, sorted by name) and
+    ``groundtruth_rect.txt``. Frames are read lazily (:meth:`OtbSequence.frame`).
 
-    Raises ``FileNotFoundError`` for a missing folder, and :class:`DatasetFormatError`
-    for a malformed ground-truth line or when frames and boxes differ in number.
+    OTB's boxes have a 1-based top-left corner (MATLAB's convention: the top-left pixel
+    is ``(1, 1)``); they are returned 0-based, ``(x - 1, y - 1, w, h)``, the convention
+    of numpy indexing and of rperc's and OpenCV's trackers. Width and height are
+    unchanged.
+
+    A folder with more images than boxes (OTB's Football1 has 74 boxes for 75 images)
+    uses the first ``len(boxes)`` images and warns (``UserWarning``). Raises
+    ``FileNotFoundError`` for a missing folder, and :class:`DatasetFormatError` for a
+    malformed ground-truth line or fewer images than boxes.
     """
     root = Path(path)
     gt = root / "groundtruth_rect.txt"
     if not gt.exists():
         raise FileNotFoundError(f"{gt} not found (is {root} an OTB sequence folder?)")
+    if not (root / "img").is_dir():
+        raise FileNotFoundError(f"{root / 'img'} not found (is {root} an OTB sequence folder?)")
     frames = sorted(p for p in (root / "img").iterdir() if p.suffix.lower() in _IMAGE_SUFFIXES)
     boxes = read_boxes(gt)
-    if len(frames) != len(boxes):
+    if len(frames) < len(boxes):
         raise DatasetFormatError(
             gt, len(boxes), f"{len(boxes)} boxes for {len(frames)} frames in {root / 'img'}"
         )
+    if len(frames) > len(boxes):
+        warnings.warn(
+            f"{root.name}: {len(frames)} images but {len(boxes)} boxes in {gt.name}; "
+            f"using the first {len(boxes)} images",
+            UserWarning,
+            stacklevel=2,
+        )
+        frames = frames[: len(boxes)]
     return OtbSequence(root.name, frames, boxes)

@@ -6,7 +6,8 @@ Trackers follow OpenCV's convention::
     result = tracker.update(next_frame)      # TrackResult(box, score, lost)
     box, score, lost = result
 
-Frames are H x W x 3 uint8 RGB arrays; boxes are ``(x, y, w, h)`` in pixels (top-left
+Frames are H x W x 3 uint8 RGB arrays (``channels="bgr"`` for OpenCV's order; H x W
+greyscale frames are accepted); boxes are ``(x, y, w, h)`` in pixels (top-left
 corner). The GIL is released while a frame is processed.
 
 - :class:`ColorHistogramTracker`: Birchfield-style local search over position and
@@ -23,6 +24,8 @@ corner). The GIL is released while a frame is processed.
   CONDENSATION over the target's colour distribution weighted by an affine snake, with
   a contour per frame; :mod:`rperc.tracking.shape_sequences` generates the four
   experiments of section 3.4 with truth masks.
+- :func:`opencv`: any of them behind OpenCV's ``init(frame, box)`` /
+  ``update(frame) -> (ok, box)`` protocol, BGR frames.
 - :func:`resample`, :func:`effective_sample_size`: the particle-filter building blocks.
 - :mod:`rperc.tracking.metrics`: IoU, success curve and AUC, precision at 20 px.
 - :mod:`rperc.tracking.planar`: the planar-tracking harness (corner alignment error,
@@ -44,9 +47,11 @@ from rperc.tracking.trackers import (
     ColorHistogramTracker,
     ColorShapeResult,
     ColorShapeTracker,
+    OpenCVTracker,
     ParticleColorTracker,
     TrackResult,
     effective_sample_size,
+    opencv,
     resample,
 )
 
@@ -54,6 +59,7 @@ __all__ = [
     "ColorHistogramTracker",
     "ColorShapeResult",
     "ColorShapeTracker",
+    "OpenCVTracker",
     "ParticleColorTracker",
     "PatternPose",
     "PatternSequence",
@@ -61,6 +67,7 @@ __all__ = [
     "TrackResult",
     "effective_sample_size",
     "metrics",
+    "opencv",
     "pattern_sequence",
     "planar",
     "resample",

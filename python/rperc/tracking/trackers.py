@@ -2,13 +2,20 @@
 Rust configs, and :class:`TrackResult` answers.
 
 Both follow OpenCV's convention: construct on the first frame and a box, then call
-``update(frame)`` for every next frame. Frames are ``H x W x 3`` uint8 RGB arrays;
-boxes are ``(x, y, w, h)`` in pixels with a 0-based top-left corner, given as a tuple,
-a list or an array. The GIL is released while a frame is processed.
+``update(frame)`` for every next frame. Frames are ``H x W x 3`` uint8 RGB arrays
+(``channels="bgr"`` takes OpenCV's BGR frames as they are; ``H x W`` greyscale frames
+are accepted too); boxes are ``(x, y, w, h)`` in pixels with a 0-based top-left corner,
+given as a tuple, a list or an array. A first box partly outside the frame is clipped
+to it with a warning (OTB ground truth has such boxes); a box of zero size, or one
+wholly outside the frame, is a ``ValueError``. :func:`opencv` wraps a tracker in
+OpenCV's ``init(frame, box)`` / ``update(frame) -> (ok, box)`` protocol. The GIL is
+released while a frame is processed.
 """
 
 from __future__ import annotations
 
+import math
+import warnings
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -22,6 +29,7 @@ from rperc._args import whole_number
 ColorSpace = Literal["hsv", "opponent", "rg", "rgb"]
 ModelKind = Literal["bimodal", "single"]
 ResamplerName = Literal["systematic", "multinomial", "stratified", "residual"]
+Channels = Literal["rgb", "bgr"]
 Box = tuple[float, float, float, float]
 
 # The Rust configs are the one source of the defaults shown in the signatures below.
@@ -59,11 +67,56 @@ def _box(box: Sequence[float] | npt.ArrayLike) -> Box:
     return (x, y, w, h)
 
 
-def _frame(frame: npt.ArrayLike) -> np.ndarray:
+def _frame(frame: npt.ArrayLike, channels: Channels = "rgb") -> np.ndarray:
+    """An ``H x W x 3`` uint8 RGB array from an RGB or BGR colour frame or an ``H x W``
+    (or ``H x W x 1``) greyscale one."""
     arr = np.asarray(frame)
     if arr.dtype != np.uint8:
         raise TypeError(f"frame must have dtype uint8, got {arr.dtype}")
+    if arr.ndim == 2 or (arr.ndim == 3 and arr.shape[2] == 1):
+        grey = arr.reshape(arr.shape[0], arr.shape[1], 1)
+        return np.ascontiguousarray(np.broadcast_to(grey, (*grey.shape[:2], 3)))
+    if arr.ndim != 3 or arr.shape[2] != 3:
+        raise ValueError(
+            f"frame must have shape (H, W, 3) (colour) or (H, W) (greyscale), got {arr.shape}"
+        )
+    if channels == "bgr":
+        return np.ascontiguousarray(arr[:, :, ::-1])
     return arr
+
+
+def _channels(channels: str) -> Channels:
+    if channels == "rgb":
+        return "rgb"
+    if channels == "bgr":
+        return "bgr"
+    raise ValueError(f"channels must be 'rgb' or 'bgr', got {channels!r}")
+
+
+def _first_box(box: Sequence[float] | npt.ArrayLike, frame: np.ndarray) -> Box:
+    """The initial box, clipped to the frame with a warning when it overhangs it.
+    A box of zero size or wholly outside the frame is refused."""
+    x, y, w, h = _box(box)
+    if not all(math.isfinite(v) for v in (x, y, w, h)):
+        raise ValueError(f"box must be finite numbers, got {(x, y, w, h)}")
+    if w <= 0 or h <= 0:
+        raise ValueError(f"box has zero or negative size (w={w}, h={h}); need w, h >= 1 px")
+    height, width = frame.shape[:2]
+    if x >= 0 and y >= 0 and x + w <= width and y + h <= height:
+        return (x, y, w, h)
+    x0, y0 = max(x, 0.0), max(y, 0.0)
+    x1, y1 = min(x + w, float(width)), min(y + h, float(height))
+    if x1 - x0 < 1 or y1 - y0 < 1:
+        raise ValueError(
+            f"box {(x, y, w, h)} leaves less than 1 px inside the {width} x {height} frame"
+        )
+    clipped = (x0, y0, x1 - x0, y1 - y0)
+    warnings.warn(
+        f"box {(x, y, w, h)} is partly outside the {width} x {height} frame; clipped to {clipped}",
+        UserWarning,
+        stacklevel=3,
+    )
+    return clipped
 
 
 def _plain(value: Any) -> Any:
@@ -98,9 +151,20 @@ class ColorHistogramTracker:
     Parameters: ``color_space`` (``"hsv"``, ``"opponent"`` = the seed's (B-G, G-R,
     R+G+B), ``"rg"``, ``"rgb"``), ``bins`` per axis, ``model``, ``upper_fraction`` of the
     ellipse's rows in the upper part, ``lost_threshold`` (score below which the target
-    is reported lost), ``search_radius`` (px), ``scale_step`` (relative), ``min_scale``
-    and ``max_scale`` (relative to the first box), ``momentum`` (constant-velocity
-    prediction, 0..1), ``parallel`` (search the scales on several threads; same result).
+    is reported lost), ``search_radius`` (px, when still), ``velocity_gain`` (the window
+    grows by this times the estimated speed), ``max_search_radius`` (px; also the widest
+    search while lost), ``lost_ratio`` (lost below this fraction of the running
+    confident score), ``lost_contrast`` (lost when the box's foreground probability
+    exceeds the ring's around it by less than this), ``ring_weight`` (weight of that
+    contrast when the scales compete), ``scale_prior`` (weight of ``ln(s /
+    s_confident)^2``), ``scale_step`` (relative), ``min_scale`` and ``max_scale``
+    (relative to the first box), ``momentum`` (constant-velocity prediction, 0..1),
+    ``parallel`` (search the scales on several threads; same result), ``channels``
+    (``"rgb"``, or ``"bgr"`` for OpenCV frames).
+
+    When the target is lost (:attr:`TrackResult.lost`) the box stays where it was last
+    seen and the search window doubles every frame (up to ``max_search_radius``) until
+    the target is found again; a single-colour frame (all black) is lost.
 
     Examples
     --------
@@ -128,11 +192,18 @@ class ColorHistogramTracker:
         gradient_weight: float = _APPEARANCE["gradient_weight"],
         lost_threshold: float = _APPEARANCE["lost_threshold"],
         search_radius: int = _COLOR["search_radius"],
+        velocity_gain: float = _COLOR["velocity_gain"],
+        max_search_radius: int = _COLOR["max_search_radius"],
+        lost_ratio: float = _COLOR["lost_ratio"],
+        lost_contrast: float = _COLOR["lost_contrast"],
+        ring_weight: float = _COLOR["ring_weight"],
+        scale_prior: float = _COLOR["scale_prior"],
         scale_step: float = _COLOR["scale_step"],
         min_scale: float = _COLOR["min_scale"],
         max_scale: float = _COLOR["max_scale"],
         momentum: float = _COLOR["momentum"],
         parallel: bool = _COLOR["parallel"],
+        channels: Channels = "rgb",
     ) -> None:
         appearance = _appearance(
             color_space=color_space,
@@ -148,6 +219,12 @@ class ColorHistogramTracker:
             "appearance": appearance,
             **_appearance(
                 search_radius=search_radius,
+                velocity_gain=velocity_gain,
+                max_search_radius=max_search_radius,
+                lost_ratio=lost_ratio,
+                lost_contrast=lost_contrast,
+                ring_weight=ring_weight,
+                scale_prior=scale_prior,
                 scale_step=scale_step,
                 min_scale=min_scale,
                 max_scale=max_scale,
@@ -155,18 +232,32 @@ class ColorHistogramTracker:
                 parallel=parallel,
             ),
         }
-        self._native = _rperc.ColorHistogramTracker(_frame(frame), _box(box), config)
-        self._last = TrackResult(_box(box), 1.0, False)
+        self._channels = _channels(channels)
+        first = _frame(frame, self._channels)
+        start = _first_box(box, first)
+        self._native = _rperc.ColorHistogramTracker(first, start, config)
+        self._last = TrackResult(start, 1.0, False)
 
     def update(self, frame: npt.ArrayLike) -> TrackResult:
         """Find the target in the next frame."""
-        self._last = _answer(self._native.update(_frame(frame)))
+        self._last = _answer(self._native.update(_frame(frame, self._channels)))
         return self._last
 
     @property
     def scale(self) -> float:
         """The current scale relative to the first box."""
         return self._native.scale
+
+    @property
+    def search_radius(self) -> int:
+        """Half-size in pixels of the next frame's search window: ``search_radius``
+        grown with the estimated speed, or widened while the target is lost."""
+        return self._native.search_radius
+
+    @property
+    def lost_frames(self) -> int:
+        """Frames in a row the target has been lost (0 while it is tracked)."""
+        return self._native.lost_frames
 
     def __repr__(self) -> str:
         return f"ColorHistogramTracker(last={self._last!r}, scale={self.scale:.3f})"
@@ -178,10 +269,14 @@ class ParticleColorTracker:
     search, for clutter and fast motion. Same appearance parameters as
     :class:`ColorHistogramTracker`, plus ``n_particles``, ``position_noise`` (random-walk
     standard deviation as a fraction of the box's mean semi-axis), ``scale_noise``,
-    ``sigma`` of the likelihood ``exp(-(1 - score)^2 / 2 sigma^2)``, ``resampler``,
+    ``sigma`` of the likelihood ``exp(-(1 - score)^2 / 2 sigma^2)``, ``mix_fraction``
+    (share of the particles redrawn each frame around the best centre of a coarse
+    local search within ``search_radius`` px, grown by ``velocity_gain`` times the
+    estimated speed up to ``max_search_radius``: a mixture proposal that keeps
+    particles on a target that jumped; 0 is plain CONDENSATION), ``resampler``,
     ``resample_below`` (resample only when the ESS falls below this fraction; ``None``:
-    every step, as the seed does), ``chunk_size`` and ``parallel``. A seed gives the
-    same track on any number of threads.
+    every step, as the seed does), ``chunk_size``, ``parallel`` and ``channels``. A seed
+    gives the same track on any number of threads.
     """
 
     def __init__(
@@ -196,6 +291,10 @@ class ParticleColorTracker:
         sigma: float = _PARTICLE["sigma"],
         min_scale: float = _PARTICLE["min_scale"],
         max_scale: float = _PARTICLE["max_scale"],
+        mix_fraction: float = _PARTICLE["mix_fraction"],
+        search_radius: int = _PARTICLE["search_radius"],
+        velocity_gain: float = _PARTICLE["velocity_gain"],
+        max_search_radius: int = _PARTICLE["max_search_radius"],
         resampler: ResamplerName = _FILTER["resampler"],
         resample_below: float | None = _FILTER["resample_below"],
         chunk_size: int = _FILTER["chunk_size"],
@@ -208,6 +307,7 @@ class ParticleColorTracker:
         adaptation_threshold: float = _APPEARANCE["adaptation_threshold"],
         gradient_weight: float = _APPEARANCE["gradient_weight"],
         lost_threshold: float = _APPEARANCE["lost_threshold"],
+        channels: Channels = "rgb",
     ) -> None:
         appearance = _appearance(
             color_space=color_space,
@@ -234,15 +334,22 @@ class ParticleColorTracker:
                 sigma=sigma,
                 min_scale=min_scale,
                 max_scale=max_scale,
+                mix_fraction=mix_fraction,
+                search_radius=search_radius,
+                velocity_gain=velocity_gain,
+                max_search_radius=max_search_radius,
             ),
         }
         seed = whole_number(seed, "seed", 0, limit=2**64)
-        self._native = _rperc.ParticleColorTracker(_frame(frame), _box(box), seed, config)
-        self._last = TrackResult(_box(box), 1.0, False)
+        self._channels = _channels(channels)
+        first = _frame(frame, self._channels)
+        start = _first_box(box, first)
+        self._native = _rperc.ParticleColorTracker(first, start, seed, config)
+        self._last = TrackResult(start, 1.0, False)
 
     def update(self, frame: npt.ArrayLike) -> TrackResult:
         """One CONDENSATION step on the next frame."""
-        self._last = _answer(self._native.update(_frame(frame)))
+        self._last = _answer(self._native.update(_frame(frame, self._channels)))
         return self._last
 
     @property
@@ -333,6 +440,7 @@ class ColorShapeTracker:
         sigma: float = _SHAPE["sigma"],
         seed: int = 0,
         config: dict[str, Any] | None = None,
+        channels: Channels = "rgb",
     ) -> None:
         if box is None and contour is None:
             raise ValueError("give a box (x, y, w, h) or a contour (N x 2)")
@@ -346,13 +454,15 @@ class ColorShapeTracker:
         poly = None if contour is None else np.asarray(contour, dtype=np.float64)
         if poly is not None and (poly.ndim != 2 or poly.shape[1] != 2):
             raise ValueError(f"contour must have shape (N, 2), got {poly.shape}")
-        bbox = None if box is None else _box(box)
-        self._native = _rperc.ColorShapeTracker(_frame(frame), bbox, poly, cfg)
+        self._channels = _channels(channels)
+        first = _frame(frame, self._channels)
+        bbox = None if box is None else _first_box(box, first)
+        self._native = _rperc.ColorShapeTracker(first, bbox, poly, cfg)
         self._last: ColorShapeResult | None = None
 
     def update(self, frame: npt.ArrayLike) -> ColorShapeResult:
         """One CONDENSATION step and contour refinement on the next frame."""
-        contour, b, dist, score, lost, ess = self._native.update(_frame(frame))
+        contour, b, dist, score, lost, ess = self._native.update(_frame(frame, self._channels))
         self._last = ColorShapeResult(
             contour, _box(b), tuple(float(v) for v in dist), float(score), bool(lost), ess
         )
@@ -360,3 +470,75 @@ class ColorShapeTracker:
 
     def __repr__(self) -> str:
         return f"ColorShapeTracker(last={self._last!r})"
+
+
+TrackerName = Literal["color", "color-pf", "color-shape"]
+_BY_NAME: dict[str, Any] = {
+    "color": ColorHistogramTracker,
+    "color-pf": ParticleColorTracker,
+    "color-shape": ColorShapeTracker,
+}
+
+
+class OpenCVTracker:
+    """One of rperc's trackers behind OpenCV's tracker protocol (``cv2.TrackerCSRT``
+    and friends): ``init(frame, box)`` then ``update(frame) -> (ok, box)``, frames in
+    BGR order by default, ``box`` an integer ``(x, y, w, h)`` as OpenCV's ``Rect``
+    (so it goes straight into ``cv2.rectangle``). ``ok`` is ``False`` when the tracker
+    reports the target lost; the box is then where the target was last seen. The
+    full answer (float box, score) of the last call is :attr:`last`. Made by
+    :func:`opencv`."""
+
+    def __init__(self, kind: Any, channels: Channels, options: dict[str, Any]) -> None:
+        self._kind = kind
+        self._channels = channels
+        self._options = options
+        self._tracker: Any = None
+        self.last: TrackResult | ColorShapeResult | None = None
+
+    def init(self, frame: npt.ArrayLike, box: Sequence[float] | npt.ArrayLike) -> None:
+        """Start (or restart) tracking ``box`` in ``frame``."""
+        self._tracker = self._kind(frame, box, channels=self._channels, **self._options)
+        self.last = None
+
+    def update(self, frame: npt.ArrayLike) -> tuple[bool, tuple[int, int, int, int]]:
+        """Track into ``frame``: ``(ok, (x, y, w, h))`` with integer pixels."""
+        if self._tracker is None:
+            raise RuntimeError("call init(frame, box) before update(frame)")
+        r = self._tracker.update(frame)
+        self.last = r
+        x, y, w, h = (round(v) for v in r.box)
+        return (not r.lost, (x, y, max(w, 1), max(h, 1)))
+
+    def __repr__(self) -> str:
+        return f"OpenCVTracker({self._kind.__name__}, channels={self._channels!r})"
+
+
+def opencv(
+    tracker: TrackerName | type = "color", *, channels: Channels = "bgr", **options: Any
+) -> OpenCVTracker:
+    """An OpenCV-style tracker: ``t = opencv("color"); t.init(frame, box);
+    ok, box = t.update(frame)``. ``tracker`` is ``"color"``, ``"color-pf"``,
+    ``"color-shape"`` or one of the tracker classes; ``options`` are its keyword
+    parameters. Frames are BGR (OpenCV's order) unless ``channels="rgb"``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from rperc.tracking import opencv
+    >>> frame = np.full((60, 80, 3), 90, np.uint8); frame[22:38, 22:38] = (30, 30, 220)
+    >>> t = opencv("color")
+    >>> t.init(frame, (22, 22, 16, 16))
+    >>> ok, (x, y, w, h) = t.update(np.roll(frame, 3, axis=1))
+    >>> ok, x, y
+    (True, 25, 22)
+    """
+    if isinstance(tracker, str):
+        if tracker not in _BY_NAME:
+            raise ValueError(f"tracker must be one of {', '.join(_BY_NAME)}, got {tracker!r}")
+        kind = _BY_NAME[tracker]
+    elif tracker in _BY_NAME.values():
+        kind = tracker
+    else:
+        raise TypeError(f"tracker must be a name or an rperc tracker class, got {tracker!r}")
+    return OpenCVTracker(kind, _channels(channels), options)

@@ -7,6 +7,7 @@ mod gradient;
 mod model;
 mod particle_tracker;
 mod region;
+mod ring;
 mod space;
 mod tracker;
 

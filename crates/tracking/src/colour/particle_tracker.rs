@@ -34,6 +34,16 @@ pub struct ParticleTrackerParams {
     pub min_scale: f64,
     /// Largest scale relative to the initial box. Default 2.0.
     pub max_scale: f64,
+    /// Share of the particles redrawn each frame around the best centre of a coarse
+    /// local search (a mixture proposal), in [0, 0.99]. Default 0.1 (set on the fast
+    /// challenge sequences and Couple); 0 is plain CONDENSATION.
+    pub mix_fraction: f64,
+    /// Half-size in pixels of that search's window when the target is still. Default 10.
+    pub search_radius: usize,
+    /// The window grows by this times the estimated speed (px per frame). Default 1.5.
+    pub velocity_gain: f64,
+    /// Largest half-size of the window, >= `search_radius`, <= 512. Default 60.
+    pub max_search_radius: usize,
     /// Particle-filter settings (resampler, policy, chunking, parallelism).
     pub filter: FilterParams,
 }
@@ -48,6 +58,10 @@ impl Default for ParticleTrackerParams {
             sigma: 0.1,
             min_scale: 0.5,
             max_scale: 2.0,
+            mix_fraction: 0.1,
+            search_radius: 10,
+            velocity_gain: 1.5,
+            max_search_radius: 60,
             filter: FilterParams::default(),
         }
     }
@@ -118,6 +132,40 @@ fn intersection(
         }
     }
     inter / f64::from(n)
+}
+
+/// The centre of best intersection on a grid of step about a quarter of the smaller
+/// semi-axis within `radius` of `predicted`: the guess the mixture proposal samples
+/// around. Coarse, so it costs a few dozen intersections rather than a full search.
+fn local_search(
+    image: &BinImage,
+    model: &[f32],
+    counts: &mut [u32],
+    predicted: (f64, f64),
+    (a, b): (f64, f64),
+    radius: usize,
+) -> (f64, f64) {
+    let step = (a.min(b) / 4.0).round().max(1.0) as usize;
+    let r = (radius / step) as i64;
+    let mut best = (f64::NEG_INFINITY, predicted);
+    for j in -r..=r {
+        for i in -r..=r {
+            let c = (
+                predicted.0 + (i * step as i64) as f64,
+                predicted.1 + (j * step as i64) as f64,
+            );
+            let phi = intersection(image, model, counts, c.0, c.1, a, b);
+            // Ties (a flat image) go to the candidate nearest the prediction.
+            let nearer = (i * i + j * j) < {
+                let (dx, dy) = (best.1.0 - predicted.0, best.1.1 - predicted.1);
+                ((dx * dx + dy * dy) / (step * step) as f64).round() as i64
+            };
+            if phi > best.0 || (phi == best.0 && nearer) {
+                best = (phi, c);
+            }
+        }
+    }
+    best.1
 }
 
 impl HistogramLikelihood<'_> {
@@ -200,6 +248,10 @@ pub struct ParticleColorTracker {
     scratch: Vec<Vec<u32>>,
     ellipse: Ellipse,
     directions: Vec<(f64, f64)>,
+    /// Counts buffer of the local search.
+    counts: Vec<u32>,
+    velocity: (f64, f64),
+    speed: f64,
     last: TrackResult,
 }
 
@@ -211,6 +263,17 @@ impl ParticleTrackerParams {
             return Err(TrackingError::InvalidParameter {
                 name: "n_particles",
                 reason: "need at least one particle".into(),
+            });
+        }
+        rperc_core::ensure_in_range("mix_fraction", self.mix_fraction, 0.0, 0.99)?;
+        rperc_core::ensure_in_range("velocity_gain", self.velocity_gain, 0.0, 100.0)?;
+        if self.max_search_radius < self.search_radius || self.max_search_radius > 512 {
+            return Err(TrackingError::InvalidParameter {
+                name: "max_search_radius",
+                reason: format!(
+                    "must be between search_radius ({}) and 512, got {}",
+                    self.search_radius, self.max_search_radius
+                ),
             });
         }
         positive("position_noise", self.position_noise)?;
@@ -327,6 +390,9 @@ impl ParticleColorTracker {
             scratch: Vec::new(),
             ellipse,
             directions,
+            counts: vec![0; n_bins],
+            velocity: (0.0, 0.0),
+            speed: 0.0,
             last: TrackResult {
                 bbox,
                 score: 1.0,
@@ -350,6 +416,16 @@ impl ParticleColorTracker {
             });
         }
         let use_gradient = self.prepare_frame(&frame);
+        if self.image.bins.iter().all(|&b| b == self.image.bins[0]) {
+            // One colour everywhere (a black frame): nothing to weigh the particles by;
+            // the set and the box stay as they were.
+            self.last = TrackResult {
+                score: 0.0,
+                lost: true,
+                ..self.last
+            };
+            return Ok(self.last);
+        }
         let app = &self.params.appearance;
         let likelihood = HistogramLikelihood {
             image: &self.image,
@@ -364,9 +440,28 @@ impl ParticleColorTracker {
             gradient_ref: self.gradient_ref,
             directions: &self.directions,
         };
-        let report = self
-            .filter
-            .step_with_scratch(&likelihood, &mut self.scratch);
+        let previous = self.last.bbox.centre();
+        let n_mixed = (self.params.mix_fraction * self.params.n_particles as f64).round() as usize;
+        let report = if n_mixed > 0 {
+            let scale = self.filter.mean()[2].clamp(self.params.min_scale, self.params.max_scale);
+            let radius = self.window_radius();
+            let (gx, gy) = local_search(
+                &self.image,
+                &self.model.reference,
+                &mut self.counts,
+                (previous.0 + self.velocity.0, previous.1 + self.velocity.1),
+                (self.base_a * scale, self.base_b * scale),
+                radius,
+            );
+            let sp = 0.5 * self.params.position_noise * (self.base_a + self.base_b) / 2.0;
+            let centre = Vector3::new(gx, gy, scale);
+            let sigma = Vector3::new(sp, sp, self.params.scale_noise);
+            self.filter
+                .step_mixed(&likelihood, &mut self.scratch, centre, sigma, n_mixed)
+        } else {
+            self.filter
+                .step_with_scratch(&likelihood, &mut self.scratch)
+        };
         let mean = self.filter.mean();
         let scale = mean[2].clamp(self.params.min_scale, self.params.max_scale);
         let (a, b) = (self.base_a * scale, self.base_b * scale);
@@ -391,12 +486,25 @@ impl ParticleColorTracker {
                 pixel_centre(mean[1]),
             );
         }
+        self.velocity = if lost {
+            (0.0, 0.0)
+        } else {
+            (mean[0] - previous.0, mean[1] - previous.1)
+        };
+        self.speed += 0.5 * (self.velocity.0.hypot(self.velocity.1) - self.speed);
         self.last = TrackResult {
             bbox: BoundingBox::new(mean[0] - a, mean[1] - b, 2.0 * a, 2.0 * b),
             score,
             lost,
         };
         Ok(self.last)
+    }
+
+    /// Half-size of the local search's window: grown with the estimated speed.
+    fn window_radius(&self) -> usize {
+        let p = &self.params;
+        let grown = p.search_radius + (p.velocity_gain * self.speed).round() as usize;
+        grown.clamp(p.search_radius, p.max_search_radius)
     }
 
     /// Bins (and, with the gradient term, differentiates) the new frame; whether the

@@ -300,6 +300,32 @@ impl<const D: usize> ParticleFilter<D> {
         resampled
     }
 
+    /// [`step_with_scratch`](Self::step_with_scratch) with a mixture proposal (Isard &
+    /// Blake's ICONDENSATION, without its importance correction): after propagation,
+    /// `count` particles evenly spaced through the set are redrawn from
+    /// `N(centre, diag(sigma^2))`, a detector's guess, so that a target that jumped
+    /// beyond the random walk's reach still has particles on it. Their weights are the
+    /// likelihood alone, so the estimate leans towards the guess when the image agrees.
+    pub fn step_mixed<L: Likelihood<D>>(
+        &mut self,
+        likelihood: &L,
+        scratch: &mut Vec<L::Scratch>,
+        centre: SVector<f64, D>,
+        sigma: SVector<f64, D>,
+        count: usize,
+    ) -> StepReport {
+        let resampled = self.predict();
+        let n = self.particles.len();
+        let count = count.min(n);
+        for k in 0..count {
+            // Evenly spaced: resampled sets are sorted by ancestor.
+            let i = (k * n) / count;
+            let noise: SVector<f64, D> = standard_normal(&mut self.rng);
+            self.particles[i] = centre + sigma.component_mul(&noise);
+        }
+        self.correct_with_scratch(likelihood, scratch, resampled)
+    }
+
     /// The second half of [`step`](Self::step), after [`predict`](Self::predict)
     /// (whose answer is `resampled`): weigh, normalise, and re-draw the set on a total
     /// loss.

@@ -36,6 +36,7 @@ import numpy as np
 from rperc import _rperc
 from rperc.datasets.carmen import load_carmen
 from rperc.linesimp import extract_lines
+from rperc.slam.wallslam import straightness_covariance
 
 SPEED_SIGMA = 0.05  # m per effective metre
 TURN_SIGMA = math.radians(1.0)  # rad per effective metre
@@ -82,7 +83,7 @@ def noisy_controls(controls: np.ndarray, seed: int) -> np.ndarray:
     return np.c_[controls[:, 0], v, w]
 
 
-def wall_rows(log: Any, t: np.ndarray) -> tuple[np.ndarray, float]:
+def wall_rows(log: Any, t: np.ndarray, straightness: float = 0.0) -> tuple[np.ndarray, float]:
     """Every scan's walls as rows ``(t, rho, alpha, var_rho, cov, var_alpha, x0, y0,
     x1, y1)``, and the share of valid readings the walls use."""
     scans = log.scans
@@ -94,6 +95,10 @@ def wall_rows(log: Any, t: np.ndarray) -> tuple[np.ndarray, float]:
         valid += int(np.sum(np.isfinite(r) & (r > 0) & (r < scans.max_range[k])))
         used += len(walls.flat_indices)
         c = walls.cov
+        if straightness > 0:
+            c = c + straightness_covariance(
+                walls.rho, walls.alpha, walls.start, walls.end, straightness
+            )
         rows.append(
             np.c_[
                 np.full(len(walls), t[k]),
@@ -161,12 +166,12 @@ METHODS: dict[str, dict[str, Any]] = {
 }
 
 
-def run_log(path: Path, seeds: int) -> dict[str, Any]:
+def run_log(path: Path, seeds: int, straightness: float = 0.0) -> dict[str, Any]:
     log = load_carmen(path)
     ref = np.asarray(log.scans.pose, dtype=float)
     exact, t = increments(ref)
     t0 = time.perf_counter()
-    walls, used = wall_rows(log, t)
+    walls, used = wall_rows(log, t, straightness)
     extract_s = time.perf_counter() - t0
     pairs = loop_pairs(ref)
     base = {
@@ -257,8 +262,13 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--json", type=Path)
     ap.add_argument("--plot", type=Path)
+    ap.add_argument(
+        "--straightness", type=float, default=0.0,
+        help="straightness floor sigma (m) added to every wall sighting; calibrate it on "
+        "one log with benchmarks/wall_straightness.py",
+    )  # fmt: skip
     args = ap.parse_args()
-    results = [run_log(Path(p), args.seeds) for p in args.logs]
+    results = [run_log(Path(p), args.seeds, args.straightness) for p in args.logs]
     for res in results:
         print(
             f"{res['log']}: {res['scans']} scans, {res['path_length_m']:.0f} m, "

@@ -111,11 +111,36 @@ def noisy_controls(controls: np.ndarray, seed: int) -> np.ndarray:
     return out
 
 
+def straightness_covariance(
+    rho: np.ndarray, alpha: np.ndarray, start: np.ndarray, end: np.ndarray, sigma: float
+) -> np.ndarray:
+    """The ``(K, 2, 2)`` covariance a wall's ``(rho, alpha)`` gets when each end of the
+    seen segment lies off the ideal straight wall by an independent perpendicular error
+    of ``sigma`` metres (a wall that is not straight at the cm level, a door frame, a
+    pose that is off by cm): the line through the two ends has offset error
+    ``(e1 + e2) / 2`` at the midpoint and angle error ``(e2 - e1) / L``, so at the foot
+    of the perpendicular (tangent coordinate 0, the midpoint at ``m``)
+    ``var(rho) = sigma^2 (1/2 + 2 m^2 / L^2)``, ``var(alpha) = 2 sigma^2 / L^2`` and
+    ``cov = 2 sigma^2 m / L^2`` (``m`` along ``(-sin alpha, cos alpha)``).
+    Unlike the fit's covariance it does not shrink with the number of readings."""
+    n = np.stack([np.cos(alpha), np.sin(alpha)], axis=-1)
+    tangent = np.stack([-n[:, 1], n[:, 0]], axis=-1)
+    m = np.einsum("ki,ki->k", 0.5 * (start + end), tangent)
+    length2 = np.maximum(np.sum((end - start) ** 2, axis=1), 1e-6)
+    q = np.empty((len(rho), 2, 2))
+    q[:, 0, 0] = 0.5 + 2 * m**2 / length2
+    q[:, 1, 1] = 2 / length2
+    q[:, 0, 1] = q[:, 1, 0] = 2 * m / length2
+    out: np.ndarray = sigma**2 * q
+    return out
+
+
 def wall_rows(
-    scans: Any, t: np.ndarray, *, show_progress: bool = False
+    scans: Any, t: np.ndarray, *, show_progress: bool = False, straightness: float = 0.0
 ) -> tuple[np.ndarray, int, int]:
     """Every scan's walls as rows ``(t, rho, alpha, var_rho, cov, var_alpha, x0, y0, x1,
-    y1)`` (sensor frame), the readings the walls use and the valid readings."""
+    y1)`` (sensor frame), the readings the walls use and the valid readings. A
+    positive ``straightness`` (m) adds :func:`straightness_covariance`."""
     from rperc._progress import progress
     from rperc.linesimp import extract_lines
 
@@ -129,6 +154,10 @@ def wall_rows(
         valid += int(np.sum(np.isfinite(r) & (r > 0) & (r < scans.max_range[k])))
         used += len(walls.flat_indices)
         c = walls.cov
+        if straightness > 0:
+            c = c + straightness_covariance(
+                walls.rho, walls.alpha, walls.start, walls.end, straightness
+            )
         rows.append(
             np.c_[
                 np.full(len(walls), t[k]),
@@ -252,9 +281,13 @@ def run_walls(
     freeze_after: int | None = None,
     use_walls: bool = True,
     show_progress: bool = False,
+    straightness: float = 0.0,
 ) -> WallSlamResult:
     """Wall SLAM over a :class:`rperc.datasets.CarmenLog` from odometry drawn with
-    ``seed`` (see the module docs); ``use_walls=False`` is odometry alone."""
+    ``seed`` (see the module docs); ``use_walls=False`` is odometry alone;
+    ``straightness`` (m) adds :func:`straightness_covariance` to every sighting."""
+    if not (math.isfinite(straightness) and straightness >= 0):
+        raise ValueError(f"straightness must be finite and >= 0, got {straightness!r}")
     seed = whole_number(seed, "seed", 0, limit=2**64)
     if freeze_after is not None:
         freeze_after = whole_number(freeze_after, "freeze_after", 1)
@@ -264,7 +297,7 @@ def run_walls(
     exact, t = increments(ref)
     t0 = time.perf_counter()
     rows, used, valid = (
-        wall_rows(log.scans, t, show_progress=show_progress)
+        wall_rows(log.scans, t, show_progress=show_progress, straightness=straightness)
         if use_walls
         else (np.zeros((0, 10)), 0, 0)
     )
@@ -306,5 +339,5 @@ def run_walls(
         metrics=score(est, cov, ref, pairs),
         counts=counts,
         seconds={"extract": extract_s, "slam": slam_s},
-        config=config,
+        config={**config, "straightness": straightness},
     )  # fmt: skip

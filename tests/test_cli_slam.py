@@ -28,6 +28,8 @@ DATA = Path(os.environ["RPERC_DATA"]) if os.environ.get("RPERC_DATA") else None
         (["slam", "walls", "x.log", "--freeze", "0"], "--freeze"),
         (["slam", "walls", "x.log", "--seed", "-1"], "--seed"),
         (["slam", "walls", "x.log", "--freeze", "1.5"], "--freeze"),
+        (["slam", "walls", "x.log", "--straightness", "-0.1"], "--straightness"),
+        (["slam", "walls", "x.log", "--straightness", "nan"], "--straightness"),
     ],
 )
 def test_argument_mistakes_exit_2_with_one_line(argv, message, capsys):

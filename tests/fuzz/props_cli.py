@@ -169,6 +169,7 @@ def prop_cli_slam_walls(seed, freeze, anchor, json_out, plot, data):
         log = _input(folder, data, "carmen", "log.txt")
         argv = ["slam", "walls", str(log), "--seed", seed, "--freeze", freeze]
         argv += ["--anchor"] if anchor else []
+        argv += ["--straightness", data.draw(NUMBERS)] if data.draw(st.booleans()) else []
         out, png = _output(folder, json_out, ".json"), _output(folder, plot, ".png")
         tum = _output(folder, data.draw(OUTPUTS), ".tum")
         argv += ["--json", out] if out else []

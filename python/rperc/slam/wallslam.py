@@ -36,8 +36,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from rperc import _rperc
 from rperc._args import whole_number
+from rperc.slam.planar import PlanarSlam, SlamResult
 
 __all__ = [
     "METHODS",
@@ -267,10 +267,10 @@ class WallSlamResult:
         return Path(path)
 
 
-def _at_scans(out: dict[str, Any], t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _at_scans(out: SlamResult, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The robot pose and covariance after the last event at each scan time."""
-    rows = np.searchsorted(out["t"], t, side="right") - 1
-    return out["pose"][rows], out["covariance"][rows]
+    rows = np.searchsorted(out.t, t, side="right") - 1
+    return out.pose[rows], out.covariance[rows]
 
 
 def run_walls(
@@ -313,16 +313,18 @@ def run_walls(
     }
     controls = np.r_[noisy_controls(exact, seed), [[t[-1], 0.0, 0.0]]]
     t0 = time.perf_counter()
-    out = _rperc.planar_slam_run(controls, np.zeros((0, 3)), None, None, config, rows)
+    out = PlanarSlam(config).run_arrays(controls, np.zeros((0, 3)), walls=rows)
+    walls = out.walls
+    assert walls is not None  # run with walls=, so the result has them
     slam_s = time.perf_counter() - t0
     est, cov = _at_scans(out, t)
     pairs = loop_pairs(ref)
-    stats = {k: int(v) for k, v in out["statistics"].items()}
+    stats = out.statistics
     counts = {
         "scans": len(ref),
         "wall_sightings": len(rows),
-        "walls": len(out["wall_id"]),
-        "walls_frozen": int(np.count_nonzero(out["wall_frozen"])),
+        "walls": len(walls),
+        "walls_frozen": int(np.count_nonzero(walls.frozen)),
         "loop_pairs": len(pairs),
         "readings_valid": valid,
         "readings_used": used,
@@ -332,10 +334,10 @@ def run_walls(
         log=Path(log.path).name,
         timestamp=np.asarray(log.scans.timestamp, dtype=np.float64),
         pose=est, covariance=cov, reference=ref, nees=pose_nees(est, cov, ref),
-        wall_id=out["wall_id"], wall_line=out["wall_line"],
-        wall_covariance=out["wall_covariance"], wall_ends=out["wall_ends"],
-        wall_revisions=out["wall_revisions"], wall_frozen=out["wall_frozen"],
-        wall_anchor=out["wall_anchor"],
+        wall_id=walls.id, wall_line=walls.line,
+        wall_covariance=walls.covariance, wall_ends=walls.ends,
+        wall_revisions=walls.revisions, wall_frozen=walls.frozen,
+        wall_anchor=walls.anchor,
         metrics=score(est, cov, ref, pairs),
         counts=counts,
         seconds={"extract": extract_s, "slam": slam_s},

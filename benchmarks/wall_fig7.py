@@ -166,7 +166,9 @@ METHODS: dict[str, dict[str, Any]] = {
 }
 
 
-def run_log(path: Path, seeds: int, straightness: float = 0.0) -> dict[str, Any]:
+def run_log(
+    path: Path, seeds: int, straightness: float = 0.0, association: str = "nn"
+) -> dict[str, Any]:
     log = load_carmen(path)
     ref = np.asarray(log.scans.pose, dtype=float)
     exact, t = increments(ref)
@@ -181,7 +183,7 @@ def run_log(path: Path, seeds: int, straightness: float = 0.0) -> dict[str, Any]
                 "turn_rate_variance": TURN_SIGMA**2,
             }
         },
-        "association": "nn",
+        "association": association,
         "initial_pose": ref[0].tolist(),
     }
     results: dict[str, list[dict[str, float]]] = {m: [] for m in METHODS}
@@ -267,8 +269,9 @@ def main() -> None:
         help="straightness floor sigma (m) added to every wall sighting; calibrate it on "
         "one log with benchmarks/wall_straightness.py",
     )  # fmt: skip
+    ap.add_argument("--association", choices=("nn", "jcbb"), default="nn")
     args = ap.parse_args()
-    results = [run_log(Path(p), args.seeds, args.straightness) for p in args.logs]
+    results = [run_log(Path(p), args.seeds, args.straightness, args.association) for p in args.logs]
     for res in results:
         print(
             f"{res['log']}: {res['scans']} scans, {res['path_length_m']:.0f} m, "

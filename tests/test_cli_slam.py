@@ -30,6 +30,7 @@ DATA = Path(os.environ["RPERC_DATA"]) if os.environ.get("RPERC_DATA") else None
         (["slam", "walls", "x.log", "--freeze", "1.5"], "--freeze"),
         (["slam", "walls", "x.log", "--straightness", "-0.1"], "--straightness"),
         (["slam", "walls", "x.log", "--straightness", "nan"], "--straightness"),
+        (["slam", "walls", "x.log", "--association", "known"], "invalid choice"),
     ],
 )
 def test_argument_mistakes_exit_2_with_one_line(argv, message, capsys):

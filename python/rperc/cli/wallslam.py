@@ -36,6 +36,7 @@ def add_walls_command(kinds: argparse._SubParsersAction) -> None:  # type: ignor
         help="straightness floor (m) added to every wall sighting (default 0; 0.0148 is "
         "calibrated on ACES by benchmarks/wall_straightness.py)",
     )  # fmt: skip
+    w.add_argument("--association", choices=("nn", "jcbb"), default="nn")
     w.add_argument("--seed", type=seed_type, default=0, help="the odometry noise draw")
     w.add_argument("--tum", type=Path, help="write the estimated path (TUM format, for evo)")
     w.add_argument("--plot", type=Path, help="write the map figure")
@@ -50,6 +51,7 @@ def measured(result: WallSlamResult) -> dict[str, Any]:
         "anchor": bool(result.config.get("anchor")),
         "freeze_after": result.config.get("freeze_after"),
         "straightness_m": result.config.get("straightness"),
+        "association": result.config.get("association"),
         **{f"{k}_m" if k in ("ate_rmse", "loop_error", "final_error") else k: v
            for k, v in result.metrics.items()},
         **result.counts,
@@ -69,7 +71,7 @@ def walls_command(args: argparse.Namespace) -> int:
     log = load_carmen(args.log)
     result = run_walls(
         log, seed=args.seed, anchor=args.anchor, freeze_after=args.freeze,
-        show_progress=True, straightness=args.straightness,
+        show_progress=True, straightness=args.straightness, association=args.association,
     )  # fmt: skip
     metrics = measured(result)
     print(" ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}"

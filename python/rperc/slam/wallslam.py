@@ -282,10 +282,12 @@ def run_walls(
     use_walls: bool = True,
     show_progress: bool = False,
     straightness: float = 0.0,
+    association: str = "nn",
 ) -> WallSlamResult:
     """Wall SLAM over a :class:`rperc.datasets.CarmenLog` from odometry drawn with
     ``seed`` (see the module docs); ``use_walls=False`` is odometry alone;
-    ``straightness`` (m) adds :func:`straightness_covariance` to every sighting."""
+    ``straightness`` (m) adds :func:`straightness_covariance` to every sighting;
+    ``association`` is the engine's (``"nn"`` or ``"jcbb"``)."""
     if not (math.isfinite(straightness) and straightness >= 0):
         raise ValueError(f"straightness must be finite and >= 0, got {straightness!r}")
     seed = whole_number(seed, "seed", 0, limit=2**64)
@@ -306,7 +308,7 @@ def run_walls(
         "motion": {
             "unicycle": {"speed_variance": SPEED_SIGMA**2, "turn_rate_variance": TURN_SIGMA**2}
         },
-        "association": "nn",
+        "association": association,
         "initial_pose": ref[0].tolist(),
         "anchor": anchor,
         "freeze_after": freeze_after,

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import time
 from pathlib import Path
 from typing import Any
@@ -36,53 +35,18 @@ import numpy as np
 from rperc import _rperc
 from rperc.datasets.carmen import load_carmen
 from rperc.linesimp import extract_lines
-
-SPEED_SIGMA = 0.05  # m per effective metre
-TURN_SIGMA = math.radians(1.0)  # rad per effective metre
-SPEED_BIAS = 0.01  # relative
-TURN_BIAS = math.radians(0.1)  # rad per effective metre
-TURN_LENGTH = 0.5  # effective metres per radian turned
-NEES_BAND = (0.2158, 9.3484)  # chi-square 3 dof, 95 %
-
-
-def increments(pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each reference step as three unicycle controls ``(t, v, omega)`` (turn, drive
-    straight, turn: the rot1-trans-rot2 odometry model, which reproduces any step
-    exactly), each held for its effective length, and the scan times."""
-    d = np.diff(pose[:, :2], axis=0)
-    c, s = np.cos(pose[:-1, 2]), np.sin(pose[:-1, 2])
-    fwd, left = c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]
-    dist = np.hypot(fwd, left)
-    rot1 = np.where(dist > 1e-6, np.arctan2(left, fwd), 0.0)
-    # Backwards steps drive backwards rather than turning around.
-    back = np.abs(rot1) > math.pi / 2
-    rot1 = np.where(back, np.angle(np.exp(1j * (rot1 + math.pi))), rot1)
-    trans = np.where(back, -dist, dist)
-    rot2 = np.angle(np.exp(1j * (np.diff(pose[:, 2]) - rot1)))
-    dt = np.maximum(
-        np.c_[TURN_LENGTH * np.abs(rot1), np.abs(trans), TURN_LENGTH * np.abs(rot2)], 1e-3
-    )
-    zero = np.zeros(len(dist))
-    u = np.stack(
-        [np.c_[zero, rot1 / dt[:, 0]], np.c_[trans / dt[:, 1], zero], np.c_[zero, rot2 / dt[:, 2]]],
-        axis=1,
-    )
-    ends = np.cumsum(dt.ravel())
-    starts = np.r_[0.0, ends[:-1]]
-    controls = np.c_[starts, u.reshape(-1, 2)]
-    t_scan = np.r_[0.0, ends[2::3]]
-    return controls, t_scan
+from rperc.slam.wallslam import (
+    SPEED_SIGMA,
+    TURN_SIGMA,
+    increments,
+    loop_pairs,
+    noisy_controls,
+    score,
+    straightness_covariance,
+)
 
 
-def noisy_controls(controls: np.ndarray, seed: int) -> np.ndarray:
-    rng = np.random.default_rng(seed)
-    n = len(controls)
-    v = controls[:, 1] * (1.0 + SPEED_BIAS) + SPEED_SIGMA * rng.standard_normal(n)
-    w = controls[:, 2] + TURN_BIAS + TURN_SIGMA * rng.standard_normal(n)
-    return np.c_[controls[:, 0], v, w]
-
-
-def wall_rows(log: Any, t: np.ndarray) -> tuple[np.ndarray, float]:
+def wall_rows(log: Any, t: np.ndarray, straightness: float = 0.0) -> tuple[np.ndarray, float]:
     """Every scan's walls as rows ``(t, rho, alpha, var_rho, cov, var_alpha, x0, y0,
     x1, y1)``, and the share of valid readings the walls use."""
     scans = log.scans
@@ -94,6 +58,10 @@ def wall_rows(log: Any, t: np.ndarray) -> tuple[np.ndarray, float]:
         valid += int(np.sum(np.isfinite(r) & (r > 0) & (r < scans.max_range[k])))
         used += len(walls.flat_indices)
         c = walls.cov
+        if straightness > 0:
+            c = c + straightness_covariance(
+                walls.rho, walls.alpha, walls.start, walls.end, straightness
+            )
         rows.append(
             np.c_[
                 np.full(len(walls), t[k]),
@@ -115,42 +83,6 @@ def at_scans(out: dict[str, Any], t: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return out["pose"][rows], out["covariance"][rows]
 
 
-def loop_pairs(ref: np.ndarray, radius: float = 1.0, min_path: float = 10.0) -> np.ndarray:
-    path = np.r_[0.0, np.cumsum(np.hypot(*np.diff(ref[:, :2], axis=0).T))]
-    pairs = []
-    for j in range(len(ref)):
-        earlier = np.nonzero(path[j] - path > min_path)[0]
-        if len(earlier) == 0:
-            continue
-        dist = np.hypot(*(ref[earlier, :2] - ref[j, :2]).T)
-        i = int(np.argmin(dist))
-        if dist[i] < radius:
-            pairs.append((earlier[i], j))
-    return np.array(pairs, dtype=int).reshape(-1, 2)
-
-
-def score(est: np.ndarray, cov: np.ndarray, ref: np.ndarray, pairs: np.ndarray) -> dict[str, float]:
-    err = est - ref
-    err[:, 2] = np.angle(np.exp(1j * err[:, 2]))
-    pos = np.hypot(err[:, 0], err[:, 1])
-    nees = np.einsum("ni,nij,nj->n", err[1:], np.linalg.pinv(cov[1:]), err[1:])
-    if len(pairs):
-        d_est = est[pairs[:, 1], :2] - est[pairs[:, 0], :2]
-        d_ref = ref[pairs[:, 1], :2] - ref[pairs[:, 0], :2]
-        loop = float(np.mean(np.hypot(*(d_est - d_ref).T)))
-    else:
-        loop = math.nan
-    return {
-        "ate_rmse": float(np.sqrt(np.mean(pos**2))),
-        "loop_error": loop,
-        "final_error": float(pos[-1]),
-        "final_heading_error_deg": float(np.degrees(abs(err[-1, 2]))),
-        "nees_mean": float(np.mean(nees)),
-        "nees_median": float(np.median(nees)),
-        "nees_in_band": float(np.mean((nees >= NEES_BAND[0]) & (nees <= NEES_BAND[1]))),
-    }
-
-
 METHODS: dict[str, dict[str, Any]] = {
     "odometry": {},
     "plain": {},
@@ -161,12 +93,14 @@ METHODS: dict[str, dict[str, Any]] = {
 }
 
 
-def run_log(path: Path, seeds: int) -> dict[str, Any]:
+def run_log(
+    path: Path, seeds: int, straightness: float = 0.0, association: str = "nn"
+) -> dict[str, Any]:
     log = load_carmen(path)
     ref = np.asarray(log.scans.pose, dtype=float)
     exact, t = increments(ref)
     t0 = time.perf_counter()
-    walls, used = wall_rows(log, t)
+    walls, used = wall_rows(log, t, straightness)
     extract_s = time.perf_counter() - t0
     pairs = loop_pairs(ref)
     base = {
@@ -176,7 +110,7 @@ def run_log(path: Path, seeds: int) -> dict[str, Any]:
                 "turn_rate_variance": TURN_SIGMA**2,
             }
         },
-        "association": "nn",
+        "association": association,
         "initial_pose": ref[0].tolist(),
     }
     results: dict[str, list[dict[str, float]]] = {m: [] for m in METHODS}
@@ -257,8 +191,14 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--json", type=Path)
     ap.add_argument("--plot", type=Path)
+    ap.add_argument(
+        "--straightness", type=float, default=0.0,
+        help="straightness floor sigma (m) added to every wall sighting; calibrate it on "
+        "one log with benchmarks/wall_straightness.py",
+    )  # fmt: skip
+    ap.add_argument("--association", choices=("nn", "jcbb"), default="nn")
     args = ap.parse_args()
-    results = [run_log(Path(p), args.seeds) for p in args.logs]
+    results = [run_log(Path(p), args.seeds, args.straightness, args.association) for p in args.logs]
     for res in results:
         print(
             f"{res['log']}: {res['scans']} scans, {res['path_length_m']:.0f} m, "

@@ -341,3 +341,22 @@ def test_wall_landmarks_match_the_numpy_reference_filter() -> None:
     assert len(out["wall_id"]) == len(ref.extents) == 6
     lines = ref.x[3:].reshape(-1, 2)
     np.testing.assert_allclose(out["wall_line"], lines, atol=1e-9)
+
+
+def test_typed_run_returns_the_wall_map() -> None:
+    """The same closed-form case through ``PlanarSlam.run_arrays(walls=...)``: the
+    typed result's WallMap holds the new wall's ``G_r P G_r^T + R`` and extent; a run
+    without walls has none, and a bad array names ``walls``."""
+    walls = np.array([[0.0, 3.0, 0.0, 1e-4, 0.0, 4e-4, 3.0, -1.0, 3.0, 1.0]])
+    slam = PlanarSlam(initial_pose_variance=[0.04, 0.09, 0.01])
+    result = slam.run_arrays(np.zeros((0, 3)), np.zeros((0, 3)), walls=walls)
+    assert result.walls is not None and len(result.walls) == 1
+    np.testing.assert_allclose(result.walls.line, [[3.0, 0.0]], atol=1e-12)
+    np.testing.assert_allclose(
+        result.walls.covariance[0], [[0.04 + 1e-4, 0.0], [0.0, 0.01 + 4e-4]], atol=1e-12
+    )
+    np.testing.assert_allclose(result.walls.ends[0], [[3.0, -1.0], [3.0, 1.0]], atol=1e-12)
+    assert "1 walls" in repr(result.walls)
+    assert slam.run_arrays(np.zeros((1, 3)), np.zeros((0, 3))).walls is None
+    with pytest.raises(ValueError, match="walls"):
+        slam.run_arrays(np.zeros((0, 3)), np.zeros((0, 3)), walls=walls[:, :9])

@@ -7,7 +7,9 @@ and :func:`check_walls` matches found walls to the true ones and measures their 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -156,3 +158,75 @@ def check_walls(
 def _wrap(angle: np.ndarray) -> np.ndarray:
     wrapped = (angle + np.pi) % (2 * np.pi) - np.pi
     return np.where(wrapped == -np.pi, np.pi, wrapped)
+
+
+def loop_walls() -> np.ndarray:
+    """A 16 m x 10 m floor around a 10 m x 4 m block: a corridor loop 3 m wide, with two
+    pillars against the outer wall. (W, 2, 2) segments."""
+    outer = np.array([[0, 0], [16, 0], [16, 10], [0, 10]], dtype=float)
+    block = np.array([[3, 3], [13, 3], [13, 7], [3, 7]], dtype=float)
+    pillar_a = np.array([[7, 0], [7.6, 0], [7.6, 0.4], [7, 0.4]], dtype=float)
+    pillar_b = np.array([[9, 9.6], [9.6, 9.6], [9.6, 10], [9, 10]], dtype=float)
+    walls = []
+    for poly in (outer, block, pillar_a, pillar_b):
+        walls += [(poly[k], poly[(k + 1) % len(poly)]) for k in range(len(poly))]
+    return np.asarray(walls)
+
+
+def loop_path(laps: float = 2.0, step: float = 0.25, radius: float = 1.0) -> np.ndarray:
+    """Poses ``(S, 3)`` every ``step`` metres along the corridor loop of
+    :func:`loop_walls`, counter-clockwise: a rectangle through the corridor's middle
+    (x in [1.5, 14.5], y in [1.5, 8.5]) with corners rounded to ``radius``."""
+    lo, hi = np.array([1.5, 1.5]), np.array([14.5, 8.5])
+    sides = hi - lo - 2 * radius  # straight lengths along x and y
+    quarter = math.pi * radius / 2
+    lengths = np.array([sides[0], quarter, sides[1], quarter] * 2)
+    lap = float(lengths.sum())
+    s = np.arange(0.0, laps * lap, step) % lap
+    bounds = np.r_[0.0, np.cumsum(lengths)]
+    piece = np.searchsorted(bounds, s, side="right") - 1
+    u = s - bounds[piece]
+    # Start of each straight piece and its heading; arcs turn left by u / radius.
+    starts = [
+        (lo + np.array([radius, 0.0]), 0.0),
+        (np.array([hi[0], lo[1] + radius]), math.pi / 2),
+        (hi - np.array([radius, 0.0]), math.pi),
+        (np.array([lo[0], hi[1] - radius]), -math.pi / 2),
+    ]
+    pose = np.empty((len(s), 3))
+    for k, (p, u_k) in enumerate(zip(piece, u, strict=True)):
+        side = p // 2
+        origin, heading = starts[side]
+        if p % 2 == 0:
+            xy = origin + u_k * np.array([math.cos(heading), math.sin(heading)])
+            th = heading
+        else:
+            end = origin + sides[side % 2] * np.array([math.cos(heading), math.sin(heading)])
+            centre = end + radius * np.array([-math.sin(heading), math.cos(heading)])
+            th = heading + u_k / radius
+            xy = centre + radius * np.array([math.sin(th), -math.cos(th)])
+        pose[k] = (*xy, math.atan2(math.sin(th), math.cos(th)))
+    return pose
+
+
+def write_loop_log(
+    path: str | Path, *, seed: int = 0, laps: float = 2.0, sigma_range: float = 0.01
+) -> Path:
+    """A CARMEN FLASER log of :func:`loop_path` in :func:`loop_walls`: 180 beams over
+    180 degrees (1 degree apart, from -90), ray cast with Gaussian range noise
+    ``sigma_range`` (m), the true pose in both pose fields (as the corrected logs
+    carry it), 0.5 s apart. The data of ``rperc demo wall_slam``."""
+    rng = np.random.default_rng(seed)
+    walls = loop_walls()
+    angles = -math.pi / 2 + math.pi / 180 * np.arange(180)
+    lines = []
+    for k, (x, y, th) in enumerate(loop_path(laps)):
+        scan = ray_cast(walls, np.array([x, y, th]), angles, max_range=81.83,
+                        sigma_range=sigma_range, rng=rng)  # fmt: skip
+        ranges = " ".join(f"{r:.4f}" for r in scan.ranges)
+        t = 0.5 * k
+        pose = f"{x:.6f} {y:.6f} {th:.6f}"
+        lines.append(f"FLASER 180 {ranges} {pose} {pose} {t:.1f} sim {t:.1f}")
+    out = Path(path)
+    out.write_text("\n".join(lines) + "\n")
+    return out

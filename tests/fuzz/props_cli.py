@@ -159,3 +159,22 @@ def prop_cli_track_bad_sequences(seed, frames, tracker, data):
         _check(argv, [])
     finally:
         shutil.rmtree(folder)
+
+
+@examples(20)
+@given(NUMBERS, NUMBERS, st.booleans(), OUTPUTS, st.sampled_from([None, "ok", "folder"]), st.data())
+def prop_cli_slam_walls(seed, freeze, anchor, json_out, plot, data):
+    folder = Path(tempfile.mkdtemp(prefix="rperc-cli-"))
+    try:
+        log = _input(folder, data, "carmen", "log.txt")
+        argv = ["slam", "walls", str(log), "--seed", seed, "--freeze", freeze]
+        argv += ["--anchor"] if anchor else []
+        argv += ["--straightness", data.draw(NUMBERS)] if data.draw(st.booleans()) else []
+        out, png = _output(folder, json_out, ".json"), _output(folder, plot, ".png")
+        tum = _output(folder, data.draw(OUTPUTS), ".tum")
+        argv += ["--json", out] if out else []
+        argv += ["--plot", png] if png else []
+        argv += ["--tum", tum] if tum else []
+        _check(argv, [out, png, tum])
+    finally:
+        shutil.rmtree(folder)

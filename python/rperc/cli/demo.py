@@ -68,7 +68,7 @@ class Demo:
 def registry() -> tuple[Demo, ...]:
     """Every demo, in the order ``demo all`` runs them. (Built on first use: the demo
     functions live in the command modules, which import this one.)"""
-    from rperc.cli import lines, pattern, slam, slamrun, track
+    from rperc.cli import lines, pattern, slam, slamrun, track, wallslam
 
     return (
         Demo("lines", "Douglas-Peucker on a noisy spiral, deviation vs epsilon", lines.demo_lines),
@@ -84,6 +84,11 @@ def registry() -> tuple[Demo, ...]:
             "planar EKF-SLAM variants in a simulated world: maps, paths, Monte Carlo NEES",
             slamrun.demo_slam,
             (Option("--runs", "runs", count_at_least(2), 20, "Monte Carlo runs (default 20)"),),
+        ),
+        Demo(
+            "wall_slam",
+            "wall-landmark SLAM on a simulated corridor loop: Fig. 7's maps side by side",
+            wallslam.demo_wall_slam,
         ),
         Demo(
             "tracking",

@@ -31,7 +31,9 @@ def _variants(text: str) -> tuple[str, ...]:
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser("slam", help="planar EKF-SLAM on MR.CLAM or Victoria Park")
+    p = sub.add_parser(
+        "slam", help="planar EKF-SLAM on MR.CLAM, Victoria Park or a CARMEN log's walls"
+    )
     kinds = p.add_subparsers(dest="dataset", required=True, metavar="DATASET")
     m = kinds.add_parser("mrclam", help="MR.CLAM: one robot, known association (barcodes)")
     m.add_argument("directory", type=Path, help="MR.CLAM dataset folder")
@@ -64,6 +66,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         )  # fmt: skip
         add_json_option(q)
         q.set_defaults(run=slam_command)
+    from rperc.cli.wallslam import add_walls_command
+
+    add_walls_command(kinds)
 
 
 def variant_config(base: dict[str, Any], variants: tuple[str, ...]) -> dict[str, Any]:

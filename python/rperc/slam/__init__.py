@@ -8,19 +8,22 @@
   landmark RMSE, pose NEES and distance to GPS fixes, against ground truth;
 - :class:`PlanarSlam` (:mod:`rperc.slam.planar`): whole recordings in one native call,
   with known, nearest-neighbour or JCBB association, the anchor (eqs. 24-25), the
-  external sensor (eqs. 26-27) and landmark freezing.
+  external sensor (eqs. 26-27) and landmark freezing; walls as a second landmark
+  kind (:class:`WallMap`);
+- :mod:`rperc.slam.wallslam`: wall SLAM on a laser log, the seed's Fig. 7 experiment.
 """
 
 from rperc._rperc import nees_bounds
 from rperc.slam import evaluation, monobot
 from rperc.slam.ekf import Ekf, EkfUpdate
-from rperc.slam.planar import PlanarSlam, SlamResult
+from rperc.slam.planar import PlanarSlam, SlamResult, WallMap
 
 __all__ = [
     "Ekf",
     "EkfUpdate",
     "PlanarSlam",
     "SlamResult",
+    "WallMap",
     "evaluation",
     "monobot",
     "nees_bounds",

@@ -46,6 +46,7 @@ __all__ = [
     "Recording",
     "SimulatedRun",
     "SlamResult",
+    "WallMap",
     "consistency",
     "defaults",
     "monte_carlo",
@@ -133,6 +134,31 @@ def _integral_ids(detection_ids: npt.ArrayLike) -> npt.NDArray[np.int64]:
 
 
 @dataclass(frozen=True, repr=False)
+class WallMap:
+    """The walls of a run: ``line`` ``(W, 2)`` rows ``(rho, alpha)`` in the world frame,
+    their 2x2 ``covariance`` (a frozen wall's at its freezing), the seen extent
+    ``ends`` ``(W, 2, 2)`` (end points, kept outside the state), and per wall its id,
+    revisions and whether it is frozen or the anchor."""
+
+    id: np.ndarray
+    line: np.ndarray
+    covariance: np.ndarray
+    ends: np.ndarray
+    revisions: np.ndarray
+    frozen: np.ndarray
+    anchor: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.id)
+
+    def __repr__(self) -> str:
+        return (
+            f"WallMap({len(self)} walls, {int(np.count_nonzero(self.frozen))} frozen, "
+            f"{int(np.count_nonzero(self.anchor))} anchor)"
+        )
+
+
+@dataclass(frozen=True, repr=False)
 class SlamResult:
     """A run: the robot after every event, the final map and the association counts.
 
@@ -156,6 +182,7 @@ class SlamResult:
     anchor: tuple[float, float] | None
     config: dict[str, Any] = field(default_factory=dict)
     anchor_time: float | None = None  # when the anchor was made (eqs. 24-25)
+    walls: WallMap | None = None  # the wall landmarks, when the run was given walls
 
     def __repr__(self) -> str:
         s = self.statistics
@@ -382,11 +409,14 @@ class PlanarSlam:
         *,
         detection_ids: npt.ArrayLike | None = None,
         fixes: npt.ArrayLike | None = None,
+        walls: npt.ArrayLike | None = None,
     ) -> SlamResult:
         """Runs over columnar arrays, each sorted by time: ``controls`` rows ``(t, u0,
         u1)``, ``detections`` rows ``(t, range, bearing)`` (equal times form one scan),
         ``detection_ids`` one int per detection (negative: unknown), ``fixes`` rows
-        ``(t, x, y, var_x, cov_xy, var_y)``."""
+        ``(t, x, y, var_x, cov_xy, var_y)``, ``walls`` rows ``(t, rho, alpha, var_rho,
+        cov, var_alpha, x0, y0, x1, y1)`` (sensor frame, equal times form one scan; the
+        result's ``walls`` then holds the wall map)."""
         ids = None if detection_ids is None else _integral_ids(detection_ids)
         out = _rperc.planar_slam_run(
             _rows(controls, 3, "controls"),
@@ -394,9 +424,10 @@ class PlanarSlam:
             ids,
             None if fixes is None else _rows(fixes, 6, "fixes"),
             self.config or None,
+            None if walls is None else _rows(walls, 10, "walls"),
         )
-        for key in [k for k in out if k.startswith("wall_")]:
-            del out[key]  # no walls in a point-landmark recording
+        fields = ("id", "line", "covariance", "ends", "revisions", "frozen", "anchor")
+        wall_map = WallMap(**{f: out.pop(f"wall_{f}") for f in fields})
         anchor = out.pop("anchor")
         anchor_time = out.pop("anchor_time")
         stats = {k: int(v) for k, v in out.pop("statistics").items()}
@@ -406,6 +437,7 @@ class PlanarSlam:
             anchor=None if anchor is None else (float(anchor[0]), float(anchor[1])),
             config=dict(self.config),
             anchor_time=None if anchor_time is None else float(anchor_time),
+            walls=None if walls is None else wall_map,
         )
 
 

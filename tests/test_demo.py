@@ -362,3 +362,16 @@ def test_wall_slam_demo_numbers_are_recomputed_from_the_truth(demo_all):
     # Fig. 7's claim on this loop: the wall map closes the loop far better than odometry.
     assert max(loops[1:]) < loops[0] / 10
     assert (demo_all["out"] / "wall_slam_fig7.png").stat().st_size > 10_000
+
+
+def test_visual_memory_demo_scores_its_own_replays(demo_all):
+    """The success rate is the share of replays that reached B, recounted from the
+    outcomes; the figure and the replay strip exist."""
+    m = demo_all["measured"]["visual-memory"]
+    outcomes = m["outcomes"]
+    assert m["starts"] == len(outcomes) == 10
+    assert m["success_rate"] == pytest.approx(outcomes.count("reached") / len(outcomes))
+    for key in ("localization_error_cm", "localization_error_deg", "final_error_cm", "hz"):
+        assert np.isfinite(m[key])
+    assert (demo_all["out"] / "visual_memory.png").stat().st_size > 10_000
+    assert (demo_all["out"] / "replay_strip.png").is_file()

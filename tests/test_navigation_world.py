@@ -143,4 +143,4 @@ def test_bad_input_is_refused_by_name() -> None:
         drive([0, 0, 0], [[1.0, 0.0]], 0.0)
     with pytest.raises(ValueError, match="commands"):
         drive([0, 0, 0], np.zeros((0, 2)), 0.1)
-    assert set(defaults()) == {"ceiling", "camera", "render", "odometry"}
+    assert set(defaults()) == {"ceiling", "camera", "render", "odometry", "learn", "replay"}

@@ -47,6 +47,9 @@ __all__ = [
     "simplify_many_indices",
     "simplify_topology_indices",
     "tracker_defaults",
+    "visual_memory_defaults",
+    "visual_memory_learn",
+    "visual_memory_replay",
 ]
 
 __version__: str
@@ -282,3 +285,28 @@ def ceiling_drive(
     noise: dict[str, Any] | None = None,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
 def ceiling_defaults() -> tuple[dict[str, Any], dict[str, Any], dict[str, Any], dict[str, Any]]: ...
+
+_Frames: TypeAlias = tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+]
+
+def visual_memory_learn(
+    world: CeilingWorld,
+    start: npt.NDArray[np.float64],
+    commands: npt.NDArray[np.float64],
+    dt: float,
+    config: dict[str, Any] | None = None,
+    seed: int = 0,
+) -> tuple[str, _Frames]: ...
+def visual_memory_replay(
+    world: CeilingWorld,
+    memory: str,
+    start: npt.NDArray[np.float64],
+    config: dict[str, Any] | None = None,
+    seed: int = 0,
+) -> tuple[str, npt.NDArray[np.float64], _Frames]: ...
+def visual_memory_defaults() -> tuple[dict[str, Any], dict[str, Any]]: ...

@@ -12,7 +12,7 @@ use crate::arrays::shaped;
 use crate::errors::{Error, detached, detached_parallel};
 
 /// Rows `(x, y, theta)` of an `(n, 3)` float array as poses.
-fn poses(obj: &Bound<'_, PyAny>, name: &str) -> Result<Vec<Pose2>, Error> {
+pub(crate) fn poses(obj: &Bound<'_, PyAny>, name: &str) -> Result<Vec<Pose2>, Error> {
     let (shape, data) = crate::arrays::tensor(obj, name, 2)?;
     if shape[1] != 3 {
         return Err(Error::Value(format!(
@@ -32,7 +32,7 @@ fn poses(obj: &Bound<'_, PyAny>, name: &str) -> Result<Vec<Pose2>, Error> {
 }
 
 /// Rows of an `(n, 2)` float array.
-fn pairs(obj: &Bound<'_, PyAny>, name: &str) -> Result<Vec<[f64; 2]>, Error> {
+pub(crate) fn pairs(obj: &Bound<'_, PyAny>, name: &str) -> Result<Vec<[f64; 2]>, Error> {
     let (shape, data) = crate::arrays::tensor(obj, name, 2)?;
     if shape[1] != 2 {
         return Err(Error::Value(format!(
@@ -42,16 +42,16 @@ fn pairs(obj: &Bound<'_, PyAny>, name: &str) -> Result<Vec<[f64; 2]>, Error> {
     Ok(data.chunks_exact(2).map(|r| [r[0], r[1]]).collect())
 }
 
-fn pose_rows(poses: &[Pose2]) -> Vec<f64> {
+pub(crate) fn pose_rows(poses: &[Pose2]) -> Vec<f64> {
     poses.iter().flat_map(|p| [p.x, p.y, p.theta]).collect()
 }
 
 /// A ceiling, its camera and the rendering effects: the world a visual memory runs in.
 #[pyclass(name = "CeilingWorld", module = "rperc._rperc", frozen)]
 pub struct PyCeilingWorld {
-    ceiling: Ceiling,
-    camera: CeilingCamera,
-    render: RenderParams,
+    pub(crate) ceiling: Ceiling,
+    pub(crate) camera: CeilingCamera,
+    pub(crate) render: RenderParams,
 }
 
 /// Three float arrays.
@@ -221,7 +221,7 @@ impl PyCeilingWorld {
     }
 }
 
-fn one_pose(obj: &Bound<'_, PyAny>) -> Result<Pose2, Error> {
+pub(crate) fn one_pose(obj: &Bound<'_, PyAny>) -> Result<Pose2, Error> {
     let v = crate::arrays::float_vector(obj, "pose")?;
     if v.len() != 3 || !v.iter().all(|x| x.is_finite()) {
         return Err(Error::Value(format!(

@@ -12,6 +12,7 @@ mod config;
 mod errors;
 mod eval_py;
 mod linesimp_py;
+mod memory_py;
 mod parallel;
 mod pattern_py;
 mod planar_py;
@@ -41,6 +42,8 @@ mod _rperc {
         extract_lines, scan_params_defaults, simplify_indices, simplify_many_indices,
         simplify_topology_indices,
     };
+    #[pymodule_export]
+    use crate::memory_py::{visual_memory_defaults, visual_memory_learn, visual_memory_replay};
     #[pymodule_export]
     use crate::pattern_py::{PyPatternTracker, pattern_defaults, pattern_sequence};
     #[pymodule_export]

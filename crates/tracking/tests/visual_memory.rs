@@ -104,6 +104,7 @@ fn an_empty_mosaic_or_memory_is_refused() {
     let empty = VisualMemory {
         models: Vec::new(),
         key_images: Vec::new(),
+        image_size: [320, 240],
     };
     assert!(
         replay(

@@ -68,7 +68,7 @@ class Demo:
 def registry() -> tuple[Demo, ...]:
     """Every demo, in the order ``demo all`` runs them. (Built on first use: the demo
     functions live in the command modules, which import this one.)"""
-    from rperc.cli import lines, pattern, slam, slamrun, track, wallslam
+    from rperc.cli import lines, navigation, pattern, slam, slamrun, track, wallslam
 
     return (
         Demo("lines", "Douglas-Peucker on a noisy spiral, deviation vs epsilon", lines.demo_lines),
@@ -109,6 +109,12 @@ def registry() -> tuple[Demo, ...]:
             pattern.demo_pattern,
             # 640 x 480 grey frames: 1000 of them are 300 MB.
             (Option("--frames", "frames", count_at_least(9, 1000), 60, "frames (default 60)"),),
+        ),
+        Demo(
+            "visual-memory",
+            "ceiling mosaic, key images and visual servoing (Fig. 9) vs the world's truth",
+            navigation.demo_visual_memory,
+            (Option("--starts", "starts", count_at_least(1, 1000), 10, "replays (default 10)"),),
         ),
     )
 

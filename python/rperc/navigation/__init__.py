@@ -8,6 +8,31 @@ package starts with a seeded ceiling world that has it (:class:`CeilingWorld`).
 
 from __future__ import annotations
 
+from rperc.navigation.memory import (
+    Evaluation,
+    Frames,
+    Learning,
+    ReplayResult,
+    VisualMemory,
+    evaluate,
+    learn,
+    replay,
+    starts_around,
+)
 from rperc.navigation.world import CeilingWorld, Drive, defaults, drive
 
-__all__ = ["CeilingWorld", "Drive", "defaults", "drive"]
+__all__ = [
+    "CeilingWorld",
+    "Drive",
+    "Evaluation",
+    "Frames",
+    "Learning",
+    "ReplayResult",
+    "VisualMemory",
+    "defaults",
+    "drive",
+    "evaluate",
+    "learn",
+    "replay",
+    "starts_around",
+]

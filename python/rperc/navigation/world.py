@@ -33,9 +33,12 @@ __all__ = ["CeilingWorld", "Drive", "defaults", "drive"]
 
 def defaults() -> dict[str, dict[str, Any]]:
     """The default configs (from the Rust crate, the one place they live): ``ceiling``,
-    ``camera``, ``render`` and ``odometry``."""
+    ``camera``, ``render``, ``odometry``, and the visual memory's ``learn`` and
+    ``replay``."""
     ceiling, camera, render, odometry = _rperc.ceiling_defaults()
-    return {"ceiling": ceiling, "camera": camera, "render": render, "odometry": odometry}
+    learn, replay = _rperc.visual_memory_defaults()
+    return {"ceiling": ceiling, "camera": camera, "render": render, "odometry": odometry,
+            "learn": learn, "replay": replay}  # fmt: skip
 
 
 def _poses(poses: npt.ArrayLike, name: str) -> np.ndarray:
@@ -79,14 +82,18 @@ class CeilingWorld:
         camera: Mapping[str, Any] | None = None,
         render: Mapping[str, Any] | None = None,
     ) -> None:
-        self._native = _rperc.CeilingWorld(
-            dict(ceiling or {}), dict(camera or {}), dict(render or {})
-        )
+        self._configs = (dict(ceiling or {}), dict(camera or {}), dict(render or {}))
+        self._native = _rperc.CeilingWorld(*self._configs)
         kinds, centres, theta = self._native.patterns()
         self.pattern_kinds: tuple[str, ...] = tuple(kinds)
         self.pattern_centres: np.ndarray = centres
         self.pattern_theta: np.ndarray = theta
         self.camera, self.render_config = self._native.configs()
+
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        # Pickled as its configs (the ceiling regenerates from its seed), so that
+        # worlds travel to process pools and Dask workers.
+        return (CeilingWorld, self._configs)
 
     def __repr__(self) -> str:
         c = self.camera

@@ -9,7 +9,7 @@ use rperc_core::{Pose2, angle_diff};
 use crate::error::{Result, TrackingError};
 
 /// One tracked model in one frame.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TrackedModel {
     /// The model's id.
     pub id: usize,
@@ -53,7 +53,7 @@ impl KeyImageParams {
 /// A key image: the models of one learning frame with their image poses (ideal image),
 /// and where the robot was then by eq. 2 (for drawing and scoring; the servoing reads
 /// only the image poses).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct KeyImage {
     /// The learning frame it was taken from.
     pub frame: usize,

@@ -97,7 +97,7 @@ impl MosaicParams {
 const REACQUIRE_HYSTERESIS: f64 = 3.0;
 
 /// A model of the mosaic: the learnt pattern and its pose `M T_i`.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct MosaicModel {
     /// Its index in the mosaic (creation order).
     pub id: usize,
@@ -279,6 +279,30 @@ impl MosaicBuilder {
         Ok(())
     }
 
+    /// Whether the ideal image shows the ceiling at `c` and `margin` pixels around it
+    /// (along both axes). After eq. 1 the real frame covers a quadrilateral of the
+    /// ideal image, not all of it (a camera mounted higher than the robot frame sees
+    /// less of the ceiling); a model's window is in view when its corners are, the
+    /// quadrilateral being convex.
+    fn seen(&self, c: [f64; 2], margin: f64) -> bool {
+        let (w, h) = (self.ideal.width, self.ideal.height);
+        [
+            (-margin, -margin),
+            (margin, -margin),
+            (-margin, margin),
+            (margin, margin),
+        ]
+        .iter()
+        .all(|(dx, dy)| {
+            let (x, y) = ((c[0] + dx).round(), (c[1] + dy).round());
+            x >= 0.0
+                && y >= 0.0
+                && (x as usize) < w
+                && (y as usize) < h
+                && self.ideal.data[y as usize * w + x as usize] >= 0.0
+        })
+    }
+
     fn view(&self) -> Result<PatternFrame<'_>> {
         let view = GrayView::new(&self.bytes, self.ideal.width, self.ideal.height)?;
         Ok(PatternFrame::Gray(view))
@@ -287,12 +311,12 @@ impl MosaicBuilder {
     /// Updates every tracker; stops the lost, the weak and those leaving the view.
     fn update_tracks(&mut self, report: &mut FrameReport) -> Result<()> {
         let view = GrayView::new(&self.bytes, self.ideal.width, self.ideal.height)?;
-        let (w, h, margin) = (self.ideal.width, self.ideal.height, self.params.view_margin);
+        let margin = self.params.view_margin;
         let min_score = self.params.min_score;
         let mut kept = Vec::with_capacity(self.tracks.len());
         for mut track in std::mem::take(&mut self.tracks) {
             let pose = track.tracker.update(PatternFrame::Gray(view))?;
-            let inside = pose.corners.iter().all(|c| inside(*c, w, h, margin));
+            let inside = pose.corners.iter().all(|c| self.seen(*c, margin));
             if pose.lost || pose.score < min_score || !inside {
                 report.stopped.push(track.id);
             } else {
@@ -393,7 +417,7 @@ impl MosaicBuilder {
             let corners = corners_of(model, state);
             if !corners
                 .iter()
-                .all(|c| inside(*c, w, h, margin + REACQUIRE_HYSTERESIS))
+                .all(|c| self.seen(*c, margin + REACQUIRE_HYSTERESIS))
             {
                 continue;
             }
@@ -511,13 +535,6 @@ pub fn rotation_lever(model: &PatternModel) -> f64 {
         })
         .sum();
     (sum / model.points.len() as f64).sqrt()
-}
-
-fn inside(c: [f64; 2], w: usize, h: usize, margin: f64) -> bool {
-    c[0] >= margin
-        && c[1] >= margin
-        && c[0] <= w as f64 - 1.0 - margin
-        && c[1] <= h as f64 - 1.0 - margin
 }
 
 /// The axis-aligned box `(x, y, w, h)` around four corners.

@@ -39,13 +39,57 @@ impl World<'_> {
     }
 }
 
-/// A visual memory: the mosaic and the key images of one learnt path.
-#[derive(Debug, Clone, PartialEq)]
+/// A visual memory: the mosaic and the key images of one learnt path, stored
+/// together (serialisable: JSON through serde).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct VisualMemory {
     /// The mosaic's models with their poses.
     pub models: Vec<MosaicModel>,
     /// The key images from A to B.
     pub key_images: Vec<KeyImage>,
+    /// `(width, height)` of the images it was learnt from.
+    pub image_size: [usize; 2],
+}
+
+impl VisualMemory {
+    /// Refuses a memory whose key images name models its mosaic does not hold (a
+    /// memory paired with another mosaic), an empty mosaic or chain, or models learnt
+    /// on images of another size than `camera`'s.
+    pub fn validate(&self, camera: &CeilingCamera) -> Result<()> {
+        let invalid = |name, reason: String| TrackingError::InvalidParameter { name, reason };
+        if self.models.is_empty() {
+            return Err(invalid("mosaic", "the mosaic is empty".into()));
+        }
+        if self.key_images.is_empty() {
+            return Err(invalid(
+                "key_images",
+                "the memory holds no key image".into(),
+            ));
+        }
+        for (k, key) in self.key_images.iter().enumerate() {
+            if let Some(m) = key.models.iter().find(|m| m.id >= self.models.len()) {
+                return Err(invalid(
+                    "key_images",
+                    format!(
+                        "key image {k} names model {} but the mosaic holds {}: the memory \
+                         belongs to another mosaic",
+                        m.id,
+                        self.models.len()
+                    ),
+                ));
+            }
+        }
+        if self.image_size != [camera.width, camera.height] {
+            return Err(invalid(
+                "camera",
+                format!(
+                    "the memory was learnt on {}x{} images, the camera takes {}x{}",
+                    self.image_size[0], self.image_size[1], camera.width, camera.height
+                ),
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// What a learning run produced.
@@ -115,6 +159,7 @@ pub fn learn(
         memory: VisualMemory {
             models: builder.models().to_vec(),
             key_images,
+            image_size: [world.camera.width, world.camera.height],
         },
         reports,
         truth,
@@ -213,6 +258,7 @@ pub fn replay(
     seed: u64,
 ) -> Result<Replay> {
     params.validate()?;
+    memory.validate(world.camera)?;
     let keys = &memory.key_images;
     let first = keys
         .first()

@@ -47,7 +47,7 @@ impl Default for ServoParams {
             max_turn_rate: 0.25,
             switch_error: 12.0,
             final_error: 1.5,
-            align_radius: 4.0,
+            align_radius: 0.0,
         }
     }
 }

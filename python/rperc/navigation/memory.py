@@ -1,0 +1,418 @@
+"""The visual memory of seed 001, section 2.3-2.4: learn a path A -> B in a ceiling
+world (the mosaic and the key images), replay it by visual servoing, and score both
+against the world's truth.
+
+The robot runs natively (GIL released): every frame is rendered at the true pose, the
+robot corrects it by eq. 1, tracks several ceiling models with the pattern tracker,
+localises itself by eq. 2 (a rigid fit of the tracked models when several are in view),
+generates new models where the view has room and places them by eq. 3. Replays servo
+from key image to key image on the image poses of the shared models.
+
+>>> import numpy as np
+>>> from rperc.navigation import CeilingWorld, learn, replay
+>>> world = CeilingWorld(ceiling={"size": [8.0, 6.0], "n_patterns": 12, "seed": 1})
+>>> commands = np.tile([0.3, 0.1], (40, 1))          # (v m/s, omega rad/s), 0.1 s each
+>>> learning = learn(world, [3.0, 2.5, 0.0], commands, dt=0.1)
+>>> run = replay(world, learning.memory, [3.05, 2.45, 0.05], seed=1)
+>>> run.outcome
+'reached'
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from collections.abc import Mapping, Sequence
+from concurrent.futures import Executor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from rperc import _rperc
+from rperc._args import float_array, real_number, whole_number
+from rperc.navigation.world import CeilingWorld
+
+__all__ = [
+    "FORMAT",
+    "Evaluation",
+    "Frames",
+    "Learning",
+    "ReplayResult",
+    "VisualMemory",
+    "evaluate",
+    "learn",
+    "replay",
+    "starts_around",
+]
+
+FORMAT = "rperc-visual-memory/1"
+
+
+def _sha256(value: Any) -> str:
+    text = json.dumps(value, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+class VisualMemory:
+    """A mosaic (models with their poses ``M T_i``) and the key images of one path.
+
+    Saved as one JSON file holding both, with the mosaic's SHA-256 in the key-image
+    part: :meth:`load` refuses a file whose key images belong to another mosaic."""
+
+    def __init__(self, native_json: str) -> None:
+        data = json.loads(native_json)
+        if not isinstance(data, dict) or not {"models", "key_images", "image_size"} <= set(data):
+            raise ValueError("memory: not a visual memory (needs models, key_images, image_size)")
+        self._data: dict[str, Any] = data
+
+    def __repr__(self) -> str:
+        return f"VisualMemory(models={self.n_models}, key_images={len(self.key_images)})"
+
+    @property
+    def n_models(self) -> int:
+        return len(self._data["models"])
+
+    @property
+    def model_poses(self) -> np.ndarray:
+        """``(n, 3)`` poses ``(x, y, theta)`` of the models in the mosaic frame."""
+        rows = [[m["pose"]["x"], m["pose"]["y"], m["pose"]["theta"]] for m in self._data["models"]]
+        return np.array(rows, dtype=np.float64).reshape(-1, 3)
+
+    @property
+    def model_centres(self) -> np.ndarray:
+        """``(n, 2)`` centres of the models' windows in the image they were learnt in."""
+        rows = [m["model"]["centre"] for m in self._data["models"]]
+        return np.array(rows, dtype=np.float64).reshape(-1, 2)
+
+    @property
+    def model_created(self) -> np.ndarray:
+        """The learning frame each model was generated in."""
+        return np.array([m["created"] for m in self._data["models"]], dtype=np.int64)
+
+    @property
+    def key_images(self) -> list[dict[str, Any]]:
+        """Each key image: its learning ``frame``, robot ``pose`` (mosaic) and
+        ``models`` (``id`` and tracker ``state`` ``(x, y, theta, s)``)."""
+        return list(self._data["key_images"])
+
+    @property
+    def key_poses(self) -> np.ndarray:
+        """``(k, 3)`` robot poses of the key images in the mosaic frame."""
+        rows = [[k["pose"]["x"], k["pose"]["y"], k["pose"]["theta"]] for k in self.key_images]
+        return np.array(rows, dtype=np.float64).reshape(-1, 3)
+
+    def to_json(self) -> str:
+        """The memory as the native side reads it."""
+        return json.dumps(self._data)
+
+    def save(self, path: str | Path) -> Path:
+        """Writes the mosaic and the key images to one JSON file."""
+        mosaic = self._data["models"]
+        out = {
+            "format": FORMAT,
+            "mosaic": {"models": mosaic, "sha256": _sha256(mosaic)},
+            "memory": {
+                "mosaic_sha256": _sha256(mosaic),
+                "key_images": self._data["key_images"],
+                "image_size": self._data["image_size"],
+            },
+        }
+        p = Path(path)
+        p.write_text(json.dumps(out))
+        return p
+
+    @classmethod
+    def load(cls, path: str | Path) -> VisualMemory:
+        """Reads :meth:`save`'s file; a file whose key images were learnt on another
+        mosaic, or a mosaic altered since, is a ``ValueError``."""
+        p = Path(path)
+        try:
+            data = json.loads(p.read_text())
+        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise ValueError(f"{p}: not a visual-memory file: {exc}") from None
+        if not isinstance(data, dict) or data.get("format") != FORMAT:
+            raise ValueError(f"{p}: not a visual-memory file (format {FORMAT!r} expected)")
+        mosaic = data["mosaic"]["models"]
+        if _sha256(mosaic) != data["mosaic"].get("sha256"):
+            raise ValueError(f"{p}: the mosaic was altered after it was saved")
+        if data["memory"].get("mosaic_sha256") != _sha256(mosaic):
+            raise ValueError(f"{p}: the key images belong to another mosaic")
+        memory = data["memory"]
+        return cls(json.dumps({"models": mosaic, "key_images": memory["key_images"],
+                               "image_size": memory["image_size"]}))  # fmt: skip
+
+    def with_mosaic_of(self, other: VisualMemory) -> VisualMemory:
+        """These key images on ``other``'s mosaic (for experiments; the native side
+        refuses key images that name models the mosaic does not hold)."""
+        return VisualMemory(json.dumps({**self._data, "models": other._data["models"]}))
+
+
+@dataclass(frozen=True, repr=False)
+class Frames:
+    """Per-frame arrays of a run: ``truth`` (world) and ``pose`` (mosaic, NaN where
+    unknown) ``(n, 3)``, ``lost`` (no model tracked), ``tracked`` (models tracked) and
+    the robot's processing ``seconds`` (rendering excluded)."""
+
+    truth: np.ndarray
+    pose: np.ndarray
+    lost: np.ndarray
+    tracked: np.ndarray
+    seconds: np.ndarray
+
+    def __repr__(self) -> str:
+        return f"Frames(n={len(self.truth)}, lost={int(self.lost.sum())}, hz={self.hz:.0f})"
+
+    @property
+    def hz(self) -> float:
+        """Frames per second of the robot's own processing."""
+        total = float(self.seconds.sum())
+        return len(self.seconds) / total if total > 0 else math.inf
+
+
+def _frames(native: tuple[np.ndarray, ...]) -> Frames:
+    truth, pose, lost, tracked, seconds = native
+    return Frames(truth, pose, lost.astype(bool), tracked.astype(np.int64), seconds)
+
+
+def _se2(p: npt.ArrayLike) -> np.ndarray:
+    c, s = math.cos(float(np.asarray(p)[2])), math.sin(float(np.asarray(p)[2]))
+    x, y = float(np.asarray(p)[0]), float(np.asarray(p)[1])
+    return np.array([[c, -s, x], [s, c, y], [0.0, 0.0, 1.0]])
+
+
+def _pose(m: np.ndarray) -> np.ndarray:
+    return np.array([m[0, 2], m[1, 2], math.atan2(m[1, 0], m[0, 0])])
+
+
+@dataclass(frozen=True, repr=False)
+class Learning:
+    """A learning run: the ``memory``, its ``frames``, and ``mosaic_in_world``, the
+    mosaic frame in the world (model 0's true frame: the true robot at its creation
+    times its image pose there), by which the mosaic and the localisation are
+    scored."""
+
+    memory: VisualMemory
+    frames: Frames
+    mosaic_in_world: np.ndarray
+    metres_per_pixel: float  # Z / f of the ideal image
+    principal: tuple[float, float]
+    unit: float = 1.0  # metres per mosaic unit: 1, or Z / f for a mosaic in pixels
+
+    def __repr__(self) -> str:
+        return f"Learning({self.memory!r}, {self.frames!r})"
+
+    def camera_to_model(self, centre: npt.ArrayLike) -> list[float]:
+        """``C T_i`` of a model at image position ``centre`` with no turn (metres)."""
+        c = np.asarray(centre, dtype=np.float64)
+        m = self.metres_per_pixel
+        return [m * (c[0] - self.principal[0]), m * (c[1] - self.principal[1]), 0.0]
+
+    def to_world(self, poses: npt.ArrayLike) -> np.ndarray:
+        """Mosaic-frame poses ``(n, 3)`` in the world frame (NaN rows stay NaN)."""
+        arr = np.asarray(poses, dtype=np.float64).reshape(-1, 3) * [self.unit, self.unit, 1.0]
+        w = _se2(self.mosaic_in_world)
+        out = np.full_like(arr, np.nan)
+        for k, p in enumerate(arr):
+            if np.isfinite(p).all():
+                out[k] = _pose(w @ _se2(p))
+        return out
+
+
+def learn(
+    world: CeilingWorld,
+    start: npt.ArrayLike,
+    commands: npt.ArrayLike,
+    dt: float = 0.1,
+    config: Mapping[str, Any] | None = None,
+    seed: int = 0,
+) -> Learning:
+    """Drives ``commands`` (``(n, 2)``: ``v`` m/s, ``omega`` rad/s, each ``dt`` s) from
+    ``start`` ``(x, y, theta)``, building the mosaic and choosing the key images.
+    ``config`` holds the fields of ``defaults()["learn"]`` (``mosaic``, ``keys``,
+    ``odometry``)."""
+    memory_json, frames = _rperc.visual_memory_learn(
+        world._native,
+        float_array(start, "start").reshape(-1),
+        np.ascontiguousarray(float_array(commands, "commands")),
+        real_number(dt, "dt"),
+        dict(config or {}),
+        whole_number(seed, "seed", 0, 2**64),
+    )
+    memory = VisualMemory(memory_json)
+    f = _frames(frames)
+    c = world.camera
+    scale = float(c["ceiling_height"]) / float(c["fx"])
+    principal = (float(c["cx"]), float(c["cy"]))
+    metric = bool(dict(dict(config or {}).get("mosaic") or {}).get("metric", True))
+    unit = 1.0 if metric else scale
+    learning = Learning(memory, f, np.zeros(3), scale, principal, unit)
+    c_t_0 = learning.camera_to_model(memory.model_centres[0])
+    w_t_m = _pose(_se2(f.truth[memory.model_created[0]]) @ _se2(c_t_0))
+    return Learning(memory, f, w_t_m, scale, principal, unit)
+
+
+@dataclass(frozen=True, repr=False)
+class ReplayResult:
+    """A replay: ``outcome`` (``"reached"``, ``"lost"`` or ``"timed_out"``), the key
+    image followed at each frame and the frames."""
+
+    outcome: str
+    key_index: np.ndarray
+    frames: Frames
+
+    def __repr__(self) -> str:
+        return f"ReplayResult({self.outcome!r}, {self.frames!r})"
+
+    @property
+    def reached(self) -> bool:
+        return self.outcome == "reached"
+
+
+def replay(
+    world: CeilingWorld,
+    memory: VisualMemory,
+    start: npt.ArrayLike,
+    config: Mapping[str, Any] | None = None,
+    seed: int = 0,
+) -> ReplayResult:
+    """Replays ``memory`` from the true pose ``start`` (the robot believes it is at the
+    first key image). ``config``: the fields of ``defaults()["replay"]``."""
+    outcome, keys, frames = _rperc.visual_memory_replay(
+        world._native,
+        memory.to_json(),
+        float_array(start, "start").reshape(-1),
+        dict(config or {}),
+        whole_number(seed, "seed", 0, 2**64),
+    )
+    return ReplayResult(outcome, keys.astype(np.int64), _frames(frames))
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """Scores of a memory against the world's truth (section 4.2's experiment with
+    truth). Distances in cm, angles in degrees; ``hz`` is the robot's own processing
+    rate (rendering excluded)."""
+
+    starts: int
+    success_rate: float
+    final_error_cm: float
+    localization_error_cm: float
+    localization_error_deg: float
+    replay_deviation_cm: float
+    mosaic_error_cm: float
+    mosaic_error_deg: float
+    learning_localization_error_cm: float
+    learning_localization_error_deg: float
+    hz: float
+
+    def to_dict(self) -> dict[str, float]:
+        return {k: float(v) for k, v in self.__dict__.items()}
+
+
+def _errors(estimate_world: np.ndarray, truth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    ok = np.isfinite(estimate_world).all(axis=1)
+    d = estimate_world[ok] - truth[ok]
+    heading = np.angle(np.exp(1j * d[:, 2]))
+    return np.hypot(d[:, 0], d[:, 1]), heading
+
+
+def _rms(values: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(values**2))) if len(values) else math.nan
+
+
+def _replay_job(args: tuple[Any, ...]) -> ReplayResult:
+    world, memory_json, start, config, seed = args
+    return replay(world, VisualMemory(memory_json), start, config, seed)
+
+
+def starts_around(
+    start: npt.ArrayLike, n: int, perturbation: Sequence[float], seed: int = 0
+) -> np.ndarray:
+    """``n`` seeded start poses around ``start``: uniform in ``[-p, p]`` for each of
+    ``perturbation = (dx m, dy m, dtheta rad)``."""
+    rng = np.random.default_rng(seed)
+    p = np.asarray(perturbation, dtype=np.float64)
+    return np.asarray(start, dtype=np.float64) + rng.uniform(-1.0, 1.0, size=(n, 3)) * p
+
+
+def evaluate(
+    world: CeilingWorld,
+    learning: Learning,
+    *,
+    starts: int = 50,
+    perturbation: Sequence[float] = (0.1, 0.1, 0.1),
+    config: Mapping[str, Any] | None = None,
+    executor: Executor | None = None,
+    seed: int = 0,
+    show_progress: bool = False,
+) -> tuple[Evaluation, list[ReplayResult]]:
+    """Replays the learnt memory from ``starts`` seeded perturbed starts (through
+    ``executor.map`` when given: a process pool or a Dask client's executor) and scores
+    everything against the truth. ``show_progress``: a bar on a terminal, log lines
+    elsewhere, one step per finished replay."""
+    from rperc._progress import progress
+
+    n = whole_number(starts, "starts", 1, 100_000)
+    begin = learning.frames.truth[0]
+    poses = starts_around(begin, n, perturbation, seed)
+    jobs = [(world, learning.memory.to_json(), p, dict(config or {}), seed + k)
+            for k, p in enumerate(poses)]  # fmt: skip
+    done = executor.map(_replay_job, jobs) if executor else map(_replay_job, jobs)
+    if show_progress:
+        done = progress(done, desc="replays", total=n, unit="replay")
+    runs = list(done)
+    return _score(learning, runs), runs
+
+
+def _score(learning: Learning, runs: list[ReplayResult]) -> Evaluation:
+    b = learning.frames.truth[-1]
+    final = np.array([np.hypot(*(r.frames.truth[-1, :2] - b[:2])) for r in runs])
+    dist, head = [], []
+    path = learning.frames.truth[:, :2]
+    deviation = []
+    for r in runs:
+        d, h = _errors(learning.to_world(r.frames.pose[~r.frames.lost]),
+                       r.frames.truth[~r.frames.lost])  # fmt: skip
+        dist.append(d)
+        head.append(h)
+        gaps = np.linalg.norm(r.frames.truth[:, None, :2] - path[None, :, :], axis=2)
+        deviation.append(gaps.min(axis=1))
+    d_all, h_all = np.concatenate(dist), np.concatenate(head)
+    learn_d, learn_h = _errors(
+        learning.to_world(learning.frames.pose[~learning.frames.lost]),
+        learning.frames.truth[~learning.frames.lost],
+    )
+    mosaic_d, mosaic_h = _mosaic_errors(learning)
+    seconds = sum(float(r.frames.seconds.sum()) for r in runs)
+    frames = sum(len(r.frames.seconds) for r in runs)
+    return Evaluation(
+        starts=len(runs),
+        success_rate=float(np.mean([r.reached for r in runs])),
+        final_error_cm=100 * float(np.median(final)),
+        localization_error_cm=100 * _rms(d_all),
+        localization_error_deg=float(np.degrees(_rms(h_all))),
+        replay_deviation_cm=100 * _rms(np.concatenate(deviation)),
+        mosaic_error_cm=100 * _rms(mosaic_d),
+        mosaic_error_deg=float(np.degrees(_rms(mosaic_h))),
+        learning_localization_error_cm=100 * _rms(learn_d),
+        learning_localization_error_deg=float(np.degrees(_rms(learn_h))),
+        hz=frames / seconds if seconds > 0 else math.inf,
+    )
+
+
+def _mosaic_errors(learning: Learning) -> tuple[np.ndarray, np.ndarray]:
+    """Each model's mosaic pose against its true frame (the true robot at its creation
+    times its image pose there), seen from the mosaic frame's truth."""
+    memory, truth = learning.memory, learning.frames.truth
+    to_mosaic = np.linalg.inv(_se2(learning.mosaic_in_world))
+    true = np.array(
+        [
+            _pose(to_mosaic @ _se2(truth[k]) @ _se2(learning.camera_to_model(centre)))
+            for k, centre in zip(memory.model_created, memory.model_centres, strict=True)
+        ]
+    ).reshape(-1, 3)
+    return _errors(memory.model_poses * [learning.unit, learning.unit, 1.0], true)

@@ -111,6 +111,8 @@ def test_bad_worlds_and_memories_are_refused(learnt) -> None:
         replay(world, empty, learning.frames.truth[0])
     with pytest.raises(ValueError, match="not a visual memory"):
         VisualMemory("[1, 2]")
+    with pytest.raises(ValueError, match="perturbation"):
+        evaluate(world, learning, starts=1, perturbation=(0.1, np.nan, 0.1))
     with pytest.raises(TypeError, match="commands"):
         learn(world, (1, 1, 0), [["a", "b"]])
 

@@ -335,8 +335,12 @@ def starts_around(
     """``n`` seeded start poses around ``start``: uniform in ``[-p, p]`` for each of
     ``perturbation = (dx m, dy m, dtheta rad)``."""
     rng = np.random.default_rng(seed)
-    p = np.asarray(perturbation, dtype=np.float64)
-    return np.asarray(start, dtype=np.float64) + rng.uniform(-1.0, 1.0, size=(n, 3)) * p
+    p: np.ndarray = float_array(perturbation, "perturbation").reshape(-1)
+    if p.shape != (3,) or not (np.isfinite(p).all() and (p >= 0).all()):
+        raise ValueError(f"perturbation must be 3 finite values >= 0 (m, m, rad), got {p}")
+    centre: np.ndarray = np.asarray(start, dtype=np.float64)
+    out: np.ndarray = centre + rng.uniform(-1.0, 1.0, size=(n, 3)) * p
+    return out
 
 
 def evaluate(

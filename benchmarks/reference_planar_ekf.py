@@ -12,8 +12,11 @@ the tests, so its models are the ones of the Rust ``slam`` crate, term for term:
 - range-bearing to point landmarks (``crates/slam/src/observation.rs``), bearings
   wrapped into (-pi, pi];
 - the EKF of the seed paper (eqs. 3-9), Joseph form;
-- association by known identity, or nearest neighbour with a Mahalanobis chi-square
-  gate.
+- association by known identity, or without identities as rperc's engine does it
+  (same rules, written again in Python from their description, not translated from
+  the Rust): individual compatibility by a Mahalanobis chi-square gate, then nearest
+  neighbour or JCBB (Neira & Tardos 2001, a recursive branch and bound), and a
+  candidate list that admits a landmark after k consistent sightings.
 
 ``structured=False`` (the default) is the textbook dense form: the prediction builds
 the full ``F`` and computes ``F P F^T`` (O(n^3)); the update computes ``P H^T`` with
@@ -172,11 +175,63 @@ class AssociationStats:
     """What happened to every sighting."""
 
     accepted: int = 0  # updated a mapped landmark
-    rejected: int = 0  # failed the gate (known ids) or fell between gate and new
+    rejected: int = 0  # failed the gate (known ids), or compatible but left unpaired
     new: int = 0  # started a landmark
+    candidate: int = 0  # joined or started a candidate that is not yet a landmark
+    truncated: int = 0  # scans whose JCBB search ran out of nodes
 
     def total(self) -> int:
-        return self.accepted + self.rejected + self.new
+        return self.accepted + self.rejected + self.new + self.candidate
+
+
+@dataclass(frozen=True)
+class Pairing:
+    """Sighting ``det`` of a scan paired with landmark ``j``, linearised at the prior:
+    its NIS, innovation (bearing wrapped) and the two blocks of its Jacobian."""
+
+    det: int
+    j: int
+    nis: float
+    nu: np.ndarray
+    h_robot: np.ndarray  # 2x3
+    h_landmark: np.ndarray  # 2x2
+
+
+@dataclass
+class Candidate:
+    """A point seen ``count`` times that is not yet a landmark."""
+
+    mean: np.ndarray
+    cov: np.ndarray
+    count: int
+    last_seen: float
+
+    def fuse(self, point: np.ndarray, cov: np.ndarray, t: float) -> None:
+        """Information-form fusion of a new sighting (the two taken as independent:
+        good enough for an admission test)."""
+        a, b = np.linalg.inv(self.cov), np.linalg.inv(cov)
+        self.cov = np.linalg.inv(a + b)
+        self.mean = self.cov @ (a @ self.mean + b @ point)
+        self.count += 1
+        self.last_seen = t
+
+
+class _OutOfNodes(Exception):
+    """JCBB spent its node budget."""
+
+
+def nearest_neighbour(options: list[list[Pairing]]) -> list[Pairing]:
+    """Greedy over all compatible pairings by increasing NIS: a pairing is taken when
+    neither its sighting nor its landmark is taken yet."""
+    chosen: list[Pairing] = []
+    dets: set[int] = set()
+    marks: set[int] = set()
+    for p in sorted((p for o in options for p in o), key=lambda p: p.nis):
+        if p.det not in dets and p.j not in marks:
+            dets.add(p.det)
+            marks.add(p.j)
+            chosen.append(p)
+    return chosen
 
 
 @dataclass
@@ -187,8 +242,12 @@ class PlanarEkfSlam:
     for the unicycle, ``(encoder speed, steering)`` with ``vehicle``); ``measurement_noise``
     ``R`` (2x2) that of ``(range, bearing)``. With ``vehicle`` the range-bearing is
     measured from its laser, otherwise from the robot's centre. ``gate`` is the
-    probability of the chi-square (2 dof) gate on the NIS; ``new_landmark`` the one
-    beyond which an unassociated sighting starts a landmark (nearest neighbour).
+    probability of the chi-square gates on the NIS (individual, and joint in JCBB).
+    Without identities (:meth:`observe_unknown`), ``association`` is ``"nn"`` or
+    ``"jcbb"``, a new landmark needs ``candidate_sightings`` consistent sightings, a
+    candidate unseen for ``candidate_window`` seconds is dropped, and JCBB makes at
+    most ``jcbb_max_nodes`` joint tests per scan: the same settings and defaults as
+    rperc's ``PlanarConfig``.
     """
 
     pose: np.ndarray
@@ -198,12 +257,17 @@ class PlanarEkfSlam:
     vehicle: Ackermann | None = None
     structured: bool = False
     gate: float = 0.99
-    new_landmark: float = 0.9999
     gate_known: bool = True
+    association: str = "nn"
+    candidate_sightings: int = 1
+    candidate_window: float = 10.0
+    jcbb_max_nodes: int = 20_000
     x: np.ndarray = field(init=False)
     P: np.ndarray = field(init=False)
     ids: list[int] = field(init=False, default_factory=list)
     stats: AssociationStats = field(init=False, default_factory=AssociationStats)
+    candidates: list[Candidate] = field(init=False, default_factory=list)
+    _joint_gates: list[float] = field(init=False, default_factory=lambda: [0.0])
 
     def __post_init__(self) -> None:
         self.x = np.array(self.pose, dtype=np.float64).copy()
@@ -211,7 +275,6 @@ class PlanarEkfSlam:
         self.V = np.asarray(self.control_noise, dtype=np.float64)
         self.R = np.asarray(self.measurement_noise, dtype=np.float64)
         self.gate_d2 = chi2_quantile_2dof(self.gate)
-        self.new_d2 = chi2_quantile_2dof(self.new_landmark)
 
     @property
     def num_landmarks(self) -> int:
@@ -376,30 +439,152 @@ class PlanarEkfSlam:
         if again:
             self.observe_known([i for i, _ in again], np.array([z for _, z in again]))
 
-    def observe_nearest(self, zs: np.ndarray) -> None:
-        """A scan without identities: each sighting goes to the landmark of least NIS
-        if it passes the gate, starts a landmark if even that NIS is beyond
-        ``new_landmark``, and is rejected in between. Two sightings on one landmark:
-        the closer wins, the other is rejected."""
-        best: dict[int, tuple[float, np.ndarray]] = {}
-        new = []
-        for z in np.asarray(zs, dtype=np.float64):
+    def observe_unknown(self, zs: np.ndarray, t: float) -> None:
+        """A scan without identities at time ``t``, associated as rperc's engine
+        does (``crates/slam/src/planar``), written again from its description:
+
+        1. individual compatibility: each sighting's landmarks within the NIS gate;
+        2. ``association="jcbb"``: the jointly compatible hypothesis with the most
+           pairings (:meth:`jcbb`); ``"nn"``: greedy over all pairings by NIS;
+        3. the pairings in one batch update; a sighting compatible with some
+           landmark but left unpaired is rejected (ambiguous, not new);
+        4. a sighting compatible with no landmark joins the candidate list
+           (:meth:`sighting`), after the list drops candidates unseen for
+           ``candidate_window`` seconds.
+        """
+        zs = np.asarray(zs, dtype=np.float64)
+        options = self.compatible(zs)
+        if self.association == "jcbb":
+            pairs, truncated = self.jcbb(options)
+            self.stats.truncated += int(truncated)
+        elif self.association == "nn":
+            pairs = nearest_neighbour(options)
+        else:
+            raise ValueError(f"association must be 'nn' or 'jcbb', got {self.association!r}")
+        paired = {p.det for p in pairs}
+        self.stats.accepted += len(pairs)
+        self.stats.rejected += sum(1 for i, o in enumerate(options) if o and i not in paired)
+        self.update([(p.j, zs[p.det]) for p in sorted(pairs, key=lambda p: p.det)])
+        self.candidates = [c for c in self.candidates if t - c.last_seen <= self.candidate_window]
+        for i, o in enumerate(options):
+            if not o:
+                self.sighting(zs[i], t)
+
+    def compatible(self, zs: np.ndarray) -> list[list[Pairing]]:
+        """For each sighting, the landmarks whose NIS is within the gate, as
+        :class:`Pairing` s in increasing NIS (ties in map order)."""
+        out = []
+        for i, z in enumerate(zs):
             d2 = self.nis_all(z) if self.num_landmarks else np.zeros(0)
-            j = int(np.argmin(d2)) if len(d2) else -1
-            if j < 0 or d2[j] > self.new_d2:
-                new.append(z)
-            elif d2[j] > self.gate_d2:
-                self.stats.rejected += 1
-            elif j in best:
-                self.stats.rejected += 1
-                if d2[j] < best[j][0]:
-                    best[j] = (d2[j], z)
-            else:
-                best[j] = (d2[j], z)
-        self.stats.accepted += len(best)
-        self.update([(j, z) for j, (_, z) in sorted(best.items())])
-        for z in new:
-            self.add_landmark(len(self.ids), z)
+            near = np.flatnonzero(d2 <= self.gate_d2)
+            near = near[np.argsort(d2[near], kind="stable")]
+            out.append([self.pairing(i, int(j), z, float(d2[j])) for j in near])
+        return out
+
+    def pairing(self, det: int, j: int, z: np.ndarray, nis: float) -> Pairing:
+        zhat, h_r, h_l = self.predict_observation(j)
+        nu = np.array([z[0] - zhat[0], wrap(z[1] - zhat[1])])
+        return Pairing(det, j, nis, nu, h_r, h_l)
+
+    def joint_gate(self, k: int) -> float:
+        """The chi-square gate of ``k`` stacked sightings (2k degrees of freedom)."""
+        while len(self._joint_gates) <= k:
+            from scipy.stats import chi2
+
+            self._joint_gates.append(float(chi2.ppf(self.gate, 2 * len(self._joint_gates))))
+        return self._joint_gates[k]
+
+    def joint_nis(self, hyp: list[Pairing]) -> float | None:
+        """``nu^T S^-1 nu`` of the stacked pairings, ``S = H P H^T + R`` over the robot
+        and the landmarks involved; ``None`` when ``S`` is not positive definite."""
+        k = len(hyp)
+        cols = [0, 1, 2] + [3 + 2 * p.j + e for p in hyp for e in (0, 1)]
+        h = np.zeros((2 * k, 3 + 2 * k))
+        for i, p in enumerate(hyp):
+            h[2 * i : 2 * i + 2, :3] = p.h_robot
+            h[2 * i : 2 * i + 2, 3 + 2 * i : 5 + 2 * i] = p.h_landmark
+        s = h @ self.P[np.ix_(cols, cols)] @ h.T + np.kron(np.eye(k), self.R)
+        try:
+            lower = np.linalg.cholesky(s)
+        except np.linalg.LinAlgError:
+            return None
+        y = np.linalg.solve(lower, np.concatenate([p.nu for p in hyp]))
+        return float(y @ y)
+
+    def jcbb(self, options: list[list[Pairing]]) -> tuple[list[Pairing], bool]:
+        """Joint compatibility branch and bound (Neira & Tardos 2001), recursive: of
+        all hypotheses (each sighting paired with one of its compatible landmarks or
+        with none, each landmark at most once) whose joint NIS passes the gate of its
+        dimension, the one with the most pairings, ties to the smaller joint NIS.
+        Sightings are visited in order, their options in increasing NIS, the null
+        option last; a branch is cut when pairing every remaining sighting could not
+        beat the best. After ``jcbb_max_nodes`` joint tests the best so far is
+        returned, and the flag says so."""
+        levels = [o for o in options if o]
+        best: list[Pairing] = []
+        best_nis, nodes = math.inf, 0
+
+        def hopeless(pairs: int, level: int, nis: float) -> bool:
+            reach = pairs + len(levels) - level
+            return reach < len(best) or (reach == len(best) and bool(best) and nis >= best_nis)
+
+        def search(level: int, hyp: list[Pairing], nis: float) -> None:
+            nonlocal best, best_nis, nodes
+            if level == len(levels):
+                if len(hyp) > len(best) or (len(hyp) == len(best) and nis < best_nis):
+                    best, best_nis = list(hyp), nis
+                return
+            for p in [*levels[level], None]:
+                if hopeless(len(hyp), level, nis):
+                    return
+                if p is None:
+                    search(level + 1, hyp, nis)
+                    continue
+                if any(q.j == p.j for q in hyp):
+                    continue
+                nodes += 1
+                if nodes > self.jcbb_max_nodes:
+                    raise _OutOfNodes
+                joint = self.joint_nis([*hyp, p])
+                if joint is not None and joint <= self.joint_gate(len(hyp) + 1):
+                    search(level + 1, [*hyp, p], joint)
+
+        try:
+            search(0, [], 0.0)
+        except _OutOfNodes:
+            return best, True
+        return best, False
+
+    def sighting(self, z: np.ndarray, t: float) -> None:
+        """A sighting no landmark explains: it joins the nearest candidate within the
+        Mahalanobis gate (fused in information form) or starts one; the candidate
+        seen ``candidate_sightings`` times enters the map, initialised from this
+        sighting."""
+        sensor, j_sensor = self._sensor()
+        point, g_sensor, g_z = landmark_from_range_bearing(sensor, z)
+        g_x = g_sensor @ j_sensor
+        cov = g_x @ self.P[:3, :3] @ g_x.T + g_z @ self.R @ g_z.T
+        k = self.nearest_candidate(point, cov)
+        if k is None:
+            self.candidates.append(Candidate(point, cov, 1, t))
+            k = len(self.candidates) - 1
+        else:
+            self.candidates[k].fuse(point, cov, t)
+        if self.candidates[k].count < self.candidate_sightings:
+            self.stats.candidate += 1
+            return
+        del self.candidates[k]
+        self.add_landmark(len(self.ids), z)
+
+    def nearest_candidate(self, point: np.ndarray, cov: np.ndarray) -> int | None:
+        """The candidate of least Mahalanobis distance to ``point``, if within the gate."""
+        best, best_d2 = None, math.inf
+        for k, c in enumerate(self.candidates):
+            e = point - c.mean
+            d2 = float(e @ np.linalg.solve(c.cov + cov, e))
+            if d2 <= self.gate_d2 and d2 < best_d2:
+                best, best_d2 = k, d2
+        return best
 
     def pose_nees(self, truth: np.ndarray) -> float:
         """``e^T P_xx^-1 e`` of the robot pose against ``truth`` (heading wrapped)."""
@@ -491,12 +676,14 @@ def run_mrclam(run: Any, slam: PlanarEkfSlam) -> RunResult:
 
 
 def run_victoria_park(park: Any, slam: PlanarEkfSlam) -> RunResult:
-    """A :class:`rperc.datasets.VictoriaPark` run with nearest-neighbour association
-    (``slam`` should carry the :class:`Ackermann` vehicle). GPS is not used."""
+    """A :class:`rperc.datasets.VictoriaPark` run without identities, associated by
+    ``slam.association`` (``slam`` should carry the :class:`Ackermann` vehicle). GPS
+    is not used."""
     z = np.c_[park.measurement_range, park.measurement_bearing]
     controls = np.c_[park.input_speed, park.input_steering]
+    t = park.measurement_t
 
     def observe(a: int, b: int) -> None:
-        slam.observe_nearest(z[a:b])
+        slam.observe_unknown(z[a:b], float(t[a]))
 
     return drive(slam, park.input_t, controls, park.measurement_t, observe)

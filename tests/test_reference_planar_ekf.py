@@ -7,6 +7,7 @@ scipy's chi-square band) on a small simulated world."""
 from __future__ import annotations
 
 import importlib.util
+import itertools
 import math
 import sys
 from collections.abc import Callable
@@ -337,16 +338,19 @@ def test_monte_carlo_nees_flags_a_mistuned_filter(noise_scale: float) -> None:
     assert inside < 0.2 and not lo <= overall <= hi
 
 
-def test_nearest_neighbour_recovers_the_true_identities() -> None:
+@pytest.mark.parametrize("association", ["nn", "jcbb"])
+def test_unknown_association_recovers_the_true_identities(association: str) -> None:
+    """Without identities, each true landmark is mapped once (three sightings before
+    a landmark, as rperc's Victoria Park preset), and near it."""
     _, commands, scans = simulate(np.random.default_rng(3), 400)
-    slam = make_filter(structured=True)
+    slam = make_filter(structured=True, association=association, candidate_sightings=3)
     owner: dict[int, int] = {}  # map landmark -> true landmark
-    for u, seen in zip(commands, scans, strict=True):
+    for step, (u, seen) in enumerate(zip(commands, scans, strict=True)):
         slam.predict(u[0], u[1], DT)
         if not seen:
             continue
         before = slam.num_landmarks
-        slam.observe_nearest(np.array([z for _, z in seen]))
+        slam.observe_unknown(np.array([z for _, z in seen]), step * DT)
         for k in range(before, slam.num_landmarks):
             # A new landmark: the true one nearest to it.
             owner[k] = int(np.argmin(np.linalg.norm(LANDMARKS - slam.landmarks()[k], axis=1)))
@@ -356,6 +360,102 @@ def test_nearest_neighbour_recovers_the_true_identities() -> None:
     stats = slam.stats
     assert stats.new == len(LANDMARKS) and stats.total() == sum(len(s) for s in scans)
     assert stats.rejected <= 0.05 * stats.total()
+
+
+def random_scene(rng: np.random.Generator) -> tuple[object, np.ndarray]:
+    """A filter with an uncertain robot, 2-5 clustered landmarks (so one sighting is
+    often compatible with several) and a dense random covariance; sightings of most
+    landmarks, displaced, plus clutter."""
+    n = int(rng.integers(2, 6))
+    slam = ref.PlanarEkfSlam(np.zeros(3), np.eye(3), np.eye(2), np.diag([0.02, 1e-3]))
+    marks = np.c_[rng.uniform(4, 8, n), rng.uniform(-2, 2, n)]
+    slam.x = np.r_[0.0, 0.0, rng.uniform(-0.3, 0.3), marks.ravel()]
+    a = rng.uniform(-0.15, 0.15, size=(3 + 2 * n, 3 + 2 * n))
+    slam.P = a @ a.T + np.eye(3 + 2 * n) * 0.01
+    seen = [m + rng.uniform(-0.3, 0.3, 2) for m in marks if rng.random() < 0.8]
+    if rng.random() < 0.5:
+        seen.append(np.array([rng.uniform(4, 8), rng.uniform(-2, 2)]))
+    zs = np.array([ref.range_bearing(slam.x[:3], m)[0] for m in seen]).reshape(-1, 2)
+    return slam, zs
+
+
+def dense_joint_nis(slam, zs: np.ndarray, pairs: list[tuple[int, int]]) -> float:
+    """Joint NIS of ``(sighting, landmark)`` pairs from the dense stacked H of
+    ``_stack``, ``H P H^T + R`` and a fresh inverse."""
+    nu, h = slam._stack([(j, zs[i]) for i, j in pairs])
+    s = h @ slam.P @ h.T + np.kron(np.eye(len(pairs)), slam.R)
+    return float(nu @ np.linalg.inv(s) @ nu)
+
+
+def brute_force_jcbb(slam, zs: np.ndarray, options) -> set[tuple[int, int]]:
+    """Every assignment of sightings to compatible landmarks or to none. JCBB's
+    hypotheses are built one sighting at a time and each partial one must be
+    jointly compatible (Neira & Tardos 2001), so an assignment counts when each of
+    its prefixes in sighting order passes the chi-square gate of its dimension; of
+    those, the most pairings, ties to the smaller joint NIS."""
+    best: tuple[int, float, set[tuple[int, int]]] = (0, math.inf, set())
+    choices = [[None, *(p.j for p in o)] for o in options]
+    for pick in itertools.product(*choices):
+        pairs = [(i, j) for i, j in enumerate(pick) if j is not None]
+        if not pairs or len({j for _, j in pairs}) < len(pairs):
+            continue
+        nis = [dense_joint_nis(slam, zs, pairs[:k]) for k in range(1, len(pairs) + 1)]
+        if any(v > chi2.ppf(slam.gate, 2 * k) for k, v in enumerate(nis, 1)):
+            continue
+        k = len(pairs)
+        if k > best[0] or (k == best[0] and nis[-1] < best[1]):
+            best = (k, nis[-1], set(pairs))
+    return best[2]
+
+
+def test_jcbb_equals_an_exhaustive_search_on_random_scenes() -> None:
+    """The reference's JCBB (recursive, its joint NIS from a Cholesky factor of the
+    hypothesis' S) returns exactly the hypothesis of the exhaustive search."""
+    rng = np.random.default_rng(10)
+    ambiguous = 0
+    for _ in range(200):
+        slam, zs = random_scene(rng)
+        options = slam.compatible(zs)
+        ambiguous += any(len(o) > 1 for o in options)
+        pairs, truncated = slam.jcbb(options)
+        assert not truncated
+        assert {(p.det, p.j) for p in pairs} == brute_force_jcbb(slam, zs, options)
+    assert ambiguous > 30, ambiguous  # the search is exercised, not only clear cases
+
+
+def test_jcbb_refuses_a_planted_false_pairing_that_nn_takes() -> None:
+    """Landmarks A (5, 0), B (5, 2), C (5, 2.6); the robot is uncertain only
+    laterally. Sighting 0 sees A where it is (pinning the robot); sighting 1 is an
+    echo at (5, 2.5), alone compatible with B and C. Nearest neighbour pairs it with
+    C; jointly with sighting 0 neither fits and JCBB leaves it unpaired (rejected)."""
+    slam = ref.PlanarEkfSlam(np.zeros(3), np.eye(3), np.eye(2), np.diag([1e-4, 1e-6]))
+    slam.x = np.array([0.0, 0.0, 0.0, 5.0, 0.0, 5.0, 2.0, 5.0, 2.6])
+    slam.P = np.eye(9) * 1e-6
+    slam.P[1, 1] = 1.0
+    zs = np.array([[5.0, 0.0], [math.hypot(5.0, 2.5), math.atan2(2.5, 5.0)]])
+    options = slam.compatible(zs)
+    assert {p.j for p in options[1]} >= {2}
+    assert {(p.det, p.j) for p in ref.nearest_neighbour(options)} == {(0, 0), (1, 2)}
+    assert {(p.det, p.j) for p in slam.jcbb(options)[0]} == {(0, 0)}
+    slam.association = "jcbb"
+    slam.observe_unknown(zs, 0.0)
+    assert (slam.stats.accepted, slam.stats.rejected, slam.stats.new) == (1, 1, 0)
+
+
+def test_a_candidate_enters_the_map_after_k_consistent_sightings() -> None:
+    """With candidate_sightings=3, a new point is a candidate twice and a landmark on
+    the third sighting; a candidate unseen for longer than the window is dropped."""
+    slam = make_filter(structured=True, association="jcbb", candidate_sightings=3)
+    z = np.array([[3.0, 0.2]])
+    for t in (0.0, 1.0):
+        slam.observe_unknown(z, t)
+    assert (slam.num_landmarks, slam.stats.candidate, len(slam.candidates)) == (0, 2, 1)
+    slam.observe_unknown(z, 2.0)
+    assert (slam.num_landmarks, slam.stats.new, len(slam.candidates)) == (1, 1, 0)
+    other = np.array([[4.0, -0.5]])
+    slam.observe_unknown(other, 3.0)
+    slam.observe_unknown(other, 3.0 + slam.candidate_window + 0.1)  # the first expired
+    assert (slam.num_landmarks, slam.candidates[0].count) == (1, 1)
 
 
 def test_known_association_gate_rejects_an_outlier() -> None:

@@ -3,19 +3,30 @@
 O(n^2) form a careful numpy user writes), in the same run, with whole-run times,
 ratios and accuracies, and the cost growth with the number of landmarks.
 
-- MR.CLAM robot 1, known association: both filters are the same EKF (the tests check
-  that their paths agree to 1e-6 m); ATE after SE(2) alignment against Vicon.
-- Victoria Park: the reference associates by nearest neighbour and starts a landmark
-  at once; rperc runs its preset (JCBB, 3 sightings before a landmark) and, as the
-  like-for-like peer, nearest neighbour with one sighting. Accuracy: RMS distance of
-  the laser's path to the plausible GPS fixes after one rigid alignment.
-- Growth: one prediction and one range-bearing update (called from Python, so a few
-  microseconds of call overhead are included) on a state of n landmarks with a dense
-  random covariance; the slope of log time against log n should be about 1 for the
-  prediction and 2 for the update (``cargo bench -p slam --bench planar`` measures the
-  same without the Python call).
+- MR.CLAM robot 1, known association: rperc with the reference's hand-set noise is
+  the same EKF as the reference (the largest path difference is printed; the tests
+  check 1e-6 m), and the ratio is quoted against it; rperc's calibrated preset is
+  shown for accuracy. ATE after SE(2) alignment against Vicon.
+- Victoria Park: rperc's preset (JCBB, 3 sightings before a landmark) against the
+  reference with the same settings and the same association, which the reference
+  implements itself in Python (individual gate, recursive JCBB, candidate list), so
+  both times include association. Printed: both whole-run times (rperc: median of 3
+  runs; numpy: one run) and their ratio, the RMS distance of each laser path to the
+  plausible GPS fixes after one rigid alignment, the landmark counts and association
+  statistics, and the largest distance between the two paths. ``--vp-scans N`` runs
+  only the first N scans (the headline is the whole run).
+- Growth with the number of landmarks n: rperc's engine per event by its own clock
+  (a prediction; an update with one detection), and one prediction and one update
+  called from Python, rperc's ``Ekf`` and the numpy peer, on a dense random
+  covariance (the Python calls carry a few microseconds of overhead). The slope of
+  log time against log n, fitted for n >= 200, should be about 1 for a prediction
+  and 2 for an update (``cargo bench -p slam --bench planar`` measures the same).
+- numpy runs on one BLAS thread (see below), as rperc does; the machine may be
+  shared, so each figure is a best or median of repeats, and ratios come from the
+  same run.
 
-    RPERC_DATA=../shared/data python benchmarks/planar_slam.py [--skip-reference-vp]
+    RPERC_DATA=../shared/data python benchmarks/planar_slam.py [--vp-scans N]
+        [--skip-reference-vp]
 """
 
 from __future__ import annotations
@@ -26,6 +37,14 @@ import sys
 import time
 from pathlib import Path
 
+# One BLAS thread for numpy, as rperc's engine runs a recording on one thread. On this
+# shared 2-core machine a threaded OpenBLAS oversubscribes the cores and the numpy
+# update got up to 7x slower (n = 400), which would flatter rperc. Set the variable
+# before running to choose otherwise.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
+
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -33,9 +52,18 @@ import reference_planar_ekf as ref
 from _timing import best_time, fmt_seconds, print_table
 
 from rperc.slam import PlanarSlam, evaluation
-from rperc.slam.planar import PRESETS, mrclam_recording, point_path, victoria_recording
+from rperc.slam.planar import (
+    PRESETS,
+    defaults,
+    mrclam_recording,
+    point_path,
+    victoria_recording,
+)
 
 DATA = Path(os.environ.get("RPERC_DATA", Path(__file__).parents[1] / ".." / "shared" / "data"))
+
+
+AGREEMENT: list[str] = []  # how closely rperc and the reference agree, per data set
 
 
 def timed(fn):  # type: ignore[no-untyped-def]
@@ -45,84 +73,104 @@ def timed(fn):  # type: ignore[no-untyped-def]
 
 
 def mrclam_rows() -> list[list[str]]:
+    """rperc with the reference's settings (the same EKF: the ratio is quoted against
+    it), the reference, and rperc's calibrated preset (accuracy only)."""
     from rperc.datasets import load_mrclam
 
     run = load_mrclam(DATA / "mrclam6", robot=1)
     pose0 = ref.initial_pose(run)
-    cfg = {
-        **PRESETS["mrclam"],
-        "initial_pose": pose0.tolist(),
-        "initial_pose_variance": [1e-6] * 3,
-    }
+    start = {"initial_pose": pose0.tolist(), "initial_pose_variance": [1e-6] * 3}
+    same = {"motion": {"unicycle": {"speed_variance": 0.1**2, "turn_rate_variance": 0.2**2}},
+            "range_variance": 0.1**2, "bearing_variance": 0.05**2, **start}  # fmt: skip
     rec = mrclam_recording(run)
-    runs = [timed(lambda: PlanarSlam(cfg).run(rec)) for _ in range(5)]
-    ours, t_ours = runs[0][0], min(r[1] for r in runs)
+    truth = np.c_[run.truth_x, run.truth_y, run.truth_theta]
+    rows, results = [], {}
+    for label, cfg in (("rperc (numpy's settings)", same),
+                       ("rperc preset (calibrated)", {**PRESETS["mrclam"], **start})):  # fmt: skip
+        runs = [timed(lambda cfg=cfg: PlanarSlam(cfg).run(rec)) for _ in range(5)]
+        res, t = runs[0][0], min(r[1] for r in runs)
+        results[label] = (res, t)
+        rows.append(["MR.CLAM r1, known", label, fmt_seconds(t), "",
+                     f"ATE {res.ate(run.truth_t, truth, align=True).rmse:.3f} m",
+                     str(len(res.landmark_id))])  # fmt: skip
     slam = ref.PlanarEkfSlam(
         pose=pose0, pose_covariance=np.eye(3) * 1e-6,
         control_noise=np.diag([0.1**2, 0.2**2]), measurement_noise=np.diag([0.1**2, 0.05**2]),
         structured=True,
     )  # fmt: skip
     theirs = ref.run_mrclam(run, slam)
-    truth = np.c_[run.truth_x, run.truth_y, run.truth_theta]
-    ate_ours = ours.ate(run.truth_t, truth, align=True).rmse
     ate_ref = evaluation.ate(theirs.t, theirs.poses, run.truth_t, truth, align=True).rmse
-    return [
-        ["MR.CLAM r1, known", "rperc", fmt_seconds(t_ours), "", f"ATE {ate_ours:.3f} m",
-         str(len(ours.landmark_id))],
-        ["MR.CLAM r1, known", "numpy (structured)", fmt_seconds(theirs.seconds),
-         f"{theirs.seconds / t_ours:.0f}x", f"ATE {ate_ref:.3f} m", str(len(theirs.landmarks))],
-    ]  # fmt: skip
+    ours, t_ours = results["rperc (numpy's settings)"]
+    rows.insert(1, ["MR.CLAM r1, known", "numpy (structured)", fmt_seconds(theirs.seconds),
+                    f"{theirs.seconds / t_ours:.0f}x", f"ATE {ate_ref:.3f} m",
+                    str(len(theirs.landmarks))])  # fmt: skip
+    gap = np.linalg.norm(ours.pose[ours.kind == 0, :2] - theirs.poses[:, :2], axis=1)
+    AGREEMENT.append(
+        f"MR.CLAM: rperc with numpy's settings and numpy differ by at most {gap.max():.2e} m "
+        "over the run; rperc: best of 5 runs, numpy: one run."
+    )
+    return rows
 
 
-def victoria_rows(with_reference: bool) -> list[list[str]]:
+def victoria_rows(with_reference: bool, scans: int | None) -> list[list[str]]:
+    """rperc's Victoria Park preset against the numpy reference with the same
+    settings and association (JCBB, 3 sightings before a landmark), the whole run or
+    its first ``scans`` scans; prints how closely the two agree."""
     from rperc.datasets import load_victoria_park
     from rperc.datasets.victoria_park import LASER_MOUNT
 
     park = load_victoria_park(DATA / "victoria_park")
-    keep = park.gps_plausible()
+    keep = park.gps_plausible()  # screened on the whole run, by the GPS alone
     t_gps, gps = park.gps_t[keep], np.c_[park.gps_x, park.gps_y][keep]
+    if scans is not None:
+        park = ref.first_scans(park, scans)
 
     def gps_rms(t: np.ndarray, pose: np.ndarray) -> float:
         return evaluation.gps_error(t, point_path(pose, LASER_MOUNT), t_gps, gps).rms
 
+    cfg = PRESETS["victoria"]
+    name = f"Victoria Park{'' if scans is None else f' ({scans} scans)'}, jcbb, k=3"
     rec = victoria_recording(park)
-    rows, t_nn = [], None
-    for name, over in (
-        ("jcbb, k=3 (preset)", {}),
-        ("nn, k=1", {"association": "nn", "candidate_sightings": 1}),
-    ):
-        cfg = {**PRESETS["victoria"], **over}
-        # Best of three whole runs (the machine may be shared).
-        runs = [timed(lambda cfg=cfg: PlanarSlam(cfg).run(rec)) for _ in range(3)]
-        res, t = runs[0][0], min(r[1] for r in runs)
-        tt, pose, _ = res.path()
-        s = res.statistics
-        rows.append([f"Victoria Park, {name}", "rperc", fmt_seconds(t), "",
-                     f"GPS {gps_rms(tt, pose):.2f} m", str(len(res.landmark_id)),
-                     f"acc {s['accepted']} rej {s['rejected']} new {s['new']}"])  # fmt: skip
-        t_nn = t
-    if with_reference and t_nn is not None:
-        motion = PRESETS["victoria"]["motion"]["ackermann"]
-        slam = ref.PlanarEkfSlam(
-            pose=np.zeros(3), pose_covariance=np.zeros((3, 3)),
-            control_noise=np.diag([motion.get("speed_variance", 0.2),
-                                   motion.get("steering_variance", 0.025)]),
-            measurement_noise=np.diag([PRESETS["victoria"]["range_variance"],
-                                       PRESETS["victoria"]["bearing_variance"]]),
-            vehicle=ref.Ackermann(), structured=True,
-        )  # fmt: skip
-        theirs = ref.run_victoria_park(park, slam)
-        st = theirs.stats
-        rows.append(["Victoria Park, nn, k=1", "numpy (structured)", fmt_seconds(theirs.seconds),
-                     f"{theirs.seconds / t_nn:.0f}x vs rperc nn",
-                     f"GPS {gps_rms(theirs.t, theirs.poses):.2f} m", str(len(theirs.landmarks)),
-                     f"acc {st.accepted} rej {st.rejected} new {st.new}"])  # fmt: skip
+    # Three whole runs (the machine may be shared): the median is the one quoted.
+    runs = [timed(lambda: PlanarSlam(cfg).run(rec)) for _ in range(3)]
+    ours, t_ours = runs[0][0], float(np.median([r[1] for r in runs]))
+    s = ours.statistics
+    counts = f"acc {s['accepted']} rej {s['rejected']} new {s['new']} cand {s['candidate']}"
+    rows = [[name, "rperc", fmt_seconds(t_ours), "", f"GPS {gps_rms(*ours.path()[:2]):.3f} m",
+             str(len(ours.landmark_id)), counts]]  # fmt: skip
+    if not with_reference:
+        return rows
+    slam = ref.ackermann_filter({**defaults(), **cfg})
+    theirs = ref.run_victoria_park(park, slam)
+    st = theirs.stats
+    counts = f"acc {st.accepted} rej {st.rejected} new {st.new} cand {st.candidate}"
+    rows.append([name, "numpy (structured)", fmt_seconds(theirs.seconds),
+                 f"{theirs.seconds / t_ours:.0f}x", f"GPS {gps_rms(theirs.t, theirs.poses):.3f} m",
+                 str(len(theirs.landmarks)), counts])  # fmt: skip
+    # rperc's pose right after each control event is the reference's pose at that
+    # control's time (both have predicted to it, and neither has seen a scan at it).
+    gap = np.linalg.norm(ours.pose[ours.kind == 0, :2] - theirs.poses[:, :2], axis=1)
+    AGREEMENT.append(
+        f"{name}: same association in both (rperc's engine; the numpy reference's own "
+        f"Python port), timed whole runs including association. Paths differ by at most "
+        f"{gap.max():.2e} m over {len(gap)} control times; landmarks {len(ours.landmark_id)} "
+        f"vs {len(theirs.landmarks)}; statistics "
+        f"{'equal' if same_statistics(s, st) else 'DIFFERENT'}; JCBB out of nodes in "
+        f"{s['jcbb_truncated']} vs {st.truncated} scans. rperc: median of 3 runs "
+        f"({', '.join(f'{r[1]:.2f}' for r in runs)} s); numpy: one run."
+    )
     return rows
 
 
-def costs(n: int, rng: np.random.Generator) -> tuple[float, float, float]:
-    """Best-of-repeats seconds of rperc's prediction and range-bearing update, and the
-    numpy peer's update, on a state of ``n`` landmarks with a dense random ``P``."""
+def same_statistics(ours: dict[str, int], theirs: ref.AssociationStats) -> bool:
+    keys = ("accepted", "rejected", "new", "candidate")
+    return all(ours[k] == getattr(theirs, k) for k in keys)
+
+
+def costs(n: int, rng: np.random.Generator) -> dict[str, float]:
+    """Best-of-repeats seconds of one prediction and one range-bearing update called
+    from Python, rperc's ``Ekf`` and the numpy peer, on a state of ``n`` landmarks
+    with a dense random ``P``."""
     from rperc.slam import Ekf
 
     d = 3 + 2 * n
@@ -135,25 +183,50 @@ def costs(n: int, rng: np.random.Generator) -> tuple[float, float, float]:
     peer = ref.PlanarEkfSlam(x[:3], p[:3, :3], v, r, structured=True)
     peer.x, peer.P = x.copy(), p.copy()
     # Best of repeats: the machine may be shared, and the minimum is the cost.
-    t_pred = best_time(lambda: ekf.predict(x[:3], fx, fv, v), repeat=5, min_time=0.05)
-    t_up = best_time(lambda: ekf.update_range_bearing(n // 2, z, r), repeat=5, min_time=0.1)
-    t_np = best_time(lambda: peer.update([(n // 2, z)]), repeat=3, min_time=0.1)
-    return t_pred, t_up, t_np
+    return {
+        "Ekf.predict": best_time(lambda: ekf.predict(x[:3], fx, fv, v), repeat=5, min_time=0.05),
+        "Ekf.update": best_time(
+            lambda: ekf.update_range_bearing(n // 2, z, r), repeat=5, min_time=0.1
+        ),
+        "numpy predict": best_time(lambda: peer.predict(0.5, 0.1, 0.01), repeat=3, min_time=0.05),
+        "numpy update": best_time(lambda: peer.update([(n // 2, z)]), repeat=3, min_time=0.1),
+    }
+
+
+def engine_costs(n: int, rng: np.random.Generator, events: int = 400) -> dict[str, float]:
+    """Median seconds per event of rperc's SLAM engine by its own clock (native, no
+    Python call), with ``n`` landmarks mapped: a control event (one prediction) and a
+    scan of one known landmark at a control's time (one update, no prediction). The
+    robot stands still (zero controls), so every detection is exact and accepted."""
+    ranges, bearings = rng.uniform(5.0, 50.0, n), rng.uniform(-np.pi, np.pi, n)
+    t = 1.0 + 0.01 * np.arange(events)
+    controls = np.c_[np.r_[0.0, t], np.zeros((events + 1, 2))]
+    seen = np.arange(events // 2) % n  # a scan at every other control time
+    detections = np.r_[np.c_[np.zeros(n), ranges, bearings],
+                       np.c_[t[1::2][: len(seen)], ranges[seen], bearings[seen]]]  # fmt: skip
+    ids = np.r_[np.arange(n), seen]
+    res = PlanarSlam(association="known").run_arrays(controls, detections, detection_ids=ids)
+    later = res.t > 0  # after the map is made
+    return {
+        "engine predict": float(np.median(res.seconds[later & (res.kind == 0)])),
+        "engine update": float(np.median(res.seconds[later & (res.kind == 1)])),
+    }
 
 
 def growth(sizes: list[int]) -> None:
-    """Per-call cost against the map size, with the fitted exponents."""
+    """Cost against the map size, with the fitted exponents."""
     rows: list[list[str]] = []
-    logs: dict[str, list[float]] = {"rperc predict": [], "rperc update": [], "numpy update": []}
+    logs: dict[str, list[float]] = {}
     rng = np.random.default_rng(0)
     for n in sizes:
-        t_pred, t_up, t_np = costs(n, rng)
-        for key, val in zip(logs, (t_pred, t_up, t_np), strict=True):
-            logs[key].append(val)
-        rows.append([str(n), fmt_seconds(t_pred), fmt_seconds(t_up), fmt_seconds(t_np),
-                     f"{t_np / t_up:.1f}x"])  # fmt: skip
-    print_table("cost per call against landmarks n (random dense P)",
-                ["n", "rperc predict", "rperc update", "numpy update", "ratio"], rows)  # fmt: skip
+        c = {**engine_costs(n, rng), **costs(n, rng)}
+        for key, val in c.items():
+            logs.setdefault(key, []).append(val)
+        rows.append([str(n), *(fmt_seconds(c[k]) for k in c),
+                     f"{c['numpy update'] / c['Ekf.update']:.1f}x"])  # fmt: skip
+    print_table("cost against landmarks n: rperc's engine per event (its own clock), and one "
+                "call from Python (random dense P)",
+                ["n", *logs, "numpy / Ekf update"], rows)  # fmt: skip
     big = [i for i, n in enumerate(sizes) if n >= 200]
     for key, vals in logs.items():
         slope = np.polyfit(np.log(np.array(sizes)[big]), np.log(np.array(vals)[big]), 1)[0]
@@ -162,19 +235,26 @@ def growth(sizes: list[int]) -> None:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--skip-reference-vp", action="store_true",
-                        help="skip the numpy run on Victoria Park (about a minute)")  # fmt: skip
+    parser.add_argument(
+        "--skip-reference-vp",
+        action="store_true",
+        help="skip the numpy run on Victoria Park (minutes)",
+    )
+    parser.add_argument("--vp-scans", type=int, default=None, metavar="N",
+                        help="Victoria Park: its first N scans only (default: all)")  # fmt: skip
     parser.add_argument("--sizes", type=int, nargs="+", default=[50, 100, 200, 400, 800, 1600])
     args = parser.parse_args()
     rows = []
     if (DATA / "mrclam6").is_dir():
         rows += mrclam_rows()
     if (DATA / "victoria_park").is_dir():
-        rows += victoria_rows(not args.skip_reference_vp)
+        rows += victoria_rows(not args.skip_reference_vp, args.vp_scans)
     if rows:
         print_table("whole runs (same process, wall time)",
                     ["run", "filter", "time", "numpy / rperc", "accuracy", "landmarks",
                      "association"], [r + [""] * (7 - len(r)) for r in rows])  # fmt: skip
+        for line in AGREEMENT:
+            print(f"  {line}")
     else:
         print(f"no data under {DATA}: set RPERC_DATA")
     growth(args.sizes)

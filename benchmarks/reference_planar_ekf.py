@@ -30,6 +30,7 @@ same numbers; the benchmark should quote rperc against the structured one.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable
@@ -51,6 +52,30 @@ def chi2_quantile_2dof(p: float) -> float:
     """The chi-square quantile for 2 degrees of freedom, in closed form: its CDF is
     ``1 - exp(-x / 2)`` (no scipy needed at run time)."""
     return -2.0 * math.log1p(-p)
+
+
+def chi2_quantile_even(p: float, dof: int) -> float:
+    """The chi-square quantile for an even number of degrees of freedom ``2k``, by
+    bisection on its closed-form CDF ``1 - exp(-x/2) sum_{i<k} (x/2)^i / i!``."""
+    if dof % 2 or dof < 2 or not 0.0 < p < 1.0:
+        raise ValueError(f"need an even dof >= 2 and p in (0, 1), got {dof}, {p}")
+
+    def cdf(x: float) -> float:
+        term, total = 1.0, 1.0
+        for i in range(1, dof // 2):
+            term *= x / 2.0 / i
+            total += term
+        return 1.0 - math.exp(-x / 2.0) * total
+
+    lo, hi = 0.0, float(dof)
+    while cdf(hi) < p:
+        lo, hi = hi, 2.0 * hi
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if mid in (lo, hi):
+            break
+        lo, hi = (mid, hi) if cdf(mid) < p else (lo, mid)
+    return hi
 
 
 # ------------------------------------------------------------------ motion
@@ -489,9 +514,7 @@ class PlanarEkfSlam:
     def joint_gate(self, k: int) -> float:
         """The chi-square gate of ``k`` stacked sightings (2k degrees of freedom)."""
         while len(self._joint_gates) <= k:
-            from scipy.stats import chi2
-
-            self._joint_gates.append(float(chi2.ppf(self.gate, 2 * len(self._joint_gates))))
+            self._joint_gates.append(chi2_quantile_even(self.gate, 2 * len(self._joint_gates)))
         return self._joint_gates[k]
 
     def joint_nis(self, hyp: list[Pairing]) -> float | None:
@@ -673,6 +696,61 @@ def run_mrclam(run: Any, slam: PlanarEkfSlam) -> RunResult:
         slam.observe_known(run.measurement_landmark[a:b].tolist(), z[a:b])
 
     return drive(slam, run.odometry_t, controls, run.measurement_t, observe)
+
+
+def ackermann_filter(config: dict[str, Any]) -> PlanarEkfSlam:
+    """The structured filter with the settings of a complete rperc ``PlanarSlam``
+    config for the Ackermann vehicle (rperc's ``defaults()`` with the run's fields on
+    top): start, noise, gate and association. The vehicle's fields it leaves out take
+    the defaults of ``crates/slam/src/ackermann.rs`` (those of :class:`Ackermann`,
+    and the published 0.2 m^2/s^2 and 0.025 rad^2 control noise)."""
+    variants = [k for k in ("anchor", "external_fix", "freeze_after") if config.get(k)]
+    identity = {
+        "range_offset": 0.0,
+        "range_scale": 1.0,
+        "range_is_depth": False,
+        "bearing_offset": 0.0,
+        "bearing_scale": 1.0,
+        "control_scale": [1.0, 1.0],
+    }
+    bias = {k: list(v) if isinstance(v, tuple) else v for k, v in config.get("bias", {}).items()}
+    if {**identity, **bias} != identity:
+        variants.append("bias")
+    if variants:
+        raise ValueError(f"the reference does not implement {variants}")
+    car = config["motion"]["ackermann"]
+    geometry = ("wheel_base", "encoder_offset", "laser_forward", "laser_left")
+    return PlanarEkfSlam(
+        pose=np.array(config["initial_pose"], dtype=np.float64),
+        pose_covariance=np.diag(config["initial_pose_variance"]).astype(np.float64),
+        control_noise=np.diag(
+            [car.get("speed_variance", 0.2), car.get("steering_variance", 0.025)]
+        ),
+        measurement_noise=np.diag([config["range_variance"], config["bearing_variance"]]),
+        vehicle=Ackermann(**{k: car[k] for k in geometry if k in car}),
+        structured=True,
+        gate=config["gate_confidence"],
+        association=config["association"],
+        candidate_sightings=config["candidate_sightings"],
+        candidate_window=config["candidate_window"],
+        jcbb_max_nodes=config["jcbb_max_nodes"],
+    )
+
+
+def first_scans(park: Any, scans: int) -> Any:
+    """The prefix of a :class:`rperc.datasets.VictoriaPark` run up to the end of its
+    ``scans``-th laser scan: controls, detections and GPS up to that time."""
+    times = np.unique(park.measurement_t)
+    if not 1 <= scans <= len(times):
+        raise ValueError(f"scans must be in [1, {len(times)}], got {scans}")
+    end = times[scans - 1]
+    cut = {group: getattr(park, f"{group}_t") <= end for group in ("measurement", "input", "gps")}
+    fields = {
+        name: value[cut[name.split("_")[0]]]
+        for name, value in vars(park).items()
+        if isinstance(value, np.ndarray) and name.split("_")[0] in cut
+    }
+    return dataclasses.replace(park, **fields)
 
 
 def run_victoria_park(park: Any, slam: PlanarEkfSlam) -> RunResult:

@@ -202,6 +202,9 @@ def test_unicycle_quarter_turn_and_series_continuity() -> None:
 def test_chi2_quantile_matches_scipy() -> None:
     for p in (0.5, 0.95, 0.99, 0.9999):
         assert ref.chi2_quantile_2dof(p) == pytest.approx(chi2.ppf(p, 2), rel=1e-12)
+    for dof in (2, 4, 6, 10, 20, 40):
+        for p in (0.5, 0.99, 0.9999):
+            assert ref.chi2_quantile_even(p, dof) == pytest.approx(chi2.ppf(p, dof), rel=1e-10)
 
 
 # ------------------------------------------------------------------ a simulated world

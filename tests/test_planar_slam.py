@@ -12,12 +12,13 @@ import os
 import pickle
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from rperc.slam import PlanarSlam
-from rperc.slam.planar import defaults, mrclam_recording
+from rperc.slam.planar import defaults, mrclam_recording, victoria_recording
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -360,3 +361,85 @@ def test_typed_run_returns_the_wall_map() -> None:
     assert slam.run_arrays(np.zeros((1, 3)), np.zeros((0, 3))).walls is None
     with pytest.raises(ValueError, match="walls"):
         slam.run_arrays(np.zeros((0, 3)), np.zeros((0, 3)), walls=walls[:, :9])
+
+
+# --- Same association as the numpy reference (JCBB, candidate list) ----------------
+
+
+def _park_like(seed: int = 4, steps: int = 2400) -> SimpleNamespace:
+    """A Victoria-Park-like run in its layout: the Ackermann car wandering among
+    trees (some in pairs 1.5 m apart, closer than the detection noise can resolve),
+    noisy encoder speed and steering, and laser scans between control times with the
+    trees in front within 30 m, noise as the preset assumes, and clutter."""
+    rng = np.random.default_rng(seed)
+    car = REF.Ackermann()
+    trees = rng.uniform(-70, 70, size=(70, 2))
+    trees = np.r_[trees, trees[:12] + np.array([1.5, 0.0])]
+    t = np.cumsum(rng.uniform(0.02, 0.03, steps))
+    speed, steer = np.full(steps, 4.0), 0.2 * np.sin(t / 6.0)
+    pose, rows = np.zeros(3), []
+    for k in range(steps - 1):
+        if k % 8 == 0:
+            laser = car.laser_pose(REF.Ackermann.predict(car, pose, speed[k], steer[k], 0.01)[0])[0]
+            for tree in trees:
+                z = REF.range_bearing(laser, tree)[0]
+                if z[0] < 30.0 and abs(z[1]) < math.pi / 2:
+                    noise = rng.normal(0, [1.0, 0.05])
+                    rows.append([t[k] + 0.01, *(z + noise)])
+            if rng.random() < 0.3:
+                rows.append([t[k] + 0.01, rng.uniform(3, 30), rng.uniform(-1.5, 1.5)])
+        pose = car.predict(pose, speed[k], steer[k], t[k + 1] - t[k])[0]
+    det = np.array(rows)
+    noisy_speed = speed + rng.normal(0, 0.1, steps)
+    noisy_steer = steer + rng.normal(0, 0.02, steps)
+    return SimpleNamespace(input_t=t, input_speed=noisy_speed, input_steering=noisy_steer,
+                           measurement_t=det[:, 0], measurement_range=det[:, 1],
+                           measurement_bearing=det[:, 2])  # fmt: skip
+
+
+def _same_as_reference(park, config) -> dict[str, int]:
+    """Runs rperc and the numpy reference (its own Python JCBB and candidate list)
+    with ``config`` and checks that they made the same decisions: equal association
+    counts, the same landmarks, paths within 1e-6 m. Returns rperc's counts."""
+    ours = PlanarSlam(config).run(victoria_recording(park))
+    theirs = REF.run_victoria_park(park, REF.ackermann_filter({**defaults(), **config}))
+    s, st = ours.statistics, theirs.stats
+    keys = ("accepted", "rejected", "new", "candidate")
+    assert {k: s[k] for k in keys} == {k: getattr(st, k) for k in keys}
+    assert s["jcbb_truncated"] == st.truncated == 0
+    np.testing.assert_allclose(ours.pose[ours.kind == 0], theirs.poses, atol=1e-6)
+    # Both number new landmarks 0, 1, 2, ... in the order they enter the map.
+    np.testing.assert_array_equal(ours.landmark_id, np.arange(len(theirs.landmarks)))
+    np.testing.assert_allclose(ours.landmark_mean, theirs.landmarks, atol=1e-6)
+    return s
+
+
+def test_unknown_association_equals_the_numpy_reference_on_a_cluttered_park():
+    from rperc.slam.planar import PRESETS
+
+    park = _park_like()
+    jcbb = _same_as_reference(park, PRESETS["victoria"])
+    nn = _same_as_reference(park, {**PRESETS["victoria"], "association": "nn"})
+    # The run exercises what is compared: ambiguous sightings, clutter left as
+    # candidates, landmarks admitted after three sightings, and scans where JCBB
+    # and nearest neighbour decide differently.
+    assert jcbb["rejected"] > 0 and jcbb["candidate"] > 0 and jcbb["new"] > 20, jcbb
+    assert jcbb["accepted"] != nn["accepted"]
+
+
+PARK = Path(DATA) / "victoria_park" if DATA else None
+
+
+@pytest.mark.skipif(PARK is None or not PARK.is_dir(), reason="RPERC_DATA/victoria_park is absent")
+def test_victoria_park_start_associates_as_the_numpy_reference():
+    """The preset (JCBB, 3 sightings before a landmark) and the numpy reference make
+    the same decisions on the first 600 scans of the real run, where nearest
+    neighbour decides differently (so the comparison can tell them apart)."""
+    from rperc.datasets import load_victoria_park
+    from rperc.slam.planar import PRESETS
+
+    park = REF.first_scans(load_victoria_park(PARK), 600)
+    s = _same_as_reference(park, PRESETS["victoria"])
+    nn = PlanarSlam(PRESETS["victoria"], association="nn").run(victoria_recording(park))
+    assert s["rejected"] > 0 and s["candidate"] > 0
+    assert nn.statistics["accepted"] != s["accepted"]

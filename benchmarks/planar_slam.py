@@ -21,9 +21,9 @@ ratios and accuracies, and the cost growth with the number of landmarks.
   covariance (the Python calls carry a few microseconds of overhead). The slope of
   log time against log n, fitted for n >= 200, should be about 1 for a prediction
   and 2 for an update (``cargo bench -p slam --bench planar`` measures the same).
-- numpy runs on one BLAS thread (see below), as rperc does; the machine may be
-  shared, so each figure is a best or median of repeats, and ratios come from the
-  same run.
+- Both run on one thread by default (rperc's rayon pool and numpy's BLAS; see
+  below); the machine may be shared, so each figure is a best or median of repeats,
+  and ratios come from the same run.
 
     RPERC_DATA=../shared/data python benchmarks/planar_slam.py [--vp-scans N]
         [--skip-reference-vp]
@@ -37,13 +37,15 @@ import sys
 import time
 from pathlib import Path
 
-# One BLAS thread for numpy, as rperc's engine runs a recording on one thread. On this
-# shared 2-core machine a threaded OpenBLAS oversubscribes the cores and the numpy
-# update got up to 7x slower (n = 400), which would flatter rperc. Set the variable
-# before running to choose otherwise.
+# The same threads for both (set before numpy and rayon start): one by default, for
+# rperc's rayon pool (its update splits P's columns over threads from a state of 384
+# on) and numpy's BLAS. On this shared 2-core machine a threaded OpenBLAS
+# oversubscribed the cores and the numpy update got up to 7x slower (n = 400), which
+# would flatter rperc. OPENBLAS_NUM_THREADS=2 runs both on two threads.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-os.environ.setdefault("MKL_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", os.environ["OPENBLAS_NUM_THREADS"])
+os.environ.setdefault("MKL_NUM_THREADS", os.environ["OPENBLAS_NUM_THREADS"])
+os.environ.setdefault("RAYON_NUM_THREADS", os.environ["OPENBLAS_NUM_THREADS"])
 
 import numpy as np
 
@@ -251,7 +253,9 @@ def main() -> int:
     if (DATA / "victoria_park").is_dir():
         rows += victoria_rows(not args.skip_reference_vp, args.vp_scans)
     if rows:
-        print(f"numpy on OPENBLAS_NUM_THREADS={os.environ['OPENBLAS_NUM_THREADS']} BLAS threads")
+        env = os.environ
+        print(f"threads: rperc RAYON_NUM_THREADS={env['RAYON_NUM_THREADS']}, numpy "
+              f"OPENBLAS_NUM_THREADS={env['OPENBLAS_NUM_THREADS']}")  # fmt: skip
         print_table("whole runs (same process, wall time)",
                     ["run", "filter", "time", "numpy / rperc", "accuracy", "landmarks",
                      "association"], [r + [""] * (7 - len(r)) for r in rows])  # fmt: skip

@@ -12,11 +12,12 @@ the tests, so its models are the ones of the Rust ``slam`` crate, term for term:
 - range-bearing to point landmarks (``crates/slam/src/observation.rs``), bearings
   wrapped into (-pi, pi];
 - the EKF of the seed paper (eqs. 3-9), Joseph form;
-- association by known identity, or without identities as rperc's engine does it
-  (same rules, written again in Python from their description, not translated from
-  the Rust): individual compatibility by a Mahalanobis chi-square gate, then nearest
-  neighbour or JCBB (Neira & Tardos 2001, a recursive branch and bound), and a
-  candidate list that admits a landmark after k consistent sightings.
+- association by known identity, or without identities by the rules of rperc's
+  engine, written again in Python rather than translated: individual compatibility
+  by a Mahalanobis chi-square gate, then nearest neighbour or JCBB (Neira & Tardos
+  2001; here a recursive branch and bound taking the joint NIS from a fresh Cholesky
+  factor of each hypothesis, where the Rust keeps an explicit stack and grows one
+  factor), and a candidate list that admits a landmark after k consistent sightings.
 
 ``structured=False`` (the default) is the textbook dense form: the prediction builds
 the full ``F`` and computes ``F P F^T`` (O(n^3)); the update computes ``P H^T`` with
@@ -271,8 +272,8 @@ class PlanarEkfSlam:
     Without identities (:meth:`observe_unknown`), ``association`` is ``"nn"`` or
     ``"jcbb"``, a new landmark needs ``candidate_sightings`` consistent sightings, a
     candidate unseen for ``candidate_window`` seconds is dropped, and JCBB makes at
-    most ``jcbb_max_nodes`` joint tests per scan: the same settings and defaults as
-    rperc's ``PlanarConfig``.
+    most ``jcbb_max_nodes`` joint tests per scan (the meanings and defaults of
+    rperc's ``PlanarConfig`` fields of those names).
     """
 
     pose: np.ndarray

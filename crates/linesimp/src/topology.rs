@@ -22,8 +22,10 @@
 //! - A polygon ring ([`Component::ring`]) then also drops its start vertex when it lies
 //!   within `epsilon` of the chord joining its neighbours and that chord passes the same
 //!   checks (a start vertex collinear with that chord is always dropped, as in GEOS); the
-//!   ring then starts at its last kept vertex before the old start. Closed polylines
-//!   that are not rings keep their start vertex.
+//!   ring then starts at its last kept vertex before the old start. The chords it
+//!   replaced leave the live segments, but a replaced piece that was a single input
+//!   segment stays live, as in GEOS (whose index misses it). Closed
+//!   polylines that are not rings keep their start vertex.
 //!
 //! Live segments sit in a uniform grid ([`grid::SegmentGrid`]), so a check looks at
 //! the cells along the chord rather than at every segment.
@@ -361,8 +363,16 @@ impl<'a> Engine<'a> {
         if !safe {
             return;
         }
-        self.grid.remove(first.segment);
-        self.grid.remove(last.segment);
+        // GEOS's index update: a piece that is a flattened chord leaves the live set,
+        // but a piece that is a single input segment stays live although the vertex
+        // it ends at is gone (GEOS's result holds a copy of that segment, so removing
+        // the copy from its index removes nothing). Such a leftover can only block
+        // later chords, never let one through, and keeping it gives GEOS's vertices.
+        for piece in [first, last] {
+            if piece.end > piece.start + 1 {
+                self.grid.remove(piece.segment);
+            }
+        }
         let segment = self.grid.insert(Segment {
             a,
             b,

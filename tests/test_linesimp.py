@@ -184,6 +184,8 @@ def test_fewer_than_three_points_come_back_unchanged(n):
         ([0.0, 1.0, 2.0], 0.1, {}, ValueError, "shape"),
         (np.zeros((3, 4)), 0.1, {}, ValueError, "shape"),
         (np.array([["a", "b"], ["c", "d"]]), 0.1, {}, TypeError, "dtype"),
+        (np.zeros((3, 2), dtype=complex), 0.1, {}, TypeError, "points must hold real"),
+        ([[0, 0], [1]], 0.1, {}, TypeError, "points must be a rectangular array"),
         ([[0, 0], [1, 1], [2, 0]], 0.1, {"method": "fast"}, ValueError, "method"),
         ([[0, 0], [1, 1], [2, 0]], 0.1, {"metric": "area"}, ValueError, "metric"),
         (

@@ -82,6 +82,8 @@ def test_ekf_errors_map_to_python_exceptions():
         ekf.update(np.array([0.5, 1.0]), [(0, 1, np.ones((1, 1)))], np.ones((1, 1)))
     with pytest.raises(TypeError, match="dtype"):
         Ekf(np.array(["a", "b"]), np.zeros((2, 2)), robot_dim=1, landmark_dim=1)
+    with pytest.raises(TypeError, match="covariance must be a rectangular array"):
+        Ekf([0.0, 1.0], [[1.0, 0.0], [0.0]], robot_dim=1, landmark_dim=1)
     # Integers and lists are numbers: accepted, as simplify accepts them.
     ints = Ekf([0, 2], [[1, 0], [0, 4]], robot_dim=1, landmark_dim=1)
     assert ints.state.dtype == np.float64 and ints.state.tolist() == [0.0, 2.0]

@@ -45,11 +45,14 @@ def real_number(value: object, name: str) -> float:
     return float(value)
 
 
-def float_array(values: object, name: str) -> Any:
+def float_array(values: object, name: str, *, keep_float32: bool = False) -> Any:
     """``values`` (numbers, nested lists, any numeric array) as a float64 array; a
     ragged list, strings, objects, complex numbers or dates are a TypeError naming
     ``name`` (numpy's own messages, ``could not convert string to float``, name
-    nothing)."""
+    nothing). A float64 array comes back as it is (strided views too, no copy).
+
+    ``keep_float32``: a native-order float32 array also comes back as it is, for
+    callers whose native side reads float32 and whose results keep the input dtype."""
     import numpy as np
 
     try:
@@ -58,4 +61,6 @@ def float_array(values: object, name: str) -> Any:
         raise TypeError(f"{name} must be a rectangular array of numbers: {exc}") from None
     if arr.dtype.kind not in "fiub":
         raise TypeError(f"{name} must hold real numbers, got dtype {arr.dtype}")
+    if keep_float32 and arr.dtype == np.float32:
+        return arr
     return arr.astype(np.float64, copy=False)

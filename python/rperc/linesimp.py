@@ -36,7 +36,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _geo, _rperc
-from rperc._args import real_number, whole_number
+from rperc._args import float_array, real_number, whole_number
 from rperc.pose import to_world as pose_to_world
 
 Method = Literal["auto", "hull", "dp", "vw"]
@@ -51,19 +51,14 @@ _DP_METHODS = ("auto", "hull", "dp")
 
 def _float_array(values: npt.ArrayLike, name: str) -> np.ndarray:
     """A float64 or float32 array; float32 and strided arrays are kept as they are (the
-    native side reads them directly), integers and other floats become float64."""
+    native side reads them directly, and kept rows keep the input dtype), integers and
+    other floats become float64. A geometry is refused with a pointer to simplify."""
     if _geo.is_geometry(values):
         raise TypeError(
             f"{name} is a geometry; pass it to rperc.linesimp.simplify, which returns the "
             "same geometry type"
         )
-    arr = np.asarray(values)
-    if arr.dtype.kind in "iub":
-        return arr.astype(np.float64)
-    if arr.dtype.kind != "f":
-        raise TypeError(f"{name} must be a numeric array, got dtype {arr.dtype}")
-    if arr.dtype not in (np.float64, np.float32):
-        return arr.astype(np.float64)
+    arr: np.ndarray = float_array(values, name, keep_float32=True)
     return arr
 
 
@@ -192,7 +187,7 @@ def simplify(
         ``metric="segment"``, ``preserve_topology`` with ``"hull"`` or ``"vw"``, or
         ``return_indices`` with a geometry.
     TypeError
-        A non-numeric dtype.
+        A non-numeric dtype (complex included) or a ragged nested list.
     ImportError
         A geometry without shapely installed.
 
@@ -516,7 +511,7 @@ def extract_lines(
         Lengths differ, an array is not 1-D, a bearing is NaN, or a parameter is out
         of range (the message names it).
     TypeError
-        A non-numeric dtype.
+        A non-numeric dtype (complex included) or a ragged nested list.
 
     Examples
     --------

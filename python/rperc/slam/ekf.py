@@ -15,26 +15,18 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
-from rperc._args import whole_number
-
-
-def _floats(values: npt.ArrayLike, name: str) -> np.ndarray:
-    """A float64 array from numbers, lists or arrays; other dtypes are a TypeError."""
-    arr = np.asarray(values)
-    if arr.dtype.kind not in "fiub":
-        raise TypeError(f"{name} must hold numbers, got dtype {arr.dtype}")
-    return arr.astype(np.float64, copy=False)
+from rperc._args import float_array, whole_number
 
 
 def _vector(values: npt.ArrayLike, name: str) -> np.ndarray:
-    arr = _floats(values, name)
+    arr: np.ndarray = float_array(values, name)
     if arr.ndim != 1:
         raise ValueError(f"{name} must be 1-D, got shape {arr.shape}")
     return arr
 
 
 def _matrix(values: npt.ArrayLike, name: str) -> np.ndarray:
-    arr = _floats(values, name)
+    arr: np.ndarray = float_array(values, name)
     if arr.ndim == 0:
         arr = arr.reshape(1, 1)
     if arr.ndim != 2:

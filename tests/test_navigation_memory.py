@@ -131,3 +131,31 @@ def test_evaluation_through_a_process_pool_equals_serial(learnt) -> None:
     assert serial.success_rate == pooled.success_rate
     assert set(serial.to_dict()) >= {"localization_error_cm", "localization_error_deg",
                                      "success_rate", "final_error_cm", "hz"}  # fmt: skip
+
+
+def test_localisation_covariance_and_its_nees(learnt) -> None:
+    """Each localised frame carries a symmetric positive definite covariance, and
+    ``localization_nees`` is the Mahalanobis distance of the error seen from the
+    mosaic frame (scipy as the oracle, on the truth mapped independently here)."""
+    from scipy.spatial.distance import mahalanobis
+
+    from rperc.navigation.memory import localization_nees
+
+    _, learning = learnt
+    f = learning.frames
+    ok = ~f.lost
+    assert f.covariance.shape == (len(f.truth), 3, 3)
+    cov = f.covariance[ok]
+    assert np.allclose(cov, cov.transpose(0, 2, 1))
+    assert (np.linalg.eigvalsh(cov) > 0).all()
+    nees = localization_nees(learning, f)
+    assert np.isnan(nees[f.lost]).all() and np.isfinite(nees[ok]).all()
+    m = learning.mosaic_in_world
+    c, s = np.cos(m[2]), np.sin(m[2])
+    for k in np.flatnonzero(ok)[::17]:
+        d = f.truth[k, :2] - m[:2]
+        t = np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1], f.truth[k, 2] - m[2]])
+        e = f.pose[k] - t
+        e[2] = np.angle(np.exp(1j * e[2]))
+        expected = mahalanobis(e, np.zeros(3), np.linalg.inv(f.covariance[k])) ** 2
+        assert nees[k] == pytest.approx(expected, rel=1e-9)

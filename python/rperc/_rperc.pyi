@@ -292,6 +292,7 @@ _Frames: TypeAlias = tuple[
     npt.NDArray[np.float64],
     npt.NDArray[np.float64],
     npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
 ]
 
 def visual_memory_learn(

@@ -13,7 +13,14 @@ type Array<'py> = Bound<'py, numpy::PyArrayDyn<f64>>;
 
 /// Per-frame arrays of a run: `(truth (n, 3), pose (n, 3) NaN where unknown, lost (n,)
 /// as 0/1, tracked models (n,), seconds (n,))`.
-type Frames<'py> = (Array<'py>, Array<'py>, Array<'py>, Array<'py>, Array<'py>);
+type Frames<'py> = (
+    Array<'py>,
+    Array<'py>,
+    Array<'py>,
+    Array<'py>,
+    Array<'py>,
+    Array<'py>,
+);
 
 fn world(w: &PyCeilingWorld) -> World<'_> {
     World {
@@ -39,12 +46,18 @@ fn frames<'py>(
         .map(|r| f64::from(u8::from(r.lost)))
         .collect();
     let tracked = reports.iter().map(|r| r.tracked.len() as f64).collect();
+    let covariance: Vec<f64> = reports
+        .iter()
+        .flat_map(|r| r.covariance.map_or([[f64::NAN; 3]; 3], |c| c))
+        .flatten()
+        .collect();
     Ok((
         shaped(py, pose_rows(truth), &[n, 3])?,
         shaped(py, pose, &[n, 3])?,
         shaped(py, lost, &[n])?,
         shaped(py, tracked, &[n])?,
         shaped(py, seconds, &[n])?,
+        shaped(py, covariance, &[n, 3, 3])?,
     ))
 }
 

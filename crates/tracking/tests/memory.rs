@@ -302,8 +302,8 @@ mod keys_and_servo {
                 steps += 1;
                 assert!(steps < 3000, "did not reach B");
                 let now = seen(&camera, &robot, &models);
-                let error =
-                    key_error(&now, &keys[k], [camera.cx, camera.cy]).expect("a shared model");
+                let error = key_error(&now, &keys[k], [camera.cx, camera.cy], None)
+                    .expect("a shared model");
                 let last = k + 1 == keys.len();
                 let distance = error.x.hypot(error.y);
                 if !last && distance < params.switch_error {
@@ -339,6 +339,7 @@ mod keys_and_servo {
             &seen(&camera, &robot, &models),
             &key,
             [camera.cx, camera.cy],
+            None,
         )
         .unwrap();
         let truth = robot.between(&then);

@@ -1,6 +1,6 @@
 //! The visual memory end to end in the ceiling world, against its ground truth: a
-//! learning run builds the mosaic (model poses within 2 cm and 0.5 degrees of their
-//! true frames), localises the robot along the way by eq. 2, picks a valid key-image
+//! learning run builds the mosaic (model poses within their claimed covariances and
+//! 2 cm and 0.5 degrees RMS of their true frames), localises the robot along the way by eq. 2, picks a valid key-image
 //! chain, and a replay from a perturbed start servoes to B within 5 cm.
 
 use rperc_core::Pose2;
@@ -43,14 +43,29 @@ fn learn_then_replay_against_the_truth() {
         learnt.truth[m.created].compose(&c)
     };
     let w_t_m = frame_of(&memory.models[0]);
-    for m in &memory.models {
-        let e = m.pose.between(&w_t_m.between(&frame_of(m)));
-        assert!(
-            e.x.hypot(e.y) < 0.02 && e.theta.abs() < 0.5f64.to_radians(),
-            "model {}: {e:?}",
-            m.id
+    // Every model within its own claimed covariance (99.9 % ellipsoid), and the
+    // mosaic within the 2 cm and 0.5 degrees RMS.
+    let gate = rperc_core::chi2_quantile(0.999, 3.0).unwrap();
+    let (mut sq_d, mut sq_t) = (0.0, 0.0);
+    for m in memory.models.iter().skip(1) {
+        let t = w_t_m.between(&frame_of(m));
+        let e = nalgebra::Vector3::new(
+            m.pose.x - t.x,
+            m.pose.y - t.y,
+            rperc_core::angle_diff(m.pose.theta, t.theta),
         );
+        let cov = nalgebra::Matrix3::from(m.covariance).transpose();
+        let nees = (e.transpose() * cov.try_inverse().expect("a placed model's covariance") * e)[0];
+        assert!(nees < gate, "model {}: error {e:?}, NEES {nees}", m.id);
+        sq_d += e[0] * e[0] + e[1] * e[1];
+        sq_t += e[2] * e[2];
     }
+    let placed = (memory.models.len() - 1) as f64;
+    let (rms_d, rms_t) = ((sq_d / placed).sqrt(), (sq_t / placed).sqrt());
+    assert!(
+        rms_d < 0.02 && rms_t < 0.5f64.to_radians(),
+        "mosaic RMS {rms_d} m, {rms_t} rad"
+    );
     let (mut sq, mut n) = (0.0, 0);
     for (r, truth) in learnt.reports.iter().zip(&learnt.truth) {
         if let (Some(p), false) = (r.pose, r.lost) {

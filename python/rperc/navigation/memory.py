@@ -154,14 +154,17 @@ class VisualMemory:
 @dataclass(frozen=True, repr=False)
 class Frames:
     """Per-frame arrays of a run: ``truth`` (world) and ``pose`` (mosaic, NaN where
-    unknown) ``(n, 3)``, ``lost`` (no model tracked), ``tracked`` (models tracked) and
-    the robot's processing ``seconds`` (rendering excluded)."""
+    unknown) ``(n, 3)``, ``lost`` (no model's image pose used: dead reckoning),
+    ``tracked`` (models tracked), the robot's processing ``seconds`` (rendering
+    excluded) and the ``covariance`` ``(n, 3, 3)`` of ``pose`` relative to the mosaic
+    (x, y in mosaic units, theta in radians; NaN where unknown)."""
 
     truth: np.ndarray
     pose: np.ndarray
     lost: np.ndarray
     tracked: np.ndarray
     seconds: np.ndarray
+    covariance: np.ndarray
 
     def __repr__(self) -> str:
         return f"Frames(n={len(self.truth)}, lost={int(self.lost.sum())}, hz={self.hz:.0f})"
@@ -174,8 +177,8 @@ class Frames:
 
 
 def _frames(native: tuple[np.ndarray, ...]) -> Frames:
-    truth, pose, lost, tracked, seconds = native
-    return Frames(truth, pose, lost.astype(bool), tracked.astype(np.int64), seconds)
+    truth, pose, lost, tracked, seconds, covariance = native
+    return Frames(truth, pose, lost.astype(bool), tracked.astype(np.int64), seconds, covariance)
 
 
 def _se2(p: npt.ArrayLike) -> np.ndarray:
@@ -295,7 +298,10 @@ def replay(
 class Evaluation:
     """Scores of a memory against the world's truth (section 4.2's experiment with
     truth). Distances in cm, angles in degrees; ``hz`` is the robot's own processing
-    rate (rendering excluded)."""
+    rate (rendering excluded). ``nees`` is the replays' mean NEES of the localised
+    pose against its covariance (3 dof: 3 when honest), ``nees_in_band`` the share of
+    time steps whose NEES averaged over the starts lies in its 95 % band (Bailey et
+    al.'s measure)."""
 
     starts: int
     success_rate: float
@@ -307,6 +313,8 @@ class Evaluation:
     mosaic_error_deg: float
     learning_localization_error_cm: float
     learning_localization_error_deg: float
+    nees: float
+    nees_in_band: float
     hz: float
 
     def to_dict(self) -> dict[str, float]:
@@ -378,6 +386,7 @@ def _score(learning: Learning, runs: list[ReplayResult]) -> Evaluation:
     dist, head = [], []
     path = learning.frames.truth[:, :2]
     deviation = []
+    nees = [localization_nees(learning, r.frames) for r in runs]
     for r in runs:
         d, h = _errors(learning.to_world(r.frames.pose[~r.frames.lost]),
                        r.frames.truth[~r.frames.lost])  # fmt: skip
@@ -404,8 +413,46 @@ def _score(learning: Learning, runs: list[ReplayResult]) -> Evaluation:
         mosaic_error_deg=float(np.degrees(_rms(mosaic_h))),
         learning_localization_error_cm=100 * _rms(learn_d),
         learning_localization_error_deg=float(np.degrees(_rms(learn_h))),
+        nees=float(np.nanmean(np.concatenate(nees))) if nees else math.nan,
+        nees_in_band=_share_in_band(nees),
         hz=frames / seconds if seconds > 0 else math.inf,
     )
+
+
+def localization_nees(learning: Learning, frames: Frames) -> np.ndarray:
+    """Each frame's NEES of the localised pose against the truth seen from the
+    mosaic frame, with the pose's covariance (NaN where the pose was dead reckoning
+    or unknown)."""
+    from_world = np.linalg.inv(_se2(learning.mosaic_in_world))
+    out = np.full(len(frames.truth), math.nan)
+    rows = zip(frames.pose, frames.truth, frames.covariance, frames.lost, strict=True)
+    for k, (p, truth, cov, lost) in enumerate(rows):
+        if lost or not (np.isfinite(p).all() and np.isfinite(cov).all()):
+            continue
+        t = _pose(from_world @ _se2(truth))
+        e = np.array([p[0] - t[0] / learning.unit, p[1] - t[1] / learning.unit, 0.0])
+        e[2] = math.remainder(p[2] - t[2], 2 * math.pi)
+        try:
+            out[k] = float(e @ np.linalg.solve(cov, e))
+        except np.linalg.LinAlgError:
+            continue
+    return out
+
+
+def _share_in_band(nees: list[np.ndarray]) -> float:
+    """Share of the time steps (up to the shortest run) whose NEES averaged over the
+    runs lies inside the 95 % band of that average (3 dof)."""
+    if not nees:
+        return math.nan
+    steps = min(len(n) for n in nees)
+    table = np.array([n[:steps] for n in nees])
+    inside = []
+    for column in table.T:
+        seen = column[np.isfinite(column)]
+        if len(seen):
+            lo, hi = _rperc.nees_bounds(3, len(seen), 0.95)
+            inside.append(lo <= seen.mean() <= hi)
+    return float(np.mean(inside)) if inside else math.nan
 
 
 def _mosaic_errors(learning: Learning) -> tuple[np.ndarray, np.ndarray]:

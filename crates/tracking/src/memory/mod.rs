@@ -5,6 +5,7 @@
 
 mod geometry;
 mod keyimages;
+mod localiser;
 mod mosaic;
 mod run;
 mod salient;
@@ -14,6 +15,7 @@ pub use geometry::{ImageScale, PointPair, fit_pose, fuse, new_model_in_mosaic, r
 pub use keyimages::{
     KeyImage, KeyImageParams, LearntFrame, TrackedModel, check_chain, select_key_images, separation,
 };
+pub use localiser::{LocaliserParams, ModelSighting, PoseFilter, observe};
 pub use mosaic::{FrameReport, MosaicBuilder, MosaicModel, MosaicParams, rotation_lever};
 pub use run::{
     LearnParams, Learning, Replay, ReplayOutcome, ReplayParams, VisualMemory, World, learn, replay,

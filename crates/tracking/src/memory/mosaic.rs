@@ -7,8 +7,9 @@
 use rperc_core::Pose2;
 use rperc_core::image::{GrayImage, GrayView};
 
-use super::geometry::{ImageScale, fit_pose, fuse, new_model_in_mosaic, robot_in_mosaic};
+use super::geometry::{ImageScale, PointPair, fit_pose};
 use super::keyimages::TrackedModel;
+use super::localiser::{LocaliserParams, ModelSighting, PoseFilter};
 use super::salient::{ProposalParams, propose_regions};
 use crate::ceiling::{CeilingCamera, correct_image};
 use crate::error::{Result, TrackingError};
@@ -36,14 +37,8 @@ pub struct MosaicParams {
     /// Poses in metres (`Z / f` from the camera) or, when false, in ideal-image pixels
     /// ("up to the scale factor Z/f").
     pub metric: bool,
-    /// Eq. 2 takes the robot's heading from a model's rotation only when the model's
-    /// rotation lever ([`rotation_lever`]) is at least this many pixels: a disc, or a
-    /// small blob whose contours a rotation slides along themselves, cannot tell the
-    /// heading (its position still counts).
-    pub min_rotation_lever: f64,
-    /// Models at least this far apart in the image (pixels) localise the robot through
-    /// their positions ([`fit_pose`]) rather than each one's rotation.
-    pub min_baseline: f64,
+    /// The pose filter that fuses the odometry and the tracked models (eq. 2).
+    pub localiser: LocaliserParams,
 }
 
 impl Default for MosaicParams {
@@ -64,8 +59,7 @@ impl Default for MosaicParams {
             min_score: 0.6,
             view_margin: 2.0,
             metric: true,
-            min_rotation_lever: 12.0,
-            min_baseline: 40.0,
+            localiser: LocaliserParams::default(),
         }
     }
 }
@@ -86,15 +80,22 @@ impl MosaicParams {
         }
         rperc_core::ensure_in_range("min_score", self.min_score, 0.0, 1.0)?;
         rperc_core::ensure_non_negative("view_margin", self.view_margin)?;
-        rperc_core::ensure_non_negative("min_rotation_lever", self.min_rotation_lever)?;
-        rperc_core::ensure_non_negative("min_baseline", self.min_baseline)?;
-        Ok(())
+        self.localiser.validate()
     }
 }
 
 /// Pixels between the stop and the restart distances from the border, so that a model
 /// at the edge of the view is not stopped and restarted on alternate frames.
 const REACQUIRE_HYSTERESIS: f64 = 3.0;
+
+/// The rotation sigma of a model that tells no rotation (radians): wide enough to
+/// count for nothing against the odometry, narrow enough that a lone model still
+/// gives an invertible eq. 2 for a covariance.
+const NO_ROTATION_SIGMA: f64 = 1.0;
+
+/// Models at least this far apart in the image (pixels) fix the heading of a
+/// restarted localisation by their positions.
+const RESTART_BASELINE: f64 = 40.0;
 
 /// A model of the mosaic: the learnt pattern and its pose `M T_i`.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -105,6 +106,10 @@ pub struct MosaicModel {
     pub pose: Pose2,
     /// The learnt pattern (contours and grey-level profiles, section 3.2).
     pub model: PatternModel,
+    /// The covariance of `pose` (the robot's when the model was placed, and the
+    /// tracker's measurement); zero for model 0, which defines the mosaic frame.
+    #[serde(default)]
+    pub covariance: [[f64; 3]; 3],
     /// The frame it was generated in.
     pub created: usize,
 }
@@ -112,9 +117,15 @@ pub struct MosaicModel {
 /// What one frame did.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct FrameReport {
-    /// The robot in the mosaic (eq. 2, fused over the tracked models), or the dead
-    /// reckoning of the last one when no model is tracked (then `lost` is true).
+    /// The robot in the mosaic (eq. 2, fused over the tracked models and the
+    /// odometry), or the dead reckoning of the last one when no model is tracked (then
+    /// `lost` is true).
     pub pose: Option<Pose2>,
+    /// The covariance of `pose` over `(x, y, theta)`, relative to the mosaic.
+    pub covariance: Option<[[f64; 3]; 3]>,
+    /// Models whose image pose the localisation refused (inconsistent with the
+    /// others and the odometry); their trackers were stopped.
+    pub refused: Vec<usize>,
     /// Every model tracked after this frame.
     pub tracked: Vec<TrackedModel>,
     /// Models generated in this frame.
@@ -141,7 +152,8 @@ pub struct MosaicBuilder {
     tracks: Vec<Track>,
     mapping: bool,
     priority: Vec<usize>,
-    pose: Option<Pose2>,
+    filter: Option<PoseFilter>,
+    refused_frames: usize,
     frame: usize,
     seed: u64,
     raw: GrayImage,
@@ -170,7 +182,8 @@ impl MosaicBuilder {
             tracks: Vec::new(),
             mapping: true,
             priority: Vec::new(),
-            pose: None,
+            filter: None,
+            refused_frames: 0,
             frame: 0,
             seed,
             raw: GrayImage::default(),
@@ -198,7 +211,7 @@ impl MosaicBuilder {
         let mut this = Self::new(camera, params, seed)?;
         this.models = models;
         this.mapping = false;
-        this.pose = Some(guess);
+        this.filter = Some(PoseFilter::new(guess, this.guess_covariance()));
         Ok(this)
     }
 
@@ -237,7 +250,7 @@ impl MosaicBuilder {
 
     /// The robot in the mosaic after the last frame (eq. 2), if known.
     pub fn pose(&self) -> Option<Pose2> {
-        self.pose
+        self.filter.as_ref().map(PoseFilter::pose)
     }
 
     /// The image scale (`Z / f` or 1) and principal point of the poses.
@@ -327,20 +340,103 @@ impl MosaicBuilder {
         Ok(())
     }
 
-    /// Eq. 2 from the tracked models: with two or more spread over the image, the
-    /// pose that best maps their image positions onto their mosaic positions
-    /// ([`fit_pose`], weighted by score); with one, eq. 2 itself; with none, dead
-    /// reckoning from the odometry.
+    /// Eq. 2 through the pose filter ([`PoseFilter`]): the odometry (metres, robot
+    /// frame) predicts the robot's pose and each tracked model's image pose corrects
+    /// it, unless its innovation fails the chi-square gate: then its tracker stops, to
+    /// restart where the mosaic predicts the model. When every model is refused the
+    /// prediction may be the one at fault, so nothing is stopped, and after
+    /// `max_refused_frames` such frames the filter starts again from the models.
     fn localise(&mut self, report: &mut FrameReport, odometry: Option<Pose2>) {
-        let mut pairs = Vec::with_capacity(self.tracks.len());
-        let mut single = Vec::with_capacity(self.tracks.len());
-        for t in &self.tracks {
-            let last = t.tracker.last();
-            let c_t_i = self.scale.camera_to_model(last.state);
-            let m_t_i = self.models[t.id].pose;
-            pairs.push(([m_t_i.x, m_t_i.y], [c_t_i.x, c_t_i.y], last.score));
-            single.push((robot_in_mosaic(&m_t_i, &c_t_i), last.score));
+        let params = self.params.localiser.clone();
+        let units = self.units_per_metre();
+        if let (Some(f), Some(d)) = (self.filter.as_mut(), odometry) {
+            let motion = Pose2::new(d.x * units, d.y * units, d.theta);
+            f.predict(&motion, &params, units);
         }
+        let sightings = self.sightings();
+        if !sightings.is_empty()
+            && (self.filter.is_none() || self.refused_frames >= params.max_refused_frames)
+        {
+            self.restart(&sightings);
+            self.refused_frames = 0;
+        }
+        let mut refused = Vec::new();
+        if let Some(filter) = self.filter.as_mut() {
+            let gate = rperc_core::chi2_quantile(params.gate_probability, 3.0).unwrap_or(f64::MAX);
+            let scale = self.scale;
+            for (id, s) in &sightings {
+                match filter.nis(&scale, s, params.pixel_sigma) {
+                    Some(d2) if d2 <= gate => {
+                        filter.update(&scale, s, params.pixel_sigma);
+                    }
+                    _ => refused.push(*id),
+                }
+            }
+        }
+        report.lost = refused.len() == sightings.len();
+        if report.lost && !sightings.is_empty() {
+            self.refused_frames += 1;
+        } else {
+            self.refused_frames = 0;
+            self.tracks.retain(|t| !refused.contains(&t.id));
+            report.stopped.extend(&refused);
+            report.refused = refused;
+        }
+        report.pose = self.pose();
+        report.covariance = self
+            .filter
+            .as_ref()
+            .map(|f| f.pose_covariance().transpose().into());
+        self.sync_mapped_models();
+    }
+
+    /// The mapped models' poses and covariances as the filter now holds them.
+    fn sync_mapped_models(&mut self) {
+        let Some(filter) = self.filter.as_ref() else {
+            return;
+        };
+        for m in &mut self.models {
+            if let Some((pose, cov)) = filter.model(m.id) {
+                m.pose = pose;
+                m.covariance = cov.transpose().into();
+            }
+        }
+    }
+
+    /// Each tracked model's measurement for the pose filter: its rotation is worth a
+    /// pixel over its rotation lever (a disc's, nothing).
+    fn sightings(&self) -> Vec<(usize, ModelSighting)> {
+        self.tracks
+            .iter()
+            .map(|t| {
+                let model = &self.models[t.id];
+                let sighting = ModelSighting {
+                    id: t.id,
+                    model_in_mosaic: model.pose,
+                    model_covariance: nalgebra::Matrix3::from(model.covariance).transpose(),
+                    state: t.tracker.last().state,
+                    rotation_sigma: self.rotation_sigma(t.tracker.model()),
+                };
+                (t.id, sighting)
+            })
+            .collect()
+    }
+
+    /// A fresh filter from the models alone, as wide as a starting guess (the
+    /// gated updates that follow refine it). Models spread over the image give the
+    /// heading by their positions ([`fit_pose`]); a lone model's rotation is the
+    /// least reliable thing it measures (a tracker just restarted on it has not
+    /// turned yet), so with one model the heading stays the prediction's, and the
+    /// position follows from the model's position under it.
+    fn restart(&mut self, sightings: &[(usize, ModelSighting)]) {
+        let robot_frame = |s: &ModelSighting| self.scale.camera_to_model(s.state);
+        let pairs: Vec<PointPair> = sightings
+            .iter()
+            .map(|(_, s)| {
+                let c = robot_frame(s);
+                ([s.model_in_mosaic.x, s.model_in_mosaic.y], [c.x, c.y], 1.0)
+            })
+            .collect();
         let spread = pairs
             .iter()
             .flat_map(|a| {
@@ -350,58 +446,63 @@ impl MosaicBuilder {
             })
             .fold(0.0, f64::max)
             / self.scale.metres_per_pixel;
-        let fitted = if spread >= self.params.min_baseline {
+        let Some((_, best)) = sightings
+            .iter()
+            .min_by(|a, b| a.1.rotation_sigma.total_cmp(&b.1.rotation_sigma))
+        else {
+            return;
+        };
+        let fitted = if spread >= RESTART_BASELINE {
             fit_pose(&pairs)
         } else {
             None
         };
-        let predicted = match (self.pose, odometry) {
-            (Some(p), Some(d)) => Some(p.compose(&d)),
-            (p, _) => p,
+        let pose = match (fitted, self.filter.as_ref()) {
+            (Some(pose), _) => pose,
+            (None, Some(prior)) => {
+                let theta = prior.pose().theta;
+                let c = robot_frame(best);
+                let offset = Pose2::new(0.0, 0.0, theta).compose(&Pose2::new(c.x, c.y, 0.0));
+                let m = best.model_in_mosaic;
+                Pose2::new(m.x - offset.x, m.y - offset.y, theta)
+            }
+            (None, None) => best.model_in_mosaic.compose(&robot_frame(best).inverse()),
         };
-        let estimate = fitted.or_else(|| self.single_model_pose(&single, predicted));
-        report.lost = estimate.is_none();
-        self.pose = estimate.or(predicted);
-        report.pose = self.pose;
+        let covariance = self.guess_covariance();
+        match self.filter.as_mut() {
+            Some(f) => f.reset_robot(pose, covariance),
+            None => self.filter = Some(PoseFilter::new(pose, covariance)),
+        }
     }
 
-    /// Eq. 2 from the models tracked in a small part of the image. When none of them
-    /// has a rotation lever of `min_rotation_lever` pixels and the odometry predicts the
-    /// heading, the heading is the prediction's and the position comes from the
-    /// models' positions under it: a few pixels of contour cannot fix the heading to
-    /// the degree that the odometry does over one frame.
-    fn single_model_pose(
-        &self,
-        single: &[(Pose2, f64)],
-        predicted: Option<Pose2>,
-    ) -> Option<Pose2> {
-        let fused = fuse(single)?;
-        let strong = self
-            .tracks
-            .iter()
-            .any(|t| rotation_lever(t.tracker.model()) >= self.params.min_rotation_lever);
-        let Some(heading) = predicted.map(|p| p.theta).filter(|_| !strong) else {
-            return Some(fused);
-        };
-        let (s, c) = heading.sin_cos();
-        let positions: Vec<(Pose2, f64)> = self
-            .tracks
-            .iter()
-            .map(|t| {
-                let last = t.tracker.last();
-                let c_t_i = self.scale.camera_to_model(last.state);
-                let m = self.models[t.id].pose;
-                let x = m.x - (c * c_t_i.x - s * c_t_i.y);
-                let y = m.y - (s * c_t_i.x + c * c_t_i.y);
-                (Pose2::new(x, y, heading), last.score)
-            })
-            .collect();
-        fuse(&positions)
+    /// The covariance of a starting guess, in mosaic units.
+    fn guess_covariance(&self) -> nalgebra::Matrix3<f64> {
+        let units = self.units_per_metre();
+        let [sx, sy, st] = self.params.localiser.guess_sigma;
+        let variances = nalgebra::Vector3::new((sx * units).powi(2), (sy * units).powi(2), st * st);
+        nalgebra::Matrix3::from_diagonal(&variances)
+    }
+
+    /// The standard deviation of a model's image rotation, radians: a pixel's
+    /// worth at its rotation lever, or (under `min_rotation_lever`) a radian, which
+    /// leaves the heading to the odometry and the models' positions.
+    fn rotation_sigma(&self, model: &PatternModel) -> f64 {
+        let p = &self.params.localiser;
+        let lever = rotation_lever(model);
+        if lever < p.min_rotation_lever {
+            return NO_ROTATION_SIGMA;
+        }
+        p.rotation_pixel_sigma / lever
+    }
+
+    /// Mosaic units per metre: 1, or `f / Z` for a mosaic in pixels.
+    fn units_per_metre(&self) -> f64 {
+        self.scale.metres_per_pixel / self.camera.metres_per_pixel()
     }
 
     /// Restarts the trackers of the models predicted well inside the view.
     fn reacquire(&mut self, report: &mut FrameReport) -> Result<()> {
-        let Some(pose) = self.pose else {
+        let Some(pose) = self.pose() else {
             return Ok(());
         };
         let (w, h, margin) = (self.ideal.width, self.ideal.height, self.params.view_margin);
@@ -441,7 +542,7 @@ impl MosaicBuilder {
         if self.tracks.len() >= self.params.min_tracked {
             return Ok(());
         }
-        if !self.models.is_empty() && self.pose.is_none() {
+        if !self.models.is_empty() && self.filter.is_none() {
             return Ok(()); // nothing to place new models from
         }
         // Regions already tracked, and those where a model of the mosaic is predicted:
@@ -451,7 +552,7 @@ impl MosaicBuilder {
             .iter()
             .map(|t| bounds(&t.tracker.last().corners))
             .collect();
-        if let Some(pose) = self.pose {
+        if let Some(pose) = self.pose() {
             taken.extend(self.models.iter().map(|m| {
                 let state = self.scale.predicted_state(&pose, &m.pose);
                 bounds(&corners_of(&m.model, state))
@@ -475,18 +576,27 @@ impl MosaicBuilder {
                 Err(e) => return Err(e),
             };
             let c_t_i = self.scale.camera_to_model(tracker.last().state);
-            let pose = match self.pose {
-                Some(robot) => new_model_in_mosaic(&robot, &c_t_i),
+            let pose = match self.filter.as_mut() {
+                // Eq. 3; the model joins the filter's state.
+                Some(filter) => filter.add_model(id, &c_t_i),
                 None => {
-                    // M T_0 = I: the robot is where model 0 sees it.
-                    self.pose = Some(c_t_i.inverse());
+                    // M T_0 = I: the robot is where model 0 sees it, exactly (the
+                    // mosaic frame is defined by this view of model 0).
+                    let exact = nalgebra::Matrix3::from_diagonal_element(1e-12);
+                    self.filter = Some(PoseFilter::new(c_t_i.inverse(), exact));
                     Pose2::identity()
                 }
             };
+            let covariance = self
+                .filter
+                .as_ref()
+                .and_then(|f| f.model(id))
+                .map_or([[0.0; 3]; 3], |(_, c)| c.transpose().into());
             self.models.push(MosaicModel {
                 id,
                 pose,
                 model: tracker.model().clone(),
+                covariance,
                 created: self.frame,
             });
             self.tracks.push(Track { id, tracker });

@@ -293,7 +293,15 @@ pub fn replay(
         let wanted: Vec<usize> = keys[k].models.iter().map(|m| m.id).collect();
         localiser.set_priority(&wanted);
         let report = localiser.process(world.view(&bytes)?, Some(odometry))?;
-        let step = next_command(&report, keys, &mut k, principal, &params.servo);
+        let units_per_pixel = localiser.scale().metres_per_pixel;
+        let step = next_command(
+            &report,
+            keys,
+            &mut k,
+            principal,
+            units_per_pixel,
+            &params.servo,
+        );
         out.seconds.push(clock.elapsed().as_secs_f64());
         out.truth.push(pose);
         out.reports.push(report);
@@ -303,13 +311,13 @@ pub fn replay(
                 out.outcome = ReplayOutcome::Reached;
                 break;
             }
-            Step::Blind => {
+            Step::Blind(v, w) => {
                 blind += 1;
                 if blind > params.max_blind_frames {
                     out.outcome = ReplayOutcome::Lost;
                     break;
                 }
-                (0.0, 0.0) // stop and wait for a model to come back
+                (v, w)
             }
             Step::Drive(v, w) => {
                 blind = 0;
@@ -325,22 +333,40 @@ pub fn replay(
 
 enum Step {
     Reached,
-    Blind,
+    /// No model of the key image in view: the command from the localisation alone.
+    Blind(f64, f64),
     Drive(f64, f64),
 }
 
 /// The servoing command of this frame, passing intermediate key images whose error
-/// fell under the switching threshold.
+/// fell under the switching threshold. With no model of the key image in view, the
+/// robot drives towards the key image's pose in the mosaic from its localisation
+/// (other models, or dead reckoning for a few frames) so that the key image's
+/// models come into view, and counts the frame as blind.
 fn next_command(
     report: &FrameReport,
     keys: &[KeyImage],
     k: &mut usize,
     principal: [f64; 2],
+    units_per_pixel: f64,
     servo: &ServoParams,
 ) -> Step {
     loop {
-        let Some(error) = key_error(&report.tracked, &keys[*k], principal) else {
-            return Step::Blind;
+        let key = &keys[*k];
+        let turn = report
+            .pose
+            .filter(|_| !report.lost)
+            .map(|p| key.pose.theta - p.theta);
+        let Some(error) = key_error(&report.tracked, key, principal, turn) else {
+            return match report.pose {
+                Some(p) => {
+                    let e = p.between(&key.pose);
+                    let pixels = Pose2::new(e.x / units_per_pixel, e.y / units_per_pixel, e.theta);
+                    let (v, w) = command(&pixels, servo);
+                    Step::Blind(v, w)
+                }
+                None => Step::Blind(0.0, 0.0),
+            };
         };
         let distance = error.x.hypot(error.y);
         let last = *k + 1 == keys.len();

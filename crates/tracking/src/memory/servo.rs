@@ -71,9 +71,18 @@ impl ServoParams {
 /// The key image's robot pose seen from the current one (pixels), from the models
 /// shared by the current image and the key image: with two or more spread over the
 /// image, the rigid fit of their key-image positions onto their current ones
-/// ([`fit_pose`]); with fewer, each shared model's own image pose (its rotation
-/// included), fused by score. `None` when no model is shared.
-pub fn key_error(current: &[TrackedModel], key: &KeyImage, principal: [f64; 2]) -> Option<Pose2> {
+/// ([`fit_pose`]); with fewer, each shared model's own image pose fused by score.
+/// A lone small or round model tells its position well and its rotation badly, and
+/// a rotation error moves the goal by the model's distance from the robot times the
+/// error; `turn`, when given, is the robot's turn from now to the key image known
+/// otherwise (from the localisation in the mosaic), and replaces the lone models'
+/// rotations. `None` when no model is shared.
+pub fn key_error(
+    current: &[TrackedModel],
+    key: &KeyImage,
+    principal: [f64; 2],
+    turn: Option<f64>,
+) -> Option<Pose2> {
     let pixels = ImageScale {
         metres_per_pixel: 1.0,
         principal,
@@ -88,6 +97,11 @@ pub fn key_error(current: &[TrackedModel], key: &KeyImage, principal: [f64; 2]) 
         let then = pixels.camera_to_model(k.state);
         // Robot-frame positions: the model now, and at the key image.
         pairs.push(([now.x, now.y], [then.x, then.y], m.score));
+        let now = match turn {
+            // C T_i(now) C T_i(key)^-1 has the heading now.theta - then.theta.
+            Some(t) => Pose2::new(now.x, now.y, then.theta + t),
+            None => now,
+        };
         single.push((now.compose(&then.inverse()), m.score));
     }
     let spread = pairs

@@ -1,0 +1,220 @@
+//! The pose filter of the visual memory against independent oracles: its observation
+//! Jacobians against finite differences, its covariance against the chi-square
+//! distribution of the NEES over Monte Carlo runs of its own noise model (the robot
+//! localised against a fixed mosaic, and the mosaic built while mapping), and its
+//! gate against a planted outlier.
+
+use nalgebra::{Matrix3, Vector3};
+use rperc_core::rng::{normal, stream};
+use rperc_core::{Pose2, chi2_quantile, nees_band, wrap_angle};
+use tracking::memory::{ImageScale, LocaliserParams, ModelSighting, PoseFilter, observe};
+
+const SCALE: ImageScale = ImageScale {
+    metres_per_pixel: 0.01,
+    principal: [160.0, 120.0],
+};
+
+/// Models around the robot's path, in the mosaic frame (x, y, theta).
+const MODELS: [[f64; 3]; 4] = [
+    [0.6, 0.3, 0.4],
+    [0.2, -0.5, -1.0],
+    [1.1, -0.2, 2.0],
+    [0.9, 0.6, 0.0],
+];
+
+fn pose(p: [f64; 3]) -> Pose2 {
+    Pose2::new(p[0], p[1], p[2])
+}
+
+#[test]
+fn observation_jacobians_match_finite_differences() {
+    let robot = Pose2::new(0.3, -0.2, 0.7);
+    let model = Pose2::new(1.1, 0.4, -2.5);
+    let (_, h_robot, h_model) = observe(&SCALE, &robot, &model);
+    let eps = 1e-6;
+    for i in 0..3 {
+        let mut d = [0.0; 3];
+        d[i] = eps;
+        let shift = |p: &Pose2| Pose2::new(p.x + d[0], p.y + d[1], p.theta + d[2]);
+        let numeric = |a: Vector3<f64>, b: Vector3<f64>| {
+            let mut v = (a - b) / (2.0 * eps);
+            v[2] = wrap_angle(a[2] - b[2]) / (2.0 * eps);
+            v
+        };
+        let back = |p: &Pose2| Pose2::new(p.x - d[0], p.y - d[1], p.theta - d[2]);
+        let dr = numeric(
+            observe(&SCALE, &shift(&robot), &model).0,
+            observe(&SCALE, &back(&robot), &model).0,
+        );
+        let dm = numeric(
+            observe(&SCALE, &robot, &shift(&model)).0,
+            observe(&SCALE, &robot, &back(&model)).0,
+        );
+        for r in 0..3 {
+            assert!((dr[r] - h_robot[(r, i)]).abs() < 1e-5, "robot d{r}/d{i}");
+            assert!((dm[r] - h_model[(r, i)]).abs() < 1e-5, "model d{r}/d{i}");
+        }
+    }
+}
+
+/// A tracker state of `model` seen from `robot` with the filter's own noise.
+fn sighting<R: rand::Rng>(
+    id: usize,
+    robot: &Pose2,
+    model: &Pose2,
+    p: &LocaliserParams,
+    rng: &mut R,
+) -> ModelSighting {
+    let rotation_sigma = p.rotation_pixel_sigma / 20.0;
+    let (z, _, _) = observe(&SCALE, robot, model);
+    ModelSighting {
+        id,
+        model_in_mosaic: *model,
+        model_covariance: Matrix3::zeros(),
+        state: [
+            z[0] + p.pixel_sigma * normal(rng),
+            z[1] + p.pixel_sigma * normal(rng),
+            z[2] + rotation_sigma * normal(rng),
+            1.0,
+        ],
+        rotation_sigma,
+    }
+}
+
+/// The odometry's reading of a true step, with the filter's own noise model.
+fn odometry<R: rand::Rng>(step: &Pose2, p: &LocaliserParams, rng: &mut R) -> Pose2 {
+    let [k_d, k_t, floor_d, floor_t] = p.odometry_sigma;
+    let sd = k_d * step.x.hypot(step.y) + floor_d;
+    let st = k_t * step.theta.abs() + floor_t;
+    Pose2::new(
+        step.x + sd * normal(rng),
+        step.y + sd * normal(rng),
+        step.theta + st * normal(rng),
+    )
+}
+
+fn nees(e: Vector3<f64>, cov: &Matrix3<f64>) -> f64 {
+    (e.transpose() * cov.try_inverse().expect("invertible") * e)[0]
+}
+
+fn error(estimate: &Pose2, truth: &Pose2) -> Vector3<f64> {
+    Vector3::new(
+        estimate.x - truth.x,
+        estimate.y - truth.y,
+        wrap_angle(estimate.theta - truth.theta),
+    )
+}
+
+/// One run: the robot drives an arc past the fixed models, each frame predicted
+/// by a noisy odometry and corrected by two of them; the NEES of the last frame.
+fn localisation_run(seed: u64, p: &LocaliserParams) -> f64 {
+    let mut rng = stream(seed, 1);
+    let mut truth = Pose2::new(0.0, 0.0, 0.1);
+    let guess = Matrix3::from_diagonal(&Vector3::new(
+        0.05f64.powi(2),
+        0.05f64.powi(2),
+        0.05f64.powi(2),
+    ));
+    let start = Pose2::new(
+        truth.x + 0.05 * normal(&mut rng),
+        truth.y + 0.05 * normal(&mut rng),
+        truth.theta + 0.05 * normal(&mut rng),
+    );
+    let mut filter = PoseFilter::new(start, guess);
+    let step = Pose2::new(0.03, 0.0, 0.015);
+    for k in 0..40 {
+        truth = truth.compose(&step);
+        filter.predict(&odometry(&step, p, &mut rng), p, 1.0);
+        for id in [k % 4, (k + 1) % 4] {
+            let s = sighting(id, &truth, &pose(MODELS[id]), p, &mut rng);
+            assert!(filter.update(&SCALE, &s, p.pixel_sigma));
+        }
+    }
+    nees(error(&filter.pose(), &truth), &filter.pose_covariance())
+}
+
+#[test]
+fn the_localisation_covariance_is_honest_over_monte_carlo_runs() {
+    // The odometry model is applied to the true step in the simulation and to the
+    // measured one in the filter; the difference is second order.
+    let p = LocaliserParams::default();
+    let runs = 200;
+    let mean = (0..runs as u64)
+        .map(|s| localisation_run(s, &p))
+        .sum::<f64>()
+        / runs as f64;
+    let (lo, hi) = nees_band(3, runs, 0.99).unwrap();
+    assert!(
+        lo <= mean && mean <= hi,
+        "mean NEES {mean} outside [{lo}, {hi}]"
+    );
+}
+
+/// One mapping run: model 0 (exact) is in view at the start, models 1-3 are placed
+/// by eq. 3 as the robot reaches them and corrected by every later sighting; the
+/// NEES of each placed model at the end.
+fn mapping_run(seed: u64, p: &LocaliserParams) -> Vec<f64> {
+    let mut rng = stream(seed, 2);
+    let mut truth = Pose2::new(0.0, 0.0, 0.0);
+    let mut filter = PoseFilter::new(truth, Matrix3::from_diagonal_element(1e-12));
+    let step = Pose2::new(0.03, 0.0, 0.01);
+    let models: Vec<Pose2> = MODELS.iter().map(|m| pose(*m)).collect();
+    let mut placed = vec![0];
+    for k in 1..60 {
+        truth = truth.compose(&step);
+        filter.predict(&odometry(&step, p, &mut rng), p, 1.0);
+        if k % 15 == 0 && placed.len() < models.len() {
+            let id = placed.len();
+            // The model's frame is its window at creation: C T_i is exact then.
+            let c_t_i = truth.between(&models[id]);
+            filter.add_model(id, &c_t_i);
+            placed.push(id);
+            continue;
+        }
+        for &id in placed.iter().rev().take(2) {
+            let s = sighting(id, &truth, &models[id], p, &mut rng);
+            assert!(filter.update(&SCALE, &s, p.pixel_sigma));
+        }
+    }
+    // Each placed model is compared with its own frame: the true model pose (its
+    // frame at creation) expressed in the mosaic frame of model 0.
+    (1..models.len())
+        .map(|id| {
+            let (m, cov) = filter.model(id).expect("mapped");
+            nees(error(&m, &models[id]), &cov)
+        })
+        .collect()
+}
+
+#[test]
+fn mapped_models_carry_honest_covariances() {
+    let p = LocaliserParams::default();
+    let runs = 150;
+    let all: Vec<Vec<f64>> = (0..runs as u64).map(|s| mapping_run(s, &p)).collect();
+    let (lo, hi) = nees_band(3, runs, 0.99).unwrap();
+    for id in 0..all[0].len() {
+        let mean = all.iter().map(|r| r[id]).sum::<f64>() / runs as f64;
+        assert!(
+            lo <= mean && mean <= hi,
+            "model {}: mean NEES {mean} outside [{lo}, {hi}]",
+            id + 1
+        );
+    }
+}
+
+#[test]
+fn a_sighting_a_pattern_away_is_refused_by_the_gate() {
+    let p = LocaliserParams::default();
+    let mut rng = stream(7, 3);
+    let truth = Pose2::new(0.2, 0.1, 0.3);
+    let cov = Matrix3::from_diagonal(&Vector3::new(1e-4, 1e-4, 1e-4));
+    let filter = PoseFilter::new(truth, cov);
+    let gate = chi2_quantile(p.gate_probability, 3.0).unwrap();
+    let model = pose(MODELS[0]);
+    let good = sighting(0, &truth, &model, &p, &mut rng);
+    assert!(filter.nis(&SCALE, &good, p.pixel_sigma).unwrap() < gate);
+    // A tracker locked on a repeat of the pattern 12 pixels away.
+    let mut bad = good;
+    bad.state[0] += 12.0;
+    assert!(filter.nis(&SCALE, &bad, p.pixel_sigma).unwrap() > gate);
+}

@@ -94,3 +94,44 @@ def _world() -> CeilingWorld:
     if not _CACHE:
         _CACHE.append(CeilingWorld(BASE, CAMERA))
     return _CACHE[0]
+
+
+LOCALISER = ("pixel_sigma", "rotation_pixel_sigma", "min_rotation_lever", "gate_probability",
+             "max_refused_frames", "odometry_sigma", "guess_sigma")  # fmt: skip
+LEARN_NAMES = ("start", "commands", "dt", "seed", "config", "localiser", "mosaic",
+               *LOCALISER)  # fmt: skip
+
+
+@examples(30)
+@given(
+    st.one_of(HOSTILE, st.lists(EDGE_NUMBERS, min_size=3, max_size=3)),
+    st.lists(st.tuples(EDGE_NUMBERS, EDGE_NUMBERS), min_size=0, max_size=4),
+    st.sampled_from(LOCALISER),
+    st.one_of(EDGE_NUMBERS, st.lists(EDGE_NUMBERS, min_size=0, max_size=5), st.just("x")),
+)
+def prop_learn_and_replay(start: Any, commands: Any, field: str, value: Any) -> None:
+    """Learning and replaying with hostile starts, commands and localiser settings:
+    per-frame arrays of one length with finite truth and symmetric covariances, or a
+    clear error naming what was wrong; never a panic."""
+    from rperc.navigation import learn, replay
+
+    world = _world()
+    config = {"mosaic": {"localiser": {field: value}}}
+    case("learn", start=start, commands=commands, field=field, value=value)
+    ok, learning = outcome(learn, world, start, commands, 0.1, config)
+    if not ok:
+        assert any(n in str(learning) for n in LEARN_NAMES), learning
+        return
+    f = learning.frames
+    n = len(f.truth)
+    assert f.pose.shape == (n, 3) and f.covariance.shape == (n, 3, 3) and len(f.lost) == n
+    assert np.isfinite(f.truth).all()
+    known = np.isfinite(f.covariance).all(axis=(1, 2))
+    assert np.allclose(f.covariance[known], f.covariance[known].transpose(0, 2, 1))
+    if not learning.memory.key_images:
+        return
+    ok, run = outcome(replay, world, learning.memory, start, {"max_frames": 5})
+    if not ok:
+        assert any(n in str(run) for n in LEARN_NAMES), run
+        return
+    assert run.outcome in ("reached", "lost", "timed_out") and len(run.frames.truth) <= 5

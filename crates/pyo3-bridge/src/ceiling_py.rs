@@ -153,7 +153,7 @@ impl PyCeilingWorld {
         pose: &Bound<'py, PyAny>,
         xy: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        let pose = one_pose(pose)?;
+        let pose = one_pose(pose, "pose")?;
         let points = pairs(xy, "xy")?;
         let uv: Vec<f64> = points
             .iter()
@@ -169,7 +169,7 @@ impl PyCeilingWorld {
         py: Python<'py>,
         pose: &Bound<'py, PyAny>,
     ) -> PyResult<Vec<Bound<'py, PyArrayDyn<f64>>>> {
-        let pose = one_pose(pose)?;
+        let pose = one_pose(pose, "pose")?;
         let c = &self.camera;
         let list = [
             c.intrinsics(),
@@ -221,11 +221,12 @@ impl PyCeilingWorld {
     }
 }
 
-pub(crate) fn one_pose(obj: &Bound<'_, PyAny>) -> Result<Pose2, Error> {
-    let v = crate::arrays::float_vector(obj, "pose")?;
+/// One pose `(x, y, theta)`, refused by `name` unless it is 3 finite values.
+pub(crate) fn one_pose(obj: &Bound<'_, PyAny>, name: &str) -> Result<Pose2, Error> {
+    let v = crate::arrays::float_vector(obj, name)?;
     if v.len() != 3 || !v.iter().all(|x| x.is_finite()) {
         return Err(Error::Value(format!(
-            "pose must be 3 finite values (x, y, theta), got {v:?}"
+            "{name} must be 3 finite values (x, y, theta), got {v:?}"
         )));
     }
     Ok(Pose2::new(v[0], v[1], v[2]))
@@ -243,7 +244,7 @@ pub fn ceiling_drive<'py>(
     noise: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Arrays3<'py>> {
     let noise: OdometryNoise = crate::config::from_python(noise, "noise")?;
-    let start = one_pose(start)?;
+    let start = one_pose(start, "start")?;
     let commands = pairs(commands, "commands")?;
     let run = detached(py, || {
         Ok(tracking::ceiling::drive(start, &commands, dt, &noise)?)

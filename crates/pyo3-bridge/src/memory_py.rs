@@ -75,7 +75,7 @@ pub fn visual_memory_learn<'py>(
     seed: u64,
 ) -> PyResult<(String, Frames<'py>)> {
     let params: LearnParams = crate::config::from_python(config, "learn")?;
-    let start = one_pose(start)?;
+    let start = one_pose(start, "start")?;
     let commands = pairs(commands, "commands")?;
     let w = &*world;
     let learnt = detached(py, || {
@@ -110,7 +110,7 @@ pub fn visual_memory_replay<'py>(
     let params: ReplayParams = crate::config::from_python(config, "replay")?;
     let memory: VisualMemory = serde_json::from_str(memory)
         .map_err(|e| Error::Value(format!("memory: not a visual memory: {e}")))?;
-    let start = one_pose(start)?;
+    let start = one_pose(start, "start")?;
     let w = &*world;
     let run = detached(py, || {
         Ok(tracking::memory::replay(

@@ -56,7 +56,8 @@ def demo_visual_memory(out: Path, seed: int, starts: int = 10) -> DemoResult:
         f"visual-memory: {learning.memory.n_models} models, "
         f"{len(learning.memory.key_images)} key images; mosaic {m['mosaic_error_cm']:.2f} cm "
         f"{m['mosaic_error_deg']:.2f} deg; localisation {m['localization_error_cm']:.2f} cm "
-        f"{m['localization_error_deg']:.2f} deg RMS, NEES {m['nees']:.1f} (3 when honest); B reached {100 * m['success_rate']:.0f} % "
+        f"{m['localization_error_deg']:.2f} deg RMS, NEES {m['nees']:.1f} (3 when honest); "
+        f"B reached {100 * m['success_rate']:.0f} % "
         f"of {starts} starts, median final error {m['final_error_cm']:.1f} cm; "
         f"{m['hz']:.0f} Hz (rendering excluded)"
     )

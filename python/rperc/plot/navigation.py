@@ -28,6 +28,13 @@ def _corners(state: Any, size: tuple[float, float]) -> np.ndarray:
     return np.column_stack([u, v]).astype(np.float64)
 
 
+def _to_real(homography: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Ideal-image points ``(n, 2)`` in the real image through a 3x3 homography."""
+    h = np.column_stack([points, np.ones(len(points))]) @ homography.T
+    out: np.ndarray = h[:, :2] / h[:, 2:3]
+    return out
+
+
 def _key_images(fig: Figure, spec: Any, world: Any, learning: Any) -> None:
     keys = learning.memory.key_images
     picks = np.unique(np.linspace(0, len(keys) - 1, min(4, len(keys))).round().astype(int))
@@ -38,10 +45,14 @@ def _key_images(fig: Figure, spec: Any, world: Any, learning: Any) -> None:
         key = keys[k]
         frame = world.render(learning.frames.truth[key["frame"]], first_frame=key["frame"])[0]
         ax.imshow(frame, cmap="gray", vmin=0, vmax=255)
+        # Tracker states live in the ideal image (eq. 1); the frame shown is the real
+        # camera's, so the boxes go through C_H_R (ideal to real pixels).
+        ideal_to_real = world.matrices()["C_H_R"]
         for m in key["models"]:
-            box = _corners(m["state"], sizes[m["id"]])
+            box = _to_real(ideal_to_real, _corners(m["state"], sizes[m["id"]]))
+            centre = _to_real(ideal_to_real, np.array([m["state"][:2]], dtype=np.float64))[0]
             ax.plot(box[:, 0], box[:, 1], color="tab:orange", lw=1.2)
-            ax.text(m["state"][0], m["state"][1], str(m["id"]), color="yellow", fontsize=7,
+            ax.text(centre[0], centre[1], str(m["id"]), color="yellow", fontsize=7,
                     ha="center", va="center")  # fmt: skip
         ax.set_title(f"key image {k} (frame {key['frame']})", fontsize=8)
         ax.set_xticks([])

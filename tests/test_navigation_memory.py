@@ -89,6 +89,20 @@ def test_save_load_and_a_memory_of_another_mosaic(learnt, tmp_path: Path) -> Non
     (tmp_path / "altered.json").write_text(json.dumps(data))
     with pytest.raises(ValueError, match="altered"):
         VisualMemory.load(tmp_path / "altered.json")
+    # The models' joint covariance is part of the mosaic: kept, and under its hash.
+    data = json.loads(path.read_text())
+    native = json.loads(learning.memory.to_json())
+    assert data["mosaic"]["covariance"] == native["mosaic_covariance"]
+    data["mosaic"]["covariance"]["matrix"][0] *= 2.0
+    (tmp_path / "altered_cov.json").write_text(json.dumps(data))
+    with pytest.raises(ValueError, match="altered"):
+        VisualMemory.load(tmp_path / "altered_cov.json")
+    native["mosaic_covariance"]["matrix"][1] += 1.0  # no longer symmetric
+    with pytest.raises(ValueError, match="mosaic_covariance"):
+        replay(world, VisualMemory(json.dumps(native)), learning.frames.truth[0])
+    native["mosaic_covariance"]["matrix"] = native["mosaic_covariance"]["matrix"][:-1]
+    with pytest.raises(ValueError, match="mosaic_covariance"):
+        replay(world, VisualMemory(json.dumps(native)), learning.frames.truth[0])
     (tmp_path / "garbage.json").write_bytes(b"\xff\xfe not json")
     with pytest.raises(ValueError, match="not a visual-memory file"):
         VisualMemory.load(tmp_path / "garbage.json")

@@ -218,3 +218,65 @@ fn a_sighting_a_pattern_away_is_refused_by_the_gate() {
     bad.state[0] += 12.0;
     assert!(filter.nis(&SCALE, &bad, p.pixel_sigma).unwrap() > gate);
 }
+
+#[test]
+fn a_stored_mosaics_shared_error_is_not_averaged_away() {
+    // Two models that share one position error of sigma (fully correlated): the robot
+    // located from both is no better than sigma, where two independent models would
+    // give sigma / sqrt(2) (closed forms, with near-exact sightings).
+    let sigma2 = 0.02f64.powi(2);
+    let models = [(1, pose(MODELS[0])), (2, pose(MODELS[1]))];
+    let mut joint = nalgebra::DMatrix::zeros(6, 6);
+    for (r, c) in [
+        (0, 0),
+        (0, 3),
+        (3, 0),
+        (3, 3),
+        (1, 1),
+        (1, 4),
+        (4, 1),
+        (4, 4),
+    ] {
+        joint[(r, c)] = sigma2;
+    }
+    for k in [2, 5] {
+        joint[(k, k)] = 1e-12;
+    }
+    let robot = Pose2::new(0.0, 0.0, 0.0);
+    let wide = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 1e-12));
+    let pixel = 1e-4;
+    let sighting = |id: usize, m: &Pose2, cov: Matrix3<f64>| {
+        let (z, _, _) = observe(&SCALE, &robot, m);
+        ModelSighting {
+            id,
+            model_in_mosaic: *m,
+            model_covariance: cov,
+            state: [z[0], z[1], z[2], 1.0],
+            rotation_sigma: 1e-6,
+        }
+    };
+    let mut shared = PoseFilter::with_map(robot, wide, &models, &joint);
+    let mut independent = PoseFilter::new(robot, wide);
+    let marginal = Matrix3::from_diagonal(&Vector3::new(sigma2, sigma2, 1e-12));
+    for (id, m) in models {
+        assert!(shared.update(&SCALE, &sighting(id, &m, Matrix3::zeros()), pixel));
+        assert!(independent.update(&SCALE, &sighting(id, &m, marginal), pixel));
+    }
+    let (s, i) = (shared.pose_covariance(), independent.pose_covariance());
+    assert!(
+        (s[(0, 0)] / sigma2 - 1.0).abs() < 1e-3,
+        "shared {}",
+        s[(0, 0)] / sigma2
+    );
+    assert!(
+        (i[(0, 0)] / sigma2 - 0.5).abs() < 1e-3,
+        "independent {}",
+        i[(0, 0)] / sigma2
+    );
+    let (ids, map) = shared.map();
+    assert_eq!(ids, vec![1, 2]);
+    assert!(
+        (map[(0, 3)] - map[(0, 0)]).abs() < 1e-9 * sigma2,
+        "still one shared error"
+    );
+}

@@ -120,6 +120,7 @@ fn an_empty_mosaic_or_memory_is_refused() {
         models: Vec::new(),
         key_images: Vec::new(),
         image_size: [320, 240],
+        mosaic_covariance: None,
     };
     assert!(
         replay(

@@ -49,7 +49,7 @@ __all__ = [
     "starts_around",
 ]
 
-FORMAT = "rperc-visual-memory/1"
+FORMAT = "rperc-visual-memory/2"
 
 
 def _sha256(value: Any) -> str:
@@ -109,12 +109,17 @@ class VisualMemory:
         """The memory as the native side reads it."""
         return json.dumps(self._data)
 
+    def _mosaic(self) -> dict[str, Any]:
+        """The mosaic: the models and their joint covariance (when learnt with one)."""
+        return {"models": self._data["models"],
+                "covariance": self._data.get("mosaic_covariance")}  # fmt: skip
+
     def save(self, path: str | Path) -> Path:
         """Writes the mosaic and the key images to one JSON file."""
-        mosaic = self._data["models"]
+        mosaic = self._mosaic()
         out = {
             "format": FORMAT,
-            "mosaic": {"models": mosaic, "sha256": _sha256(mosaic)},
+            "mosaic": {**mosaic, "sha256": _sha256(mosaic)},
             "memory": {
                 "mosaic_sha256": _sha256(mosaic),
                 "key_images": self._data["key_images"],
@@ -136,19 +141,27 @@ class VisualMemory:
             raise ValueError(f"{p}: not a visual-memory file: {exc}") from None
         if not isinstance(data, dict) or data.get("format") != FORMAT:
             raise ValueError(f"{p}: not a visual-memory file (format {FORMAT!r} expected)")
-        mosaic = data["mosaic"]["models"]
+        mosaic = {"models": data["mosaic"]["models"],
+                  "covariance": data["mosaic"].get("covariance")}  # fmt: skip
         if _sha256(mosaic) != data["mosaic"].get("sha256"):
             raise ValueError(f"{p}: the mosaic was altered after it was saved")
         if data["memory"].get("mosaic_sha256") != _sha256(mosaic):
             raise ValueError(f"{p}: the key images belong to another mosaic")
         memory = data["memory"]
-        return cls(json.dumps({"models": mosaic, "key_images": memory["key_images"],
-                               "image_size": memory["image_size"]}))  # fmt: skip
+        native = {"models": mosaic["models"], "key_images": memory["key_images"],
+                  "image_size": memory["image_size"]}  # fmt: skip
+        if mosaic["covariance"] is not None:
+            native["mosaic_covariance"] = mosaic["covariance"]
+        return cls(json.dumps(native))
 
     def with_mosaic_of(self, other: VisualMemory) -> VisualMemory:
         """These key images on ``other``'s mosaic (for experiments; the native side
         refuses key images that name models the mosaic does not hold)."""
-        return VisualMemory(json.dumps({**self._data, "models": other._data["models"]}))
+        data = {**self._data, "models": other._data["models"]}
+        data.pop("mosaic_covariance", None)
+        if "mosaic_covariance" in other._data:
+            data["mosaic_covariance"] = other._data["mosaic_covariance"]
+        return VisualMemory(json.dumps(data))
 
 
 @dataclass(frozen=True, repr=False)

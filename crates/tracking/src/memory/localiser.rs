@@ -133,6 +133,41 @@ impl PoseFilter {
         }
     }
 
+    /// A filter holding the robot at `N(pose, covariance)` and a stored mosaic's
+    /// models `(id, M T_i)` with their joint covariance (`3m x 3m`, in their order),
+    /// uncorrelated with the robot: localisation that knows the mosaic's errors are
+    /// shared (they come from one learning run), not independent per model.
+    pub fn with_map(
+        pose: Pose2,
+        covariance: Matrix3<f64>,
+        models: &[(usize, Pose2)],
+        map_covariance: &DMatrix<f64>,
+    ) -> Self {
+        let n = 3 + 3 * models.len();
+        let mut mean = DVector::zeros(n);
+        mean.fixed_rows_mut::<3>(0).copy_from(&pose.to_vector());
+        for (k, (_, m)) in models.iter().enumerate() {
+            mean.fixed_rows_mut::<3>(3 + 3 * k)
+                .copy_from(&m.to_vector());
+        }
+        let mut cov = DMatrix::zeros(n, n);
+        cov.fixed_view_mut::<3, 3>(0, 0).copy_from(&covariance);
+        cov.view_mut((3, 3), (n - 3, n - 3))
+            .copy_from(map_covariance);
+        Self {
+            mean,
+            covariance: cov,
+            mapped: models.iter().map(|(id, _)| *id).collect(),
+        }
+    }
+
+    /// The models in the state and their joint covariance (`3m x 3m`).
+    pub fn map(&self) -> (Vec<usize>, DMatrix<f64>) {
+        let n = self.mean.len();
+        let block = self.covariance.view((3, 3), (n - 3, n - 3)).into_owned();
+        (self.mapped.clone(), block)
+    }
+
     /// The robot's pose.
     pub fn pose(&self) -> Pose2 {
         Pose2::new(self.mean[0], self.mean[1], self.mean[2])

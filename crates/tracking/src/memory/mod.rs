@@ -18,7 +18,8 @@ pub use keyimages::{
 pub use localiser::{LocaliserParams, ModelSighting, PoseFilter, observe};
 pub use mosaic::{FrameReport, MosaicBuilder, MosaicModel, MosaicParams, rotation_lever};
 pub use run::{
-    LearnParams, Learning, Replay, ReplayOutcome, ReplayParams, VisualMemory, World, learn, replay,
+    LearnParams, Learning, MosaicCovariance, Replay, ReplayOutcome, ReplayParams, VisualMemory,
+    World, learn, replay,
 };
 pub use salient::{ProposalParams, propose_regions};
 pub use servo::{ServoParams, command, key_error};

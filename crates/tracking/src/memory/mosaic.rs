@@ -215,6 +215,38 @@ impl MosaicBuilder {
         Ok(this)
     }
 
+    /// The stored mosaic's joint covariance over the models `ids` (a localiser's):
+    /// they join the filter's state with it, so that their shared errors are not
+    /// taken for independent evidence.
+    pub fn set_map_covariance(&mut self, ids: &[usize], covariance: &nalgebra::DMatrix<f64>) {
+        let Some(filter) = self.filter.as_ref() else {
+            return;
+        };
+        let models: Vec<(usize, Pose2)> =
+            ids.iter().map(|&id| (id, self.models[id].pose)).collect();
+        self.filter = Some(PoseFilter::with_map(
+            filter.pose(),
+            filter.pose_covariance(),
+            &models,
+            covariance,
+        ));
+    }
+
+    /// The mapped models' joint covariance (while mapping, every model after model
+    /// 0), to store with the mosaic.
+    pub fn map_covariance(&self) -> Option<super::run::MosaicCovariance> {
+        let (ids, matrix) = self.filter.as_ref()?.map();
+        if ids.is_empty() {
+            return None;
+        }
+        let m = matrix.nrows();
+        let rows = (0..m).flat_map(|r| (0..m).map(move |c| (r, c)));
+        Some(super::run::MosaicCovariance {
+            ids,
+            matrix: rows.map(|(r, c)| matrix[(r, c)]).collect(),
+        })
+    }
+
     /// Models to restart first when they come into view (the models of the key
     /// image being servoed to), before the others by decreasing rotation lever.
     pub fn set_priority(&mut self, ids: &[usize]) {

@@ -49,6 +49,54 @@ pub struct VisualMemory {
     pub key_images: Vec<KeyImage>,
     /// `(width, height)` of the images it was learnt from.
     pub image_size: [usize; 2],
+    /// The joint covariance of the models placed after model 0 (their errors are
+    /// correlated: they come from one learning run); absent in older memories, whose
+    /// models then count as independent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mosaic_covariance: Option<MosaicCovariance>,
+}
+
+/// The joint covariance of some of a mosaic's models.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct MosaicCovariance {
+    /// The models, in the covariance's order.
+    pub ids: Vec<usize>,
+    /// The `3m x 3m` covariance over their `(x, y, theta)`, row-major.
+    pub matrix: Vec<f64>,
+}
+
+impl MosaicCovariance {
+    /// The matrix, refused unless it is `3m x 3m` for distinct models of a mosaic of
+    /// `n_models`, finite and symmetric.
+    pub fn matrix(&self, n_models: usize) -> Result<nalgebra::DMatrix<f64>> {
+        let invalid = |reason: String| TrackingError::InvalidParameter {
+            name: "mosaic_covariance",
+            reason,
+        };
+        let m = 3 * self.ids.len();
+        let mut seen = std::collections::BTreeSet::new();
+        if self
+            .ids
+            .iter()
+            .any(|&id| id >= n_models || !seen.insert(id))
+        {
+            return Err(invalid(format!(
+                "ids {:?} are not distinct models of the mosaic",
+                self.ids
+            )));
+        }
+        if self.matrix.len() != m * m || !self.matrix.iter().all(|v| v.is_finite()) {
+            return Err(invalid(format!(
+                "needs {m}x{m} finite values, got {}",
+                self.matrix.len()
+            )));
+        }
+        let c = nalgebra::DMatrix::from_row_slice(m, m, &self.matrix);
+        if rperc_core::asymmetry(&c) > rperc_core::gaussian::COVARIANCE_RTOL * 1e3 {
+            return Err(invalid("the matrix is not symmetric".into()));
+        }
+        Ok(c)
+    }
 }
 
 impl VisualMemory {
@@ -78,6 +126,9 @@ impl VisualMemory {
                     ),
                 ));
             }
+        }
+        if let Some(c) = &self.mosaic_covariance {
+            c.matrix(self.models.len())?;
         }
         if self.image_size != [camera.width, camera.height] {
             return Err(invalid(
@@ -160,6 +211,7 @@ pub fn learn(
             models: builder.models().to_vec(),
             key_images,
             image_size: [world.camera.width, world.camera.height],
+            mosaic_covariance: builder.map_covariance(),
         },
         reports,
         truth,
@@ -273,6 +325,9 @@ pub fn replay(
         first.pose,
         seed,
     )?;
+    if let Some(c) = &memory.mosaic_covariance {
+        localiser.set_map_covariance(&c.ids, &c.matrix(memory.models.len())?);
+    }
     let principal = [world.camera.cx, world.camera.cy];
     let mut rng = stream(params.actuation.seed, 7);
     let mut out = Replay {

@@ -491,6 +491,24 @@ mod tests {
     /// its joint NIS computed from the dense `H P H^T + R` and a fresh inverse; the
     /// jointly compatible hypothesis with the most pairings wins, ties broken by the
     /// smaller joint NIS. Returns its `(detection, target)` pairs, sorted.
+    /// The joint NIS of a hypothesis (dense, from the whole covariance).
+    fn joint_nis(p: &DMatrix<f64>, hyp: &[&Pairing]) -> f64 {
+        let k = hyp.len();
+        let mut h = DMatrix::zeros(2 * k, p.nrows());
+        let mut r = DMatrix::zeros(2 * k, 2 * k);
+        let mut nu = DVector::zeros(2 * k);
+        for (i, a) in hyp.iter().enumerate() {
+            h.view_mut((2 * i, 0), (2, 3)).copy_from(&a.h_robot);
+            if let Some(o) = a.offset {
+                h.view_mut((2 * i, o), (2, 2)).copy_from(&a.h_landmark);
+            }
+            r.view_mut((2 * i, 2 * i), (2, 2)).copy_from(&a.r);
+            nu.rows_mut(2 * i, 2).copy_from(&a.nu);
+        }
+        let s = &h * p * h.transpose() + r;
+        nu.dot(&(s.try_inverse().unwrap() * &nu))
+    }
+
     fn brute_force(ekf: &Ekf, options: &[Vec<Pairing>], gates: &[f64]) -> Vec<(usize, Target)> {
         let p = ekf.covariance();
         let mut best: (usize, f64, Vec<(usize, Target)>) = (0, f64::INFINITY, Vec::new());
@@ -507,21 +525,12 @@ mod tests {
                 .enumerate()
                 .all(|(i, a)| hyp[i + 1..].iter().all(|b| b.target != a.target));
             if distinct && !hyp.is_empty() {
+                // JCBB's hypotheses are those whose every prefix (in observation order)
+                // is jointly compatible, as Neira and Tardos grow them.
                 let k = hyp.len();
-                let mut h = DMatrix::zeros(2 * k, p.nrows());
-                let mut r = DMatrix::zeros(2 * k, 2 * k);
-                let mut nu = DVector::zeros(2 * k);
-                for (i, a) in hyp.iter().enumerate() {
-                    h.view_mut((2 * i, 0), (2, 3)).copy_from(&a.h_robot);
-                    if let Some(o) = a.offset {
-                        h.view_mut((2 * i, o), (2, 2)).copy_from(&a.h_landmark);
-                    }
-                    r.view_mut((2 * i, 2 * i), (2, 2)).copy_from(&a.r);
-                    nu.rows_mut(2 * i, 2).copy_from(&a.nu);
-                }
-                let s = &h * &p * h.transpose() + r;
-                let nis = nu.dot(&(s.try_inverse().unwrap() * &nu));
-                if nis <= gates[k] && (k > best.0 || (k == best.0 && nis < best.1)) {
+                let nis = joint_nis(&p, &hyp);
+                let prefixes = (1..k).all(|j| joint_nis(&p, &hyp[..j]) <= gates[j]);
+                if prefixes && nis <= gates[k] && (k > best.0 || (k == best.0 && nis < best.1)) {
                     let mut pairs: Vec<_> = hyp.iter().map(|a| (a.det, a.target)).collect();
                     pairs.sort_by_key(|p| p.0);
                     best = (k, nis, pairs);

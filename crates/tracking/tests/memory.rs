@@ -254,15 +254,19 @@ mod keys_and_servo {
         let models = grid();
         let path = learning_path();
         let params = KeyImageParams::default();
-        let keys = select_key_images(&learnt(&camera, &models, &path), &params).unwrap();
+        let px = camera.metres_per_pixel();
+        let keys = select_key_images(&learnt(&camera, &models, &path), &params, px).unwrap();
         assert_eq!(keys.first().unwrap().frame, 0);
         assert_eq!(keys.last().unwrap().frame, path.len() - 1);
         assert!(keys.len() >= 4, "{} key images over 6 m", keys.len());
         check_chain(&keys, &params).unwrap();
-        // Brute force over the chain: a shared model, turns and shifts within limits.
+        // Brute force over the chain: a shared model, turns, shifts and the robot's
+        // travel within limits.
         for pair in keys.windows(2) {
             let (turn, shift) = separation(&pair[0].models, &pair[1].models).unwrap();
             assert!(turn <= params.max_turn && shift <= params.max_shift);
+            let d = pair[0].pose.between(&pair[1].pose);
+            assert!(d.x.hypot(d.y) / px <= params.max_travel);
         }
         // A broken chain is refused, naming the pair.
         let mut broken = keys.clone();
@@ -279,7 +283,7 @@ mod keys_and_servo {
                 m.id += 1000;
             }
         }
-        assert!(select_key_images(&jump, &params).is_err());
+        assert!(select_key_images(&jump, &params, px).is_err());
     }
 
     /// The servoing law closes the loop on perfect image measurements: from perturbed
@@ -289,8 +293,12 @@ mod keys_and_servo {
         let camera = CeilingCamera::default();
         let models = grid();
         let path = learning_path();
-        let keys = select_key_images(&learnt(&camera, &models, &path), &KeyImageParams::default())
-            .unwrap();
+        let keys = select_key_images(
+            &learnt(&camera, &models, &path),
+            &KeyImageParams::default(),
+            camera.metres_per_pixel(),
+        )
+        .unwrap();
         let params = ServoParams::default();
         let m_per_px = camera.metres_per_pixel();
         for (dx, dy, dth) in [(0.1, -0.1, 0.15), (-0.15, 0.05, -0.2), (0.0, 0.15, 0.0)] {

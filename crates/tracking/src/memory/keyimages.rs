@@ -30,6 +30,11 @@ pub struct KeyImageParams {
     /// pixels: short elementary trajectories keep the replay close to the learnt path
     /// (the seed's "approximatively fits").
     pub max_shift: f64,
+    /// The largest travel of the robot between successive key images, ideal-image
+    /// pixels (its pose in the mosaic over the mosaic's units per pixel): a model near
+    /// the turn's centre barely shifts in the image while the robot drives on, and one
+    /// such model alone is a poor guide over a long stretch.
+    pub max_travel: f64,
 }
 
 impl Default for KeyImageParams {
@@ -37,6 +42,7 @@ impl Default for KeyImageParams {
         Self {
             max_turn: 20f64.to_radians(),
             max_shift: 60.0,
+            max_travel: 60.0,
         }
     }
 }
@@ -46,6 +52,7 @@ impl KeyImageParams {
     pub fn validate(&self) -> Result<()> {
         rperc_core::ensure_in_range("max_turn", self.max_turn, 1e-6, std::f64::consts::PI)?;
         rperc_core::ensure_positive("max_shift", self.max_shift)?;
+        rperc_core::ensure_positive("max_travel", self.max_travel)?;
         Ok(())
     }
 }
@@ -89,17 +96,34 @@ pub fn separation(a: &[TrackedModel], b: &[TrackedModel]) -> Option<(f64, f64)> 
     out
 }
 
-fn within(a: &[TrackedModel], b: &[TrackedModel], params: &KeyImageParams) -> bool {
-    separation(a, b)
-        .is_some_and(|(turn, shift)| turn <= params.max_turn && shift <= params.max_shift)
+/// Whether frame `b` may follow key image `a` (models and pose): a shared model, its
+/// turn and shift within the limits, and the robot's travel (in pixels, through
+/// `units_per_pixel`) too.
+fn within(
+    a: (&[TrackedModel], &Pose2),
+    b: (&[TrackedModel], &Pose2),
+    params: &KeyImageParams,
+    units_per_pixel: f64,
+) -> bool {
+    let travel = (b.1.x - a.1.x).hypot(b.1.y - a.1.y) / units_per_pixel;
+    travel <= params.max_travel
+        && separation(a.0, b.0)
+            .is_some_and(|(turn, shift)| turn <= params.max_turn && shift <= params.max_shift)
 }
 
 /// Chooses the key images of a learning run: the first localised frame, then, each
 /// time the next frame would break a condition against the last key image, the frame
-/// before it, and the last frame (B). Errors when two successive frames already break
-/// them (the run lost every model, or turned too fast to be learnt).
-pub fn select_key_images(frames: &[LearntFrame], params: &KeyImageParams) -> Result<Vec<KeyImage>> {
+/// before it, and the last frame (B). `units_per_pixel` is the mosaic's unit per
+/// ideal-image pixel (`Z / f` for a metric mosaic, 1 for one in pixels). Errors when
+/// two successive frames already break them (the run lost every model, or turned or
+/// moved too fast to be learnt).
+pub fn select_key_images(
+    frames: &[LearntFrame],
+    params: &KeyImageParams,
+    units_per_pixel: f64,
+) -> Result<Vec<KeyImage>> {
     params.validate()?;
+    rperc_core::ensure_positive("units_per_pixel", units_per_pixel)?;
     let usable: Vec<&LearntFrame> = frames
         .iter()
         .filter(|f| f.pose.is_some() && !f.models.is_empty())
@@ -118,13 +142,27 @@ pub fn select_key_images(frames: &[LearntFrame], params: &KeyImageParams) -> Res
     let mut keys = vec![key(first)];
     for pair in usable.windows(2) {
         let (prev, next) = (pair[0], pair[1]);
-        let last = keys.last().map_or(&[][..], |k| &k.models[..]);
-        if within(last, &next.models, params) {
+        let pose = |f: &LearntFrame| f.pose.unwrap_or_default();
+        let last = keys
+            .last()
+            .map(|k| (&k.models[..], k.pose))
+            .unwrap_or_default();
+        let (next_pose, prev_pose) = (pose(next), pose(prev));
+        if within(
+            (last.0, &last.1),
+            (&next.models, &next_pose),
+            params,
+            units_per_pixel,
+        ) {
             continue;
         }
-        if !within(&prev.models, &next.models, params)
-            || keys.last().map(|k| k.frame) == Some(prev.frame)
-        {
+        let step = within(
+            (&prev.models, &prev_pose),
+            (&next.models, &next_pose),
+            params,
+            units_per_pixel,
+        );
+        if !step || keys.last().map(|k| k.frame) == Some(prev.frame) {
             return Err(invalid(
                 "frames",
                 format!(

@@ -205,7 +205,7 @@ pub fn learn(
             pose: if r.lost { None } else { r.pose },
         })
         .collect();
-    let key_images = select_key_images(&frames, &params.keys)?;
+    let key_images = select_key_images(&frames, &params.keys, builder.scale().metres_per_pixel)?;
     Ok(Learning {
         memory: VisualMemory {
             models: builder.models().to_vec(),

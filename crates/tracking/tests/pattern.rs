@@ -580,3 +580,124 @@ fn a_windowed_scale_space_equals_the_whole_frame_blur_inside_its_window() {
         }
     }
 }
+
+/// Eq. 6 computed the slow way for one state: each point placed by `place`, its vector
+/// sampled point by point with `sample_vector` on the level, `lambda` from the
+/// two-pass inter-correlation and `deviation`, then the worst `tolerated` left out
+/// after a full sort.
+fn brute_force_eq6(m: &PatternModel, space: &ScaleSpace, state: [f64; 4]) -> (f64, f64) {
+    use tracking::pattern::correlation::{deviation, inter_correlation};
+    use tracking::pattern::sample_vector;
+    let c = &m.config;
+    let image = space.level(state[3]);
+    let o = space.origin();
+    let st = SVector::from(state);
+    let mut lambdas: Vec<f64> = (0..m.points.len())
+        .map(|j| {
+            let (p, phi) = place(&st, m.offset(j), m.points[j].phi);
+            let mut v = vec![0.0f32; c.n_samples];
+            let q = [p[0] - o[0], p[1] - o[1]];
+            if !sample_vector(image, q, phi, c.delta * state[3], &mut v) {
+                return f64::INFINITY;
+            }
+            deviation(
+                inter_correlation(&m.points[j].vector, &v),
+                m.points[j].slope,
+            )
+        })
+        .collect();
+    let n = lambdas.len();
+    let occluded = lambdas
+        .iter()
+        .filter(|&&l| l > c.occlusion_threshold)
+        .count();
+    let tolerated = ((c.max_occluded_fraction * n as f64).floor() as usize).min(occluded);
+    lambdas.sort_by(f64::total_cmp);
+    let inv = 1.0 / (2.0 * c.sigma * c.sigma);
+    let kept: f64 = lambdas[..n - tolerated].iter().map(|l| l * l).sum();
+    let left = tolerated as f64 * c.occlusion_threshold.powi(2);
+    (-(kept + left) * inv, occluded as f64 / n as f64)
+}
+
+/// The observation model against eq. 6 computed point by point (states near and far,
+/// some with points leaving the frame or occluded beyond the tolerated fraction).
+#[test]
+fn observe_equals_eq6_computed_point_by_point() {
+    let m = model();
+    let mut frame = render(TRUTH, m.centre, FRAME);
+    add_noise(&mut frame, 3.0, 11);
+    let mut space = ScaleSpace::new();
+    space.build(&frame, &m).unwrap();
+    let lik = PatternLikelihood::new(&m, &space);
+    let mut scratch = PatternScratch::default();
+    let mut rng = seeded(12);
+    let mut far = 0;
+    for k in 0..200 {
+        let spread = if k % 2 == 0 { 1.0 } else { 8.0 };
+        let state = [
+            TRUTH[0] + spread * normal(&mut rng),
+            TRUTH[1] + spread * normal(&mut rng),
+            TRUTH[2] + 0.02 * spread * normal(&mut rng),
+            TRUTH[3] * (1.0 + 0.02 * spread * normal(&mut rng)),
+        ];
+        let (ll, occ) = brute_force_eq6(&m, &space, state);
+        let obs = lik.observe(&SVector::from(state), &mut scratch);
+        far += usize::from(occ > m.config.max_occluded_fraction);
+        if ll.is_finite() {
+            assert!(
+                (obs.log_likelihood - ll).abs() < 1e-3 * (1.0 + ll.abs()),
+                "{state:?}: {} vs {ll}",
+                obs.log_likelihood
+            );
+        } else {
+            assert_eq!(obs.log_likelihood, ll, "{state:?}");
+        }
+        assert_eq!(obs.occluded_fraction, occ, "{state:?}");
+    }
+    assert!(
+        far > 10,
+        "the states should include some beyond the tolerated occlusion"
+    );
+}
+
+/// The early exit's contract: on one chunk's scratch, a state gets its exact
+/// log-likelihood, or an upper bound of it lying more than the margin below the best
+/// one met before it in the chunk.
+#[test]
+fn the_early_exit_bounds_only_negligible_states() {
+    use tracking::Likelihood;
+    let m = model();
+    let mut frame = render(TRUTH, m.centre, FRAME);
+    add_noise(&mut frame, 3.0, 13);
+    let mut space = ScaleSpace::new();
+    space.build(&frame, &m).unwrap();
+    let exact = PatternLikelihood::new(&m, &space);
+    let margin = 20.0;
+    let quick = PatternLikelihood::new(&m, &space).with_early_exit(margin);
+    let (mut s_exact, mut s_quick) = (PatternScratch::default(), PatternScratch::default());
+    let mut rng = seeded(14);
+    let (mut best, mut cut) = (f64::NEG_INFINITY, 0);
+    for _ in 0..300 {
+        let state = SVector::from([
+            TRUTH[0] + 4.0 * normal(&mut rng),
+            TRUTH[1] + 4.0 * normal(&mut rng),
+            TRUTH[2] + 0.05 * normal(&mut rng),
+            TRUTH[3] * (1.0 + 0.05 * normal(&mut rng)),
+        ]);
+        let want = exact.observe(&state, &mut s_exact).log_likelihood;
+        let got = quick.log_likelihood(&state, &mut s_quick);
+        if got != want {
+            cut += 1;
+            assert!(got >= want && got < best - margin, "{got} {want} {best}");
+        }
+        best = best.max(want);
+    }
+    assert!(cut > 50, "only {cut} states were cut short");
+    // A new likelihood (the next frame) does not inherit the scratch's best.
+    let again = PatternLikelihood::new(&m, &space).with_early_exit(margin);
+    let far = SVector::from([TRUTH[0] + 30.0, TRUTH[1], TRUTH[2], TRUTH[3]]);
+    assert_eq!(
+        again.log_likelihood(&far, &mut s_quick),
+        exact.observe(&far, &mut s_exact).log_likelihood
+    );
+}

@@ -2,7 +2,7 @@
 //! `X = (x, y, theta, s)` from the inter-correlation of each model point's stored and
 //! observed grey-level vectors, with occlusion and scale space handling.
 
-use super::correlation::{deviation, energy, inter_correlation_with_energy};
+use super::correlation::{centred_products, energy};
 use super::model::{PatternModel, sample_along};
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -182,12 +182,15 @@ pub struct Observation {
     pub occluded_fraction: f64,
 }
 
-/// Per-thread buffers of [`PatternLikelihood`]: one observed vector and the point
-/// deviations, so that no particle allocates.
+/// Per-chunk buffers of [`PatternLikelihood`]: one observed vector and the point
+/// deviations, so that no particle allocates, and the best log-likelihood met so far
+/// in the chunk by a likelihood with an early exit (and which one it was).
 #[derive(Debug, Clone, Default)]
 pub struct PatternScratch {
     observed: Vec<f32>,
     deviations: Vec<f64>,
+    best: f64,
+    generation: u64,
 }
 
 /// The observation model of one frame: a model and the frame's scale space.
@@ -195,17 +198,56 @@ pub struct PatternScratch {
 pub struct PatternLikelihood<'a> {
     model: &'a PatternModel,
     space: &'a ScaleSpace,
+    /// The model points in the order they are visited: interleaved along the
+    /// contours, so that any first few of them spread over the whole pattern.
     points: Vec<PointGeometry>,
+    early_exit: Option<EarlyExit>,
+}
+
+/// See [`PatternLikelihood::with_early_exit`].
+#[derive(Debug, Clone, Copy)]
+struct EarlyExit {
+    margin: f64,
+    generation: u64,
+}
+
+/// Model points sampled and correlated together (and between two checks of the early
+/// exit's bound).
+const BATCH: usize = 8;
+
+/// Tells apart the likelihoods with an early exit, so that a scratch carried over
+/// from another frame does not bring its best log-likelihood along.
+static GENERATION: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+
+/// The order model points are visited in: `0, k, 2k, ... (mod n)` with the stride `k`
+/// near `n / golden ratio` and prime to `n`, a permutation that spreads consecutive
+/// visits over the contours.
+fn interleaved(n: usize) -> impl Iterator<Item = usize> {
+    let gcd = |mut a: usize, mut b: usize| {
+        while b != 0 {
+            (a, b) = (b, a % b);
+        }
+        a
+    };
+    let mut stride = ((n as f64 * 0.618_034).round() as usize).max(1);
+    while n > 1 && gcd(stride, n) != 1 {
+        stride += 1;
+    }
+    (0..n).map(move |k| (k * stride) % n)
 }
 
 /// What a particle needs of a model point besides its vector, computed once per frame
-/// (not per particle): its pixel offset, the unit vector of its gradient direction, and
-/// its vector's energy.
+/// (not per particle): its pixel offset, the unit vector of its gradient direction, its
+/// vector's energy and sum, and `1 / |W|`, so that `lambda = (1 - C) / |W|` costs no
+/// division.
 #[derive(Debug, Clone, Copy)]
 struct PointGeometry {
+    index: usize,
     offset: [f64; 2],
     direction: [f64; 2],
     energy: f64,
+    sum: f32,
+    inverse_slope: f64,
 }
 
 /// Where model point offset `(dx, dy)` and direction `phi` land for state `x`: the
@@ -222,14 +264,18 @@ pub fn place(state: &SVector<f64, 4>, offset: [f64; 2], phi: f64) -> ([f64; 2], 
 impl<'a> PatternLikelihood<'a> {
     /// The observation model of `model` in the frame whose scale space is `space`.
     pub fn new(model: &'a PatternModel, space: &'a ScaleSpace) -> Self {
-        let points = (0..model.points.len())
+        let points = interleaved(model.points.len())
             .map(|j| {
                 let point = &model.points[j];
                 let (s, c) = point.phi.sin_cos();
                 PointGeometry {
+                    index: j,
                     offset: model.offset(j),
                     direction: [c, s],
                     energy: energy(&point.vector),
+                    sum: point.vector.iter().sum(),
+                    // As `correlation::deviation`: a zero slope gives a huge deviation.
+                    inverse_slope: 1.0 / point.slope.abs().max(f64::MIN_POSITIVE),
                 }
             })
             .collect();
@@ -237,7 +283,27 @@ impl<'a> PatternLikelihood<'a> {
             model,
             space,
             points,
+            early_exit: None,
         }
+    }
+
+    /// The same observation model, whose [`Likelihood::log_likelihood`] stops early on
+    /// states that cannot matter: within one chunk of particles (weighed in order on
+    /// one scratch), a state whose log-likelihood is sure to fall more than `margin`
+    /// below the best one met before it in the chunk gets that upper bound instead of
+    /// its value. Its weight is then below `exp(-margin)` times the best particle's,
+    /// which changes no estimate (a margin of 30 is a relative weight of 1e-13), and
+    /// the answer still depends only on the chunk's particles, never on the number of
+    /// threads. [`Self::observe`] stays exact.
+    ///
+    /// The bound: each point adds at least `min(lambda, T)^2 / (2 sigma^2)` to the
+    /// cost (a left-out point adds `T^2` and is above `T`), so the points seen so far
+    /// bound the log-likelihood from above.
+    pub fn with_early_exit(mut self, margin: f64) -> Self {
+        use std::sync::atomic::Ordering;
+        let generation = GENERATION.fetch_add(1, Ordering::Relaxed);
+        self.early_exit = Some(EarlyExit { margin, generation });
+        self
     }
 
     /// The likelihood and occlusion fraction of `state` (eqs. 5-6).
@@ -251,6 +317,17 @@ impl<'a> PatternLikelihood<'a> {
     /// state would gain likelihood by occluding points, and states with different
     /// numbers of occluded points could not be compared.
     pub fn observe(&self, state: &SVector<f64, 4>, scratch: &mut PatternScratch) -> Observation {
+        self.observe_above(state, scratch, f64::NEG_INFINITY)
+    }
+
+    /// [`Self::observe`], or, once the points seen bound the log-likelihood below
+    /// `floor`, that bound and the occluded fraction of the points seen.
+    fn observe_above(
+        &self,
+        state: &SVector<f64, 4>,
+        scratch: &mut PatternScratch,
+        floor: f64,
+    ) -> Observation {
         let n = self.model.points.len();
         if self.space.is_empty()
             || n == 0
@@ -262,70 +339,124 @@ impl<'a> PatternLikelihood<'a> {
                 occluded_fraction: 1.0,
             };
         }
-        self.fill_deviations(state, scratch);
         let config = &self.model.config;
         let threshold = config.occlusion_threshold;
-        let occluded = scratch
-            .deviations
-            .iter()
-            .filter(|&&l| l > threshold)
-            .count();
-        let tolerated = ((config.max_occluded_fraction * n as f64).floor() as usize).min(occluded);
-        // The `tolerated` largest deviations are left out: move them to the end.
-        let d = &mut scratch.deviations;
-        if tolerated > 0 {
+        if let Some(bound) = self.fill_deviations(state, scratch, floor) {
+            let d = &scratch.deviations;
+            let occluded = d.iter().filter(|&&l| l > threshold).count();
+            return Observation {
+                log_likelihood: bound,
+                occluded_fraction: occluded as f64 / d.len() as f64,
+            };
+        }
+        let (mut occluded, mut below) = (0usize, 0.0);
+        for &l in &scratch.deviations {
+            if l > threshold {
+                occluded += 1;
+            } else {
+                below += l * l;
+            }
+        }
+        let allowed = (config.max_occluded_fraction * n as f64).floor() as usize;
+        let tolerated = allowed.min(occluded);
+        // The `tolerated` largest deviations are left out. When every occluded point is
+        // (the usual case) they are exactly those above the threshold; otherwise the
+        // occluded ones beyond the tolerated count with their own terms, the smallest
+        // first.
+        let mut squares = below;
+        if occluded > tolerated {
+            let d = &mut scratch.deviations;
             d.select_nth_unstable_by(n - tolerated, |a, b| a.total_cmp(b));
+            squares += d[..n - tolerated]
+                .iter()
+                .filter(|&&l| l > threshold)
+                .map(|l| l * l)
+                .sum::<f64>();
         }
         let inv = 1.0 / (2.0 * config.sigma * config.sigma);
-        let kept: f64 = d[..n - tolerated].iter().map(|l| -l * l * inv).sum();
-        let left_out = tolerated as f64 * (-threshold * threshold * inv);
+        let left_out = tolerated as f64 * threshold * threshold;
         Observation {
-            log_likelihood: kept + left_out,
+            log_likelihood: -(squares + left_out) * inv,
             occluded_fraction: occluded as f64 / n as f64,
         }
     }
 
     /// The deviation of every model point for `state` into `scratch.deviations`
-    /// (infinite when the observed vector leaves the frame).
+    /// (infinite when the observed vector leaves the frame), in the order of
+    /// `self.points`; or, as soon as those seen bound the log-likelihood below `floor`
+    /// (checked every [`BATCH`] points), that bound.
     ///
     /// The similarity of [`place`] with `sin theta` and `cos theta` taken once per
     /// state: a point's position is `centre + s R (dx, dy)` and its direction `R (cos
     /// phi, sin phi)`, i.e. `phi - theta`, with `R = [[c, s], [-s, c]]`.
-    fn fill_deviations(&self, state: &SVector<f64, 4>, scratch: &mut PatternScratch) {
+    fn fill_deviations(
+        &self,
+        state: &SVector<f64, 4>,
+        scratch: &mut PatternScratch,
+        floor: f64,
+    ) -> Option<f64> {
         let config = &self.model.config;
+        let bounded = floor > f64::NEG_INFINITY;
+        let threshold = config.occlusion_threshold;
+        let inv = 1.0 / (2.0 * config.sigma * config.sigma);
+        let mut cost = 0.0;
         let image = self.space.level(state[3]);
         let origin = self.space.origin();
         let (sin, cos) = state[2].sin_cos();
         let scale = state[3];
         let centre = [state[0] - origin[0], state[1] - origin[1]];
         let step = config.delta * scale;
-        scratch.observed.resize(config.n_samples, 0.0);
+        let ns = config.n_samples;
+        scratch.observed.resize(BATCH * ns, 0.0);
         scratch.deviations.clear();
-        for (point, geometry) in self.model.points.iter().zip(&self.points) {
-            let [dx, dy] = geometry.offset;
-            let p = [
-                centre[0] + scale * (cos * dx + sin * dy),
-                centre[1] + scale * (-sin * dx + cos * dy),
-            ];
-            let [u, v] = geometry.direction;
-            let direction = [cos * u + sin * v, -sin * u + cos * v];
-            let lambda = if sample_along(image, p, direction, step, &mut scratch.observed) {
-                let c = inter_correlation_with_energy(
-                    &point.vector,
-                    geometry.energy,
-                    &scratch.observed,
-                );
-                deviation(c, point.slope)
-            } else {
-                f64::INFINITY
-            };
-            // A NaN grey level (a corrupt frame) makes the point occluded, not the sum NaN.
-            scratch.deviations.push(if lambda.is_nan() {
-                f64::INFINITY
-            } else {
-                lambda
-            });
+        let n = self.points.len();
+        // A batch of points is sampled, then correlated, then turned into deviations:
+        // the square roots and divisions of a batch overlap instead of each waiting for
+        // its own point's samples.
+        for (b, batch) in self.points.chunks(BATCH).enumerate() {
+            let mut inside = [false; BATCH];
+            let buffers = scratch.observed.chunks_exact_mut(ns);
+            for ((geometry, ok), out) in batch.iter().zip(&mut inside).zip(buffers) {
+                let [dx, dy] = geometry.offset;
+                let p = [
+                    centre[0] + scale * (cos * dx + sin * dy),
+                    centre[1] + scale * (-sin * dx + cos * dy),
+                ];
+                let [u, v] = geometry.direction;
+                let direction = [cos * u + sin * v, -sin * u + cos * v];
+                *ok = sample_along(image, p, direction, step, out);
+            }
+            let mut products = [(0.0f32, 0.0f32); BATCH];
+            let buffers = scratch.observed.chunks_exact(ns);
+            for ((geometry, product), observed) in batch.iter().zip(&mut products).zip(buffers) {
+                let stored = &self.model.points[geometry.index].vector;
+                *product = centred_products(stored, geometry.sum, observed);
+            }
+            for ((geometry, &(dot, energy)), &ok) in batch.iter().zip(&products).zip(&inside) {
+                let norm = f64::from(energy) * geometry.energy;
+                // The inter-correlation of section 3.3, 0 for a flat vector.
+                let c = if norm > 1e-18 {
+                    f64::from(dot) / norm.sqrt()
+                } else {
+                    0.0
+                };
+                let lambda = (1.0 - c) * geometry.inverse_slope;
+                // Outside the frame, or a NaN grey level (a corrupt frame): the point
+                // is occluded, the sum is not NaN.
+                let lambda = if ok && !lambda.is_nan() {
+                    lambda
+                } else {
+                    f64::INFINITY
+                };
+                scratch.deviations.push(lambda);
+                let capped = lambda.min(threshold);
+                cost += capped * capped;
+            }
+            if bounded && (b + 1) * BATCH < n && -cost * inv < floor {
+                return Some(-cost * inv);
+            }
         }
+        None
     }
 }
 
@@ -336,11 +467,24 @@ impl Likelihood<4> for PatternLikelihood<'_> {
         PatternScratch {
             observed: Vec::with_capacity(self.model.config.n_samples),
             deviations: Vec::with_capacity(self.model.points.len()),
+            best: f64::NEG_INFINITY,
+            generation: 0,
         }
     }
 
     fn log_likelihood(&self, state: &SVector<f64, 4>, scratch: &mut PatternScratch) -> f64 {
-        self.observe(state, scratch).log_likelihood
+        let Some(exit) = self.early_exit else {
+            return self.observe(state, scratch).log_likelihood;
+        };
+        if scratch.generation != exit.generation {
+            scratch.generation = exit.generation;
+            scratch.best = f64::NEG_INFINITY;
+        }
+        let ll = self
+            .observe_above(state, scratch, scratch.best - exit.margin)
+            .log_likelihood;
+        scratch.best = scratch.best.max(ll);
+        ll
     }
 }
 

@@ -59,6 +59,11 @@ impl PatternFrame<'_> {
     }
 }
 
+/// Particles whose log-likelihood is sure to fall this far below a better one's are
+/// not weighed to the end (a relative weight below 1e-13: no estimate changes), see
+/// [`PatternLikelihood::with_early_exit`].
+const NEGLIGIBLE_LOG_WEIGHT: f64 = 30.0;
+
 /// Parameters of a [`PatternTracker`].
 #[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
 #[serde(default, deny_unknown_fields)]
@@ -257,6 +262,18 @@ impl PatternTracker {
     /// # Errors
     /// [`TrackingError::FrameSizeChanged`] if `frame` differs in size from the first.
     pub fn update(&mut self, frame: PatternFrame<'_>) -> Result<PatternPose> {
+        if self.params.filter.parallel {
+            // The whole step on a rayon worker: its blur, weighing and refinement
+            // fork and join a dozen times per frame, cheap from a worker but a thread
+            // hand-over each from any other thread (the numbers are the same).
+            rayon::scope(|_| self.step(frame))
+        } else {
+            self.step(frame)
+        }
+    }
+
+    /// [`Self::update`] on the calling thread.
+    fn step(&mut self, frame: PatternFrame<'_>) -> Result<PatternPose> {
         let (width, height) = frame.size();
         if (width, height) != (self.width, self.height) {
             return Err(TrackingError::FrameSizeChanged {
@@ -274,7 +291,8 @@ impl PatternTracker {
         let crop = |grown: [usize; 4], out: &mut GrayImage| frame.window_to_gray(grown, out);
         self.space
             .build_window_with([width, height], crop, &self.model, window, span)?;
-        let likelihood = PatternLikelihood::new(&self.model, &self.space);
+        let likelihood =
+            PatternLikelihood::new(&self.model, &self.space).with_early_exit(NEGLIGIBLE_LOG_WEIGHT);
         let report = self
             .filter
             .correct_with_scratch(&likelihood, &mut self.scratch, resampled);

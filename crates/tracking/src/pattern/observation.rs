@@ -211,6 +211,29 @@ struct EarlyExit {
     generation: u64,
 }
 
+/// How [`PatternLikelihood::fill_deviations`] values a state it stops early on.
+#[derive(Debug, Clone, Copy)]
+enum Stop {
+    /// The cost of the points seen: an upper bound of the log-likelihood.
+    Bound,
+    /// The cost of the points seen scaled to all points, from
+    /// [`EXTRAPOLATE_AFTER`] points on: an estimate.
+    Extrapolate,
+}
+
+impl Stop {
+    fn min_points(self) -> usize {
+        match self {
+            Stop::Bound => 0,
+            Stop::Extrapolate => EXTRAPOLATE_AFTER,
+        }
+    }
+}
+
+/// Points seen before [`PatternLikelihood::with_early_exit`] extrapolates a state's
+/// log-likelihood.
+pub const EXTRAPOLATE_AFTER: usize = 16;
+
 /// Model points sampled and correlated together (and between two checks of the early
 /// exit's bound).
 const BATCH: usize = 8;
@@ -288,17 +311,16 @@ impl<'a> PatternLikelihood<'a> {
     }
 
     /// The same observation model, whose [`Likelihood::log_likelihood`] stops early on
-    /// states that cannot matter: within one chunk of particles (weighed in order on
-    /// one scratch), a state whose log-likelihood is sure to fall more than `margin`
-    /// below the best one met before it in the chunk gets that upper bound instead of
-    /// its value. Its weight is then below `exp(-margin)` times the best particle's,
-    /// which changes no estimate (a margin of 30 is a relative weight of 1e-13), and
-    /// the answer still depends only on the chunk's particles, never on the number of
-    /// threads. [`Self::observe`] stays exact.
-    ///
-    /// The bound: each point adds at least `min(lambda, T)^2 / (2 sigma^2)` to the
-    /// cost (a left-out point adds `T^2` and is above `T`), so the points seen so far
-    /// bound the log-likelihood from above.
+    /// states that do not matter: within one chunk of particles (weighed in order on
+    /// one scratch), once [`EXTRAPOLATE_AFTER`] points or more (interleaved over the
+    /// contours) put a state's log-likelihood, extrapolated to all points, more than
+    /// `margin` below the best one met before it in the chunk, it gets that
+    /// extrapolation instead of its value. Its weight is then about `exp(-margin)`
+    /// times the best particle's or less (a margin of 30 is a relative weight of
+    /// 1e-13): eq. 6 is so sharp that one particle carries nearly all the weight, and
+    /// most particles are that far below it. The answer still depends only on the
+    /// chunk's particles, never on the number of threads. [`Self::observe`] and
+    /// [`Self::observe_above`] stay exact.
     pub fn with_early_exit(mut self, margin: f64) -> Self {
         use std::sync::atomic::Ordering;
         let generation = GENERATION.fetch_add(1, Ordering::Relaxed);
@@ -317,16 +339,30 @@ impl<'a> PatternLikelihood<'a> {
     /// state would gain likelihood by occluding points, and states with different
     /// numbers of occluded points could not be compared.
     pub fn observe(&self, state: &SVector<f64, 4>, scratch: &mut PatternScratch) -> Observation {
-        self.observe_above(state, scratch, f64::NEG_INFINITY)
+        self.observe_until(state, scratch, f64::NEG_INFINITY, Stop::Bound)
     }
 
     /// [`Self::observe`], or, once the points seen bound the log-likelihood below
-    /// `floor`, that bound and the occluded fraction of the points seen.
-    fn observe_above(
+    /// `floor`, that upper bound and the occluded fraction of the points seen: the
+    /// exact answer whenever it is `>= floor`. Each point adds at least `min(lambda,
+    /// T)^2 / (2 sigma^2)` to the cost of eq. 6 (a left-out point adds `T^2` and is
+    /// above `T`), so the points seen bound the log-likelihood from above.
+    pub fn observe_above(
         &self,
         state: &SVector<f64, 4>,
         scratch: &mut PatternScratch,
         floor: f64,
+    ) -> Observation {
+        self.observe_until(state, scratch, floor, Stop::Bound)
+    }
+
+    /// [`Self::observe`], stopped by the rule `stop` below `floor`.
+    fn observe_until(
+        &self,
+        state: &SVector<f64, 4>,
+        scratch: &mut PatternScratch,
+        floor: f64,
+        stop: Stop,
     ) -> Observation {
         let n = self.model.points.len();
         if self.space.is_empty()
@@ -341,7 +377,7 @@ impl<'a> PatternLikelihood<'a> {
         }
         let config = &self.model.config;
         let threshold = config.occlusion_threshold;
-        if let Some(bound) = self.fill_deviations(state, scratch, floor) {
+        if let Some(bound) = self.fill_deviations(state, scratch, floor, stop) {
             let d = &scratch.deviations;
             let occluded = d.iter().filter(|&&l| l > threshold).count();
             return Observation {
@@ -383,8 +419,9 @@ impl<'a> PatternLikelihood<'a> {
 
     /// The deviation of every model point for `state` into `scratch.deviations`
     /// (infinite when the observed vector leaves the frame), in the order of
-    /// `self.points`; or, as soon as those seen bound the log-likelihood below `floor`
-    /// (checked every [`BATCH`] points), that bound.
+    /// `self.points`; or, as soon as the points seen put the log-likelihood below
+    /// `floor` by the rule `stop` (checked every [`BATCH`] points), its value by that
+    /// rule.
     ///
     /// The similarity of [`place`] with `sin theta` and `cos theta` taken once per
     /// state: a point's position is `centre + s R (dx, dy)` and its direction `R (cos
@@ -394,6 +431,7 @@ impl<'a> PatternLikelihood<'a> {
         state: &SVector<f64, 4>,
         scratch: &mut PatternScratch,
         floor: f64,
+        stop: Stop,
     ) -> Option<f64> {
         let config = &self.model.config;
         let bounded = floor > f64::NEG_INFINITY;
@@ -452,8 +490,16 @@ impl<'a> PatternLikelihood<'a> {
                 let capped = lambda.min(threshold);
                 cost += capped * capped;
             }
-            if bounded && (b + 1) * BATCH < n && -cost * inv < floor {
-                return Some(-cost * inv);
+            let seen = (b + 1) * BATCH;
+            if bounded && seen < n {
+                let bound = -cost * inv;
+                let cut = match stop {
+                    Stop::Bound => bound,
+                    Stop::Extrapolate => bound * n as f64 / seen as f64,
+                };
+                if seen >= stop.min_points() && cut < floor {
+                    return Some(cut);
+                }
             }
         }
         None
@@ -480,8 +526,9 @@ impl Likelihood<4> for PatternLikelihood<'_> {
             scratch.generation = exit.generation;
             scratch.best = f64::NEG_INFINITY;
         }
+        let floor = scratch.best - exit.margin;
         let ll = self
-            .observe_above(state, scratch, scratch.best - exit.margin)
+            .observe_until(state, scratch, floor, Stop::Extrapolate)
             .log_likelihood;
         scratch.best = scratch.best.max(ll);
         ll

@@ -79,8 +79,14 @@ pub struct PatternTrackerParams {
     /// the 40 % of occlusion the likelihood tolerates.
     pub lost_occluded_fraction: f64,
     /// Rounds of the local refinement of the estimate (see
-    /// [`PatternTracker::update`]); 0 reports the seed's plain weighted mean. Default 4.
+    /// [`PatternTracker::update`]); 0 reports the seed's plain weighted mean. Default 6.
     pub refine_steps: usize,
+    /// The refinement's first step, in random-walk sigmas (halved each round). Default
+    /// 1: the search then reaches two sigmas from the weighted mean.
+    pub refine_first_step: f64,
+    /// The refined state replaces the lightest particle, weighted by its likelihood,
+    /// so that the next frame starts from it. Default `true`.
+    pub refined_particle: bool,
     /// Model building and observation model (sections 3.2-3.3).
     pub pattern: PatternConfig,
     /// Particle-filter settings (resampler, policy, chunking, parallelism). Default
@@ -94,7 +100,9 @@ impl Default for PatternTrackerParams {
             n_particles: 200,
             sigma: [5.0, 5.0, 3f64.to_radians(), 0.1],
             lost_occluded_fraction: 0.6,
-            refine_steps: 4,
+            refine_steps: 6,
+            refine_first_step: 1.0,
+            refined_particle: true,
             pattern: PatternConfig::default(),
             // A particle costs tens of microseconds here: chunks of 16 still outweigh
             // a rayon task, and 200 particles split into 13 chunks balance two cores
@@ -120,6 +128,12 @@ impl PatternTrackerParams {
             return Err(TrackingError::InvalidParameter {
                 name: "sigma",
                 reason: format!("must be 4 finite values > 0, got {:?}", self.sigma),
+            });
+        }
+        if !(self.refine_first_step.is_finite() && self.refine_first_step > 0.0) {
+            return Err(TrackingError::InvalidParameter {
+                name: "refine_first_step",
+                reason: format!("must be finite and > 0, got {}", self.refine_first_step),
             });
         }
         rperc_core::ensure_in_range(
@@ -248,12 +262,17 @@ impl PatternTracker {
     /// One CONDENSATION step on the next frame (section 3.1).
     ///
     /// The weighted mean is then refined on the same frame's likelihood (eq. 6): a
-    /// coordinate search of `refine_steps` rounds, steps starting at `sigma / 4` and
-    /// halved each round, each coordinate moved to the vertex of the parabola through
-    /// three log-likelihoods. This is not in the seed: 200 particles spread over
-    /// `sigma` in four dimensions leave the nearest particle a pixel or more from the
-    /// peak, and the search costs about `10 * refine_steps` likelihoods, a few percent
-    /// of the particles'. Moves are kept only when they raise the likelihood.
+    /// coordinate search of `refine_steps` rounds, steps starting at
+    /// `refine_first_step * sigma` and halved each round, each coordinate moved to the vertex of the parabola through
+    /// three log-likelihoods. Moves are kept only when they raise the likelihood. The
+    /// refined state then replaces the lightest particle, weighted by its likelihood,
+    /// so that the next frame starts from it (`refined_particle`). This is not in the seed: eq. 6 is so
+    /// sharp that one particle carries nearly all the weight, and 200 particles spread
+    /// over `sigma` in four dimensions leave the nearest one a pixel or more (and, after
+    /// a step of 2-3 sigma, a few degrees) from the peak; the search reaches `2 sigma`
+    /// from the mean (with the default first step), as a second, deterministic layer
+    /// (annealing in CONDENSATION practice), and costs about `12 * refine_steps`
+    /// likelihoods.
     ///
     /// When the estimate is lost (the filter's total loss, or more than
     /// `lost_occluded_fraction` of the points occluded, as on an all-black frame) the
@@ -303,16 +322,25 @@ impl PatternTracker {
         let (first, second) = self.scratch.split_at_mut(1);
         let scratch = [&mut first[0], &mut second[0]];
         let mut observation = likelihood.observe(&estimate, scratch[0]);
-        let mut step = SVector::from(self.params.sigma) / 4.0;
+        let mut step = SVector::from(self.params.sigma) * self.params.refine_first_step;
         let parallel = self.params.filter.parallel;
         let mut search = Refinement {
             likelihood: &likelihood,
             scratch,
             parallel,
+            floor: f64::NEG_INFINITY,
         };
         for _ in 0..self.params.refine_steps {
             search.round(&mut estimate, &mut observation, &step);
             step /= 2.0;
+        }
+        if self.params.refined_particle && self.params.refine_steps > 0 && !report.lost {
+            // The refined state joins the particles with its likelihood, relative to
+            // the best particle's (the best of its chunk: weighed exactly).
+            let (best, _) = self.filter.max_weight();
+            let at_best = likelihood.observe(&best, &mut self.scratch[0]);
+            let gain = observation.log_likelihood - at_best.log_likelihood;
+            self.filter.substitute_lightest(estimate, gain);
         }
         let lost = report.lost
             || observation.occluded_fraction > self.params.lost_occluded_fraction
@@ -336,14 +364,14 @@ impl PatternTracker {
     }
 
     /// The frame window `[x0, y0, x1, y1)` and the scale span this frame's likelihood
-    /// reads: the predicted particles' extent, grown by half a random-walk sigma (the
-    /// refinement starts at the weighted mean, inside the extent, and its moves and
-    /// probes add up to at most `sigma / 4 * (1 + 1/2 + ...) = sigma / 2`), plus the
+    /// reads: the predicted particles' extent, grown by the refinement's reach (it
+    /// starts at the weighted mean, inside the extent, and its moves and probes add up
+    /// to at most `refine_first_step * sigma * (1 + 1/2 + ...)`), plus the
     /// model's radius (points and half a profile) at the largest scale. Every state
     /// weighed or probed this frame therefore reads the same values as from a scale
     /// space of the whole frame.
     fn reach(&self) -> ([usize; 4], [f64; 2]) {
-        const MARGIN_SIGMAS: f64 = 0.5;
+        let reach = 2.0 * self.params.refine_first_step;
         let sigma = &self.params.sigma;
         let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
         for p in self.filter.particles() {
@@ -352,14 +380,11 @@ impl PatternTracker {
                 hi[d] = hi[d].max(p[k]);
             }
         }
-        let span = [
-            lo[2] - MARGIN_SIGMAS * sigma[3],
-            hi[2] + MARGIN_SIGMAS * sigma[3],
-        ];
+        let span = [lo[2] - reach * sigma[3], hi[2] + reach * sigma[3]];
         let config = &self.model.config;
         let profile = 0.5 * config.n_samples as f64 * config.delta;
         let radius = (self.model.radius() + profile) * span[1].max(0.0) + 2.0;
-        let grow = |v: f64, d: usize, sign: f64| v + sign * (MARGIN_SIGMAS * sigma[d] + radius);
+        let grow = |v: f64, d: usize, sign: f64| v + sign * (reach * sigma[d] + radius);
         let clamp = |v: f64, n: usize| v.floor().clamp(0.0, n as f64) as usize;
         let window = [
             clamp(grow(lo[0], 0, -1.0), self.width),
@@ -432,6 +457,8 @@ struct Refinement<'a, 'b> {
     likelihood: &'a PatternLikelihood<'a>,
     scratch: [&'b mut PatternScratch; 2],
     parallel: bool,
+    /// Probes below this are only bounded (see [`PatternLikelihood::observe_above`]).
+    floor: f64,
 }
 
 impl Refinement<'_, '_> {
@@ -440,8 +467,12 @@ impl Refinement<'_, '_> {
     fn pair(&mut self, a: &SVector<f64, 4>, b: &SVector<f64, 4>) -> (f64, f64) {
         let likelihood = self.likelihood;
         let [sa, sb] = &mut self.scratch;
-        let observe =
-            |x: &SVector<f64, 4>, s: &mut PatternScratch| likelihood.observe(x, s).log_likelihood;
+        // A probe far below the centre only needs to be known as such: its bound
+        // (exact above the floor) still bends the parabola down on its side.
+        let floor = self.floor;
+        let observe = |x: &SVector<f64, 4>, s: &mut PatternScratch| {
+            likelihood.observe_above(x, s, floor).log_likelihood
+        };
         if self.parallel {
             rayon::join(|| observe(a, sa), || observe(b, sb))
         } else {
@@ -464,8 +495,9 @@ impl Refinement<'_, '_> {
             let (mut below, mut above) = (*state, *state);
             below[d] -= h;
             above[d] += h;
-            let (minus, plus) = self.pair(&below, &above);
             let centre = best.log_likelihood;
+            self.floor = centre - NEGLIGIBLE_LOG_WEIGHT;
+            let (minus, plus) = self.pair(&below, &above);
             let curvature = plus + minus - 2.0 * centre;
             let shift = if curvature < 0.0 && curvature.is_finite() {
                 (0.5 * h * (minus - plus) / curvature).clamp(-h, h)
@@ -478,7 +510,10 @@ impl Refinement<'_, '_> {
             };
             let mut probe = *state;
             probe[d] += shift;
-            let tried = self.likelihood.observe(&probe, self.scratch[0]);
+            // Exact whenever it beats the centre, which is all that is asked of it.
+            let tried = self
+                .likelihood
+                .observe_above(&probe, self.scratch[0], centre);
             if tried.log_likelihood > centre {
                 *state = probe;
                 *best = tried;

@@ -90,7 +90,7 @@ pub struct PatternTrackerParams {
     /// Model building and observation model (sections 3.2-3.3).
     pub pattern: PatternConfig,
     /// Particle-filter settings (resampler, policy, chunking, parallelism). Default
-    /// chunks of 16 particles.
+    /// chunks of 50 particles.
     pub filter: FilterParams,
 }
 
@@ -104,11 +104,13 @@ impl Default for PatternTrackerParams {
             refine_first_step: 1.0,
             refined_particle: true,
             pattern: PatternConfig::default(),
-            // A particle costs tens of microseconds here: chunks of 16 still outweigh
-            // a rayon task, and 200 particles split into 13 chunks balance two cores
-            // (64 left one core with 128 particles and the other with 72).
+            // Each chunk weighs its particles until one is good, then cuts the rest
+            // short (the early exit of `PatternLikelihood::with_early_exit`): fewer,
+            // longer chunks weigh fewer particles in full. 200 particles in 4 chunks
+            // still balance two cores (chunks of 16 ran 385 fps, of 50 465 fps, on
+            // 640 x 480 frames of the benchmark, same run).
             filter: FilterParams {
-                chunk_size: 16,
+                chunk_size: 50,
                 ..FilterParams::default()
             },
         }

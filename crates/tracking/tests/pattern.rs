@@ -733,8 +733,20 @@ fn the_early_exit_cuts_only_states_far_below_the_best() {
     // A new likelihood (the next frame) does not inherit the scratch's best.
     let again = PatternLikelihood::new(&m, &space).with_early_exit(margin);
     let far = SVector::from([TRUTH[0] + 30.0, TRUTH[1], TRUTH[2], TRUTH[3]]);
-    assert_eq!(
-        again.log_likelihood(&far, &mut s_quick),
-        exact.observe(&far, &mut s_exact).log_likelihood
+    let far_exact = exact.observe(&far, &mut s_exact).log_likelihood;
+    assert_eq!(again.log_likelihood(&far, &mut s_quick), far_exact);
+    // With a reference (the truth's log-likelihood), a fresh chunk cuts that state
+    // short from its first particle on, below the reference by more than the margin.
+    let at_truth = exact
+        .observe(&SVector::from(TRUTH), &mut s_exact)
+        .log_likelihood;
+    assert!(far_exact < at_truth - margin);
+    let referenced = PatternLikelihood::new(&m, &space)
+        .with_early_exit(margin)
+        .with_reference(at_truth);
+    let got = referenced.log_likelihood(&far, &mut PatternScratch::default());
+    assert!(
+        got != far_exact && got < at_truth - margin,
+        "{got} {far_exact}"
     );
 }

@@ -209,6 +209,7 @@ pub struct PatternLikelihood<'a> {
 struct EarlyExit {
     margin: f64,
     generation: u64,
+    reference: f64,
 }
 
 /// How [`PatternLikelihood::fill_deviations`] values a state it stops early on.
@@ -324,7 +325,22 @@ impl<'a> PatternLikelihood<'a> {
     pub fn with_early_exit(mut self, margin: f64) -> Self {
         use std::sync::atomic::Ordering;
         let generation = GENERATION.fetch_add(1, Ordering::Relaxed);
-        self.early_exit = Some(EarlyExit { margin, generation });
+        self.early_exit = Some(EarlyExit {
+            margin,
+            generation,
+            reference: f64::NEG_INFINITY,
+        });
+        self
+    }
+
+    /// With an early exit, every chunk starts as if it had already met a state of
+    /// log-likelihood `reference` (a tracker's last estimate on the new frame, weighed
+    /// before the particles), so that its first particles can be cut short too. Does
+    /// nothing without [`Self::with_early_exit`].
+    pub fn with_reference(mut self, reference: f64) -> Self {
+        if let Some(exit) = &mut self.early_exit {
+            exit.reference = reference;
+        }
         self
     }
 
@@ -524,7 +540,7 @@ impl Likelihood<4> for PatternLikelihood<'_> {
         };
         if scratch.generation != exit.generation {
             scratch.generation = exit.generation;
-            scratch.best = f64::NEG_INFINITY;
+            scratch.best = exit.reference;
         }
         let floor = scratch.best - exit.margin;
         let ll = self

@@ -312,15 +312,23 @@ impl PatternTracker {
         let crop = |grown: [usize; 4], out: &mut GrayImage| frame.window_to_gray(grown, out);
         self.space
             .build_window_with([width, height], crop, &self.model, window, span)?;
-        let likelihood =
-            PatternLikelihood::new(&self.model, &self.space).with_early_exit(NEGLIGIBLE_LOG_WEIGHT);
+        let likelihood = PatternLikelihood::new(&self.model, &self.space);
+        while self.scratch.len() < 2 {
+            self.scratch.push(PatternScratch::default());
+        }
+        // The last estimate on this frame: a state every chunk of particles can
+        // compare its own with from the start.
+        let last = SVector::from(self.last.state);
+        let reference = likelihood
+            .observe(&last, &mut self.scratch[0])
+            .log_likelihood;
+        let likelihood = likelihood
+            .with_early_exit(NEGLIGIBLE_LOG_WEIGHT)
+            .with_reference(reference);
         let report = self
             .filter
             .correct_with_scratch(&likelihood, &mut self.scratch, resampled);
         let mut estimate = self.estimate();
-        while self.scratch.len() < 2 {
-            self.scratch.push(PatternScratch::default());
-        }
         let (first, second) = self.scratch.split_at_mut(1);
         let scratch = [&mut first[0], &mut second[0]];
         let mut observation = likelihood.observe(&estimate, scratch[0]);

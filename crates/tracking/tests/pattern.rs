@@ -581,6 +581,54 @@ fn a_windowed_scale_space_equals_the_whole_frame_blur_inside_its_window() {
     }
 }
 
+/// Levels blurred on demand (`build_window_for`, then `ensure`) against the whole
+/// stack: a needed or ensured level equals the whole stack's, and a scale whose level
+/// is not blurred yet reads the nearest blurred one.
+#[test]
+fn levels_blurred_on_demand_equal_the_whole_stack() {
+    let m = model();
+    let mut frame = render(TRUTH, m.centre, FRAME);
+    add_noise(&mut frame, 3.0, 17);
+    let mut full = ScaleSpace::new();
+    full.build(&frame, &m).unwrap();
+    let window = [6, 5, 166, 167];
+    let same = |a: &GrayImage, b: &GrayImage| {
+        (window[1]..window[3]).all(|y| {
+            (window[0]..window[2]).all(|x| a.at(x, y) == b.at(x - window[0], y - window[1]))
+        })
+    };
+    let mut part = ScaleSpace::new();
+    let copy = |g: [usize; 4], out: &mut GrayImage| {
+        out.width = g[2] - g[0];
+        out.height = g[3] - g[1];
+        out.data = (g[1]..g[3])
+            .flat_map(|y| (g[0]..g[2]).map(move |x| (x, y)))
+            .map(|(x, y)| frame.at(x, y))
+            .collect();
+    };
+    // Levels of 1.0-2.0; only 1.0 (nearest to 0.9 and 1.1) is needed.
+    part.build_window_for(
+        [FRAME, FRAME],
+        copy,
+        &m,
+        window,
+        [1.0, 2.0],
+        Some(&[0.9, 1.1]),
+    )
+    .unwrap();
+    assert!(same(full.level(1.0), part.level(1.0)));
+    // 1.5 is not blurred: the nearest blurred level (1.0) answers.
+    assert!(same(full.level(1.0), part.level(1.5)));
+    assert!(!same(full.level(1.5), part.level(1.5)));
+    part.ensure([1.4, 1.6]);
+    assert!(same(full.level(1.5), part.level(1.5)));
+    let state = SVector::from([TRUTH[0], TRUTH[1], TRUTH[2], 1.5]);
+    let mut scratch = PatternScratch::default();
+    let whole = PatternLikelihood::new(&m, &full).observe(&state, &mut scratch);
+    let ensured = PatternLikelihood::new(&m, &part).observe(&state, &mut scratch);
+    assert_eq!(whole, ensured);
+}
+
 /// Eq. 6 computed the slow way for one state: each point placed by `place`, its vector
 /// sampled point by point with `sample_vector` on the level, `lambda` from the
 /// two-pass inter-correlation and `deviation`, then the worst `tolerated` left out

@@ -26,6 +26,8 @@ pub struct ScaleSpace {
     levels: Vec<Level>,
     origin: [f64; 2],
     crop: GrayImage,
+    /// The window inside the crop, `[x0, y0, x1, y1)`.
+    inner: [usize; 4],
     kernels: Vec<(f64, Arc<[f32]>)>,
 }
 
@@ -37,6 +39,16 @@ struct Level {
     kernel: Arc<[f32]>,
     blurred: GrayImage,
     scratch: GrayImage,
+    /// Blurred for this frame (see [`ScaleSpace::build_window_for`]).
+    ready: bool,
+}
+
+impl Level {
+    fn blur(&mut self, crop: &GrayImage, inner: [usize; 4]) {
+        crop.convolve_separable(&self.kernel, &mut self.scratch, &mut self.blurred);
+        copy_window(&self.blurred, inner, &mut self.image);
+        self.ready = true;
+    }
 }
 
 /// Below this many pixel-taps (crop pixels times kernel taps over all levels) the
@@ -104,6 +116,24 @@ impl ScaleSpace {
         window: [usize; 4],
         span: [f64; 2],
     ) -> Result<()> {
+        self.build_window_for(size, crop, model, window, span, None)
+    }
+
+    /// [`Self::build_window_with`] that blurs, of the levels of `span`, only those
+    /// nearest to one of the scales `needed` (the particles' and the reference
+    /// state's; all of them for `None`); [`Self::ensure`] blurs others later from the
+    /// same crop (the refinement's, once its start is known). Every state whose
+    /// nearest level of `span` is blurred reads the same values as from the whole
+    /// stack: [`Self::level`] takes the nearest blurred level.
+    pub fn build_window_for(
+        &mut self,
+        size: [usize; 2],
+        crop: impl FnOnce([usize; 4], &mut GrayImage),
+        model: &PatternModel,
+        window: [usize; 4],
+        span: [f64; 2],
+        needed: Option<&[f64]>,
+    ) -> Result<()> {
         let config = &model.config;
         let all = &config.scale_levels;
         // Clamped first: infinite spans (the whole stack) would tie every level.
@@ -115,6 +145,11 @@ impl ScaleSpace {
         self.levels.resize_with(self.scales.len(), Level::default);
         for (level, &s) in self.levels.iter_mut().zip(&self.scales) {
             level.kernel = kernel(&mut self.kernels, config.blur_sigma * s);
+            level.ready = false;
+        }
+        let mut wanted = vec![needed.is_none(); self.scales.len()];
+        for &s in needed.unwrap_or(&[]) {
+            wanted[nearest(&self.scales, s)] = true;
         }
         let [width, height] = size;
         let [x0, y0] = [window[0].min(width), window[1].min(height)];
@@ -136,19 +171,40 @@ impl ScaleSpace {
             (y1 + r).min(height),
         ];
         crop(grown, &mut self.crop);
-        let inner = [x0 - grown[0], y0 - grown[1], x1 - grown[0], y1 - grown[1]];
-        let crop = &self.crop;
-        let blur = |level: &mut Level| {
-            crop.convolve_separable(&level.kernel, &mut level.scratch, &mut level.blurred);
-            copy_window(&level.blurred, inner, &mut level.image);
-        };
-        let taps: usize = self.levels.iter().map(|l| l.kernel.len()).sum();
-        if self.levels.len() > 1 && crop.data.len() * taps >= PARALLEL_BLUR_WORK {
-            self.levels.par_iter_mut().for_each(blur);
-        } else {
-            self.levels.iter_mut().for_each(blur);
-        }
+        self.inner = [x0 - grown[0], y0 - grown[1], x1 - grown[0], y1 - grown[1]];
+        self.blur_levels(&wanted);
         Ok(())
+    }
+
+    /// Blurs the levels nearest to the scales of `span = [s_lo, s_hi]` and those
+    /// between, among the levels of the last build, that are not blurred yet.
+    pub fn ensure(&mut self, span: [f64; 2]) {
+        if self.scales.is_empty() || span.iter().any(|v| v.is_nan()) || span[0] > span[1] {
+            return;
+        }
+        let (lo, hi) = (
+            nearest(&self.scales, span[0]),
+            nearest(&self.scales, span[1]),
+        );
+        let wanted: Vec<bool> = (0..self.levels.len())
+            .map(|k| (lo..=hi).contains(&k) && !self.levels[k].ready)
+            .collect();
+        self.blur_levels(&wanted);
+    }
+
+    /// Blurs the levels `k` with `wanted[k]`, in parallel when there is enough work.
+    fn blur_levels(&mut self, wanted: &[bool]) {
+        let (crop, inner) = (&self.crop, self.inner);
+        let chosen = || self.levels.iter().zip(wanted).filter(|(_, w)| **w);
+        let taps: usize = chosen().map(|(l, _)| l.kernel.len()).sum();
+        let parallel = chosen().count() > 1 && crop.data.len() * taps >= PARALLEL_BLUR_WORK;
+        let levels = self.levels.iter_mut().zip(wanted).filter(|(_, w)| **w);
+        if parallel {
+            let mut todo: Vec<&mut Level> = levels.map(|(l, _)| l).collect();
+            todo.par_iter_mut().for_each(|l| l.blur(crop, inner));
+        } else {
+            levels.for_each(|(l, _)| l.blur(crop, inner));
+        }
     }
 
     /// Pixel coordinates of the levels' top-left pixel in the frame.
@@ -156,9 +212,17 @@ impl ScaleSpace {
         self.origin
     }
 
-    /// The level nearest to scale `s` (the first one for `s <= 1`).
+    /// The blurred level nearest to scale `s` (the first one for `s <= 1`).
     pub fn level(&self, s: f64) -> &GrayImage {
-        &self.levels[nearest(&self.scales, s)].image
+        let k = self
+            .levels
+            .iter()
+            .zip(&self.scales)
+            .enumerate()
+            .filter(|(_, (l, _))| l.ready)
+            .min_by(|a, b| (a.1.1 - s).abs().total_cmp(&(b.1.1 - s).abs()))
+            .map_or(0, |(k, _)| k);
+        &self.levels[k].image
     }
 
     /// Number of levels.

@@ -185,6 +185,8 @@ pub struct PatternTracker {
     filter: ParticleFilter<4>,
     space: ScaleSpace,
     scratch: Vec<PatternScratch>,
+    /// The scales of the states weighed on a frame (kept to reuse its buffer).
+    needed: Vec<f64>,
     last: PatternPose,
 }
 
@@ -257,6 +259,7 @@ impl PatternTracker {
             filter,
             space: ScaleSpace::new(),
             scratch: Vec::new(),
+            needed: Vec::new(),
             last,
         })
     }
@@ -310,8 +313,15 @@ impl PatternTracker {
         // refinement look.
         let (window, span) = self.reach();
         let crop = |grown: [usize; 4], out: &mut GrayImage| frame.window_to_gray(grown, out);
+        // Only the levels the predicted particles and the last estimate fall on; the
+        // refinement's are added once its start is known.
+        self.needed.clear();
+        self.needed
+            .extend(self.filter.particles().iter().map(|p| p[3]));
+        self.needed.push(self.last.state[3]);
+        let needed = Some(&self.needed[..]);
         self.space
-            .build_window_with([width, height], crop, &self.model, window, span)?;
+            .build_window_for([width, height], crop, &self.model, window, span, needed)?;
         let likelihood = PatternLikelihood::new(&self.model, &self.space);
         while self.scratch.len() < 2 {
             self.scratch.push(PatternScratch::default());
@@ -329,6 +339,11 @@ impl PatternTracker {
             .filter
             .correct_with_scratch(&likelihood, &mut self.scratch, resampled);
         let mut estimate = self.estimate();
+        // The refinement's levels: it stays within its reach of the estimate.
+        let reach = 2.0 * self.params.refine_first_step * self.params.sigma[3];
+        self.space
+            .ensure([estimate[3] - reach, estimate[3] + reach]);
+        let likelihood = PatternLikelihood::new(&self.model, &self.space);
         let (first, second) = self.scratch.split_at_mut(1);
         let scratch = [&mut first[0], &mut second[0]];
         let mut observation = likelihood.observe(&estimate, scratch[0]);

@@ -7,7 +7,7 @@ use rperc_core::image::{GrayImage, GrayView, RgbView, luma};
 
 use super::model::{PatternConfig, PatternModel, Region};
 use super::observation::{Observation, PatternLikelihood, PatternScratch, ScaleSpace, place};
-use crate::condensation::{FilterParams, LinearGaussian, ParticleFilter};
+use crate::condensation::{FilterParams, LinearGaussian, ParticleFilter, StepReport};
 use crate::error::{Result, TrackingError};
 
 /// A borrowed 8-bit frame, grey (`H x W`) or RGB (`H x W x 3`, converted to luma).
@@ -59,9 +59,9 @@ impl PatternFrame<'_> {
     }
 }
 
-/// Particles whose log-likelihood is sure to fall this far below a better one's are
-/// not weighed to the end (a relative weight below 1e-13: no estimate changes), see
-/// [`PatternLikelihood::with_early_exit`].
+/// Particles whose log-likelihood, extrapolated from part of their points, falls this
+/// far below a better one's are not weighed to the end (a relative weight of about
+/// 1e-13), see [`PatternLikelihood::with_early_exit`].
 const NEGLIGIBLE_LOG_WEIGHT: f64 = 30.0;
 
 /// Parameters of a [`PatternTracker`].
@@ -268,16 +268,16 @@ impl PatternTracker {
     ///
     /// The weighted mean is then refined on the same frame's likelihood (eq. 6): a
     /// coordinate search of `refine_steps` rounds, steps starting at
-    /// `refine_first_step * sigma` and halved each round, each coordinate moved to the vertex of the parabola through
-    /// three log-likelihoods. Moves are kept only when they raise the likelihood. The
-    /// refined state then replaces the lightest particle, weighted by its likelihood,
-    /// so that the next frame starts from it (`refined_particle`). This is not in the seed: eq. 6 is so
-    /// sharp that one particle carries nearly all the weight, and 200 particles spread
-    /// over `sigma` in four dimensions leave the nearest one a pixel or more (and, after
-    /// a step of 2-3 sigma, a few degrees) from the peak; the search reaches `2 sigma`
-    /// from the mean (with the default first step), as a second, deterministic layer
-    /// (annealing in CONDENSATION practice), and costs about `12 * refine_steps`
-    /// likelihoods.
+    /// `refine_first_step * sigma` and halved each round, each coordinate moved to the
+    /// vertex of the parabola through three log-likelihoods. Moves are kept only when
+    /// they raise the likelihood. The refined state then replaces the lightest
+    /// particle, weighted by its likelihood, so that the next frame starts from it
+    /// (`refined_particle`). This is not in the seed: eq. 6 is so sharp that one
+    /// particle carries nearly all the weight, and 200 particles spread over `sigma` in
+    /// four dimensions leave the nearest one a pixel or more (and, after a step of 2-3
+    /// sigma, a few degrees) from the peak; the search reaches `2 sigma` from the mean
+    /// (with the default first step), as a second, deterministic layer (annealing in
+    /// CONDENSATION practice), and costs about `12 * refine_steps` likelihoods.
     ///
     /// When the estimate is lost (the filter's total loss, or more than
     /// `lost_occluded_fraction` of the points occluded, as on an all-black frame) the
@@ -308,65 +308,9 @@ impl PatternTracker {
             });
         }
         let resampled = self.filter.predict();
-        // The scale space is built once per frame, never per particle (section 3.3),
-        // and only where and at the scales this frame's predicted particles and the
-        // refinement look.
-        let (window, span) = self.reach();
-        let crop = |grown: [usize; 4], out: &mut GrayImage| frame.window_to_gray(grown, out);
-        // Only the levels the predicted particles and the last estimate fall on; the
-        // refinement's are added once its start is known.
-        self.needed.clear();
-        self.needed
-            .extend(self.filter.particles().iter().map(|p| p[3]));
-        self.needed.push(self.last.state[3]);
-        let needed = Some(&self.needed[..]);
-        self.space
-            .build_window_for([width, height], crop, &self.model, window, span, needed)?;
-        let likelihood = PatternLikelihood::new(&self.model, &self.space);
-        while self.scratch.len() < 2 {
-            self.scratch.push(PatternScratch::default());
-        }
-        // The last estimate on this frame: a state every chunk of particles can
-        // compare its own with from the start.
-        let last = SVector::from(self.last.state);
-        let reference = likelihood
-            .observe(&last, &mut self.scratch[0])
-            .log_likelihood;
-        let likelihood = likelihood
-            .with_early_exit(NEGLIGIBLE_LOG_WEIGHT)
-            .with_reference(reference);
-        let report = self
-            .filter
-            .correct_with_scratch(&likelihood, &mut self.scratch, resampled);
-        let mut estimate = self.estimate();
-        // The refinement's levels: it stays within its reach of the estimate.
-        let reach = 2.0 * self.params.refine_first_step * self.params.sigma[3];
-        self.space
-            .ensure([estimate[3] - reach, estimate[3] + reach]);
-        let likelihood = PatternLikelihood::new(&self.model, &self.space);
-        let (first, second) = self.scratch.split_at_mut(1);
-        let scratch = [&mut first[0], &mut second[0]];
-        let mut observation = likelihood.observe(&estimate, scratch[0]);
-        let mut step = SVector::from(self.params.sigma) * self.params.refine_first_step;
-        let parallel = self.params.filter.parallel;
-        let mut search = Refinement {
-            likelihood: &likelihood,
-            scratch,
-            parallel,
-            floor: f64::NEG_INFINITY,
-        };
-        for _ in 0..self.params.refine_steps {
-            search.round(&mut estimate, &mut observation, &step);
-            step /= 2.0;
-        }
-        if self.params.refined_particle && self.params.refine_steps > 0 && !report.lost {
-            // The refined state joins the particles with its likelihood, relative to
-            // the best particle's (the best of its chunk: weighed exactly).
-            let (best, _) = self.filter.max_weight();
-            let at_best = likelihood.observe(&best, &mut self.scratch[0]);
-            let gain = observation.log_likelihood - at_best.log_likelihood;
-            self.filter.substitute_lightest(estimate, gain);
-        }
+        self.build_space(frame)?;
+        let report = self.weigh(resampled);
+        let (estimate, observation) = self.refine(report.lost);
         let lost = report.lost
             || observation.occluded_fraction > self.params.lost_occluded_fraction
             || !observation.log_likelihood.is_finite();
@@ -386,6 +330,78 @@ impl PatternTracker {
             };
         }
         Ok(self.last)
+    }
+
+    /// The frame's scale space, built once per frame, never per particle (section
+    /// 3.3), and only where this frame's predicted particles and the refinement look,
+    /// at the levels the particles and the last estimate fall on (the refinement's
+    /// are added once its start is known).
+    fn build_space(&mut self, frame: PatternFrame<'_>) -> Result<()> {
+        let (window, span) = self.reach();
+        let crop = |grown: [usize; 4], out: &mut GrayImage| frame.window_to_gray(grown, out);
+        self.needed.clear();
+        self.needed
+            .extend(self.filter.particles().iter().map(|p| p[3]));
+        self.needed.push(self.last.state[3]);
+        let size = [self.width, self.height];
+        let needed = Some(&self.needed[..]);
+        self.space
+            .build_window_for(size, crop, &self.model, window, span, needed)
+    }
+
+    /// Weighs the predicted particles (eq. 6), those far below the best cut short;
+    /// every chunk compares its particles from the start with the last estimate's
+    /// likelihood on this frame.
+    fn weigh(&mut self, resampled: bool) -> StepReport {
+        let likelihood = PatternLikelihood::new(&self.model, &self.space);
+        while self.scratch.len() < 2 {
+            self.scratch.push(PatternScratch::default());
+        }
+        let last = SVector::from(self.last.state);
+        let reference = likelihood
+            .observe(&last, &mut self.scratch[0])
+            .log_likelihood;
+        let likelihood = likelihood
+            .with_early_exit(NEGLIGIBLE_LOG_WEIGHT)
+            .with_reference(reference);
+        self.filter
+            .correct_with_scratch(&likelihood, &mut self.scratch, resampled)
+    }
+
+    /// The weighted mean refined by the search of [`Self::update`], and its
+    /// observation; the refined state then replaces the lightest particle unless the
+    /// filter lost the target (`lost`).
+    fn refine(&mut self, lost: bool) -> (SVector<f64, 4>, Observation) {
+        let mut estimate = self.estimate();
+        // The refinement's levels: it stays within its reach of the estimate.
+        let reach = 2.0 * self.params.refine_first_step * self.params.sigma[3];
+        self.space
+            .ensure([estimate[3] - reach, estimate[3] + reach]);
+        let likelihood = PatternLikelihood::new(&self.model, &self.space);
+        let (first, second) = self.scratch.split_at_mut(1);
+        let scratch = [&mut first[0], &mut second[0]];
+        let mut observation = likelihood.observe(&estimate, scratch[0]);
+        let mut step = SVector::from(self.params.sigma) * self.params.refine_first_step;
+        let mut search = Refinement {
+            likelihood: &likelihood,
+            scratch,
+            parallel: self.params.filter.parallel,
+            floor: f64::NEG_INFINITY,
+        };
+        for _ in 0..self.params.refine_steps {
+            search.round(&mut estimate, &mut observation, &step);
+            step /= 2.0;
+        }
+        if self.params.refined_particle && self.params.refine_steps > 0 && !lost {
+            // The refined state joins the particles with its likelihood relative to
+            // the best particle's (weighed in full unless all of them fell far below
+            // the reference, when the refined state outweighs them all anyway).
+            let (best, _) = self.filter.max_weight();
+            let at_best = likelihood.observe(&best, &mut self.scratch[0]);
+            let gain = observation.log_likelihood - at_best.log_likelihood;
+            self.filter.substitute_lightest(estimate, gain);
+        }
+        (estimate, observation)
     }
 
     /// The frame window `[x0, y0, x1, y1)` and the scale span this frame's likelihood

@@ -376,3 +376,48 @@ fn effective_sample_size_formula() {
         assert!(effective_sample_size(bad).is_err(), "{bad:?}");
     }
 }
+
+/// `substitute_lightest` against the weights written out: the lightest particle
+/// becomes the new state with the heaviest one's likelihood times `exp(gain)`, the
+/// others keep their ratios, the mean is the weighted mean of the new set.
+#[test]
+fn substitute_lightest_weighs_the_new_state_against_the_heaviest() {
+    use nalgebra::Vector1;
+    let mut pf = ParticleFilter::new(
+        50,
+        Vector1::new(0.0),
+        SMatrix::identity() * 4.0,
+        LinearGaussian::random_walk(Vector1::new(0.5)),
+        FilterParams::default(),
+        3,
+    )
+    .unwrap();
+    pf.step(&|s: &SVector<f64, 1>| -0.5 * ((s[0] - 1.0) / 0.7).powi(2));
+    let before: Vec<f64> = pf.log_weights().to_vec();
+    let particles = pf.particles().to_vec();
+    let light = (0..50)
+        .min_by(|&a, &b| before[a].total_cmp(&before[b]))
+        .unwrap();
+    let heavy = (0..50)
+        .max_by(|&a, &b| before[a].total_cmp(&before[b]))
+        .unwrap();
+    let gain = 0.8;
+    pf.substitute_lightest(Vector1::new(1.05), gain);
+    // Unnormalised weights: the old ones with the lightest replaced.
+    let mut w: Vec<f64> = before.iter().map(|lw| lw.exp()).collect();
+    w[light] = before[heavy].exp() * gain.exp();
+    let total: f64 = w.iter().sum();
+    for (i, (&got, want)) in pf.weights().iter().zip(&w).enumerate() {
+        assert!((got - want / total).abs() < 1e-12, "particle {i}");
+    }
+    assert_eq!(pf.particles()[light][0], 1.05);
+    let mean: f64 = (0..50)
+        .map(|i| w[i] / total * if i == light { 1.05 } else { particles[i][0] })
+        .sum();
+    assert!((pf.mean()[0] - mean).abs() < 1e-12);
+    // A non-finite gain or state changes nothing.
+    let kept = pf.weights().to_vec();
+    pf.substitute_lightest(Vector1::new(2.0), f64::NAN);
+    pf.substitute_lightest(Vector1::new(f64::INFINITY), 1.0);
+    assert_eq!(pf.weights(), &kept[..]);
+}

@@ -580,3 +580,221 @@ fn a_windowed_scale_space_equals_the_whole_frame_blur_inside_its_window() {
         }
     }
 }
+
+/// Levels blurred on demand (`build_window_for`, then `ensure`) against the whole
+/// stack: a needed or ensured level equals the whole stack's, and a scale whose level
+/// is not blurred yet reads the nearest blurred one.
+#[test]
+fn levels_blurred_on_demand_equal_the_whole_stack() {
+    let m = model();
+    let mut frame = render(TRUTH, m.centre, FRAME);
+    add_noise(&mut frame, 3.0, 17);
+    let mut full = ScaleSpace::new();
+    full.build(&frame, &m).unwrap();
+    let window = [6, 5, 166, 167];
+    let same = |a: &GrayImage, b: &GrayImage| {
+        (window[1]..window[3]).all(|y| {
+            (window[0]..window[2]).all(|x| a.at(x, y) == b.at(x - window[0], y - window[1]))
+        })
+    };
+    let mut part = ScaleSpace::new();
+    let copy = |g: [usize; 4], out: &mut GrayImage| {
+        out.width = g[2] - g[0];
+        out.height = g[3] - g[1];
+        out.data = (g[1]..g[3])
+            .flat_map(|y| (g[0]..g[2]).map(move |x| (x, y)))
+            .map(|(x, y)| frame.at(x, y))
+            .collect();
+    };
+    // Levels of 1.0-2.0; only 1.0 (nearest to 0.9 and 1.1) is needed.
+    part.build_window_for(
+        [FRAME, FRAME],
+        copy,
+        &m,
+        window,
+        [1.0, 2.0],
+        Some(&[0.9, 1.1]),
+    )
+    .unwrap();
+    assert!(same(full.level(1.0), part.level(1.0)));
+    // 1.5 is not blurred: the nearest blurred level (1.0) answers.
+    assert!(same(full.level(1.0), part.level(1.5)));
+    assert!(!same(full.level(1.5), part.level(1.5)));
+    part.ensure([1.4, 1.6]);
+    assert!(same(full.level(1.5), part.level(1.5)));
+    let state = SVector::from([TRUTH[0], TRUTH[1], TRUTH[2], 1.5]);
+    let mut scratch = PatternScratch::default();
+    let whole = PatternLikelihood::new(&m, &full).observe(&state, &mut scratch);
+    let ensured = PatternLikelihood::new(&m, &part).observe(&state, &mut scratch);
+    assert_eq!(whole, ensured);
+}
+
+/// Eq. 6 computed the slow way for one state: each point placed by `place`, its vector
+/// sampled point by point with `sample_vector` on the level, `lambda` from the
+/// two-pass inter-correlation and `deviation`, then the worst `tolerated` left out
+/// after a full sort.
+fn brute_force_eq6(m: &PatternModel, space: &ScaleSpace, state: [f64; 4]) -> (f64, f64) {
+    use tracking::pattern::correlation::{deviation, inter_correlation};
+    use tracking::pattern::sample_vector;
+    let c = &m.config;
+    let image = space.level(state[3]);
+    let o = space.origin();
+    let st = SVector::from(state);
+    let mut lambdas: Vec<f64> = (0..m.points.len())
+        .map(|j| {
+            let (p, phi) = place(&st, m.offset(j), m.points[j].phi);
+            let mut v = vec![0.0f32; c.n_samples];
+            let q = [p[0] - o[0], p[1] - o[1]];
+            if !sample_vector(image, q, phi, c.delta * state[3], &mut v) {
+                return f64::INFINITY;
+            }
+            deviation(
+                inter_correlation(&m.points[j].vector, &v),
+                m.points[j].slope,
+            )
+        })
+        .collect();
+    let n = lambdas.len();
+    let occluded = lambdas
+        .iter()
+        .filter(|&&l| l > c.occlusion_threshold)
+        .count();
+    let tolerated = ((c.max_occluded_fraction * n as f64).floor() as usize).min(occluded);
+    lambdas.sort_by(f64::total_cmp);
+    let inv = 1.0 / (2.0 * c.sigma * c.sigma);
+    let kept: f64 = lambdas[..n - tolerated].iter().map(|l| l * l).sum();
+    let left = tolerated as f64 * c.occlusion_threshold.powi(2);
+    (-(kept + left) * inv, occluded as f64 / n as f64)
+}
+
+/// The observation model against eq. 6 computed point by point (states near and far,
+/// some with points leaving the frame or occluded beyond the tolerated fraction).
+#[test]
+fn observe_equals_eq6_computed_point_by_point() {
+    let m = model();
+    let mut frame = render(TRUTH, m.centre, FRAME);
+    add_noise(&mut frame, 3.0, 11);
+    let mut space = ScaleSpace::new();
+    space.build(&frame, &m).unwrap();
+    let lik = PatternLikelihood::new(&m, &space);
+    let mut scratch = PatternScratch::default();
+    let mut rng = seeded(12);
+    let mut far = 0;
+    for k in 0..200 {
+        let spread = if k % 2 == 0 { 1.0 } else { 8.0 };
+        let state = [
+            TRUTH[0] + spread * normal(&mut rng),
+            TRUTH[1] + spread * normal(&mut rng),
+            TRUTH[2] + 0.02 * spread * normal(&mut rng),
+            TRUTH[3] * (1.0 + 0.02 * spread * normal(&mut rng)),
+        ];
+        let (ll, occ) = brute_force_eq6(&m, &space, state);
+        let obs = lik.observe(&SVector::from(state), &mut scratch);
+        far += usize::from(occ > m.config.max_occluded_fraction);
+        if ll.is_finite() {
+            assert!(
+                (obs.log_likelihood - ll).abs() < 1e-3 * (1.0 + ll.abs()),
+                "{state:?}: {} vs {ll}",
+                obs.log_likelihood
+            );
+        } else {
+            assert_eq!(obs.log_likelihood, ll, "{state:?}");
+        }
+        assert_eq!(obs.occluded_fraction, occ, "{state:?}");
+    }
+    assert!(
+        far > 10,
+        "the states should include some beyond the tolerated occlusion"
+    );
+}
+
+/// `observe_above`'s contract against `observe`: the exact answer at or above the
+/// floor, an upper bound of it below the floor otherwise.
+#[test]
+fn observe_above_is_exact_above_its_floor_and_a_bound_below() {
+    let m = model();
+    let mut frame = render(TRUTH, m.centre, FRAME);
+    add_noise(&mut frame, 3.0, 15);
+    let mut space = ScaleSpace::new();
+    space.build(&frame, &m).unwrap();
+    let lik = PatternLikelihood::new(&m, &space);
+    let (mut s1, mut s2) = (PatternScratch::default(), PatternScratch::default());
+    let mut rng = seeded(16);
+    let mut bounded = 0;
+    for _ in 0..300 {
+        let state = SVector::from([
+            TRUTH[0] + 4.0 * normal(&mut rng),
+            TRUTH[1] + 4.0 * normal(&mut rng),
+            TRUTH[2] + 0.05 * normal(&mut rng),
+            TRUTH[3] * (1.0 + 0.05 * normal(&mut rng)),
+        ]);
+        let floor = -10.0 - 60.0 * rng.random::<f64>();
+        let exact = lik.observe(&state, &mut s1);
+        let got = lik.observe_above(&state, &mut s2, floor);
+        if exact.log_likelihood >= floor {
+            assert_eq!(got, exact, "{state:?} floor {floor}");
+        } else if got != exact {
+            bounded += 1;
+            assert!(
+                got.log_likelihood >= exact.log_likelihood && got.log_likelihood < floor,
+                "{got:?} {exact:?} floor {floor}"
+            );
+        }
+    }
+    assert!(bounded > 50, "only {bounded} states were bounded");
+}
+
+/// The early exit on one chunk's scratch, against the exact likelihood: a state cut
+/// short gets a value more than the margin below the best met before it in the
+/// chunk, and no state within a third of the margin of that best is cut.
+#[test]
+fn the_early_exit_cuts_only_states_far_below_the_best() {
+    use tracking::Likelihood;
+    let m = model();
+    let mut frame = render(TRUTH, m.centre, FRAME);
+    add_noise(&mut frame, 3.0, 13);
+    let mut space = ScaleSpace::new();
+    space.build(&frame, &m).unwrap();
+    let exact = PatternLikelihood::new(&m, &space);
+    let margin = 30.0;
+    let quick = PatternLikelihood::new(&m, &space).with_early_exit(margin);
+    let (mut s_exact, mut s_quick) = (PatternScratch::default(), PatternScratch::default());
+    let mut rng = seeded(14);
+    let (mut best, mut cut) = (f64::NEG_INFINITY, 0);
+    for _ in 0..300 {
+        let state = SVector::from([
+            TRUTH[0] + 4.0 * normal(&mut rng),
+            TRUTH[1] + 4.0 * normal(&mut rng),
+            TRUTH[2] + 0.05 * normal(&mut rng),
+            TRUTH[3] * (1.0 + 0.05 * normal(&mut rng)),
+        ]);
+        let want = exact.observe(&state, &mut s_exact).log_likelihood;
+        let got = quick.log_likelihood(&state, &mut s_quick);
+        if got != want {
+            cut += 1;
+            assert!(got < best - margin, "{got} {want} {best}");
+            assert!(want < best - margin / 3.0, "{got} {want} {best}");
+        }
+        best = best.max(want);
+    }
+    assert!(cut > 50, "only {cut} states were cut short");
+    // A new likelihood (the next frame) does not inherit the scratch's best.
+    let again = PatternLikelihood::new(&m, &space).with_early_exit(margin);
+    let far = SVector::from([TRUTH[0] + 30.0, TRUTH[1], TRUTH[2], TRUTH[3]]);
+    let far_exact = exact.observe(&far, &mut s_exact).log_likelihood;
+    assert_eq!(again.log_likelihood(&far, &mut s_quick), far_exact);
+    // With a reference (the truth's log-likelihood), a fresh chunk cuts that state
+    // short from its first particle on, below the reference by more than the margin.
+    let at_truth = exact
+        .observe(&SVector::from(TRUTH), &mut s_exact)
+        .log_likelihood;
+    assert!(far_exact < at_truth - margin);
+    let referenced = PatternLikelihood::new(&m, &space)
+        .with_early_exit(margin)
+        .with_reference(at_truth);
+    let got = referenced.log_likelihood(&far, &mut PatternScratch::default());
+    assert!(
+        got != far_exact && got < at_truth - margin,
+        "{got} {far_exact}"
+    );
+}

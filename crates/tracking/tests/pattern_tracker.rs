@@ -319,6 +319,14 @@ fn bad_input_is_refused_by_name() {
             new_error(&first, region(), params).parameter(),
             Some("sigma")
         );
+        let params = PatternTrackerParams {
+            refine_first_step: bad,
+            ..defaults()
+        };
+        assert_eq!(
+            new_error(&first, region(), params).parameter(),
+            Some("refine_first_step")
+        );
     }
 }
 

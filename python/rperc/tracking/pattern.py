@@ -119,10 +119,13 @@ class PatternTracker:
     frame's shape. ``sigma`` is the random walk's ``(sigma_x, sigma_y, sigma_theta,
     sigma_s)`` in pixels, pixels, radians, scale (section 4.1: 5, 5, 3 degrees, 0.1).
     ``refine_steps`` rounds of a local search refine the weighted mean on the same
-    frame (0: the seed's plain mean). ``lost_occluded_fraction``: the estimate is lost
-    above this occluded fraction. The ``pattern`` parameters (Canny thresholds, points,
-    profile length ``n_samples`` and step ``delta``, likelihood ``likelihood_sigma``,
-    occlusion) are the model's. A seed gives the same track on any number of threads.
+    frame (0: the seed's plain mean), with steps starting at ``refine_first_step``
+    sigmas and halved each round; with ``refined_particle`` the refined pose replaces
+    the lightest particle, so that the next frame starts from it.
+    ``lost_occluded_fraction``: the estimate is lost above this occluded fraction.
+    The ``pattern`` parameters (Canny thresholds, points, profile length
+    ``n_samples`` and step ``delta``, likelihood ``likelihood_sigma``, occlusion) are
+    the model's. A seed gives the same track on any number of threads.
 
     Examples
     --------
@@ -145,6 +148,8 @@ class PatternTracker:
         sigma: Sequence[float] = (5.0, 5.0, math.radians(3.0), 0.1),
         seed: int = 0,
         refine_steps: int = _TRACKER["refine_steps"],
+        refine_first_step: float = _TRACKER["refine_first_step"],
+        refined_particle: bool = _TRACKER["refined_particle"],
         lost_occluded_fraction: float = _TRACKER["lost_occluded_fraction"],
         canny_low: float = _PATTERN["canny_low"],
         canny_high: float = _PATTERN["canny_high"],
@@ -178,6 +183,8 @@ class PatternTracker:
             "n_particles": n_particles,
             "sigma": sig.tolist(),
             "refine_steps": refine_steps,
+            "refine_first_step": refine_first_step,
+            "refined_particle": refined_particle,
             "lost_occluded_fraction": lost_occluded_fraction,
             "pattern": pattern,
             "filter": {

@@ -483,6 +483,33 @@ impl<const D: usize> ParticleFilter<D> {
         (self.particles[best], self.weights[best])
     }
 
+    /// Replaces the particle of smallest weight by `state`, whose log-likelihood exceeds
+    /// that of the particle of largest weight by `gain` (a local search from the
+    /// estimate found it on the same frame): its log-weight is the best one's plus
+    /// `gain`, the weights are normalised again and the estimate recomputed. The next
+    /// step resamples from a set that holds it. Nothing changes for a non-finite gain
+    /// or state, or after a total loss.
+    pub fn substitute_lightest(&mut self, state: SVector<f64, D>, gain: f64) {
+        if self.lost || !gain.is_finite() || !state.iter().all(|v| v.is_finite()) {
+            return;
+        }
+        let (mut light, mut heavy) = (0, 0);
+        for (i, &lw) in self.log_weights.iter().enumerate() {
+            if lw < self.log_weights[light] {
+                light = i;
+            }
+            if lw > self.log_weights[heavy] {
+                heavy = i;
+            }
+        }
+        self.log_weights[light] = self.log_weights[heavy] + gain;
+        self.particles[light] = state;
+        if self.normalise() {
+            self.mean = self.weighted_mean();
+            self.ess = ess_normalized(self.weights.iter().copied());
+        }
+    }
+
     /// Effective sample size `1 / sum w^2` of the current weights.
     pub fn ess(&self) -> f64 {
         self.ess

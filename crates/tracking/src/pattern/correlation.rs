@@ -93,6 +93,44 @@ pub fn inter_correlation_with_energy(stored: &[f32], stored_energy: f64, observe
     }
 }
 
+/// The parts of [`inter_correlation`] that depend on the observed vector, in one pass
+/// over it: `(dot, energy)` with `dot = sum a (b - mean b)` and `energy = sum (b -
+/// mean b)^2`, so that `C = dot / sqrt(energy * sum a^2)`. `stored_sum` is `sum a`
+/// (zero up to rounding for a stored zero-mean vector).
+///
+/// One pass instead of two (mean, then the centred sums): `sum a (b - m) = sum a b - m
+/// sum a` and `sum (b - m)^2 = sum b^2 - m sum b`, with `b` taken relative to its first
+/// value so that the difference does not cancel digits of grey levels near 255. Four
+/// independent partial sums per quantity let the compiler keep them in one vector
+/// register.
+#[inline]
+pub fn centred_products(stored: &[f32], stored_sum: f32, observed: &[f32]) -> (f32, f32) {
+    let Some(&first) = observed.first() else {
+        return (0.0, 0.0);
+    };
+    let (mut s1, mut s2, mut sab) = ([0.0f32; 4], [0.0f32; 4], [0.0f32; 4]);
+    let (a4, b4) = (stored.chunks_exact(4), observed.chunks_exact(4));
+    let (a_rest, b_rest) = (a4.remainder(), b4.remainder());
+    for (a, b) in a4.zip(b4) {
+        for k in 0..4 {
+            let d = b[k] - first;
+            s1[k] += d;
+            s2[k] += d * d;
+            sab[k] += a[k] * d;
+        }
+    }
+    for (k, (&a, &b)) in a_rest.iter().zip(b_rest).enumerate() {
+        let d = b - first;
+        s1[k] += d;
+        s2[k] += d * d;
+        sab[k] += a * d;
+    }
+    let total = |v: [f32; 4]| (v[0] + v[1]) + (v[2] + v[3]);
+    let (s1, s2, sab) = (total(s1), total(s2), total(sab));
+    let mean = s1 / observed.len() as f32;
+    (sab - mean * stored_sum, (s2 - mean * s1).max(0.0))
+}
+
 /// The deviation `lambda = C~^-1(c)` of section 3.3 for the linear approximation
 /// `C~(lambda) = 1 + W lambda` (`W < 0`), in samples: `(1 - c) / |W|`.
 pub fn deviation(inter_correlation: f64, slope: f64) -> f64 {
@@ -149,6 +187,36 @@ mod tests {
                 .collect();
             assert!(lambdas[0].abs() < 1e-6 && lambdas[0] < lambdas[1] && lambdas[1] < lambdas[2]);
         }
+    }
+
+    /// The one-pass products against the two-pass definition, in f64.
+    #[test]
+    fn centred_products_match_the_two_pass_sums() {
+        for n in [1usize, 3, 4, 7, 12, 13] {
+            let mut a: Vec<f32> = (0..n).map(|l| ((l * 37) % 11) as f32 * 9.0).collect();
+            remove_mean(&mut a);
+            let b: Vec<f32> = (0..n)
+                .map(|l| 250.0 - ((l * 53) % 17) as f32 * 3.5)
+                .collect();
+            let mean = b.iter().map(|&g| f64::from(g)).sum::<f64>() / n as f64;
+            let dot: f64 = a
+                .iter()
+                .zip(&b)
+                .map(|(&x, &y)| f64::from(x) * (f64::from(y) - mean))
+                .sum();
+            let so: f64 = b.iter().map(|&y| (f64::from(y) - mean).powi(2)).sum();
+            let sum: f32 = a.iter().sum();
+            let (d, e) = centred_products(&a, sum, &b);
+            assert!(
+                (f64::from(d) - dot).abs() < 1e-3 * (1.0 + dot.abs()),
+                "n {n}: {d} vs {dot}"
+            );
+            assert!(
+                (f64::from(e) - so).abs() < 1e-3 * (1.0 + so),
+                "n {n}: {e} vs {so}"
+            );
+        }
+        assert_eq!(centred_products(&[], 0.0, &[]), (0.0, 0.0));
     }
 
     #[test]

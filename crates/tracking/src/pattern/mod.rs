@@ -11,6 +11,8 @@ mod sequence;
 mod tracker;
 
 pub use model::{MIN_REGION_SIDE, ModelPoint, PatternConfig, PatternModel, Region, sample_vector};
-pub use observation::{Observation, PatternLikelihood, PatternScratch, ScaleSpace, place};
+pub use observation::{
+    EXTRAPOLATE_AFTER, Observation, PatternLikelihood, PatternScratch, ScaleSpace, place,
+};
 pub use sequence::{PatternSequence, SequenceParams, generate_sequence};
 pub use tracker::{PatternFrame, PatternPose, PatternTracker, PatternTrackerParams, corners_of};

@@ -2,7 +2,7 @@
 //! `X = (x, y, theta, s)` from the inter-correlation of each model point's stored and
 //! observed grey-level vectors, with occlusion and scale space handling.
 
-use super::correlation::{deviation, energy, inter_correlation_with_energy};
+use super::correlation::{centred_products, energy};
 use super::model::{PatternModel, sample_along};
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -26,6 +26,8 @@ pub struct ScaleSpace {
     levels: Vec<Level>,
     origin: [f64; 2],
     crop: GrayImage,
+    /// The window inside the crop, `[x0, y0, x1, y1)`.
+    inner: [usize; 4],
     kernels: Vec<(f64, Arc<[f32]>)>,
 }
 
@@ -37,6 +39,16 @@ struct Level {
     kernel: Arc<[f32]>,
     blurred: GrayImage,
     scratch: GrayImage,
+    /// Blurred for this frame (see [`ScaleSpace::build_window_for`]).
+    ready: bool,
+}
+
+impl Level {
+    fn blur(&mut self, crop: &GrayImage, inner: [usize; 4]) {
+        crop.convolve_separable(&self.kernel, &mut self.scratch, &mut self.blurred);
+        copy_window(&self.blurred, inner, &mut self.image);
+        self.ready = true;
+    }
 }
 
 /// Below this many pixel-taps (crop pixels times kernel taps over all levels) the
@@ -104,6 +116,24 @@ impl ScaleSpace {
         window: [usize; 4],
         span: [f64; 2],
     ) -> Result<()> {
+        self.build_window_for(size, crop, model, window, span, None)
+    }
+
+    /// [`Self::build_window_with`] that blurs, of the levels of `span`, only those
+    /// nearest to one of the scales `needed` (the particles' and the reference
+    /// state's; all of them for `None`); [`Self::ensure`] blurs others later from the
+    /// same crop (the refinement's, once its start is known). Every state whose
+    /// nearest level of `span` is blurred reads the same values as from the whole
+    /// stack: [`Self::level`] takes the nearest blurred level.
+    pub fn build_window_for(
+        &mut self,
+        size: [usize; 2],
+        crop: impl FnOnce([usize; 4], &mut GrayImage),
+        model: &PatternModel,
+        window: [usize; 4],
+        span: [f64; 2],
+        needed: Option<&[f64]>,
+    ) -> Result<()> {
         let config = &model.config;
         let all = &config.scale_levels;
         // Clamped first: infinite spans (the whole stack) would tie every level.
@@ -115,6 +145,11 @@ impl ScaleSpace {
         self.levels.resize_with(self.scales.len(), Level::default);
         for (level, &s) in self.levels.iter_mut().zip(&self.scales) {
             level.kernel = kernel(&mut self.kernels, config.blur_sigma * s);
+            level.ready = false;
+        }
+        let mut wanted = vec![needed.is_none(); self.scales.len()];
+        for &s in needed.unwrap_or(&[]) {
+            wanted[nearest(&self.scales, s)] = true;
         }
         let [width, height] = size;
         let [x0, y0] = [window[0].min(width), window[1].min(height)];
@@ -136,19 +171,40 @@ impl ScaleSpace {
             (y1 + r).min(height),
         ];
         crop(grown, &mut self.crop);
-        let inner = [x0 - grown[0], y0 - grown[1], x1 - grown[0], y1 - grown[1]];
-        let crop = &self.crop;
-        let blur = |level: &mut Level| {
-            crop.convolve_separable(&level.kernel, &mut level.scratch, &mut level.blurred);
-            copy_window(&level.blurred, inner, &mut level.image);
-        };
-        let taps: usize = self.levels.iter().map(|l| l.kernel.len()).sum();
-        if self.levels.len() > 1 && crop.data.len() * taps >= PARALLEL_BLUR_WORK {
-            self.levels.par_iter_mut().for_each(blur);
-        } else {
-            self.levels.iter_mut().for_each(blur);
-        }
+        self.inner = [x0 - grown[0], y0 - grown[1], x1 - grown[0], y1 - grown[1]];
+        self.blur_levels(&wanted);
         Ok(())
+    }
+
+    /// Blurs the levels nearest to the scales of `span = [s_lo, s_hi]` and those
+    /// between, among the levels of the last build, that are not blurred yet.
+    pub fn ensure(&mut self, span: [f64; 2]) {
+        if self.scales.is_empty() || span.iter().any(|v| v.is_nan()) || span[0] > span[1] {
+            return;
+        }
+        let (lo, hi) = (
+            nearest(&self.scales, span[0]),
+            nearest(&self.scales, span[1]),
+        );
+        let wanted: Vec<bool> = (0..self.levels.len())
+            .map(|k| (lo..=hi).contains(&k) && !self.levels[k].ready)
+            .collect();
+        self.blur_levels(&wanted);
+    }
+
+    /// Blurs the levels `k` with `wanted[k]`, in parallel when there is enough work.
+    fn blur_levels(&mut self, wanted: &[bool]) {
+        let (crop, inner) = (&self.crop, self.inner);
+        let chosen = || self.levels.iter().zip(wanted).filter(|(_, w)| **w);
+        let taps: usize = chosen().map(|(l, _)| l.kernel.len()).sum();
+        let parallel = chosen().count() > 1 && crop.data.len() * taps >= PARALLEL_BLUR_WORK;
+        let levels = self.levels.iter_mut().zip(wanted).filter(|(_, w)| **w);
+        if parallel {
+            let mut todo: Vec<&mut Level> = levels.map(|(l, _)| l).collect();
+            todo.par_iter_mut().for_each(|l| l.blur(crop, inner));
+        } else {
+            levels.for_each(|(l, _)| l.blur(crop, inner));
+        }
     }
 
     /// Pixel coordinates of the levels' top-left pixel in the frame.
@@ -156,9 +212,17 @@ impl ScaleSpace {
         self.origin
     }
 
-    /// The level nearest to scale `s` (the first one for `s <= 1`).
+    /// The blurred level nearest to scale `s` (the first one for `s <= 1`).
     pub fn level(&self, s: f64) -> &GrayImage {
-        &self.levels[nearest(&self.scales, s)].image
+        let k = self
+            .levels
+            .iter()
+            .zip(&self.scales)
+            .enumerate()
+            .filter(|(_, (l, _))| l.ready)
+            .min_by(|a, b| (a.1.1 - s).abs().total_cmp(&(b.1.1 - s).abs()))
+            .map_or(0, |(k, _)| k);
+        &self.levels[k].image
     }
 
     /// Number of levels.
@@ -182,12 +246,15 @@ pub struct Observation {
     pub occluded_fraction: f64,
 }
 
-/// Per-thread buffers of [`PatternLikelihood`]: one observed vector and the point
-/// deviations, so that no particle allocates.
+/// Per-chunk buffers of [`PatternLikelihood`]: one observed vector and the point
+/// deviations, so that no particle allocates, and the best log-likelihood met so far
+/// in the chunk by a likelihood with an early exit (and which one it was).
 #[derive(Debug, Clone, Default)]
 pub struct PatternScratch {
     observed: Vec<f32>,
     deviations: Vec<f64>,
+    best: f64,
+    generation: u64,
 }
 
 /// The observation model of one frame: a model and the frame's scale space.
@@ -195,17 +262,80 @@ pub struct PatternScratch {
 pub struct PatternLikelihood<'a> {
     model: &'a PatternModel,
     space: &'a ScaleSpace,
+    /// The model points in the order they are visited: interleaved along the
+    /// contours, so that any first few of them spread over the whole pattern.
     points: Vec<PointGeometry>,
+    early_exit: Option<EarlyExit>,
+}
+
+/// See [`PatternLikelihood::with_early_exit`].
+#[derive(Debug, Clone, Copy)]
+struct EarlyExit {
+    margin: f64,
+    generation: u64,
+    reference: f64,
+}
+
+/// How [`PatternLikelihood::fill_deviations`] values a state it stops early on.
+#[derive(Debug, Clone, Copy)]
+enum Stop {
+    /// The cost of the points seen: an upper bound of the log-likelihood.
+    Bound,
+    /// The cost of the points seen scaled to all points, from
+    /// [`EXTRAPOLATE_AFTER`] points on: an estimate.
+    Extrapolate,
+}
+
+impl Stop {
+    fn min_points(self) -> usize {
+        match self {
+            Stop::Bound => 0,
+            Stop::Extrapolate => EXTRAPOLATE_AFTER,
+        }
+    }
+}
+
+/// Points seen before [`PatternLikelihood::with_early_exit`] extrapolates a state's
+/// log-likelihood.
+pub const EXTRAPOLATE_AFTER: usize = 16;
+
+/// Model points sampled and correlated together (and between two checks of the early
+/// exit's bound).
+const BATCH: usize = 8;
+
+/// Tells apart the likelihoods with an early exit, so that a scratch carried over
+/// from another frame does not bring its best log-likelihood along.
+static GENERATION: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+
+/// The order model points are visited in: `0, k, 2k, ... (mod n)` with the stride `k`
+/// near `n / golden ratio` and prime to `n`, a permutation that spreads consecutive
+/// visits over the contours.
+fn interleaved(n: usize) -> impl Iterator<Item = usize> {
+    let gcd = |mut a: usize, mut b: usize| {
+        while b != 0 {
+            (a, b) = (b, a % b);
+        }
+        a
+    };
+    let mut stride = ((n as f64 * 0.618_034).round() as usize).max(1);
+    while n > 1 && gcd(stride, n) != 1 {
+        stride += 1;
+    }
+    (0..n).map(move |k| (k * stride) % n)
 }
 
 /// What a particle needs of a model point besides its vector, computed once per frame
-/// (not per particle): its pixel offset, the unit vector of its gradient direction, and
-/// its vector's energy.
+/// (not per particle): its pixel offset, the unit vector of its gradient direction, its
+/// vector's energy and sum, and `1 / |W|`, so that `lambda = (1 - C) / |W|` costs no
+/// division.
 #[derive(Debug, Clone, Copy)]
 struct PointGeometry {
+    index: usize,
     offset: [f64; 2],
     direction: [f64; 2],
     energy: f64,
+    sum: f32,
+    inverse_slope: f64,
 }
 
 /// Where model point offset `(dx, dy)` and direction `phi` land for state `x`: the
@@ -222,14 +352,18 @@ pub fn place(state: &SVector<f64, 4>, offset: [f64; 2], phi: f64) -> ([f64; 2], 
 impl<'a> PatternLikelihood<'a> {
     /// The observation model of `model` in the frame whose scale space is `space`.
     pub fn new(model: &'a PatternModel, space: &'a ScaleSpace) -> Self {
-        let points = (0..model.points.len())
+        let points = interleaved(model.points.len())
             .map(|j| {
                 let point = &model.points[j];
                 let (s, c) = point.phi.sin_cos();
                 PointGeometry {
+                    index: j,
                     offset: model.offset(j),
                     direction: [c, s],
                     energy: energy(&point.vector),
+                    sum: point.vector.iter().sum(),
+                    // As `correlation::deviation`: a zero slope gives a huge deviation.
+                    inverse_slope: 1.0 / point.slope.abs().max(f64::MIN_POSITIVE),
                 }
             })
             .collect();
@@ -237,7 +371,41 @@ impl<'a> PatternLikelihood<'a> {
             model,
             space,
             points,
+            early_exit: None,
         }
+    }
+
+    /// The same observation model, whose [`Likelihood::log_likelihood`] stops early on
+    /// states that do not matter: within one chunk of particles (weighed in order on
+    /// one scratch), once [`EXTRAPOLATE_AFTER`] points or more (interleaved over the
+    /// contours) put a state's log-likelihood, extrapolated to all points, more than
+    /// `margin` below the best one met before it in the chunk, it gets that
+    /// extrapolation instead of its value. Its weight is then about `exp(-margin)`
+    /// times the best particle's or less (a margin of 30 is a relative weight of
+    /// 1e-13): eq. 6 is so sharp that one particle carries nearly all the weight, and
+    /// most particles are that far below it. The answer still depends only on the
+    /// chunk's particles, never on the number of threads. [`Self::observe`] and
+    /// [`Self::observe_above`] stay exact.
+    pub fn with_early_exit(mut self, margin: f64) -> Self {
+        use std::sync::atomic::Ordering;
+        let generation = GENERATION.fetch_add(1, Ordering::Relaxed);
+        self.early_exit = Some(EarlyExit {
+            margin,
+            generation,
+            reference: f64::NEG_INFINITY,
+        });
+        self
+    }
+
+    /// With an early exit, every chunk starts as if it had already met a state of
+    /// log-likelihood `reference` (a tracker's last estimate on the new frame, weighed
+    /// before the particles), so that its first particles can be cut short too. Does
+    /// nothing without [`Self::with_early_exit`].
+    pub fn with_reference(mut self, reference: f64) -> Self {
+        if let Some(exit) = &mut self.early_exit {
+            exit.reference = reference;
+        }
+        self
     }
 
     /// The likelihood and occlusion fraction of `state` (eqs. 5-6).
@@ -251,6 +419,31 @@ impl<'a> PatternLikelihood<'a> {
     /// state would gain likelihood by occluding points, and states with different
     /// numbers of occluded points could not be compared.
     pub fn observe(&self, state: &SVector<f64, 4>, scratch: &mut PatternScratch) -> Observation {
+        self.observe_until(state, scratch, f64::NEG_INFINITY, Stop::Bound)
+    }
+
+    /// [`Self::observe`], or, once the points seen bound the log-likelihood below
+    /// `floor`, that upper bound and the occluded fraction of the points seen: the
+    /// exact answer whenever it is `>= floor`. Each point adds at least `min(lambda,
+    /// T)^2 / (2 sigma^2)` to the cost of eq. 6 (a left-out point adds `T^2` and is
+    /// above `T`), so the points seen bound the log-likelihood from above.
+    pub fn observe_above(
+        &self,
+        state: &SVector<f64, 4>,
+        scratch: &mut PatternScratch,
+        floor: f64,
+    ) -> Observation {
+        self.observe_until(state, scratch, floor, Stop::Bound)
+    }
+
+    /// [`Self::observe`], stopped by the rule `stop` below `floor`.
+    fn observe_until(
+        &self,
+        state: &SVector<f64, 4>,
+        scratch: &mut PatternScratch,
+        floor: f64,
+        stop: Stop,
+    ) -> Observation {
         let n = self.model.points.len();
         if self.space.is_empty()
             || n == 0
@@ -262,70 +455,134 @@ impl<'a> PatternLikelihood<'a> {
                 occluded_fraction: 1.0,
             };
         }
-        self.fill_deviations(state, scratch);
         let config = &self.model.config;
         let threshold = config.occlusion_threshold;
-        let occluded = scratch
-            .deviations
-            .iter()
-            .filter(|&&l| l > threshold)
-            .count();
-        let tolerated = ((config.max_occluded_fraction * n as f64).floor() as usize).min(occluded);
-        // The `tolerated` largest deviations are left out: move them to the end.
-        let d = &mut scratch.deviations;
-        if tolerated > 0 {
+        if let Some(bound) = self.fill_deviations(state, scratch, floor, stop) {
+            let d = &scratch.deviations;
+            let occluded = d.iter().filter(|&&l| l > threshold).count();
+            return Observation {
+                log_likelihood: bound,
+                occluded_fraction: occluded as f64 / d.len() as f64,
+            };
+        }
+        let (mut occluded, mut below) = (0usize, 0.0);
+        for &l in &scratch.deviations {
+            if l > threshold {
+                occluded += 1;
+            } else {
+                below += l * l;
+            }
+        }
+        let allowed = (config.max_occluded_fraction * n as f64).floor() as usize;
+        let tolerated = allowed.min(occluded);
+        // The `tolerated` largest deviations are left out. When every occluded point is
+        // (the usual case) they are exactly those above the threshold; otherwise the
+        // occluded ones beyond the tolerated count with their own terms, the smallest
+        // first.
+        let mut squares = below;
+        if occluded > tolerated {
+            let d = &mut scratch.deviations;
             d.select_nth_unstable_by(n - tolerated, |a, b| a.total_cmp(b));
+            squares += d[..n - tolerated]
+                .iter()
+                .filter(|&&l| l > threshold)
+                .map(|l| l * l)
+                .sum::<f64>();
         }
         let inv = 1.0 / (2.0 * config.sigma * config.sigma);
-        let kept: f64 = d[..n - tolerated].iter().map(|l| -l * l * inv).sum();
-        let left_out = tolerated as f64 * (-threshold * threshold * inv);
+        let left_out = tolerated as f64 * threshold * threshold;
         Observation {
-            log_likelihood: kept + left_out,
+            log_likelihood: -(squares + left_out) * inv,
             occluded_fraction: occluded as f64 / n as f64,
         }
     }
 
     /// The deviation of every model point for `state` into `scratch.deviations`
-    /// (infinite when the observed vector leaves the frame).
+    /// (infinite when the observed vector leaves the frame), in the order of
+    /// `self.points`; or, as soon as the points seen put the log-likelihood below
+    /// `floor` by the rule `stop` (checked every [`BATCH`] points), its value by that
+    /// rule.
     ///
     /// The similarity of [`place`] with `sin theta` and `cos theta` taken once per
     /// state: a point's position is `centre + s R (dx, dy)` and its direction `R (cos
     /// phi, sin phi)`, i.e. `phi - theta`, with `R = [[c, s], [-s, c]]`.
-    fn fill_deviations(&self, state: &SVector<f64, 4>, scratch: &mut PatternScratch) {
+    fn fill_deviations(
+        &self,
+        state: &SVector<f64, 4>,
+        scratch: &mut PatternScratch,
+        floor: f64,
+        stop: Stop,
+    ) -> Option<f64> {
         let config = &self.model.config;
+        let bounded = floor > f64::NEG_INFINITY;
+        let threshold = config.occlusion_threshold;
+        let inv = 1.0 / (2.0 * config.sigma * config.sigma);
+        let mut cost = 0.0;
         let image = self.space.level(state[3]);
         let origin = self.space.origin();
         let (sin, cos) = state[2].sin_cos();
         let scale = state[3];
         let centre = [state[0] - origin[0], state[1] - origin[1]];
         let step = config.delta * scale;
-        scratch.observed.resize(config.n_samples, 0.0);
+        let ns = config.n_samples;
+        scratch.observed.resize(BATCH * ns, 0.0);
         scratch.deviations.clear();
-        for (point, geometry) in self.model.points.iter().zip(&self.points) {
-            let [dx, dy] = geometry.offset;
-            let p = [
-                centre[0] + scale * (cos * dx + sin * dy),
-                centre[1] + scale * (-sin * dx + cos * dy),
-            ];
-            let [u, v] = geometry.direction;
-            let direction = [cos * u + sin * v, -sin * u + cos * v];
-            let lambda = if sample_along(image, p, direction, step, &mut scratch.observed) {
-                let c = inter_correlation_with_energy(
-                    &point.vector,
-                    geometry.energy,
-                    &scratch.observed,
-                );
-                deviation(c, point.slope)
-            } else {
-                f64::INFINITY
-            };
-            // A NaN grey level (a corrupt frame) makes the point occluded, not the sum NaN.
-            scratch.deviations.push(if lambda.is_nan() {
-                f64::INFINITY
-            } else {
-                lambda
-            });
+        let n = self.points.len();
+        // A batch of points is sampled, then correlated, then turned into deviations:
+        // the square roots and divisions of a batch overlap instead of each waiting for
+        // its own point's samples.
+        for (b, batch) in self.points.chunks(BATCH).enumerate() {
+            let mut inside = [false; BATCH];
+            let buffers = scratch.observed.chunks_exact_mut(ns);
+            for ((geometry, ok), out) in batch.iter().zip(&mut inside).zip(buffers) {
+                let [dx, dy] = geometry.offset;
+                let p = [
+                    centre[0] + scale * (cos * dx + sin * dy),
+                    centre[1] + scale * (-sin * dx + cos * dy),
+                ];
+                let [u, v] = geometry.direction;
+                let direction = [cos * u + sin * v, -sin * u + cos * v];
+                *ok = sample_along(image, p, direction, step, out);
+            }
+            let mut products = [(0.0f32, 0.0f32); BATCH];
+            let buffers = scratch.observed.chunks_exact(ns);
+            for ((geometry, product), observed) in batch.iter().zip(&mut products).zip(buffers) {
+                let stored = &self.model.points[geometry.index].vector;
+                *product = centred_products(stored, geometry.sum, observed);
+            }
+            for ((geometry, &(dot, energy)), &ok) in batch.iter().zip(&products).zip(&inside) {
+                let norm = f64::from(energy) * geometry.energy;
+                // The inter-correlation of section 3.3, 0 for a flat vector.
+                let c = if norm > 1e-18 {
+                    f64::from(dot) / norm.sqrt()
+                } else {
+                    0.0
+                };
+                let lambda = (1.0 - c) * geometry.inverse_slope;
+                // Outside the frame, or a NaN grey level (a corrupt frame): the point
+                // is occluded, the sum is not NaN.
+                let lambda = if ok && !lambda.is_nan() {
+                    lambda
+                } else {
+                    f64::INFINITY
+                };
+                scratch.deviations.push(lambda);
+                let capped = lambda.min(threshold);
+                cost += capped * capped;
+            }
+            let seen = (b + 1) * BATCH;
+            if bounded && seen < n {
+                let bound = -cost * inv;
+                let cut = match stop {
+                    Stop::Bound => bound,
+                    Stop::Extrapolate => bound * n as f64 / seen as f64,
+                };
+                if seen >= stop.min_points() && cut < floor {
+                    return Some(cut);
+                }
+            }
         }
+        None
     }
 }
 
@@ -336,11 +593,25 @@ impl Likelihood<4> for PatternLikelihood<'_> {
         PatternScratch {
             observed: Vec::with_capacity(self.model.config.n_samples),
             deviations: Vec::with_capacity(self.model.points.len()),
+            best: f64::NEG_INFINITY,
+            generation: 0,
         }
     }
 
     fn log_likelihood(&self, state: &SVector<f64, 4>, scratch: &mut PatternScratch) -> f64 {
-        self.observe(state, scratch).log_likelihood
+        let Some(exit) = self.early_exit else {
+            return self.observe(state, scratch).log_likelihood;
+        };
+        if scratch.generation != exit.generation {
+            scratch.generation = exit.generation;
+            scratch.best = exit.reference;
+        }
+        let floor = scratch.best - exit.margin;
+        let ll = self
+            .observe_until(state, scratch, floor, Stop::Extrapolate)
+            .log_likelihood;
+        scratch.best = scratch.best.max(ll);
+        ll
     }
 }
 

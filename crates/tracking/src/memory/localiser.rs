@@ -47,6 +47,9 @@ pub struct LocaliserParams {
     /// After this many frames in a row in which every tracked model was refused, the
     /// filter restarts from the models (the prediction, not they, was wrong).
     pub max_refused_frames: usize,
+    /// A restarted tracker's state is used after this many updates: it starts at the
+    /// filter's own prediction, and using it at once would confirm the prediction.
+    pub settle_frames: usize,
     /// Standard deviation of a localiser's starting guess `[x m, y m, theta rad]`.
     pub guess_sigma: [f64; 3],
 }
@@ -66,6 +69,7 @@ impl Default for LocaliserParams {
             odometry_sigma: [0.05, 0.05, 0.003, 0.004],
             gate_probability: 0.999,
             max_refused_frames: 3,
+            settle_frames: 2,
             // The replays start within 10 cm and 0.1 rad of the first key image.
             guess_sigma: [0.15, 0.15, 0.15],
         }

@@ -148,6 +148,9 @@ pub struct FrameReport {
 struct Track {
     id: usize,
     tracker: PatternTracker,
+    /// Updates since the tracker (re)started: a restarted tracker begins at eq. 2's
+    /// prediction, so its first states are partly that prediction, not a measurement.
+    updates: usize,
 }
 
 /// Builds a mosaic (mapping on) or localises against one (mapping off).
@@ -368,6 +371,7 @@ impl MosaicBuilder {
         let mut kept = Vec::with_capacity(self.tracks.len());
         for mut track in std::mem::take(&mut self.tracks) {
             let pose = track.tracker.update(PatternFrame::Gray(view))?;
+            track.updates += 1;
             let inside = pose.corners.iter().all(|c| self.seen(*c, margin));
             if pose.lost || pose.score < min_score || !inside {
                 report.stopped.push(track.id);
@@ -445,8 +449,10 @@ impl MosaicBuilder {
     /// Each tracked model's measurement for the pose filter: its rotation is worth a
     /// pixel over its rotation lever (a disc's, nothing).
     fn sightings(&self) -> Vec<(usize, ModelSighting)> {
+        let settle = self.params.localiser.settle_frames;
         self.tracks
             .iter()
+            .filter(|t| t.updates >= settle)
             .map(|t| {
                 let model = &self.models[t.id];
                 let sighting = ModelSighting {
@@ -569,7 +575,11 @@ impl MosaicBuilder {
                 self.params.tracker.clone(),
                 self.stream(id),
             )?;
-            self.tracks.push(Track { id, tracker });
+            self.tracks.push(Track {
+                id,
+                tracker,
+                updates: 0,
+            });
             report.reacquired.push(id);
         }
         Ok(())
@@ -638,7 +648,13 @@ impl MosaicBuilder {
                 covariance,
                 created: self.frame,
             });
-            self.tracks.push(Track { id, tracker });
+            // A new model's window defines its frame: its state is exact now.
+            let updates = self.params.localiser.settle_frames;
+            self.tracks.push(Track {
+                id,
+                tracker,
+                updates,
+            });
             report.created.push(id);
         }
         Ok(())

@@ -195,3 +195,19 @@ def test_key_image_boxes_are_drawn_where_the_real_camera_sees_the_models() -> No
             gaps.append(np.hypot(*(drawn - seen)))
     # Drawn with the ideal coordinates as they are, the centres sit ~15 px off here.
     assert gaps and np.median(gaps) < 1.0 and max(gaps) < 2.0, gaps
+
+
+def test_replay_poses_are_not_overconfident(learnt) -> None:
+    """A covariance that claims too much shows as NEES in the chi-square tail: over
+    the replays' localised frames, at most 5 % may lie beyond the 99 % quantile of
+    chi-square with 3 dof (1 % for an honest filter)."""
+    from scipy.stats import chi2
+
+    from rperc.navigation.memory import localization_nees
+
+    world, learning = learnt
+    _, runs = evaluate(world, learning, starts=3, seed=4)
+    nees = np.concatenate([localization_nees(learning, r.frames) for r in runs])
+    nees = nees[np.isfinite(nees)]
+    assert len(nees) > 100
+    assert (nees > chi2.ppf(0.99, 3)).mean() <= 0.05, np.sort(nees)[-10:]

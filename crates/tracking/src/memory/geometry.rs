@@ -141,3 +141,25 @@ pub fn fit_pose(pairs: &[([f64; 2], [f64; 2], f64)]) -> Option<Pose2> {
         theta,
     ))
 }
+
+/// The largest distance between two of `points` (0 for fewer than two): how far
+/// apart the models are that a fit would take the heading from.
+///
+/// # Examples
+/// ```
+/// use tracking::memory::spread;
+///
+/// assert_eq!(spread(&[[0.0, 0.0], [3.0, 4.0], [1.0, 1.0]]), 5.0);
+/// assert_eq!(spread(&[[2.0, 2.0]]), 0.0);
+/// ```
+pub fn spread(points: &[[f64; 2]]) -> f64 {
+    points
+        .iter()
+        .enumerate()
+        .flat_map(|(i, a)| {
+            points[i + 1..]
+                .iter()
+                .map(move |b| (a[0] - b[0]).hypot(a[1] - b[1]))
+        })
+        .fold(0.0, f64::max)
+}

@@ -11,7 +11,9 @@ mod run;
 mod salient;
 mod servo;
 
-pub use geometry::{ImageScale, PointPair, fit_pose, fuse, new_model_in_mosaic, robot_in_mosaic};
+pub use geometry::{
+    ImageScale, PointPair, fit_pose, fuse, new_model_in_mosaic, robot_in_mosaic, spread,
+};
 pub use keyimages::{
     KeyImage, KeyImageParams, LearntFrame, TrackedModel, check_chain, select_key_images, separation,
 };

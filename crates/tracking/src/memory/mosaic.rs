@@ -7,7 +7,7 @@
 use rperc_core::Pose2;
 use rperc_core::image::{GrayImage, GrayView};
 
-use super::geometry::{ImageScale, PointPair, fit_pose};
+use super::geometry::{ImageScale, PointPair, fit_pose, spread};
 use super::keyimages::TrackedModel;
 use super::localiser::{LocaliserParams, ModelSighting, PoseFilter};
 use super::salient::{ProposalParams, propose_regions};
@@ -141,7 +141,8 @@ pub struct FrameReport {
     pub reacquired: Vec<usize>,
     /// Models whose tracker was stopped in this frame.
     pub stopped: Vec<usize>,
-    /// No model is tracked: the pose (if any) is dead reckoning.
+    /// No model's image pose was used (none tracked, none settled, or all refused by
+    /// the gate): the pose (if any) is dead reckoning.
     pub lost: bool,
 }
 
@@ -301,7 +302,8 @@ impl MosaicBuilder {
     }
 
     /// One frame of the real camera, with the odometry's motion since the last frame
-    /// (robot frame, mosaic units) used only while no model is tracked.
+    /// (robot frame, metres; converted to the mosaic's units here), which predicts
+    /// the pose filter.
     pub fn process(&mut self, frame: GrayView<'_>, odometry: Option<Pose2>) -> Result<FrameReport> {
         self.correct(frame)?;
         let mut report = FrameReport::default();
@@ -482,22 +484,15 @@ impl MosaicBuilder {
                 ([s.model_in_mosaic.x, s.model_in_mosaic.y], [c.x, c.y], 1.0)
             })
             .collect();
-        let spread = pairs
-            .iter()
-            .flat_map(|a| {
-                pairs
-                    .iter()
-                    .map(move |b| (a.1[0] - b.1[0]).hypot(a.1[1] - b.1[1]))
-            })
-            .fold(0.0, f64::max)
-            / self.scale.metres_per_pixel;
+        let robot: Vec<[f64; 2]> = pairs.iter().map(|p| p.1).collect();
+        let baseline = spread(&robot) / self.scale.metres_per_pixel;
         let Some((_, best)) = sightings
             .iter()
             .min_by(|a, b| a.1.rotation_sigma.total_cmp(&b.1.rotation_sigma))
         else {
             return;
         };
-        let fitted = if spread >= RESTART_BASELINE {
+        let fitted = if baseline >= RESTART_BASELINE {
             fit_pose(&pairs)
         } else {
             None

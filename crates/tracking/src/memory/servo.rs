@@ -11,7 +11,7 @@
 
 use rperc_core::{Pose2, wrap_angle};
 
-use super::geometry::{ImageScale, fit_pose, fuse};
+use super::geometry::{ImageScale, fit_pose, fuse, spread};
 use super::keyimages::{KeyImage, TrackedModel};
 use crate::error::Result;
 
@@ -104,15 +104,8 @@ pub fn key_error(
         };
         single.push((now.compose(&then.inverse()), m.score));
     }
-    let spread = pairs
-        .iter()
-        .flat_map(|a| {
-            pairs
-                .iter()
-                .map(move |b| (a.0[0] - b.0[0]).hypot(a.0[1] - b.0[1]))
-        })
-        .fold(0.0, f64::max);
-    let fitted = if spread >= MIN_BASELINE {
+    let now: Vec<[f64; 2]> = pairs.iter().map(|p| p.0).collect();
+    let fitted = if spread(&now) >= MIN_BASELINE {
         fit_pose(&pairs)
     } else {
         None

@@ -3,10 +3,11 @@
 written out in numpy, for the plain variant (no anchor, no freezing), term for term:
 
 - the unicycle of ``reference_planar_ekf`` (the sensor at the robot's origin);
-- world walls ``(rho, alpha)`` observed as ``rho_r = rho - x cos a - y sin a``,
-  ``alpha_r = alpha - theta``, written with ``rho_r >= 0`` (``crates/slam/src/wall.rs``),
-  the innovation compared with the line's other form when the angles are more than
-  pi/2 apart;
+- each wall's line ``(rho, alpha)`` about its reference point ``o`` (the middle of
+  the segment that first showed it), observed as
+  ``rho_r = rho - (x - o_x) cos a - (y - o_y) sin a``, ``alpha_r = alpha - theta``,
+  written with ``rho_r >= 0`` (``crates/slam/src/wall.rs``), the innovation compared
+  with the line's other form when the angles are more than pi/2 apart;
 - pairing: segment overlap on the wall's line (gap <= ``overlap_gap``) and the
   Mahalanobis gate; each detection takes its nearest wall; a detection with no wall
   inside the gate becomes new only outside the admission gate of every overlapping
@@ -50,6 +51,17 @@ def wall_to_world(pose: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return np.array([rho, wrap(alpha)]), g_r, g_z
 
 
+def shifted(pose: np.ndarray, origin: np.ndarray) -> np.ndarray:
+    """The pose seen from a wall's reference point."""
+    return np.array([pose[0] - origin[0], pose[1] - origin[1], pose[2]])
+
+
+def in_frame(line: np.ndarray, origin: np.ndarray) -> np.ndarray:
+    """A line about ``origin`` as a line about the frame's origin."""
+    s, c = math.sin(line[1]), math.cos(line[1])
+    return np.array([line[0] + c * origin[0] + s * origin[1], line[1]])
+
+
 def to_world(pose: np.ndarray, p: np.ndarray) -> np.ndarray:
     s, c = math.sin(pose[2]), math.cos(pose[2])
     return np.array([pose[0] + c * p[0] - s * p[1], pose[1] + s * p[0] + c * p[1]])
@@ -83,6 +95,7 @@ class WallEkfSlam:
     x: np.ndarray = field(init=False)
     P: np.ndarray = field(init=False)
     extents: list[list[np.ndarray]] = field(init=False, default_factory=list)
+    origins: list[np.ndarray] = field(init=False, default_factory=list)
 
     def __post_init__(self) -> None:
         self.x = np.array(self.pose, dtype=float)
@@ -101,7 +114,7 @@ class WallEkfSlam:
         self, j: int, z: np.ndarray, r: np.ndarray
     ) -> tuple[float, np.ndarray, np.ndarray]:
         o = 3 + 2 * j
-        pred, h_r, h_l = observe_wall(self.x[:3], self.x[o : o + 2])
+        pred, h_r, h_l = observe_wall(shifted(self.x[:3], self.origins[j]), self.x[o : o + 2])
         d = wrap(z[1] - pred[1])
         if abs(d) <= math.pi / 2:
             nu = np.array([z[0] - pred[0], d])
@@ -124,7 +137,7 @@ class WallEkfSlam:
             opts = []
             for j, ext in enumerate(self.extents):
                 o = 3 + 2 * j
-                if gap(self.x[o : o + 2], ext, ends) <= self.overlap_gap:
+                if gap(in_frame(self.x[o : o + 2], self.origins[j]), ext, ends) <= self.overlap_gap:
                     nis, nu, h = self._pairing(j, z, r)
                     if nis <= self.new_d2:
                         opts.append((nis, j, nu, h))
@@ -138,7 +151,8 @@ class WallEkfSlam:
                 j = b[1]
                 o = 3 + 2 * j
                 ends = [to_world(self.x[:3], p) for p in local[i]]
-                self.extents[j] = covering(self.x[o : o + 2], [*self.extents[j], *ends])
+                line = in_frame(self.x[o : o + 2], self.origins[j])
+                self.extents[j] = covering(line, [*self.extents[j], *ends])
         for i in range(len(zs)):
             if best[i] is None and not near[i]:
                 self._admit(zs[i], rs[i], local[i])
@@ -161,7 +175,9 @@ class WallEkfSlam:
         self.x[2] = wrap(self.x[2])
 
     def _admit(self, z: np.ndarray, r: np.ndarray, seg: list[np.ndarray]) -> None:
-        line, g_r, g_z = wall_to_world(self.x[:3], z)
+        ends = [to_world(self.x[:3], q) for q in seg]
+        origin = 0.5 * (ends[0] + ends[1])
+        line, g_r, g_z = wall_to_world(shifted(self.x[:3], origin), z)
         cross = g_r @ self.P[:3, :]
         pll = g_r @ self.P[:3, :3] @ g_r.T + g_z @ r @ g_z.T
         n = len(self.x)
@@ -169,7 +185,16 @@ class WallEkfSlam:
         p[:n, :n], p[n:, :n], p[:n, n:], p[n:, n:] = self.P, cross, cross.T, 0.5 * (pll + pll.T)
         self.P = p
         self.x = np.r_[self.x, line]
-        self.extents.append(covering(line, [to_world(self.x[:3], q) for q in seg]))
+        self.origins.append(origin)
+        self.extents.append(covering(in_frame(line, origin), ends))
+
+    def world_lines(self) -> np.ndarray:
+        """The walls about the world origin, ``rho >= 0``, ``(W, 2)``."""
+        out = []
+        for j, o in enumerate(self.origins):
+            rho, alpha = in_frame(self.x[3 + 2 * j : 5 + 2 * j], o)
+            out.append([-rho, wrap(alpha + math.pi)] if rho < 0 else [rho, wrap(alpha)])
+        return np.array(out).reshape(-1, 2)
 
 
 def run(controls: np.ndarray, walls: np.ndarray, slam: WallEkfSlam) -> np.ndarray:

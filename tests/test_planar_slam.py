@@ -340,8 +340,7 @@ def test_wall_landmarks_match_the_numpy_reference_filter() -> None:
     poses = WREF.run(controls, walls, ref)
     np.testing.assert_allclose(out["pose"][out["kind"] == 3], poses, atol=1e-9)
     assert len(out["wall_id"]) == len(ref.extents) == 6
-    lines = ref.x[3:].reshape(-1, 2)
-    np.testing.assert_allclose(out["wall_line"], lines, atol=1e-9)
+    np.testing.assert_allclose(out["wall_line"], ref.world_lines(), atol=1e-9)
 
 
 def test_typed_run_returns_the_wall_map() -> None:

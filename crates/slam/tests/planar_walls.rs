@@ -6,7 +6,7 @@
 use std::collections::HashMap;
 use std::f64::consts::{FRAC_PI_2, PI};
 
-use nalgebra::Vector2;
+use nalgebra::{Point2, Vector2};
 use rperc_core::{Pose2, angle_diff};
 use slam::planar::room::{RoomConfig, room_monte_carlo, room_nees, simulate_room};
 use slam::planar::sim::MonteCarlo;
@@ -202,7 +202,9 @@ fn a_new_wall_enters_with_its_full_covariance() {
 
 /// The wall anchor (wall x = 3 seen from the origin with a known start): the robot's
 /// distance to the wall and heading take the sighting's variances, the position
-/// along the wall keeps its prior, and the anchor has no covariance.
+/// along the wall keeps its prior plus the turn of the frame about the wall's
+/// reference point (3, 0), 3 m away: `y` moves by `3 e_alpha` and `theta` by
+/// `-e_alpha`, and the anchor has no covariance.
 #[test]
 fn a_wall_anchor_becomes_the_reference() {
     let cfg = PlanarConfig {
@@ -217,12 +219,17 @@ fn a_wall_anchor_becomes_the_reference() {
     })
     .unwrap();
     let p = slam.pose_covariance();
-    // x = rho_w - rho: variance 1e-4; theta = alpha_w - alpha: 4e-4; y unchanged.
+    // x = rho_w - rho: variance 1e-4; theta = alpha_w - alpha: 4e-4;
+    // y: 0.25 + 3^2 4e-4, and cov(y, theta) = -3 * 4e-4.
     assert!(
         (p[(0, 0)] - 1e-4).abs() < 1e-15 && (p[(2, 2)] - 4e-4).abs() < 1e-15,
         "{p}"
     );
-    assert!((p[(1, 1)] - 0.25).abs() < 1e-15, "{p}");
+    assert!((p[(1, 1)] - (0.25 + 9.0 * 4e-4)).abs() < 1e-12, "{p}");
+    assert!(
+        (p[(1, 2)] + 3.0 * 4e-4).abs() < 1e-12 && p[(0, 1)].abs() < 1e-15,
+        "{p}"
+    );
     let w = &slam.walls()[0];
     assert!(w.anchor && !w.frozen && w.covariance == [0.0; 4]);
     let result = slam.finish();
@@ -242,21 +249,32 @@ fn the_gauge_of_a_true_anchor_is_the_identity() {
     let g = slam::planar::room::wall_anchor_gauge(
         &Vector2::new(2.0, 0.3),
         &Vector2::new(2.0, 0.3 + 2.0 * PI),
+        &Point2::new(5.0, -3.0),
     );
     assert!(g.x.abs() < 1e-12 && g.y.abs() < 1e-12 && g.theta.abs() < 1e-12);
     // The other form of the same line is the same line.
     let g = slam::planar::room::wall_anchor_gauge(
         &Vector2::new(-2.0, 0.3 + PI),
         &Vector2::new(2.0, 0.3),
+        &Point2::new(5.0, -3.0),
     );
     assert!(g.x.abs() < 1e-12 && g.y.abs() < 1e-12 && g.theta.abs() < 1e-12);
     // A gauge moves the true line onto the estimate.
     let (truth, est) = (Vector2::new(2.0, 0.3), Vector2::new(2.1, 0.35));
-    let g = slam::planar::room::wall_anchor_gauge(&truth, &est);
-    let foot = Pose2::new(truth.x * truth.y.cos(), truth.x * truth.y.sin(), truth.y);
-    let moved = g.compose(&foot);
-    assert!((moved.theta - est.y).abs() < 1e-12);
-    assert!((moved.x * est.y.cos() + moved.y * est.y.sin() - est.x).abs() < 1e-12);
+    // ... and keeps the pivot's foot on the true line where it is, up to the turn
+    // about it (the pivot is a fixed point of the rotation part).
+    for pivot in [Point2::origin(), Point2::new(40.0, -25.0)] {
+        let g = slam::planar::room::wall_anchor_gauge(&truth, &est, &pivot);
+        let foot = Pose2::new(truth.x * truth.y.cos(), truth.x * truth.y.sin(), truth.y);
+        let moved = g.compose(&foot);
+        assert!((moved.theta - est.y).abs() < 1e-12);
+        assert!((moved.x * est.y.cos() + moved.y * est.y.sin() - est.x).abs() < 1e-12);
+        let moved_pivot = g.transform_point(&pivot);
+        // The pivot moves only along the estimate's normal (the rho shift).
+        let d = moved_pivot - pivot;
+        let n = Vector2::new(est.y.cos(), est.y.sin());
+        assert!((d - n * n.dot(&d)).norm() < 1e-12, "{d}");
+    }
     let _ = room_nees;
 }
 
@@ -391,4 +409,56 @@ fn wall_arrays_equal_events() {
     };
     assert_eq!(rows(&a, EventKind::Walls), rows(&b, EventKind::Walls));
     assert_eq!(a.trajectory.pose.last(), b.trajectory.pose.last());
+}
+
+/// The room and the robot moved far from the world origin (300 m, -200 m): a wall's
+/// state is its line about its own reference point, so the run is the same run,
+/// moved (before, `d rho / d alpha` grew with the distance to the origin and the
+/// linearisation with it). The oracle is the run at the origin, moved.
+#[test]
+fn a_run_does_not_depend_on_where_the_world_origin_is() {
+    let here = RoomConfig {
+        alpha_variance: 4e-3, // short walls: a 3.6 degree angle sd
+        ..RoomConfig::default()
+    };
+    let (dx, dy) = (300.0, -200.0);
+    let there = RoomConfig {
+        walls: here
+            .walls
+            .iter()
+            .map(|w| [w[0] + dx, w[1] + dy, w[2] + dx, w[3] + dy])
+            .collect(),
+        centre: [dx, dy],
+        ..here.clone()
+    };
+    let run = |room: &RoomConfig| {
+        let data = simulate_room(room, 11, 0);
+        let mut slam = PlanarSlam::new(room.slam_config()).unwrap();
+        slam.run(&data.events).unwrap();
+        slam.finish()
+    };
+    let (a, b) = (run(&here), run(&there));
+    assert_eq!(a.walls.len(), b.walls.len());
+    for (p, q) in a.trajectory.pose.iter().zip(&b.trajectory.pose) {
+        assert!((p[0] + dx - q[0]).abs() < 1e-6 && (p[1] + dy - q[1]).abs() < 1e-6);
+        assert!(angle_diff(p[2], q[2]).abs() < 1e-9);
+    }
+    for (p, q) in a.trajectory.covariance.iter().zip(&b.trajectory.covariance) {
+        for k in 0..9 {
+            assert!(
+                (p[k] - q[k]).abs() < 1e-9 * (1.0 + p[k].abs()),
+                "{p:?} {q:?}"
+            );
+        }
+    }
+    for (v, w) in a.walls.iter().zip(&b.walls) {
+        // The same line, moved: rho changes by n . (dx, dy) (or its flip).
+        let n = Vector2::new(v.line[1].cos(), v.line[1].sin());
+        let moved = v.line[0] + n.dot(&Vector2::new(dx, dy));
+        let same =
+            (moved - w.line[0]).abs() < 1e-6 && angle_diff(v.line[1], w.line[1]).abs() < 1e-9;
+        let flipped =
+            (moved + w.line[0]).abs() < 1e-6 && angle_diff(v.line[1] + PI, w.line[1]).abs() < 1e-9;
+        assert!(same || flipped, "{:?} vs {:?}", v.line, w.line);
+    }
 }

@@ -184,6 +184,10 @@ pub struct WallEstimate {
     pub start: [f64; 2],
     /// See `start`.
     pub end: [f64; 2],
+    /// The wall's reference point, m: the filter estimates the line about it (the
+    /// middle of the segment that first showed the wall), which keeps its updates
+    /// linear where the world origin is far away.
+    pub origin: [f64; 2],
     /// How many updates used it.
     pub revisions: u32,
     /// Whether it left the state (freezing).

@@ -24,8 +24,10 @@ use crate::wall::observe_wall;
 pub struct RoomConfig {
     /// Wall segments `(x0, y0, x1, y1)`, m.
     pub walls: Vec<[f64; 4]>,
-    /// Radius of the circle the robot drives about the origin, m.
+    /// Radius of the circle the robot drives, m.
     pub radius: f64,
+    /// Centre of that circle, m (the walls are given in the world frame).
+    pub centre: [f64; 2],
     /// Forward speed, m/s.
     pub speed: f64,
     /// Time between controls (and scans), s.
@@ -62,6 +64,7 @@ impl Default for RoomConfig {
                 [2.0, -3.0, 5.0, -3.0],
             ],
             radius: 2.0,
+            centre: [0.0; 2],
             speed: 1.0,
             dt: 0.1,
             steps: 300,
@@ -112,6 +115,7 @@ impl RoomConfig {
             ensure_non_negative("initial_pose_variance", v)?;
         }
         rperc_core::ensure_finite("walls", self.walls.iter().flatten())?;
+        rperc_core::ensure_finite("centre", self.centre.iter())?;
         if self.steps == 0 || self.walls.is_empty() {
             return Err(SlamError::invalid(
                 "steps",
@@ -130,7 +134,7 @@ impl RoomConfig {
                 turn_rate_variance: self.turn_rate_variance,
             }),
             association: Association::NearestNeighbour,
-            initial_pose: [self.radius, 0.0, FRAC_PI_2],
+            initial_pose: [self.centre[0] + self.radius, self.centre[1], FRAC_PI_2],
             initial_pose_variance: self.initial_pose_variance,
             ..PlanarConfig::default()
         }
@@ -252,18 +256,25 @@ pub fn simulate_room(cfg: &RoomConfig, seed: u64, run: u64) -> RoomRun {
 }
 
 /// The rigid motion taking the world to the frame of a wall anchor: the true anchor
-/// line `truth` moved onto its estimate `est` by a rotation about the origin by
-/// `alpha_est - alpha_true`, then a shift along the estimate's normal by
-/// `rho_est - rho_true` (the gauge the engine linearises, see its wall anchor).
-pub fn wall_anchor_gauge(truth: &Vector2<f64>, est: &Vector2<f64>) -> Pose2 {
+/// line `truth` moved onto its estimate `est` (both world lines) by a rotation about
+/// the anchor's reference point `pivot` by `alpha_est - alpha_true`, then a shift
+/// along the estimate's normal (the gauge the engine linearises, see its wall
+/// anchor).
+pub fn wall_anchor_gauge(truth: &Vector2<f64>, est: &Vector2<f64>, pivot: &Point2<f64>) -> Pose2 {
     let (rho, alpha) = if angle_diff(est.y, truth.y).abs() > FRAC_PI_2 {
         (-truth.x, truth.y + PI)
     } else {
         (truth.x, truth.y)
     };
     let delta = angle_diff(est.y, alpha);
-    let n = Vector2::new(est.y.cos(), est.y.sin()) * (est.x - rho);
-    Pose2::new(n.x, n.y, delta)
+    // Rotating about the pivot: R p + (p - R p); the rotated line's rho is then
+    // rho + n' . (p - R p), and the shift along n' makes it est's.
+    let turn = Pose2::new(0.0, 0.0, delta);
+    let p = pivot.coords;
+    let t = p - turn.transform_point(pivot).coords;
+    let n = Vector2::new(est.y.cos(), est.y.sin());
+    let shift = n * (est.x - rho - n.dot(&t));
+    Pose2::new(t.x + shift.x, t.y + shift.y, delta)
 }
 
 /// The robot-pose NEES after every event. With a wall anchor the truth is first
@@ -276,7 +287,7 @@ pub fn room_nees(result: &PlanarResult, truth: &[Pose2], lines: &[Vector2<f64>])
             let d = |l: &Vector2<f64>| (l.x - est.x).abs() + angle_diff(l.y, est.y).abs();
             d(p).total_cmp(&d(q))
         })?;
-        Some(wall_anchor_gauge(nearest, &est))
+        Some(wall_anchor_gauge(nearest, &est, &Point2::from(a.origin)))
     });
     let tr = &result.trajectory;
     tr.pose

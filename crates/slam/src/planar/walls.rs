@@ -5,6 +5,18 @@
 //! covariance and cross-covariances). Freezing and the anchor follow the config
 //! shared with the points. A wall's seen extent is kept outside the state: grown as
 //! the wall is seen, it draws the map and decides overlap.
+//!
+//! Each wall's state is its line `(rho, alpha)` about its own reference point, the
+//! middle of the segment that first showed it (fixed, outside the state), not about
+//! the world origin. About the world origin, `d rho / d alpha` is the robot's
+//! distance along the wall from the origin's foot, tens of metres in a building:
+//! an angle error of a few degrees, which a short wall carries, then makes the
+//! linearised update wrong by centimetres to decimetres in `rho`, every update, and
+//! the filter turns overconfident and pairs walls wrongly (Rodriguez-Losada et al.
+//! 2007 trace EKF-SLAM's inconsistency indoors to this lever). About the wall's own
+//! point the lever is the robot's offset along the wall from where it was first
+//! seen, a few metres, and the result no longer depends on where the world origin
+//! is (tested: a simulated room far from the origin).
 
 use std::f64::consts::PI;
 
@@ -26,11 +38,26 @@ pub(crate) struct FixedWall {
     pub cov: Matrix2<f64>,
 }
 
-/// A wall's seen extent: two points on its line, in the internal frame.
+/// A wall's seen extent, two points on its line, and its reference point, the
+/// origin its state `(rho, alpha)` is measured from; all in the internal frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Extent {
     pub start: Point2<f64>,
     pub end: Point2<f64>,
+    pub origin: Point2<f64>,
+}
+
+/// The sensor as seen from a wall's reference point: the pose moved by `-origin`,
+/// so that [`observe_wall`] and [`wall_to_world`] work about that point (their
+/// Jacobians with respect to the pose are unchanged by a constant shift).
+fn about(sensor: &Pose2, origin: &Point2<f64>) -> Pose2 {
+    Pose2::new(sensor.x - origin.x, sensor.y - origin.y, sensor.theta)
+}
+
+/// A line `(rho, alpha)` about `origin` as a line about the frame's origin.
+fn in_frame(line: &Vector2<f64>, origin: &Point2<f64>) -> Vector2<f64> {
+    let (s, c) = line.y.sin_cos();
+    Vector2::new(line.x + c * origin.x + s * origin.y, line.y)
 }
 
 /// A checked wall detection: `z = (rho, alpha)`, its noise `r`, and the seen
@@ -71,8 +98,9 @@ fn along(line: &Vector2<f64>, p: &Point2<f64>) -> (Point2<f64>, f64) {
     (p - n * (n.dot(&p.coords) - line.x), -s * p.x + c * p.y)
 }
 
-/// The shortest extent on `line` covering the feet of `points`.
-fn covering(line: &Vector2<f64>, points: &[Point2<f64>]) -> Extent {
+/// The shortest extent on `line` (frame form) covering the feet of `points`, with
+/// reference point `origin`.
+fn covering(line: &Vector2<f64>, points: &[Point2<f64>], origin: Point2<f64>) -> Extent {
     let feet: Vec<(Point2<f64>, f64)> = points.iter().map(|p| along(line, p)).collect();
     let lo = feet.iter().min_by(|a, b| a.1.total_cmp(&b.1));
     let hi = feet.iter().max_by(|a, b| a.1.total_cmp(&b.1));
@@ -80,7 +108,11 @@ fn covering(line: &Vector2<f64>, points: &[Point2<f64>]) -> Extent {
         lo.map_or(Point2::origin(), |f| f.0),
         hi.map_or(Point2::origin(), |f| f.0),
     );
-    Extent { start: lo, end: hi }
+    Extent {
+        start: lo,
+        end: hi,
+        origin,
+    }
 }
 
 /// The gap between an extent and a segment, both projected on `line` (negative when
@@ -92,7 +124,7 @@ fn gap(line: &Vector2<f64>, a: &Extent, b: &[Point2<f64>; 2]) -> f64 {
 }
 
 /// A map wall a detection may be paired with: a state wall, or a fixed one with its
-/// covariance.
+/// covariance; `line` is about the extent's reference point.
 struct WallTarget<'a> {
     target: Target,
     line: Vector2<f64>,
@@ -111,7 +143,7 @@ fn wall_pairing(
     wall: &WallTarget<'_>,
 ) -> Option<Pairing> {
     let (target, fixed) = (wall.target, wall.fixed);
-    let pred = observe_wall(sensor, &wall.line)?;
+    let pred = observe_wall(&about(sensor, &wall.extent.origin), &wall.line)?;
     let (nu, sign) = wall_innovation(&seen.z, &pred.wall);
     let mut h_robot = pred.d_pose * j_sensor;
     let mut h_l = pred.d_wall;
@@ -200,7 +232,10 @@ impl PlanarSlam {
                 let ends = s.local.map(|p| sensor.0.transform_point(&p));
                 let mut o: Vec<Pairing> = targets
                     .iter()
-                    .filter(|w| gap(&w.line, w.extent, &ends) <= self.config.wall_overlap_gap)
+                    .filter(|w| {
+                        let line = in_frame(&w.line, &w.extent.origin);
+                        gap(&line, w.extent, &ends) <= self.config.wall_overlap_gap
+                    })
                     .filter_map(|w| wall_pairing(&scene, &sensor, i, s, w))
                     .filter(|p| p.nis <= new_gate)
                     .collect();
@@ -281,20 +316,26 @@ impl PlanarSlam {
         };
         if let Some(e) = self.walls.get_mut(&id) {
             let [a, b] = seen.local.map(|p| sensor.transform_point(&p));
-            *e = covering(&line, &[e.start, e.end, a, b]);
+            *e = covering(
+                &in_frame(&line, &e.origin),
+                &[e.start, e.end, a, b],
+                e.origin,
+            );
         }
     }
 
-    /// A new wall from detection `seen`: `l = g(robot, z)` with the full
-    /// cross-covariance; the first landmark becomes the anchor when that variant is on.
+    /// A new wall from detection `seen`: `l = g(robot, z)` about the middle of the
+    /// seen segment (its reference point), with the full cross-covariance; the first
+    /// landmark becomes the anchor when that variant is on.
     fn admit_wall(&mut self, id: u64, seen: &Seen) -> Result<()> {
         let (sensor, j_sensor) = self.sensor();
-        let w = wall_to_world(&sensor, &seen.z)
+        let ends = seen.local.map(|p| sensor.transform_point(&p));
+        let origin = Point2::from((ends[0].coords + ends[1].coords) * 0.5);
+        let w = wall_to_world(&about(&sensor, &origin), &seen.z)
             .ok_or_else(|| SlamError::invalid("wall", "is not finite".into()))?;
         let g_robot = w.d_pose * j_sensor;
-        let ends = seen.local.map(|p| sensor.transform_point(&p));
         if self.config.anchor && self.anchor.is_none() && self.ekf.num_landmarks() == 0 {
-            self.make_wall_anchor(id, &w, &g_robot, &seen.r)?;
+            self.make_wall_anchor(id, &w, &g_robot, &seen.r, &origin)?;
         } else {
             self.ekf.add_landmark_with_id(
                 id,
@@ -304,31 +345,35 @@ impl PlanarSlam {
                 &dyn_mat(&seen.r),
             )?;
         }
-        self.walls.insert(id, covering(&w.wall, &ends));
+        self.walls
+            .insert(id, covering(&in_frame(&w.wall, &origin), &ends, origin));
         self.revisions.insert(id, 0);
         self.stats.walls_new += 1;
         Ok(())
     }
 
     /// The first wall as the global reference (the wall form of eqs. 24-25): it is
-    /// fixed at its first estimate `w^`, and the robot is re-expressed in the frame
-    /// where the true wall sits there. That frame is the world rotated about its
-    /// origin by `alpha^ - alpha` and moved along the normal by `rho^ - rho`, so to
-    /// first order the robot's error becomes `J_r e + J_z e_z` with
-    /// `J_r = I + M G_r`, `J_z = M G_z`, and `M`'s columns the robot's motion per unit
-    /// of the wall's rho and alpha: `(-cos a, -sin a, 0)` and `(y, -x, -1)`. The
-    /// distance to the wall and the heading then carry only the sighting's noise; the
-    /// position along the wall keeps its prior uncertainty.
+    /// fixed at its first estimate `w^` (about its reference point `o`), and the
+    /// robot is re-expressed in the frame where the true wall sits there. That frame
+    /// is the world rotated about `o` by `alpha^ - alpha` and moved along the normal
+    /// by `rho^ - rho`, so to first order the robot's error becomes `J_r e + J_z e_z`
+    /// with `J_r = I + M G_r`, `J_z = M G_z`, and `M`'s columns the robot's motion per
+    /// unit of the wall's rho and alpha: `(-cos a, -sin a, 0)` and
+    /// `(y - o_y, o_x - x, -1)`. The distance to the wall and the heading then carry
+    /// only the sighting's noise; the position along the wall keeps its prior
+    /// uncertainty.
     fn make_wall_anchor(
         &mut self,
         id: u64,
         w: &WallJacobians,
         g_robot: &Matrix2x3<f64>,
         r: &Matrix2<f64>,
+        origin: &Point2<f64>,
     ) -> Result<()> {
         let robot = self.robot();
         let (s, c) = w.wall.y.sin_cos();
-        let m = Matrix3x2::new(-c, robot.y, -s, -robot.x, 0.0, -1.0);
+        let (x, y) = (robot.x - origin.x, robot.y - origin.y);
+        let m = Matrix3x2::new(-c, y, -s, -x, 0.0, -1.0);
         let j_r = Matrix3::identity() + m * g_robot;
         let j_z = m * w.d_wall;
         let p = j_r * self.pose_covariance() * j_r.transpose() + j_z * r * j_z.transpose();
@@ -368,9 +413,11 @@ impl PlanarSlam {
         &self.wall_pairing
     }
 
-    /// An internal-frame wall in the world frame (shifted by a point anchor's
-    /// offset), written with `rho >= 0`: the flip `(-rho, alpha + pi)` negates the
-    /// covariance's off-diagonal.
+    /// A wall (about its reference point) in the world frame: about the world's
+    /// origin (the reference point shifted by a point anchor's offset, `p`),
+    /// `rho_w = rho + n(alpha) . p` with covariance `J C J^T`,
+    /// `J = [[1, n'(alpha) . p], [0, 1]]`; written with `rho >= 0`: the flip
+    /// `(-rho, alpha + pi)` negates the covariance's off-diagonal.
     fn wall_estimate(
         &self,
         id: u64,
@@ -379,15 +426,19 @@ impl PlanarSlam {
         frozen: bool,
         e: &Extent,
     ) -> WallEstimate {
+        let o = self.offset;
+        let p = e.origin + o;
         let (s, c) = line.y.sin_cos();
-        let rho = line.x + c * self.offset.x + s * self.offset.y;
+        let j = Matrix2::new(1.0, -s * p.x + c * p.y, 0.0, 1.0);
+        let cov = j * cov * j.transpose();
+        let rho = in_frame(&line, &p).x;
         let (rho, alpha, sign) = if rho < 0.0 {
             (-rho, line.y + PI, -1.0)
         } else {
             (rho, line.y, 1.0)
         };
         let anchor = Some(id) == self.anchor;
-        let (o, a, b) = (self.offset, e.start, e.end);
+        let (a, b) = (e.start, e.end);
         WallEstimate {
             id,
             line: [rho, wrap_angle(alpha)],
@@ -399,6 +450,7 @@ impl PlanarSlam {
             ],
             start: [a.x + o.x, a.y + o.y],
             end: [b.x + o.x, b.y + o.y],
+            origin: [p.x, p.y],
             revisions: self.revisions.get(&id).copied().unwrap_or(0),
             frozen: frozen && !anchor,
             anchor,
@@ -421,6 +473,7 @@ mod tests {
                 Point2::new(-1.0, 1.9),
                 Point2::new(0.0, 2.0),
             ],
+            Point2::origin(),
         );
         assert!((e.start - Point2::new(1.0, 2.0)).norm() < 1e-12);
         assert!((e.end - Point2::new(-1.0, 2.0)).norm() < 1e-12);

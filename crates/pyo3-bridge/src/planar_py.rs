@@ -165,6 +165,7 @@ fn statistics<'py>(py: Python<'py>, s: &Statistics) -> PyResult<Bound<'py, PyDic
         ("walls_accepted", s.walls_accepted),
         ("walls_rejected", s.walls_rejected),
         ("walls_new", s.walls_new),
+        ("walls_vague", s.walls_vague),
     ] {
         d.set_item(name, value)?;
     }

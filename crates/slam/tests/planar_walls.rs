@@ -433,9 +433,15 @@ fn a_run_does_not_depend_on_where_the_world_origin_is() {
     };
     let run = |room: &RoomConfig| {
         let data = simulate_room(room, 11, 0);
-        let mut slam = PlanarSlam::new(room.slam_config()).unwrap();
+        let cfg = PlanarConfig {
+            wall_max_angle_sd: 0.2, // use the loose walls too
+            ..room.slam_config()
+        };
+        let mut slam = PlanarSlam::new(cfg).unwrap();
         slam.run(&data.events).unwrap();
-        slam.finish()
+        let out = slam.finish();
+        assert!(out.walls.len() >= 6, "the walls are in the map");
+        out
     };
     let (a, b) = (run(&here), run(&there));
     assert_eq!(a.walls.len(), b.walls.len());
@@ -461,4 +467,38 @@ fn a_run_does_not_depend_on_where_the_world_origin_is() {
             (moved + w.line[0]).abs() < 1e-6 && angle_diff(v.line[1] + PI, w.line[1]).abs() < 1e-9;
         assert!(same || flipped, "{:?} vs {:?}", v.line, w.line);
     }
+}
+
+/// A detection whose angle is looser than `wall_max_angle_sd` is not used: not
+/// paired, not admitted, counted as vague; one just inside the limit is admitted.
+#[test]
+fn walls_with_a_loose_angle_are_not_used() {
+    let cfg = PlanarConfig {
+        wall_max_angle_sd: 0.02,
+        ..PlanarConfig::default()
+    };
+    let mut slam = PlanarSlam::new(cfg).unwrap();
+    slam.process(&Event::Walls {
+        t: 0.0,
+        walls: vec![
+            detection(3.0, 0.0, [1e-4, 0.0201f64.powi(2)]),
+            detection(2.0, FRAC_PI_2, [1e-4, 0.0199f64.powi(2)]),
+        ],
+    })
+    .unwrap();
+    assert_eq!(slam.last_wall_pairing()[0], None);
+    assert!(slam.last_wall_pairing()[1].is_some());
+    assert_eq!(slam.walls().len(), 1);
+    assert_eq!(slam.statistics().walls_vague, 1);
+    assert_eq!(slam.statistics().walls_new, 1);
+    let bad = PlanarConfig {
+        wall_max_angle_sd: 0.0,
+        ..PlanarConfig::default()
+    };
+    assert!(
+        PlanarSlam::new(bad)
+            .unwrap_err()
+            .to_string()
+            .contains("wall_max_angle_sd")
+    );
 }

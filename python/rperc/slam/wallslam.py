@@ -101,12 +101,14 @@ def increments(pose: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     return controls, t_scan
 
 
-def noisy_controls(controls: np.ndarray, seed: int) -> np.ndarray:
-    """The controls with the stated bias and seeded white noise."""
+def noisy_controls(controls: np.ndarray, seed: int, *, bias: bool = True) -> np.ndarray:
+    """The controls with seeded white noise and, unless ``bias=False``, the stated
+    bias."""
     rng = np.random.default_rng(seed)
     n = len(controls)
-    v = controls[:, 1] * (1.0 + SPEED_BIAS) + SPEED_SIGMA * rng.standard_normal(n)
-    w = controls[:, 2] + TURN_BIAS + TURN_SIGMA * rng.standard_normal(n)
+    k = 1.0 if bias else 0.0
+    v = controls[:, 1] * (1.0 + k * SPEED_BIAS) + SPEED_SIGMA * rng.standard_normal(n)
+    w = controls[:, 2] + k * TURN_BIAS + TURN_SIGMA * rng.standard_normal(n)
     out: np.ndarray = np.c_[controls[:, 0], v, w]
     return out
 

@@ -224,6 +224,9 @@ pub struct Statistics {
     pub walls_rejected: u64,
     /// Walls admitted into the map.
     pub walls_new: u64,
+    /// Wall detections left unused because their angle is too uncertain
+    /// (`wall_max_angle_sd`).
+    pub walls_vague: u64,
 }
 
 /// Everything a run produced.

@@ -184,9 +184,17 @@ impl PlanarSlam {
             .enumerate()
             .map(|(i, d)| checked(i, d))
             .collect::<Result<Vec<_>>>()?;
+        // Detections with a loose angle are left out (`wall_max_angle_sd`): no
+        // options, never admitted, paired with `None`.
+        let limit = self.config.wall_max_angle_sd.powi(2);
+        let vague: Vec<bool> = seen.iter().map(|s| s.r[(1, 1)] > limit).collect();
+        self.stats.walls_vague += vague.iter().filter(|&&v| v).count() as u64;
         self.grow_joint_gates(seen.len())?;
         let new_gate = chi2_gate(2, self.config.wall_admission_confidence)?;
-        let (options, near) = self.wall_options(&seen, new_gate);
+        let (mut options, near) = self.wall_options(&seen, new_gate);
+        for (o, _) in options.iter_mut().zip(&vague).filter(|(_, v)| **v) {
+            o.clear();
+        }
         let pairings = self.choose(&options);
         self.wall_pairing = vec![None; seen.len()];
         if !pairings.is_empty() {
@@ -200,7 +208,7 @@ impl PlanarSlam {
             }
         }
         for (i, opts) in options.iter().enumerate() {
-            if self.wall_pairing[i].is_some() {
+            if self.wall_pairing[i].is_some() || vague[i] {
                 continue;
             }
             if opts.is_empty() && !near[i] {

@@ -127,7 +127,7 @@ def test_walls_json_matches_the_api_and_evo_reads_the_tum(tmp_path):
     from rperc.datasets import read_tum
     from rperc.datasets.carmen import load_carmen
     from rperc.scansim import write_loop_log
-    from rperc.slam.wallslam import run_walls
+    from rperc.slam.wallslam import STRAIGHTNESS, run_walls
 
     log_path = write_loop_log(tmp_path / "loop.log", seed=3, laps=1.2)
     out, tum, png = tmp_path / "run.json", tmp_path / "run.tum", tmp_path / "map.png"
@@ -136,7 +136,8 @@ def test_walls_json_matches_the_api_and_evo_reads_the_tum(tmp_path):
     assert png.stat().st_size > 10_000
     measured = json.loads(out.read_text())
     log = load_carmen(log_path)
-    result = run_walls(log, seed=4, anchor=True, freeze_after=20)
+    # The CLI's default floor is the one calibrated for real logs.
+    result = run_walls(log, seed=4, anchor=True, freeze_after=20, straightness=STRAIGHTNESS)
     for key in ("ate_rmse", "loop_error", "final_error", "nees_mean", "nees_in_band"):
         name = f"{key}_m" if key in ("ate_rmse", "loop_error", "final_error") else key
         assert measured[name] == pytest.approx(result.metrics[key], rel=1e-12)

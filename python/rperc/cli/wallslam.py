@@ -20,7 +20,7 @@ from rperc.cli.outputs import (
     write_json,
     wrote,
 )
-from rperc.slam.wallslam import WallSlamResult, run_walls
+from rperc.slam.wallslam import STRAIGHTNESS, WallSlamResult, run_walls
 
 
 def add_walls_command(kinds: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -32,9 +32,9 @@ def add_walls_command(kinds: argparse._SubParsersAction) -> None:  # type: ignor
         help="walls revised more than N times leave the state (the seed uses 50)",
     )  # fmt: skip
     w.add_argument(
-        "--straightness", type=non_negative_float, default=0.0, metavar="SIGMA",
-        help="straightness floor (m) added to every wall sighting (default 0; 0.0148 is "
-        "calibrated on ACES by benchmarks/wall_straightness.py)",
+        "--straightness", type=non_negative_float, default=STRAIGHTNESS, metavar="SIGMA",
+        help=f"straightness floor (m) added to every wall sighting (default {STRAIGHTNESS}, "
+        "calibrated on ACES by benchmarks/wall_straightness.py; 0 turns it off)",
     )  # fmt: skip
     w.add_argument("--association", choices=("nn", "jcbb"), default="nn")
     w.add_argument("--seed", type=seed_type, default=0, help="the odometry noise draw")

@@ -113,6 +113,21 @@ impl<'a> Scene<'a> {
             ),
             _ => (h_l, self.w),
         };
+        self.scored(det, target, nu, (h_robot, h_landmark, offset), r)
+    }
+
+    /// The pairing of detection `det` with `target` from its innovation, its
+    /// Jacobians `(H_robot, H_landmark, landmark offset)` and noise, with its NIS
+    /// `nu^T S^-1 nu`, `S = H P H^T + R` (points and walls alike); `None` when `S`
+    /// is singular or the NIS is not finite.
+    pub fn scored(
+        &self,
+        det: usize,
+        target: Target,
+        nu: Vector2<f64>,
+        (h_robot, h_landmark, offset): (Matrix2x3<f64>, Matrix2<f64>, Option<usize>),
+        r: Matrix2<f64>,
+    ) -> Option<Pairing> {
         let mut p = Pairing {
             det,
             target,

@@ -7,14 +7,13 @@
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
-use nalgebra::{DMatrix, DVector, Matrix3, Point2, Vector2};
-use rayon::prelude::*;
-use rperc_core::{Pose2, angle_diff, mahalanobis2, nees_band, rng, wrap_angle};
+use nalgebra::{Point2, Vector2};
+use rperc_core::{Pose2, angle_diff, rng, wrap_angle};
 
-use super::sim::MonteCarlo;
+use super::sim::{Circle, MonteCarlo, average_runs, check_fields, gauss, pose_nees};
 use super::{Association, Event, EventKind, PlanarConfig, PlanarResult, PlanarSlam, WallDetection};
 use crate::error::{Result, SlamError};
-use crate::motion::{MotionModel, Unicycle, unicycle};
+use crate::motion::{MotionModel, Unicycle};
 use crate::wall::observe_wall;
 
 /// The simulated room and its noise (the filter built by
@@ -93,27 +92,22 @@ pub struct RoomRun {
 impl RoomConfig {
     /// Refuses bad values with the field's name.
     pub fn validate(&self) -> Result<()> {
-        use rperc_core::{ensure_non_negative, ensure_positive};
-        for (name, v) in [
-            ("radius", self.radius),
-            ("speed", self.speed),
-            ("dt", self.dt),
-            ("max_range", self.max_range),
-            ("rho_variance", self.rho_variance),
-            ("alpha_variance", self.alpha_variance),
-        ] {
-            ensure_positive(name, v)?;
-        }
-        for (name, v) in [
-            ("min_length", self.min_length),
-            ("speed_variance", self.speed_variance),
-            ("turn_rate_variance", self.turn_rate_variance),
-        ] {
-            ensure_non_negative(name, v)?;
-        }
-        for v in self.initial_pose_variance {
-            ensure_non_negative("initial_pose_variance", v)?;
-        }
+        check_fields(
+            &[
+                ("radius", self.radius),
+                ("speed", self.speed),
+                ("dt", self.dt),
+                ("max_range", self.max_range),
+                ("rho_variance", self.rho_variance),
+                ("alpha_variance", self.alpha_variance),
+            ],
+            &[
+                ("min_length", self.min_length),
+                ("speed_variance", self.speed_variance),
+                ("turn_rate_variance", self.turn_rate_variance),
+            ],
+            &self.initial_pose_variance,
+        )?;
         rperc_core::ensure_finite("walls", self.walls.iter().flatten())?;
         rperc_core::ensure_finite("centre", self.centre.iter())?;
         if self.steps == 0 || self.walls.is_empty() {
@@ -153,10 +147,6 @@ impl RoomConfig {
             })
             .collect()
     }
-}
-
-fn gauss(rng: &mut rng::RngStream, variance: f64) -> f64 {
-    variance.sqrt() * rng::normal(rng)
 }
 
 /// The part of segment `w` within `range` of `c`, or `None`.
@@ -218,32 +208,24 @@ fn scan(
 pub fn simulate_room(cfg: &RoomConfig, seed: u64, run: u64) -> RoomRun {
     let mut rng = rng::stream(seed, run);
     let lines = cfg.lines();
-    let start = cfg.slam_config().initial_pose;
-    let v = &cfg.initial_pose_variance;
-    let mut pose = Pose2::new(
-        start[0] + gauss(&mut rng, v[0]),
-        start[1] + gauss(&mut rng, v[1]),
-        start[2] + gauss(&mut rng, v[2]),
+    let mut robot = Circle::new(
+        &mut rng,
+        cfg.slam_config().initial_pose,
+        &cfg.initial_pose_variance,
+        (cfg.speed, cfg.radius, cfg.dt),
+        [cfg.speed_variance, cfg.turn_rate_variance],
     );
-    let omega = cfg.speed / cfg.radius;
     let mut out = RoomRun {
         events: Vec::new(),
         truth: Vec::new(),
         seen: Vec::new(),
     };
     for k in 0..cfg.steps {
-        let t = k as f64 * cfg.dt;
-        let measured = [
-            cfg.speed + gauss(&mut rng, cfg.speed_variance),
-            omega + gauss(&mut rng, cfg.turn_rate_variance),
-        ];
-        out.events.push(Event::Control {
-            t,
-            control: measured,
-        });
-        out.truth.push(pose);
+        let (control, before) = robot.step(k, &mut rng);
+        out.events.push(control);
+        out.truth.push(before);
         out.seen.push(Vec::new());
-        pose = unicycle(&pose, cfg.speed, omega, cfg.dt).pose();
+        let pose = robot.pose;
         let (walls, which) = scan(cfg, &pose, &lines, &mut rng);
         out.events.push(Event::Walls {
             t: (k + 1) as f64 * cfg.dt,
@@ -294,12 +276,7 @@ pub fn room_nees(result: &PlanarResult, truth: &[Pose2], lines: &[Vector2<f64>])
         .iter()
         .zip(&tr.covariance)
         .zip(truth)
-        .map(|((p, c), t)| {
-            let t = gauge.map_or(*t, |g| g.compose(t));
-            let e = DVector::from_vec(vec![p[0] - t.x, p[1] - t.y, angle_diff(p[2], t.theta)]);
-            let cov = Matrix3::from_row_slice(c);
-            mahalanobis2(&e, &DMatrix::from_column_slice(3, 3, cov.as_slice())).unwrap_or(f64::NAN)
-        })
+        .map(|((p, c), t)| pose_nees(p, c, &gauge.map_or(*t, |g| g.compose(t))))
         .collect()
 }
 
@@ -333,20 +310,6 @@ pub fn room_monte_carlo(
     runs: usize,
     seed: u64,
 ) -> Result<MonteCarlo> {
-    if runs == 0 {
-        return Err(SlamError::invalid("runs", "must be >= 1".into()));
-    }
     room.validate()?;
-    let per_run: Vec<Vec<f64>> = (0..runs as u64)
-        .into_par_iter()
-        .map(|r| room_run_nees(room, slam, seed, r))
-        .collect::<Result<_>>()?;
-    let mean_nees = (0..room.steps)
-        .map(|k| per_run.iter().map(|r| r[k]).sum::<f64>() / runs as f64)
-        .collect();
-    Ok(MonteCarlo {
-        mean_nees,
-        band: nees_band(3, runs, 0.95)?,
-        runs,
-    })
+    average_runs(runs, room.steps, |r| room_run_nees(room, slam, seed, r))
 }

@@ -81,28 +81,23 @@ pub struct SimRun {
 impl SimConfig {
     /// Refuses bad values with the field's name.
     pub fn validate(&self) -> Result<()> {
-        use rperc_core::{ensure_non_negative, ensure_positive};
-        for (name, v) in [
-            ("radius", self.radius),
-            ("speed", self.speed),
-            ("dt", self.dt),
-            ("ring_gap", self.ring_gap),
-            ("max_range", self.max_range),
-            ("range_variance", self.range_variance),
-            ("bearing_variance", self.bearing_variance),
-            ("fix_variance", self.fix_variance),
-        ] {
-            ensure_positive(name, v)?;
-        }
-        for (name, v) in [
-            ("speed_variance", self.speed_variance),
-            ("turn_rate_variance", self.turn_rate_variance),
-        ] {
-            ensure_non_negative(name, v)?;
-        }
-        for v in self.initial_pose_variance {
-            ensure_non_negative("initial_pose_variance", v)?;
-        }
+        check_fields(
+            &[
+                ("radius", self.radius),
+                ("speed", self.speed),
+                ("dt", self.dt),
+                ("ring_gap", self.ring_gap),
+                ("max_range", self.max_range),
+                ("range_variance", self.range_variance),
+                ("bearing_variance", self.bearing_variance),
+                ("fix_variance", self.fix_variance),
+            ],
+            &[
+                ("speed_variance", self.speed_variance),
+                ("turn_rate_variance", self.turn_rate_variance),
+            ],
+            &self.initial_pose_variance,
+        )?;
         if self.steps == 0 || self.landmarks == 0 || self.fix_every == Some(0) {
             return Err(SlamError::invalid(
                 "steps",
@@ -149,8 +144,126 @@ impl SimConfig {
     }
 }
 
-fn gauss(rng: &mut rng::RngStream, variance: f64) -> f64 {
+/// A zero-mean Gaussian draw of `variance`.
+pub(super) fn gauss(rng: &mut rng::RngStream, variance: f64) -> f64 {
     variance.sqrt() * rng::normal(rng)
+}
+
+/// A simulator's settings checked by name: `positive` must be > 0, `non_negative`
+/// and the start pose variances >= 0 (the simulated worlds share this).
+pub(super) fn check_fields(
+    positive: &[(&'static str, f64)],
+    non_negative: &[(&'static str, f64)],
+    initial_pose_variance: &[f64; 3],
+) -> Result<()> {
+    for &(name, v) in positive {
+        rperc_core::ensure_positive(name, v)?;
+    }
+    for &(name, v) in non_negative {
+        rperc_core::ensure_non_negative(name, v)?;
+    }
+    for &v in initial_pose_variance {
+        rperc_core::ensure_non_negative("initial_pose_variance", v)?;
+    }
+    Ok(())
+}
+
+/// The robot of the simulated worlds: laps of a circle at constant speed, its
+/// odometry the true `(v, omega)` plus white noise of the filter's own variances.
+pub(super) struct Circle {
+    /// The true pose now.
+    pub pose: Pose2,
+    speed: f64,
+    omega: f64,
+    dt: f64,
+    noise: [f64; 2],
+}
+
+impl Circle {
+    /// The robot at `start` moved by a draw of `start_variance`, to drive at `speed`
+    /// on a circle of `radius` with odometry noise `noise` (speed, turn-rate
+    /// variances), one control every `dt` seconds.
+    pub fn new(
+        rng: &mut rng::RngStream,
+        start: [f64; 3],
+        start_variance: &[f64; 3],
+        (speed, radius, dt): (f64, f64, f64),
+        noise: [f64; 2],
+    ) -> Self {
+        let v = start_variance;
+        let pose = Pose2::new(
+            start[0] + gauss(rng, v[0]),
+            start[1] + gauss(rng, v[1]),
+            start[2] + gauss(rng, v[2]),
+        );
+        Self {
+            pose,
+            speed,
+            omega: speed / radius,
+            dt,
+            noise,
+        }
+    }
+
+    /// Step `k`: the measured control event at `k dt`; the robot then moves to
+    /// `(k + 1) dt`. Returns the event and the true pose before the move.
+    pub fn step(&mut self, k: usize, rng: &mut rng::RngStream) -> (Event, Pose2) {
+        let control = [
+            self.speed + gauss(rng, self.noise[0]),
+            self.omega + gauss(rng, self.noise[1]),
+        ];
+        let before = self.pose;
+        self.pose = unicycle(&self.pose, self.speed, self.omega, self.dt).pose();
+        (
+            Event::Control {
+                t: k as f64 * self.dt,
+                control,
+            },
+            before,
+        )
+    }
+}
+
+/// The NEES `e^T P^-1 e` of a recorded pose `p` with covariance `c` (row-major)
+/// against `truth` (`NaN` where `P` is singular).
+pub(super) fn pose_nees(p: &[f64; 3], c: &[f64; 9], truth: &Pose2) -> f64 {
+    let e = DVector::from_vec(vec![
+        p[0] - truth.x,
+        p[1] - truth.y,
+        angle_diff(p[2], truth.theta),
+    ]);
+    let cov = Matrix3::from_row_slice(c);
+    mahalanobis2(
+        &e,
+        &nalgebra::DMatrix::from_column_slice(3, 3, cov.as_slice()),
+    )
+    .unwrap_or(f64::NAN)
+}
+
+/// `runs` runs of `steps` NEES values each, from `nees_of(run)` in parallel,
+/// averaged per step, with the 95 % band of the average.
+pub(super) fn average_runs<F>(runs: usize, steps: usize, nees_of: F) -> Result<MonteCarlo>
+where
+    F: Fn(u64) -> Result<Vec<f64>> + Sync + Send,
+{
+    if runs == 0 || steps == 0 {
+        return Err(SlamError::invalid(
+            "runs",
+            "runs and steps must be >= 1".into(),
+        ));
+    }
+    let per_run: Vec<Vec<f64>> = (0..runs as u64)
+        .into_par_iter()
+        .map(&nees_of)
+        .collect::<Result<_>>()?;
+    let mean_nees = (0..steps)
+        .map(|k| per_run.iter().map(|r| r[k]).sum::<f64>() / runs as f64)
+        .collect();
+    Ok(MonteCarlo {
+        mean_nees,
+        band: nees_band(3, runs, 0.95)?,
+        runs,
+    })
 }
 
 fn detections(
@@ -177,27 +290,19 @@ fn detections(
 pub fn simulate(cfg: &SimConfig, seed: u64, run: u64) -> SimRun {
     let mut rng = rng::stream(seed, run);
     let world = cfg.world();
-    let start = cfg.slam_config().initial_pose;
-    let v = &cfg.initial_pose_variance;
-    let mut pose = Pose2::new(
-        start[0] + gauss(&mut rng, v[0]),
-        start[1] + gauss(&mut rng, v[1]),
-        start[2] + gauss(&mut rng, v[2]),
+    let mut robot = Circle::new(
+        &mut rng,
+        cfg.slam_config().initial_pose,
+        &cfg.initial_pose_variance,
+        (cfg.speed, cfg.radius, cfg.dt),
+        [cfg.speed_variance, cfg.turn_rate_variance],
     );
-    let omega = cfg.speed / cfg.radius;
     let (mut events, mut truth) = (Vec::new(), Vec::new());
     for k in 0..cfg.steps {
-        let t = k as f64 * cfg.dt;
-        let measured = [
-            cfg.speed + gauss(&mut rng, cfg.speed_variance),
-            omega + gauss(&mut rng, cfg.turn_rate_variance),
-        ];
-        events.push(Event::Control {
-            t,
-            control: measured,
-        });
-        truth.push(pose);
-        pose = unicycle(&pose, cfg.speed, omega, cfg.dt).pose();
+        let (control, before) = robot.step(k, &mut rng);
+        events.push(control);
+        truth.push(before);
+        let pose = robot.pose;
         let t1 = (k + 1) as f64 * cfg.dt;
         events.push(Event::Scan {
             t: t1,
@@ -240,17 +345,7 @@ pub fn robot_nees(result: &PlanarResult, truth: &[Pose2], landmarks: &[Point2<f6
         .zip(truth)
         .map(|((p, c), t)| {
             let s = shift.unwrap_or_else(Vector2::zeros);
-            let e = DVector::from_vec(vec![
-                p[0] - s.x - t.x,
-                p[1] - s.y - t.y,
-                angle_diff(p[2], t.theta),
-            ]);
-            let cov = Matrix3::from_row_slice(c);
-            mahalanobis2(
-                &e,
-                &nalgebra::DMatrix::from_column_slice(3, 3, cov.as_slice()),
-            )
-            .unwrap_or(f64::NAN)
+            pose_nees(&[p[0] - s.x, p[1] - s.y, p[2]], c, t)
         })
         .collect()
 }
@@ -293,23 +388,6 @@ pub fn monte_carlo(
     runs: usize,
     seed: u64,
 ) -> Result<MonteCarlo> {
-    if runs == 0 || sim.steps == 0 {
-        return Err(SlamError::invalid(
-            "runs",
-            "runs and steps must be >= 1".into(),
-        ));
-    }
     sim.validate()?;
-    let per_run: Vec<Vec<f64>> = (0..runs as u64)
-        .into_par_iter()
-        .map(|r| run_nees(sim, slam, seed, r))
-        .collect::<Result<_>>()?;
-    let mean_nees = (0..sim.steps)
-        .map(|k| per_run.iter().map(|r| r[k]).sum::<f64>() / runs as f64)
-        .collect();
-    Ok(MonteCarlo {
-        mean_nees,
-        band: nees_band(3, runs, 0.95)?,
-        runs,
-    })
+    average_runs(runs, sim.steps, |r| run_nees(sim, slam, seed, r))
 }

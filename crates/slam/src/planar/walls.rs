@@ -156,19 +156,7 @@ fn wall_pairing(
         (_, Some(c)) => (Matrix2::zeros(), seen.r + h_l * c * h_l.transpose(), None),
         _ => return None,
     };
-    let mut p = Pairing {
-        det,
-        target,
-        nu,
-        h_robot,
-        h_landmark,
-        offset,
-        r,
-        nis: 0.0,
-    };
-    let s = scene.cross(&p, &p) + p.r;
-    p.nis = nu.dot(&(s.try_inverse()? * nu));
-    p.nis.is_finite().then_some(p)
+    scene.scored(det, target, nu, (h_robot, h_landmark, offset), r)
 }
 
 impl PlanarSlam {

@@ -8,6 +8,7 @@ written out in numpy, for the plain variant (no anchor, no freezing), term for t
   ``rho_r = rho - (x - o_x) cos a - (y - o_y) sin a``, ``alpha_r = alpha - theta``,
   written with ``rho_r >= 0`` (``crates/slam/src/wall.rs``), the innovation compared
   with the line's other form when the angles are more than pi/2 apart;
+- a detection whose angle sd exceeds ``max_angle_sd`` is not used;
 - pairing: segment overlap on the wall's line (gap <= ``overlap_gap``) and the
   Mahalanobis gate; each detection takes its nearest wall; a detection with no wall
   inside the gate becomes new only outside the admission gate of every overlapping
@@ -92,6 +93,7 @@ class WallEkfSlam:
     gate: float = 0.99
     admission: float = 0.999999
     overlap_gap: float = 0.5
+    max_angle_sd: float = math.radians(2.0)
     x: np.ndarray = field(init=False)
     P: np.ndarray = field(init=False)
     extents: list[list[np.ndarray]] = field(init=False, default_factory=list)
@@ -133,6 +135,10 @@ class WallEkfSlam:
         local = [[w[6:8], w[8:10]] for w in walls]
         best, near = [], []
         for z, r, seg in zip(zs, rs, local, strict=True):
+            if r[1, 1] > self.max_angle_sd**2:
+                best.append(None)
+                near.append(True)  # never admitted
+                continue
             ends = [to_world(self.x[:3], p) for p in seg]
             opts = []
             for j, ext in enumerate(self.extents):

@@ -1,6 +1,7 @@
 """Wall-landmark SLAM on the CARMEN logs, end to end (issue 11, part 7): read the log,
-extract every scan's walls, run the plain EKF with wall landmarks from noisy odometry
-(``wall_fig7``'s, seed 0), in scans per second per stage; the SLAM stage against
+extract every scan's walls (with the straightness floor ``wallslam.STRAIGHTNESS``), run
+the plain EKF with wall landmarks from noisy odometry (``wall_fig7``'s, seed 0), in
+scans per second per stage; the SLAM stage against
 ``reference_wall_ekf``, the same filter in numpy, in the same run, which must give
 the same trajectory.
 
@@ -18,10 +19,17 @@ import numpy as np
 from _timing import print_table
 from reference_wall_ekf import WallEkfSlam
 from reference_wall_ekf import run as run_reference
-from wall_fig7 import SPEED_SIGMA, TURN_SIGMA, increments, noisy_controls, wall_rows
 
 from rperc import _rperc
 from rperc.datasets.carmen import load_carmen
+from rperc.slam.wallslam import (
+    SPEED_SIGMA,
+    STRAIGHTNESS,
+    TURN_SIGMA,
+    increments,
+    noisy_controls,
+    wall_rows,
+)
 
 
 def seconds(fn: object, repeat: int = 3) -> tuple[float, object]:
@@ -37,7 +45,7 @@ def bench(path: Path) -> list[str]:
     t_read, log = seconds(lambda: load_carmen(path))
     ref = log.scans.pose
     exact, t = increments(ref)
-    t_extract, (walls, _) = seconds(lambda: wall_rows(log, t))
+    t_extract, (walls, _, _) = seconds(lambda: wall_rows(log.scans, t, straightness=STRAIGHTNESS))
     controls = np.r_[noisy_controls(exact, 0), [[t[-1], 0.0, 0.0]]]
     config = {
         "motion": {

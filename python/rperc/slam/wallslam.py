@@ -158,33 +158,43 @@ def wall_rows(
     from rperc._progress import progress
     from rperc.linesimp import extract_lines
 
-    rows, used, valid = [], 0, 0
+    parts: list[Any] = []
+    scan: list[int] = []
+    used = 0
     steps = range(len(scans))
     it = progress(steps, desc="walls: extract", unit="scan") if show_progress else steps
     for k in it:
         n = int(scans.num_beams[k])
-        r = scans.ranges[k, :n]
-        walls = extract_lines(r, scans.angles(k), max_range=float(scans.max_range[k]))
-        valid += int(np.sum(np.isfinite(r) & (r > 0) & (r < scans.max_range[k])))
-        used += len(walls.flat_indices)
-        c = walls.cov
-        if straightness > 0:
-            c = c + straightness_covariance(
-                walls.rho, walls.alpha, walls.start, walls.end, straightness
-            )
-        rows.append(
-            np.c_[
-                np.full(len(walls), t[k]),
-                walls.rho,
-                walls.alpha,
-                c[:, 0, 0],
-                c[:, 0, 1],
-                c[:, 1, 1],
-                walls.start,
-                walls.end,
-            ]
+        walls = extract_lines(
+            scans.ranges[k, :n], scans.angles(k), max_range=float(scans.max_range[k])
         )
-    return np.concatenate(rows).reshape(-1, 10) if rows else np.zeros((0, 10)), used, valid
+        used += len(walls.flat_indices)
+        parts.append(walls)
+        scan += [k] * len(walls)
+    valid = _valid_readings(scans)
+    if not scan:
+        return np.zeros((0, 10)), used, valid
+    # One pass over all the walls (a numpy call per scan cost more than the extraction).
+    rho = np.concatenate([w.rho for w in parts])
+    alpha = np.concatenate([w.alpha for w in parts])
+    start = np.concatenate([w.start for w in parts]).reshape(-1, 2)
+    end = np.concatenate([w.end for w in parts]).reshape(-1, 2)
+    c = np.concatenate([w.cov for w in parts]).reshape(-1, 2, 2)
+    if straightness > 0:
+        c = c + straightness_covariance(rho, alpha, start, end, straightness)
+    rows = np.column_stack(
+        [t[np.asarray(scan)], rho, alpha, c[:, 0, 0], c[:, 0, 1], c[:, 1, 1], start, end]
+    )
+    return rows, used, valid
+
+
+def _valid_readings(scans: Any) -> int:
+    """Readings that are finite, positive and under their scan's maximum range."""
+    r = np.asarray(scans.ranges, dtype=np.float64)
+    beam = np.arange(r.shape[1])[None, :] < np.asarray(scans.num_beams)[:, None]
+    with np.errstate(invalid="ignore"):
+        ok = np.isfinite(r) & (r > 0) & (r < np.asarray(scans.max_range, dtype=np.float64)[:, None])
+    return int(np.count_nonzero(ok & beam))
 
 
 def loop_pairs(ref: np.ndarray, radius: float = 1.0, min_path: float = 10.0) -> np.ndarray:

@@ -502,3 +502,46 @@ fn walls_with_a_loose_angle_are_not_used() {
             .contains("wall_max_angle_sd")
     );
 }
+
+/// A wall anchor with control-bias states: the pose is re-expressed as without them
+/// (the closed form above), the bias states keep their variances, and the robot
+/// block is five long.
+#[test]
+fn a_wall_anchor_keeps_the_control_bias_states() {
+    let cfg = PlanarConfig {
+        anchor: true,
+        initial_pose_variance: [0.0, 0.25, 0.0],
+        control_bias_sd: Some([0.01, 0.002]),
+        ..PlanarConfig::default()
+    };
+    let mut slam = PlanarSlam::new(cfg).unwrap();
+    slam.process(&Event::Walls {
+        t: 0.0,
+        walls: vec![detection(3.0, 0.0, [1e-4, 4e-4])],
+    })
+    .unwrap();
+    assert_eq!(slam.ekf().robot_dim(), 5);
+    let p = slam.ekf().covariance();
+    assert!((p[(0, 0)] - 1e-4).abs() < 1e-15 && (p[(2, 2)] - 4e-4).abs() < 1e-15);
+    assert!((p[(1, 1)] - (0.25 + 9.0 * 4e-4)).abs() < 1e-12, "{p}");
+    assert!(
+        (p[(3, 3)] - 1e-4).abs() < 1e-18 && (p[(4, 4)] - 4e-6).abs() < 1e-18,
+        "{p}"
+    );
+    assert!(p.view((0, 3), (3, 2)).iter().all(|v| v.abs() < 1e-18));
+    // A prediction then couples them: driving 1 m/s for 1 s, the x error grows by
+    // -s (speed read long) and the heading by -b.
+    slam.process(&Event::Control {
+        t: 0.0,
+        control: [1.0, 0.0],
+    })
+    .unwrap();
+    slam.process(&Event::Control {
+        t: 1.0,
+        control: [0.0, 0.0],
+    })
+    .unwrap();
+    let p = slam.ekf().covariance();
+    assert!((p[(0, 3)] + 1e-4).abs() < 1e-12, "{p}");
+    assert!((p[(2, 4)] + 4e-6).abs() < 1e-12, "{p}");
+}

@@ -10,9 +10,12 @@ effective metre:
 
 - speed: standard deviation 5 % of the effective distance (``SPEED_SIGMA``),
 - turn rate: 1 degree per effective metre (``TURN_SIGMA``),
-- bias, unknown to the filter: +1 % on distance, +0.1 degree per metre of heading.
+- bias: +1 % on distance, +0.1 degree per metre of heading.
 
-The filter's motion noise is exactly the stated noise (not tuned on any log); the
+The filter's motion noise is exactly the stated noise (not tuned on any log), and
+the biases are two states of its robot block (``control_bias_sd``: unknown constants
+whose prior standard deviations are the stated levels), so the filter learns them
+from the walls instead of taking them for noise; the
 walls come from :func:`rperc.linesimp.extract_lines` with its defaults and the log's
 sensor range. The walls are landmarks of the one planar EKF engine
 (:class:`rperc.slam.PlanarSlam`'s), with the seed's anchor (eqs. 24-25) and freezing
@@ -374,6 +377,8 @@ def run_prepared(
         },
         "association": "nn",
         "initial_pose": ref[0].tolist(),
+        # The biases are unknown constants of the stated size: estimated as states.
+        "control_bias_sd": [SPEED_BIAS, TURN_BIAS],
         **overrides,
     }
     controls = np.r_[noisy_controls(prepared.exact, seed), [[t[-1], 0.0, 0.0]]]

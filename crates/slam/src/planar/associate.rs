@@ -63,7 +63,10 @@ impl<'a> Scene<'a> {
     pub fn new(ekf: &'a Ekf, mount: Pose2, w: Matrix2<f64>, fixed: &'a [FixedPoint]) -> Self {
         let x = ekf.state();
         let robot = Pose2::new(x[0], x[1], x[2]);
-        let prr = Matrix3::from_column_slice(ekf.robot_covariance().as_slice());
+        // The pose block (a robot block with bias states is longer).
+        let prr = ekf
+            .covariance_block_fixed::<3, 3>(0, 0)
+            .unwrap_or_else(Matrix3::zeros);
         Self {
             ekf,
             robot,
@@ -90,7 +93,7 @@ impl<'a> Scene<'a> {
     fn landmark(&self, target: Target) -> Option<(Point2<f64>, Option<usize>)> {
         match target {
             Target::State(j) if !self.is_wall(j) => {
-                let off = 3 + 2 * j;
+                let off = self.ekf.robot_dim() + 2 * j;
                 let x = self.ekf.state();
                 Some((Point2::new(x[off], x[off + 1]), Some(off)))
             }

@@ -13,8 +13,12 @@
 //! The identity (the default) changes nothing. The variances of the config describe
 //! the noise left after the correction.
 
+use nalgebra::{Matrix2, Matrix3, Matrix3x2, Vector2, Vector3};
+use rperc_core::Pose2;
+
 use crate::error::ensure_finite;
 use crate::error::{Result, SlamError};
+use crate::motion::MotionModel;
 
 /// The sensors' biases (see the [module docs](self)).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
@@ -178,6 +182,79 @@ mod tests {
             let (rm, bm) = bias.distort_detection(r, b);
             let (r2, b2) = bias.correct_detection(rm, bm).unwrap();
             prop_assert!((r2 - r).abs() < 1e-9 && (b2 - b).abs() < 1e-12);
+        }
+    }
+}
+
+/// A pose predicted with control-bias states, with its Jacobians.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BiasedPrediction {
+    /// The new pose `(x, y, theta)`.
+    pub mean: Vector3<f64>,
+    /// With respect to the pose (3x3).
+    pub fx: Matrix3<f64>,
+    /// With respect to the biases `(s, b)`: `Fv diag(-u0, -1)` (3x2).
+    pub fb: Matrix3x2<f64>,
+    /// With respect to the true controls' noise (3x2).
+    pub fv: Matrix3x2<f64>,
+}
+
+/// The prediction of a robot block `(x, y, theta, s, b)` with unknown control biases
+/// (`PlanarConfig::control_bias_sd`): the pose moves under the true controls
+/// `(u0 (1 - s), u1 - b)`, the biases stay.
+pub fn predict_biased(
+    motion: &MotionModel,
+    pose: &Pose2,
+    control: Vector2<f64>,
+    bias: Vector2<f64>,
+    dt: f64,
+) -> Result<BiasedPrediction> {
+    let true_control = Vector2::new(control.x * (1.0 - bias.x), control.y - bias.y);
+    let p = motion.predict(pose, true_control, dt)?;
+    Ok(BiasedPrediction {
+        mean: p.mean,
+        fx: p.fx,
+        fb: p.fv * Matrix2::new(-control.x, 0.0, 0.0, -1.0),
+        fv: p.fv,
+    })
+}
+
+#[cfg(test)]
+mod control_bias_tests {
+    use super::*;
+    use crate::ackermann::Ackermann;
+    use crate::motion::Unicycle;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// `Fx`, `Fb` and `Fv` against central differences of the biased prediction,
+        /// for both vehicles.
+        #[test]
+        fn biased_prediction_jacobians_match_central_differences(
+            x in -5.0..5.0f64, y in -5.0..5.0f64, th in -3.0..3.0f64,
+            v in -2.0..2.0f64, w in -0.5..0.5f64, s in -0.1..0.1f64, b in -0.05..0.05f64,
+            ackermann in any::<bool>(),
+        ) {
+            let motion = if ackermann {
+                MotionModel::Ackermann(Ackermann::default())
+            } else {
+                MotionModel::Unicycle(Unicycle::default())
+            };
+            let dt = 0.3;
+            let at = [x, y, th, s, b, 0.0, 0.0];
+            // The state (pose, bias) and an additive noise on the true control.
+            let f = |q: &[f64; 7]| {
+                let pose = Pose2::new(q[0], q[1], q[2]);
+                let noisy = Vector2::new(v * (1.0 - q[3]) + q[5], w - q[4] + q[6]);
+                motion.predict(&pose, noisy, dt).unwrap().mean
+            };
+            let num = crate::motion::tests::numeric_jacobian(f, at, 1e-6);
+            let BiasedPrediction { fx, fb, fv, .. } =
+                predict_biased(&motion, &Pose2::new(x, y, th), Vector2::new(v, w), Vector2::new(s, b), dt)
+                    .unwrap();
+            prop_assert!((num.fixed_columns::<3>(0) - fx).abs().max() < 1e-5, "{} {}", num, fx);
+            prop_assert!((num.fixed_columns::<2>(3) - fb).abs().max() < 1e-5, "{} {}", num, fb);
+            prop_assert!((num.fixed_columns::<2>(5) - fv).abs().max() < 1e-5, "{} {}", num, fv);
         }
     }
 }

@@ -105,6 +105,12 @@ pub struct PlanarConfig {
     /// control before use (identity by default; MR.CLAM's are calibrated offline).
     /// `range_variance` and `bearing_variance` are the noise left after it.
     pub bias: SensorBias,
+    /// Unknown constant odometry biases estimated in the state, with these prior
+    /// standard deviations: a relative error `s` of the first control and an offset
+    /// `b` of the second, so that the true controls are `(u0 (1 - s), u1 - b)`
+    /// (speed read long by `s`, turn rate off by `b` rad/s). `None`: no bias states
+    /// (the robot block is `(x, y, theta)`); otherwise it is `(x, y, theta, s, b)`.
+    pub control_bias_sd: Option<[f64; 2]>,
 }
 
 impl Default for PlanarConfig {
@@ -129,6 +135,7 @@ impl Default for PlanarConfig {
             initial_pose: [0.0; 3],
             initial_pose_variance: [0.0; 3],
             bias: SensorBias::default(),
+            control_bias_sd: None,
         }
     }
 }
@@ -172,6 +179,9 @@ impl PlanarConfig {
                 "freeze_after",
                 "must be >= 1 (or None)".into(),
             ));
+        }
+        for sd in self.control_bias_sd.iter().flatten() {
+            ensure_positive("control_bias_sd", *sd)?;
         }
         rperc_core::ensure_finite("initial_pose", self.initial_pose.iter())?;
         rperc_core::ensure_finite("fix_lever_arm", self.fix_lever_arm.iter())?;

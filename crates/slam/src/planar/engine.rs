@@ -118,9 +118,24 @@ impl PlanarSlam {
     /// An engine at `config.initial_pose` with an empty map.
     pub fn new(config: PlanarConfig) -> Result<Self> {
         config.validate()?;
-        let x = DVector::from_column_slice(&config.initial_pose);
-        let p = DMatrix::from_diagonal(&DVector::from_column_slice(&config.initial_pose_variance));
-        let ekf = Ekf::new(x, p, 3, 2)?.with_wrapped_angle(2)?;
+        let bias_var = config
+            .control_bias_sd
+            .map(|sd| [sd[0] * sd[0], sd[1] * sd[1]]);
+        let x: Vec<f64> = config
+            .initial_pose
+            .iter()
+            .copied()
+            .chain(bias_var.iter().flat_map(|_| [0.0, 0.0]))
+            .collect();
+        let var: Vec<f64> = config
+            .initial_pose_variance
+            .iter()
+            .copied()
+            .chain(bias_var.into_iter().flatten())
+            .collect();
+        let rd = x.len();
+        let p = DMatrix::from_diagonal(&DVector::from_vec(var));
+        let ekf = Ekf::new(DVector::from_vec(x), p, rd, 2)?.with_wrapped_angle(2)?;
         let gate = chi2_gate(2, config.gate_confidence)?;
         Ok(Self {
             w: Matrix2::new(config.range_variance, 0.0, 0.0, config.bearing_variance),
@@ -278,7 +293,9 @@ impl PlanarSlam {
                 format!("time went backwards, from {t0} to {t}"),
             ));
         }
-        if t > t0 {
+        if t > t0 && self.ekf.robot_dim() == 5 {
+            self.predict_biased(t - t0)?;
+        } else if t > t0 {
             let pred = self
                 .config
                 .motion
@@ -288,6 +305,62 @@ impl PlanarSlam {
                 .predict_planar(&pred.mean, &pred.fx, &pred.fv, &v)?;
         }
         self.time = Some(t);
+        Ok(())
+    }
+
+    /// The prediction with control-bias states (`control_bias_sd`): the robot block
+    /// `(x, y, theta, s, b)` moves with `F = [[Fx, Fb], [0, I]]`.
+    fn predict_biased(&mut self, dt: f64) -> Result<()> {
+        let x = self.ekf.state();
+        let bias = Vector2::new(x[3], x[4]);
+        let p = super::bias::predict_biased(
+            &self.config.motion,
+            &self.robot(),
+            self.control,
+            bias,
+            dt,
+        )?;
+        let mut f = DMatrix::identity(5, 5);
+        f.view_mut((0, 0), (3, 3)).copy_from(&p.fx);
+        f.view_mut((0, 3), (3, 2)).copy_from(&p.fb);
+        let mut g = DMatrix::zeros(5, 2);
+        g.view_mut((0, 0), (3, 2)).copy_from(&p.fv);
+        let m = DVector::from_vec(vec![p.mean.x, p.mean.y, p.mean.z, bias.x, bias.y]);
+        let v = dyn_mat(&self.config.motion.control_noise());
+        self.ekf.predict(&m, &f, &g, &v)
+    }
+
+    /// A robot Jacobian `(rows x 3)` widened to the robot block (zero for the bias
+    /// states), for a new landmark's cross-covariance.
+    pub(super) fn robot_block<const R: usize>(
+        &self,
+        g: &nalgebra::SMatrix<f64, R, 3>,
+    ) -> DMatrix<f64> {
+        let mut out = DMatrix::zeros(R, self.ekf.robot_dim());
+        out.view_mut((0, 0), (R, 3)).copy_from(g);
+        out
+    }
+
+    /// The filter re-expressed in an anchor's frame (eqs. 24-25): the pose becomes
+    /// `moved` with covariance `J_r P_rr J_r^T + extra`; the bias states (if any)
+    /// keep their mean and covariance, their cross-covariance becomes `J_r P_rb`.
+    pub(super) fn reanchor(
+        &mut self,
+        moved: &nalgebra::Vector3<f64>,
+        j_r: &Matrix3<f64>,
+        extra: &Matrix3<f64>,
+    ) -> Result<()> {
+        let rd = self.ekf.robot_dim();
+        let prr = self.ekf.robot_covariance();
+        let mut j = DMatrix::identity(rd, rd);
+        j.view_mut((0, 0), (3, 3)).copy_from(j_r);
+        let mut p = &j * prr * j.transpose();
+        let e = p.view((0, 0), (3, 3)) + extra;
+        p.view_mut((0, 0), (3, 3)).copy_from(&e);
+        let p = (&p + p.transpose()) * 0.5;
+        let mut x = self.ekf.state().rows(0, rd).into_owned();
+        x.rows_mut(0, 3).copy_from(moved);
+        self.ekf = Ekf::new(x, p, rd, 2)?.with_wrapped_angle(2)?;
         Ok(())
     }
 
@@ -625,7 +698,7 @@ impl PlanarSlam {
         self.ekf.add_landmark_with_id(
             id,
             &DVector::from_vec(vec![l.x, l.y]),
-            &dyn_mat(&g_r),
+            &self.robot_block(&g_r),
             &dyn_mat(&g_z),
             &dyn_mat(&self.w),
         )?;
@@ -638,15 +711,7 @@ impl PlanarSlam {
     /// the origin with no uncertainty and leaves the state.
     fn make_anchor(&mut self, id: u64, z: &Vector2<f64>) -> Result<()> {
         let (moved, j_r, j_z, a) = anchor_frame(&self.robot(), &self.mount, z);
-        let p = j_r * self.pose_covariance() * j_r.transpose() + j_z * self.w * j_z.transpose();
-        let p = (p + p.transpose()) * 0.5;
-        self.ekf = Ekf::new(
-            DVector::from_column_slice(moved.as_slice()),
-            dyn_mat(&p),
-            3,
-            2,
-        )?
-        .with_wrapped_angle(2)?;
+        self.reanchor(&moved, &j_r, &(j_z * self.w * j_z.transpose()))?;
         self.offset += a.coords;
         for c in &mut self.candidates {
             c.mean -= a.coords;
@@ -684,7 +749,7 @@ impl PlanarSlam {
             if self.walls.contains_key(&id) {
                 continue;
             }
-            let off = 3 + 2 * j;
+            let off = self.ekf.landmark_offset(j).expect("landmark index");
             let x = self.ekf.state();
             let c = self
                 .ekf

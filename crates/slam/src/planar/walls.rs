@@ -26,7 +26,6 @@ use rperc_core::{Definiteness, Pose2, check_covariance, chi2_gate, wrap_angle};
 use super::associate::{self, Pairing, Scene, Target};
 use super::engine::dyn_mat;
 use super::{Association, PlanarSlam, WallDetection, WallEstimate};
-use crate::ekf::Ekf;
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::wall::{WallJacobians, observe_wall, wall_innovation, wall_to_world};
 
@@ -152,7 +151,7 @@ fn wall_pairing(
         h_l.row_mut(0).neg_mut();
     }
     let (h_landmark, r, offset) = match (target, fixed) {
-        (Target::State(j), _) => (h_l, seen.r, Some(3 + 2 * j)),
+        (Target::State(j), _) => (h_l, seen.r, Some(scene.ekf.robot_dim() + 2 * j)),
         (_, Some(c)) => (Matrix2::zeros(), seen.r + h_l * c * h_l.transpose(), None),
         _ => return None,
     };
@@ -160,6 +159,11 @@ fn wall_pairing(
 }
 
 impl PlanarSlam {
+    /// The state offset of landmark `j` (after the robot block).
+    fn offset_of(&self, j: usize) -> usize {
+        self.ekf.robot_dim() + 2 * j
+    }
+
     fn sensor(&self) -> (Pose2, Matrix3<f64>) {
         let (sensor, j_robot, _) = self.robot().compose_with_jacobians(&self.mount);
         (sensor, j_robot)
@@ -251,7 +255,7 @@ impl PlanarSlam {
             if let Some(extent) = self.walls.get(id) {
                 targets.push(WallTarget {
                     target: Target::State(j),
-                    line: Vector2::new(x[3 + 2 * j], x[4 + 2 * j]),
+                    line: Vector2::new(x[self.offset_of(j)], x[self.offset_of(j) + 1]),
                     fixed: None,
                     extent,
                 });
@@ -293,7 +297,7 @@ impl PlanarSlam {
     /// fixed walls (internal frame).
     fn wall_line(&self, id: u64) -> Option<(Vector2<f64>, Matrix2<f64>, bool)> {
         if let Some(j) = self.ekf.landmark_index(id) {
-            let off = 3 + 2 * j;
+            let off = self.offset_of(j);
             let x = self.ekf.state();
             let c = self.ekf.covariance_block_fixed::<2, 2>(off, off)?;
             return Some((Vector2::new(x[off], x[off + 1]), c, self.ekf.is_consider(j)));
@@ -336,7 +340,7 @@ impl PlanarSlam {
             self.ekf.add_landmark_with_id(
                 id,
                 &DVector::from_column_slice(w.wall.as_slice()),
-                &dyn_mat(&g_robot),
+                &self.robot_block(&g_robot),
                 &dyn_mat(&w.d_wall),
                 &dyn_mat(&seen.r),
             )?;
@@ -372,10 +376,8 @@ impl PlanarSlam {
         let m = Matrix3x2::new(-c, y, -s, -x, 0.0, -1.0);
         let j_r = Matrix3::identity() + m * g_robot;
         let j_z = m * w.d_wall;
-        let p = j_r * self.pose_covariance() * j_r.transpose() + j_z * r * j_z.transpose();
-        let p = (p + p.transpose()) * 0.5;
-        let x = self.ekf.state().rows(0, 3).into_owned();
-        self.ekf = Ekf::new(x, dyn_mat(&p), 3, 2)?.with_wrapped_angle(2)?;
+        let pose = self.ekf.state().fixed_rows::<3>(0).into_owned();
+        self.reanchor(&pose, &j_r, &(j_z * r * j_z.transpose()))?;
         self.fixed_walls.push(FixedWall {
             line: w.wall,
             cov: Matrix2::zeros(),

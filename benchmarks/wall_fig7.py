@@ -74,6 +74,7 @@ def run_log(path: Path, seeds: int, straightness: float, association: str) -> di
         "association": association,
         "summary": summary,
         "_seed0": first,
+        "_prepared": prepared,
     }
 
 
@@ -83,13 +84,17 @@ def plot(results: list[dict[str, Any]], path: Path) -> None:
 
     for res in results:
         runs = [(name, res["_seed0"][name]) for name in ws.METHODS]
+        prepared = res["_prepared"]
         s = res["summary"]
         title = (
             f"{res['log']}, seed 0 shown; over {res['seeds']} seeds ATE "
             + " / ".join(f"{s[n]['ate_rmse']['mean']:.2f}" for n in ws.METHODS)
             + " m (odometry / plain / anchored+freeze50)"
         )
-        fig = wall_maps_figure(runs, title=title, reference_label="corrected path (reference)")
+        fig = wall_maps_figure(
+            runs, title=title, reference_label="corrected path (reference)",
+            sightings=(prepared.rows, prepared.t),
+        )  # fmt: skip
         save(fig, path.with_name(f"{path.stem}_{Path(res['log']).stem}{path.suffix}"))
 
 

@@ -98,11 +98,12 @@ def main() -> None:
     ap.add_argument("--calibrate", type=Path, default=data / "aces.log")
     ap.add_argument("--report", type=Path, default=data / "intel.log")
     ap.add_argument("--separation", type=int, default=10, help="scans between the pair")
+    ap.add_argument("--sigma", type=float, help="report at this sigma (m), no calibration")
     ap.add_argument("--json", type=Path)
     args = ap.parse_args()
     cal = pairs_of(args.calibrate, args.separation)
     rep = pairs_of(args.report, args.separation)
-    sigma = calibrate(cal)
+    sigma = calibrate(cal) if args.sigma is None else args.sigma
     result = {
         "calibration_log": args.calibrate.name,
         "report_log": args.report.name,

@@ -103,27 +103,74 @@ DEMO_RUNS: dict[str, dict[str, Any]] = {
 
 def demo_wall_slam(out: Path, seed: int) -> DemoResult:
     """Fig. 7 on a simulated corridor loop (two laps, 1 cm range noise): odometry
-    alone, plain wall SLAM and anchored with freezing, from one noisy odometry draw."""
+    alone, plain wall SLAM and anchored with freezing, from one noisy odometry draw;
+    and, when the data folder holds it, the same on the Intel log against its
+    corrected path (``wall_slam_fig7_intel.png``)."""
     from rperc.datasets.carmen import load_carmen
-    from rperc.plot import save
-    from rperc.plot.wallslam import wall_maps_figure
     from rperc.scansim import write_loop_log
 
     with tempfile.TemporaryDirectory() as tmp:
         log = load_carmen(write_loop_log(Path(tmp) / "loop.log", seed=seed))
-    runs = {name: run_walls(log, seed=seed, **kw) for name, kw in DEMO_RUNS.items()}
+    runs, path = _fig7(log, seed, 0.0, out / "wall_slam_fig7.png", "simulated corridor loop")
     ates = " / ".join(f"{r.metrics['ate_rmse']:.3f}" for r in runs.values())
     loops = " / ".join(f"{r.metrics['loop_error']:.3f}" for r in runs.values())
     plain = runs["plain"]
-    title = (
-        f"wall SLAM, simulated corridor loop ({len(plain.pose)} scans), seed {seed}: "
-        f"ATE {ates} m (odometry / plain / anchored+freeze50)"
-    )
-    fig = wall_maps_figure(list(runs.items()), title=title, reference_label="true path")
-    path = save(fig, out / "wall_slam_fig7.png")
     summary = (
         f"wall_slam: simulated corridor loop, {len(plain.pose)} scans, ATE {ates} m, "
         f"loop error {loops} m (odometry / plain / anchored+freeze50), plain robot NEES "
         f"mean {plain.metrics['nees_mean']:.2f} (3 expected), {len(plain.wall_id)} walls"
     )
-    return DemoResult(summary, [path], {"seed": seed, **{n: measured(r) for n, r in runs.items()}})
+    measured_runs: dict[str, Any] = {"seed": seed, **{n: measured(r) for n, r in runs.items()}}
+    paths = [path]
+    intel = _intel_log()
+    if intel is not None:
+        real, real_path = _fig7(
+            load_carmen(intel), seed, STRAIGHTNESS, out / "wall_slam_fig7_intel.png", "intel.log"
+        )
+        paths.append(real_path)
+        summary += "; intel.log (corrected path as reference): " + ", ".join(
+            f"{n} {r.metrics['ate_rmse']:.3f} m" for n, r in real.items()
+        )
+        measured_runs["intel"] = {n: measured(r) for n, r in real.items()}
+    return DemoResult(summary, paths, measured_runs)
+
+
+def _intel_log() -> Path | None:
+    """The Intel log in the data folder, if there is one."""
+    from rperc.datasets._paths import data_dir
+
+    root = data_dir()
+    path = None if root is None else root / "carmen" / "intel.log"
+    return path if path is not None and path.is_file() else None
+
+
+def _fig7(
+    log: Any, seed: int, straightness: float, path: Path, what: str
+) -> tuple[dict[str, WallSlamResult], Path]:
+    """The three Fig. 7 runs over one log and their figure."""
+    from rperc.plot import save
+    from rperc.plot.wallslam import wall_maps_figure
+    from rperc.slam.wallslam import prepare, run_prepared
+
+    prepared = prepare(log, straightness=straightness)
+    runs = {
+        name: run_prepared(prepared, seed=seed, **_overrides(kw)) for name, kw in DEMO_RUNS.items()
+    }
+    ates = " / ".join(f"{r.metrics['ate_rmse']:.3f}" for r in runs.values())
+    reference = "true path" if straightness == 0.0 else "corrected path (reference)"
+    title = (
+        f"wall SLAM, {what} ({len(prepared.t)} scans), odometry seed {seed}: "
+        f"ATE {ates} m (odometry / plain / anchored+freeze50)"
+    )
+    fig = wall_maps_figure(
+        list(runs.items()), title=title, reference_label=reference,
+        sightings=(prepared.rows, prepared.t),
+    )  # fmt: skip
+    return runs, save(fig, path)
+
+
+def _overrides(kw: dict[str, Any]) -> dict[str, Any]:
+    """A DEMO_RUNS entry as run_prepared's keywords."""
+    return {"use_walls": kw.get("use_walls", True)} | {
+        k: v for k, v in kw.items() if k != "use_walls"
+    }

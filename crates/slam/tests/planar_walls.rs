@@ -200,16 +200,13 @@ fn a_new_wall_enters_with_its_full_covariance() {
     assert!((p[(4, 2)] - 0.01).abs() < 1e-12 && (p[(3, 0)] - 0.04).abs() < 1e-12);
 }
 
-/// The wall anchor (wall x = 3 seen from the origin with a known start): the robot's
-/// distance to the wall and heading take the sighting's variances, the position
-/// along the wall keeps its prior plus the turn of the frame about the wall's
-/// reference point (3, 0), 3 m away: `y` moves by `3 e_alpha` and `theta` by
-/// `-e_alpha`, and the anchor has no covariance.
-#[test]
-fn a_wall_anchor_becomes_the_reference() {
+/// The engine anchored on the wall x = 3, seen from the origin (known x and heading,
+/// y variance 0.25).
+fn anchored_on_x3(control_bias_sd: Option<[f64; 2]>) -> PlanarSlam {
     let cfg = PlanarConfig {
         anchor: true,
         initial_pose_variance: [0.0, 0.25, 0.0],
+        control_bias_sd,
         ..PlanarConfig::default()
     };
     let mut slam = PlanarSlam::new(cfg).unwrap();
@@ -218,6 +215,17 @@ fn a_wall_anchor_becomes_the_reference() {
         walls: vec![detection(3.0, 0.0, [1e-4, 4e-4])],
     })
     .unwrap();
+    slam
+}
+
+/// The wall anchor (wall x = 3 seen from the origin with a known start): the robot's
+/// distance to the wall and heading take the sighting's variances, the position
+/// along the wall keeps its prior plus the turn of the frame about the wall's
+/// reference point (3, 0), 3 m away: `y` moves by `3 e_alpha` and `theta` by
+/// `-e_alpha`, and the anchor has no covariance.
+#[test]
+fn a_wall_anchor_becomes_the_reference() {
+    let slam = anchored_on_x3(None);
     let p = slam.pose_covariance();
     // x = rho_w - rho: variance 1e-4; theta = alpha_w - alpha: 4e-4;
     // y: 0.25 + 3^2 4e-4, and cov(y, theta) = -3 * 4e-4.
@@ -508,18 +516,7 @@ fn walls_with_a_loose_angle_are_not_used() {
 /// block is five long.
 #[test]
 fn a_wall_anchor_keeps_the_control_bias_states() {
-    let cfg = PlanarConfig {
-        anchor: true,
-        initial_pose_variance: [0.0, 0.25, 0.0],
-        control_bias_sd: Some([0.01, 0.002]),
-        ..PlanarConfig::default()
-    };
-    let mut slam = PlanarSlam::new(cfg).unwrap();
-    slam.process(&Event::Walls {
-        t: 0.0,
-        walls: vec![detection(3.0, 0.0, [1e-4, 4e-4])],
-    })
-    .unwrap();
+    let mut slam = anchored_on_x3(Some([0.01, 0.002]));
     assert_eq!(slam.ekf().robot_dim(), 5);
     let p = slam.ekf().covariance();
     assert!((p[(0, 0)] - 1e-4).abs() < 1e-15 && (p[(2, 2)] - 4e-4).abs() < 1e-15);

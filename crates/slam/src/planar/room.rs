@@ -92,21 +92,18 @@ pub struct RoomRun {
 impl RoomConfig {
     /// Refuses bad values with the field's name.
     pub fn validate(&self) -> Result<()> {
+        Circle::check(
+            [self.radius, self.speed, self.dt],
+            [self.speed_variance, self.turn_rate_variance],
+            &self.initial_pose_variance,
+        )?;
         check_fields(
             &[
-                ("radius", self.radius),
-                ("speed", self.speed),
-                ("dt", self.dt),
                 ("max_range", self.max_range),
                 ("rho_variance", self.rho_variance),
                 ("alpha_variance", self.alpha_variance),
             ],
-            &[
-                ("min_length", self.min_length),
-                ("speed_variance", self.speed_variance),
-                ("turn_rate_variance", self.turn_rate_variance),
-            ],
-            &self.initial_pose_variance,
+            &[("min_length", self.min_length)],
         )?;
         rperc_core::ensure_finite("walls", self.walls.iter().flatten())?;
         rperc_core::ensure_finite("centre", self.centre.iter())?;

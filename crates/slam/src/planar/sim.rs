@@ -81,22 +81,20 @@ pub struct SimRun {
 impl SimConfig {
     /// Refuses bad values with the field's name.
     pub fn validate(&self) -> Result<()> {
+        Circle::check(
+            [self.radius, self.speed, self.dt],
+            [self.speed_variance, self.turn_rate_variance],
+            &self.initial_pose_variance,
+        )?;
         check_fields(
             &[
-                ("radius", self.radius),
-                ("speed", self.speed),
-                ("dt", self.dt),
                 ("ring_gap", self.ring_gap),
                 ("max_range", self.max_range),
                 ("range_variance", self.range_variance),
                 ("bearing_variance", self.bearing_variance),
                 ("fix_variance", self.fix_variance),
             ],
-            &[
-                ("speed_variance", self.speed_variance),
-                ("turn_rate_variance", self.turn_rate_variance),
-            ],
-            &self.initial_pose_variance,
+            &[],
         )?;
         if self.steps == 0 || self.landmarks == 0 || self.fix_every == Some(0) {
             return Err(SlamError::invalid(
@@ -150,20 +148,16 @@ pub(super) fn gauss(rng: &mut rng::RngStream, variance: f64) -> f64 {
 }
 
 /// A simulator's settings checked by name: `positive` must be > 0, `non_negative`
-/// and the start pose variances >= 0 (the simulated worlds share this).
+/// >= 0.
 pub(super) fn check_fields(
     positive: &[(&'static str, f64)],
     non_negative: &[(&'static str, f64)],
-    initial_pose_variance: &[f64; 3],
 ) -> Result<()> {
     for &(name, v) in positive {
         rperc_core::ensure_positive(name, v)?;
     }
     for &(name, v) in non_negative {
         rperc_core::ensure_non_negative(name, v)?;
-    }
-    for &v in initial_pose_variance {
-        rperc_core::ensure_non_negative("initial_pose_variance", v)?;
     }
     Ok(())
 }
@@ -180,6 +174,23 @@ pub(super) struct Circle {
 }
 
 impl Circle {
+    /// The settings of [`Circle::new`] checked by name: `(radius, speed, dt)` > 0,
+    /// the noise variances and the start variances >= 0.
+    pub fn check(drive: [f64; 3], noise: [f64; 2], start_variance: &[f64; 3]) -> Result<()> {
+        let [radius, speed, dt] = drive;
+        check_fields(
+            &[("radius", radius), ("speed", speed), ("dt", dt)],
+            &[
+                ("speed_variance", noise[0]),
+                ("turn_rate_variance", noise[1]),
+            ],
+        )?;
+        start_variance
+            .iter()
+            .try_for_each(|&v| rperc_core::ensure_non_negative("initial_pose_variance", v))?;
+        Ok(())
+    }
+
     /// The robot at `start` moved by a draw of `start_variance`, to drive at `speed`
     /// on a circle of `radius` with odometry noise `noise` (speed, turn-rate
     /// variances), one control every `dt` seconds.

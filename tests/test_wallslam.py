@@ -132,3 +132,54 @@ def test_straightness_covariance_against_a_monte_carlo_of_the_end_points():
         ]
         scale = np.sqrt(np.outer(np.diag(q), np.diag(q)))
         np.testing.assert_allclose(empirical / scale, q / scale, atol=0.02)
+
+
+def test_wall_rows_equal_one_extraction_per_scan(loop_log):
+    """The one-pass rows against each scan's extract_lines (and the straightness
+    covariance) row by row, and the valid readings counted scan by scan."""
+    from rperc.linesimp import extract_lines
+    from rperc.slam.wallslam import straightness_covariance, wall_rows
+
+    scans = loop_log.scans
+    _, t = increments(scans.pose)
+    rows, used, valid = wall_rows(scans, t, straightness=0.02)
+    expected, n_used, n_valid = [], 0, 0
+    for k in range(len(scans)):
+        r = scans.ranges[k, : int(scans.num_beams[k])]
+        w = extract_lines(r, scans.angles(k), max_range=float(scans.max_range[k]))
+        n_used += len(w.flat_indices)
+        n_valid += int(np.sum(np.isfinite(r) & (r > 0) & (r < scans.max_range[k])))
+        c = w.cov + straightness_covariance(w.rho, w.alpha, w.start, w.end, 0.02)
+        for i in range(len(w)):
+            expected.append([t[k], w.rho[i], w.alpha[i], c[i, 0, 0], c[i, 0, 1], c[i, 1, 1],
+                             *w.start[i], *w.end[i]])  # fmt: skip
+    np.testing.assert_array_equal(rows, np.array(expected))
+    assert (used, valid) == (n_used, n_valid)
+
+
+def test_prepared_runs_equal_whole_runs(loop_log):
+    """prepare + run_prepared is run_walls (the walls extracted once, reused)."""
+    from rperc.slam.wallslam import prepare, run_prepared
+
+    prepared = prepare(loop_log)
+    for kwargs in ({}, {"anchor": True, "freeze_after": 20}):
+        a = run_walls(loop_log, seed=5, **kwargs)
+        b = run_prepared(prepared, seed=5, **kwargs)
+        np.testing.assert_array_equal(a.pose, b.pose)
+        assert a.metrics == b.metrics and a.counts == b.counts
+
+
+def test_sightings_placed_with_the_true_path_lie_on_the_true_walls(loop_log):
+    """The odometry panel's map (plot.wallslam.sighted_walls): every sighting placed
+    with the simulator's true path lies on a true wall (shapely: both ends within
+    5 cm of one segment)."""
+    from rperc.plot.wallslam import sighted_walls
+    from rperc.slam.wallslam import prepare
+
+    prepared = prepare(loop_log)
+    placed = sighted_walls(prepared.rows, prepared.t, loop_path())
+    true = [shapely.LineString(w) for w in loop_walls()]
+    assert len(placed) == len(prepared.rows) > 100
+    for a, b in placed:
+        gaps = [max(w.distance(shapely.Point(a)), w.distance(shapely.Point(b))) for w in true]
+        assert min(gaps) < 0.05, (a, b)

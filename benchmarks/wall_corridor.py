@@ -118,7 +118,7 @@ def run(seed: int, jamb: float, offset: float, args: argparse.Namespace) -> dict
     out = PlanarSlam(config).run_arrays(
         np.r_[controls, [[t[-1], 0.0, 0.0]]], np.zeros((0, 3)), walls=np.array(rows)
     )
-    est, cov = ws._at_scans(out, t)
+    est, cov = ws.at_scans(out, t)
     return ws.score(est, cov, ref, ws.loop_pairs(ref))
 
 

@@ -183,3 +183,30 @@ def test_sightings_placed_with_the_true_path_lie_on_the_true_walls(loop_log):
     for a, b in placed:
         gaps = [max(w.distance(shapely.Point(a)), w.distance(shapely.Point(b))) for w in true]
         assert min(gaps) < 0.05, (a, b)
+
+
+@pytest.mark.parametrize(
+    ("script", "args"),
+    [
+        ("wall_corridor.py", ["--jambs", "0", "--seeds", "1"]),
+        ("wall_fig7.py", ["--seeds", "1", "--straightness", "0"]),
+    ],
+)
+def test_wall_benchmarks_run(script, args, tmp_path):
+    """The benchmark scripts run end to end on small inputs (wall_fig7 on a
+    simulated loop log), so that a renamed helper cannot break them unseen."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    if script == "wall_fig7.py":
+        log = write_loop_log(tmp_path / "loop.log", seed=1, laps=1.2)
+        args = [*args, "--logs", str(log), "--plot", str(tmp_path / "fig7.png")]
+    out = subprocess.run(
+        [sys.executable, str(root / "benchmarks" / script), *args],
+        capture_output=True, text=True, check=True, cwd=root / "benchmarks",
+    )  # fmt: skip
+    assert "ate_rmse" in out.stdout or "ATE" in out.stdout, out.stdout
+    if script == "wall_fig7.py":
+        assert (tmp_path / "fig7_loop.png").stat().st_size > 10_000

@@ -111,9 +111,20 @@ impl<'a> RgbView<'a> {
 }
 
 /// Grey level of an RGB pixel, ITU-R BT.601 luma (OpenCV's `COLOR_RGB2GRAY` weights).
+///
+/// Summed in `f64` and rounded once, so that a grey pixel `(g, g, g)` gives exactly `g`
+/// (in `f32` the three products rounded apart can miss it by an ulp, and a colour frame
+/// of grey pixels would not track exactly as the grey frame).
+///
+/// # Examples
+/// ```
+/// use rperc_core::image::luma;
+///
+/// assert!((0..=255u8).all(|g| luma(g, g, g) == f32::from(g)));
+/// ```
 #[inline]
 pub fn luma(r: u8, g: u8, b: u8) -> f32 {
-    0.299 * f32::from(r) + 0.587 * f32::from(g) + 0.114 * f32::from(b)
+    (0.299 * f64::from(r) + 0.587 * f64::from(g) + 0.114 * f64::from(b)) as f32
 }
 
 /// An owned grey image of `f32` levels (0..255 for converted 8-bit images).

@@ -135,6 +135,7 @@ def test_the_same_seed_gives_the_same_track() -> None:
         ({"sigma": (5, 5, 0.1)}, ValueError, "sigma"),
         ({"refine_first_step": 0.0}, ValueError, "refine_first_step"),
         ({"refine_first_step": math.nan}, ValueError, "refine_first_step"),
+        ({"deviation": "cubic"}, ValueError, "deviation"),
         ({"frame": np.zeros((H, W), np.float32)}, TypeError, "uint8"),
         ({"frame": np.zeros((H, W, 4), np.uint8)}, ValueError, "shape"),
         ({"frame": np.full((H, W), 128, np.uint8)}, ValueError, "region"),

@@ -358,13 +358,14 @@ fn three_sigma_run() -> [f64; 3] {
 
 #[test]
 fn the_tracker_keeps_a_generated_sequence_within_three_sigma_at_30_percent_occlusion() {
-    // The issue's goals met today: no loss at 30 % occlusion, position below 1 px RMS.
+    // The issue's goals: no loss at 30 % occlusion, position below 1 px RMS.
     let [pos, _, _] = three_sigma_run();
     assert!(pos < 1.0, "position RMS {pos}");
 }
 
+/// The issue's angle and scale goals (section 4.1's "accurate inside [-3 sigma, +3
+/// sigma]"). This sequence (seed 5) was never used to choose a default.
 #[test]
-#[ignore = "goal not met yet: 0.97 deg but 2.8 % RMS scale (under-estimated, -1.2 % even without occlusion) on this run"]
 fn the_tracker_meets_the_angle_and_scale_goals_within_three_sigma() {
     let [_, ang, scale] = three_sigma_run();
     assert!(ang < 1.0 && scale < 0.02, "{ang} deg, {scale}");

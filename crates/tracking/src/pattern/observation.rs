@@ -37,7 +37,6 @@ pub struct ScaleSpace {
 struct Level {
     image: GrayImage,
     kernel: Arc<[f32]>,
-    blurred: GrayImage,
     scratch: GrayImage,
     /// Blurred for this frame (see [`ScaleSpace::build_window_for`]).
     ready: bool,
@@ -45,8 +44,8 @@ struct Level {
 
 impl Level {
     fn blur(&mut self, crop: &GrayImage, inner: [usize; 4]) {
-        crop.convolve_separable(&self.kernel, &mut self.scratch, &mut self.blurred);
-        copy_window(&self.blurred, inner, &mut self.image);
+        // Only the window: the crop's margin is there to be read, not kept.
+        crop.convolve_separable_window(&self.kernel, inner, &mut self.scratch, &mut self.image);
         self.ready = true;
     }
 }

@@ -506,7 +506,11 @@ impl<'a> PatternLikelihood<'a> {
         let mut squares = below;
         if occluded > tolerated {
             let d = &mut scratch.deviations;
-            d.select_nth_unstable_by(n - tolerated, |a, b| a.total_cmp(b));
+            // (With none tolerated, every point counts: nothing to select, and
+            // selecting the n-th of n would panic.)
+            if tolerated > 0 {
+                d.select_nth_unstable_by(n - tolerated, |a, b| a.total_cmp(b));
+            }
             squares += d[..n - tolerated]
                 .iter()
                 .filter(|&&l| l > threshold)

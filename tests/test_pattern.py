@@ -136,6 +136,7 @@ def test_the_same_seed_gives_the_same_track() -> None:
         ({"refine_first_step": 0.0}, ValueError, "refine_first_step"),
         ({"refine_first_step": math.nan}, ValueError, "refine_first_step"),
         ({"deviation": "cubic"}, ValueError, "deviation"),
+        ({"refine_fine_rounds": -1}, ValueError, "refine_fine_rounds"),
         ({"frame": np.zeros((H, W), np.float32)}, TypeError, "uint8"),
         ({"frame": np.zeros((H, W, 4), np.uint8)}, ValueError, "shape"),
         ({"frame": np.full((H, W), 128, np.uint8)}, ValueError, "region"),

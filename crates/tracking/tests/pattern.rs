@@ -721,6 +721,49 @@ fn observe_equals_eq6_with(m: &PatternModel) {
     );
 }
 
+/// The coarse likelihood on the first `k` points of the visiting order against eq. 6
+/// of a model holding only those points (computed point by point), and the whole
+/// order's against the full likelihood.
+#[test]
+fn a_likelihood_on_some_points_is_eq6_of_those_points() {
+    let m = model();
+    let mut frame = render(TRUTH, m.centre, FRAME);
+    add_noise(&mut frame, 3.0, 21);
+    let mut space = ScaleSpace::new();
+    space.build(&frame, &m).unwrap();
+    let lik = PatternLikelihood::new(&m, &space);
+    let n = m.points.len();
+    let mut scratch = PatternScratch::default();
+    let mut rng = seeded(22);
+    for k in [1, n / 3, n.div_ceil(2), n] {
+        let part = lik.with_points(k);
+        let order: Vec<usize> = part.visiting_order().collect();
+        assert_eq!(order.len(), k);
+        let mut sub = m.clone();
+        sub.points = order.iter().map(|&j| m.points[j].clone()).collect();
+        for _ in 0..20 {
+            let state = [
+                TRUTH[0] + 2.0 * normal(&mut rng),
+                TRUTH[1] + 2.0 * normal(&mut rng),
+                TRUTH[2] + 0.03 * normal(&mut rng),
+                TRUTH[3] * (1.0 + 0.03 * normal(&mut rng)),
+            ];
+            let (ll, occ) = brute_force_eq6(&sub, &space, state);
+            let got = part.observe(&SVector::from(state), &mut scratch);
+            assert!(
+                (got.log_likelihood - ll).abs() < 1e-3 * (1.0 + ll.abs()),
+                "k {k}: {} vs {ll}",
+                got.log_likelihood
+            );
+            assert_eq!(got.occluded_fraction, occ);
+            if k == n {
+                let all = lik.observe(&SVector::from(state), &mut scratch);
+                assert_eq!(got, all);
+            }
+        }
+    }
+}
+
 /// `observe_above`'s contract against `observe`: the exact answer at or above the
 /// floor, an upper bound of it below the floor otherwise.
 #[test]

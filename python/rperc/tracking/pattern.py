@@ -125,7 +125,8 @@ class PatternTracker:
     ``refine_steps`` rounds of a local search refine the weighted mean on the same
     frame (0: the seed's plain mean), with steps starting at ``refine_first_step``
     sigmas and halved each round; with ``refined_particle`` the refined pose replaces
-    the lightest particle, so that the next frame starts from it.
+    the lightest particle, so that the next frame starts from it. All but the last
+    ``refine_fine_rounds`` rounds weigh every other model point only (coarse).
     ``lost_occluded_fraction``: the estimate is lost above this occluded fraction.
     The ``pattern`` parameters (Canny thresholds, points, profile length
     ``n_samples`` and step ``delta``, likelihood ``likelihood_sigma``, occlusion) are
@@ -158,6 +159,7 @@ class PatternTracker:
         refine_steps: int = _TRACKER["refine_steps"],
         refine_first_step: float = _TRACKER["refine_first_step"],
         refined_particle: bool = _TRACKER["refined_particle"],
+        refine_fine_rounds: int = _TRACKER["refine_fine_rounds"],
         lost_occluded_fraction: float = _TRACKER["lost_occluded_fraction"],
         canny_low: float = _PATTERN["canny_low"],
         canny_high: float = _PATTERN["canny_high"],
@@ -195,6 +197,7 @@ class PatternTracker:
             "refine_steps": refine_steps,
             "refine_first_step": refine_first_step,
             "refined_particle": refined_particle,
+            "refine_fine_rounds": refine_fine_rounds,
             "lost_occluded_fraction": lost_occluded_fraction,
             "pattern": pattern,
             "filter": {

@@ -398,6 +398,21 @@ impl<'a> PatternLikelihood<'a> {
         }
     }
 
+    /// The indices of the model points in the order they are visited (interleaved
+    /// along the contours).
+    pub fn visiting_order(&self) -> impl Iterator<Item = usize> + '_ {
+        self.points.iter().map(|g| g.index)
+    }
+
+    /// The same observation model on the first `count` model points of its visiting
+    /// order only (interleaved along the contours, so that they spread over the whole
+    /// pattern): a cheaper, coarser likelihood.
+    pub fn with_points(&self, count: usize) -> Self {
+        let mut out = self.clone();
+        out.points.truncate(count.max(1));
+        out
+    }
+
     /// The same observation model, whose [`Likelihood::log_likelihood`] stops early on
     /// states that do not matter: within one chunk of particles (weighed in order on
     /// one scratch), once [`EXTRAPOLATE_AFTER`] points or more (interleaved over the
@@ -467,7 +482,7 @@ impl<'a> PatternLikelihood<'a> {
         floor: f64,
         stop: Stop,
     ) -> Observation {
-        let n = self.model.points.len();
+        let n = self.points.len();
         if self.space.is_empty()
             || n == 0
             || !state.iter().all(|v| v.is_finite())

@@ -64,6 +64,10 @@ impl PatternFrame<'_> {
 /// 1e-13), see [`PatternLikelihood::with_early_exit`].
 const NEGLIGIBLE_LOG_WEIGHT: f64 = 30.0;
 
+/// The coarse rounds of the refinement weigh at least this many model points (all of
+/// a smaller model): fewer locate a pattern less well than its own noise.
+const COARSE_MIN_POINTS: usize = 64;
+
 /// Parameters of a [`PatternTracker`].
 #[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
 #[serde(default, deny_unknown_fields)]
@@ -87,6 +91,10 @@ pub struct PatternTrackerParams {
     /// The refined state replaces the lightest particle, weighted by its likelihood,
     /// so that the next frame starts from it. Default `true`.
     pub refined_particle: bool,
+    /// The last rounds of the refinement that weigh every model point; the earlier
+    /// (coarse) ones weigh every other point, at half the cost. Default 2: with the
+    /// default first step, rounds of `sigma` to `sigma / 8` are coarse.
+    pub refine_fine_rounds: usize,
     /// Model building and observation model (sections 3.2-3.3).
     pub pattern: PatternConfig,
     /// Particle-filter settings (resampler, policy, chunking, parallelism). Default
@@ -103,6 +111,7 @@ impl Default for PatternTrackerParams {
             refine_steps: 6,
             refine_first_step: 1.0,
             refined_particle: true,
+            refine_fine_rounds: 2,
             pattern: PatternConfig::default(),
             // Each chunk weighs its particles until one is good, then cuts the rest
             // short (the early exit of `PatternLikelihood::with_early_exit`): fewer,
@@ -277,7 +286,10 @@ impl PatternTracker {
     /// four dimensions leave the nearest one a pixel or more (and, after a step of 2-3
     /// sigma, a few degrees) from the peak; the search reaches `2 sigma` from the mean
     /// (with the default first step), as a second, deterministic layer (annealing in
-    /// CONDENSATION practice), and costs about `12 * refine_steps` likelihoods.
+    /// CONDENSATION practice), and costs about `12 * refine_steps` likelihoods, those
+    /// of the coarse rounds (all but the last `refine_fine_rounds`) on every other
+    /// model point only: they need the direction to the peak, the fine ones its
+    /// place.
     ///
     /// When the estimate is lost (the filter's total loss, or more than
     /// `lost_occluded_fraction` of the points occluded, as on an all-black frame) the
@@ -378,20 +390,37 @@ impl PatternTracker {
         self.space
             .ensure([estimate[3] - reach, estimate[3] + reach]);
         let likelihood = PatternLikelihood::new(&self.model, &self.space);
-        let (first, second) = self.scratch.split_at_mut(1);
-        let scratch = [&mut first[0], &mut second[0]];
-        let mut observation = likelihood.observe(&estimate, scratch[0]);
+        // The coarse rounds on every other point (interleaved over the contours) but
+        // at least COARSE_MIN_POINTS, the last `refine_fine_rounds` on all of them.
+        let n = self.model.points.len();
+        let coarse = likelihood.with_points(n.div_ceil(2).max(COARSE_MIN_POINTS));
+        let steps = self.params.refine_steps;
+        let first_fine = steps.saturating_sub(self.params.refine_fine_rounds);
         let mut step = SVector::from(self.params.sigma) * self.params.refine_first_step;
-        let mut search = Refinement {
-            likelihood: &likelihood,
-            scratch,
-            parallel: self.params.filter.parallel,
-            floor: f64::NEG_INFINITY,
-        };
-        for _ in 0..self.params.refine_steps {
-            search.round(&mut estimate, &mut observation, &step);
-            step /= 2.0;
+        let mut observation = None;
+        for (stage, rounds) in [(&coarse, 0..first_fine), (&likelihood, first_fine..steps)] {
+            let fine = rounds.start == first_fine;
+            if rounds.is_empty() {
+                continue;
+            }
+            let (first, second) = self.scratch.split_at_mut(1);
+            let scratch = [&mut first[0], &mut second[0]];
+            let mut at = stage.observe(&estimate, scratch[0]);
+            let mut search = Refinement {
+                likelihood: stage,
+                scratch,
+                parallel: self.params.filter.parallel,
+                floor: f64::NEG_INFINITY,
+            };
+            for _ in rounds {
+                search.round(&mut estimate, &mut at, &step);
+                step /= 2.0;
+            }
+            observation = fine.then_some(at);
         }
+        // The answer is always on all the points.
+        let observation =
+            observation.unwrap_or_else(|| likelihood.observe(&estimate, &mut self.scratch[0]));
         if self.params.refined_particle && self.params.refine_steps > 0 && !lost {
             // The refined state joins the particles with its likelihood relative to
             // the best particle's (weighed in full unless all of them fell far below

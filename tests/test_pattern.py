@@ -137,6 +137,8 @@ def test_the_same_seed_gives_the_same_track() -> None:
         ({"refine_first_step": math.nan}, ValueError, "refine_first_step"),
         ({"deviation": "cubic"}, ValueError, "deviation"),
         ({"refine_fine_rounds": -1}, ValueError, "refine_fine_rounds"),
+        ({"second_look": 1.5}, ValueError, "second_look"),
+        ({"second_look": math.nan}, ValueError, "second_look"),
         ({"frame": np.zeros((H, W), np.float32)}, TypeError, "uint8"),
         ({"frame": np.zeros((H, W, 4), np.uint8)}, ValueError, "shape"),
         ({"frame": np.full((H, W), 128, np.uint8)}, ValueError, "region"),

@@ -370,3 +370,55 @@ fn the_tracker_meets_the_angle_and_scale_goals_within_three_sigma() {
     let [_, ang, scale] = three_sigma_run();
     assert!(ang < 1.0 && scale < 0.02, "{ang} deg, {scale}");
 }
+
+/// Steps of 2.5-3 sigma (the frames of a sequence swept to 3 sigma whose swept step
+/// is that large; the others carry the track): each one caught within 2 px of the
+/// generator's truth, with the second look (the default); a single iteration a
+/// frame missed 1 of these 20 when this was written (printed, not asserted). Seeds
+/// 101-103 were not used to choose anything.
+#[test]
+fn steps_near_three_sigma_are_caught() {
+    let (patch, bg) = scene();
+    let mut misses = vec![];
+    for seed in [101, 102, 103] {
+        let params = SequenceParams {
+            n_frames: 40,
+            width: 260,
+            height: 220,
+            max_step_sigmas: 3.0,
+            seed,
+            ..SequenceParams::default()
+        };
+        let seq = generate_sequence(&patch, &bg, &params).unwrap();
+        let n = params.width * params.height;
+        let view = |k: usize| {
+            let data = &seq.frames[k * n..(k + 1) * n];
+            PatternFrame::Gray(GrayView::new(data, params.width, params.height).unwrap())
+        };
+        let [x, y, w, h] = seq.region;
+        let region = Region::Box { x, y, w, h };
+        for second_look in [0.9, 0.0] {
+            let tracker_params = PatternTrackerParams {
+                second_look,
+                ..PatternTrackerParams::default()
+            };
+            let mut tracker =
+                PatternTracker::new(view(0), region.clone(), tracker_params, 1).unwrap();
+            let (mut big, mut missed) = (0, 0);
+            for k in 1..params.n_frames {
+                let pose = tracker.update(view(k)).unwrap();
+                let (e, t, before) = (pose.state, seq.truth[k], seq.truth[k - 1]);
+                let d = (k - 1) % 4;
+                if ((t[d] - before[d]) / params.sigma[d]).abs() >= 2.5 {
+                    big += 1;
+                    missed += usize::from((e[0] - t[0]).hypot(e[1] - t[1]) > 2.0);
+                }
+            }
+            println!("seed {seed}, second look {second_look}: {missed} of {big} missed");
+            if second_look > 0.0 {
+                misses.push(missed);
+            }
+        }
+    }
+    assert!(misses.iter().all(|&m| m == 0), "{misses:?}");
+}

@@ -126,7 +126,10 @@ class PatternTracker:
     frame (0: the seed's plain mean), with steps starting at ``refine_first_step``
     sigmas and halved each round; with ``refined_particle`` the refined pose replaces
     the lightest particle, so that the next frame starts from it. All but the last
-    ``refine_fine_rounds`` rounds weigh every other model point only (coarse).
+    ``refine_fine_rounds`` rounds weigh every other model point only (coarse). A frame
+    scoring below ``second_look`` times the track's recent best score gets a second
+    CONDENSATION iteration (half its particles around the last pose, twice as wide)
+    and keeps the better estimate; 0 never.
     ``lost_occluded_fraction``: the estimate is lost above this occluded fraction.
     The ``pattern`` parameters (Canny thresholds, points, profile length
     ``n_samples`` and step ``delta``, likelihood ``likelihood_sigma``, occlusion) are
@@ -160,6 +163,7 @@ class PatternTracker:
         refine_first_step: float = _TRACKER["refine_first_step"],
         refined_particle: bool = _TRACKER["refined_particle"],
         refine_fine_rounds: int = _TRACKER["refine_fine_rounds"],
+        second_look: float = _TRACKER["second_look"],
         lost_occluded_fraction: float = _TRACKER["lost_occluded_fraction"],
         canny_low: float = _PATTERN["canny_low"],
         canny_high: float = _PATTERN["canny_high"],
@@ -198,6 +202,7 @@ class PatternTracker:
             "refine_first_step": refine_first_step,
             "refined_particle": refined_particle,
             "refine_fine_rounds": refine_fine_rounds,
+            "second_look": second_look,
             "lost_occluded_fraction": lost_occluded_fraction,
             "pattern": pattern,
             "filter": {

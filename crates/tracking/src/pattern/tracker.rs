@@ -68,6 +68,9 @@ const NEGLIGIBLE_LOG_WEIGHT: f64 = 30.0;
 /// a smaller model): fewer locate a pattern less well than its own noise.
 const COARSE_MIN_POINTS: usize = 64;
 
+/// How fast the typical score of `second_look` forgets a good frame (per frame).
+const TYPICAL_SCORE_DECAY: f64 = 0.95;
+
 /// Parameters of a [`PatternTracker`].
 #[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
 #[serde(default, deny_unknown_fields)]
@@ -91,6 +94,10 @@ pub struct PatternTrackerParams {
     /// The refined state replaces the lightest particle, weighted by its likelihood,
     /// so that the next frame starts from it. Default `true`.
     pub refined_particle: bool,
+    /// A frame whose estimate scores below this fraction of the track's typical
+    /// score gets a second CONDENSATION iteration (see [`PatternTracker::update`]); 0
+    /// never. Default 0.9.
+    pub second_look: f64,
     /// The last rounds of the refinement that weigh every model point; the earlier
     /// (coarse) ones weigh every other point, at half the cost. Default 2: with the
     /// default first step, rounds of `sigma` to `sigma / 8` are coarse.
@@ -111,6 +118,7 @@ impl Default for PatternTrackerParams {
             refine_steps: 6,
             refine_first_step: 1.0,
             refined_particle: true,
+            second_look: 0.9,
             refine_fine_rounds: 2,
             pattern: PatternConfig::default(),
             // Each chunk weighs its particles until one is good, then cuts the rest
@@ -141,6 +149,7 @@ impl PatternTrackerParams {
                 reason: format!("must be 4 finite values > 0, got {:?}", self.sigma),
             });
         }
+        rperc_core::ensure_in_range("second_look", self.second_look, 0.0, 1.0)?;
         if !(self.refine_first_step.is_finite() && self.refine_first_step > 0.0) {
             return Err(TrackingError::InvalidParameter {
                 name: "refine_first_step",
@@ -197,6 +206,9 @@ pub struct PatternTracker {
     /// The scales of the states weighed on a frame (kept to reuse its buffer).
     needed: Vec<f64>,
     last: PatternPose,
+    /// The track's recent best score, decaying by [`TYPICAL_SCORE_DECAY`] a frame (see
+    /// `second_look`).
+    typical_score: f64,
 }
 
 impl PatternTracker {
@@ -270,6 +282,7 @@ impl PatternTracker {
             scratch: Vec::new(),
             needed: Vec::new(),
             last,
+            typical_score: 0.0,
         })
     }
 
@@ -290,6 +303,10 @@ impl PatternTracker {
     /// of the coarse rounds (all but the last `refine_fine_rounds`) on every other
     /// model point only: they need the direction to the peak, the fine ones its
     /// place.
+    ///
+    /// A frame whose estimate scores below `second_look` times the track's typical
+    /// score (its recent best, forgotten by 5 % a frame) gets a second iteration on
+    /// the same frame ([`Self::look_again`]), and the better of the two estimates.
     ///
     /// When the estimate is lost (the filter's total loss, or more than
     /// `lost_occluded_fraction` of the points occluded, as on an all-black frame) the
@@ -322,7 +339,15 @@ impl PatternTracker {
         let resampled = self.filter.predict();
         self.build_space(frame)?;
         let report = self.weigh(resampled);
-        let (estimate, observation) = self.refine(report.lost);
+        let (mut estimate, mut observation) = self.refine(report.lost);
+        let mut lost_filter = report.lost;
+        if !report.lost && self.score(&observation) < self.params.second_look * self.typical_score {
+            (estimate, observation, lost_filter) = self.look_again(frame, estimate, observation)?;
+        }
+        let report = StepReport {
+            lost: lost_filter,
+            ..report
+        };
         let lost = report.lost
             || observation.occluded_fraction > self.params.lost_occluded_fraction
             || !observation.log_likelihood.is_finite();
@@ -340,8 +365,51 @@ impl PatternTracker {
                 lost: false,
                 corners: corners(&self.model, &estimate),
             };
+            self.typical_score = self
+                .last
+                .score
+                .max(TYPICAL_SCORE_DECAY * self.typical_score);
         }
         Ok(self.last)
+    }
+
+    /// A second CONDENSATION iteration on the same frame: the particles the first
+    /// left (the refined state among them, usually the heaviest) resampled and moved
+    /// by the random walk again, half of them redrawn around the last frame's
+    /// estimate with twice the random walk's spread, weighed and refined. Its
+    /// estimate is kept if its likelihood is higher, otherwise the first one is, and
+    /// joins the particles. `(estimate, observation, lost)`.
+    ///
+    /// Run when the first estimate's score falls below `second_look` times the
+    /// track's typical score: a step of 2-3 sigma leaves few particles near the
+    /// target, and the refinement from their mean can settle in a compromise (a wrong
+    /// scale explaining part of a translation, score ~0.6 where the track had ~0.93).
+    /// A cloud around the compromise is usually nearer the target; one around the
+    /// last estimate, wider, covers a compromise on the wrong side. Not in the seed
+    /// (an annealing layer, as [`Self::update`]'s refinement is).
+    fn look_again(
+        &mut self,
+        frame: PatternFrame<'_>,
+        first: SVector<f64, 4>,
+        at_first: Observation,
+    ) -> Result<(SVector<f64, 4>, Observation, bool)> {
+        let resampled = self.filter.predict();
+        // Half the cloud from where the last frame left the target, twice as wide:
+        // the compromise can lie on the wrong side of it.
+        let sigma = SVector::from(self.params.sigma) * 2.0;
+        let half = self.params.n_particles / 2;
+        self.filter
+            .redraw(half, SVector::from(self.last.state), sigma);
+        self.build_space(frame)?;
+        let report = self.weigh(resampled);
+        let (second, at_second) = self.refine(report.lost);
+        if !report.lost && at_second.log_likelihood > at_first.log_likelihood {
+            return Ok((second, at_second, false));
+        }
+        if !report.lost {
+            self.join_particles(first, &at_first);
+        }
+        Ok((first, at_first, false))
     }
 
     /// The frame's scale space, built once per frame, never per particle (section
@@ -422,15 +490,21 @@ impl PatternTracker {
         let observation =
             observation.unwrap_or_else(|| likelihood.observe(&estimate, &mut self.scratch[0]));
         if self.params.refined_particle && self.params.refine_steps > 0 && !lost {
-            // The refined state joins the particles with its likelihood relative to
-            // the best particle's (weighed in full unless all of them fell far below
-            // the reference, when the refined state outweighs them all anyway).
-            let (best, _) = self.filter.max_weight();
-            let at_best = likelihood.observe(&best, &mut self.scratch[0]);
-            let gain = observation.log_likelihood - at_best.log_likelihood;
-            self.filter.substitute_lightest(estimate, gain);
+            self.join_particles(estimate, &observation);
         }
         (estimate, observation)
+    }
+
+    /// The refined `state` joins the particles in place of the lightest, with its
+    /// likelihood relative to the best particle's (weighed in full unless all of them
+    /// fell far below the reference, when the refined state outweighs them all
+    /// anyway).
+    fn join_particles(&mut self, state: SVector<f64, 4>, observation: &Observation) {
+        let likelihood = PatternLikelihood::new(&self.model, &self.space);
+        let (best, _) = self.filter.max_weight();
+        let at_best = likelihood.observe(&best, &mut self.scratch[0]);
+        let gain = observation.log_likelihood - at_best.log_likelihood;
+        self.filter.substitute_lightest(state, gain);
     }
 
     /// The frame window `[x0, y0, x1, y1)` and the scale span this frame's likelihood

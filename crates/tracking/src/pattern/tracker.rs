@@ -282,7 +282,9 @@ impl PatternTracker {
             scratch: Vec::new(),
             needed: Vec::new(),
             last,
-            typical_score: 0.0,
+            // The initial pose's score (1), so that the first frame can be looked at
+            // again too.
+            typical_score: last.score,
         })
     }
 

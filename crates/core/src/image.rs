@@ -111,9 +111,20 @@ impl<'a> RgbView<'a> {
 }
 
 /// Grey level of an RGB pixel, ITU-R BT.601 luma (OpenCV's `COLOR_RGB2GRAY` weights).
+///
+/// Summed in `f64` and rounded once, so that a grey pixel `(g, g, g)` gives exactly `g`
+/// (in `f32` the three products rounded apart can miss it by an ulp, and a colour frame
+/// of grey pixels would not track exactly as the grey frame).
+///
+/// # Examples
+/// ```
+/// use rperc_core::image::luma;
+///
+/// assert!((0..=255u8).all(|g| luma(g, g, g) == f32::from(g)));
+/// ```
 #[inline]
 pub fn luma(r: u8, g: u8, b: u8) -> f32 {
-    0.299 * f32::from(r) + 0.587 * f32::from(g) + 0.114 * f32::from(b)
+    (0.299 * f64::from(r) + 0.587 * f64::from(g) + 0.114 * f64::from(b)) as f32
 }
 
 /// An owned grey image of `f32` levels (0..255 for converted 8-bit images).
@@ -207,35 +218,67 @@ impl GrayImage {
 
     /// Convolves rows then columns with the odd-length `kernel` into `out`, borders
     /// reflected as `BORDER_REFLECT_101` (the blur of [`Self::gaussian_blur`] with a
-    /// kernel computed once by the caller, e.g. once per scale-space level).
-    ///
-    /// The reflection is paid only within the kernel's radius of the edges: the
-    /// interior runs on plain slices, and the vertical pass accumulates whole rows, so
-    /// that it vectorises. Each output is the sum over taps in kernel order.
+    /// kernel computed once by the caller, e.g. once per scale-space level): the whole
+    /// image's [`Self::convolve_separable_window`].
     pub fn convolve_separable(&self, kernel: &[f32], scratch: &mut GrayImage, out: &mut GrayImage) {
+        let window = [0, 0, self.width, self.height];
+        self.convolve_separable_window(kernel, window, scratch, out);
+    }
+
+    /// [`Self::convolve_separable`]'s output inside `window = [x0, y0, x1, y1)` only
+    /// (clamped to the image), into `out` (the window's size), with the same numbers
+    /// (borders reflected at the image's edges, each output the sum over taps in
+    /// kernel order, from 0). The horizontal pass runs on the window's columns of every row
+    /// the vertical pass reads, the vertical one on the window's rows; sums are kept
+    /// in registers over blocks of [`LANES`] pixels rather than written back per tap,
+    /// and nothing is zero-filled (buffers are reused).
+    pub fn convolve_separable_window(
+        &self,
+        kernel: &[f32],
+        window: [usize; 4],
+        scratch: &mut GrayImage,
+        out: &mut GrayImage,
+    ) {
         let (w, h) = (self.width, self.height);
-        for img in [&mut *scratch, &mut *out] {
-            img.width = w;
-            img.height = h;
-            img.data.clear();
-            img.data.resize(w * h, 0.0);
-        }
-        if w == 0 || h == 0 || kernel.is_empty() {
+        let [x0, y0] = [window[0].min(w), window[1].min(h)];
+        let [x1, y1] = [window[2].clamp(x0, w), window[3].clamp(y0, h)];
+        let (ww, wh) = (x1 - x0, y1 - y0);
+        let r = kernel.len() / 2;
+        // The rows the vertical pass reads: the window's, grown by the radius
+        // (reflected ones are among them).
+        let (r0, r1) = (y0.saturating_sub(r), (y1 + r).min(h));
+        resize_for(scratch, ww, r1 - r0);
+        resize_for(out, ww, wh);
+        if ww == 0 || wh == 0 || kernel.is_empty() {
             return;
         }
-        for y in 0..h {
+        for y in r0..r1 {
             let row = &self.data[y * w..(y + 1) * w];
-            convolve_row(row, kernel, &mut scratch.data[y * w..(y + 1) * w]);
+            let dst = &mut scratch.data[(y - r0) * ww..(y - r0 + 1) * ww];
+            convolve_row_window(row, kernel, x0, dst);
         }
-        let r = kernel.len() / 2;
-        for y in 0..h {
-            let dst = &mut out.data[y * w..(y + 1) * w];
-            for (k, &wk) in kernel.iter().enumerate() {
-                let yy = reflect101(y as isize + k as isize - r as isize, h);
-                let line = &scratch.data[yy * w..(yy + 1) * w];
-                for (d, &s) in dst.iter_mut().zip(line) {
-                    *d += wk * s;
+        // Where each tap's row starts in `scratch`, for the current output row.
+        let mut starts = vec![0usize; kernel.len()];
+        for y in y0..y1 {
+            for (k, start) in starts.iter_mut().enumerate() {
+                *start = (reflect101(y as isize + k as isize - r as isize, h) - r0) * ww;
+            }
+            let dst = &mut out.data[(y - y0) * ww..(y - y0 + 1) * ww];
+            if ww < LANES {
+                for (x, d) in dst.iter_mut().enumerate() {
+                    *d = kernel
+                        .iter()
+                        .zip(&starts)
+                        .fold(0.0, |acc, (&wk, &start)| acc + wk * scratch.data[start + x]);
                 }
+                continue;
+            }
+            for x in block_starts(ww) {
+                let mut acc = [0.0f32; LANES];
+                for (&wk, &start) in kernel.iter().zip(&starts) {
+                    add_scaled(&mut acc, wk, &scratch.data[start + x..start + x + LANES]);
+                }
+                dst[x..x + LANES].copy_from_slice(&acc);
             }
         }
     }
@@ -312,8 +355,11 @@ impl GrayImage {
             let tx = (ux & mask) as f32 * unit;
             let ty = (uy & mask) as f32 * unit;
             let i = y0 * w + x0;
-            // Two two-pixel slices: one bounds check each, not one per pixel.
-            let (top, bottom) = (&self.data[i..i + 2], &self.data[i + w..i + w + 2]);
+            // One slice over the four neighbours: one bounds check, not one per pixel.
+            let Some(quad) = self.data.get(i..i + w + 2) else {
+                return self.sample_line_checked(start, step, out);
+            };
+            let (top, bottom) = ([quad[0], quad[1]], [quad[w], quad[w + 1]]);
             let upper = top[0] + tx * (top[1] - top[0]);
             let lower = bottom[0] + tx * (bottom[1] - bottom[0]);
             *g = upper + ty * (lower - upper);
@@ -338,32 +384,76 @@ impl GrayImage {
     }
 }
 
-/// One row convolved with `kernel`, reflected at its ends.
-fn convolve_row(row: &[f32], kernel: &[f32], dst: &mut [f32]) {
+/// Pixels whose sums [`GrayImage::convolve_separable_window`] keeps in registers
+/// together (four SSE registers).
+const LANES: usize = 16;
+
+/// `acc += wk * line` lane by lane (`line` holds [`LANES`] levels): a fixed-size
+/// block the compiler keeps in vector registers.
+#[inline(always)]
+fn add_scaled(acc: &mut [f32; LANES], wk: f32, line: &[f32]) {
+    let Ok(line) = <&[f32; LANES]>::try_from(line) else {
+        return;
+    };
+    for i in 0..LANES {
+        acc[i] += wk * line[i];
+    }
+}
+
+/// Sets `img` to `width x height`, its levels left as they are (every one is about to
+/// be written): only a growing buffer is filled.
+fn resize_for(img: &mut GrayImage, width: usize, height: usize) {
+    img.width = width;
+    img.height = height;
+    img.data.resize(width * height, 0.0);
+}
+
+/// Columns `x0..x0 + dst.len()` of `row` convolved with `kernel`, reflected at the
+/// row's ends (the reflection paid only within the kernel's radius of them).
+fn convolve_row_window(row: &[f32], kernel: &[f32], x0: usize, dst: &mut [f32]) {
     let (w, r) = (row.len(), kernel.len() / 2);
     let reflected = |x: usize| {
         kernel.iter().enumerate().fold(0.0f32, |acc, (k, &wk)| {
             acc + wk * row[reflect101(x as isize + k as isize - r as isize, w)]
         })
     };
-    if w <= 2 * r {
-        for (x, d) in dst.iter_mut().enumerate() {
-            *d = reflected(x);
+    let x1 = x0 + dst.len();
+    // Columns whose taps all fall inside the row: [lo, hi).
+    let (lo, hi) = if w > 2 * r {
+        (r.clamp(x0, x1), (w - r).clamp(x0, x1))
+    } else {
+        (x1, x1)
+    };
+    let hi = hi.max(lo);
+    for x in (x0..lo).chain(hi..x1) {
+        dst[x - x0] = reflected(x);
+    }
+    let interior = &mut dst[lo - x0..hi - x0];
+    if interior.len() < LANES {
+        for (i, d) in interior.iter_mut().enumerate() {
+            *d = reflected(lo + i);
         }
         return;
     }
-    for x in (0..r).chain(w - r..w) {
-        dst[x] = reflected(x);
-    }
-    // The interior tap by tap over the whole run of pixels (it vectorises), each sum
-    // still from 0 in kernel order: the same numbers as one dot product per pixel.
-    let interior = &mut dst[r..w - r];
-    interior.fill(0.0);
-    for (k, &wk) in kernel.iter().enumerate() {
-        for (d, &g) in interior.iter_mut().zip(&row[k..k + w - 2 * r]) {
-            *d += wk * g;
+    for i in block_starts(interior.len()) {
+        // Output x reads row[x - r + k]: a block starting at x reads from x - r.
+        let x = lo + i - r;
+        let segment = &row[x..x + kernel.len() - 1 + LANES];
+        let mut acc = [0.0f32; LANES];
+        for (&wk, line) in kernel.iter().zip(segment.windows(LANES)) {
+            add_scaled(&mut acc, wk, line);
         }
+        interior[i..i + LANES].copy_from_slice(&acc);
     }
+}
+
+/// Starts of blocks of [`LANES`] outputs covering `0..n` (`n >= LANES`): every
+/// `LANES`, the last one moved back to end at `n`, overlapping its neighbour (each
+/// output is computed the same way wherever its block starts).
+fn block_starts(n: usize) -> impl Iterator<Item = usize> {
+    (0..n / LANES)
+        .map(|b| b * LANES)
+        .chain((!n.is_multiple_of(LANES)).then(|| n - LANES))
 }
 
 /// Normalised Gaussian weights on `-r..=r`, `r = ceil(3 sigma)`; `[1]` for sigma 0.
@@ -492,6 +582,39 @@ mod tests {
             if let Some(each) = each {
                 for (a, b) in out.iter().zip(&each) {
                     proptest::prop_assert!((a - b).abs() <= 1e-4 * b.abs().max(1.0), "{} {}", a, b);
+                }
+            }
+        }
+    }
+
+    proptest::proptest! {
+        /// A window of the blur holds the whole image's blur there, bit for bit, into
+        /// buffers left over from other sizes.
+        #[test]
+        fn a_window_blurs_as_the_whole_image_does_there(
+            w in 1usize..40, h in 1usize..30, taps in 0usize..8,
+            x0 in 0usize..45, y0 in 0usize..35, ww in 0usize..45, wh in 0usize..35,
+            stale in 0usize..3000,
+        ) {
+            let img = GrayImage {
+                data: (0..w * h).map(|i| ((i * 53) % 97) as f32 * 1.7).collect(),
+                width: w,
+                height: h,
+            };
+            let kernel: Vec<f32> = (0..2 * taps + 1).map(|k| 0.1 + (k % 3) as f32 * 0.2).collect();
+            let (mut scratch, mut whole) = (GrayImage::default(), GrayImage::default());
+            img.convolve_separable(&kernel, &mut scratch, &mut whole);
+            let mut part = GrayImage { data: vec![f32::NAN; stale], width: 1, height: stale };
+            let mut scratch = GrayImage { data: vec![-1.0; stale / 2], width: 1, height: stale / 2 };
+            img.convolve_separable_window(&kernel, [x0, y0, x0 + ww, y0 + wh], &mut scratch, &mut part);
+            let (cx0, cy0) = (x0.min(w), y0.min(h));
+            let (cx1, cy1) = ((x0 + ww).min(w), (y0 + wh).min(h));
+            proptest::prop_assert_eq!((part.width, part.height), (cx1 - cx0, cy1 - cy0));
+            proptest::prop_assert_eq!(part.data.len(), part.width * part.height);
+            for y in cy0..cy1 {
+                for x in cx0..cx1 {
+                    let (a, b) = (part.at(x - cx0, y - cy0), whole.at(x, y));
+                    proptest::prop_assert_eq!(a.to_bits(), b.to_bits(), "({}, {})", x, y);
                 }
             }
         }

@@ -6,7 +6,7 @@ use proptest::prelude::*;
 use rand::Rng;
 use rperc_core::image::GrayImage;
 use rperc_core::rng::{normal, seeded};
-use tracking::pattern::{PatternScratch, place};
+use tracking::pattern::{DeviationModel, PatternScratch, place};
 
 use tracking::{PatternConfig, PatternLikelihood, PatternModel, Region, ScaleSpace};
 
@@ -634,7 +634,9 @@ fn levels_blurred_on_demand_equal_the_whole_stack() {
 /// two-pass inter-correlation and `deviation`, then the worst `tolerated` left out
 /// after a full sort.
 fn brute_force_eq6(m: &PatternModel, space: &ScaleSpace, state: [f64; 4]) -> (f64, f64) {
-    use tracking::pattern::correlation::{deviation, inter_correlation};
+    use tracking::pattern::correlation::{
+        autocorrelation_curvature, deviation, deviation_parabolic, inter_correlation,
+    };
     use tracking::pattern::sample_vector;
     let c = &m.config;
     let image = space.level(state[3]);
@@ -648,10 +650,14 @@ fn brute_force_eq6(m: &PatternModel, space: &ScaleSpace, state: [f64; 4]) -> (f6
             if !sample_vector(image, q, phi, c.delta * state[3], &mut v) {
                 return f64::INFINITY;
             }
-            deviation(
-                inter_correlation(&m.points[j].vector, &v),
-                m.points[j].slope,
-            )
+            let point = &m.points[j];
+            let ncc = inter_correlation(&point.vector, &v);
+            match c.deviation {
+                DeviationModel::Line => deviation(ncc, point.slope),
+                DeviationModel::Parabola => {
+                    deviation_parabolic(ncc, autocorrelation_curvature(&point.vector, c.fit_lags))
+                }
+            }
         })
         .collect();
     let n = lambdas.len();
@@ -671,12 +677,19 @@ fn brute_force_eq6(m: &PatternModel, space: &ScaleSpace, state: [f64; 4]) -> (f6
 /// some with points leaving the frame or occluded beyond the tolerated fraction).
 #[test]
 fn observe_equals_eq6_computed_point_by_point() {
-    let m = model();
+    for deviation in [DeviationModel::Parabola, DeviationModel::Line] {
+        let mut m = model();
+        m.config.deviation = deviation;
+        observe_equals_eq6_with(&m);
+    }
+}
+
+fn observe_equals_eq6_with(m: &PatternModel) {
     let mut frame = render(TRUTH, m.centre, FRAME);
     add_noise(&mut frame, 3.0, 11);
     let mut space = ScaleSpace::new();
-    space.build(&frame, &m).unwrap();
-    let lik = PatternLikelihood::new(&m, &space);
+    space.build(&frame, m).unwrap();
+    let lik = PatternLikelihood::new(m, &space);
     let mut scratch = PatternScratch::default();
     let mut rng = seeded(12);
     let mut far = 0;
@@ -688,7 +701,7 @@ fn observe_equals_eq6_computed_point_by_point() {
             TRUTH[2] + 0.02 * spread * normal(&mut rng),
             TRUTH[3] * (1.0 + 0.02 * spread * normal(&mut rng)),
         ];
-        let (ll, occ) = brute_force_eq6(&m, &space, state);
+        let (ll, occ) = brute_force_eq6(m, &space, state);
         let obs = lik.observe(&SVector::from(state), &mut scratch);
         far += usize::from(occ > m.config.max_occluded_fraction);
         if ll.is_finite() {
@@ -706,6 +719,49 @@ fn observe_equals_eq6_computed_point_by_point() {
         far > 10,
         "the states should include some beyond the tolerated occlusion"
     );
+}
+
+/// The coarse likelihood on the first `k` points of the visiting order against eq. 6
+/// of a model holding only those points (computed point by point), and the whole
+/// order's against the full likelihood.
+#[test]
+fn a_likelihood_on_some_points_is_eq6_of_those_points() {
+    let m = model();
+    let mut frame = render(TRUTH, m.centre, FRAME);
+    add_noise(&mut frame, 3.0, 21);
+    let mut space = ScaleSpace::new();
+    space.build(&frame, &m).unwrap();
+    let lik = PatternLikelihood::new(&m, &space);
+    let n = m.points.len();
+    let mut scratch = PatternScratch::default();
+    let mut rng = seeded(22);
+    for k in [1, n / 3, n.div_ceil(2), n] {
+        let part = lik.with_points(k);
+        let order: Vec<usize> = part.visiting_order().collect();
+        assert_eq!(order.len(), k);
+        let mut sub = m.clone();
+        sub.points = order.iter().map(|&j| m.points[j].clone()).collect();
+        for _ in 0..20 {
+            let state = [
+                TRUTH[0] + 2.0 * normal(&mut rng),
+                TRUTH[1] + 2.0 * normal(&mut rng),
+                TRUTH[2] + 0.03 * normal(&mut rng),
+                TRUTH[3] * (1.0 + 0.03 * normal(&mut rng)),
+            ];
+            let (ll, occ) = brute_force_eq6(&sub, &space, state);
+            let got = part.observe(&SVector::from(state), &mut scratch);
+            assert!(
+                (got.log_likelihood - ll).abs() < 1e-3 * (1.0 + ll.abs()),
+                "k {k}: {} vs {ll}",
+                got.log_likelihood
+            );
+            assert_eq!(got.occluded_fraction, occ);
+            if k == n {
+                let all = lik.observe(&SVector::from(state), &mut scratch);
+                assert_eq!(got, all);
+            }
+        }
+    }
 }
 
 /// `observe_above`'s contract against `observe`: the exact answer at or above the

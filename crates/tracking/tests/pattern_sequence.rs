@@ -152,11 +152,8 @@ fn the_occluder_hides_the_reported_fraction_of_the_patch() {
         let (mut hidden, mut total) = (0usize, 0usize);
         for j in 0..4 * PH {
             for i in 0..4 * PW {
-                // Over the drawn footprint [0, w - 1] x [0, h - 1].
-                let q = [
-                    (i as f64 + 0.5) / (4 * PW) as f64 * (PW - 1) as f64,
-                    (j as f64 + 0.5) / (4 * PH) as f64 * (PH - 1) as f64,
-                ];
+                // Over the patch's pixel area [-0.5, w - 0.5) x [-0.5, h - 0.5).
+                let q = [(i as f64 + 0.5) / 4.0 - 0.5, (j as f64 + 0.5) / 4.0 - 0.5];
                 let (p, _) = place(&state, [q[0] - c[0], q[1] - c[1]], 0.0);
                 let g = f.at(p[0].round() as usize, p[1].round() as usize);
                 total += 1;
@@ -170,6 +167,38 @@ fn the_occluder_hides_the_reported_fraction_of_the_patch() {
         );
         assert!((measured - seq.occlusion[k]).abs() < 0.05);
     }
+}
+
+/// A flat patch covers `s^2 w h` frame pixels at scale `s` (closed form: the area of
+/// its `w x h` pixels scaled by `s`), as frame 0 covers its `w x h` region exactly:
+/// each frame up to the pixel grid's quantisation (at most a pixel along the
+/// perimeter), on average over the frames within 1 %. Cut at its outer pixel centres
+/// it covered `s^2 (w - 1)(h - 1)`, 6 % less here: its border sat half a pixel inside,
+/// and trackers read a scale about 1/w too small.
+#[test]
+fn a_scaled_patch_covers_its_pixels_area_scaled() {
+    let params = SequenceParams {
+        width: 200,
+        height: 160,
+        max_step_sigmas: 2.0,
+        other_step_sigmas: 1.0,
+        ..small(24)
+    };
+    // Patch at 100, background at 250.
+    let seq = generate_sequence(&flat(PW, PH, 100.0), &flat(50, 50, 250.0), &params).unwrap();
+    let mut ratios = 0.0;
+    for k in 0..params.n_frames {
+        let f = frame(&seq, &params, k);
+        let covered = f.data.iter().filter(|&&g| g < 175.0).count() as f64;
+        let s = seq.truth[k][3];
+        let area = s * s * (PW * PH) as f64;
+        let perimeter = 2.0 * s * (PW + PH) as f64;
+        println!("frame {k}: scale {s:.3}, {covered} pixels, area {area:.1}");
+        assert!((covered - area).abs() <= perimeter, "frame {k}");
+        ratios += covered / area;
+    }
+    let mean = ratios / params.n_frames as f64;
+    assert!((mean - 1.0).abs() < 0.01, "mean covered / area {mean}");
 }
 
 #[test]
@@ -329,14 +358,67 @@ fn three_sigma_run() -> [f64; 3] {
 
 #[test]
 fn the_tracker_keeps_a_generated_sequence_within_three_sigma_at_30_percent_occlusion() {
-    // The issue's goals met today: no loss at 30 % occlusion, position below 1 px RMS.
+    // The issue's goals: no loss at 30 % occlusion, position below 1 px RMS.
     let [pos, _, _] = three_sigma_run();
     assert!(pos < 1.0, "position RMS {pos}");
 }
 
+/// The issue's angle and scale goals (section 4.1's "accurate inside [-3 sigma, +3
+/// sigma]"). This sequence (seed 5) was never used to choose a default.
 #[test]
-#[ignore = "goal not met yet: 0.97 deg but 2.8 % RMS scale (under-estimated, -1.2 % even without occlusion) on this run"]
 fn the_tracker_meets_the_angle_and_scale_goals_within_three_sigma() {
     let [_, ang, scale] = three_sigma_run();
     assert!(ang < 1.0 && scale < 0.02, "{ang} deg, {scale}");
+}
+
+/// Steps of 2.5-3 sigma (the frames of a sequence swept to 3 sigma whose swept step
+/// is that large; the others carry the track): each one caught within 2 px of the
+/// generator's truth, with the second look (the default); a single iteration a
+/// frame missed 1 of these 20 when this was written (printed, not asserted). Seeds
+/// 101-103 were not used to choose anything.
+#[test]
+fn steps_near_three_sigma_are_caught() {
+    let (patch, bg) = scene();
+    let mut misses = vec![];
+    for seed in [101, 102, 103] {
+        let params = SequenceParams {
+            n_frames: 40,
+            width: 260,
+            height: 220,
+            max_step_sigmas: 3.0,
+            seed,
+            ..SequenceParams::default()
+        };
+        let seq = generate_sequence(&patch, &bg, &params).unwrap();
+        let n = params.width * params.height;
+        let view = |k: usize| {
+            let data = &seq.frames[k * n..(k + 1) * n];
+            PatternFrame::Gray(GrayView::new(data, params.width, params.height).unwrap())
+        };
+        let [x, y, w, h] = seq.region;
+        let region = Region::Box { x, y, w, h };
+        for second_look in [0.9, 0.0] {
+            let tracker_params = PatternTrackerParams {
+                second_look,
+                ..PatternTrackerParams::default()
+            };
+            let mut tracker =
+                PatternTracker::new(view(0), region.clone(), tracker_params, 1).unwrap();
+            let (mut big, mut missed) = (0, 0);
+            for k in 1..params.n_frames {
+                let pose = tracker.update(view(k)).unwrap();
+                let (e, t, before) = (pose.state, seq.truth[k], seq.truth[k - 1]);
+                let d = (k - 1) % 4;
+                if ((t[d] - before[d]) / params.sigma[d]).abs() >= 2.5 {
+                    big += 1;
+                    missed += usize::from((e[0] - t[0]).hypot(e[1] - t[1]) > 2.0);
+                }
+            }
+            println!("seed {seed}, second look {second_look}: {missed} of {big} missed");
+            if second_look > 0.0 {
+                misses.push(missed);
+            }
+        }
+    }
+    assert!(misses.iter().all(|&m| m == 0), "{misses:?}");
 }

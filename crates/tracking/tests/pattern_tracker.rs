@@ -230,6 +230,32 @@ fn an_all_black_frame_is_lost_and_keeps_the_pose() {
     );
 }
 
+/// A model of one or two points tolerates no occluded point (40 % of 2 rounds to
+/// none): an all-black frame occludes them, is lost, and does not panic (selecting
+/// the worst of none did).
+#[test]
+fn a_model_of_few_points_is_lost_on_a_black_frame() {
+    let mut first = vec![90u8; W * H];
+    // A 3 x 3 bright dot: one short contour.
+    for y in 80..83 {
+        for x in 100..103 {
+            first[y * W + x] = 220;
+        }
+    }
+    let region = Region::Box {
+        x: 94,
+        y: 74,
+        w: 15,
+        h: 15,
+    };
+    let mut params = PatternTrackerParams::default();
+    params.pattern.max_points = 2;
+    let mut tracker = PatternTracker::new(gray(&first), region, params, 1).unwrap();
+    assert_eq!(tracker.model().points.len(), 2);
+    let pose = tracker.update(gray(&vec![0u8; W * H])).unwrap();
+    assert!(pose.lost);
+}
+
 #[test]
 fn a_grey_rgb_frame_tracks_as_its_grey_twin() {
     let p = patch();

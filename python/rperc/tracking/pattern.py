@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -29,6 +29,10 @@ from rperc.tracking.trackers import ResamplerName, _plain
 _TRACKER, _SEQUENCE = _rperc.pattern_defaults()
 _PATTERN = _TRACKER["pattern"]
 _FILTER = _TRACKER["filter"]
+
+#: The function approximating a point's auto-correlation whose inverse reads its
+#: deviation (section 3.3): the seed's straight line, or a parabola (the default).
+DeviationName = Literal["line", "parabola"]
 
 Corners = tuple[tuple[float, float], tuple[float, float], tuple[float, float], tuple[float, float]]
 
@@ -121,11 +125,19 @@ class PatternTracker:
     ``refine_steps`` rounds of a local search refine the weighted mean on the same
     frame (0: the seed's plain mean), with steps starting at ``refine_first_step``
     sigmas and halved each round; with ``refined_particle`` the refined pose replaces
-    the lightest particle, so that the next frame starts from it.
+    the lightest particle, so that the next frame starts from it. All but the last
+    ``refine_fine_rounds`` rounds weigh every other model point only (coarse). A frame
+    scoring below ``second_look`` times the track's recent best score gets a second
+    CONDENSATION iteration (half its particles around the last pose, twice as wide)
+    and keeps the better estimate; 0 never.
     ``lost_occluded_fraction``: the estimate is lost above this occluded fraction.
     The ``pattern`` parameters (Canny thresholds, points, profile length
     ``n_samples`` and step ``delta``, likelihood ``likelihood_sigma``, occlusion) are
-    the model's. A seed gives the same track on any number of threads.
+    the model's. ``deviation`` is the approximation ``C~`` of a point's
+    auto-correlation whose inverse turns an inter-correlation into the deviation
+    ``lambda``: ``"line"`` is the seed's, ``"parabola"`` (default) keeps ``lambda``
+    proportional to a sub-sample offset where the line makes it grow as its square.
+    A seed gives the same track on any number of threads.
 
     Examples
     --------
@@ -150,6 +162,8 @@ class PatternTracker:
         refine_steps: int = _TRACKER["refine_steps"],
         refine_first_step: float = _TRACKER["refine_first_step"],
         refined_particle: bool = _TRACKER["refined_particle"],
+        refine_fine_rounds: int = _TRACKER["refine_fine_rounds"],
+        second_look: float = _TRACKER["second_look"],
         lost_occluded_fraction: float = _TRACKER["lost_occluded_fraction"],
         canny_low: float = _PATTERN["canny_low"],
         canny_high: float = _PATTERN["canny_high"],
@@ -160,6 +174,7 @@ class PatternTracker:
         likelihood_sigma: float = _PATTERN["sigma"],
         occlusion_threshold: float = _PATTERN["occlusion_threshold"],
         max_occluded_fraction: float = _PATTERN["max_occluded_fraction"],
+        deviation: DeviationName = _PATTERN["deviation"],
         resampler: ResamplerName = _FILTER["resampler"],
         chunk_size: int = _FILTER["chunk_size"],
         parallel: bool = _FILTER["parallel"],
@@ -178,6 +193,7 @@ class PatternTracker:
             "sigma": likelihood_sigma,
             "occlusion_threshold": occlusion_threshold,
             "max_occluded_fraction": max_occluded_fraction,
+            "deviation": deviation,
         }
         config = {
             "n_particles": n_particles,
@@ -185,6 +201,8 @@ class PatternTracker:
             "refine_steps": refine_steps,
             "refine_first_step": refine_first_step,
             "refined_particle": refined_particle,
+            "refine_fine_rounds": refine_fine_rounds,
+            "second_look": second_look,
             "lost_occluded_fraction": lost_occluded_fraction,
             "pattern": pattern,
             "filter": {

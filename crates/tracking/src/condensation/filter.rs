@@ -315,6 +315,15 @@ impl<const D: usize> ParticleFilter<D> {
         count: usize,
     ) -> StepReport {
         let resampled = self.predict();
+        self.redraw(count, centre, sigma);
+        self.correct_with_scratch(likelihood, scratch, resampled)
+    }
+
+    /// Between [`predict`](Self::predict) and
+    /// [`correct_with_scratch`](Self::correct_with_scratch): `count` particles evenly
+    /// spaced through the set (at most all of them) are redrawn from `N(centre,
+    /// diag(sigma^2))`, the mixture proposal of [`step_mixed`](Self::step_mixed).
+    pub fn redraw(&mut self, count: usize, centre: SVector<f64, D>, sigma: SVector<f64, D>) {
         let n = self.particles.len();
         let count = count.min(n);
         for k in 0..count {
@@ -323,7 +332,6 @@ impl<const D: usize> ParticleFilter<D> {
             let noise: SVector<f64, D> = standard_normal(&mut self.rng);
             self.particles[i] = centre + sigma.component_mul(&noise);
         }
-        self.correct_with_scratch(likelihood, scratch, resampled)
     }
 
     /// The second half of [`step`](Self::step), after [`predict`](Self::predict)

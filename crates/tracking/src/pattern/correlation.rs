@@ -58,6 +58,35 @@ pub fn autocorrelation_slope(v: &[f32], fit_lags: usize) -> f64 {
     if den > 0.0 { num / den } else { 0.0 }
 }
 
+/// The curvature `a` of the parabola `C~(lambda) = 1 - a lambda^2` approximating the
+/// auto-correlation near `lambda = 0`, fitted as [`autocorrelation_slope`] is: forced
+/// through `C(0) = 1`, least squares on `C(1), ..., C(fit_lags)`: `a = sum_k k^2 (1 -
+/// C(k)) / sum_k k^4` (`>= 0`; near 0 for a flat profile).
+///
+/// Why a parabola: the tracker's profiles are sampled from Gaussian-blurred images, so
+/// the inter-correlation of a profile observed `d` samples off falls as `1 - C ~ d^2`
+/// for sub-sample `d` (a smooth peak), not linearly. The straight line's inverse then
+/// reads `lambda ~ d^2`, and eq. 6's `Omega_sigma(lambda)` goes as `exp(-d^4)`: flat at
+/// the peak, where the estimate is then set by the few worst-fitting points that pass
+/// the occlusion test (partly occluded ones) rather than by all of them. The
+/// parabola's inverse keeps `lambda` proportional to `d`.
+pub fn autocorrelation_curvature(v: &[f32], fit_lags: usize) -> f64 {
+    let lags = fit_lags.min(v.len().saturating_sub(1));
+    let (mut num, mut den) = (0.0, 0.0);
+    for k in 1..=lags {
+        let k2 = (k * k) as f64;
+        num += k2 * (1.0 - autocorrelation(v, k));
+        den += k2 * k2;
+    }
+    if den > 0.0 { (num / den).max(0.0) } else { 0.0 }
+}
+
+/// The deviation `lambda = C~^-1(c)` for the parabola `C~(lambda) = 1 - a lambda^2`
+/// of [`autocorrelation_curvature`], in samples: `sqrt((1 - c) / a)`.
+pub fn deviation_parabolic(inter_correlation: f64, curvature: f64) -> f64 {
+    ((1.0 - inter_correlation).max(0.0) / curvature.max(f64::MIN_POSITIVE)).sqrt()
+}
+
 /// The normalised inter-correlation `V . V_k / (||V|| ||V_k||)` (section 3.3) between
 /// a stored zero-mean vector and an observed vector (whose mean is removed here
 /// without modifying it). 0 when either vector is flat.
@@ -186,6 +215,84 @@ mod tests {
                 })
                 .collect();
             assert!(lambdas[0].abs() < 1e-6 && lambdas[0] < lambdas[1] && lambdas[1] < lambdas[2]);
+        }
+    }
+
+    /// The parabola's curvature against its closed form on a step profile, whose
+    /// auto-correlation is `1 - 3 k / Ns` (`a = (3 / Ns) sum k^3 / sum k^4`), and its
+    /// inverse against the parabola itself.
+    #[test]
+    fn curvature_of_a_step_profile_and_its_inverse() {
+        for ns in [8usize, 12, 20] {
+            let mut v: Vec<f32> = (0..ns)
+                .map(|l| if l < ns / 2 { 10.0 } else { 70.0 })
+                .collect();
+            remove_mean(&mut v);
+            for lags in 1..=3usize {
+                let (k3, k4): (f64, f64) = (1..=lags)
+                    .map(|k| ((k as f64).powi(3), (k as f64).powi(4)))
+                    .fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+                let want = 3.0 / ns as f64 * k3 / k4;
+                let a = autocorrelation_curvature(&v, lags);
+                assert!(
+                    (a - want).abs() < 1e-9,
+                    "ns {ns} lags {lags}: {a} vs {want}"
+                );
+                for lambda in [0.0, 0.3, 1.0, 1.7] {
+                    let c = 1.0 - a * lambda * lambda;
+                    assert!((deviation_parabolic(c, a) - lambda).abs() < 1e-9);
+                }
+            }
+        }
+        assert_eq!(deviation_parabolic(1.0 + 1e-12, 0.2), 0.0);
+    }
+
+    /// A blurred step observed `d` samples off (erf profile, sigma 1 sample: the
+    /// tracker's blur): the parabola reads a deviation proportional to `d` for
+    /// sub-sample offsets, the line one that grows as `d^2` (the reason for the
+    /// parabola).
+    #[test]
+    fn the_parabola_reads_sub_sample_offsets_linearly() {
+        let erf = |x: f64| {
+            // Abramowitz & Stegun 7.1.26 (error below 1.5e-7).
+            let t = 1.0 / (1.0 + 0.327_591_1 * x.abs());
+            let poly = t
+                * (0.254_829_592
+                    + t * (-0.284_496_736
+                        + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
+            (1.0 - poly * (-x * x).exp()).copysign(x)
+        };
+        let profile = |d: f64| -> Vec<f32> {
+            (0..12)
+                .map(|l| {
+                    let x = l as f64 - 5.5 + d;
+                    (100.0 + 80.0 * erf(x / std::f64::consts::SQRT_2)) as f32
+                })
+                .collect()
+        };
+        let mut stored = profile(0.0);
+        remove_mean(&mut stored);
+        let (a, w) = (
+            autocorrelation_curvature(&stored, 2),
+            autocorrelation_slope(&stored, 2),
+        );
+        let read = |d: f64| {
+            let c = inter_correlation(&stored, &profile(d));
+            (deviation_parabolic(c, a), deviation(c, w))
+        };
+        let (p1, l1) = read(0.1);
+        for d in [0.2, 0.4] {
+            let (p, l) = read(d);
+            let ratio = d / 0.1;
+            // Proportional within 5 % for the parabola; the line's ratio is the square.
+            assert!(
+                (p / p1 / ratio - 1.0).abs() < 0.05,
+                "parabola at {d}: {p} vs {p1}"
+            );
+            assert!(
+                (l / l1 / (ratio * ratio) - 1.0).abs() < 0.1,
+                "line at {d}: {l} vs {l1}"
+            );
         }
     }
 

@@ -10,7 +10,9 @@ mod observation;
 mod sequence;
 mod tracker;
 
-pub use model::{MIN_REGION_SIDE, ModelPoint, PatternConfig, PatternModel, Region, sample_vector};
+pub use model::{
+    DeviationModel, MIN_REGION_SIDE, ModelPoint, PatternConfig, PatternModel, Region, sample_vector,
+};
 pub use observation::{
     EXTRAPOLATE_AFTER, Observation, PatternLikelihood, PatternScratch, ScaleSpace, place,
 };

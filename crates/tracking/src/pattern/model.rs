@@ -60,6 +60,10 @@ pub struct PatternConfig {
     pub min_slope: f64,
     /// At most this many model points are kept (evenly spread along the contours).
     pub max_points: usize,
+    /// The approximation `C~` of the auto-correlation whose inverse turns an
+    /// inter-correlation into the deviation `lambda` (section 3.3). Default
+    /// [`DeviationModel::Parabola`].
+    pub deviation: DeviationModel,
     /// `sigma` of the Gaussian `Omega_sigma(lambda)`, samples.
     pub sigma: f64,
     /// A point whose deviation `lambda` exceeds this (samples) is occluded.
@@ -68,6 +72,38 @@ pub struct PatternConfig {
     pub max_occluded_fraction: f64,
     /// Scales of the scale-space levels (each >= 1, increasing).
     pub scale_levels: Vec<f64>,
+}
+
+/// The function `C~` approximating a model point's auto-correlation near its peak
+/// (section 3.2, `W(j)`), inverted to read the deviation `lambda = C~^-1(C)` from an
+/// inter-correlation `C` (section 3.3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DeviationModel {
+    /// The seed's straight line `1 + W lambda`, `W` the slope:
+    /// [`super::correlation::deviation`].
+    Line,
+    /// The parabola `1 - a lambda^2`: [`super::correlation::deviation_parabolic`].
+    /// Profiles of blurred images correlate as `1 - C ~ d^2` a sub-sample `d` off, so
+    /// this keeps `lambda` proportional to the offset where the line makes it grow as
+    /// `d^2` (see [`super::correlation::autocorrelation_curvature`]).
+    #[default]
+    Parabola,
+}
+
+impl std::str::FromStr for DeviationModel {
+    type Err = TrackingError;
+
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "line" => Ok(Self::Line),
+            "parabola" => Ok(Self::Parabola),
+            other => Err(invalid(
+                "deviation",
+                format!("unknown model {other:?}: expected \"line\" or \"parabola\""),
+            )),
+        }
+    }
 }
 
 impl Default for PatternConfig {
@@ -85,6 +121,7 @@ impl Default for PatternConfig {
             min_contrast: 3.0,
             min_slope: 0.02,
             max_points: 200,
+            deviation: DeviationModel::Parabola,
             sigma: 1.0,
             occlusion_threshold: 1.5,
             max_occluded_fraction: 0.4,
@@ -452,5 +489,19 @@ mod tests {
             );
         }
         assert!(PatternConfig::default().validate().is_ok());
+    }
+
+    #[test]
+    fn deviation_models_parse_by_name() {
+        assert_eq!(
+            "line".parse::<DeviationModel>().unwrap(),
+            DeviationModel::Line
+        );
+        assert_eq!(
+            "parabola".parse::<DeviationModel>().unwrap(),
+            DeviationModel::Parabola
+        );
+        let err = "cubic".parse::<DeviationModel>().unwrap_err();
+        assert_eq!(err.parameter(), Some("deviation"));
     }
 }

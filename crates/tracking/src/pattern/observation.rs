@@ -2,8 +2,8 @@
 //! `X = (x, y, theta, s)` from the inter-correlation of each model point's stored and
 //! observed grey-level vectors, with occlusion and scale space handling.
 
-use super::correlation::{centred_products, energy};
-use super::model::{PatternModel, sample_along};
+use super::correlation::{autocorrelation_curvature, centred_products, energy};
+use super::model::{DeviationModel, PatternModel, sample_along};
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -37,7 +37,6 @@ pub struct ScaleSpace {
 struct Level {
     image: GrayImage,
     kernel: Arc<[f32]>,
-    blurred: GrayImage,
     scratch: GrayImage,
     /// Blurred for this frame (see [`ScaleSpace::build_window_for`]).
     ready: bool,
@@ -45,8 +44,8 @@ struct Level {
 
 impl Level {
     fn blur(&mut self, crop: &GrayImage, inner: [usize; 4]) {
-        crop.convolve_separable(&self.kernel, &mut self.scratch, &mut self.blurred);
-        copy_window(&self.blurred, inner, &mut self.image);
+        // Only the window: the crop's margin is there to be read, not kept.
+        crop.convolve_separable_window(&self.kernel, inner, &mut self.scratch, &mut self.image);
         self.ready = true;
     }
 }
@@ -326,8 +325,8 @@ fn interleaved(n: usize) -> impl Iterator<Item = usize> {
 
 /// What a particle needs of a model point besides its vector, computed once per frame
 /// (not per particle): its pixel offset, the unit vector of its gradient direction, its
-/// vector's energy and sum, and `1 / |W|`, so that `lambda = (1 - C) / |W|` costs no
-/// division.
+/// vector's energy and sum, and the inverse of its `C~`'s parameter (`1 / |W|` for the
+/// line, `1 / a` for the parabola), so that `lambda` costs no division.
 #[derive(Debug, Clone, Copy)]
 struct PointGeometry {
     index: usize,
@@ -335,7 +334,23 @@ struct PointGeometry {
     direction: [f64; 2],
     energy: f64,
     sum: f32,
-    inverse_slope: f64,
+    inverse_width: f64,
+}
+
+impl PointGeometry {
+    /// `lambda^2` of eq. 6 for inter-correlation `c`: `((1 - c) / |W|)^2` for the
+    /// line, `(1 - c) / a` for the parabola (`correlation::deviation`,
+    /// `correlation::deviation_parabolic`, squared).
+    #[inline]
+    fn squared_deviation(&self, c: f64, model: DeviationModel) -> f64 {
+        // Not `max`: a NaN correlation (a corrupt frame) must stay NaN.
+        let gap = (1.0 - c) * self.inverse_width;
+        let gap = if gap < 0.0 { 0.0 } else { gap };
+        match model {
+            DeviationModel::Line => gap * gap,
+            DeviationModel::Parabola => gap,
+        }
+    }
 }
 
 /// Where model point offset `(dx, dy)` and direction `phi` land for state `x`: the
@@ -352,18 +367,26 @@ pub fn place(state: &SVector<f64, 4>, offset: [f64; 2], phi: f64) -> ([f64; 2], 
 impl<'a> PatternLikelihood<'a> {
     /// The observation model of `model` in the frame whose scale space is `space`.
     pub fn new(model: &'a PatternModel, space: &'a ScaleSpace) -> Self {
+        let config = &model.config;
         let points = interleaved(model.points.len())
             .map(|j| {
                 let point = &model.points[j];
                 let (s, c) = point.phi.sin_cos();
+                // As `correlation::deviation(_parabolic)`: a zero parameter gives a huge
+                // deviation.
+                let width = match config.deviation {
+                    DeviationModel::Line => point.slope.abs(),
+                    DeviationModel::Parabola => {
+                        autocorrelation_curvature(&point.vector, config.fit_lags)
+                    }
+                };
                 PointGeometry {
                     index: j,
                     offset: model.offset(j),
                     direction: [c, s],
                     energy: energy(&point.vector),
                     sum: point.vector.iter().sum(),
-                    // As `correlation::deviation`: a zero slope gives a huge deviation.
-                    inverse_slope: 1.0 / point.slope.abs().max(f64::MIN_POSITIVE),
+                    inverse_width: 1.0 / width.max(f64::MIN_POSITIVE),
                 }
             })
             .collect();
@@ -373,6 +396,21 @@ impl<'a> PatternLikelihood<'a> {
             points,
             early_exit: None,
         }
+    }
+
+    /// The indices of the model points in the order they are visited (interleaved
+    /// along the contours).
+    pub fn visiting_order(&self) -> impl Iterator<Item = usize> + '_ {
+        self.points.iter().map(|g| g.index)
+    }
+
+    /// The same observation model on the first `count` model points of its visiting
+    /// order only (interleaved along the contours, so that they spread over the whole
+    /// pattern): a cheaper, coarser likelihood.
+    pub fn with_points(&self, count: usize) -> Self {
+        let mut out = self.clone();
+        out.points.truncate(count.max(1));
+        out
     }
 
     /// The same observation model, whose [`Likelihood::log_likelihood`] stops early on
@@ -444,7 +482,7 @@ impl<'a> PatternLikelihood<'a> {
         floor: f64,
         stop: Stop,
     ) -> Observation {
-        let n = self.model.points.len();
+        let n = self.points.len();
         if self.space.is_empty()
             || n == 0
             || !state.iter().all(|v| v.is_finite())
@@ -456,7 +494,8 @@ impl<'a> PatternLikelihood<'a> {
             };
         }
         let config = &self.model.config;
-        let threshold = config.occlusion_threshold;
+        // Deviations are kept squared (the parabola gives `lambda^2` without a root).
+        let threshold = config.occlusion_threshold * config.occlusion_threshold;
         if let Some(bound) = self.fill_deviations(state, scratch, floor, stop) {
             let d = &scratch.deviations;
             let occluded = d.iter().filter(|&&l| l > threshold).count();
@@ -470,7 +509,7 @@ impl<'a> PatternLikelihood<'a> {
             if l > threshold {
                 occluded += 1;
             } else {
-                below += l * l;
+                below += l;
             }
         }
         let allowed = (config.max_occluded_fraction * n as f64).floor() as usize;
@@ -482,22 +521,26 @@ impl<'a> PatternLikelihood<'a> {
         let mut squares = below;
         if occluded > tolerated {
             let d = &mut scratch.deviations;
-            d.select_nth_unstable_by(n - tolerated, |a, b| a.total_cmp(b));
+            // (With none tolerated, every point counts: nothing to select, and
+            // selecting the n-th of n would panic.)
+            if tolerated > 0 {
+                d.select_nth_unstable_by(n - tolerated, |a, b| a.total_cmp(b));
+            }
             squares += d[..n - tolerated]
                 .iter()
                 .filter(|&&l| l > threshold)
-                .map(|l| l * l)
                 .sum::<f64>();
         }
         let inv = 1.0 / (2.0 * config.sigma * config.sigma);
-        let left_out = tolerated as f64 * threshold * threshold;
+        let left_out = tolerated as f64 * threshold;
         Observation {
             log_likelihood: -(squares + left_out) * inv,
             occluded_fraction: occluded as f64 / n as f64,
         }
     }
 
-    /// The deviation of every model point for `state` into `scratch.deviations`
+    /// The squared deviation `lambda^2` of every model point for `state` into
+    /// `scratch.deviations`
     /// (infinite when the observed vector leaves the frame), in the order of
     /// `self.points`; or, as soon as the points seen put the log-likelihood below
     /// `floor` by the rule `stop` (checked every [`BATCH`] points), its value by that
@@ -515,7 +558,8 @@ impl<'a> PatternLikelihood<'a> {
     ) -> Option<f64> {
         let config = &self.model.config;
         let bounded = floor > f64::NEG_INFINITY;
-        let threshold = config.occlusion_threshold;
+        let threshold = config.occlusion_threshold * config.occlusion_threshold;
+        let model = config.deviation;
         let inv = 1.0 / (2.0 * config.sigma * config.sigma);
         let mut cost = 0.0;
         let image = self.space.level(state[3]);
@@ -558,17 +602,16 @@ impl<'a> PatternLikelihood<'a> {
                 } else {
                     0.0
                 };
-                let lambda = (1.0 - c) * geometry.inverse_slope;
+                let squared = geometry.squared_deviation(c, model);
                 // Outside the frame, or a NaN grey level (a corrupt frame): the point
                 // is occluded, the sum is not NaN.
-                let lambda = if ok && !lambda.is_nan() {
-                    lambda
+                let squared = if ok && !squared.is_nan() {
+                    squared
                 } else {
                     f64::INFINITY
                 };
-                scratch.deviations.push(lambda);
-                let capped = lambda.min(threshold);
-                cost += capped * capped;
+                scratch.deviations.push(squared);
+                cost += squared.min(threshold);
             }
             let seen = (b + 1) * BATCH;
             if bounded && seen < n {

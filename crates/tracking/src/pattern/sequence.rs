@@ -191,8 +191,8 @@ fn next_state<R: Rng>(
 /// Generates the sequence (section 4.1): frame 0 shows `patch` at the identity pose,
 /// centred; each later frame moves it by a random step (see [`SequenceParams`]).
 /// Frame pixel `u` shows patch point `c + R(theta)^T (u - t) / s`, the inverse of the
-/// tracker's `t + s R(theta) (p - c)`, `c` the patch centre, bilinearly interpolated;
-/// elsewhere the background, shifted by the background motion (wrapping around).
+/// tracker's `t + s R(theta) (p - c)`, `c` the patch centre, bilinearly interpolated
+/// inside the patch's pixel area (see `footprint`); elsewhere the background, shifted by the background motion (wrapping around).
 ///
 /// # Errors
 /// A bad parameter (named), or an empty, non-finite or too large patch or background.
@@ -258,15 +258,33 @@ pub fn generate_sequence(
 /// Whether patch point `p` is under the occluder: the band of width `fraction` of the
 /// patch along one of its four sides, so that `fraction` of its area is hidden.
 fn occluded(p: [f64; 2], size: [f64; 2], fraction: f64, side: usize) -> bool {
-    // The patch is drawn on [0, w - 1] x [0, h - 1] (where bilinear sampling is
-    // defined): normalised position in that footprint.
-    let (u, v) = (p[0] / (size[0] - 1.0), p[1] / (size[1] - 1.0));
+    // Normalised position in the patch's footprint, its pixels' area (see `footprint`).
+    let (u, v) = ((p[0] + 0.5) / size[0], (p[1] + 0.5) / size[1]);
     match side {
         0 => u < fraction,
         1 => u > 1.0 - fraction,
         2 => v < fraction,
         _ => v > 1.0 - fraction,
     }
+}
+
+/// The patch's grey level at patch point `p`, or `None` outside its footprint.
+///
+/// The footprint is the area of the patch's pixels, `[-0.5, w - 0.5) x [-0.5, h -
+/// 0.5)` (pixel centres at integer coordinates), the window the tracker learns and
+/// whose corners it reports: frame 0 shows exactly the patch's `w x h` pixels, and a
+/// patch scaled by `s` covers `s w x s h` pixels. Inside, levels are interpolated
+/// bilinearly, the outer half pixel repeating the edge pixels (OpenCV's
+/// `BORDER_REPLICATE`). Cutting the patch at its outer pixel centres instead (where
+/// bilinear interpolation stops) showed it one pixel smaller than frame 0 in every
+/// later frame: its border moved half a pixel inwards, a scale 1/w too small.
+fn footprint(patch: &GrayImage, p: [f64; 2]) -> Option<f32> {
+    let (w, h) = (patch.width as f64, patch.height as f64);
+    let inside = |v: f64, n: f64| v >= -0.5 && v < n - 0.5;
+    if !(inside(p[0], w) && inside(p[1], h)) {
+        return None;
+    }
+    patch.sample_bilinear(p[0].clamp(0.0, w - 1.0), p[1].clamp(0.0, h - 1.0))
 }
 
 /// Appends one frame to `frames`.
@@ -295,7 +313,7 @@ fn render_frame<R: Rng>(
         for x in 0..params.width {
             let q = [(x as f64 - tx) / s, (y as f64 - ty) / s];
             let src = [c[0] + cs * q[0] - sn * q[1], c[1] + sn * q[0] + cs * q[1]];
-            let g = match patch.sample_bilinear(src[0], src[1]) {
+            let g = match footprint(patch, src) {
                 // The occluder shows clutter from elsewhere in the background.
                 Some(_) if occluded(src, size, draw.occlusion, draw.side) => clutter(x, y, 97),
                 Some(g) => f64::from(g),

@@ -64,6 +64,13 @@ impl PatternFrame<'_> {
 /// 1e-13), see [`PatternLikelihood::with_early_exit`].
 const NEGLIGIBLE_LOG_WEIGHT: f64 = 30.0;
 
+/// The coarse rounds of the refinement weigh at least this many model points (all of
+/// a smaller model): fewer locate a pattern less well than its own noise.
+const COARSE_MIN_POINTS: usize = 64;
+
+/// How fast the typical score of `second_look` forgets a good frame (per frame).
+const TYPICAL_SCORE_DECAY: f64 = 0.95;
+
 /// Parameters of a [`PatternTracker`].
 #[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
 #[serde(default, deny_unknown_fields)]
@@ -87,6 +94,14 @@ pub struct PatternTrackerParams {
     /// The refined state replaces the lightest particle, weighted by its likelihood,
     /// so that the next frame starts from it. Default `true`.
     pub refined_particle: bool,
+    /// A frame whose estimate scores below this fraction of the track's typical
+    /// score gets a second CONDENSATION iteration (see [`PatternTracker::update`]); 0
+    /// never. Default 0.9.
+    pub second_look: f64,
+    /// The last rounds of the refinement that weigh every model point; the earlier
+    /// (coarse) ones weigh every other point, at half the cost. Default 2: with the
+    /// default first step, rounds of `sigma` to `sigma / 8` are coarse.
+    pub refine_fine_rounds: usize,
     /// Model building and observation model (sections 3.2-3.3).
     pub pattern: PatternConfig,
     /// Particle-filter settings (resampler, policy, chunking, parallelism). Default
@@ -103,6 +118,8 @@ impl Default for PatternTrackerParams {
             refine_steps: 6,
             refine_first_step: 1.0,
             refined_particle: true,
+            second_look: 0.9,
+            refine_fine_rounds: 2,
             pattern: PatternConfig::default(),
             // Each chunk weighs its particles until one is good, then cuts the rest
             // short (the early exit of `PatternLikelihood::with_early_exit`): fewer,
@@ -132,6 +149,7 @@ impl PatternTrackerParams {
                 reason: format!("must be 4 finite values > 0, got {:?}", self.sigma),
             });
         }
+        rperc_core::ensure_in_range("second_look", self.second_look, 0.0, 1.0)?;
         if !(self.refine_first_step.is_finite() && self.refine_first_step > 0.0) {
             return Err(TrackingError::InvalidParameter {
                 name: "refine_first_step",
@@ -188,6 +206,9 @@ pub struct PatternTracker {
     /// The scales of the states weighed on a frame (kept to reuse its buffer).
     needed: Vec<f64>,
     last: PatternPose,
+    /// The track's recent best score, decaying by [`TYPICAL_SCORE_DECAY`] a frame (see
+    /// `second_look`).
+    typical_score: f64,
 }
 
 impl PatternTracker {
@@ -261,6 +282,9 @@ impl PatternTracker {
             scratch: Vec::new(),
             needed: Vec::new(),
             last,
+            // The initial pose's score (1), so that the first frame can be looked at
+            // again too.
+            typical_score: last.score,
         })
     }
 
@@ -277,7 +301,14 @@ impl PatternTracker {
     /// four dimensions leave the nearest one a pixel or more (and, after a step of 2-3
     /// sigma, a few degrees) from the peak; the search reaches `2 sigma` from the mean
     /// (with the default first step), as a second, deterministic layer (annealing in
-    /// CONDENSATION practice), and costs about `12 * refine_steps` likelihoods.
+    /// CONDENSATION practice), and costs about `12 * refine_steps` likelihoods, those
+    /// of the coarse rounds (all but the last `refine_fine_rounds`) on every other
+    /// model point only: they need the direction to the peak, the fine ones its
+    /// place.
+    ///
+    /// A frame whose estimate scores below `second_look` times the track's typical
+    /// score (its recent best, forgotten by 5 % a frame) gets a second iteration on
+    /// the same frame ([`Self::look_again`]), and the better of the two estimates.
     ///
     /// When the estimate is lost (the filter's total loss, or more than
     /// `lost_occluded_fraction` of the points occluded, as on an all-black frame) the
@@ -310,7 +341,15 @@ impl PatternTracker {
         let resampled = self.filter.predict();
         self.build_space(frame)?;
         let report = self.weigh(resampled);
-        let (estimate, observation) = self.refine(report.lost);
+        let (mut estimate, mut observation) = self.refine(report.lost);
+        let mut lost_filter = report.lost;
+        if !report.lost && self.score(&observation) < self.params.second_look * self.typical_score {
+            (estimate, observation, lost_filter) = self.look_again(frame, estimate, observation)?;
+        }
+        let report = StepReport {
+            lost: lost_filter,
+            ..report
+        };
         let lost = report.lost
             || observation.occluded_fraction > self.params.lost_occluded_fraction
             || !observation.log_likelihood.is_finite();
@@ -328,8 +367,51 @@ impl PatternTracker {
                 lost: false,
                 corners: corners(&self.model, &estimate),
             };
+            self.typical_score = self
+                .last
+                .score
+                .max(TYPICAL_SCORE_DECAY * self.typical_score);
         }
         Ok(self.last)
+    }
+
+    /// A second CONDENSATION iteration on the same frame: the particles the first
+    /// left (the refined state among them, usually the heaviest) resampled and moved
+    /// by the random walk again, half of them redrawn around the last frame's
+    /// estimate with twice the random walk's spread, weighed and refined. Its
+    /// estimate is kept if its likelihood is higher, otherwise the first one is, and
+    /// joins the particles. `(estimate, observation, lost)`.
+    ///
+    /// Run when the first estimate's score falls below `second_look` times the
+    /// track's typical score: a step of 2-3 sigma leaves few particles near the
+    /// target, and the refinement from their mean can settle in a compromise (a wrong
+    /// scale explaining part of a translation, score ~0.6 where the track had ~0.93).
+    /// A cloud around the compromise is usually nearer the target; one around the
+    /// last estimate, wider, covers a compromise on the wrong side. Not in the seed
+    /// (an annealing layer, as [`Self::update`]'s refinement is).
+    fn look_again(
+        &mut self,
+        frame: PatternFrame<'_>,
+        first: SVector<f64, 4>,
+        at_first: Observation,
+    ) -> Result<(SVector<f64, 4>, Observation, bool)> {
+        let resampled = self.filter.predict();
+        // Half the cloud from where the last frame left the target, twice as wide:
+        // the compromise can lie on the wrong side of it.
+        let sigma = SVector::from(self.params.sigma) * 2.0;
+        let half = self.params.n_particles / 2;
+        self.filter
+            .redraw(half, SVector::from(self.last.state), sigma);
+        self.build_space(frame)?;
+        let report = self.weigh(resampled);
+        let (second, at_second) = self.refine(report.lost);
+        if !report.lost && at_second.log_likelihood > at_first.log_likelihood {
+            return Ok((second, at_second, false));
+        }
+        if !report.lost {
+            self.join_particles(first, &at_first);
+        }
+        Ok((first, at_first, false))
     }
 
     /// The frame's scale space, built once per frame, never per particle (section
@@ -378,30 +460,53 @@ impl PatternTracker {
         self.space
             .ensure([estimate[3] - reach, estimate[3] + reach]);
         let likelihood = PatternLikelihood::new(&self.model, &self.space);
-        let (first, second) = self.scratch.split_at_mut(1);
-        let scratch = [&mut first[0], &mut second[0]];
-        let mut observation = likelihood.observe(&estimate, scratch[0]);
+        // The coarse rounds on every other point (interleaved over the contours) but
+        // at least COARSE_MIN_POINTS, the last `refine_fine_rounds` on all of them.
+        let n = self.model.points.len();
+        let coarse = likelihood.with_points(n.div_ceil(2).max(COARSE_MIN_POINTS));
+        let steps = self.params.refine_steps;
+        let first_fine = steps.saturating_sub(self.params.refine_fine_rounds);
         let mut step = SVector::from(self.params.sigma) * self.params.refine_first_step;
-        let mut search = Refinement {
-            likelihood: &likelihood,
-            scratch,
-            parallel: self.params.filter.parallel,
-            floor: f64::NEG_INFINITY,
-        };
-        for _ in 0..self.params.refine_steps {
-            search.round(&mut estimate, &mut observation, &step);
-            step /= 2.0;
+        let mut observation = None;
+        for (stage, rounds) in [(&coarse, 0..first_fine), (&likelihood, first_fine..steps)] {
+            let fine = rounds.start == first_fine;
+            if rounds.is_empty() {
+                continue;
+            }
+            let (first, second) = self.scratch.split_at_mut(1);
+            let scratch = [&mut first[0], &mut second[0]];
+            let mut at = stage.observe(&estimate, scratch[0]);
+            let mut search = Refinement {
+                likelihood: stage,
+                scratch,
+                parallel: self.params.filter.parallel,
+                floor: f64::NEG_INFINITY,
+            };
+            for _ in rounds {
+                search.round(&mut estimate, &mut at, &step);
+                step /= 2.0;
+            }
+            observation = fine.then_some(at);
         }
+        // The answer is always on all the points.
+        let observation =
+            observation.unwrap_or_else(|| likelihood.observe(&estimate, &mut self.scratch[0]));
         if self.params.refined_particle && self.params.refine_steps > 0 && !lost {
-            // The refined state joins the particles with its likelihood relative to
-            // the best particle's (weighed in full unless all of them fell far below
-            // the reference, when the refined state outweighs them all anyway).
-            let (best, _) = self.filter.max_weight();
-            let at_best = likelihood.observe(&best, &mut self.scratch[0]);
-            let gain = observation.log_likelihood - at_best.log_likelihood;
-            self.filter.substitute_lightest(estimate, gain);
+            self.join_particles(estimate, &observation);
         }
         (estimate, observation)
+    }
+
+    /// The refined `state` joins the particles in place of the lightest, with its
+    /// likelihood relative to the best particle's (weighed in full unless all of them
+    /// fell far below the reference, when the refined state outweighs them all
+    /// anyway).
+    fn join_particles(&mut self, state: SVector<f64, 4>, observation: &Observation) {
+        let likelihood = PatternLikelihood::new(&self.model, &self.space);
+        let (best, _) = self.filter.max_weight();
+        let at_best = likelihood.observe(&best, &mut self.scratch[0]);
+        let gain = observation.log_likelihood - at_best.log_likelihood;
+        self.filter.substitute_lightest(state, gain);
     }
 
     /// The frame window `[x0, y0, x1, y1)` and the scale span this frame's likelihood

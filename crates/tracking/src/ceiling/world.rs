@@ -384,8 +384,11 @@ impl TileTexture {
 fn place_patterns(params: &CeilingParams) -> Result<Vec<CeilingPattern>> {
     const ATTEMPTS: usize = 2000;
     let mut rng = stream(params.seed, 0);
-    let mut placed: Vec<(CeilingPattern, f64)> = Vec::with_capacity(params.n_patterns);
+    // Grown as patterns fit, not reserved: a count in the billions is refused when the
+    // ceiling runs out of room, not by an allocation of gigabytes.
+    let mut placed: Vec<(CeilingPattern, f64)> = Vec::new();
     for k in 0..params.n_patterns {
+        rperc_core::interrupt::checkpoint()?;
         let kind = PatternKind::ALL[k % PatternKind::ALL.len()];
         let radius = 0.5 * kind.size()[0].hypot(kind.size()[1]);
         let mut found = None;

@@ -384,13 +384,31 @@ def evaluate(
     n = whole_number(starts, "starts", 1, 100_000)
     begin = learning.frames.truth[0]
     poses = starts_around(begin, n, perturbation, seed)
-    jobs = [(world, learning.memory.to_json(), p, dict(config or {}), seed + k)
+    config = _with_start_guess(config, perturbation)
+    jobs = [(world, learning.memory.to_json(), p, config, seed + k)
             for k, p in enumerate(poses)]  # fmt: skip
     done = executor.map(_replay_job, jobs) if executor else map(_replay_job, jobs)
     if show_progress:
         done = progress(done, desc="replays", total=n, unit="replay")
     runs = list(done)
     return _score(learning, runs), runs
+
+
+def _with_start_guess(
+    config: Mapping[str, Any] | None, perturbation: Sequence[float]
+) -> dict[str, Any]:
+    """``config`` with the localiser's starting guess told how the starts are drawn
+    (uniform in ``[-p, p]``: a standard deviation of ``p / sqrt(3)``), unless it sets
+    its own: the replay then searches the box its start can be in, no wider, and its
+    first covariance is honest."""
+    out = dict(config or {})
+    mosaic = dict(out.get("mosaic") or {})
+    localiser = dict(mosaic.get("localiser") or {})
+    if "guess_sigma" not in localiser:
+        p = np.asarray(perturbation, dtype=np.float64).reshape(-1)
+        localiser["guess_sigma"] = [max(float(v) / math.sqrt(3.0), 1e-3) for v in p]
+        out["mosaic"] = {**mosaic, "localiser": localiser}
+    return out
 
 
 def _score(learning: Learning, runs: list[ReplayResult]) -> Evaluation:

@@ -52,6 +52,12 @@ pub struct LocaliserParams {
     pub settle_frames: usize,
     /// Standard deviation of a localiser's starting guess `[x m, y m, theta rad]`.
     pub guess_sigma: [f64; 3],
+    /// When the filter's pose is too uncertain for a tracker started at a model's
+    /// predicted image pose (this many standard deviations of that prediction reach
+    /// beyond the tracker's random walk), the robot pose is searched over this many
+    /// standard deviations of the filter's instead (see [`super::search_pose`]); 0
+    /// never searches.
+    pub search_sigmas: f64,
 }
 
 impl Default for LocaliserParams {
@@ -70,8 +76,11 @@ impl Default for LocaliserParams {
             gate_probability: 0.999,
             max_refused_frames: 3,
             settle_frames: 2,
-            // The replays start within 10 cm and 0.1 rad of the first key image.
-            guess_sigma: [0.15, 0.15, 0.15],
+            // The replays start within 10 cm and 0.1 rad of the first key image
+            // (uniformly: a standard deviation of 0.1 / sqrt(3)); the search of the
+            // robot pose that starts them covers three of these.
+            guess_sigma: [0.06, 0.06, 0.06],
+            search_sigmas: 3.0,
         }
     }
 }
@@ -88,6 +97,7 @@ impl LocaliserParams {
         for s in self.guess_sigma {
             rperc_core::ensure_positive("guess_sigma", s)?;
         }
+        rperc_core::ensure_in_range("search_sigmas", self.search_sigmas, 0.0, 10.0)?;
         rperc_core::ensure_in_range("gate_probability", self.gate_probability, 0.5, 1.0)?;
         if self.gate_probability >= 1.0 {
             return Err(TrackingError::InvalidParameter {
@@ -193,6 +203,15 @@ impl PoseFilter {
         self.mapped.iter().position(|&m| m == id).map(|i| 3 + 3 * i)
     }
 
+    /// Moves the robot's mean to `pose`, its covariance unchanged: the linearisation
+    /// point of the next updates, when a search of the prior's box found the robot
+    /// elsewhere (the search is not a measurement: the sightings that follow are).
+    pub fn set_pose(&mut self, pose: Pose2) {
+        self.mean
+            .fixed_rows_mut::<3>(0)
+            .copy_from(&pose.to_vector());
+    }
+
     /// Starts the robot again at `N(pose, covariance)`, uncorrelated with the models.
     pub fn reset_robot(&mut self, pose: Pose2, covariance: Matrix3<f64>) {
         let n = self.mean.len();
@@ -257,6 +276,16 @@ impl PoseFilter {
         let i = self.innovation(scale, s, pixel_sigma);
         let inv = i.covariance.try_inverse()?;
         Some((i.error.transpose() * inv * i.error)[0])
+    }
+
+    /// The covariance of the image pose `(u, v, phi)` at which the robot would see a
+    /// model, `H P H^T` over the robot and the model (its rows in the state, or the
+    /// sighting's own covariance when it is not there; the tracker's noise left out):
+    /// how far from its prediction a model may appear.
+    pub fn prediction_covariance(&self, scale: &ImageScale, s: &ModelSighting) -> Matrix3<f64> {
+        let i = self.innovation(scale, s, 0.0);
+        let rotation = Matrix3::from_diagonal(&Vector3::new(0.0, 0.0, s.rotation_sigma.powi(2)));
+        i.covariance - rotation
     }
 
     /// The EKF update by one sighting; `false` when its innovation covariance is

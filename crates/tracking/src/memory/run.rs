@@ -13,9 +13,10 @@ use rperc_core::rng::{normal, stream};
 
 use super::keyimages::{KeyImage, KeyImageParams, LearntFrame, select_key_images};
 
+use super::geometry::ImageScale;
 use super::mosaic::{FrameReport, MosaicBuilder, MosaicModel, MosaicParams};
 use super::servo::{ServoParams, command, key_error};
-use crate::ceiling::{Ceiling, CeilingCamera, OdometryNoise, RenderParams, render};
+use crate::ceiling::{Ceiling, CeilingCamera, CeilingParams, OdometryNoise, RenderParams, render};
 use crate::error::{Result, TrackingError};
 
 /// The world a run happens in.
@@ -36,6 +37,44 @@ impl World<'_> {
 
     fn view<'b>(&self, bytes: &'b [u8]) -> Result<GrayView<'b>> {
         Ok(GrayView::new(bytes, self.camera.width, self.camera.height)?)
+    }
+}
+
+/// A ceiling world that owns its parts (a [`World`] borrows them), for programs that
+/// make their own: the generated ceiling, the camera and the renderer.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    /// The ceiling.
+    pub ceiling: Ceiling,
+    /// The robot's camera.
+    pub camera: CeilingCamera,
+    /// How frames are rendered.
+    pub render: RenderParams,
+}
+
+impl Scene {
+    /// Generates the ceiling of `ceiling` for `camera` and `render`.
+    pub fn new(
+        ceiling: &CeilingParams,
+        camera: CeilingCamera,
+        render: RenderParams,
+    ) -> Result<Self> {
+        camera.validate()?;
+        render.validate()?;
+        Ok(Self {
+            ceiling: Ceiling::generate(ceiling)?,
+            camera,
+            render,
+        })
+    }
+
+    /// The world the runs take.
+    pub fn world(&self) -> World<'_> {
+        World {
+            ceiling: &self.ceiling,
+            camera: &self.camera,
+            render: &self.render,
+        }
     }
 }
 
@@ -154,6 +193,28 @@ pub struct Learning {
     pub truth: Vec<Pose2>,
     /// The robot's processing time of each frame, seconds.
     pub seconds: Vec<f64>,
+}
+
+impl Learning {
+    /// Model `id`'s true frame in the world, the frame its mosaic pose is scored
+    /// against: the true robot at the model's creation times its window's image
+    /// pose there (`C T_i` of the window centre, no turn: the model's frame is
+    /// defined by that window). `None` for no such model.
+    pub fn model_in_world(&self, id: usize, camera: &CeilingCamera) -> Option<Pose2> {
+        let m = self.memory.models.get(id)?;
+        let scale = ImageScale {
+            metres_per_pixel: camera.metres_per_pixel(),
+            principal: [camera.cx, camera.cy],
+        };
+        let c_t_i = scale.camera_to_model([m.model.centre[0], m.model.centre[1], 0.0, 1.0]);
+        Some(self.truth.get(m.created)?.compose(&c_t_i))
+    }
+
+    /// The mosaic frame in the world (model 0's true frame): what maps a pose in the
+    /// mosaic to the world, to score it against the truth.
+    pub fn mosaic_in_world(&self, camera: &CeilingCamera) -> Option<Pose2> {
+        self.model_in_world(0, camera)
+    }
 }
 
 /// How a learning run goes.

@@ -166,6 +166,21 @@ impl VisualMemory {
                 ));
             }
         }
+        for m in &self.models {
+            check_model(m)?;
+        }
+        for (k, key) in self.key_images.iter().enumerate() {
+            let pose = [key.pose.x, key.pose.y, key.pose.theta];
+            let states = key.models.iter().flat_map(|m| m.state);
+            if !pose.iter().copied().chain(states).all(f64::is_finite)
+                || key.models.iter().any(|m| m.state[3] <= 0.0)
+            {
+                return Err(invalid(
+                    "key_images",
+                    format!("key image {k} holds a non-finite pose or state, or a scale <= 0"),
+                ));
+            }
+        }
         if let Some(c) = &self.mosaic_covariance {
             c.matrix(self.models.len())?;
         }
@@ -180,6 +195,56 @@ impl VisualMemory {
         }
         Ok(())
     }
+}
+
+/// Refuses a stored model that no learning run makes (a hand-edited or damaged
+/// file): a pose or covariance that is not finite, a window that is not a positive
+/// size, points outside their window or whose vectors are not of the configured
+/// length, or a configuration its own checks refuse.
+fn check_model(m: &MosaicModel) -> Result<()> {
+    let invalid = |reason: String| TrackingError::InvalidParameter {
+        name: "models",
+        reason: format!("model {}: {reason}", m.id),
+    };
+    let model = &m.model;
+    model
+        .config
+        .validate()
+        .map_err(|e| invalid(format!("its configuration: {e}")))?;
+    let pose = [m.pose.x, m.pose.y, m.pose.theta];
+    if !pose
+        .iter()
+        .chain(m.covariance.iter().flatten())
+        .all(|v| v.is_finite())
+    {
+        return Err(invalid("a pose or covariance that is not finite".into()));
+    }
+    let window_ok = model.centre.iter().all(|v| v.is_finite())
+        && model
+            .size
+            .iter()
+            .all(|v| v.is_finite() && *v > 0.0 && *v < 1e6);
+    if !window_ok {
+        return Err(invalid(format!(
+            "window centre {:?} size {:?}",
+            model.centre, model.size
+        )));
+    }
+    let n = model.config.n_samples;
+    let point_ok = |p: &crate::pattern::ModelPoint| {
+        p.x.abs() <= 1.0
+            && p.y.abs() <= 1.0
+            && p.phi.is_finite()
+            && p.slope.is_finite()
+            && p.vector.len() == n
+            && p.vector.iter().all(|v| v.is_finite())
+    };
+    if let Some(j) = model.points.iter().position(|p| !point_ok(p)) {
+        return Err(invalid(format!(
+            "point {j} lies outside its window, or its vector is not {n} finite values"
+        )));
+    }
+    Ok(())
 }
 
 /// What a learning run produced.

@@ -36,6 +36,9 @@ CASES = {
     # seconds (the factorisation, gain, covariance write and NEES are all checkpointed).
     "one monobot step with thousands of landmarks": "from rperc.slam import monobot\n"
     + "print('ready', flush=True)\nmonobot.simulate(landmarks=3000, steps=1)\n",
+    # A 1 GB ceiling texture (80 x 80 m at 5 mm): seconds of tile levels to generate.
+    "a huge ceiling world": "from rperc.navigation import CeilingWorld\n"
+    + "print('ready', flush=True)\nCeilingWorld(ceiling={'size': [80.0, 80.0]})\n",
 }
 
 # Far above the 20 ms poll interval (the child also needs time to unwind and exit on a

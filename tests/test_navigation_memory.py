@@ -6,6 +6,7 @@ through a process pool."""
 
 from __future__ import annotations
 
+import copy
 import itertools
 import json
 import multiprocessing
@@ -111,6 +112,38 @@ def test_save_load_and_a_memory_of_another_mosaic(learnt, tmp_path: Path) -> Non
     small = VisualMemory(json.dumps({**data, "models": data["models"][:1]}))
     with pytest.raises(ValueError, match="another mosaic"):
         replay(world, small, learning.frames.truth[0])
+
+
+def test_a_hand_edited_memory_is_a_clear_value_error(learnt, tmp_path: Path) -> None:
+    """A memory is read as the native side reads it, every field checked: a model
+    without its pose, a pose without theta, a tracker state of three numbers or a
+    frame number that is a string is a ValueError naming it, never a KeyError later;
+    so is a saved file without its key-image part."""
+    _, learning = learnt
+    data = json.loads(learning.memory.to_json())
+
+    def edited(change) -> str:
+        d = copy.deepcopy(data)
+        change(d)
+        return json.dumps(d)
+
+    cases = [
+        (lambda d: d["models"][1].pop("pose"), "missing field `pose`"),
+        (lambda d: d["models"][0]["pose"].pop("theta"), "missing field `theta`"),
+        (lambda d: d["key_images"][0]["models"][0].update(state=[1.0, 2.0, 3.0]), "length 3"),
+        (lambda d: d["models"][0].update(created="now"), "invalid type: string"),
+    ]
+    for change, what in cases:
+        with pytest.raises(ValueError, match=what):
+            VisualMemory(edited(change))
+    with pytest.raises(ValueError, match="not a visual memory"):
+        VisualMemory("{not json")
+    path = learning.memory.save(tmp_path / "memory.json")
+    saved = json.loads(path.read_text())
+    del saved["memory"]
+    (tmp_path / "no_keys.json").write_text(json.dumps(saved))
+    with pytest.raises(ValueError, match="not a visual-memory file: no 'memory'"):
+        VisualMemory.load(tmp_path / "no_keys.json")
 
 
 def test_bad_worlds_and_memories_are_refused(learnt) -> None:

@@ -134,6 +134,10 @@ def test_bad_input_is_refused_by_name() -> None:
         CeilingWorld(ceiling={**SMALL, "colour": 3})
     with pytest.raises(ValueError, match="n_patterns"):
         CeilingWorld(ceiling={"size": [2.0, 2.0], "n_patterns": 50})
+    # Billions of patterns: refused when the ceiling is full, not by reserving 85 GB
+    # (the fuzz suite's find: the process aborted).
+    with pytest.raises(ValueError, match="n_patterns"):
+        CeilingWorld(ceiling={"size": [3.0, 2.0], "resolution": 0.02, "n_patterns": 2**31})
     world = CeilingWorld(ceiling=SMALL)
     with pytest.raises(ValueError, match=r"\(n, 3\)"):
         world.render(np.zeros((2, 2)))

@@ -47,6 +47,7 @@ __all__ = [
     "simplify_many_indices",
     "simplify_topology_indices",
     "tracker_defaults",
+    "visual_memory_check",
     "visual_memory_defaults",
     "visual_memory_learn",
     "visual_memory_replay",
@@ -311,3 +312,4 @@ def visual_memory_replay(
     seed: int = 0,
 ) -> tuple[str, npt.NDArray[np.float64], _Frames]: ...
 def visual_memory_defaults() -> tuple[dict[str, Any], dict[str, Any]]: ...
+def visual_memory_check(memory: str) -> None: ...

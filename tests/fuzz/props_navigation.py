@@ -97,7 +97,8 @@ def _world() -> CeilingWorld:
 
 
 LOCALISER = ("pixel_sigma", "rotation_pixel_sigma", "min_rotation_lever", "gate_probability",
-             "max_refused_frames", "odometry_sigma", "guess_sigma")  # fmt: skip
+             "max_refused_frames", "odometry_sigma", "guess_sigma", "search_sigmas",
+             "settle_frames")  # fmt: skip
 LEARN_NAMES = ("start", "commands", "dt", "seed", "config", "localiser", "mosaic",
                *LOCALISER)  # fmt: skip
 
@@ -135,3 +136,94 @@ def prop_learn_and_replay(start: Any, commands: Any, field: str, value: Any) -> 
         assert any(n in str(run) for n in LEARN_NAMES), run
         return
     assert run.outcome in ("reached", "lost", "timed_out") and len(run.frames.truth) <= 5
+
+
+_LEARNT: list[Any] = []
+
+
+def _learning() -> Any:
+    """A small world with a 320 x 240 camera and a short learning run in it, once."""
+    from rperc.navigation import learn
+
+    if not _LEARNT:
+        ceiling = {"size": [4.0, 3.0], "n_patterns": 6, "min_spacing": 0.8,
+                   "resolution": 0.01, "seed": 1}  # fmt: skip
+        world = CeilingWorld(ceiling)
+        _LEARNT.append((world, learn(world, [2.0, 1.5, 0.3], [[0.1, 0.05]] * 6, 0.1)))
+    return _LEARNT[0]
+
+
+EVALUATE_NAMES = ("starts", "perturbation", "seed", "start", "key_images", "config", "max_frames")
+
+
+@examples(30)
+@given(
+    st.one_of(EDGE_NUMBERS, st.integers(-3, 3)),
+    st.one_of(HOSTILE, st.lists(EDGE_NUMBERS, min_size=0, max_size=4)),
+    st.one_of(EDGE_NUMBERS, st.integers(0, 2**64 + 1)),
+    st.one_of(EDGE_NUMBERS, st.just(2)),
+)
+def prop_evaluate(starts: Any, perturbation: Any, seed: Any, max_frames: Any) -> None:
+    """The 50-start evaluation with hostile counts, perturbations, seeds and replay
+    lengths: an Evaluation whose rates lie in [0, 1], or a clear error naming what
+    was wrong; never a panic."""
+    from rperc.navigation import evaluate
+
+    world, learning = _learning()
+    case("evaluate", starts=starts, perturbation=perturbation, seed=seed, max_frames=max_frames)
+    ok, got = outcome(evaluate, world, learning, starts=starts, perturbation=perturbation,
+                      config={"max_frames": max_frames}, seed=seed)  # fmt: skip
+    if not ok:
+        assert any(n in str(got) for n in EVALUATE_NAMES), got
+        return
+    ev, runs = got
+    assert len(runs) == ev.starts and 0.0 <= ev.success_rate <= 1.0
+
+
+HOSTILE_JSON = st.one_of(
+    st.sampled_from([None, "x", -1, 2**70, 1e308, float("nan"), [], {}, [1.0, 2.0], True]),
+    st.just("DELETE"),
+)
+
+
+def _paths(value: Any, prefix: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
+    """Every key path of a JSON value (lists: their first item only)."""
+    out = [prefix] if prefix else []
+    if isinstance(value, dict):
+        for k, v in value.items():
+            out += _paths(v, (*prefix, k))
+    elif isinstance(value, list) and value:
+        out += _paths(value[0], (*prefix, 0))
+    return out
+
+
+@examples(60)
+@given(st.data(), HOSTILE_JSON)
+def prop_memory_json(data: Any, value: Any) -> None:
+    """A learnt memory's JSON with one field replaced by a hostile value (or deleted):
+    VisualMemory reads it or raises a ValueError; one it reads replays or raises a
+    ValueError. Never a KeyError, a TypeError from deep inside, or a panic."""
+    import json
+
+    from rperc.navigation import VisualMemory, replay
+
+    world, learning = _learning()
+    base = json.loads(learning.memory.to_json())
+    path = data.draw(st.sampled_from(_paths(base)))
+    case("VisualMemory", path=path, value=value)
+    edited = json.loads(json.dumps(base))
+    holder = edited
+    for key in path[:-1]:
+        holder = holder[key]
+    if value == "DELETE" and isinstance(holder, dict):
+        del holder[path[-1]]
+    elif value != "DELETE":
+        holder[path[-1]] = value
+    ok, memory = outcome(VisualMemory, json.dumps(edited))
+    if not ok:
+        assert isinstance(memory, ValueError), repr(memory)
+        return
+    assert memory.n_models == len(edited["models"])
+    ok, run = outcome(replay, world, memory, [2.0, 1.5, 0.3], {"max_frames": 3})
+    if not ok:
+        assert isinstance(run, ValueError), repr(run)

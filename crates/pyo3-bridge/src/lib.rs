@@ -43,7 +43,9 @@ mod _rperc {
         simplify_topology_indices,
     };
     #[pymodule_export]
-    use crate::memory_py::{visual_memory_defaults, visual_memory_learn, visual_memory_replay};
+    use crate::memory_py::{
+        visual_memory_check, visual_memory_defaults, visual_memory_learn, visual_memory_replay,
+    };
     #[pymodule_export]
     use crate::pattern_py::{PyPatternTracker, pattern_defaults, pattern_sequence};
     #[pymodule_export]

@@ -134,6 +134,16 @@ pub fn visual_memory_replay<'py>(
     ))
 }
 
+/// Checks that a visual memory (JSON) reads as the native side reads it: that schema
+/// is the one check of a memory's structure, so that a hand-edited model without its
+/// `pose` is a ValueError naming the field, not a KeyError later.
+#[pyfunction]
+pub fn visual_memory_check(memory: &str) -> PyResult<()> {
+    serde_json::from_str::<VisualMemory>(memory)
+        .map_err(|e| Error::Value(format!("memory: not a visual memory: {e}")))?;
+    Ok(())
+}
+
 /// Default configs as dicts: `(learn, replay)`.
 #[pyfunction]
 pub fn visual_memory_defaults(py: Python<'_>) -> PyResult<(Bound<'_, PyAny>, Bound<'_, PyAny>)> {

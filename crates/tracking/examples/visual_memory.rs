@@ -4,18 +4,16 @@
 //! cargo run --release -p tracking --example visual_memory
 
 use rperc_core::Pose2;
-use tracking::ceiling::{Ceiling, CeilingCamera, CeilingParams, RenderParams};
-use tracking::memory::{ImageScale, LearnParams, ReplayParams, World, learn, replay};
+use tracking::ceiling::{CeilingCamera, CeilingParams, RenderParams};
+use tracking::memory::{LearnParams, ReplayParams, Scene, learn, replay};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let ceiling = Ceiling::generate(&CeilingParams::default())?;
-    let camera = CeilingCamera::default();
-    let render = RenderParams::default();
-    let world = World {
-        ceiling: &ceiling,
-        camera: &camera,
-        render: &render,
-    };
+    let scene = Scene::new(
+        &CeilingParams::default(),
+        CeilingCamera::default(),
+        RenderParams::default(),
+    )?;
+    let world = scene.world();
     let start = Pose2::new(2.0, 2.0, 0.2);
     let commands: Vec<[f64; 2]> = (0..150)
         .map(|k| [0.3, if k < 75 { 0.15 } else { -0.15 }])
@@ -28,14 +26,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         learnt.memory.key_images.len(),
         1e3 * learnt.seconds.iter().sum::<f64>() / frames
     );
-    // The mosaic frame in the world: the true robot at model 0's creation, times C T_0.
-    let m0 = &learnt.memory.models[0];
-    let scale = ImageScale {
-        metres_per_pixel: camera.metres_per_pixel(),
-        principal: [camera.cx, camera.cy],
-    };
-    let c_t_0 = scale.camera_to_model([m0.model.centre[0], m0.model.centre[1], 0.0, 1.0]);
-    let w_t_m = learnt.truth[m0.created].compose(&c_t_0);
+    let w_t_m = learnt
+        .mosaic_in_world(&scene.camera)
+        .ok_or("no model in the mosaic")?;
     let mut worst = (0.0f64, 0.0f64);
     for (report, truth) in learnt.reports.iter().zip(&learnt.truth) {
         if let (Some(p), false) = (report.pose, report.lost) {

@@ -280,3 +280,60 @@ fn a_stored_mosaics_shared_error_is_not_averaged_away() {
         "still one shared error"
     );
 }
+
+/// The covariance after one sighting by the information form, `(P^-1 + H^T R^-1
+/// H)^-1`: an oracle independent of the gain the filter computes.
+fn information_form(prior: &Matrix3<f64>, h: &Matrix3<f64>, noise: &Matrix3<f64>) -> Matrix3<f64> {
+    let info = prior.try_inverse().unwrap() + h.transpose() * noise.try_inverse().unwrap() * h;
+    info.try_inverse().unwrap()
+}
+
+#[test]
+fn the_update_equals_the_information_form_and_stays_positive_definite() {
+    // From a prior of metres and radians to sightings of micro-pixels: the plain
+    // `P - K S K^T` cancels almost everything there; the Joseph form keeps every
+    // variance positive and equal to the information form's.
+    let robot = Pose2::new(0.3, -0.2, 0.7);
+    let model = pose(MODELS[2]);
+    for (prior_sigma, pixel, rotation) in [
+        (0.1f64, 0.3f64, 0.05f64),
+        (10.0, 1e-6, 1e-7),
+        (1e-3, 5.0, 1.0),
+    ] {
+        let prior = Matrix3::from_diagonal(&Vector3::new(
+            prior_sigma * prior_sigma,
+            (2.0 * prior_sigma).powi(2),
+            prior_sigma * prior_sigma,
+        ));
+        let mut filter = PoseFilter::new(robot, prior);
+        let (z, h, _) = observe(&SCALE, &robot, &model);
+        let s = ModelSighting {
+            id: 0,
+            model_in_mosaic: model,
+            model_covariance: Matrix3::zeros(),
+            state: [z[0], z[1], z[2], 1.0],
+            rotation_sigma: rotation,
+        };
+        assert!(filter.update(&SCALE, &s, pixel));
+        let noise = Matrix3::from_diagonal(&Vector3::new(
+            pixel * pixel,
+            pixel * pixel,
+            rotation * rotation,
+        ));
+        let oracle = information_form(&prior, &h, &noise);
+        let got = filter.pose_covariance();
+        for r in 0..3 {
+            assert!(got[(r, r)] > 0.0, "variance {r} {}", got[(r, r)]);
+            for c in 0..3 {
+                let tol = 1e-6 * (oracle[(r, r)] * oracle[(c, c)]).sqrt();
+                assert!(
+                    (got[(r, c)] - oracle[(r, c)]).abs() <= tol,
+                    "prior {prior_sigma}: P[{r}{c}] {} vs {}",
+                    got[(r, c)],
+                    oracle[(r, c)]
+                );
+            }
+        }
+        assert!(got.symmetric_eigenvalues().min() > 0.0);
+    }
+}

@@ -4,26 +4,26 @@
 //! chain, and a replay from a perturbed start servoes to B within 5 cm.
 
 use rperc_core::Pose2;
-use tracking::ceiling::{Ceiling, CeilingCamera, CeilingParams, RenderParams};
+use rperc_core::image::GrayView;
+use tracking::ceiling::{CeilingCamera, CeilingParams, RenderParams, render};
 use tracking::memory::{
-    ImageScale, KeyImageParams, LearnParams, ReplayOutcome, ReplayParams, World, check_chain,
-    learn, replay,
+    KeyImageParams, LearnParams, MosaicBuilder, MosaicParams, ReplayOutcome, ReplayParams, Scene,
+    check_chain, learn, replay,
 };
+
+/// The default camera and renderer over the ceiling of `seed`.
+fn scene(seed: u64) -> Scene {
+    let ceiling = CeilingParams {
+        seed,
+        ..Default::default()
+    };
+    Scene::new(&ceiling, CeilingCamera::default(), RenderParams::default()).unwrap()
+}
 
 #[test]
 fn learn_then_replay_against_the_truth() {
-    let ceiling = Ceiling::generate(&CeilingParams {
-        seed: 3,
-        ..Default::default()
-    })
-    .unwrap();
-    let camera = CeilingCamera::default();
-    let render = RenderParams::default();
-    let world = World {
-        ceiling: &ceiling,
-        camera: &camera,
-        render: &render,
-    };
+    let scene = scene(3);
+    let world = scene.world();
     let start = Pose2::new(3.0, 3.0, 0.0);
     let commands: Vec<[f64; 2]> = (0..60)
         .map(|k| [0.3, if k < 30 { 0.2 } else { 0.0 }])
@@ -34,14 +34,8 @@ fn learn_then_replay_against_the_truth() {
     check_chain(&memory.key_images, &KeyImageParams::default()).unwrap();
     // The mosaic frame in the world: model 0's true frame (the robot's true pose at
     // its creation, times its image pose there).
-    let scale = ImageScale {
-        metres_per_pixel: camera.metres_per_pixel(),
-        principal: [camera.cx, camera.cy],
-    };
-    let frame_of = |m: &tracking::memory::MosaicModel| {
-        let c = scale.camera_to_model([m.model.centre[0], m.model.centre[1], 0.0, 1.0]);
-        learnt.truth[m.created].compose(&c)
-    };
+    let frame_of =
+        |m: &tracking::memory::MosaicModel| learnt.model_in_world(m.id, &scene.camera).unwrap();
     let w_t_m = frame_of(&memory.models[0]);
     // Every model within its own claimed covariance (99.9 % ellipsoid), and the
     // mosaic within the 2 cm and 0.5 degrees RMS.
@@ -94,7 +88,7 @@ fn learn_then_replay_against_the_truth() {
 
 #[test]
 fn an_empty_mosaic_or_memory_is_refused() {
-    use tracking::memory::{MosaicBuilder, MosaicParams, VisualMemory};
+    use tracking::memory::VisualMemory;
     let camera = CeilingCamera::default();
     let err = MosaicBuilder::localiser(
         camera,
@@ -104,18 +98,12 @@ fn an_empty_mosaic_or_memory_is_refused() {
         0,
     );
     assert!(err.is_err());
-    let ceiling = Ceiling::generate(&CeilingParams {
+    let ceiling = CeilingParams {
         size: [3.0, 3.0],
         n_patterns: 2,
         ..Default::default()
-    })
-    .unwrap();
-    let render = RenderParams::default();
-    let world = World {
-        ceiling: &ceiling,
-        camera: &camera,
-        render: &render,
     };
+    let scene = Scene::new(&ceiling, camera, RenderParams::default()).unwrap();
     let empty = VisualMemory {
         models: Vec::new(),
         key_images: Vec::new(),
@@ -124,12 +112,157 @@ fn an_empty_mosaic_or_memory_is_refused() {
     };
     assert!(
         replay(
-            world,
+            scene.world(),
             &empty,
             Pose2::identity(),
             &ReplayParams::default(),
             0
         )
         .is_err()
+    );
+}
+
+/// The first frame after `from` whose report has `id` in `pick`'s list.
+fn first_after(
+    reports: &[tracking::memory::FrameReport],
+    from: usize,
+    id: usize,
+    pick: fn(&tracking::memory::FrameReport) -> &Vec<usize>,
+) -> Option<usize> {
+    (from + 1..reports.len()).find(|&k| pick(&reports[k]).contains(&id))
+}
+
+#[test]
+fn a_restarted_tracker_is_used_after_settle_frames_updates() {
+    // Localisation against a learnt mosaic from the exact start with a tight guess
+    // (no search): the trackers start at the predicted image poses in frame k0, so
+    // model `id` has j updates in frame k0 + j and corrects the pose first in frame
+    // k0 + max(settle_frames, 1), unless it was stopped before.
+    let scene = scene(3);
+    let start = Pose2::new(3.0, 3.0, 0.0);
+    let commands = vec![[0.3, 0.05]; 14];
+    let learnt = learn(
+        scene.world(),
+        start,
+        &commands,
+        0.1,
+        &LearnParams::default(),
+        0,
+    )
+    .unwrap();
+    let guess = learnt.reports[0].pose.unwrap();
+    for settle in [0, 1, 2, 3] {
+        let mut params = MosaicParams::default();
+        params.localiser.settle_frames = settle;
+        params.localiser.guess_sigma = [1e-3; 3];
+        let models = learnt.memory.models.clone();
+        let mut localiser =
+            MosaicBuilder::localiser(scene.camera, params, models, guess, 5).unwrap();
+        let mut reports = Vec::new();
+        let mut frame = Vec::new();
+        for (k, truth) in learnt.truth.iter().enumerate() {
+            render(
+                &scene.ceiling,
+                &scene.camera,
+                truth,
+                &scene.render,
+                100 + k as u64,
+                &mut frame,
+            )
+            .unwrap();
+            let view = GrayView::new(&frame, scene.camera.width, scene.camera.height).unwrap();
+            let odometry = k.checked_sub(1).map(|j| learnt.truth[j].between(truth));
+            reports.push(localiser.process(view, odometry).unwrap());
+        }
+        let mut checked = 0;
+        for (k0, r) in reports.iter().enumerate() {
+            for &id in &r.reacquired {
+                let used = first_after(&reports, k0, id, |r| &r.used);
+                let stopped = first_after(&reports, k0, id, |r| &r.stopped);
+                let due = k0 + settle.max(1);
+                if stopped.is_some_and(|s| s <= due) {
+                    continue;
+                }
+                assert_eq!(
+                    used,
+                    Some(due),
+                    "settle {settle}: model {id} restarted in {k0}"
+                );
+                checked += 1;
+            }
+        }
+        assert!(
+            checked >= 2,
+            "settle {settle}: only {checked} restarts checked"
+        );
+    }
+}
+
+#[test]
+fn the_search_finds_the_robot_a_start_perturbation_away() {
+    // The oracle is the world's truth: a frame rendered at the true start, the prior
+    // 6 cm and 3.4 degrees away (beyond a tracker's random walk at the models), the
+    // search over three standard deviations of a 0.058 m / 0.058 rad guess must come
+    // back within a centimetre and 0.3 degrees of the true pose in the mosaic.
+    use tracking::memory::{ImageScale, search_pose};
+    let scene = scene(5);
+    let start = Pose2::new(3.0, 3.0, 0.0);
+    let learnt = learn(
+        scene.world(),
+        start,
+        &[[0.3, 0.0]; 8],
+        0.1,
+        &LearnParams::default(),
+        0,
+    )
+    .unwrap();
+    let w_t_m = learnt.mosaic_in_world(&scene.camera).unwrap();
+    let truth = w_t_m.inverse().compose(&start);
+    let camera = &scene.camera;
+    let mut frame = Vec::new();
+    render(
+        &scene.ceiling,
+        camera,
+        &start,
+        &scene.render,
+        77,
+        &mut frame,
+    )
+    .unwrap();
+    let mut raw = rperc_core::image::GrayImage::default();
+    raw.set_from_gray(&GrayView::new(&frame, camera.width, camera.height).unwrap());
+    let mut ideal = rperc_core::image::GrayImage::default();
+    tracking::ceiling::correct_image(camera, &raw, 0.0, &mut ideal).unwrap();
+    let scale = ImageScale {
+        metres_per_pixel: camera.metres_per_pixel(),
+        principal: [camera.cx, camera.cy],
+    };
+    let candidates: Vec<_> = learnt
+        .memory
+        .models
+        .iter()
+        .filter(|m| m.created == 0)
+        .map(|m| (&m.model, m.pose))
+        .collect();
+    // Four models in view, two of which tell their rotation.
+    assert!(candidates.len() >= 2, "{} models in view", candidates.len());
+    let prior = truth.compose(&Pose2::new(0.05, -0.035, 0.06));
+    let sigma = 0.1 / 3f64.sqrt();
+    let cov = nalgebra::Matrix3::from_diagonal_element(sigma * sigma);
+    let found = search_pose(&ideal, &candidates, &scale, &prior, &cov, 3.0)
+        .unwrap()
+        .unwrap();
+    let e = truth.between(&found.pose);
+    assert!(
+        e.x.hypot(e.y) < 0.01 && e.theta.abs() < 0.3f64.to_radians(),
+        "found {:?}, truth {truth:?}: {e:?}",
+        found.pose
+    );
+    assert!(found.scores.iter().all(|s| *s > 0.8), "{:?}", found.scores);
+    // Without models there is nothing to search.
+    assert!(
+        search_pose(&ideal, &[], &scale, &prior, &cov, 3.0)
+            .unwrap()
+            .is_none()
     );
 }

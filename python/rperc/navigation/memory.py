@@ -64,9 +64,15 @@ class VisualMemory:
     part: :meth:`load` refuses a file whose key images belong to another mosaic."""
 
     def __init__(self, native_json: str) -> None:
-        data = json.loads(native_json)
+        try:
+            data = json.loads(native_json)
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"memory: not a visual memory: {exc}") from None
         if not isinstance(data, dict) or not {"models", "key_images", "image_size"} <= set(data):
             raise ValueError("memory: not a visual memory (needs models, key_images, image_size)")
+        # Every field, as the native side reads it (a model without its pose, a pose
+        # without theta, a state of three numbers: each a ValueError naming it).
+        _rperc.visual_memory_check(native_json)
         self._data: dict[str, Any] = data
 
     def __repr__(self) -> str:
@@ -141,15 +147,18 @@ class VisualMemory:
             raise ValueError(f"{p}: not a visual-memory file: {exc}") from None
         if not isinstance(data, dict) or data.get("format") != FORMAT:
             raise ValueError(f"{p}: not a visual-memory file (format {FORMAT!r} expected)")
-        mosaic = {"models": data["mosaic"]["models"],
-                  "covariance": data["mosaic"].get("covariance")}  # fmt: skip
+        try:
+            mosaic = {"models": data["mosaic"]["models"],
+                      "covariance": data["mosaic"].get("covariance")}  # fmt: skip
+            memory = data["memory"]
+            native = {"models": mosaic["models"], "key_images": memory["key_images"],
+                      "image_size": memory["image_size"]}  # fmt: skip
+        except (KeyError, TypeError, AttributeError) as exc:
+            raise ValueError(f"{p}: not a visual-memory file: no {exc}") from None
         if _sha256(mosaic) != data["mosaic"].get("sha256"):
             raise ValueError(f"{p}: the mosaic was altered after it was saved")
-        if data["memory"].get("mosaic_sha256") != _sha256(mosaic):
+        if memory.get("mosaic_sha256") != _sha256(mosaic):
             raise ValueError(f"{p}: the key images belong to another mosaic")
-        memory = data["memory"]
-        native = {"models": mosaic["models"], "key_images": memory["key_images"],
-                  "image_size": memory["image_size"]}  # fmt: skip
         if mosaic["covariance"] is not None:
             native["mosaic_covariance"] = mosaic["covariance"]
         return cls(json.dumps(native))
@@ -382,15 +391,34 @@ def evaluate(
     from rperc._progress import progress
 
     n = whole_number(starts, "starts", 1, 100_000)
+    seed = whole_number(seed, "seed", 0)
     begin = learning.frames.truth[0]
     poses = starts_around(begin, n, perturbation, seed)
-    jobs = [(world, learning.memory.to_json(), p, dict(config or {}), seed + k)
+    config = _with_start_guess(config, perturbation)
+    jobs = [(world, learning.memory.to_json(), p, config, seed + k)
             for k, p in enumerate(poses)]  # fmt: skip
     done = executor.map(_replay_job, jobs) if executor else map(_replay_job, jobs)
     if show_progress:
         done = progress(done, desc="replays", total=n, unit="replay")
     runs = list(done)
     return _score(learning, runs), runs
+
+
+def _with_start_guess(
+    config: Mapping[str, Any] | None, perturbation: Sequence[float]
+) -> dict[str, Any]:
+    """``config`` with the localiser's starting guess told how the starts are drawn
+    (uniform in ``[-p, p]``: a standard deviation of ``p / sqrt(3)``), unless it sets
+    its own: the replay then searches the box its start can be in, no wider, and its
+    first covariance is honest."""
+    out = dict(config or {})
+    mosaic = dict(out.get("mosaic") or {})
+    localiser = dict(mosaic.get("localiser") or {})
+    if "guess_sigma" not in localiser:
+        p = np.asarray(perturbation, dtype=np.float64).reshape(-1)
+        localiser["guess_sigma"] = [max(float(v) / math.sqrt(3.0), 1e-3) for v in p]
+        out["mosaic"] = {**mosaic, "localiser": localiser}
+    return out
 
 
 def _score(learning: Learning, runs: list[ReplayResult]) -> Evaluation:

@@ -223,7 +223,11 @@ impl Ceiling {
         let (w, h) = params.texels();
         let tiles = TileTexture::new(params);
         let mut texture = GrayImage::zeros(w, h);
+        // A ceiling near the allocation limit takes seconds: Ctrl-C is heard by the
+        // row (each a texel's tile level per column).
+        let mut work = rperc_core::interrupt::Work::new();
         for (j, row) in texture.data.chunks_exact_mut(w).enumerate() {
+            work.advance(w as u64)?;
             for (i, t) in row.iter_mut().enumerate() {
                 *t = tiles.level([i as f64 * params.resolution, j as f64 * params.resolution]);
             }
@@ -236,9 +240,10 @@ impl Ceiling {
             pyramid: Vec::new(),
         };
         for k in 0..ceiling.patterns.len() {
-            ceiling.draw(ceiling.patterns[k]);
+            rperc_core::interrupt::checkpoint()?;
+            ceiling.draw(ceiling.patterns[k], &mut work)?;
         }
-        ceiling.pyramid = pyramid(&ceiling.texture);
+        ceiling.pyramid = pyramid(&ceiling.texture, &mut work)?;
         Ok(ceiling)
     }
 
@@ -275,15 +280,17 @@ impl Ceiling {
     }
 
     /// Draws one pattern, each texel the mean of 3x3 sub-samples (anti-aliased edges).
-    fn draw(&mut self, p: CeilingPattern) {
+    fn draw(&mut self, p: CeilingPattern, work: &mut rperc_core::interrupt::Work) -> Result<()> {
         let res = self.resolution;
         let radius = 0.5 * p.kind.size()[0].hypot(p.kind.size()[1]);
         let (w, h) = (self.texture.width, self.texture.height);
         let lo = |c: f64| ((c - radius) / res).floor().max(0.0) as usize;
         let hi = |c: f64, n: usize| (((c + radius) / res).ceil().max(0.0) as usize).min(n - 1);
         let (s, c) = p.theta.sin_cos();
+        let columns = lo(p.centre[0])..=hi(p.centre[0], w);
         for j in lo(p.centre[1])..=hi(p.centre[1], h) {
-            for i in lo(p.centre[0])..=hi(p.centre[0], w) {
+            work.advance(9 * columns.clone().count() as u64)?;
+            for i in columns.clone() {
                 let old = self.texture.data[j * w + i];
                 let mut sum = 0.0;
                 for sub in 0..9 {
@@ -294,21 +301,23 @@ impl Ceiling {
                 self.texture.data[j * w + i] = sum / 9.0;
             }
         }
+        Ok(())
     }
 }
 
 /// Successive 2x2 box averages of `texture` (an odd last row or column is dropped),
 /// down to 8 texels on the shorter side.
-fn pyramid(texture: &GrayImage) -> Vec<GrayImage> {
+fn pyramid(texture: &GrayImage, work: &mut rperc_core::interrupt::Work) -> Result<Vec<GrayImage>> {
     let mut levels: Vec<GrayImage> = Vec::new();
     loop {
         let prev = levels.last().unwrap_or(texture);
         let (w, h) = (prev.width / 2, prev.height / 2);
         if w.min(h) < 8 {
-            return levels;
+            return Ok(levels);
         }
         let mut next = GrayImage::zeros(w, h);
         for j in 0..h {
+            work.advance(4 * w as u64)?;
             for i in 0..w {
                 let at = |di: usize, dj: usize| prev.at(2 * i + di, 2 * j + dj);
                 next.data[j * w + i] = 0.25 * (at(0, 0) + at(1, 0) + at(0, 1) + at(1, 1));
@@ -375,8 +384,11 @@ impl TileTexture {
 fn place_patterns(params: &CeilingParams) -> Result<Vec<CeilingPattern>> {
     const ATTEMPTS: usize = 2000;
     let mut rng = stream(params.seed, 0);
-    let mut placed: Vec<(CeilingPattern, f64)> = Vec::with_capacity(params.n_patterns);
+    // Grown as patterns fit, not reserved: a count in the billions is refused when the
+    // ceiling runs out of room, not by an allocation of gigabytes.
+    let mut placed: Vec<(CeilingPattern, f64)> = Vec::new();
     for k in 0..params.n_patterns {
+        rperc_core::interrupt::checkpoint()?;
         let kind = PatternKind::ALL[k % PatternKind::ALL.len()];
         let radius = 0.5 * kind.size()[0].hypot(kind.size()[1]);
         let mut found = None;

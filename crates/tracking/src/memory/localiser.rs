@@ -52,6 +52,12 @@ pub struct LocaliserParams {
     pub settle_frames: usize,
     /// Standard deviation of a localiser's starting guess `[x m, y m, theta rad]`.
     pub guess_sigma: [f64; 3],
+    /// When the filter's pose is too uncertain for a tracker started at a model's
+    /// predicted image pose (this many standard deviations of that prediction reach
+    /// beyond the tracker's random walk), the robot pose is searched over this many
+    /// standard deviations of the filter's instead (see [`super::search_pose`]); 0
+    /// never searches.
+    pub search_sigmas: f64,
 }
 
 impl Default for LocaliserParams {
@@ -70,8 +76,11 @@ impl Default for LocaliserParams {
             gate_probability: 0.999,
             max_refused_frames: 3,
             settle_frames: 2,
-            // The replays start within 10 cm and 0.1 rad of the first key image.
-            guess_sigma: [0.15, 0.15, 0.15],
+            // The replays start within 10 cm and 0.1 rad of the first key image
+            // (uniformly: a standard deviation of 0.1 / sqrt(3)); the search of the
+            // robot pose that starts them covers three of these.
+            guess_sigma: [0.06, 0.06, 0.06],
+            search_sigmas: 3.0,
         }
     }
 }
@@ -88,6 +97,7 @@ impl LocaliserParams {
         for s in self.guess_sigma {
             rperc_core::ensure_positive("guess_sigma", s)?;
         }
+        rperc_core::ensure_in_range("search_sigmas", self.search_sigmas, 0.0, 10.0)?;
         rperc_core::ensure_in_range("gate_probability", self.gate_probability, 0.5, 1.0)?;
         if self.gate_probability >= 1.0 {
             return Err(TrackingError::InvalidParameter {
@@ -193,6 +203,15 @@ impl PoseFilter {
         self.mapped.iter().position(|&m| m == id).map(|i| 3 + 3 * i)
     }
 
+    /// Moves the robot's mean to `pose`, its covariance unchanged: the linearisation
+    /// point of the next updates, when a search of the prior's box found the robot
+    /// elsewhere (the search is not a measurement: the sightings that follow are).
+    pub fn set_pose(&mut self, pose: Pose2) {
+        self.mean
+            .fixed_rows_mut::<3>(0)
+            .copy_from(&pose.to_vector());
+    }
+
     /// Starts the robot again at `N(pose, covariance)`, uncorrelated with the models.
     pub fn reset_robot(&mut self, pose: Pose2, covariance: Matrix3<f64>) {
         let n = self.mean.len();
@@ -254,41 +273,61 @@ impl PoseFilter {
 
     /// The squared Mahalanobis distance of a sighting's innovation (3 dof).
     pub fn nis(&self, scale: &ImageScale, s: &ModelSighting, pixel_sigma: f64) -> Option<f64> {
-        let (e, _, cov) = self.innovation(scale, s, pixel_sigma);
-        let inv = cov.try_inverse()?;
-        Some((e.transpose() * inv * e)[0])
+        let i = self.innovation(scale, s, pixel_sigma);
+        let inv = i.covariance.try_inverse()?;
+        Some((i.error.transpose() * inv * i.error)[0])
+    }
+
+    /// The covariance of the image pose `(u, v, phi)` at which the robot would see a
+    /// model, `H P H^T` over the robot and the model (its rows in the state, or the
+    /// sighting's own covariance when it is not there; the tracker's noise left out):
+    /// how far from its prediction a model may appear.
+    pub fn prediction_covariance(&self, scale: &ImageScale, s: &ModelSighting) -> Matrix3<f64> {
+        let i = self.innovation(scale, s, 0.0);
+        let rotation = Matrix3::from_diagonal(&Vector3::new(0.0, 0.0, s.rotation_sigma.powi(2)));
+        i.covariance - rotation
     }
 
     /// The EKF update by one sighting; `false` when its innovation covariance is
-    /// singular (then nothing changes). The gain touches every row, the covariance
-    /// update is one rank-3 downdate: O(n^2).
+    /// singular or the update would leave the robot's covariance without a positive
+    /// variance (then nothing changes). The covariance is updated in Joseph form,
+    /// `(I - K H) P (I - K H)^T + K R K^T`, which stays positive semi-definite for any
+    /// gain whatever the rounding (the plain `P - K S K^T` can lose definiteness when
+    /// a sighting is far more precise than the prior, as a fresh model over a wide
+    /// starting guess is). `H` touches the robot's and at most one model's columns, so
+    /// each product is O(n^2).
     pub fn update(&mut self, scale: &ImageScale, s: &ModelSighting, pixel_sigma: f64) -> bool {
-        let (e, p_ht, cov) = self.innovation(scale, s, pixel_sigma);
-        let Some(inv) = cov.try_inverse() else {
+        let i = self.innovation(scale, s, pixel_sigma);
+        let Some(inv) = i.covariance.try_inverse() else {
             return false;
         };
-        let gain = &p_ht * inv;
-        self.mean += &gain * e;
+        let gain = &i.p_ht * inv;
+        // (I - K H) P, then times (I - K H)^T: M - (M H^T) K^T.
+        let left = &self.covariance - &gain * i.p_ht.transpose();
+        let mut m_ht = left.columns(0, 3) * i.h_robot.transpose();
+        if let Some(k) = i.offset {
+            m_ht += left.columns(k, 3) * i.h_model.transpose();
+        }
+        let mut joseph = left - &m_ht * gain.transpose() + &gain * i.noise * gain.transpose();
+        joseph = (&joseph + joseph.transpose()) * 0.5;
+        if !(0..3).all(|d| joseph[(d, d)] > 0.0 && joseph[(d, d)].is_finite()) {
+            return false;
+        }
+        self.covariance = joseph;
+        self.mean += &gain * i.error;
         self.mean[2] = wrap_angle(self.mean[2]);
         for k in (5..self.mean.len()).step_by(3) {
             self.mean[k] = wrap_angle(self.mean[k]);
         }
-        self.covariance -= &gain * p_ht.transpose();
-        self.covariance = (&self.covariance + self.covariance.transpose()) * 0.5;
         true
     }
 
-    /// The innovation, `P H^T` and the innovation covariance of a sighting.
-    fn innovation(
-        &self,
-        scale: &ImageScale,
-        s: &ModelSighting,
-        pixel_sigma: f64,
-    ) -> (Vector3<f64>, MatrixXx3<f64>, Matrix3<f64>) {
+    /// The innovation of a sighting, with `P H^T`, `H`'s blocks and the noise.
+    fn innovation(&self, scale: &ImageScale, s: &ModelSighting, pixel_sigma: f64) -> Innovation {
         let offset = self.offset(s.id);
         let model = self.model(s.id).map_or(s.model_in_mosaic, |m| m.0);
         let (z, h_robot, h_model) = observe(scale, &self.pose(), &model);
-        let e = Vector3::new(
+        let error = Vector3::new(
             s.state[0] - z[0],
             s.state[1] - z[1],
             wrap_angle(s.state[2] - z[2]),
@@ -296,19 +335,41 @@ impl PoseFilter {
         let n = self.mean.len();
         let mut p_ht = self.covariance.view((0, 0), (n, 3)) * h_robot.transpose();
         let p = pixel_sigma * pixel_sigma;
-        let mut r = Matrix3::from_diagonal(&Vector3::new(p, p, s.rotation_sigma.powi(2)));
+        let mut noise = Matrix3::from_diagonal(&Vector3::new(p, p, s.rotation_sigma.powi(2)));
         match offset {
             Some(k) => p_ht += self.covariance.view((0, k), (n, 3)) * h_model.transpose(),
-            None => r += h_model * s.model_covariance * h_model.transpose(),
+            // A stored model outside the state: its pose's error counts as noise.
+            None => noise += h_model * s.model_covariance * h_model.transpose(),
         }
-        let mut h = DMatrix::zeros(3, n);
-        h.view_mut((0, 0), (3, 3)).copy_from(&h_robot);
+        let mut covariance = h_robot * p_ht.fixed_rows::<3>(0) + noise;
         if let Some(k) = offset {
-            h.view_mut((0, k), (3, 3)).copy_from(&h_model);
+            covariance += h_model * p_ht.fixed_rows::<3>(k);
         }
-        let cov: Matrix3<f64> = (&h * &p_ht).fixed_view::<3, 3>(0, 0).into_owned() + r;
-        (e, p_ht, cov)
+        Innovation {
+            error,
+            p_ht,
+            covariance,
+            h_robot,
+            h_model,
+            offset,
+            noise,
+        }
     }
+}
+
+/// A sighting's innovation and what the update needs of it.
+struct Innovation {
+    error: Vector3<f64>,
+    /// `P H^T`, `n x 3`.
+    p_ht: MatrixXx3<f64>,
+    /// `S = H P H^T + R`.
+    covariance: Matrix3<f64>,
+    h_robot: Matrix3<f64>,
+    h_model: Matrix3<f64>,
+    /// The model's first row in the state, when it is there.
+    offset: Option<usize>,
+    /// `R`, with a stored model's pose error when it is not in the state.
+    noise: Matrix3<f64>,
 }
 
 /// The predicted tracker state `(u, v, phi)` of a model at `model` seen from a robot

@@ -3,6 +3,7 @@
 //! automatic model generation, key images, and visual servoing from key image to key
 //! image.
 
+mod acquire;
 mod geometry;
 mod keyimages;
 mod localiser;
@@ -11,6 +12,7 @@ mod run;
 mod salient;
 mod servo;
 
+pub use acquire::{Found, search_pose};
 pub use geometry::{
     ImageScale, PointPair, fit_pose, fuse, new_model_in_mosaic, robot_in_mosaic, spread,
 };
@@ -20,8 +22,8 @@ pub use keyimages::{
 pub use localiser::{LocaliserParams, ModelSighting, PoseFilter, observe};
 pub use mosaic::{FrameReport, MosaicBuilder, MosaicModel, MosaicParams, rotation_lever};
 pub use run::{
-    LearnParams, Learning, MosaicCovariance, Replay, ReplayOutcome, ReplayParams, VisualMemory,
-    World, learn, replay,
+    LearnParams, Learning, MosaicCovariance, Replay, ReplayOutcome, ReplayParams, Scene,
+    VisualMemory, World, learn, replay,
 };
 pub use salient::{ProposalParams, propose_regions};
 pub use servo::{ServoParams, command, key_error};

@@ -13,9 +13,10 @@ use rperc_core::rng::{normal, stream};
 
 use super::keyimages::{KeyImage, KeyImageParams, LearntFrame, select_key_images};
 
+use super::geometry::ImageScale;
 use super::mosaic::{FrameReport, MosaicBuilder, MosaicModel, MosaicParams};
 use super::servo::{ServoParams, command, key_error};
-use crate::ceiling::{Ceiling, CeilingCamera, OdometryNoise, RenderParams, render};
+use crate::ceiling::{Ceiling, CeilingCamera, CeilingParams, OdometryNoise, RenderParams, render};
 use crate::error::{Result, TrackingError};
 
 /// The world a run happens in.
@@ -36,6 +37,44 @@ impl World<'_> {
 
     fn view<'b>(&self, bytes: &'b [u8]) -> Result<GrayView<'b>> {
         Ok(GrayView::new(bytes, self.camera.width, self.camera.height)?)
+    }
+}
+
+/// A ceiling world that owns its parts (a [`World`] borrows them), for programs that
+/// make their own: the generated ceiling, the camera and the renderer.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    /// The ceiling.
+    pub ceiling: Ceiling,
+    /// The robot's camera.
+    pub camera: CeilingCamera,
+    /// How frames are rendered.
+    pub render: RenderParams,
+}
+
+impl Scene {
+    /// Generates the ceiling of `ceiling` for `camera` and `render`.
+    pub fn new(
+        ceiling: &CeilingParams,
+        camera: CeilingCamera,
+        render: RenderParams,
+    ) -> Result<Self> {
+        camera.validate()?;
+        render.validate()?;
+        Ok(Self {
+            ceiling: Ceiling::generate(ceiling)?,
+            camera,
+            render,
+        })
+    }
+
+    /// The world the runs take.
+    pub fn world(&self) -> World<'_> {
+        World {
+            ceiling: &self.ceiling,
+            camera: &self.camera,
+            render: &self.render,
+        }
     }
 }
 
@@ -127,6 +166,21 @@ impl VisualMemory {
                 ));
             }
         }
+        for m in &self.models {
+            check_model(m)?;
+        }
+        for (k, key) in self.key_images.iter().enumerate() {
+            let pose = [key.pose.x, key.pose.y, key.pose.theta];
+            let states = key.models.iter().flat_map(|m| m.state);
+            if !pose.iter().copied().chain(states).all(f64::is_finite)
+                || key.models.iter().any(|m| m.state[3] <= 0.0)
+            {
+                return Err(invalid(
+                    "key_images",
+                    format!("key image {k} holds a non-finite pose or state, or a scale <= 0"),
+                ));
+            }
+        }
         if let Some(c) = &self.mosaic_covariance {
             c.matrix(self.models.len())?;
         }
@@ -143,6 +197,56 @@ impl VisualMemory {
     }
 }
 
+/// Refuses a stored model that no learning run makes (a hand-edited or damaged
+/// file): a pose or covariance that is not finite, a window that is not a positive
+/// size, points outside their window or whose vectors are not of the configured
+/// length, or a configuration its own checks refuse.
+fn check_model(m: &MosaicModel) -> Result<()> {
+    let invalid = |reason: String| TrackingError::InvalidParameter {
+        name: "models",
+        reason: format!("model {}: {reason}", m.id),
+    };
+    let model = &m.model;
+    model
+        .config
+        .validate()
+        .map_err(|e| invalid(format!("its configuration: {e}")))?;
+    let pose = [m.pose.x, m.pose.y, m.pose.theta];
+    if !pose
+        .iter()
+        .chain(m.covariance.iter().flatten())
+        .all(|v| v.is_finite())
+    {
+        return Err(invalid("a pose or covariance that is not finite".into()));
+    }
+    let window_ok = model.centre.iter().all(|v| v.is_finite())
+        && model
+            .size
+            .iter()
+            .all(|v| v.is_finite() && *v > 0.0 && *v < 1e6);
+    if !window_ok {
+        return Err(invalid(format!(
+            "window centre {:?} size {:?}",
+            model.centre, model.size
+        )));
+    }
+    let n = model.config.n_samples;
+    let point_ok = |p: &crate::pattern::ModelPoint| {
+        p.x.abs() <= 1.0
+            && p.y.abs() <= 1.0
+            && p.phi.is_finite()
+            && p.slope.is_finite()
+            && p.vector.len() == n
+            && p.vector.iter().all(|v| v.is_finite())
+    };
+    if let Some(j) = model.points.iter().position(|p| !point_ok(p)) {
+        return Err(invalid(format!(
+            "point {j} lies outside its window, or its vector is not {n} finite values"
+        )));
+    }
+    Ok(())
+}
+
 /// What a learning run produced.
 #[derive(Debug, Clone)]
 pub struct Learning {
@@ -156,8 +260,30 @@ pub struct Learning {
     pub seconds: Vec<f64>,
 }
 
+impl Learning {
+    /// Model `id`'s true frame in the world, the frame its mosaic pose is scored
+    /// against: the true robot at the model's creation times its window's image
+    /// pose there (`C T_i` of the window centre, no turn: the model's frame is
+    /// defined by that window). `None` for no such model.
+    pub fn model_in_world(&self, id: usize, camera: &CeilingCamera) -> Option<Pose2> {
+        let m = self.memory.models.get(id)?;
+        let scale = ImageScale {
+            metres_per_pixel: camera.metres_per_pixel(),
+            principal: [camera.cx, camera.cy],
+        };
+        let c_t_i = scale.camera_to_model([m.model.centre[0], m.model.centre[1], 0.0, 1.0]);
+        Some(self.truth.get(m.created)?.compose(&c_t_i))
+    }
+
+    /// The mosaic frame in the world (model 0's true frame): what maps a pose in the
+    /// mosaic to the world, to score it against the truth.
+    pub fn mosaic_in_world(&self, camera: &CeilingCamera) -> Option<Pose2> {
+        self.model_in_world(0, camera)
+    }
+}
+
 /// How a learning run goes.
-#[derive(Debug, Clone, PartialEq, Default, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LearnParams {
     /// Mosaic building.
@@ -167,6 +293,23 @@ pub struct LearnParams {
     /// How the odometry errs (the robot drives the commands exactly; its odometry
     /// reads them with these errors).
     pub odometry: OdometryNoise,
+    /// The stored mosaic's covariance (each model's and the joint one) is the
+    /// mapping filter's times this: the filter counts a tracker's successive states
+    /// as independent, but a tracker's error lasts while it tracks (its frame-to-frame
+    /// correlation is 0.65, still 0.38 ten frames apart), and the mosaic it builds is
+    /// that much less certain than it claims.
+    pub covariance_scale: f64,
+}
+
+impl Default for LearnParams {
+    fn default() -> Self {
+        Self {
+            mosaic: MosaicParams::default(),
+            keys: KeyImageParams::default(),
+            odometry: OdometryNoise::default(),
+            covariance_scale: 1.0,
+        }
+    }
 }
 
 /// Drives `commands` (`(v, omega)` held `dt` s each) from `start`, building the mosaic
@@ -180,6 +323,7 @@ pub fn learn(
     params: &LearnParams,
     seed: u64,
 ) -> Result<Learning> {
+    rperc_core::ensure_in_range("covariance_scale", params.covariance_scale, 1.0, 1e6)?;
     let drive = crate::ceiling::drive(start, commands, dt, &params.odometry)?;
     let mut builder = MosaicBuilder::new(*world.camera, params.mosaic.clone(), seed)?;
     let (mut reports, mut seconds) = (Vec::new(), Vec::new());
@@ -206,12 +350,21 @@ pub fn learn(
         })
         .collect();
     let key_images = select_key_images(&frames, &params.keys, builder.scale().metres_per_pixel)?;
+    let k = params.covariance_scale;
+    let mut models = builder.models().to_vec();
+    for m in &mut models {
+        m.covariance = m.covariance.map(|row| row.map(|v| k * v));
+    }
+    let mut mosaic_covariance = builder.map_covariance();
+    if let Some(c) = mosaic_covariance.as_mut() {
+        c.matrix.iter_mut().for_each(|v| *v *= k);
+    }
     Ok(Learning {
         memory: VisualMemory {
-            models: builder.models().to_vec(),
+            models,
             key_images,
             image_size: [world.camera.width, world.camera.height],
-            mosaic_covariance: builder.map_covariance(),
+            mosaic_covariance,
         },
         reports,
         truth,

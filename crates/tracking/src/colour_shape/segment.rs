@@ -1,9 +1,10 @@
 //! Per-sample segmentation `S(n)` of the region of interest by a bin lookup table, the
-//! morphological clean-up and blob extraction (imageproc), the blob's Euler number and
-//! its boundary `grad S(n)`.
+//! morphological clean-up (imageproc), the extraction of the target blob, its Euler
+//! number and its boundary `grad S(n)`.
 
 use image::{GrayImage, Luma};
-use imageproc::morphology::{Mask, grayscale_close, grayscale_open};
+use imageproc::distance_transform::Norm;
+use imageproc::morphology::{close_mut, open_mut};
 use imageproc::region_labelling::{Connectivity, connected_components};
 
 use crate::colour::ColorSpace;
@@ -37,6 +38,28 @@ impl Roi {
     }
 }
 
+/// Which sides of a window are the frame's own border: there the target's boundary is
+/// real; on the other sides the window merely cuts the segmentation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FrameSides {
+    /// Left, top, right, bottom.
+    pub sides: [bool; 4],
+}
+
+impl FrameSides {
+    /// The sides of `roi` lying on the border of a `width x height` frame.
+    pub fn of(roi: Roi, width: usize, height: usize) -> Self {
+        Self {
+            sides: [
+                roi.x0 == 0,
+                roi.y0 == 0,
+                roi.x0 + roi.width == width,
+                roi.y0 + roi.height == height,
+            ],
+        }
+    }
+}
+
 /// The colour bin of every pixel of a window, computed once per frame so every
 /// sample's segmentation is one table lookup per pixel.
 pub fn bin_window(
@@ -59,105 +82,221 @@ pub fn bin_window(
 /// `S(u, v) = 255` where `lut[bin(u, v)] != 0`, else 0: the seed's segmentation by
 /// `H(n) > 0`. `seg` is reused (resized only when the window changes size).
 pub fn segment(bins: &[u16], lut: &[u8], roi: Roi, seg: &mut GrayImage) {
-    if seg.dimensions() != (roi.width as u32, roi.height as u32) {
-        *seg = GrayImage::new(roi.width as u32, roi.height as u32);
-    }
+    resize(seg, roi);
     for (s, &b) in seg.iter_mut().zip(bins) {
-        *s = if lut[b as usize] != 0 { 255 } else { 0 };
+        *s = lut[b as usize].wrapping_neg();
     }
 }
 
-/// Opening then closing with a square of half-side `radius` (the `L_inf` ball): removes isolated pixels, then fills
-/// pinholes and gaps narrower than `2 radius + 1`.
+/// Makes `img` a `roi`-sized image, reallocating only when the size changes.
+pub fn resize(img: &mut GrayImage, roi: Roi) {
+    if img.dimensions() != (roi.width as u32, roi.height as u32) {
+        *img = GrayImage::new(roi.width as u32, roi.height as u32);
+    }
+}
+
+/// Opening then closing with a square of half-side `radius` (the `L_inf` ball), in
+/// place: removes specks, then fills pinholes and gaps narrower than `2 radius + 1`.
 pub fn clean(seg: &mut GrayImage, radius: u8) {
     if radius > 0 {
-        // imageproc's mask filters beat its distance-transform `open_mut`/`close_mut`
-        // by a third of the whole update at radius 1, at the cost of two images per call.
-        let mask = Mask::square(radius);
-        *seg = grayscale_open(seg, &mask);
-        *seg = grayscale_close(seg, &mask);
+        open_mut(seg, Norm::LInf, radius);
+        close_mut(seg, Norm::LInf, radius);
     }
 }
 
-/// Keeps only the 8-connected component of `seg` that overlaps `prior` (a 0/255 mask of
-/// the predicted target, same size) the most; returns its pixel count, 0 when no
-/// component overlaps the prior. `seg` becomes the blob mask (0/255).
-pub fn keep_target_blob(seg: &mut GrayImage, prior: &GrayImage, overlap: &mut Vec<u32>) -> usize {
-    let labels = connected_components(&*seg, Connectivity::Eight, Luma([0u8]));
-    let n_labels = labels.iter().copied().max().unwrap_or(0) as usize;
-    overlap.clear();
-    overlap.resize(n_labels + 1, 0);
-    for (&l, &p) in labels.iter().zip(prior.iter()) {
-        if p != 0 {
-            overlap[l as usize] += 1;
+/// Statistics of an extracted blob, window coordinates.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Blob {
+    /// Pixel count.
+    pub area: usize,
+    /// Centroid.
+    pub centroid: [f64; 2],
+}
+
+/// Reusable buffers of [`reconstruct`].
+#[derive(Debug, Clone, Default)]
+pub struct FloodScratch {
+    stack: Vec<u32>,
+}
+
+/// The target blob in tracking: the pixels of `seg` inside `region` that are
+/// 8-connected, within `seg` and `region`, to a pixel of `seg` inside `seeds` (a
+/// morphological reconstruction). `region` is the predicted contour dilated by the snake's
+/// reach, so a same-coloured object touching the target is cut where the target can no
+/// longer be: the blob is split by the shape prior. Writes the blob (0/255) into `blob`.
+pub fn reconstruct(
+    seg: &GrayImage,
+    seeds: &GrayImage,
+    region: &GrayImage,
+    blob: &mut GrayImage,
+    scratch: &mut FloodScratch,
+) -> Blob {
+    let (w, h) = (seg.width() as usize, seg.height() as usize);
+    if blob.dimensions() != seg.dimensions() {
+        *blob = GrayImage::new(w as u32, h as u32);
+    }
+    let (s, r, out) = (seg.as_raw(), region.as_raw(), blob.as_mut());
+    out.fill(0);
+    let stack = &mut scratch.stack;
+    stack.clear();
+    for (i, (&q, &p)) in s.iter().zip(seeds.as_raw()).enumerate() {
+        if q != 0 && p != 0 && r[i] != 0 {
+            out[i] = 255;
+            stack.push(i as u32);
         }
     }
-    overlap[0] = 0;
-    let best = (1..=n_labels).max_by_key(|&l| (overlap[l], std::cmp::Reverse(l)));
-    let Some(best) = best.filter(|&l| overlap[l] > 0) else {
-        seg.iter_mut().for_each(|s| *s = 0);
-        return 0;
-    };
-    let mut count = 0;
-    for (s, &l) in seg.iter_mut().zip(labels.iter()) {
-        *s = if l as usize == best { 255 } else { 0 };
-        count += usize::from(*s != 0);
+    let (mut n, mut sx, mut sy) = (0usize, 0usize, 0usize);
+    // Explicit stack, no recursion: every pushed pixel is marked first, so each is
+    // visited once.
+    while let Some(i) = stack.pop() {
+        let i = i as usize;
+        let (x, y) = (i % w, i / w);
+        n += 1;
+        sx += x;
+        sy += y;
+        for (dx, dy) in NEIGHBOURS_8 {
+            let (u, v) = (x as isize + dx, y as isize + dy);
+            if u < 0 || v < 0 || u >= w as isize || v >= h as isize {
+                continue;
+            }
+            let j = v as usize * w + u as usize;
+            if out[j] == 0 && s[j] != 0 && r[j] != 0 {
+                out[j] = 255;
+                stack.push(j as u32);
+            }
+        }
     }
-    count
+    blob_of(n, sx, sy)
+}
+
+const NEIGHBOURS_8: [(isize, isize); 8] = [
+    (-1, -1),
+    (0, -1),
+    (1, -1),
+    (-1, 0),
+    (1, 0),
+    (-1, 1),
+    (0, 1),
+    (1, 1),
+];
+
+fn blob_of(n: usize, sx: usize, sy: usize) -> Blob {
+    let d = n.max(1) as f64;
+    Blob {
+        area: n,
+        centroid: [sx as f64 / d, sy as f64 / d],
+    }
+}
+
+/// The target blob when re-acquiring a lost target: of the 8-connected components of
+/// `seg` (imageproc's labelling), the one whose area is closest in ratio to `area`
+/// (ties: nearest to `near`), if that ratio is at least `min_ratio`. Writes it into
+/// `blob` (0/255).
+pub fn best_component(
+    seg: &GrayImage,
+    area: f64,
+    near: [f64; 2],
+    min_ratio: f64,
+    blob: &mut GrayImage,
+    stats: &mut Vec<[f64; 3]>,
+) -> Blob {
+    let labels = connected_components(seg, Connectivity::Eight, Luma([0u8]));
+    let n_labels = labels.iter().copied().max().unwrap_or(0) as usize;
+    stats.clear();
+    stats.resize(n_labels + 1, [0.0; 3]);
+    for (x, y, l) in labels.enumerate_pixels() {
+        let s = &mut stats[l[0] as usize];
+        s[0] += 1.0;
+        s[1] += f64::from(x);
+        s[2] += f64::from(y);
+    }
+    let score = |s: &[f64; 3]| {
+        let ratio = s[0].min(area) / s[0].max(area).max(1e-9);
+        let d = (s[1] / s[0] - near[0]).hypot(s[2] / s[0] - near[1]);
+        (ratio, -d)
+    };
+    let best = (1..=n_labels)
+        .filter(|&l| stats[l][0] > 0.0 && score(&stats[l]).0 >= min_ratio)
+        .max_by(|&a, &b| score(&stats[a]).partial_cmp(&score(&stats[b])).unwrap());
+    if blob.dimensions() != seg.dimensions() {
+        *blob = GrayImage::new(seg.width(), seg.height());
+    }
+    let Some(best) = best else {
+        blob.as_mut().fill(0);
+        return Blob::default();
+    };
+    for (b, l) in blob.iter_mut().zip(labels.iter()) {
+        *b = if *l as usize == best { 255 } else { 0 };
+    }
+    let s = stats[best];
+    Blob {
+        area: s[0] as usize,
+        centroid: [s[1] / s[0], s[2] / s[0]],
+    }
 }
 
 /// Euler number (components minus holes) of the non-zero pixels, foreground
 /// 8-connected and background 4-connected, by counting 2x2 bit-quads (Gray 1971):
 /// `E = (Q1 - Q3 - 2 QD) / 4`, with pixels outside the image taken as background.
 pub fn euler_number(mask: &GrayImage) -> i64 {
-    let (w, h) = (mask.width() as i64, mask.height() as i64);
-    let at = |x: i64, y: i64| -> u8 {
-        if x < 0 || y < 0 || x >= w || y >= h {
+    let (w, h) = (mask.width() as usize, mask.height() as usize);
+    let m = mask.as_raw();
+    // Quad counts by the 4-bit pattern of (top-left, top-right, bottom-left,
+    // bottom-right); rows -1 and h and columns -1 and w are background.
+    let mut count = [0i64; 16];
+    let bit = |x: usize, y: usize| -> usize {
+        // x and y are shifted by one: 0 is the padding column/row.
+        if x == 0 || y == 0 || x > w || y > h {
             0
         } else {
-            u8::from(mask.as_raw()[(y * w + x) as usize] != 0)
+            usize::from(m[(y - 1) * w + (x - 1)] != 0)
         }
     };
-    let (mut q1, mut q3, mut qd) = (0i64, 0i64, 0i64);
-    for y in -1..h {
-        for x in -1..w {
-            let (a, b, c, d) = (at(x, y), at(x + 1, y), at(x, y + 1), at(x + 1, y + 1));
-            match a + b + c + d {
-                1 => q1 += 1,
-                3 => q3 += 1,
-                2 if a == d => qd += 1,
-                _ => {}
-            }
+    for y in 0..=h {
+        let mut left = (bit(0, y), bit(0, y + 1));
+        for x in 0..=w {
+            let right = (bit(x + 1, y), bit(x + 1, y + 1));
+            count[(left.0 << 3) | (right.0 << 2) | (left.1 << 1) | right.1] += 1;
+            left = right;
         }
     }
-    (q1 - q3 - 2 * qd) / 4
+    let ones: i64 = [1, 2, 4, 8].iter().map(|&p| count[p]).sum();
+    let threes: i64 = [7, 11, 13, 14].iter().map(|&p| count[p]).sum();
+    // Diagonal pairs: top-left with bottom-right (0b1001) or top-right with
+    // bottom-left (0b0110).
+    let diagonals = count[0b1001] + count[0b0110];
+    (ones - threes - 2 * diagonals) / 4
 }
 
-/// The boundary `grad S` of a 0/255 mask: foreground pixels with a 4-neighbour in the
-/// background (or on the window's border). `edges` is reused.
-pub fn boundary(mask: &GrayImage, edges: &mut GrayImage) {
-    let (w, h) = (mask.width() as usize, mask.height() as usize);
-    if edges.dimensions() != mask.dimensions() {
+/// The boundary `grad S` of a blob: its pixels with a 4-neighbour that the
+/// segmentation `seg` leaves out, or on a side of the window that is the frame's border.
+/// A neighbour that is in `seg` but not in the blob (a same-coloured object cut off by
+/// the shape prior) or beyond an inner side of the window is no evidence of the
+/// target's edge. `edges` is reused.
+pub fn boundary(blob: &GrayImage, seg: &GrayImage, sides: FrameSides, edges: &mut GrayImage) {
+    let (w, h) = (blob.width() as usize, blob.height() as usize);
+    if edges.dimensions() != blob.dimensions() {
         *edges = GrayImage::new(w as u32, h as u32);
     }
-    let m = mask.as_raw();
-    let on = |x: usize, y: usize| m[y * w + x] != 0;
+    let (b, s, e) = (blob.as_raw(), seg.as_raw(), edges.as_mut());
+    let [left, top, right, bottom] = sides.sides;
     for y in 0..h {
         for x in 0..w {
-            let e = on(x, y)
-                && (x == 0
-                    || y == 0
-                    || x + 1 == w
-                    || y + 1 == h
-                    || !on(x - 1, y)
-                    || !on(x + 1, y)
-                    || !on(x, y - 1)
-                    || !on(x, y + 1));
-            edges.as_mut()[y * w + x] = if e { 255 } else { 0 };
+            let i = y * w + x;
+            let out = |ok: bool, j: usize| ok && s[j] == 0;
+            let edge = b[i] != 0
+                && ((x == 0 && left)
+                    || (y == 0 && top)
+                    || (x + 1 == w && right)
+                    || (y + 1 == h && bottom)
+                    || out(x > 0, i.wrapping_sub(1))
+                    || out(x + 1 < w, i + 1)
+                    || out(y > 0, i.wrapping_sub(w))
+                    || out(y + 1 < h, i + w));
+            e[i] = if edge { 255 } else { 0 };
         }
     }
 }
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -214,20 +353,43 @@ mod tests {
     }
 
     #[test]
-    fn target_blob_is_the_one_overlapping_the_prior() {
-        let mut seg = GrayImage::from_fn(30, 10, |x, _| {
-            Luma([if (2..8).contains(&x) || (15..28).contains(&x) {
-                255
-            } else {
-                0
-            }])
+    fn reconstruction_keeps_what_the_prior_reaches_and_cuts_at_the_region() {
+        // Two bars, the left one joined by a bridge to a third blob on the right.
+        let seg = GrayImage::from_fn(30, 10, |x, y| {
+            let on =
+                (2..8).contains(&x) || (15..28).contains(&x) || (y == 5 && (8..15).contains(&x));
+            Luma([if on { 255 } else { 0 }])
         });
-        let prior = GrayImage::from_fn(30, 10, |x, _| Luma([if x < 10 { 255 } else { 0 }]));
-        let mut buf = Vec::new();
-        assert_eq!(keep_target_blob(&mut seg, &prior, &mut buf), 60);
-        assert_eq!(seg.get_pixel(20, 5)[0], 0);
+        let seeds = GrayImage::from_fn(30, 10, |x, _| Luma([if x < 6 { 255 } else { 0 }]));
+        let all = GrayImage::from_pixel(30, 10, Luma([255]));
+        let (mut blob, mut flood) = (GrayImage::new(1, 1), FloodScratch::default());
+        // Unbounded, the bridge joins the right blob in: 60 + 7 + 130 pixels.
+        let b = reconstruct(&seg, &seeds, &all, &mut blob, &mut flood);
+        assert_eq!(b.area, 60 + 7 + 130);
+        // Within a region ending at x = 10 only the left bar and 2 bridge pixels stay.
+        let region = GrayImage::from_fn(30, 10, |x, _| Luma([if x < 10 { 255 } else { 0 }]));
+        let b = reconstruct(&seg, &seeds, &region, &mut blob, &mut flood);
+        assert_eq!(b.area, 62);
+        assert_eq!(blob.get_pixel(20, 5)[0], 0);
         let none = GrayImage::new(30, 10);
-        assert_eq!(keep_target_blob(&mut seg, &none, &mut buf), 0);
+        assert_eq!(
+            reconstruct(&seg, &none, &all, &mut blob, &mut flood).area,
+            0
+        );
+    }
+
+    #[test]
+    fn reacquisition_picks_the_component_of_the_remembered_area() {
+        let seg = GrayImage::from_fn(40, 10, |x, y| {
+            let on = (1..4).contains(&x) || ((10..20).contains(&x) && (2..8).contains(&y));
+            Luma([if on { 255 } else { 0 }])
+        });
+        let (mut blob, mut stats) = (GrayImage::new(1, 1), Vec::new());
+        let b = best_component(&seg, 55.0, [0.0, 0.0], 0.5, &mut blob, &mut stats);
+        assert_eq!(b.area, 60);
+        assert_eq!(b.centroid, [14.5, 4.5]);
+        let b = best_component(&seg, 1000.0, [0.0, 0.0], 0.5, &mut blob, &mut stats);
+        assert_eq!(b.area, 0);
     }
 
     #[test]

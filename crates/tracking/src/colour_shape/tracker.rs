@@ -84,6 +84,9 @@ pub struct ColorShapeTracker {
     /// Image velocity of the contour's centroid, pixels per frame.
     velocity: [f64; 2],
     areas: [f64; 2],
+    /// The target's usual area: an average of the accepted contours' areas over about
+    /// the last `1 / USUAL_AREA_RATE` frames.
+    usual_area: f64,
     lost_frames: usize,
     /// The colour distribution inside the last accepted contour: a fraction of the
     /// next frame's samples is drawn around it.
@@ -146,6 +149,7 @@ impl ColorShapeTracker {
             contour: r0,
             velocity: [0.0; 2],
             areas: [area, area],
+            usual_area: area,
             lost_frames: 0,
             measured,
             bins: Vec::new(),
@@ -208,7 +212,11 @@ impl ColorShapeTracker {
             region: &self.region,
             predicted: &predicted,
             predicted_centroid: contour_centroid(&predicted),
-            predicted_area: (a1 + p.area_momentum * (a1 - a2)).max(1.0),
+            predicted_area: if self.lost_frames > 0 {
+                self.usual_area
+            } else {
+                (a1 + p.area_momentum * (a1 - a2)).max(1.0)
+            },
             snake: SnakeParams {
                 search: p.search,
                 min_search: p.min_search,
@@ -224,32 +232,50 @@ impl ColorShapeTracker {
         };
         let n_mixed = (p.mix_fraction * p.n_samples as f64).round() as usize;
         let sigma = p.dynamics.noise_std();
-        let report = self
-            .filter
-            .step_mixed(&ctx, &mut self.scratch, self.measured, sigma, n_mixed);
+        // Half around the colours measured last, half around the first frame's: the
+        // anchor keeps a contour that slowly loses part of the target from narrowing
+        // the colours with it. While lost, only the first frame's.
+        let anchored = if self.lost_frames > 0 {
+            n_mixed
+        } else {
+            n_mixed / 2
+        };
+        let guesses = [
+            (self.reference.to_state(), sigma, anchored),
+            (self.measured, sigma, n_mixed - anchored),
+        ];
+        let report = self.filter.step_mixtures(&ctx, &mut self.scratch, &guesses);
         let terms = if report.lost {
             None
         } else {
             ctx.evaluate(&self.filter.max_weight().0, &mut self.scratch[0])
         };
         let score = terms.map_or(0.0, |t| t.log_weight(p.mu, p.sigma).exp());
-        let lost = terms.is_none() || score < p.lost_below;
-        match terms {
-            Some(t) if !lost => {
-                let refined = refine(
-                    &frame,
-                    &ctx,
-                    t,
-                    &mut self.scratch[0],
-                    &mut self.dilated,
-                    &mut self.refine,
-                );
-                if let Some(m) = measured_state(&frame, &refined, &self.reference, p) {
+        let refined = match terms {
+            Some(t) if score >= p.lost_below => Some(refine(
+                &frame,
+                &ctx,
+                t,
+                &mut self.scratch[0],
+                &mut self.dilated,
+                &mut self.refine,
+            )),
+            _ => None,
+        };
+        // A contour far smaller or larger than the target has been is no target,
+        // however well it sits on its blob: this stops the slow collapse of a contour
+        // that each frame shrinks a little onto part of the target.
+        let refined = refined
+            .filter(|r| area_ratio(polygon_area(r), self.usual_area) >= p.reacquire_area_ratio);
+        let lost = refined.is_none();
+        match refined {
+            Some(r) => {
+                if let Some(m) = measured_state(&frame, &r, &self.reference, p) {
                     self.measured = m;
                 }
-                self.accept(refined);
+                self.accept(r);
             }
-            _ => self.lost_frames += 1,
+            None => self.lost_frames += 1,
         }
         self.last = ColorShapeResult {
             bbox: contour_box(&self.contour),
@@ -289,6 +315,7 @@ impl ColorShapeTracker {
             }
             self.areas = [area, self.areas[0]];
         }
+        self.usual_area += USUAL_AREA_RATE * (area - self.usual_area);
         self.contour = refined;
         self.lost_frames = 0;
     }
@@ -385,6 +412,14 @@ fn refine(
         let sample = best.snake.contour().to_vec();
         relax(&sample, p.deform, p.deform_passes, sample_edges, snake)
     }
+}
+
+/// Rate of the exponential average that gives the target's usual area.
+const USUAL_AREA_RATE: f64 = 0.05;
+
+/// Smaller area over larger, in [0, 1].
+fn area_ratio(a: f64, b: f64) -> f64 {
+    a.min(b) / a.max(b).max(1e-9)
 }
 
 fn distribution_of(s: &State) -> [f64; N_PARAMS] {

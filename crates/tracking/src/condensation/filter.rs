@@ -314,14 +314,34 @@ impl<const D: usize> ParticleFilter<D> {
         sigma: SVector<f64, D>,
         count: usize,
     ) -> StepReport {
+        self.step_mixtures(likelihood, scratch, &[(centre, sigma, count)])
+    }
+
+    /// [`step_mixed`](Self::step_mixed) with several guesses: for each
+    /// `(centre, sigma, count)`, `count` particles are redrawn from
+    /// `N(centre, diag(sigma^2))`; the redrawn particles are spread evenly through the
+    /// set, the guesses interleaved, and never more than the whole set in total.
+    pub fn step_mixtures<L: Likelihood<D>>(
+        &mut self,
+        likelihood: &L,
+        scratch: &mut Vec<L::Scratch>,
+        guesses: &[(SVector<f64, D>, SVector<f64, D>, usize)],
+    ) -> StepReport {
         let resampled = self.predict();
         let n = self.particles.len();
-        let count = count.min(n);
-        for k in 0..count {
-            // Evenly spaced: resampled sets are sorted by ancestor.
-            let i = (k * n) / count;
-            let noise: SVector<f64, D> = standard_normal(&mut self.rng);
-            self.particles[i] = centre + sigma.component_mul(&noise);
+        let total = guesses.iter().map(|g| g.2).sum::<usize>().min(n);
+        let (mut k, mut drawn) = (0, vec![0usize; guesses.len()]);
+        while k < total {
+            for (g, (centre, sigma, count)) in guesses.iter().enumerate() {
+                if drawn[g] < *count && k < total {
+                    // Evenly spaced: resampled sets are sorted by ancestor.
+                    let i = (k * n) / total;
+                    let noise: SVector<f64, D> = standard_normal(&mut self.rng);
+                    self.particles[i] = centre + sigma.component_mul(&noise);
+                    drawn[g] += 1;
+                    k += 1;
+                }
+            }
         }
         self.correct_with_scratch(likelihood, scratch, resampled)
     }
@@ -599,6 +619,60 @@ mod tests {
         assert!(ParticleFilter::new(10, Vector1::zeros(), cov, d.clone(), bad, 0).is_err());
         let nan_dyn = LinearGaussian::random_walk(Vector1::new(f64::NAN));
         assert!(ParticleFilter::new(10, Vector1::zeros(), cov, nan_dyn, p, 0).is_err());
+    }
+
+    #[test]
+    fn mixtures_draw_each_guess_its_count_in_place_of_the_set() {
+        // The set sits near 0 with a tiny spread; guesses at 100 and -100 are told
+        // apart by where the particles land. A flat likelihood keeps every particle.
+        let d = LinearGaussian::random_walk(Vector1::new(1e-3));
+        let cov = SMatrix::<f64, 1, 1>::identity() * 1e-6;
+        let flat = |_: &SVector<f64, 1>| 0.0;
+        let mut pf = ParticleFilter::new(
+            50,
+            Vector1::zeros(),
+            cov,
+            d.clone(),
+            FilterParams::default(),
+            3,
+        )
+        .unwrap();
+        let sigma = Vector1::new(1.0);
+        let guesses = [
+            (Vector1::new(100.0), sigma, 7),
+            (Vector1::new(-100.0), sigma, 3),
+        ];
+        pf.step_mixtures(&flat, &mut Vec::new(), &guesses);
+        let count = |lo: f64, hi: f64| {
+            pf.particles()
+                .iter()
+                .filter(|p| lo < p[0] && p[0] < hi)
+                .count()
+        };
+        assert_eq!(
+            (count(90.0, 110.0), count(-110.0, -90.0), count(-1.0, 1.0)),
+            (7, 3, 40)
+        );
+        // One guess is exactly step_mixed, draw for draw.
+        let run = |mixed: bool| {
+            let mut pf = ParticleFilter::new(
+                20,
+                Vector1::zeros(),
+                cov,
+                d.clone(),
+                FilterParams::default(),
+                9,
+            )
+            .unwrap();
+            let like = |s: &SVector<f64, 1>| -s[0].powi(2);
+            if mixed {
+                pf.step_mixed(&like, &mut Vec::new(), Vector1::new(2.0), sigma, 5);
+            } else {
+                pf.step_mixtures(&like, &mut Vec::new(), &[(Vector1::new(2.0), sigma, 5)]);
+            }
+            pf.particles().to_vec()
+        };
+        assert_eq!(run(true), run(false));
     }
 
     #[test]

@@ -87,6 +87,11 @@ pub struct ColorShapeParams {
     pub edge_dilation: u8,
     /// Canny thresholds (low, high) for the image edges `grad I`. Default (20, 50).
     pub canny: [f32; 2],
+    /// The target's size on each sample's grid: a target whose disc-equivalent
+    /// diameter is `d` pixels is segmented on every `floor(d / sample_cells)`-th pixel
+    /// (at least every pixel). Bounds a sample's cost whatever the target's size; the
+    /// refined contour is fitted on every pixel. >= 4. Default 24.
+    pub sample_cells: f64,
     /// Window margin around the predicted contour, as a fraction of its size (plus the
     /// edge search). Default 0.1.
     pub roi_margin: f64,
@@ -129,6 +134,7 @@ impl Default for ColorShapeParams {
             refine_min_support: 0.5,
             edge_dilation: 2,
             canny: [20.0, 50.0],
+            sample_cells: 24.0,
             roi_margin: 0.1,
             cloud_points: 512,
             lost_below: 0.05,
@@ -181,6 +187,7 @@ impl ColorShapeParams {
         ensure_in_range("area_momentum", self.area_momentum, 0.0, 1.0)?;
         ensure_non_negative("hole_penalty", self.hole_penalty)?;
         ensure_non_negative("roi_margin", self.roi_margin)?;
+        ensure_in_range("sample_cells", self.sample_cells, 4.0, 1e6)?;
         ensure_in_range("lost_below", self.lost_below, 0.0, 1.0)?;
         ensure_in_range("refine_min_support", self.refine_min_support, 0.0, 1.0)?;
         let [lo, hi] = self.canny.map(f64::from);

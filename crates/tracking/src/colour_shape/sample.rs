@@ -6,8 +6,8 @@ use image::GrayImage;
 
 use super::params::ColorShapeParams;
 use super::segment::{
-    Blob, FloodScratch, FrameSides, Roi, best_component, boundary, clean, euler_number,
-    reconstruct, segment,
+    Blob, FloodScratch, FrameSides, Grid, LineMasks, Roi, best_component, boundary, clean,
+    euler_number_in, reconstruct, segment,
 };
 use super::snake::{Affine, SnakeFit, SnakeParams, SnakeScratch, fit_snake, polygon_area};
 use super::state::{ColourDistribution, ColourWarp, STATE_DIM, State, fill_lut};
@@ -49,6 +49,7 @@ pub struct SampleScratch {
     pub(crate) edges: GrayImage,
     flood: FloodScratch,
     stats: Vec<[f64; 3]>,
+    padded: Vec<u8>,
     pub(crate) snake: SnakeScratch,
 }
 
@@ -68,9 +69,12 @@ pub struct FrameContext<'a> {
     pub params: &'a ColorShapeParams,
     pub reference: &'a ColourDistribution,
     pub cloud: &'a [[f64; 3]],
-    /// Colour bin of every window pixel.
+    /// Colour bin of every grid cell.
     pub bins: &'a [u16],
+    /// The window, frame pixels.
     pub roi: Roi,
+    /// The sampling grid over `roi`: every mask below is a grid image.
+    pub grid: Grid,
     pub sides: FrameSides,
     /// The predicted contour, filled (window mask).
     pub prior: &'a GrayImage,
@@ -82,6 +86,8 @@ pub struct FrameContext<'a> {
     pub predicted_area: f64,
     pub snake: SnakeParams,
     pub search: BlobSearch,
+    /// The structuring element of the clean-up.
+    pub morphology: &'a LineMasks,
 }
 
 impl FrameContext<'_> {
@@ -91,25 +97,24 @@ impl FrameContext<'_> {
         let p = self.params;
         let warp = ColourWarp::new(self.reference, state, p.min_spread());
         fill_lut(&warp, self.cloud, p.bins, &mut s.lut);
-        segment(self.bins, &s.lut, self.roi, &mut s.seg);
-        clean(&mut s.seg, p.morphology_radius);
+        segment(self.bins, &s.lut, self.grid, &mut s.seg);
+        clean(&mut s.seg, self.morphology);
         let blob = self.blob(s);
         if blob.area == 0 {
             return None;
         }
-        let holes = (1 - euler_number(&s.blob)).max(0) as f64;
+        let holes = (1 - euler_number_in(&s.blob, blob.bbox, &mut s.padded)).max(0) as f64;
         let quality = (1.0 - p.hole_penalty * holes).clamp(0.0, 1.0);
-        boundary(&s.blob, &s.seg, self.sides, &mut s.edges);
-        let init = Affine::translation(
-            blob.centroid[0] + self.roi.x0 as f64 - self.predicted_centroid[0],
-            blob.centroid[1] + self.roi.y0 as f64 - self.predicted_centroid[1],
-        );
-        let (roi, edges) = (self.roi, &s.edges);
+        boundary(&s.blob, &s.seg, self.sides, blob.bbox, &mut s.edges);
+        let [cx, cy] = self.grid.to_frame(blob.centroid);
+        let [px, py] = self.predicted_centroid;
+        let init = Affine::translation(cx - px, cy - py);
+        let (grid, edges) = (self.grid, &s.edges);
         let fit = fit_snake(
             self.predicted,
             init,
             &self.snake,
-            |x, y| on(edges, roi, x, y),
+            |x, y| grid.at(edges, x, y),
             &mut s.snake,
         );
         let a = polygon_area(s.snake.contour());
@@ -128,13 +133,10 @@ impl FrameContext<'_> {
                 reconstruct(&s.seg, self.prior, self.region, &mut s.blob, &mut s.flood)
             }
             BlobSearch::Reacquire => {
-                let near = [
-                    self.predicted_centroid[0] - self.roi.x0 as f64,
-                    self.predicted_centroid[1] - self.roi.y0 as f64,
-                ];
+                let near = self.grid.to_grid(self.predicted_centroid);
                 best_component(
                     &s.seg,
-                    self.predicted_area,
+                    self.predicted_area / (self.grid.stride as f64).powi(2),
                     near,
                     self.params.reacquire_area_ratio,
                     &mut s.blob,

@@ -433,7 +433,8 @@ mod tests {
         fill_polygon(&target, 0.0, 0.0, &mut mask);
         let mut edges = image::GrayImage::new(1, 1);
         let sides = crate::colour_shape::segment::FrameSides { sides: [true; 4] };
-        crate::colour_shape::segment::boundary(&mask, &mask, sides, &mut edges);
+        let all = [0, 0, 100, 80];
+        crate::colour_shape::segment::boundary(&mask, &mask, sides, all, &mut edges);
         let is_edge = |x: i64, y: i64| {
             x >= 0 && y >= 0 && x < 100 && y < 80 && edges.get_pixel(x as u32, y as u32)[0] != 0
         };

@@ -8,7 +8,7 @@ use imageproc::morphology::dilate_mut;
 use super::cloud::measured_state;
 use super::params::ColorShapeParams;
 use super::sample::{BlobSearch, FrameContext, SampleScratch, SampleTerms, on};
-use super::segment::{FrameSides, Roi, bin_window, resize};
+use super::segment::{FrameSides, Grid, LineMasks, Roi, bin_window, resize};
 use super::snake::{
     Contour, SnakeParams, SnakeScratch, ellipse_contour, fill_polygon, fit_snake, polygon_area,
     relax, resample_closed,
@@ -92,6 +92,7 @@ pub struct ColorShapeTracker {
     /// next frame's samples is drawn around it.
     measured: State,
     bins: Vec<u16>,
+    morphology: LineMasks,
     prior: GrayImage,
     region: GrayImage,
     dilated: GrayImage,
@@ -153,6 +154,7 @@ impl ColorShapeTracker {
             lost_frames: 0,
             measured,
             bins: Vec::new(),
+            morphology: LineMasks::new(params.morphology_radius),
             prior: GrayImage::new(1, 1),
             region: GrayImage::new(1, 1),
             dilated: GrayImage::new(1, 1),
@@ -198,8 +200,15 @@ impl ColorShapeTracker {
             .collect();
         let roi = self.window(&predicted);
         let p = &self.params;
-        bin_window(&frame, roi, p.color_space, p.bins, &mut self.bins);
-        prior_masks(&predicted, roi, p.search, &mut self.prior, &mut self.region);
+        let grid = Grid::over(roi, self.stride());
+        bin_window(&frame, grid, p.color_space, p.bins, &mut self.bins);
+        prior_masks(
+            &predicted,
+            grid,
+            p.search,
+            &mut self.prior,
+            &mut self.region,
+        );
         let [a1, a2] = self.areas;
         let ctx = FrameContext {
             params: p,
@@ -207,6 +216,7 @@ impl ColorShapeTracker {
             cloud: &self.cloud,
             bins: &self.bins,
             roi,
+            grid,
             sides: FrameSides::of(roi, self.width, self.height),
             prior: &self.prior,
             region: &self.region,
@@ -224,6 +234,7 @@ impl ColorShapeTracker {
                 on_edge_tolerance: p.edge_tolerance,
                 stiffness: p.stiffness,
             },
+            morphology: &self.morphology,
             search: if self.lost_frames > 0 {
                 BlobSearch::Reacquire
             } else {
@@ -339,6 +350,13 @@ impl ColorShapeTracker {
         )
     }
 
+    /// Pixels between the cells of the samples' grid: the target's diameter (of a
+    /// disc of its usual area) over `sample_cells`, at least 1.
+    fn stride(&self) -> usize {
+        let diameter = 2.0 * (self.usual_area / std::f64::consts::PI).sqrt();
+        ((diameter / self.params.sample_cells).floor() as usize).clamp(1, 16)
+    }
+
     /// The last result.
     pub fn last(&self) -> &ColorShapeResult {
         &self.last
@@ -356,18 +374,20 @@ impl ColorShapeTracker {
 }
 
 /// The predicted contour filled (`prior`) and dilated by the snake's reach (`region`),
-/// both as `roi` masks; buffers are reused.
+/// both as grid masks; buffers are reused.
 fn prior_masks(
     predicted: &[[f64; 2]],
-    roi: Roi,
+    grid: Grid,
     reach: usize,
     prior: &mut GrayImage,
     region: &mut GrayImage,
 ) {
-    resize(prior, roi);
-    fill_polygon(predicted, roi.x0 as f64, roi.y0 as f64, prior);
+    resize(prior, grid);
+    let on_grid: Contour = predicted.iter().map(|&p| grid.to_grid(p)).collect();
+    fill_polygon(&on_grid, 0.0, 0.0, prior);
     region.clone_from(prior);
-    dilate_mut(region, Norm::LInf, reach.min(255) as u8);
+    let cells = reach.div_ceil(grid.stride).min(255) as u8;
+    dilate_mut(region, Norm::LInf, cells);
 }
 
 /// Contour refinement: the snake, started from the best sample's fit, is fitted to the
@@ -383,8 +403,8 @@ fn refine(
     dilated: &mut GrayImage,
     snake: &mut SnakeScratch,
 ) -> Contour {
-    let (p, roi) = (ctx.params, ctx.roi);
-    let sample_edges = |x, y| on(&best.edges, roi, x, y);
+    let (p, roi, grid) = (ctx.params, ctx.roi, ctx.grid);
+    let sample_edges = |x, y| grid.at(&best.edges, x, y);
     if !p.refine {
         return relax(
             best.snake.contour(),
@@ -403,7 +423,7 @@ fn refine(
             .clamp(0.0, 255.0) as u8])
     });
     let image_edges = imageproc::edges::canny(&gray, p.canny[0], p.canny[1]);
-    let masked = |x: i64, y: i64| on(dilated, roi, x, y) && on(&image_edges, roi, x, y);
+    let masked = |x: i64, y: i64| grid.at(dilated, x, y) && on(&image_edges, roi, x, y);
     let fit = fit_snake(ctx.predicted, terms.fit.affine, &ctx.snake, masked, snake);
     if fit.on_edge >= p.refine_min_support {
         let affine = snake.contour().to_vec();

@@ -159,8 +159,10 @@ class ColorHistogramTracker:
     contrast when the scales compete), ``scale_prior`` (weight of ``ln(s /
     s_confident)^2``), ``scale_step`` (relative), ``min_scale`` and ``max_scale``
     (relative to the first box), ``momentum`` (constant-velocity prediction, 0..1),
-    ``parallel`` (search the scales on several threads; same result), ``channels``
-    (``"rgb"``, or ``"bgr"`` for OpenCV frames).
+    ``pyramid`` (search a 2 x 2-averaged frame first, then refine the best position at
+    full resolution; used while both semi-axes are at least 8 px), ``parallel``
+    (search the scales on several threads; same result), ``channels`` (``"rgb"``, or
+    ``"bgr"`` for OpenCV frames).
 
     When the target is lost (:attr:`TrackResult.lost`) the box stays where it was last
     seen and the search window doubles every frame (up to ``max_search_radius``) until
@@ -202,6 +204,7 @@ class ColorHistogramTracker:
         min_scale: float = _COLOR["min_scale"],
         max_scale: float = _COLOR["max_scale"],
         momentum: float = _COLOR["momentum"],
+        pyramid: bool = _COLOR["pyramid"],
         parallel: bool = _COLOR["parallel"],
         channels: Channels = "rgb",
     ) -> None:
@@ -229,6 +232,7 @@ class ColorHistogramTracker:
                 min_scale=min_scale,
                 max_scale=max_scale,
                 momentum=momentum,
+                pyramid=pyramid,
                 parallel=parallel,
             ),
         }

@@ -468,6 +468,102 @@ mod tests {
         })
     }
 
+    /// Oracle for the clean-up: opening then closing by the 3x3 square written out
+    /// pixel by pixel (min / max over the neighbours inside the image), no imageproc.
+    fn open_close_brute_force(m: &GrayImage) -> GrayImage {
+        let (w, h) = (m.width() as i64, m.height() as i64);
+        let reduce = |img: &GrayImage, erode: bool| {
+            GrayImage::from_fn(img.width(), img.height(), |x, y| {
+                let mut v = if erode { 255u8 } else { 0u8 };
+                for dy in -1..=1 {
+                    for dx in -1..=1 {
+                        let (u, t) = (i64::from(x) + dx, i64::from(y) + dy);
+                        if u >= 0 && t >= 0 && u < w && t < h {
+                            let p = img.get_pixel(u as u32, t as u32)[0];
+                            v = if erode { v.min(p) } else { v.max(p) };
+                        }
+                    }
+                }
+                Luma([v])
+            })
+        };
+        let opened = reduce(&reduce(m, true), false);
+        reduce(&reduce(&opened, false), true)
+    }
+
+    #[test]
+    fn clean_is_the_opening_then_closing_by_the_square() {
+        let masks = LineMasks::new(1);
+        for seed in 0..30 {
+            let m = random_mask(seed, 17 + (seed % 5) as u32, 12, 40 + seed % 40);
+            let mut got = m.clone();
+            clean(&mut got, &masks);
+            assert_eq!(got, open_close_brute_force(&m), "seed {seed}");
+        }
+        let mut same = random_mask(3, 10, 10, 50);
+        let before = same.clone();
+        clean(&mut same, &LineMasks::new(0));
+        assert_eq!(same, before);
+    }
+
+    #[test]
+    fn segmentation_matches_the_seed_definition_pixel_by_pixel() {
+        // Oracle: S(u, v) = 1 when H(n)(r, g, b) > 0 for the pixel's bin, with H(n)
+        // counted straight from the warped cloud (seed 000 section 3.3), on a frame of
+        // random colours; the production path goes through the bin window and the LUT.
+        use crate::colour_shape::state::{ColourDistribution, ColourWarp, colour_coords, fill_lut};
+        let (w, h) = (23, 17);
+        let mut s = 99u64;
+        let mut next = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 56) as u8
+        };
+        let data: Vec<u8> = (0..w * h * 3).map(|_| next()).collect();
+        let frame = RgbFrame::new(&data, w, h).unwrap();
+        let bins = [8, 8, 4];
+        for space in [ColorSpace::Rgb, ColorSpace::Opponent] {
+            let cloud: Vec<[f64; 3]> = data[..3 * 60]
+                .chunks_exact(3)
+                .map(|p| colour_coords(space, [p[0], p[1], p[2]]).unwrap())
+                .collect();
+            let reference = ColourDistribution::from_points(&cloud, 0.01).unwrap();
+            let mut state = reference.to_state();
+            state[0] += 0.03;
+            state[6] = 0.2;
+            let warp = ColourWarp::new(&reference, &state, 0.01);
+            let mut lut = Vec::new();
+            fill_lut(&warp, &cloud, bins, &mut lut);
+            let grid = Grid::over(Roi::clipped(2.0, 1.0, 21.0, 16.0, w, h), 1);
+            let mut window = Vec::new();
+            bin_window(&frame, grid, space, bins, &mut window);
+            let mut seg = GrayImage::new(1, 1);
+            segment(&window, &lut, grid, &mut seg);
+            let cell = |c: f64, n: usize| ((c * n as f64).floor() as usize).min(n - 1);
+            let bin_of = |c: [f64; 3]| {
+                (
+                    cell(c[0], bins[0]),
+                    cell(c[1], bins[1]),
+                    cell(c[2], bins[2]),
+                )
+            };
+            for v in 0..grid.height {
+                for u in 0..grid.width {
+                    let p = &data[((grid.y0 + v) * w + grid.x0 + u) * 3..][..3];
+                    let want = bin_of(colour_coords(space, [p[0], p[1], p[2]]).unwrap());
+                    let hit = cloud.iter().any(|x| {
+                        let y = warp.apply(x);
+                        y.iter().all(|c| (0.0..1.0).contains(c))
+                            && bin_of([y[0], y[1], y[2]]) == want
+                    });
+                    let got = seg.get_pixel(u as u32, v as u32)[0] != 0;
+                    assert_eq!(got, hit, "{space:?} at ({u}, {v})");
+                }
+            }
+        }
+    }
+
     #[test]
     fn euler_number_matches_brute_force() {
         for seed in 0..60 {

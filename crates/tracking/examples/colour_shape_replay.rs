@@ -31,7 +31,10 @@ fn main() {
             [v[0], v[1]]
         })
         .collect();
-    let mut params = ColorShapeParams::default();
+    // COLOUR_SHAPE_PARAMS may hold a JSON object of ColorShapeParams fields.
+    let mut params: ColorShapeParams = std::env::var("COLOUR_SHAPE_PARAMS")
+        .map(|j| serde_json::from_str(&j).expect("COLOUR_SHAPE_PARAMS"))
+        .unwrap_or_default();
     if let Some(space) = args.get(6) {
         params.color_space = space.parse().unwrap();
     }

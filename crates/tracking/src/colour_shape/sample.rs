@@ -7,7 +7,7 @@ use image::GrayImage;
 use super::params::ColorShapeParams;
 use super::segment::{
     Blob, FloodScratch, FrameSides, Grid, LineMasks, Roi, best_component, boundary, clean,
-    euler_number_in, reconstruct, segment,
+    euler_number_in, reconstruct, segment, split_at_necks,
 };
 use super::snake::{Affine, SnakeFit, SnakeParams, SnakeScratch, fit_snake, polygon_area};
 use super::state::{ColourDistribution, ColourWarp, STATE_DIM, State, fill_lut};
@@ -50,6 +50,7 @@ pub struct SampleScratch {
     flood: FloodScratch,
     stats: Vec<[f64; 3]>,
     padded: Vec<u8>,
+    split: [GrayImage; 2],
     pub(crate) snake: SnakeScratch,
 }
 
@@ -130,7 +131,21 @@ impl FrameContext<'_> {
     fn blob(&self, s: &mut SampleScratch) -> Blob {
         match self.search {
             BlobSearch::Track => {
-                reconstruct(&s.seg, self.prior, self.region, &mut s.blob, &mut s.flood)
+                let blob = reconstruct(&s.seg, self.prior, self.region, &mut s.blob, &mut s.flood);
+                let cells = self.predicted_area / (self.grid.stride as f64).powi(2);
+                if blob.area as f64 > self.params.split_ratio * cells {
+                    let radius = self.params.split_radius * (cells / std::f64::consts::PI).sqrt();
+                    split_at_necks(
+                        &mut s.blob,
+                        self.prior,
+                        radius.round().clamp(1.0, 255.0) as u8,
+                        &mut s.split,
+                        &mut s.flood,
+                    )
+                    .unwrap_or(blob)
+                } else {
+                    blob
+                }
             }
             BlobSearch::Reacquire => {
                 let near = self.grid.to_grid(self.predicted_centroid);

@@ -299,6 +299,8 @@ def track_video(args: argparse.Namespace) -> int:
         "scores": run.scores,
         "lost": run.lost,
     }
+    if run.contours is not None:
+        measured["contours"] = [np.asarray(c).tolist() for c in run.contours]
     write_outputs(args, frames, run, measured, video_fps=fps)
     return 0
 
@@ -354,18 +356,33 @@ def draw_box(frame: np.ndarray, box: Sequence[float], colour: Sequence[int]) -> 
 TRACKING_COLOUR, LOST_COLOUR = (255, 40, 40), (255, 220, 0)
 
 
+def draw_contour(frame: np.ndarray, contour: np.ndarray, colour: Sequence[int]) -> np.ndarray:
+    """A copy of ``frame`` (RGB) with the closed polygon ``contour`` ((M, 2) pixel
+    centres ``(x, y)``) drawn one pixel wide."""
+    from PIL import Image, ImageDraw
+
+    im = Image.fromarray(np.asarray(frame, dtype=np.uint8)).convert("RGB")
+    # PIL truncates coordinates; pixel centres are at integers, so round them.
+    points = [(int(x), int(y)) for x, y in np.rint(np.asarray(contour, dtype=float))]
+    ImageDraw.Draw(im).line(points + points[:1], fill=tuple(int(c) for c in colour), width=1)
+    return np.asarray(im)
+
+
 def write_annotated(path: Path, frames: Sequence[np.ndarray], run: TrackerRun, fps: float) -> None:
-    """The frames with the tracker's box drawn: red while tracking, yellow when lost."""
+    """The frames with the tracker's box drawn, and for color-shape its contour: red
+    while tracking, yellow when lost."""
     try:
         import imageio.v3 as iio
     except ImportError:
         raise ValueError(f"writing {path} needs imageio: pip install 'rperc[video]'") from None
-    drawn = np.stack(
-        [
-            draw_box(f, b, LOST_COLOUR if lost else TRACKING_COLOUR)
-            for f, b, lost in zip(frames, run.boxes, run.lost, strict=True)
-        ]
-    )
+    drawn_frames = []
+    for k, (f, b, lost) in enumerate(zip(frames, run.boxes, run.lost, strict=True)):
+        colour = LOST_COLOUR if lost else TRACKING_COLOUR
+        out = draw_box(f, b, colour)
+        if run.contours is not None:
+            out = draw_contour(out, run.contours[k], colour)
+        drawn_frames.append(out)
+    drawn = np.stack(drawn_frames)
     if path.suffix.lower() == ".gif":
         iio.imwrite(path, drawn, duration=1000.0 / fps, loop=0)
     else:

@@ -420,12 +420,17 @@ class ColorShapeResult:
 class ColorShapeTracker:
     """Colour+shape tracker (seed 000 section 3.3): CONDENSATION over the target's colour
     distribution ``[m, lambda, theta, phi]`` (constant velocity). Each sample segments a
-    window around the target with its histogram; the blob it yields (after an opening
-    and a closing) gets an affine snake fitted from the previous contour, and the sample
-    is weighted by ``exp(-rho^2 / 2 sigma^2)`` with ``rho = mu1 (1 - Phi_affine) + mu2 (1 -
-    Phi_area) + mu3 (1 - Phi_quality)``: snake on the blob's boundary, area against the
-    prediction, holes (Euler number). The best sample's contour is refined on the image
-    edges masked by its blob's dilated boundary.
+    window around the predicted contour with its histogram (``H(n) > 0``, on a grid of
+    about ``sample_cells`` cells across the target); the blob reconstructed from the
+    prediction within the snake's reach (after an opening and a closing, and split at
+    narrow necks when it grew too big) gets an affine snake fitted from the previous
+    contour, and the sample is weighted by ``exp(-rho^2 / 2 sigma^2)`` with ``rho = mu1 (1 -
+    Phi_affine) + mu2 (1 - Phi_area) + mu3 (1 - Phi_quality)``: snake on the blob's
+    boundary, area against the prediction, holes (Euler number). The best sample's
+    contour is refined on the image edges masked by its blob's dilated boundary and may
+    relax ``deform`` pixels off the affine fit. A tenth of the samples are drawn around the
+    colours measured inside the last contour and the first frame's. When lost, the window
+    widens every frame and samples look for a blob of the target's usual area.
 
     Start from a ``contour`` (an (N, 2) polygon) or a ``box`` (its inscribed ellipse).
     ``color_space`` is ``"rgb"`` or ``"opponent"`` (B-G, G-R, R+G+B); ``config`` may hold

@@ -14,7 +14,7 @@ use super::snake::{
     relax, resample_closed,
 };
 use super::state::{ColourDistribution, N_PARAMS, STATE_DIM, State};
-use crate::condensation::ParticleFilter;
+use crate::condensation::{Guess, ParticleFilter};
 use crate::error::{Result, TrackingError};
 use crate::frame::{BoundingBox, RgbFrame};
 
@@ -38,14 +38,18 @@ pub struct ColorShapeResult {
 
 /// Colour+shape tracker (seed 000 section 3.3, after Isard & Blake's CONDENSATION and
 /// Kass et al.'s snakes): the filter tracks the target's colour distribution; each sample
-/// segments the frame with its histogram, an affine snake is fitted to the segmented
-/// blob, and the sample is weighted by how well the snake sits on the blob's boundary,
-/// how its area matches the prediction and how few holes the blob has. The best sample's
-/// blob then masks the image edges to which the final contour is fitted.
+/// segments a window around the predicted contour with its histogram (an integer lookup
+/// table on a grid of about `sample_cells` cells across the target), cleans it with an
+/// opening and a closing, and keeps the blob reconstructed from the prediction within the
+/// snake's reach (split at narrow necks when it has grown too big). An affine snake
+/// started from `r_{t-1}` is fitted to the blob's boundary, and the sample is weighted by
+/// how well the snake sits on that boundary, how its area matches the prediction and
+/// how few holes the blob has. The best sample's blob then masks the image edges to which
+/// the final contour is fitted, and the contour may relax a few pixels off the affine fit.
 ///
-/// The search is confined to a window around the previous contour (its box grown by
-/// `roi_margin` plus the edge search), so the cost per sample is set by the target's
-/// size, not the frame's.
+/// While lost (a low score, or a contour whose area is far from the usual one) the
+/// contour stays, the window widens each frame and each sample takes the blob of the
+/// usual area anywhere in it.
 ///
 /// # Examples
 /// A red square moving right on a grey background:
@@ -193,23 +197,8 @@ impl ColorShapeTracker {
     /// [`TrackingError::FrameSizeChanged`] when the frame's size differs from the first.
     pub fn update(&mut self, frame: RgbFrame<'_>) -> Result<ColorShapeResult> {
         self.check_size(&frame)?;
-        let predicted: Contour = self
-            .contour
-            .iter()
-            .map(|p| [p[0] + self.velocity[0], p[1] + self.velocity[1]])
-            .collect();
-        let roi = self.window(&predicted);
+        let (predicted, roi, grid) = self.prepare(&frame);
         let p = &self.params;
-        let grid = Grid::over(roi, self.stride());
-        bin_window(&frame, grid, p.color_space, p.bins, &mut self.bins);
-        prior_masks(
-            &predicted,
-            grid,
-            p.search,
-            &mut self.prior,
-            &mut self.region,
-        );
-        let [a1, a2] = self.areas;
         let ctx = FrameContext {
             params: p,
             reference: &self.reference,
@@ -222,18 +211,8 @@ impl ColorShapeTracker {
             region: &self.region,
             predicted: &predicted,
             predicted_centroid: contour_centroid(&predicted),
-            predicted_area: if self.lost_frames > 0 {
-                self.usual_area
-            } else {
-                (a1 + p.area_momentum * (a1 - a2)).max(1.0)
-            },
-            snake: SnakeParams {
-                search: p.search,
-                min_search: p.min_search,
-                iterations: p.snake_iterations,
-                on_edge_tolerance: p.edge_tolerance,
-                stiffness: p.stiffness,
-            },
+            predicted_area: self.predicted_area(),
+            snake: snake_params(p),
             morphology: &self.morphology,
             search: if self.lost_frames > 0 {
                 BlobSearch::Reacquire
@@ -241,20 +220,7 @@ impl ColorShapeTracker {
                 BlobSearch::Track
             },
         };
-        let n_mixed = (p.mix_fraction * p.n_samples as f64).round() as usize;
-        let sigma = p.dynamics.noise_std();
-        // Half around the colours measured last, half around the first frame's: the
-        // anchor keeps a contour that slowly loses part of the target from narrowing
-        // the colours with it. While lost, only the first frame's.
-        let anchored = if self.lost_frames > 0 {
-            n_mixed
-        } else {
-            n_mixed / 2
-        };
-        let guesses = [
-            (self.reference.to_state(), sigma, anchored),
-            (self.measured, sigma, n_mixed - anchored),
-        ];
+        let guesses = self.guesses();
         let report = self.filter.step_mixtures(&ctx, &mut self.scratch, &guesses);
         let terms = if report.lost {
             None
@@ -273,15 +239,79 @@ impl ColorShapeTracker {
             )),
             _ => None,
         };
-        // A contour far smaller or larger than the target has been is no target,
-        // however well it sits on its blob: this stops the slow collapse of a contour
-        // that each frame shrinks a little onto part of the target.
+        Ok(self.conclude(&frame, refined, score, report.ess))
+    }
+
+    /// The contour predicted by the image velocity, the window around it and its
+    /// sampling grid; bins the window and fills the prediction's masks.
+    fn prepare(&mut self, frame: &RgbFrame<'_>) -> (Contour, Roi, Grid) {
+        let v = self.velocity;
+        let predicted: Contour = self
+            .contour
+            .iter()
+            .map(|q| [q[0] + v[0], q[1] + v[1]])
+            .collect();
+        let roi = self.window(&predicted);
+        let grid = Grid::over(roi, self.stride());
+        let p = &self.params;
+        bin_window(frame, grid, p.color_space, p.bins, &mut self.bins);
+        prior_masks(
+            &predicted,
+            grid,
+            p.search,
+            &mut self.prior,
+            &mut self.region,
+        );
+        (predicted, roi, grid)
+    }
+
+    /// The area the snake is compared with: the seed's `A_{t-1} + mu (A_{t-1} -
+    /// A_{t-2})` while tracking, the usual area while re-acquiring.
+    fn predicted_area(&self) -> f64 {
+        let [a1, a2] = self.areas;
+        if self.lost_frames > 0 {
+            self.usual_area
+        } else {
+            (a1 + self.params.area_momentum * (a1 - a2)).max(1.0)
+        }
+    }
+
+    /// The mixture's guesses: half of the mixed samples around the colours measured
+    /// last, half around the first frame's (the anchor keeps a contour that slowly loses
+    /// part of the target from narrowing the colours with it); while lost, all around
+    /// the first frame's.
+    fn guesses(&self) -> [Guess<STATE_DIM>; 2] {
+        let p = &self.params;
+        let n_mixed = (p.mix_fraction * p.n_samples as f64).round() as usize;
+        let sigma = p.dynamics.noise_std();
+        let anchored = if self.lost_frames > 0 {
+            n_mixed
+        } else {
+            n_mixed / 2
+        };
+        [
+            (self.reference.to_state(), sigma, anchored),
+            (self.measured, sigma, n_mixed - anchored),
+        ]
+    }
+
+    /// Accepts `refined` as `r_t` unless its area is far from the target's usual one
+    /// (a contour that each frame shrinks a little onto part of the target would
+    /// otherwise collapse), updates the measured colours, and answers.
+    fn conclude(
+        &mut self,
+        frame: &RgbFrame<'_>,
+        refined: Option<Contour>,
+        score: f64,
+        ess: f64,
+    ) -> ColorShapeResult {
+        let p = &self.params;
         let refined = refined
             .filter(|r| area_ratio(polygon_area(r), self.usual_area) >= p.reacquire_area_ratio);
         let lost = refined.is_none();
         match refined {
             Some(r) => {
-                if let Some(m) = measured_state(&frame, &r, &self.reference, p) {
+                if let Some(m) = measured_state(frame, &r, &self.reference, p) {
                     self.measured = m;
                 }
                 self.accept(r);
@@ -294,9 +324,9 @@ impl ColorShapeTracker {
             distribution: distribution_of(&self.filter.mean()),
             score,
             lost,
-            ess: report.ess,
+            ess,
         };
-        Ok(self.last.clone())
+        self.last.clone()
     }
 
     fn check_size(&self, frame: &RgbFrame<'_>) -> Result<()> {
@@ -431,6 +461,17 @@ fn refine(
     } else {
         let sample = best.snake.contour().to_vec();
         relax(&sample, p.deform, p.deform_passes, sample_edges, snake)
+    }
+}
+
+/// The affine snake's settings from the tracker's.
+fn snake_params(p: &ColorShapeParams) -> SnakeParams {
+    SnakeParams {
+        search: p.search,
+        min_search: p.min_search,
+        iterations: p.snake_iterations,
+        on_edge_tolerance: p.edge_tolerance,
+        stiffness: p.stiffness,
     }
 }
 

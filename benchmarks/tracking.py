@@ -241,10 +241,13 @@ def main() -> None:
         default=None,
         help="OpenCV's thread count (cv2.setNumThreads); rperc's is RAYON_NUM_THREADS",
     )
+    ap.add_argument("--only", nargs="+", default=None, help="run only the trackers of these names")
     args = ap.parse_args()
     if cv2 is not None and args.cv_threads is not None:
         cv2.setNumThreads(args.cv_threads)
     trackers = rperc_trackers() | opencv_trackers()
+    if args.only is not None:
+        trackers = {k: v for k, v in trackers.items() if k in args.only}
     missing = [n for n in ("CSRT", "KCF", "MIL") if f"OpenCV {n}" not in trackers]
     seqs = sequences(args.sequences, args.challenge_seed, args.shape_seed)
     results = {

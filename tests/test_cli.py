@@ -516,6 +516,36 @@ def test_track_a_video_with_a_box_writes_csv_json_and_an_annotated_gif(tmp_path,
     assert drawn[5, y, x + 3, 0] > 200 and drawn[5, y, x + 3, 1] < 100
 
 
+def test_color_shape_video_draws_the_contour(tmp_path, capsys):
+    """``--tracker color-shape --video`` draws the contour as well as the box: the
+    returned contour's pixels are red in the written frames."""
+    iio = pytest.importorskip("imageio.v3")
+    from rperc.tracking.shape_sequences import shape_sequence
+
+    seq = shape_sequence("rectangle", frames=4, seed=1)
+    video, js, gif = tmp_path / "in.gif", tmp_path / "c.json", tmp_path / "out.gif"
+    iio.imwrite(video, seq.frames, duration=40, loop=0)
+    ys, xs = np.nonzero(seq.masks[0])
+    box = f"{xs.min()},{ys.min()},{np.ptp(xs) + 1},{np.ptp(ys) + 1}"
+    argv = ["track", str(video), "--box", box, "--tracker", "color-shape", "--json", str(js)]
+    assert main([*argv, "--video", str(gif)]) == 0
+    capsys.readouterr()
+    with iio.imopen(gif, "r") as f:
+        drawn = f.read(index=None)
+    from rperc.cli.track import draw_contour
+
+    square = np.array([[10.0, 10.0], [30.0, 10.0], [30.0, 20.0], [10.0, 20.0]])
+    marked = draw_contour(np.zeros((40, 40, 3), np.uint8), square, (255, 0, 0))
+    assert marked[10, 20, 0] == 255 and marked[15, 10, 0] == 255 and marked[15, 20, 0] == 0
+    # Oracle: the JSON's contour of frame 2; its points (rounded) are red in the GIF
+    # (palette-quantised), most of them away from the box's outline.
+    contour = np.asarray(json.loads(js.read_text())["contours"][2])
+    assert drawn.shape[0] == 4 and contour.shape[1] == 2
+    px = np.rint(contour).astype(int)
+    red = (drawn[2, px[:, 1], px[:, 0], 0] > 180) & (drawn[2, px[:, 1], px[:, 0], 1] < 120)
+    assert red.mean() > 0.8, red.mean()
+
+
 # imageio's ffmpeg reader (imageio 2.38) leaves its pipe file objects to the garbage
 # collector when the video is closed; that is imageio's, not ours.
 @pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")

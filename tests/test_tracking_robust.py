@@ -59,8 +59,9 @@ def test_the_search_radius_follows_the_speed_and_fast_motion_is_tracked():
     assert max(errors) <= 2.0, errors
     # Still target: radius 10; after moves of 24 px it has grown past 24.
     assert radii[-1] > 24, radii
-    # The same tracker with a fixed +-10 px window loses it (so the test can fail).
-    fixed, _ = fast_track(velocity_gain=0.0, max_search_radius=10, lost_ratio=0.0)
+    # The same tracker with a fixed +-10 px window loses it (so the test can fail);
+    # without the pyramid, whose refinement reaches a pixel or two past the window.
+    fixed, _ = fast_track(velocity_gain=0.0, max_search_radius=10, lost_ratio=0.0, pyramid=False)
     assert max(fixed) > 9.0, fixed
 
 
@@ -166,11 +167,13 @@ def edge_ring_scales(**params) -> list[float]:
 
 def test_a_strong_edge_around_the_target_does_not_pull_the_box_out():
     """The true scale is 1 throughout (the generator's disc never changes)."""
-    held = edge_ring_scales()
-    assert all(0.9 < s < 1.1 for s in held), held
+    for pyramid in (True, False):
+        held = edge_ring_scales(pyramid=pyramid)
+        assert all(0.9 < s < 1.1 for s in held), (pyramid, held)
     # Without the scale prior and the ring term the perimeter gradient drags the box
-    # out to the white circle (so the test can fail).
-    drifted = edge_ring_scales(scale_prior=0.0, ring_weight=0.0)
+    # out to the white circle (so the test can fail); at full resolution, where the
+    # gradient pulls hardest (the half-resolution search drags it to 1.17).
+    drifted = edge_ring_scales(scale_prior=0.0, ring_weight=0.0, pyramid=False)
     assert max(drifted) > 1.2, drifted
 
 

@@ -20,7 +20,7 @@ pub use colour_shape::{
     ColorShapeParams, ColorShapeResult, ColorShapeTracker, ColourDistribution, ColourDynamics,
 };
 pub use condensation::{
-    FilterParams, Likelihood, LinearGaussian, ParticleFilter, ResamplePolicy, Resampler,
+    FilterParams, Guess, Likelihood, LinearGaussian, ParticleFilter, ResamplePolicy, Resampler,
     StepReport, effective_sample_size,
 };
 pub use error::{Result, TrackingError};

@@ -44,7 +44,9 @@ fn local_search_follows_a_known_track() {
     let (cx, cy, _) = truth(0);
     let f0 = scene(cx, cy, ra, rb);
     let bbox = BoundingBox::new(cx - ra, cy - rb, 2.0 * ra, 2.0 * rb);
-    for parallel in [true, false] {
+    // Both the half-resolution-first search and the full one (12 px semi-axes: the
+    // pyramid is used by default).
+    for (parallel, pyramid) in [(true, true), (false, true), (true, false)] {
         for space in [
             ColorSpace::Rgb,
             ColorSpace::Opponent,
@@ -57,6 +59,7 @@ fn local_search_follows_a_known_track() {
                     ..AppearanceParams::default()
                 },
                 parallel,
+                pyramid,
                 ..ColorTrackerParams::default()
             };
             let mut t = ColorHistogramTracker::new(RgbFrame::new(&f0, W, H).unwrap(), bbox, params)

@@ -99,7 +99,7 @@ def registry() -> tuple[Demo, ...]:
         ),
         Demo(
             "color_shape",
-            "colour+shape tracker vs colour alone, rectangle under changing light",
+            "colour+shape tracker vs colour alone: the four experiments of Fig. 13, colour path",
             track.demo_color_shape,
             (Option("--frames", "frames", count_at_least(2, 1000), 60, "frames (default 60)"),),
         ),

@@ -299,6 +299,8 @@ def track_video(args: argparse.Namespace) -> int:
         "scores": run.scores,
         "lost": run.lost,
     }
+    if run.contours is not None:
+        measured["contours"] = [np.asarray(c).tolist() for c in run.contours]
     write_outputs(args, frames, run, measured, video_fps=fps)
     return 0
 
@@ -354,18 +356,33 @@ def draw_box(frame: np.ndarray, box: Sequence[float], colour: Sequence[int]) -> 
 TRACKING_COLOUR, LOST_COLOUR = (255, 40, 40), (255, 220, 0)
 
 
+def draw_contour(frame: np.ndarray, contour: np.ndarray, colour: Sequence[int]) -> np.ndarray:
+    """A copy of ``frame`` (RGB) with the closed polygon ``contour`` ((M, 2) pixel
+    centres ``(x, y)``) drawn one pixel wide."""
+    from PIL import Image, ImageDraw
+
+    im = Image.fromarray(np.asarray(frame, dtype=np.uint8)).convert("RGB")
+    # PIL truncates coordinates; pixel centres are at integers, so round them.
+    points = [(int(x), int(y)) for x, y in np.rint(np.asarray(contour, dtype=float))]
+    ImageDraw.Draw(im).line(points + points[:1], fill=tuple(int(c) for c in colour), width=1)
+    return np.asarray(im)
+
+
 def write_annotated(path: Path, frames: Sequence[np.ndarray], run: TrackerRun, fps: float) -> None:
-    """The frames with the tracker's box drawn: red while tracking, yellow when lost."""
+    """The frames with the tracker's box drawn, and for color-shape its contour: red
+    while tracking, yellow when lost."""
     try:
         import imageio.v3 as iio
     except ImportError:
         raise ValueError(f"writing {path} needs imageio: pip install 'rperc[video]'") from None
-    drawn = np.stack(
-        [
-            draw_box(f, b, LOST_COLOUR if lost else TRACKING_COLOUR)
-            for f, b, lost in zip(frames, run.boxes, run.lost, strict=True)
-        ]
-    )
+    drawn_frames = []
+    for k, (f, b, lost) in enumerate(zip(frames, run.boxes, run.lost, strict=True)):
+        colour = LOST_COLOUR if lost else TRACKING_COLOUR
+        out = draw_box(f, b, colour)
+        if run.contours is not None:
+            out = draw_contour(out, run.contours[k], colour)
+        drawn_frames.append(out)
+    drawn = np.stack(drawn_frames)
     if path.suffix.lower() == ".gif":
         iio.imwrite(path, drawn, duration=1000.0 / fps, loop=0)
     else:
@@ -404,54 +421,119 @@ def demo_tracking(out: Path, seed: int, frames: int = 150) -> DemoResult:
 
 
 def demo_color_shape(out: Path, seed: int, frames: int = 60) -> DemoResult:
-    """The colour+shape tracker against colour alone on experiment 2 of seed 000 section
-    3.4 (a rectangle under changing light with a moving specular highlight), scored on
-    the generator's truth masks (contour) and their boxes."""
+    """The colour+shape tracker against colour alone on the four experiments of seed 000
+    section 3.4 (Fig. 13), each scored on the generator's truth masks (contour) and
+    their boxes: circles changing colour (RGB), a rectangle under changing light with a
+    moving specular highlight, a deforming blob, and a blob among same-coloured
+    distractors (opponent space). One figure per experiment, and the path of the tracked
+    colour distribution against the circle's true colour (Fig. 13, upper left)."""
     from rperc.plot import save
-    from rperc.plot.tracking import strip_figure
+    from rperc.tracking.shape_sequences import EXPERIMENTS
+
+    lines, figures, experiments = [], [], {}
+    rectangle: dict[str, Any] = {}
+    for name in EXPERIMENTS:
+        run = _color_shape_run(name, frames, seed)
+        figures.append(save(_color_shape_strip(run, seed), out / f"color_shape_{name}.png"))
+        experiments[name] = {"contour_iou": run["contour_iou"], "box_iou": run["box_iou"]}
+        iou, box = np.mean(run["contour_iou"]), run["box_iou"]
+        lines.append(
+            f"{name} experiment ({len(run['seq'])} frames, seed {seed}) against its truth "
+            f"masks: color-shape contour IoU {iou:.3f}, box IoU {box['color-shape']:.3f}; "
+            f"color only box IoU {box['color']:.3f}"
+        )
+        if name == "rectangle":
+            rectangle = run
+        if name == "circles":
+            figures.append(save(_colour_path_figure(run, seed), out / "color_shape_path.png"))
+    # The rectangle first: the line the demo's tests read.
+    lines.sort(key=lambda line: not line.startswith("rectangle"))
+    summary = "color_shape: " + "; ".join(lines)
+    measured = {
+        "contour_iou": rectangle["contour_iou"],
+        "box_iou": rectangle["box_iou"],
+        "contours": [np.asarray(c).tolist() for c in rectangle["contours"]],
+        "experiments": experiments,
+    }
+    return DemoResult(summary, figures, measured)
+
+
+def _color_shape_run(name: str, frames: int, seed: int) -> dict[str, Any]:
+    """Both trackers over one experiment: contours, boxes, distributions and scores."""
     from rperc.tracking import ColorHistogramTracker, ColorShapeTracker
     from rperc.tracking.shape_sequences import shape_sequence
 
-    seq = shape_sequence("rectangle", frames=frames, seed=seed)
-    shape = seq.masks.shape[1:]
+    seq = shape_sequence(name, frames=frames, seed=seed)  # type: ignore[arg-type]
     truth = np.array([_mask_box(m) for m in seq.masks])
     cs = ColorShapeTracker(seq.frames[0], contour=seq.outline, color_space=seq.color_space)
     co = ColorHistogramTracker(seq.frames[0], tuple(truth[0]), color_space=seq.color_space)
-    contours, cs_boxes, co_boxes = [seq.outline], [truth[0]], [truth[0]]
+    contours, cs_boxes, co_boxes, dists = [seq.outline], [truth[0]], [truth[0]], []
     for frame in seq.frames[1:]:
         r = cs.update(frame)
         contours.append(r.contour)
         cs_boxes.append(np.asarray(r.box))
         co_boxes.append(np.asarray(co.update(frame).box))
+        dists.append(r.distribution)
+    shape = seq.masks.shape[1:]
     contour_iou = [
         metrics.mask_iou(metrics.polygon_mask(c, shape), m)
         for c, m in zip(contours[1:], seq.masks[1:], strict=True)
     ]
     tracks = {"color-shape": np.asarray(cs_boxes), "color": np.asarray(co_boxes)}
     box_iou = {n: float(metrics.iou(b[1:], truth[1:]).mean()) for n, b in tracks.items()}
-    picks = strip_indices(len(seq), STRIP_FRAMES)
-    fig = strip_figure(
-        [seq.frames[k] for k in picks],
-        picks,
-        truth,
-        tracks,
-        title=f"rectangle under changing light, seed {seed}, {len(seq)} frames; "
-        f"color-shape contour IoU {np.mean(contour_iou):.3f}",
-        truth_label="truth (generator)",
-        contours={"color-shape": contours},
-    )
-    figures = [save(fig, out / "color_shape.png")]
-    summary = (
-        f"color_shape: rectangle experiment ({len(seq)} frames, seed {seed}) against its "
-        f"truth masks: color-shape contour IoU {np.mean(contour_iou):.3f}, box IoU "
-        f"{box_iou['color-shape']:.3f}; color only box IoU {box_iou['color']:.3f}"
-    )
-    measured = {
+    return {
+        "seq": seq,
+        "truth": truth,
+        "tracks": tracks,
+        "contours": contours,
+        "distributions": np.asarray(dists),
         "contour_iou": contour_iou,
         "box_iou": box_iou,
-        "contours": [np.asarray(c).tolist() for c in contours],
     }
-    return DemoResult(summary, figures, measured)
+
+
+def _color_shape_strip(run: dict[str, Any], seed: int) -> Any:
+    from rperc.plot.tracking import strip_figure
+
+    seq = run["seq"]
+    picks = strip_indices(len(seq), STRIP_FRAMES)
+    return strip_figure(
+        [seq.frames[k] for k in picks],
+        picks,
+        run["truth"],
+        run["tracks"],
+        title=f"{seq.name} ({seq.color_space}), seed {seed}, {len(seq)} frames; "
+        f"color-shape contour IoU {np.mean(run['contour_iou']):.3f}",
+        truth_label="truth (generator)",
+        contours={"color-shape": run["contours"]},
+    )
+
+
+def _colour_path_figure(run: dict[str, Any], seed: int) -> Any:
+    """Fig. 13 (upper left): the tracked colour distribution's centroid against the
+    target's true mean colour, frame by frame, in RGB units of [0, 1)."""
+    from matplotlib.figure import Figure
+
+    seq, est = run["seq"], run["distributions"][:, :3]
+    pairs = zip(seq.frames[1:], seq.masks[1:], strict=True)
+    truth = np.array([f[m].mean(axis=0) / 256.0 for f, m in pairs])
+    err = np.linalg.norm(est - truth, axis=1)
+    fig = Figure(figsize=(10, 3.6), layout="constrained")
+    axes = [(0, 1, "R", "G"), (0, 2, "R", "B"), (1, 2, "G", "B")]
+    for j, (a, b, la, lb) in enumerate(axes):
+        ax = fig.add_subplot(1, 3, j + 1)
+        ax.plot(truth[:, a], truth[:, b], "k-", lw=1.5, label="truth (mean colour in mask)")
+        ax.plot(est[:, a], est[:, b], "r--", lw=1.2, label="estimate (distribution centroid)")
+        ax.plot(truth[0, a], truth[0, b], "ko", ms=4)
+        ax.set_xlabel(f"{la} (fraction of 256)")
+        ax.set_ylabel(f"{lb} (fraction of 256)")
+        if j == 0:
+            ax.legend(fontsize=7)
+    fig.suptitle(
+        f"colour path of the tracked circle (seed 000 Fig. 13), seed {seed}, "
+        f"{len(seq)} frames; centroid error mean {err.mean():.3f}, max {err.max():.3f}"
+    )
+    return fig
 
 
 def _mask_box(mask: np.ndarray) -> tuple[float, float, float, float]:

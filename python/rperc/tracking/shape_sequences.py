@@ -9,6 +9,9 @@ section 3.4 (Fig. 13), for the colour+shape tracker.
 4. ``clutter``: a blob over a textured background among distractors of the same colour
    but other shapes, which cross its path.
 
+The seed draws everything that varies: the shades, the target's colour, size and
+path (periods and phases), the distractors' sweep and place, and the noise.
+
 Textured backgrounds come from the grey images in ``$RPERC_DATA/images`` when present
 (tinted to colour); otherwise a seeded noise texture is used, so the sequences never
 need downloaded data. Each sequence gives the frames, the truth mask of the target in
@@ -107,7 +110,9 @@ def _circles(
     k, radius = 3, 18.0
     pos = np.array([[90.0, 80.0], [220.0, 150.0], [160.0, 60.0]])
     vel = rng.normal(0.0, 2.0, (k, 2))
-    colour = np.array([[200.0, 60.0, 60.0], [60.0, 180.0, 70.0], [70.0, 80.0, 200.0]])
+    # Red, green and blue discs, each shade drawn per seed.
+    base = np.array([[200.0, 60.0, 60.0], [60.0, 180.0, 70.0], [70.0, 80.0, 200.0]])
+    colour = np.clip(base + rng.normal(0.0, 15.0, base.shape), 30.0, 225.0)
     xx, yy = _grid()
     frames, masks = [], []
     for _ in range(n):
@@ -131,32 +136,43 @@ def _circles(
     return frames, masks, outline
 
 
+def _saturated(rng: np.random.Generator, value: float) -> np.ndarray:
+    """A saturated colour of random hue (RGB, 0..255), far from the greys around it."""
+    import colorsys
+
+    return 255.0 * np.array(colorsys.hsv_to_rgb(rng.uniform(0, 1), rng.uniform(0.6, 0.8), value))
+
+
 def _rectangle(
     rng: np.random.Generator, n: int
 ) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray]:
     xx, yy = _grid()
     frames, masks = [], []
-    w, h = 60.0, 40.0
+    w, h = rng.uniform(48.0, 68.0), rng.uniform(32.0, 46.0)
+    colour = _saturated(rng, 0.75)
+    periods = rng.uniform([100.0, 75.0, 60.0, 35.0], [140.0, 105.0, 80.0, 45.0])
+
+    def corner(f: int) -> tuple[float, float]:
+        x = 60.0 + 140.0 * (0.5 - 0.5 * np.cos(2 * np.pi * f / periods[0]))
+        return x, 70.0 + 60.0 * np.sin(2 * np.pi * f / periods[1])
+
     for f in range(n):
-        x0 = 60.0 + 140.0 * (0.5 - 0.5 * np.cos(2 * np.pi * f / 120))
-        y0 = 70.0 + 60.0 * np.sin(2 * np.pi * f / 90)
-        gain = 1.0 + 0.3 * np.sin(2 * np.pi * f / 70)
+        x0, y0 = corner(f)
+        gain = 1.0 + 0.3 * np.sin(2 * np.pi * f / periods[2])
         image = np.full((HEIGHT, WIDTH, 3), 120.0) + 30 * np.sin(xx / 40.0)[..., None]
         rect = (xx >= x0) & (xx < x0 + w) & (yy >= y0) & (yy < y0 + h)
-        image[rect] = (60.0, 90.0, 190.0)
+        image[rect] = colour
         # A specular highlight: a white lobe sliding over the rectangle.
-        hx = x0 + w * (0.5 + 0.35 * np.sin(2 * np.pi * f / 40))
+        hx = x0 + w * (0.5 + 0.35 * np.sin(2 * np.pi * f / periods[3]))
         lobe = 110.0 * np.exp(-((xx - hx) ** 2 + (yy - y0 - h / 2) ** 2) / (2 * 6.0**2))
         image[rect] += lobe[rect][:, None]
         frames.append(_finish(rng, image * gain))
         masks.append(rect)
-    x0, y0 = 60.0, 70.0
-    outline = np.array([[x0, y0], [x0 + w - 1, y0], [x0 + w - 1, y0 + h - 1], [x0, y0 + h - 1]])
+    # The outline of frame 0's pixels: centres x0 .. x0 + w - 1 along the first row...
+    ys, xs = np.nonzero(masks[0])
+    x0, y0, x1, y1 = xs.min(), ys.min(), xs.max(), ys.max()
+    outline = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=np.float64)
     return frames, masks, outline
-
-
-def _blob_track(f: int) -> tuple[float, float]:
-    return 160.0 + 90.0 * np.sin(2 * np.pi * f / 150), 120.0 + 55.0 * np.sin(2 * np.pi * f / 110)
 
 
 def _nonrigid(
@@ -164,24 +180,35 @@ def _nonrigid(
 ) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray]:
     background = _texture(rng, "grass" if clutter else "brick")
     xx, yy = _grid()
-    colour = np.array([230.0, 200.0, 40.0])
+    colour = _saturated(rng, 0.9)
+    radius = rng.uniform(20.0, 27.0)
+    periods = rng.uniform([130.0, 95.0], [170.0, 125.0])
+    phase = rng.uniform(0.0, 2 * np.pi, 2)
+
+    def track(f: int) -> tuple[float, float]:
+        return (
+            160.0 + 90.0 * np.sin(2 * np.pi * f / periods[0] + phase[0]),
+            120.0 + 55.0 * np.sin(2 * np.pi * f / periods[1] + phase[1]),
+        )
+
+    # Same-colour distractors of other shapes: a long bar sweeping across the path and
+    # a thin ring on the path, both where the target passes.
+    bar_period, bar_phase = rng.uniform(85.0, 110.0), rng.uniform(0.0, 2 * np.pi)
+    ring_centre = track(int(rng.integers(n // 4, max(n // 4 + 1, 3 * n // 4))))
     frames, masks = [], []
     for f in range(n):
-        cx, cy = _blob_track(f)
-        poly = _star(cx, cy, 24.0, 0.15 * f)
+        poly = _star(*track(f), radius, 0.15 * f)
         mask = _polygon_mask(poly)
         image = background.copy()
         if clutter:
-            # Same-colour distractors of other shapes: a long bar sweeping across the
-            # path and a thin ring, both where the target passes.
-            bx = 160.0 + 120.0 * np.sin(2 * np.pi * f / 97 + 1.0)
+            bx = 160.0 + 120.0 * np.sin(2 * np.pi * f / bar_period + bar_phase)
             bar = (np.abs(xx - bx) < 5) & (np.abs(yy - 120.0) < 70)
-            ring = np.abs(np.hypot(xx - 230.0, yy - 90.0) - 22.0) < 3.0
+            ring = np.abs(np.hypot(xx - ring_centre[0] - 40.0, yy - ring_centre[1]) - 22.0) < 3.0
             image[(bar | ring) & ~mask] = colour
         image[mask] = colour
         frames.append(_finish(rng, image))
         masks.append(mask)
-    return frames, masks, _star(*_blob_track(0), 24.0, 0.0)
+    return frames, masks, _star(*track(0), radius, 0.0)
 
 
 def shape_sequence(name: Experiment, frames: int = 120, seed: int = 0) -> ShapeSequence:

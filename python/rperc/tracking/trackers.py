@@ -159,8 +159,10 @@ class ColorHistogramTracker:
     contrast when the scales compete), ``scale_prior`` (weight of ``ln(s /
     s_confident)^2``), ``scale_step`` (relative), ``min_scale`` and ``max_scale``
     (relative to the first box), ``momentum`` (constant-velocity prediction, 0..1),
-    ``parallel`` (search the scales on several threads; same result), ``channels``
-    (``"rgb"``, or ``"bgr"`` for OpenCV frames).
+    ``pyramid`` (search a 2 x 2-averaged frame first, then refine the best position at
+    full resolution; used while both semi-axes are at least 8 px), ``parallel``
+    (search the scales on several threads; same result), ``channels`` (``"rgb"``, or
+    ``"bgr"`` for OpenCV frames).
 
     When the target is lost (:attr:`TrackResult.lost`) the box stays where it was last
     seen and the search window doubles every frame (up to ``max_search_radius``) until
@@ -202,6 +204,7 @@ class ColorHistogramTracker:
         min_scale: float = _COLOR["min_scale"],
         max_scale: float = _COLOR["max_scale"],
         momentum: float = _COLOR["momentum"],
+        pyramid: bool = _COLOR["pyramid"],
         parallel: bool = _COLOR["parallel"],
         channels: Channels = "rgb",
     ) -> None:
@@ -229,6 +232,7 @@ class ColorHistogramTracker:
                 min_scale=min_scale,
                 max_scale=max_scale,
                 momentum=momentum,
+                pyramid=pyramid,
                 parallel=parallel,
             ),
         }
@@ -416,12 +420,17 @@ class ColorShapeResult:
 class ColorShapeTracker:
     """Colour+shape tracker (seed 000 section 3.3): CONDENSATION over the target's colour
     distribution ``[m, lambda, theta, phi]`` (constant velocity). Each sample segments a
-    window around the target with its histogram; the blob it yields (after an opening
-    and a closing) gets an affine snake fitted from the previous contour, and the sample
-    is weighted by ``exp(-rho^2 / 2 sigma^2)`` with ``rho = mu1 (1 - Phi_affine) + mu2 (1 -
-    Phi_area) + mu3 (1 - Phi_quality)``: snake on the blob's boundary, area against the
-    prediction, holes (Euler number). The best sample's contour is refined on the image
-    edges masked by its blob's dilated boundary.
+    window around the predicted contour with its histogram (``H(n) > 0``, on a grid of
+    about ``sample_cells`` cells across the target); the blob reconstructed from the
+    prediction within the snake's reach (after an opening and a closing, and split at
+    narrow necks when it grew too big) gets an affine snake fitted from the previous
+    contour, and the sample is weighted by ``exp(-rho^2 / 2 sigma^2)`` with ``rho = mu1 (1 -
+    Phi_affine) + mu2 (1 - Phi_area) + mu3 (1 - Phi_quality)``: snake on the blob's
+    boundary, area against the prediction, holes (Euler number). The best sample's
+    contour is refined on the image edges masked by its blob's dilated boundary and may
+    relax ``deform`` pixels off the affine fit. A tenth of the samples are drawn around the
+    colours measured inside the last contour and the first frame's. When lost, the window
+    widens every frame and samples look for a blob of the target's usual area.
 
     Start from a ``contour`` (an (N, 2) polygon) or a ``box`` (its inscribed ellipse).
     ``color_space`` is ``"rgb"`` or ``"opponent"`` (B-G, G-R, R+G+B); ``config`` may hold

@@ -34,21 +34,53 @@ impl GradientImage {
         if w < 3 || h < 3 {
             return;
         }
-        let g = |x: usize, y: usize| i16::from(self.grey[y * w + x]);
         for y in 1..h - 1 {
             for x in 1..w - 1 {
-                let gx = g(x + 1, y - 1) + 2 * g(x + 1, y) + g(x + 1, y + 1)
-                    - g(x - 1, y - 1)
-                    - 2 * g(x - 1, y)
-                    - g(x - 1, y + 1);
-                let gy = g(x - 1, y + 1) + 2 * g(x, y + 1) + g(x + 1, y + 1)
-                    - g(x - 1, y - 1)
-                    - 2 * g(x, y - 1)
-                    - g(x + 1, y - 1);
-                self.gx[y * w + x] = gx;
-                self.gy[y * w + x] = gy;
+                self.sobel_at(x, y);
             }
         }
+    }
+
+    /// Sizes the buffers for a `w x h` frame, keeping their contents when the size holds.
+    pub(crate) fn resize(&mut self, w: usize, h: usize) {
+        if (self.width, self.height) != (w, h) {
+            self.width = w;
+            self.height = h;
+            self.grey = vec![0; w * h];
+            self.gx = vec![0; w * h];
+            self.gy = vec![0; w * h];
+        }
+    }
+
+    /// The grey level `(R + 2G + B) / 4` of pixel `(x, y)` from its RGB `p`.
+    #[inline]
+    pub(crate) fn set_grey(&mut self, x: usize, y: usize, p: &[u8]) {
+        self.grey[y * self.width + x] =
+            ((u16::from(p[0]) + 2 * u16::from(p[1]) + u16::from(p[2])) / 4) as u8;
+    }
+
+    /// The Sobel derivatives at an interior pixel from the grey levels around it.
+    #[inline(always)]
+    pub(crate) fn sobel_at(&mut self, x: usize, y: usize) {
+        let w = self.width;
+        let g = |x: usize, y: usize| i16::from(self.grey[y * w + x]);
+        let gx = g(x + 1, y - 1) + 2 * g(x + 1, y) + g(x + 1, y + 1)
+            - g(x - 1, y - 1)
+            - 2 * g(x - 1, y)
+            - g(x - 1, y + 1);
+        let gy = g(x - 1, y + 1) + 2 * g(x, y + 1) + g(x + 1, y + 1)
+            - g(x - 1, y - 1)
+            - 2 * g(x, y - 1)
+            - g(x + 1, y - 1);
+        self.gx[y * w + x] = gx;
+        self.gy[y * w + x] = gy;
+    }
+
+    /// The derivatives `(gx, gy)` at a pixel.
+    #[cfg(test)]
+    pub(crate) fn at(&self, x: usize, y: usize) -> (i16, i16) {
+        let i = y * self.width + x;
+        (self.gx[i], self.gy[i])
     }
 
     /// Birchfield's gradient score: mean over perimeter points of `|n . g|` (`n` the

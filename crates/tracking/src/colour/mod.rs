@@ -6,6 +6,7 @@ mod ellipse;
 mod gradient;
 mod model;
 mod particle_tracker;
+mod pyramid;
 mod region;
 mod ring;
 mod space;

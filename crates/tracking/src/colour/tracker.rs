@@ -8,6 +8,7 @@ use rayon::prelude::*;
 use super::ellipse::Ellipse;
 use super::gradient::GradientImage;
 use super::model::{AppearanceParams, ColourModel};
+use super::pyramid::downsample;
 use super::region::RegionHistogram;
 use super::ring::{Background, RING_FACTOR};
 use super::space::BinImage;
@@ -66,6 +67,11 @@ pub struct ColorTrackerParams {
     /// Constant-velocity prediction: the search is centred on `centre + momentum *
     /// (last displacement)`, momentum in [0, 1]. Default 0.5.
     pub momentum: f64,
+    /// Search at half resolution first (a 2 x 2-averaged frame: a quarter of the
+    /// positions, each a quarter of the pixels), then refine the best position over the
+    /// 4 x 4 full-resolution centres it stands for, at its scale. Used while both
+    /// semi-axes are at least 8 pixels. Default `true`.
+    pub pyramid: bool,
     /// Search the three scales in parallel with rayon (default `true`); results are the
     /// same either way.
     pub parallel: bool,
@@ -86,6 +92,7 @@ impl Default for ColorTrackerParams {
             min_scale: 0.5,
             max_scale: 2.0,
             momentum: 0.5,
+            pyramid: true,
             parallel: true,
         }
     }
@@ -166,6 +173,77 @@ struct Window {
     x0: i32,
     y0: i32,
     side: usize,
+}
+
+impl Window {
+    /// The pixels that searches over this window and their rings read,
+    /// `[x0, y0, x1, y1)` (unclipped).
+    fn reach(&self, searches: &[ScaleSearch]) -> [i32; 4] {
+        let (mut ra, mut rb) = (0, 0);
+        for s in searches {
+            ra = ra.max(s.ring.a.ceil() as i32 + 2);
+            rb = rb.max(s.ring.b.ceil() as i32 + 2);
+        }
+        let end = self.side as i32;
+        [
+            self.x0 - ra,
+            self.y0 - rb,
+            self.x0 + end + ra,
+            self.y0 + end + rb,
+        ]
+    }
+
+    /// The centre (pixel) of window index `i`.
+    fn position(&self, i: usize) -> (i32, i32) {
+        (
+            self.x0 + (i % self.side) as i32,
+            self.y0 + (i / self.side) as i32,
+        )
+    }
+}
+
+/// Sets each search's scale (clamped to the allowed range) and rebuilds its ellipse, of
+/// semi-axes `base` times the scale, and its ring, at `resolution` (1 full, 0.5 the
+/// half-resolution level).
+fn prepare_scales(
+    searches: &mut [ScaleSearch],
+    scales: [f64; 3],
+    base: (f64, f64),
+    resolution: f64,
+    p: &ColorTrackerParams,
+) {
+    let upper_fraction = p.appearance.upper_fraction();
+    for (search, &s) in searches.iter_mut().zip(&scales) {
+        search.scale = s.clamp(p.min_scale, p.max_scale);
+        let (a, b) = (
+            base.0 * search.scale * resolution,
+            base.1 * search.scale * resolution,
+        );
+        search.ellipse.rebuild(a, b, upper_fraction);
+        search
+            .ring
+            .rebuild(a * RING_FACTOR, b * RING_FACTOR, upper_fraction);
+    }
+}
+
+/// Runs every search over `window`, in parallel when asked (same results either way).
+fn run_all(
+    searches: &mut [ScaleSearch],
+    image: &BinImage,
+    grad: Option<&GradientImage>,
+    model: &ColourModel,
+    window: Window,
+    parallel: bool,
+) {
+    if parallel {
+        searches
+            .par_iter_mut()
+            .for_each(|s| s.run(image, grad, model, window));
+    } else {
+        searches
+            .iter_mut()
+            .for_each(|s| s.run(image, grad, model, window));
+    }
 }
 
 impl ScaleSearch {
@@ -269,7 +347,17 @@ pub struct ColorHistogramTracker {
     image: BinImage,
     gradient: GradientImage,
     searches: Vec<ScaleSearch>,
+    coarse: Coarse,
     last: TrackResult,
+}
+
+/// The half-resolution level of the search (see [`ColorTrackerParams::pyramid`]).
+#[derive(Debug, Clone, Default)]
+struct Coarse {
+    frame: Vec<u8>,
+    image: BinImage,
+    gradient: GradientImage,
+    searches: Vec<ScaleSearch>,
 }
 
 /// Integer centre of the rasterised ellipse for a continuous centre: pixel `i` covers
@@ -352,6 +440,10 @@ impl ColorHistogramTracker {
             image,
             gradient: GradientImage::default(),
             searches: vec![ScaleSearch::default(); 3],
+            coarse: Coarse {
+                searches: vec![ScaleSearch::default(); 3],
+                ..Coarse::default()
+            },
             last: TrackResult {
                 bbox,
                 score: 1.0,
@@ -376,26 +468,167 @@ impl ColorHistogramTracker {
                 height: frame.height(),
             });
         }
-        let app = &self.params.appearance;
-        self.image
-            .compute(&frame, app.color_space, app.bins, self.params.parallel);
-        if self.image.bins.iter().all(|&b| b == self.image.bins[0]) {
-            // One colour everywhere (a black frame): nothing to find, nothing to move.
-            return Ok(self.mark_lost(0.0));
-        }
-        let use_gradient = app.gradient_weight > 0.0;
-        if use_gradient {
-            self.gradient.compute(&frame);
-        }
+        let use_gradient = self.params.appearance.gradient_weight > 0.0;
         let window = self.search_window();
-        self.search_scales(window, use_gradient);
-        let best = self.best_candidate(use_gradient, window);
+        let found = if self.use_pyramid(&frame) {
+            self.coarse_to_fine(&frame, window, use_gradient)
+        } else {
+            self.full_search(&frame, window, use_gradient)
+        };
+        // None: one colour everywhere (a black frame), nothing to find or move.
+        let Some((best, window)) = found else {
+            return Ok(self.mark_lost(0.0));
+        };
         let level = self.params.lost_ratio * self.confident_score;
         let app = &self.params.appearance;
         if best.score < app.lost_threshold.max(level) || best.contrast < self.params.lost_contrast {
             return Ok(self.mark_lost(best.score));
         }
         Ok(self.accept(best, window))
+    }
+
+    /// Whether this frame is searched coarse to fine: asked for, and both semi-axes at
+    /// least 8 pixels at the smallest scale tried.
+    fn use_pyramid(&self, frame: &RgbFrame<'_>) -> bool {
+        let smallest = self.base_a.min(self.base_b) * self.scale / (1.0 + self.params.scale_step);
+        self.params.pyramid && smallest >= 8.0 && frame.width() >= 4 && frame.height() >= 4
+    }
+
+    /// Every centre of `window` at three scales, on the full-resolution frame.
+    fn full_search(
+        &mut self,
+        frame: &RgbFrame<'_>,
+        window: Window,
+        use_gradient: bool,
+    ) -> Option<(Candidate, Window)> {
+        let app = &self.params.appearance;
+        self.image
+            .compute(frame, app.color_space, app.bins, self.params.parallel);
+        if self.image.bins.iter().all(|&b| b == self.image.bins[0]) {
+            return None;
+        }
+        if use_gradient {
+            self.gradient.compute(frame);
+        }
+        let (base, scales) = ((self.base_a, self.base_b), self.scales());
+        prepare_scales(&mut self.searches, scales, base, 1.0, &self.params);
+        let grad = use_gradient.then_some(&self.gradient);
+        run_all(
+            &mut self.searches,
+            &self.image,
+            grad,
+            &self.model,
+            window,
+            self.params.parallel,
+        );
+        let best = self.best_candidate(&self.searches, &self.image, use_gradient, window);
+        Some((best, window))
+    }
+
+    /// The window searched at half resolution, then the 4 x 4 full-resolution centres
+    /// under the best coarse centre searched at its scale.
+    fn coarse_to_fine(
+        &mut self,
+        frame: &RgbFrame<'_>,
+        window: Window,
+        use_gradient: bool,
+    ) -> Option<(Candidate, Window)> {
+        let (base, scales) = ((self.base_a, self.base_b), self.scales());
+        let (p, c) = (&self.params, &mut self.coarse);
+        let (hw, hh) = downsample(frame, &mut c.frame);
+        let half = RgbFrame::new(&c.frame, hw, hh).ok()?;
+        // Half-resolution pixel u stands for full-resolution pixels 2u and 2u + 1.
+        let (u0, v0) = (window.x0.div_euclid(2), window.y0.div_euclid(2));
+        let last = window.side as i32 - 1;
+        let side = ((window.x0 + last).div_euclid(2) - u0)
+            .max((window.y0 + last).div_euclid(2) - v0) as usize
+            + 1;
+        let coarse_window = Window {
+            x0: u0,
+            y0: v0,
+            side,
+        };
+        prepare_scales(&mut c.searches, scales, base, 0.5, p);
+        // Bins and gradients only where the searches and their rings read.
+        let rect = coarse_window.reach(&c.searches);
+        let app = &p.appearance;
+        c.image.compute_rect(&half, app.color_space, app.bins, rect);
+        if c.image.uniform_in(rect) {
+            return None;
+        }
+        if use_gradient {
+            c.gradient.compute_rect(&half, rect);
+        }
+        let grad = use_gradient.then_some(&c.gradient);
+        run_all(
+            &mut c.searches,
+            &c.image,
+            grad,
+            &self.model,
+            coarse_window,
+            p.parallel,
+        );
+        let top = self.best_candidate(
+            &self.coarse.searches,
+            &self.coarse.image,
+            use_gradient,
+            coarse_window,
+        );
+        let (u, v) = coarse_window.position(top.index);
+        let fine = Window {
+            x0: 2 * u - 1,
+            y0: 2 * v - 1,
+            side: 4,
+        };
+        Some((self.refine(frame, top.scale, fine, use_gradient), fine))
+    }
+
+    /// The best centre of `fine` at scale `si`, at full resolution: bins and gradients
+    /// are computed only where that search and the accepted target's model and ring
+    /// updates read them.
+    fn refine(
+        &mut self,
+        frame: &RgbFrame<'_>,
+        si: usize,
+        fine: Window,
+        use_gradient: bool,
+    ) -> Candidate {
+        let scale = self.coarse.searches[si].scale;
+        let base = (self.base_a, self.base_b);
+        prepare_scales(
+            &mut self.searches[si..=si],
+            [scale; 3],
+            base,
+            1.0,
+            &self.params,
+        );
+        let s = &self.searches[si];
+        let (ra, rb) = (s.ring.a.ceil() as i32 + 2, s.ring.b.ceil() as i32 + 2);
+        let end = fine.side as i32;
+        let rect = [
+            fine.x0 - ra,
+            fine.y0 - rb,
+            fine.x0 + end + ra,
+            fine.y0 + end + rb,
+        ];
+        let app = &self.params.appearance;
+        self.image
+            .compute_rect(frame, app.color_space, app.bins, rect);
+        if use_gradient {
+            self.gradient.compute_rect(frame, rect);
+        }
+        let grad = use_gradient.then_some(&self.gradient);
+        self.searches[si].run(&self.image, grad, &self.model, fine);
+        let mut cand =
+            self.best_candidate(&self.searches[si..=si], &self.image, use_gradient, fine);
+        cand.scale = si;
+        cand
+    }
+
+    /// The scales tried this frame: the current one and one step either side.
+    fn scales(&self) -> [f64; 3] {
+        let step = 1.0 + self.params.scale_step;
+        [self.scale, self.scale / step, self.scale * step]
     }
 
     /// Moves to the best candidate, updates the motion, scale and score averages and,
@@ -484,41 +717,21 @@ impl ColorHistogramTracker {
         }
     }
 
-    /// Scores every centre of `window` at the current scale and one step either side.
-    fn search_scales(&mut self, window: Window, use_gradient: bool) {
-        let step = 1.0 + self.params.scale_step;
-        let scales = [self.scale, self.scale / step, self.scale * step];
-        let upper_fraction = self.params.appearance.upper_fraction();
-        for (search, &s) in self.searches.iter_mut().zip(&scales) {
-            search.scale = s.clamp(self.params.min_scale, self.params.max_scale);
-            let (a, b) = (self.base_a * search.scale, self.base_b * search.scale);
-            search.ellipse.rebuild(a, b, upper_fraction);
-            search
-                .ring
-                .rebuild(a * RING_FACTOR, b * RING_FACTOR, upper_fraction);
-        }
-        let (image, model) = (&self.image, &self.model);
-        let grad = use_gradient.then_some(&self.gradient);
-        if self.params.parallel {
-            self.searches
-                .par_iter_mut()
-                .for_each(|s| s.run(image, grad, model, window));
-        } else {
-            self.searches
-                .iter_mut()
-                .for_each(|s| s.run(image, grad, model, window));
-        }
-    }
-
     /// The best position of each scale by colour (plus gradient: both normalised to
     /// [0, 1] over all candidates and added, Birchfield 1998), ties going to the
     /// position nearest the window's centre; then the three compete with the foreground
     /// contrast and the scale prior added.
-    fn best_candidate(&self, use_gradient: bool, window: Window) -> Candidate {
+    fn best_candidate(
+        &self,
+        searches: &[ScaleSearch],
+        image: &BinImage,
+        use_gradient: bool,
+        window: Window,
+    ) -> Candidate {
         let range = |f: &dyn Fn(&ScaleSearch) -> &[f32]| {
             let mut lo = f32::INFINITY;
             let mut hi = f32::NEG_INFINITY;
-            for s in &self.searches {
+            for s in searches {
                 for &v in f(s) {
                     lo = lo.min(v);
                     hi = hi.max(v);
@@ -539,18 +752,13 @@ impl ColorHistogramTracker {
         let wg = self.params.appearance.gradient_weight as f32;
         let mut best: Option<(f64, Candidate)> = None;
         // Scale 0 is the current one, so ties keep the size.
-        for (si, s) in self.searches.iter().enumerate() {
+        for (si, s) in searches.iter().enumerate() {
             let top = top_position(s, window, |c, g| {
                 (c - c_lo) * c_inv + wg * (g - g_lo) * g_inv
             });
             let index = top.1;
-            let (cx, cy) = (
-                window.x0 + (index % window.side) as i32,
-                window.y0 + (index / window.side) as i32,
-            );
-            let contrast = self
-                .background
-                .contrast(&self.image, &s.ellipse, &s.ring, cx, cy);
+            let (cx, cy) = window.position(index);
+            let contrast = self.background.contrast(image, &s.ellipse, &s.ring, cx, cy);
             let drift = (s.scale / self.confident_scale).ln();
             let total = f64::from(top.0) + self.params.ring_weight * contrast
                 - self.params.scale_prior * drift * drift;

@@ -3,7 +3,9 @@
 //! fitted to the segmentation its histogram produces, and the best sample's contour
 //! refined on the image edges.
 
+mod cloud;
 mod params;
+pub(crate) mod sample;
 pub(crate) mod segment;
 pub(crate) mod snake;
 mod state;

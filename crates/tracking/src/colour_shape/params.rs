@@ -33,8 +33,53 @@ pub struct ColorShapeParams {
     pub hole_penalty: f64,
     /// Points on the snake, >= 8. Default 48.
     pub contour_points: usize,
-    /// Edge search along each normal, pixels, >= 1. Default 12.
+    /// Edge search along each normal in the snake's first iteration, pixels, 1..=64:
+    /// also how far outside the predicted contour the target's blob may reach.
+    /// Default 12.
     pub search: usize,
+    /// The snake's narrowest search, pixels (each iteration halves the search down to
+    /// this), >= 1. Default 2.
+    pub min_search: usize,
+    /// A snake point lies on an edge (for `Phi_affine`) within this many pixels.
+    /// Default 1.5.
+    pub edge_tolerance: f64,
+    /// After the affine fit, each point of `r_t` may move this far along its normal
+    /// to the nearest edge (then the moves are smoothed): how much a non-rigid target's
+    /// outline may change shape per frame, pixels. 0 keeps `r_t` affine. Default 4 (set
+    /// on seeds 10-14 of the clutter and 10-12 of the other experiments: 2 left a bulge
+    /// into a distractor touching the first frames in the outline for good).
+    pub deform: usize,
+    /// Smoothing passes of those moves, (1, 2, 1) / 4 each. Default 2.
+    pub deform_passes: usize,
+    /// Ring of background, as a fraction of the target's box on each side, whose
+    /// colours are left out of the reference cloud when at least as frequent there as
+    /// inside the target; 0 keeps every colour. Default 0.5.
+    pub background_ring: f64,
+    /// Image velocity smoothing: the contour's predicted motion is this fraction of
+    /// the last displacement plus the rest of the previous prediction, in [0, 1].
+    /// Default 0.5.
+    pub velocity_gain: f64,
+    /// Fraction of the samples drawn each frame around the colour distribution measured
+    /// inside the last accepted contour (a mixture proposal, as in Isard & Blake's
+    /// ICONDENSATION), in [0, 0.99]: where the shape barely constrains the colour, it
+    /// keeps the set from drifting off the target's real colours. Default 0.1.
+    pub mix_fraction: f64,
+    /// A blob larger than this times the predicted area is split at its narrow necks
+    /// (see `split_radius`), >= 1. Default 1.25.
+    pub split_ratio: f64,
+    /// The split opens the blob by this fraction of the target's disc-equivalent
+    /// radius, cutting off parts thinner than twice that (a touching ring or bar of the
+    /// target's colour), then grows the part over the prediction back. Default 0.2.
+    pub split_radius: f64,
+    /// While lost, a blob is a candidate target when its area is within this ratio of
+    /// the last area (smaller over larger), in (0, 1]. Default 0.3.
+    pub reacquire_area_ratio: f64,
+    /// The snake's resistance to changing shape from one frame to the next: the affine
+    /// fit's linear part is drawn towards the prediction's with this weight, relative
+    /// to a whole contour's worth of edge points (a ridge penalty; the translation is
+    /// free). Keeps a touching same-coloured object from stretching the contour in one
+    /// frame. >= 0. Default 0.5.
+    pub stiffness: f64,
     /// Snake fit iterations, >= 1. Default 6.
     pub snake_iterations: usize,
     /// Radius of the opening and closing that clean `S(n)`, pixels. Default 1.
@@ -51,8 +96,13 @@ pub struct ColorShapeParams {
     pub edge_dilation: u8,
     /// Canny thresholds (low, high) for the image edges `grad I`. Default (20, 50).
     pub canny: [f32; 2],
-    /// Window margin around the previous contour, as a fraction of its size (plus the
-    /// edge search). Default 0.5.
+    /// The target's size on each sample's grid: a target whose disc-equivalent
+    /// diameter is `d` pixels is segmented on every `floor(d / sample_cells)`-th pixel
+    /// (at least every pixel). Bounds a sample's cost whatever the target's size; the
+    /// refined contour is fitted on every pixel. >= 4. Default 24.
+    pub sample_cells: f64,
+    /// Window margin around the predicted contour, as a fraction of its size (plus the
+    /// edge search). Default 0.1.
     pub roi_margin: f64,
     /// Most reference colours kept in the cloud that samples warp. Default 512.
     pub cloud_points: usize,
@@ -78,13 +128,25 @@ impl Default for ColorShapeParams {
             hole_penalty: 0.25,
             contour_points: 48,
             search: 12,
+            min_search: 2,
+            edge_tolerance: 1.5,
+            deform: 4,
+            deform_passes: 2,
+            background_ring: 0.5,
+            velocity_gain: 0.5,
+            reacquire_area_ratio: 0.3,
+            mix_fraction: 0.1,
+            split_ratio: 1.25,
+            split_radius: 0.2,
+            stiffness: 0.5,
             snake_iterations: 6,
             morphology_radius: 1,
             refine: true,
             refine_min_support: 0.5,
             edge_dilation: 2,
             canny: [20.0, 50.0],
-            roi_margin: 0.5,
+            sample_cells: 24.0,
+            roi_margin: 0.1,
             cloud_points: 512,
             lost_below: 0.05,
             seed: 0,
@@ -108,6 +170,21 @@ impl ColorShapeParams {
         at_least("n_samples", self.n_samples, 1)?;
         at_least("contour_points", self.contour_points, 8)?;
         at_least("search", self.search, 1)?;
+        at_least("min_search", self.min_search, 1)?;
+        if self.search > 64 {
+            return Err(TrackingError::InvalidParameter {
+                name: "search",
+                reason: format!("must be <= 64, got {}", self.search),
+            });
+        }
+        ensure_non_negative("edge_tolerance", self.edge_tolerance)?;
+        ensure_non_negative("stiffness", self.stiffness)?;
+        ensure_non_negative("background_ring", self.background_ring)?;
+        ensure_in_range("mix_fraction", self.mix_fraction, 0.0, 0.99)?;
+        ensure_in_range("split_ratio", self.split_ratio, 1.0, 1e9)?;
+        ensure_in_range("split_radius", self.split_radius, 0.0, 1.0)?;
+        ensure_in_range("velocity_gain", self.velocity_gain, 0.0, 1.0)?;
+        ensure_in_range("reacquire_area_ratio", self.reacquire_area_ratio, 1e-6, 1.0)?;
         at_least("snake_iterations", self.snake_iterations, 1)?;
         at_least("cloud_points", self.cloud_points, 1)?;
         ensure_positive("sigma", self.sigma)?;
@@ -123,6 +200,7 @@ impl ColorShapeParams {
         ensure_in_range("area_momentum", self.area_momentum, 0.0, 1.0)?;
         ensure_non_negative("hole_penalty", self.hole_penalty)?;
         ensure_non_negative("roi_margin", self.roi_margin)?;
+        ensure_in_range("sample_cells", self.sample_cells, 4.0, 1e6)?;
         ensure_in_range("lost_below", self.lost_below, 0.0, 1.0)?;
         ensure_in_range("refine_min_support", self.refine_min_support, 0.0, 1.0)?;
         let [lo, hi] = self.canny.map(f64::from);

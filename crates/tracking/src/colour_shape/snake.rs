@@ -42,7 +42,22 @@ impl Affine {
 /// Closed-form least-squares affine map taking `src[i]` to `dst[i]` over the indices with
 /// `use_point[i]`: centre both sets, then `A = (sum q p^T)(sum p p^T)^-1`,
 /// `t = q_mean - A p_mean`. `None` with fewer than 3 points or collinear ones.
+#[cfg(test)]
 pub fn fit_affine(src: &[[f64; 2]], dst: &[[f64; 2]], use_point: &[bool]) -> Option<Affine> {
+    fit_affine_stiff(src, dst, use_point, Matrix2::identity(), 0.0)
+}
+
+/// [`fit_affine`] with the snake's stiffness: the linear part is drawn towards `a0` by
+/// adding `kappa ||A - a0||^2` to the squared residuals, so
+/// `A = (sum q p^T + kappa a0)(sum p p^T + kappa I)^-1` (ridge regression); the
+/// translation stays free. `kappa = 0` is the plain fit.
+pub fn fit_affine_stiff(
+    src: &[[f64; 2]],
+    dst: &[[f64; 2]],
+    use_point: &[bool],
+    a0: Matrix2<f64>,
+    kappa: f64,
+) -> Option<Affine> {
     let pairs = || {
         src.iter()
             .zip(dst)
@@ -64,11 +79,11 @@ pub fn fit_affine(src: &[[f64; 2]], dst: &[[f64; 2]], use_point: &[bool]) -> Opt
         spp += p * p.transpose();
         sqp += q * p.transpose();
     }
-    // Collinear points leave the linear part undetermined.
-    if spp.determinant().abs() <= 1e-9 * spp.norm_squared().max(1e-300) {
+    // Collinear points leave the linear part undetermined without a prior.
+    if kappa <= 0.0 && spp.determinant().abs() <= 1e-9 * spp.norm_squared().max(1e-300) {
         return None;
     }
-    let a = sqp * spp.try_inverse()?;
+    let a = (sqp + a0 * kappa) * (spp + Matrix2::identity() * kappa).try_inverse()?;
     Some(Affine { a, t: qm - a * pm })
 }
 
@@ -93,12 +108,23 @@ pub fn normals(contour: &[[f64; 2]], out: &mut Vec<[f64; 2]>) {
 /// Settings of the affine snake.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SnakeParams {
-    /// How far along each normal to look for an edge, pixels.
+    /// How far along each normal to look for an edge in the first iteration, pixels.
+    /// Each later iteration halves it, down to `min_search`: the first pulls the
+    /// snake in, the later ones fit only the points whose edge is near the fitted
+    /// contour, so an edge that no affine map of `r_{t-1}` reaches (a touching
+    /// distractor's) stops pulling the fit.
     pub search: usize,
+    /// The narrowest search, pixels.
+    pub min_search: usize,
     /// Fit iterations.
     pub iterations: usize,
     /// A point "lies on" the edges when its last search found one within this distance.
     pub on_edge_tolerance: f64,
+    /// Resistance of the contour's shape to change, against the edges pulling it: the
+    /// linear part of the affine map is drawn towards the initial one with a weight of
+    /// `stiffness` times a whole contour's worth of data (see [`fit_affine_stiff`]). 0
+    /// is the plain least-squares fit.
+    pub stiffness: f64,
 }
 
 /// Buffers of one snake fit, reused across samples.
@@ -134,21 +160,37 @@ pub fn fit_snake(
 ) -> SnakeFit {
     let mut affine = init;
     affine.apply_all(reference, &mut scratch.current);
+    let mut reach = params.search;
+    let kappa = params.stiffness * spread(reference);
     for _ in 0..params.iterations.max(1) {
-        search_edges(params.search, &is_edge, scratch);
-        match fit_affine(reference, &scratch.targets, &scratch.found) {
+        search_edges(reach, &is_edge, scratch);
+        match fit_affine_stiff(reference, &scratch.targets, &scratch.found, init.a, kappa) {
             Some(next) => affine = next,
             None => break,
         }
         affine.apply_all(reference, &mut scratch.current);
+        reach = (reach / 2).max(params.min_search);
     }
-    search_edges(params.search, &is_edge, scratch);
+    search_edges(reach, &is_edge, scratch);
     let tol = params.on_edge_tolerance;
     let hits = scratch.distance.iter().filter(|d| **d <= tol).count();
     SnakeFit {
         affine,
         on_edge: hits as f64 / reference.len().max(1) as f64,
     }
+}
+
+/// `sum |p - p_mean|^2 / 2` over a contour: the scale of `sum p p^T` per axis.
+fn spread(contour: &[[f64; 2]]) -> f64 {
+    let n = contour.len().max(1) as f64;
+    let [mx, my] = contour
+        .iter()
+        .fold([0.0, 0.0], |a, p| [a[0] + p[0] / n, a[1] + p[1] / n]);
+    contour
+        .iter()
+        .map(|p| (p[0] - mx).powi(2) + (p[1] - my).powi(2))
+        .sum::<f64>()
+        / 2.0
 }
 
 /// For each point of the current contour, the nearest edge pixel along its normal
@@ -165,7 +207,7 @@ fn search_edges(search: usize, is_edge: &impl Fn(i64, i64) -> bool, s: &mut Snak
             for sign in [1i64, -1] {
                 let d = (sign * k) as f64 * 0.5;
                 let q = [c[0] + d * n[0], c[1] + d * n[1]];
-                if is_edge(q[0].round() as i64, q[1].round() as i64) {
+                if is_edge(nearest(q[0]), nearest(q[1])) {
                     hit = Some((q, d.abs()));
                     break 'search;
                 }
@@ -180,11 +222,94 @@ fn search_edges(search: usize, is_edge: &impl Fn(i64, i64) -> bool, s: &mut Snak
     }
 }
 
+/// The nearest integer, without a libm call: `round` was a tenth of the snake's cost.
+/// Exact for |v| < 2^20, far beyond any frame; halves round up.
+#[inline]
+fn nearest(v: f64) -> i64 {
+    const OFFSET: f64 = 1_048_576.0;
+    (v + OFFSET + 0.5) as i64 - OFFSET as i64
+}
+
 impl SnakeScratch {
     /// The contour of the last fit.
     pub fn contour(&self) -> &[[f64; 2]] {
         &self.current
     }
+}
+
+/// Kass et al.'s snake let go of the affine constraint for one small step, so that a
+/// non-rigid target's outline can change shape over time: each point of `contour`
+/// moves along its normal to the nearest edge within `reach` pixels, then the
+/// displacements are smoothed along the contour `passes` times with the kernel
+/// (1, 2, 1) / 4 (the snake's elasticity). Points with no edge in reach move only by
+/// the smoothing. The result is resampled evenly by arc length.
+pub fn relax(
+    contour: &[[f64; 2]],
+    reach: usize,
+    passes: usize,
+    is_edge: impl Fn(i64, i64) -> bool,
+    scratch: &mut SnakeScratch,
+) -> Contour {
+    scratch.current.clear();
+    scratch.current.extend_from_slice(contour);
+    search_edges(reach, &is_edge, scratch);
+    let n = contour.len();
+    let mut d: Vec<[f64; 2]> = (0..n)
+        .map(|i| {
+            if scratch.found[i] {
+                let (t, c) = (scratch.targets[i], contour[i]);
+                [t[0] - c[0], t[1] - c[1]]
+            } else {
+                [0.0, 0.0]
+            }
+        })
+        .collect();
+    let mut next = d.clone();
+    for _ in 0..passes {
+        for i in 0..n {
+            let (a, b, c) = (d[(i + n - 1) % n], d[i], d[(i + 1) % n]);
+            next[i] = [
+                (a[0] + 2.0 * b[0] + c[0]) / 4.0,
+                (a[1] + 2.0 * b[1] + c[1]) / 4.0,
+            ];
+        }
+        std::mem::swap(&mut d, &mut next);
+    }
+    let moved: Contour = contour
+        .iter()
+        .zip(&d)
+        .map(|(p, v)| [p[0] + v[0], p[1] + v[1]])
+        .collect();
+    resample_closed(&moved, n)
+}
+
+/// `n` points spaced evenly by arc length along a closed polygon.
+pub fn resample_closed(poly: &[[f64; 2]], n: usize) -> Contour {
+    let m = poly.len();
+    let seg = |i: usize| {
+        let (a, b) = (poly[i], poly[(i + 1) % m]);
+        (b[0] - a[0]).hypot(b[1] - a[1])
+    };
+    let total: f64 = (0..m).map(seg).sum();
+    if total <= 0.0 {
+        return vec![poly[0]; n];
+    }
+    let (mut out, mut i, mut start) = (Vec::with_capacity(n), 0, 0.0);
+    for k in 0..n {
+        let s = total * k as f64 / n as f64;
+        while start + seg(i) < s && i + 1 < m {
+            start += seg(i);
+            i += 1;
+        }
+        let (a, b) = (poly[i], poly[(i + 1) % m]);
+        let f = if seg(i) > 0.0 {
+            (s - start) / seg(i)
+        } else {
+            0.0
+        };
+        out.push([a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])]);
+    }
+    out
 }
 
 /// Area enclosed by a closed polygon (shoelace formula), always >= 0.
@@ -307,14 +432,18 @@ mod tests {
         let mut mask = image::GrayImage::new(100, 80);
         fill_polygon(&target, 0.0, 0.0, &mut mask);
         let mut edges = image::GrayImage::new(1, 1);
-        crate::colour_shape::segment::boundary(&mask, &mut edges);
+        let sides = crate::colour_shape::segment::FrameSides { sides: [true; 4] };
+        let all = [0, 0, 100, 80];
+        crate::colour_shape::segment::boundary(&mask, &mask, sides, all, &mut edges);
         let is_edge = |x: i64, y: i64| {
             x >= 0 && y >= 0 && x < 100 && y < 80 && edges.get_pixel(x as u32, y as u32)[0] != 0
         };
         let params = SnakeParams {
             search: 8,
+            min_search: 8,
             iterations: 15,
             on_edge_tolerance: 1.0,
+            stiffness: 0.0,
         };
         let mut scratch = SnakeScratch::default();
         // Started as the tracker starts it: r_{t-1} translated onto the blob's centroid.

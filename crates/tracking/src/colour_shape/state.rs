@@ -183,6 +183,22 @@ impl ColourDistribution {
         s.fixed_rows_mut::<3>(3).copy_from(&self.spread);
         s
     }
+
+    /// This distribution as a state relative to `reference` (no velocity): its centroid
+    /// and spreads, and the angles `theta, phi` that turn the reference's first principal
+    /// axis onto this one's (see [`principal_rotation`]). The axis' sign is arbitrary,
+    /// so the one nearer the reference's is taken.
+    pub fn state_relative_to(&self, reference: &ColourDistribution) -> State {
+        let mut s = self.to_state();
+        let mut v = reference.axes.transpose() * self.axes.column(0);
+        if v[0] < 0.0 {
+            v = -v;
+        }
+        // Rot(theta, phi) e1 = (cos theta cos phi, sin theta cos phi, sin phi).
+        s[6] = v[1].atan2(v[0]);
+        s[7] = v[2].clamp(-1.0, 1.0).asin();
+        s
+    }
 }
 
 /// Rotation of the principal frame by the state's angles: `theta` turns the first axis
@@ -317,6 +333,27 @@ mod tests {
         // The first axis turned by theta within the plane of the first two.
         let cos = m.axes.column(0).dot(&d.axes.column(0)).abs();
         assert!((cos - 0.3f64.cos()).abs() < 1e-9, "{cos}");
+    }
+
+    #[test]
+    fn measured_state_recovers_the_warp_that_made_the_cloud() {
+        // Oracle: the state that warped the reference cloud; PCA of the warped cloud
+        // must give it back.
+        let cloud = lcg_cloud(400);
+        let d = ColourDistribution::from_points(&cloud, 1e-9).unwrap();
+        let mut s = d.to_state();
+        s[0] += 0.05;
+        s[3] *= 1.3;
+        s[6] = 0.25;
+        s[7] = -0.15;
+        let w = ColourWarp::new(&d, &s, 1e-9);
+        let moved: Vec<[f64; 3]> = cloud.iter().map(|p| w.apply(p).into()).collect();
+        let got = ColourDistribution::from_points(&moved, 1e-9)
+            .unwrap()
+            .state_relative_to(&d);
+        for i in [0, 1, 2, 3, 6, 7] {
+            assert!((got[i] - s[i]).abs() < 1e-6, "{i}: {} vs {}", got[i], s[i]);
+        }
     }
 
     #[test]

@@ -5,16 +5,16 @@ use image::GrayImage;
 use imageproc::distance_transform::Norm;
 use imageproc::morphology::dilate_mut;
 
+use super::cloud::measured_state;
 use super::params::ColorShapeParams;
-use super::segment::{Roi, bin_window, boundary, clean, euler_number, keep_target_blob, segment};
+use super::sample::{BlobSearch, FrameContext, SampleScratch, SampleTerms, on};
+use super::segment::{FrameSides, Grid, LineMasks, Roi, bin_window, resize};
 use super::snake::{
-    Affine, Contour, SnakeFit, SnakeParams, SnakeScratch, ellipse_contour, fill_polygon, fit_snake,
-    polygon_area,
+    Contour, SnakeParams, SnakeScratch, ellipse_contour, fill_polygon, fit_snake, polygon_area,
+    relax, resample_closed,
 };
-use super::state::{
-    ColourDistribution, ColourWarp, N_PARAMS, STATE_DIM, State, colour_coords, fill_lut,
-};
-use crate::condensation::{Likelihood, ParticleFilter};
+use super::state::{ColourDistribution, N_PARAMS, STATE_DIM, State};
+use crate::condensation::{Guess, ParticleFilter};
 use crate::error::{Result, TrackingError};
 use crate::frame::{BoundingBox, RgbFrame};
 
@@ -36,156 +36,20 @@ pub struct ColorShapeResult {
     pub ess: f64,
 }
 
-/// The three measures of seed 000 section 3.3, each in [0, 1] (1 is best).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SampleTerms {
-    /// Fraction of the fitted affine snake lying on `grad S(n)`.
-    pub affine: f64,
-    /// `1 - |A~ - A| / max(A~, A)`.
-    pub area: f64,
-    /// `clamp(1 - k (1 - E), 0, 1)`, `E` the blob's Euler number.
-    pub quality: f64,
-    /// The snake fit.
-    pub fit: SnakeFit,
-}
-
-impl SampleTerms {
-    /// `rho = mu1 (1 - Phi_affine) + mu2 (1 - Phi_area) + mu3 (1 - Phi_quality)`.
-    pub fn rho(&self, mu: [f64; 3]) -> f64 {
-        mu[0] * (1.0 - self.affine) + mu[1] * (1.0 - self.area) + mu[2] * (1.0 - self.quality)
-    }
-}
-
-/// Buffers of one sample's evaluation, reused across samples and frames.
-#[derive(Debug, Clone, Default)]
-pub struct SampleScratch {
-    lut: Vec<u8>,
-    seg: GrayImage,
-    edges: GrayImage,
-    overlap: Vec<u32>,
-    snake: SnakeScratch,
-}
-
-/// What every sample of one frame shares.
-struct FrameContext<'a> {
-    params: &'a ColorShapeParams,
-    reference: &'a ColourDistribution,
-    cloud: &'a [[f64; 3]],
-    bins: &'a [u16],
-    roi: Roi,
-    prior: &'a GrayImage,
-    previous: &'a [[f64; 2]],
-    previous_centroid: [f64; 2],
-    predicted_area: f64,
-    snake: SnakeParams,
-}
-
-impl FrameContext<'_> {
-    /// `H(n)`, `S(n)`, the blob, `grad S(n)`, the affine snake and the three terms;
-    /// `None` when the segmentation holds no blob over the predicted target.
-    fn evaluate(&self, state: &State, s: &mut SampleScratch) -> Option<SampleTerms> {
-        let p = self.params;
-        let warp = ColourWarp::new(self.reference, state, p.min_spread());
-        fill_lut(&warp, self.cloud, p.bins, &mut s.lut);
-        segment(self.bins, &s.lut, self.roi, &mut s.seg);
-        clean(&mut s.seg, p.morphology_radius);
-        if keep_target_blob(&mut s.seg, self.prior, &mut s.overlap) == 0 {
-            return None;
-        }
-        let holes = (1 - euler_number(&s.seg)).max(0) as f64;
-        let quality = (1.0 - p.hole_penalty * holes).clamp(0.0, 1.0);
-        boundary(&s.seg, &mut s.edges);
-        let [bx, by] = mask_centroid(&s.seg);
-        let init = Affine::translation(
-            bx + self.roi.x0 as f64 - self.previous_centroid[0],
-            by + self.roi.y0 as f64 - self.previous_centroid[1],
-        );
-        let fit = fit_snake(
-            self.previous,
-            init,
-            &self.snake,
-            |x, y| on(&s.edges, self.roi, x, y),
-            &mut s.snake,
-        );
-        let a = polygon_area(s.snake.contour());
-        let area = 1.0 - (self.predicted_area - a).abs() / self.predicted_area.max(a).max(1e-9);
-        Some(SampleTerms {
-            affine: fit.on_edge,
-            area,
-            quality,
-            fit,
-        })
-    }
-}
-
-impl Likelihood<STATE_DIM> for FrameContext<'_> {
-    type Scratch = SampleScratch;
-
-    fn new_scratch(&self) -> SampleScratch {
-        SampleScratch::default()
-    }
-
-    fn log_likelihood(&self, state: &State, scratch: &mut SampleScratch) -> f64 {
-        match self.evaluate(state, scratch) {
-            Some(t) => -t.rho(self.params.mu).powi(2) / (2.0 * self.params.sigma.powi(2)),
-            None => f64::NEG_INFINITY,
-        }
-    }
-}
-
-/// Whether the window mask is set at frame pixel `(x, y)`.
-#[inline]
-fn on(mask: &GrayImage, roi: Roi, x: i64, y: i64) -> bool {
-    let (u, v) = (x - roi.x0 as i64, y - roi.y0 as i64);
-    u >= 0
-        && v >= 0
-        && (u as usize) < roi.width
-        && (v as usize) < roi.height
-        && mask.as_raw()[v as usize * roi.width + u as usize] != 0
-}
-
-/// Centroid of the non-zero pixels of a mask (window coordinates).
-fn mask_centroid(mask: &GrayImage) -> [f64; 2] {
-    let (mut sx, mut sy, mut n) = (0.0f64, 0.0f64, 0.0f64);
-    for (x, y, p) in mask.enumerate_pixels() {
-        if p[0] != 0 {
-            sx += f64::from(x);
-            sy += f64::from(y);
-            n += 1.0;
-        }
-    }
-    [sx / n.max(1.0), sy / n.max(1.0)]
-}
-
-/// Mean of a contour's points.
-fn contour_centroid(c: &[[f64; 2]]) -> [f64; 2] {
-    let n = c.len().max(1) as f64;
-    let (sx, sy) = c.iter().fold((0.0, 0.0), |(a, b), p| (a + p[0], b + p[1]));
-    [sx / n, sy / n]
-}
-
-/// Bounding box of a contour.
-fn contour_box(c: &[[f64; 2]]) -> BoundingBox {
-    let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
-    for p in c {
-        x0 = x0.min(p[0]);
-        y0 = y0.min(p[1]);
-        x1 = x1.max(p[0]);
-        y1 = y1.max(p[1]);
-    }
-    BoundingBox::new(x0, y0, (x1 - x0).max(0.0), (y1 - y0).max(0.0))
-}
-
 /// Colour+shape tracker (seed 000 section 3.3, after Isard & Blake's CONDENSATION and
 /// Kass et al.'s snakes): the filter tracks the target's colour distribution; each sample
-/// segments the frame with its histogram, an affine snake is fitted to the segmented
-/// blob, and the sample is weighted by how well the snake sits on the blob's boundary,
-/// how its area matches the prediction and how few holes the blob has. The best sample's
-/// blob then masks the image edges to which the final contour is fitted.
+/// segments a window around the predicted contour with its histogram (an integer lookup
+/// table on a grid of about `sample_cells` cells across the target), cleans it with an
+/// opening and a closing, and keeps the blob reconstructed from the prediction within the
+/// snake's reach (split at narrow necks when it has grown too big). An affine snake
+/// started from `r_{t-1}` is fitted to the blob's boundary, and the sample is weighted by
+/// how well the snake sits on that boundary, how its area matches the prediction and
+/// how few holes the blob has. The best sample's blob then masks the image edges to which
+/// the final contour is fitted, and the contour may relax a few pixels off the affine fit.
 ///
-/// The search is confined to a window around the previous contour (its box grown by
-/// `roi_margin` plus the edge search), so the cost per sample is set by the target's
-/// size, not the frame's.
+/// While lost (a low score, or a contour whose area is far from the usual one) the
+/// contour stays, the window widens each frame and each sample takes the blob of the
+/// usual area anywhere in it.
 ///
 /// # Examples
 /// A red square moving right on a grey background:
@@ -221,9 +85,21 @@ pub struct ColorShapeTracker {
     cloud: Vec<[f64; 3]>,
     filter: ParticleFilter<STATE_DIM>,
     contour: Contour,
+    /// Image velocity of the contour's centroid, pixels per frame.
+    velocity: [f64; 2],
     areas: [f64; 2],
+    /// The target's usual area: an average of the accepted contours' areas over about
+    /// the last `1 / USUAL_AREA_RATE` frames.
+    usual_area: f64,
+    lost_frames: usize,
+    /// The colour distribution inside the last accepted contour: a fraction of the
+    /// next frame's samples is drawn around it.
+    measured: State,
     bins: Vec<u16>,
+    morphology: LineMasks,
     prior: GrayImage,
+    region: GrayImage,
+    dilated: GrayImage,
     scratch: Vec<SampleScratch>,
     refine: SnakeScratch,
     last: ColorShapeResult,
@@ -231,8 +107,9 @@ pub struct ColorShapeTracker {
 
 impl ColorShapeTracker {
     /// Starts tracking the region inside `contour` (a closed polygon in frame pixel
-    /// coordinates, at least 3 points): its pixels' colours are the reference
-    /// distribution, and the contour, resampled to `contour_points`, is `r_0`.
+    /// coordinates, at least 3 points): the colours of its pixels that are more
+    /// frequent inside than in the ring around it are the reference distribution, and
+    /// the contour, resampled to `contour_points`, is `r_0`.
     ///
     /// # Errors
     /// Invalid parameters, a contour with fewer than 3 points, non-finite points, or
@@ -245,7 +122,7 @@ impl ColorShapeTracker {
         params.validate()?;
         check_contour(contour)?;
         let r0 = resample_closed(contour, params.contour_points);
-        let cloud = colours_inside(&frame, &r0, &params)?;
+        let cloud = super::cloud::target_colours(&frame, &r0, &params)?;
         let reference = ColourDistribution::from_points(&cloud, params.min_spread())?;
         let dynamics = params.dynamics.linear_gaussian();
         // The initial spread: a few frames of process noise around the reference.
@@ -259,6 +136,7 @@ impl ColorShapeTracker {
             params.seed,
         )?;
         let area = polygon_area(&r0);
+        let measured = reference.to_state();
         let last = ColorShapeResult {
             bbox: contour_box(&r0),
             contour: r0.clone(),
@@ -274,9 +152,16 @@ impl ColorShapeTracker {
             cloud,
             filter,
             contour: r0,
+            velocity: [0.0; 2],
             areas: [area, area],
+            usual_area: area,
+            lost_frames: 0,
+            measured,
             bins: Vec::new(),
+            morphology: LineMasks::new(params.morphology_radius),
             prior: GrayImage::new(1, 1),
+            region: GrayImage::new(1, 1),
+            dilated: GrayImage::new(1, 1),
             scratch: Vec::new(),
             refine: SnakeScratch::default(),
             last,
@@ -304,11 +189,147 @@ impl ColorShapeTracker {
 
 impl ColorShapeTracker {
     /// One iteration: resample, propagate and weight the colour distributions, then
-    /// refine the best sample's contour on the image edges.
+    /// refine the best sample's contour on the image edges. While the target is lost
+    /// the window widens each frame and each sample looks for the blob whose area
+    /// matches the target's anywhere in it.
     ///
     /// # Errors
     /// [`TrackingError::FrameSizeChanged`] when the frame's size differs from the first.
     pub fn update(&mut self, frame: RgbFrame<'_>) -> Result<ColorShapeResult> {
+        self.check_size(&frame)?;
+        let (predicted, roi, grid) = self.prepare(&frame);
+        let p = &self.params;
+        let ctx = FrameContext {
+            params: p,
+            reference: &self.reference,
+            cloud: &self.cloud,
+            bins: &self.bins,
+            roi,
+            grid,
+            sides: FrameSides::of(roi, self.width, self.height),
+            prior: &self.prior,
+            region: &self.region,
+            predicted: &predicted,
+            predicted_centroid: contour_centroid(&predicted),
+            predicted_area: self.predicted_area(),
+            snake: snake_params(p),
+            morphology: &self.morphology,
+            search: if self.lost_frames > 0 {
+                BlobSearch::Reacquire
+            } else {
+                BlobSearch::Track
+            },
+        };
+        let guesses = self.guesses();
+        let report = self.filter.step_mixtures(&ctx, &mut self.scratch, &guesses);
+        let terms = if report.lost {
+            None
+        } else {
+            ctx.evaluate(&self.filter.max_weight().0, &mut self.scratch[0])
+        };
+        let score = terms.map_or(0.0, |t| t.log_weight(p.mu, p.sigma).exp());
+        let refined = match terms {
+            Some(t) if score >= p.lost_below => Some(refine(
+                &frame,
+                &ctx,
+                t,
+                &mut self.scratch[0],
+                &mut self.dilated,
+                &mut self.refine,
+            )),
+            _ => None,
+        };
+        Ok(self.conclude(&frame, refined, score, report.ess))
+    }
+
+    /// The contour predicted by the image velocity, the window around it and its
+    /// sampling grid; bins the window and fills the prediction's masks.
+    fn prepare(&mut self, frame: &RgbFrame<'_>) -> (Contour, Roi, Grid) {
+        let v = self.velocity;
+        let predicted: Contour = self
+            .contour
+            .iter()
+            .map(|q| [q[0] + v[0], q[1] + v[1]])
+            .collect();
+        let roi = self.window(&predicted);
+        let grid = Grid::over(roi, self.stride());
+        let p = &self.params;
+        bin_window(frame, grid, p.color_space, p.bins, &mut self.bins);
+        prior_masks(
+            &predicted,
+            grid,
+            p.search,
+            &mut self.prior,
+            &mut self.region,
+        );
+        (predicted, roi, grid)
+    }
+
+    /// The area the snake is compared with: the seed's `A_{t-1} + mu (A_{t-1} -
+    /// A_{t-2})` while tracking, the usual area while re-acquiring.
+    fn predicted_area(&self) -> f64 {
+        let [a1, a2] = self.areas;
+        if self.lost_frames > 0 {
+            self.usual_area
+        } else {
+            (a1 + self.params.area_momentum * (a1 - a2)).max(1.0)
+        }
+    }
+
+    /// The mixture's guesses: half of the mixed samples around the colours measured
+    /// last, half around the first frame's (the anchor keeps a contour that slowly loses
+    /// part of the target from narrowing the colours with it); while lost, all around
+    /// the first frame's.
+    fn guesses(&self) -> [Guess<STATE_DIM>; 2] {
+        let p = &self.params;
+        let n_mixed = (p.mix_fraction * p.n_samples as f64).round() as usize;
+        let sigma = p.dynamics.noise_std();
+        let anchored = if self.lost_frames > 0 {
+            n_mixed
+        } else {
+            n_mixed / 2
+        };
+        [
+            (self.reference.to_state(), sigma, anchored),
+            (self.measured, sigma, n_mixed - anchored),
+        ]
+    }
+
+    /// Accepts `refined` as `r_t` unless its area is far from the target's usual one
+    /// (a contour that each frame shrinks a little onto part of the target would
+    /// otherwise collapse), updates the measured colours, and answers.
+    fn conclude(
+        &mut self,
+        frame: &RgbFrame<'_>,
+        refined: Option<Contour>,
+        score: f64,
+        ess: f64,
+    ) -> ColorShapeResult {
+        let p = &self.params;
+        let refined = refined
+            .filter(|r| area_ratio(polygon_area(r), self.usual_area) >= p.reacquire_area_ratio);
+        let lost = refined.is_none();
+        match refined {
+            Some(r) => {
+                if let Some(m) = measured_state(frame, &r, &self.reference, p) {
+                    self.measured = m;
+                }
+                self.accept(r);
+            }
+            None => self.lost_frames += 1,
+        }
+        self.last = ColorShapeResult {
+            bbox: contour_box(&self.contour),
+            contour: self.contour.clone(),
+            distribution: distribution_of(&self.filter.mean()),
+            score,
+            lost,
+            ess,
+        };
+        self.last.clone()
+    }
+
+    fn check_size(&self, frame: &RgbFrame<'_>) -> Result<()> {
         if (frame.width(), frame.height()) != (self.width, self.height) {
             return Err(TrackingError::FrameSizeChanged {
                 expected_width: self.width,
@@ -317,79 +338,38 @@ impl ColorShapeTracker {
                 height: frame.height(),
             });
         }
-        let roi = self.window();
-        bin_window(
-            &frame,
-            roi,
-            self.params.color_space,
-            self.params.bins,
-            &mut self.bins,
-        );
-        if self.prior.dimensions() != (roi.width as u32, roi.height as u32) {
-            self.prior = GrayImage::new(roi.width as u32, roi.height as u32);
-        }
-        fill_polygon(&self.contour, roi.x0 as f64, roi.y0 as f64, &mut self.prior);
-        let [a1, a2] = self.areas;
-        let ctx = FrameContext {
-            params: &self.params,
-            reference: &self.reference,
-            cloud: &self.cloud,
-            bins: &self.bins,
-            roi,
-            prior: &self.prior,
-            previous: &self.contour,
-            previous_centroid: contour_centroid(&self.contour),
-            predicted_area: (a1 + self.params.area_momentum * (a1 - a2)).max(1.0),
-            snake: SnakeParams {
-                search: self.params.search,
-                iterations: self.params.snake_iterations,
-                on_edge_tolerance: 1.0,
-            },
-        };
-        let report = self.filter.step_with_scratch(&ctx, &mut self.scratch);
-        let best = self.filter.max_weight().0;
-        let terms = if report.lost {
-            None
-        } else {
-            ctx.evaluate(&best, &mut self.scratch[0])
-        };
-        let score = terms.map_or(0.0, |t| {
-            (-t.rho(self.params.mu).powi(2) / (2.0 * self.params.sigma.powi(2))).exp()
-        });
-        let lost = terms.is_none() || score < self.params.lost_below;
-        if let (Some(t), false) = (terms, lost) {
-            let refined = if !self.params.refine {
-                self.scratch[0].snake.contour().to_vec()
-            } else {
-                refine(
-                    &frame,
-                    roi,
-                    &ctx,
-                    t.fit.affine,
-                    &mut self.scratch[0],
-                    &mut self.refine,
-                )
-            };
-            self.areas = [polygon_area(&refined), a1];
-            self.contour = refined;
-        }
-        self.last = ColorShapeResult {
-            bbox: contour_box(&self.contour),
-            contour: self.contour.clone(),
-            distribution: distribution_of(&self.filter.mean()),
-            score,
-            lost,
-            ess: report.ess,
-        };
-        Ok(self.last.clone())
+        Ok(())
     }
 
-    /// The window searched this frame: the previous contour's box grown by `roi_margin`
-    /// of its size plus the edge search, clipped to the frame.
-    fn window(&self) -> Roi {
-        let b = contour_box(&self.contour);
-        let mx = self.params.roi_margin * b.w + self.params.search as f64;
-        let my = self.params.roi_margin * b.h + self.params.search as f64;
+    /// Takes `refined` as `r_t`: the image velocity follows its centroid (restarted after
+    /// a re-acquisition), the area history its area.
+    fn accept(&mut self, refined: Contour) {
+        let (c0, c1) = (contour_centroid(&self.contour), contour_centroid(&refined));
+        let area = polygon_area(&refined);
+        if self.lost_frames > 0 {
+            self.velocity = [0.0; 2];
+            self.areas = [area, area];
+        } else {
+            let g = self.params.velocity_gain;
+            for k in 0..2 {
+                self.velocity[k] = (1.0 - g) * self.velocity[k] + g * (c1[k] - c0[k]);
+            }
+            self.areas = [area, self.areas[0]];
+        }
+        self.usual_area += USUAL_AREA_RATE * (area - self.usual_area);
+        self.contour = refined;
+        self.lost_frames = 0;
+    }
+
+    /// The window searched this frame: the predicted contour's box grown by
+    /// `roi_margin` of its size plus the edge search, and while lost by a further
+    /// `(2^k - 1) / 2` of its size after `k` lost frames, clipped to the frame.
+    fn window(&self, predicted: &[[f64; 2]]) -> Roi {
+        let b = contour_box(predicted);
+        let lost = self.lost_frames.min(12) as i32;
+        let grow = self.params.roi_margin + 0.5 * (2f64.powi(lost) - 1.0);
+        let mx = grow * b.w + self.params.search as f64;
+        let my = grow * b.h + self.params.search as f64;
         Roi::clipped(
             b.x - mx,
             b.y - my,
@@ -398,6 +378,13 @@ impl ColorShapeTracker {
             self.width,
             self.height,
         )
+    }
+
+    /// Pixels between the cells of the samples' grid: the target's diameter (of a
+    /// disc of its usual area) over `sample_cells`, at least 1.
+    fn stride(&self) -> usize {
+        let diameter = 2.0 * (self.usual_area / std::f64::consts::PI).sqrt();
+        ((diameter / self.params.sample_cells).floor() as usize).clamp(1, 16)
     }
 
     /// The last result.
@@ -416,22 +403,49 @@ impl ColorShapeTracker {
     }
 }
 
+/// The predicted contour filled (`prior`) and dilated by the snake's reach (`region`),
+/// both as grid masks; buffers are reused.
+fn prior_masks(
+    predicted: &[[f64; 2]],
+    grid: Grid,
+    reach: usize,
+    prior: &mut GrayImage,
+    region: &mut GrayImage,
+) {
+    resize(prior, grid);
+    let on_grid: Contour = predicted.iter().map(|&p| grid.to_grid(p)).collect();
+    fill_polygon(&on_grid, 0.0, 0.0, prior);
+    region.clone_from(prior);
+    let cells = reach.div_ceil(grid.stride).min(255) as u8;
+    dilate_mut(region, Norm::LInf, cells);
+}
+
 /// Contour refinement: the snake, started from the best sample's fit, is fitted to the
 /// image edges `grad I` (Canny) masked by the dilated boundary of the best sample's blob,
 /// `grad I . dil(grad S)`: the object's true edges, without the clutter. Falls back to the
 /// sample's own fit when fewer than `refine_min_support` of the snake's points end on
-/// those edges.
+/// those edges. The affine result is then relaxed onto the same edges (see [`relax`]).
 fn refine(
     frame: &RgbFrame<'_>,
-    roi: Roi,
     ctx: &FrameContext<'_>,
-    start: Affine,
+    terms: SampleTerms,
     best: &mut SampleScratch,
+    dilated: &mut GrayImage,
     snake: &mut SnakeScratch,
 ) -> Contour {
-    let p = ctx.params;
-    let sample_contour = best.snake.contour().to_vec();
-    dilate_mut(&mut best.edges, Norm::LInf, p.edge_dilation);
+    let (p, roi, grid) = (ctx.params, ctx.roi, ctx.grid);
+    let sample_edges = |x, y| grid.at(&best.edges, x, y);
+    if !p.refine {
+        return relax(
+            best.snake.contour(),
+            p.deform,
+            p.deform_passes,
+            sample_edges,
+            snake,
+        );
+    }
+    dilated.clone_from(&best.edges);
+    dilate_mut(dilated, Norm::LInf, p.edge_dilation);
     let gray = GrayImage::from_fn(roi.width as u32, roi.height as u32, |u, v| {
         let px = &frame.row(roi.y0 + v as usize)[3 * (roi.x0 + u as usize)..][..3];
         image::Luma([rperc_core::image::luma(px[0], px[1], px[2])
@@ -439,13 +453,34 @@ fn refine(
             .clamp(0.0, 255.0) as u8])
     });
     let image_edges = imageproc::edges::canny(&gray, p.canny[0], p.canny[1]);
-    let masked = |x: i64, y: i64| on(&best.edges, roi, x, y) && on(&image_edges, roi, x, y);
-    let fit = fit_snake(ctx.previous, start, &ctx.snake, masked, snake);
+    let masked = |x: i64, y: i64| grid.at(dilated, x, y) && on(&image_edges, roi, x, y);
+    let fit = fit_snake(ctx.predicted, terms.fit.affine, &ctx.snake, masked, snake);
     if fit.on_edge >= p.refine_min_support {
-        snake.contour().to_vec()
+        let affine = snake.contour().to_vec();
+        relax(&affine, p.deform, p.deform_passes, masked, snake)
     } else {
-        sample_contour
+        let sample = best.snake.contour().to_vec();
+        relax(&sample, p.deform, p.deform_passes, sample_edges, snake)
     }
+}
+
+/// The affine snake's settings from the tracker's.
+fn snake_params(p: &ColorShapeParams) -> SnakeParams {
+    SnakeParams {
+        search: p.search,
+        min_search: p.min_search,
+        iterations: p.snake_iterations,
+        on_edge_tolerance: p.edge_tolerance,
+        stiffness: p.stiffness,
+    }
+}
+
+/// Rate of the exponential average that gives the target's usual area.
+const USUAL_AREA_RATE: f64 = 0.05;
+
+/// Smaller area over larger, in [0, 1].
+fn area_ratio(a: f64, b: f64) -> f64 {
+    a.min(b) / a.max(b).max(1e-9)
 }
 
 fn distribution_of(s: &State) -> [f64; N_PARAMS] {
@@ -462,67 +497,21 @@ fn check_contour(contour: &[[f64; 2]]) -> Result<()> {
     Ok(())
 }
 
-/// `n` points spaced evenly by arc length along a closed polygon.
-pub fn resample_closed(poly: &[[f64; 2]], n: usize) -> Contour {
-    let m = poly.len();
-    let seg = |i: usize| {
-        let (a, b) = (poly[i], poly[(i + 1) % m]);
-        (b[0] - a[0]).hypot(b[1] - a[1])
-    };
-    let total: f64 = (0..m).map(seg).sum();
-    if total <= 0.0 {
-        return vec![poly[0]; n];
-    }
-    let (mut out, mut i, mut start) = (Vec::with_capacity(n), 0, 0.0);
-    for k in 0..n {
-        let s = total * k as f64 / n as f64;
-        while start + seg(i) < s && i + 1 < m {
-            start += seg(i);
-            i += 1;
-        }
-        let (a, b) = (poly[i], poly[(i + 1) % m]);
-        let f = if seg(i) > 0.0 {
-            (s - start) / seg(i)
-        } else {
-            0.0
-        };
-        out.push([a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])]);
-    }
-    out
+/// Mean of a contour's points.
+pub(crate) fn contour_centroid(c: &[[f64; 2]]) -> [f64; 2] {
+    let n = c.len().max(1) as f64;
+    let (sx, sy) = c.iter().fold((0.0, 0.0), |(a, b), p| (a + p[0], b + p[1]));
+    [sx / n, sy / n]
 }
 
-/// Colour coordinates of the pixels inside `contour`, thinned by a fixed stride to at
-/// most `cloud_points`.
-fn colours_inside(
-    frame: &RgbFrame<'_>,
-    contour: &[[f64; 2]],
-    p: &ColorShapeParams,
-) -> Result<Vec<[f64; 3]>> {
-    let b = contour_box(contour);
-    let roi = Roi::clipped(
-        b.x,
-        b.y,
-        b.x + b.w + 1.0,
-        b.y + b.h + 1.0,
-        frame.width(),
-        frame.height(),
-    );
-    let mut mask = GrayImage::new(roi.width.max(1) as u32, roi.height.max(1) as u32);
-    fill_polygon(contour, roi.x0 as f64, roi.y0 as f64, &mut mask);
-    let mut all = Vec::new();
-    for (u, v, m) in mask.enumerate_pixels() {
-        let (x, y) = (roi.x0 + u as usize, roi.y0 + v as usize);
-        if m[0] != 0 && x < frame.width() && y < frame.height() {
-            let px = &frame.row(y)[3 * x..][..3];
-            all.push(colour_coords(p.color_space, [px[0], px[1], px[2]])?);
-        }
+/// Bounding box of a contour.
+pub(crate) fn contour_box(c: &[[f64; 2]]) -> BoundingBox {
+    let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
+    for p in c {
+        x0 = x0.min(p[0]);
+        y0 = y0.min(p[1]);
+        x1 = x1.max(p[0]);
+        y1 = y1.max(p[1]);
     }
-    if all.is_empty() {
-        return Err(TrackingError::InvalidParameter {
-            name: "contour",
-            reason: "encloses no pixel of the frame".into(),
-        });
-    }
-    let stride = all.len().div_ceil(p.cloud_points);
-    Ok(all.into_iter().step_by(stride).collect())
+    BoundingBox::new(x0, y0, (x1 - x0).max(0.0), (y1 - y0).max(0.0))
 }

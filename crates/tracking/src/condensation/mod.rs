@@ -2,9 +2,11 @@
 //! section 3.1): resample, propagate `s = A s' + B w`, weight by the likelihood.
 
 mod filter;
+mod mixture;
 mod resample;
 
 pub use filter::{
     FilterParams, Likelihood, LinearGaussian, ParticleFilter, ResamplePolicy, StepReport,
 };
+pub use mixture::Guess;
 pub use resample::{Resampler, effective_sample_size};

@@ -15,7 +15,10 @@ written out in numpy, for the plain variant (no anchor, no freezing), term for t
   wall;
 - one stacked Joseph-form update per scan (the structured O(n^2) form), extents grown
   with the updated pose, new walls with ``G_r P G_r^T + G_z R G_z^T`` and their
-  cross-covariance ``G_r P_r,:``.
+  cross-covariance ``G_r P_r,:``;
+- with ``first_estimates`` (Huang, Mourikis & Roumeliotis 2008): each wall's
+  observation linearised at its first angle, the robot's position in the motion
+  Jacobian and in a new wall's Jacobian at its prediction (before the scan's update).
 """
 
 from __future__ import annotations
@@ -94,10 +97,13 @@ class WallEkfSlam:
     admission: float = 0.999999
     overlap_gap: float = 0.5
     max_angle_sd: float = math.radians(2.0)
+    first_estimates: bool = False
     x: np.ndarray = field(init=False)
     P: np.ndarray = field(init=False)
     extents: list[list[np.ndarray]] = field(init=False, default_factory=list)
     origins: list[np.ndarray] = field(init=False, default_factory=list)
+    first_alpha: list[float] = field(init=False, default_factory=list)
+    shift: np.ndarray = field(init=False, default_factory=lambda: np.zeros(2))
 
     def __post_init__(self) -> None:
         self.x = np.array(self.pose, dtype=float)
@@ -107,6 +113,10 @@ class WallEkfSlam:
 
     def predict(self, v: float, w: float, dt: float) -> None:
         mean, fx, fv = unicycle(self.x[:3], v, w, dt)
+        if self.first_estimates:  # the displacement from the pose's prediction
+            fx[0, 2] -= self.shift[1]
+            fx[1, 2] += self.shift[0]
+        self.shift = np.zeros(2)
         self.x[:3] = mean
         self.P[:3, :] = fx @ self.P[:3, :]
         self.P[:, :3] = self.P[:, :3] @ fx.T
@@ -116,7 +126,13 @@ class WallEkfSlam:
         self, j: int, z: np.ndarray, r: np.ndarray
     ) -> tuple[float, np.ndarray, np.ndarray]:
         o = 3 + 2 * j
-        pred, h_r, h_l = observe_wall(shifted(self.x[:3], self.origins[j]), self.x[o : o + 2])
+        pose = shifted(self.x[:3], self.origins[j])
+        pred, h_r, h_l = observe_wall(pose, self.x[o : o + 2])
+        if self.first_estimates:
+            flipped = h_l[0, 0] < 0
+            _, h_r, h_l = observe_wall(pose, np.array([self.x[o], self.first_alpha[j]]))
+            if (h_l[0, 0] < 0) != flipped:
+                h_r[0], h_l[0] = -h_r[0], -h_l[0]
         d = wrap(z[1] - pred[1])
         if abs(d) <= math.pi / 2:
             nu = np.array([z[0] - pred[0], d])
@@ -177,13 +193,21 @@ class WallEkfSlam:
         k = np.linalg.solve(s, pht.T).T
         self.P += -k @ pht.T - pht @ k.T + k @ s @ k.T
         self.P = 0.5 * (self.P + self.P.T)
-        self.x += k @ nu
+        step = k @ nu
+        self.x += step
         self.x[2] = wrap(self.x[2])
+        self.shift = self.shift + step[:2]
 
     def _admit(self, z: np.ndarray, r: np.ndarray, seg: list[np.ndarray]) -> None:
         ends = [to_world(self.x[:3], q) for q in seg]
         origin = 0.5 * (ends[0] + ends[1])
         line, g_r, g_z = wall_to_world(shifted(self.x[:3], origin), z)
+        if self.first_estimates:
+            prior = self.x[:3] - np.r_[self.shift, 0.0]
+            _, g_r2, g_z2 = wall_to_world(shifted(prior, origin), z)
+            if (g_z2[0, 0] < 0) != (g_z[0, 0] < 0):
+                g_r2[0], g_z2[0] = -g_r2[0], -g_z2[0]
+            g_r, g_z = g_r2, g_z2
         cross = g_r @ self.P[:3, :]
         pll = g_r @ self.P[:3, :3] @ g_r.T + g_z @ r @ g_z.T
         n = len(self.x)
@@ -191,6 +215,7 @@ class WallEkfSlam:
         p[:n, :n], p[n:, :n], p[:n, n:], p[n:, n:] = self.P, cross, cross.T, 0.5 * (pll + pll.T)
         self.P = p
         self.x = np.r_[self.x, line]
+        self.first_alpha.append(float(line[1]))
         self.origins.append(origin)
         self.extents.append(covering(in_frame(line, origin), ends))
 

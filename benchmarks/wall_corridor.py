@@ -114,7 +114,10 @@ def run(seed: int, jamb: float, offset: float, args: argparse.Namespace) -> dict
         "association": args.association,
         "initial_pose": ref[0].tolist(),
         "wall_max_angle_sd": math.radians(args.max_angle_sd_now),
+        "first_estimates": args.first_estimates,
     }
+    if args.bias_states:
+        config["control_bias_sd"] = [ws.SPEED_BIAS, ws.TURN_BIAS]
     out = PlanarSlam(config).run_arrays(
         np.r_[controls, [[t[-1], 0.0, 0.0]]], np.zeros((0, 3)), walls=np.array(rows)
     )
@@ -132,6 +135,8 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=6)
     ap.add_argument("--bias", action="store_true", help="add wallslam's odometry bias")
     ap.add_argument("--association", choices=("nn", "jcbb"), default="nn")
+    ap.add_argument("--first-estimates", action="store_true", help="FEJ linearisation")
+    ap.add_argument("--bias-states", action="store_true", help="odometry biases as states")
     args = ap.parse_args()
     for limit in args.max_angle_sd:
         args.max_angle_sd_now = limit

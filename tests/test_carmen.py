@@ -126,6 +126,56 @@ def test_param_lines_set_max_range_fov_and_resolution(tmp_path):
     assert "3 PARAM read (first at line 2)" in log.summary()
 
 
+def test_no_return_marker_is_inferred_without_a_max_range_param(tmp_path):
+    """Without a max-range PARAM, a value that many readings share exactly at the top
+    of the range is the scanner's no-return marker: it becomes the scans' max range
+    (so those readings are invalid for the wall extractor); a log with far readings
+    spread over distinct values keeps the SICK default; a PARAM wins over both."""
+    from rperc.datasets.carmen import FLASER_MAX_RANGE, infer_no_return
+
+    rng = np.random.default_rng(3)
+    spread = [f"{v:.2f}" for v in rng.uniform(0.5, 29.0, 4000)]
+    lines = "".join(flaser(spread[k : k + 40] + ["30.00"] * 5) for k in range(0, 4000, 40))
+    path = tmp_path / "marker.log"
+    path.write_text(lines)
+    log = load_carmen(path)
+    assert np.all(log.scans.max_range == 30.0)
+    assert log.no_return == {"FLASER": (30.0, 500)}
+    assert "FLASER no-return marker 30 m inferred (500 readings" in log.summary()
+    # The marker's readings are beyond range for the extractor: no phantom wall at 30 m.
+    from rperc.linesimp import extract_lines
+
+    walls = extract_lines(log.scans.ranges[0], log.scans.angles(0), max_range=30.0)
+    assert not np.isin(walls.flat_indices, np.arange(40, 45)).any()
+    # Far readings all distinct: no marker, the default.
+    path.write_text("".join(flaser(spread[k : k + 45]) for k in range(0, 3960, 45)))
+    log = load_carmen(path)
+    assert log.no_return == {} and np.all(log.scans.max_range == FLASER_MAX_RANGE)
+    # A few repeats of the largest value (a wall seen twice) are not a marker.
+    assert infer_no_return(np.r_[np.linspace(1.0, 9.0, 1000), [9.5] * 3]) is None
+    # Nor is one value repeated everywhere.
+    assert infer_no_return(np.ones(500)) is None
+    # A max-range PARAM wins.
+    path.write_text("PARAM robot_front_laser_max 40.0 nohost 0\n" + lines)
+    log = load_carmen(path)
+    assert log.no_return == {} and np.all(log.scans.max_range == 40.0)
+
+
+def test_aces_no_return_marker(data):
+    """The ACES log has no max-range PARAM and writes "no return" as 50.0 m: counted
+    independently, every reading of exactly 50.0 is the marker."""
+    path = data / "carmen" / "aces.log"
+    readings = [
+        float(v)
+        for line in path.read_text().splitlines()
+        if line.startswith("FLASER ")
+        for v in line.split()[2:182]
+    ]
+    log = load_carmen(path)
+    assert log.no_return == {"FLASER": (50.0, readings.count(50.0))}
+    assert np.all(log.scans.max_range == 50.0)
+
+
 def test_rawlaser1_gets_the_interpolated_odometry_pose(tmp_path):
     path = tmp_path / "raw.log"
     raw = "RAWLASER1 0 -1.5 3.0 1.5 20.0 0.01 0 3 1.0 -2.0 3.0 1 7 {t} host {t}\n"

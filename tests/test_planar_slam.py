@@ -321,11 +321,13 @@ def _room_recording(seed: int = 0, steps: int = 200) -> tuple[np.ndarray, np.nda
 WREF = _wall_reference()
 
 
-def test_wall_landmarks_match_the_numpy_reference_filter() -> None:
-    """The engine with wall landmarks (plain, nearest neighbour) against the same
-    filter written out in numpy (``benchmarks/reference_wall_ekf.py``): the same
-    trajectory after every wall scan and the same walls, in a simulated room with
-    two collinear walls that only segment overlap keeps apart."""
+@pytest.mark.parametrize("first_estimates", [False, True])
+def test_wall_landmarks_match_the_numpy_reference_filter(first_estimates: bool) -> None:
+    """The engine with wall landmarks (plain, nearest neighbour; linearised at the
+    current or at the first estimates) against the same filter written out in numpy
+    (``benchmarks/reference_wall_ekf.py``): the same trajectory after every wall scan
+    and the same walls, in a simulated room with two collinear walls that only
+    segment overlap keeps apart."""
     from rperc import _rperc
 
     controls, walls = _room_recording()
@@ -334,9 +336,10 @@ def test_wall_landmarks_match_the_numpy_reference_filter() -> None:
         "motion": {"unicycle": {"speed_variance": v[0, 0], "turn_rate_variance": v[1, 1]}},
         "association": "nn",
         "initial_pose": [2.0, 0.0, math.pi / 2],
+        "first_estimates": first_estimates,
     }
     out = _rperc.planar_slam_run(controls, np.zeros((0, 3)), None, None, config, walls)
-    ref = WREF.WallEkfSlam(np.array([2.0, 0.0, math.pi / 2]), v)
+    ref = WREF.WallEkfSlam(np.array([2.0, 0.0, math.pi / 2]), v, first_estimates=first_estimates)
     poses = WREF.run(controls, walls, ref)
     np.testing.assert_allclose(out["pose"][out["kind"] == 3], poses, atol=1e-9)
     assert len(out["wall_id"]) == len(ref.extents) == 6

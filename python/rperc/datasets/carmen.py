@@ -21,6 +21,16 @@ Line formats (CARMEN 0.7 / Radish):
   ``laser_front_laser_resolution`` / ``laser_rear_laser_resolution`` (degrees), the
   names CARMEN's ini files and MRPT's reader use, for FLASER and RLASER lines.
 
+Old-style FLASER and RLASER lines carry no maximum range either. Without a max-range
+parameter, the reader looks for the scanner's no-return marker in the readings
+(:func:`infer_no_return`): a scanner measures in small steps, so far readings spread
+over many values, and only a saturated "no return" makes many readings share the
+largest value exactly (the ACES log writes 50.0 m 620 times, and its next largest
+values occur once each). The marker becomes those scans' maximum range, so its
+readings are invalid (no return), not walls 50 m away; the log's
+:attr:`CarmenLog.no_return` and summary say so. Without such a marker the maximum
+range is the SICK default of 81.83 m.
+
 Old-style FLASER lines carry no angular resolution: without a resolution parameter we
 use fov/n for even n (180, 360 beams: 1 and 0.5 degree steps over 180 degrees) and
 fov/(n-1) for odd n (181, 361: both ends included).
@@ -44,6 +54,12 @@ from rperc.datasets.errors import DatasetFormatError
 FLASER_MAX_RANGE = 81.83
 FLASER_FOV = math.pi
 SKIPPED_TYPES = frozenset({"SYNC"})
+#: :func:`infer_no_return`: at least this many readings must share the largest value,
+NO_RETURN_MIN_COUNT = 20
+#: and it must occur this many times as often as any other value within
+#: ``NO_RETURN_BAND`` (relative) below it.
+NO_RETURN_DOMINANCE = 10
+NO_RETURN_BAND = 0.1
 _LASER_PARAMS = {
     "FLASER": ("robot_front_laser_max", "laser_front_laser_fov", "laser_front_laser_resolution"),
     "RLASER": ("robot_rear_laser_max", "laser_rear_laser_fov", "laser_rear_laser_resolution"),
@@ -127,6 +143,10 @@ class CarmenLog:
     """RAWLASER1 scans outside the odometry's time span (their pose is NaN)."""
     comments: int = 0
     """Lines starting with ``#`` (CARMEN's header comments): counted, not records."""
+    no_return: dict[str, tuple[float, int]] = field(default_factory=dict)
+    """Per laser type without a max-range ``PARAM``: the no-return marker found in its
+    readings (:func:`infer_no_return`) and how many readings carry it; that marker is
+    those scans' ``max_range``."""
 
     def summary(self) -> str:
         """Every count: scans by type, invalid readings, odometry records, PARAM lines,
@@ -141,6 +161,10 @@ class CarmenLog:
         )
         if self.scans_without_pose:
             parts.append(f"{self.scans_without_pose} RAWLASER1 scans without a pose")
+        parts += [
+            f"{kind} no-return marker {value:g} m inferred ({count} readings, no max-range PARAM)"
+            for kind, (value, count) in sorted(self.no_return.items())
+        ]
         parts.append(f"{len(self.odometry)} odometry records")
         parts.append(f"{self.comments} comment lines")
         parts.append(f"{len(self.errors)} malformed lines skipped")
@@ -195,7 +219,8 @@ class _ScanRows:
 
 
 def _flaser_geometry(kind: str, n: int, params: dict[str, str]) -> tuple[float, float, float]:
-    """``(angle_min, step, max_range)`` of an old-style line from the PARAMs read so far."""
+    """``(angle_min, step, max_range)`` of an old-style line from the PARAMs read so far
+    (``max_range`` NaN without a max-range PARAM: inferred once all lines are read)."""
     max_name, fov_name, res_name = _LASER_PARAMS[kind]
 
     def value(name: str, default: float) -> float:
@@ -204,7 +229,7 @@ def _flaser_geometry(kind: str, n: int, params: dict[str, str]) -> tuple[float, 
         except ValueError:
             return default
 
-    max_range = value(max_name, FLASER_MAX_RANGE)
+    max_range = value(max_name, math.nan)
     fov = math.radians(value(fov_name, 180.0))
     if res_name in params:
         step = math.radians(value(res_name, 1.0))
@@ -324,11 +349,64 @@ def load_carmen(
             skipped[kind] += 1
             first_line.setdefault(kind, lineno)
     odometry = _stack_odometry(odom)
+    no_return = _default_max_range(rows)
     scans, no_pose = _stack_scans(rows, odometry)
     return CarmenLog(
         path, scans, odometry, dict(skipped), first_line, params, tuple(errors), no_pose,
-        comments,
+        comments, no_return,
     )  # fmt: skip
+
+
+def infer_no_return(ranges: np.ndarray) -> tuple[float, int] | None:
+    """The no-return marker of a scanner's readings, with its count, or ``None``.
+
+    A laser scanner measures range in small steps (1 cm for the SICK LMS), so far
+    readings spread over many distinct values; a reading that saturates ("no return")
+    is written as one fixed value. So the largest finite reading is the marker when at
+    least :data:`NO_RETURN_MIN_COUNT` readings share it exactly and it occurs at least
+    :data:`NO_RETURN_DOMINANCE` times as often as any other value within
+    :data:`NO_RETURN_BAND` (relative) below it, and the readings below it take at least
+    :data:`NO_RETURN_MIN_COUNT` distinct values (a scan of one repeated value shows no
+    saturation).
+
+    >>> r = np.r_[np.linspace(0.5, 49.9, 5000), np.full(50, 50.0)]
+    >>> infer_no_return(r)
+    (50.0, 50)
+    >>> infer_no_return(np.linspace(0.5, 49.9, 5000)) is None
+    True
+    """
+    r = np.asarray(ranges, dtype=np.float64).ravel()
+    r = r[np.isfinite(r) & (r > 0)]
+    if len(r) == 0:
+        return None
+    top = float(r.max())
+    count = int(np.count_nonzero(r == top))
+    near = r[(r >= top * (1 - NO_RETURN_BAND)) & (r < top)]
+    _, counts = np.unique(near, return_counts=True)
+    rival = int(counts.max()) if len(counts) else 0
+    spread = len(np.unique(r[r < top])) >= NO_RETURN_MIN_COUNT
+    if spread and count >= NO_RETURN_MIN_COUNT and count >= NO_RETURN_DOMINANCE * max(rival, 1):
+        return top, count
+    return None
+
+
+def _default_max_range(rows: _ScanRows) -> dict[str, tuple[float, int]]:
+    """Fills in the maximum range of the old-style lines read without a max-range
+    PARAM (NaN so far): per laser type, the no-return marker of their readings when
+    there is one (:func:`infer_no_return`), else :data:`FLASER_MAX_RANGE`. Returns the
+    markers found."""
+    found: dict[str, tuple[float, int]] = {}
+    unknown = [k for k, m in enumerate(rows.meta) if math.isnan(m[2])]
+    for kind in sorted({rows.kinds[k] for k in unknown}):
+        mine = [k for k in unknown if rows.kinds[k] == kind]
+        marker = infer_no_return(np.concatenate([rows.ranges[k] for k in mine]))
+        if marker is not None:
+            found[kind] = marker
+        max_range = marker[0] if marker is not None else FLASER_MAX_RANGE
+        for k in mine:
+            m = rows.meta[k]
+            rows.meta[k] = (*m[:2], max_range, *m[3:])
+    return found
 
 
 # What _read_record returns for a comment line (no record type starts with '#').

@@ -15,7 +15,9 @@ effective metre:
 The filter's motion noise is exactly the stated noise (not tuned on any log), and
 the biases are two states of its robot block (``control_bias_sd``: unknown constants
 whose prior standard deviations are the stated levels), so the filter learns them
-from the walls instead of taking them for noise; the
+from the walls instead of taking them for noise. The filter is linearised at the
+first estimates (``first_estimates``: Huang, Mourikis & Roumeliotis 2008), so it gains
+no information about where the map sits or how it is turned. The
 walls come from :func:`rperc.linesimp.extract_lines` with its defaults and the log's
 sensor range. The walls are landmarks of the one planar EKF engine
 (:class:`rperc.slam.PlanarSlam`'s), with the seed's anchor (eqs. 24-25) and freezing
@@ -379,6 +381,9 @@ def run_prepared(
         "initial_pose": ref[0].tolist(),
         # The biases are unknown constants of the stated size: estimated as states.
         "control_bias_sd": [SPEED_BIAS, TURN_BIAS],
+        # Linearised at the first estimates, the map's frame stays unobservable (on
+        # ACES the robot NEES mean fell from 410 to 4.7, 10 seeds).
+        "first_estimates": True,
         **overrides,
     }
     controls = np.r_[noisy_controls(prepared.exact, seed), [[t[-1], 0.0, 0.0]]]

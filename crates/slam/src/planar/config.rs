@@ -111,6 +111,17 @@ pub struct PlanarConfig {
     /// (speed read long by `s`, turn rate off by `b` rad/s). `None`: no bias states
     /// (the robot block is `(x, y, theta)`); otherwise it is `(x, y, theta, s, b)`.
     pub control_bias_sd: Option<[f64; 2]>,
+    /// First-estimates Jacobians (Huang, Mourikis & Roumeliotis 2008): a wall's
+    /// observation is linearised at the wall's first estimate (the one it entered the
+    /// map with), not its current one, and the robot's prediction at the pose it was
+    /// first estimated at (its prediction, before the last update moved it). Then the
+    /// linearised system keeps the translation and rotation of the whole map
+    /// unobservable, as the nonlinear one is; linearised at changing estimates it
+    /// gains information about them from nowhere, which makes the filter
+    /// overconfident (tested: with it, the robot's absolute heading and position
+    /// variances never fall below the start's). Point landmarks are still linearised
+    /// at their current estimates.
+    pub first_estimates: bool,
 }
 
 impl Default for PlanarConfig {
@@ -136,6 +147,7 @@ impl Default for PlanarConfig {
             initial_pose_variance: [0.0; 3],
             bias: SensorBias::default(),
             control_bias_sd: None,
+            first_estimates: false,
         }
     }
 }

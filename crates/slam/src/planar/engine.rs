@@ -90,6 +90,12 @@ pub struct PlanarSlam {
     /// The last wall scan: each detection's wall id (paired or admitted), or `None`.
     pub(super) wall_pairing: Vec<Option<u64>>,
     pub(super) revisions: HashMap<u64, u32>,
+    /// Each wall's first estimate, where its observation is linearised with
+    /// `first_estimates`.
+    pub(super) first: HashMap<u64, Vector2<f64>>,
+    /// How far the updates since the last prediction moved the robot's position
+    /// (the pose's first estimate is its prediction: `first_estimates`).
+    pub(super) update_shift: Vector2<f64>,
     candidates: Vec<Candidate>,
     next_id: u64,
     events: usize,
@@ -156,6 +162,8 @@ impl PlanarSlam {
             walls: HashMap::new(),
             wall_pairing: Vec::new(),
             revisions: HashMap::new(),
+            first: HashMap::new(),
+            update_shift: Vector2::zeros(),
             candidates: Vec::new(),
             next_id: 0,
             events: 0,
@@ -301,11 +309,34 @@ impl PlanarSlam {
                 .motion
                 .predict(&self.robot(), self.control, t - t0)?;
             let v = self.config.motion.control_noise();
-            self.ekf
-                .predict_planar(&pred.mean, &pred.fx, &pred.fv, &v)?;
+            let fx = self.first_estimate_fx(pred.fx);
+            self.ekf.predict_planar(&pred.mean, &fx, &pred.fv, &v)?;
         }
         self.time = Some(t);
         Ok(())
+    }
+
+    /// The motion Jacobian `Fx` at the first estimates (Huang et al. 2008, eq. 14):
+    /// its heading column is the displacement turned by 90 degrees (any motion model
+    /// that commutes with rigid motions of the world), and FEJ takes the displacement
+    /// from the previous pose's first estimate, its prediction, instead of the
+    /// updated estimate: the updates since then moved it by `update_shift`.
+    fn first_estimate_fx(&mut self, mut fx: Matrix3<f64>) -> Matrix3<f64> {
+        if self.config.first_estimates {
+            fx[(0, 2)] -= self.update_shift.y;
+            fx[(1, 2)] += self.update_shift.x;
+        }
+        self.update_shift = Vector2::zeros();
+        fx
+    }
+
+    /// Runs an update and records how far it moved the robot's position.
+    fn shifting<T>(&mut self, update: impl FnOnce(&mut Ekf) -> Result<T>) -> Result<T> {
+        let before = Vector2::new(self.ekf.state()[0], self.ekf.state()[1]);
+        let out = update(&mut self.ekf)?;
+        let after = Vector2::new(self.ekf.state()[0], self.ekf.state()[1]);
+        self.update_shift += after - before;
+        Ok(out)
     }
 
     /// The prediction with control-bias states (`control_bias_sd`): the robot block
@@ -321,7 +352,8 @@ impl PlanarSlam {
             dt,
         )?;
         let mut f = DMatrix::identity(5, 5);
-        f.view_mut((0, 0), (3, 3)).copy_from(&p.fx);
+        f.view_mut((0, 0), (3, 3))
+            .copy_from(&self.first_estimate_fx(p.fx));
         f.view_mut((0, 3), (3, 2)).copy_from(&p.fb);
         let mut g = DMatrix::zeros(5, 2);
         g.view_mut((0, 0), (3, 2)).copy_from(&p.fv);
@@ -361,6 +393,7 @@ impl PlanarSlam {
         let mut x = self.ekf.state().rows(0, rd).into_owned();
         x.rows_mut(0, 3).copy_from(moved);
         self.ekf = Ekf::new(x, p, rd, 2)?.with_wrapped_angle(2)?;
+        self.update_shift = Vector2::zeros();
         Ok(())
     }
 
@@ -377,7 +410,8 @@ impl PlanarSlam {
         let (h, jac) = fix_observation(&self.robot(), &self.offset, &lever);
         let nu = DVector::from_vec(vec![xy[0] - h.x, xy[1] - h.y]);
         let hs = SparseJacobian::new(2).with_block(0, 0, dyn_mat(&jac));
-        match self.ekf.update_gated(&nu, &hs, &r, self.gate)? {
+        let gate = self.gate;
+        match self.shifting(|ekf| ekf.update_gated(&nu, &hs, &r, gate))? {
             Gated::Applied(_) => self.stats.fixes_applied += 1,
             Gated::Rejected { .. } => self.stats.fixes_rejected += 1,
         }
@@ -564,7 +598,7 @@ impl PlanarSlam {
             stacked.push((DVector::from_column_slice(nu.as_slice()), h, dyn_mat(&r)));
         }
         let ids: Vec<u64> = pairings.iter().map(|p| self.target_id(p.target)).collect();
-        self.ekf.update_batch(&stacked)?;
+        self.shifting(|ekf| ekf.update_batch(&stacked))?;
         for id in ids {
             let n = self.revisions.entry(id).or_insert(0);
             *n += 1;

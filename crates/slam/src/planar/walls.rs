@@ -127,6 +127,9 @@ fn gap(line: &Vector2<f64>, a: &Extent, b: &[Point2<f64>; 2]) -> f64 {
 struct WallTarget<'a> {
     target: Target,
     line: Vector2<f64>,
+    /// Where the observation is linearised: `line`, or the wall's first estimate
+    /// (`first_estimates`).
+    linearised: Vector2<f64>,
     fixed: Option<&'a Matrix2<f64>>,
     extent: &'a Extent,
 }
@@ -142,10 +145,12 @@ fn wall_pairing(
     wall: &WallTarget<'_>,
 ) -> Option<Pairing> {
     let (target, fixed) = (wall.target, wall.fixed);
-    let pred = observe_wall(&about(sensor, &wall.extent.origin), &wall.line)?;
+    let from = about(sensor, &wall.extent.origin);
+    let pred = observe_wall(&from, &wall.line)?;
     let (nu, sign) = wall_innovation(&seen.z, &pred.wall);
-    let mut h_robot = pred.d_pose * j_sensor;
-    let mut h_l = pred.d_wall;
+    let jac = linearised_at(&from, &pred, &wall.linearised)?;
+    let mut h_robot = jac.d_pose * j_sensor;
+    let mut h_l = jac.d_wall;
     if sign < 0.0 {
         h_robot.row_mut(0).neg_mut();
         h_l.row_mut(0).neg_mut();
@@ -156,6 +161,18 @@ fn wall_pairing(
         _ => return None,
     };
     scene.scored(det, target, nu, (h_robot, h_landmark, offset), r)
+}
+
+/// The Jacobians of the observation `pred` of a wall from `from`, evaluated at the
+/// line `at` instead (its first estimate), in the same form as `pred` (rho rows
+/// negated alike when the line seen from `from` had to be flipped).
+fn linearised_at(from: &Pose2, pred: &WallJacobians, at: &Vector2<f64>) -> Option<WallJacobians> {
+    let mut jac = observe_wall(from, at)?;
+    if jac.d_wall[(0, 0)] != pred.d_wall[(0, 0)] {
+        jac.d_pose.row_mut(0).neg_mut();
+        jac.d_wall.row_mut(0).neg_mut();
+    }
+    Some(jac)
 }
 
 impl PlanarSlam {
@@ -253,9 +270,12 @@ impl PlanarSlam {
         let mut targets = Vec::new();
         for (j, id) in self.ekf.landmark_ids().iter().enumerate() {
             if let Some(extent) = self.walls.get(id) {
+                let line = Vector2::new(x[self.offset_of(j)], x[self.offset_of(j) + 1]);
+                let first = self.first.get(id).filter(|_| self.config.first_estimates);
                 targets.push(WallTarget {
                     target: Target::State(j),
-                    line: Vector2::new(x[self.offset_of(j)], x[self.offset_of(j) + 1]),
+                    line,
+                    linearised: first.copied().unwrap_or(line),
                     fixed: None,
                     extent,
                 });
@@ -267,6 +287,7 @@ impl PlanarSlam {
                 targets.push(WallTarget {
                     target: Target::FixedWall(k),
                     line: f.line,
+                    linearised: f.line,
                     fixed: Some(&f.cov),
                     extent,
                 });
@@ -333,7 +354,28 @@ impl PlanarSlam {
         let origin = Point2::from((ends[0].coords + ends[1].coords) * 0.5);
         let w = wall_to_world(&about(&sensor, &origin), &seen.z)
             .ok_or_else(|| SlamError::invalid("wall", "is not finite".into()))?;
-        let g_robot = w.d_pose * j_sensor;
+        // With first estimates the robot's position is linearised at its prediction
+        // (the updates of this scan moved it by `update_shift`), as every observation
+        // of this scan was: the new wall then moves with the map's unobservable
+        // rotation exactly as the others do.
+        let w_lin = if self.config.first_estimates {
+            let prior = Pose2::new(
+                sensor.x - self.update_shift.x,
+                sensor.y - self.update_shift.y,
+                sensor.theta,
+            );
+            let mut lin = wall_to_world(&about(&prior, &origin), &seen.z)
+                .ok_or_else(|| SlamError::invalid("wall", "is not finite".into()))?;
+            // About its own point a wall's rho is near zero: keep the mean's form.
+            if lin.d_wall[(0, 0)] != w.d_wall[(0, 0)] {
+                lin.d_pose.row_mut(0).neg_mut();
+                lin.d_wall.row_mut(0).neg_mut();
+            }
+            lin
+        } else {
+            w
+        };
+        let g_robot = w_lin.d_pose * j_sensor;
         if self.config.anchor && self.anchor.is_none() && self.ekf.num_landmarks() == 0 {
             self.make_wall_anchor(id, &w, &g_robot, &seen.r, &origin)?;
         } else {
@@ -341,9 +383,10 @@ impl PlanarSlam {
                 id,
                 &DVector::from_column_slice(w.wall.as_slice()),
                 &self.robot_block(&g_robot),
-                &dyn_mat(&w.d_wall),
+                &dyn_mat(&w_lin.d_wall),
                 &dyn_mat(&seen.r),
             )?;
+            self.first.insert(id, w.wall);
         }
         self.walls
             .insert(id, covering(&in_frame(&w.wall, &origin), &ends, origin));

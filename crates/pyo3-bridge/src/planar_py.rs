@@ -165,6 +165,8 @@ fn statistics<'py>(py: Python<'py>, s: &Statistics) -> PyResult<Bound<'py, PyDic
         ("walls_accepted", s.walls_accepted),
         ("walls_rejected", s.walls_rejected),
         ("walls_new", s.walls_new),
+        ("compressions", s.compressions),
+        ("activations", s.activations),
     ] {
         d.set_item(name, value)?;
     }

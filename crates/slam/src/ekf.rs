@@ -23,6 +23,9 @@ use rperc_core::{
 
 use crate::error::{Result, SlamError, ensure_finite};
 
+mod compressed;
+pub use compressed::{Compressed, Passive};
+
 /// One dense block of a sparse observation Jacobian `H`: rows `row..row + h.nrows()`
 /// and columns `col..col + h.ncols()` of `H` equal `h`; everything else is zero.
 #[derive(Debug, Clone, PartialEq)]
@@ -589,6 +592,7 @@ impl Ekf {
         innovation: &DVector<f64>,
         h: &SparseJacobian,
         r: &DMatrix<f64>,
+        r_checked: bool,
     ) -> Result<Prepared> {
         let m = h.rows;
         if innovation.len() != m || r.shape() != (m, m) || m == 0 {
@@ -600,7 +604,9 @@ impl Ekf {
         }
         h.validate(self.x.len())?;
         ensure_finite("innovation", innovation.iter())?;
-        check_noise("R", r)?;
+        if !r_checked {
+            check_noise("R", r)?;
+        }
         let l = self.cross_covariance(h);
         let s = innovation_covariance(h, &l, r);
         let (mut gain, nis) = gain_and_nis(&s, &l, innovation)?;
@@ -645,7 +651,7 @@ impl Ekf {
         h: &SparseJacobian,
         r: &DMatrix<f64>,
     ) -> Result<Update> {
-        let prepared = self.prepare(innovation, h, r)?;
+        let prepared = self.prepare(innovation, h, r, false)?;
         self.apply(prepared, innovation)
     }
 
@@ -665,7 +671,7 @@ impl Ekf {
                 format!("must be > 0, got {gate}"),
             ));
         }
-        let prepared = self.prepare(innovation, h, r)?;
+        let prepared = self.prepare(innovation, h, r, false)?;
         if prepared.nis > gate {
             return Ok(Gated::Rejected {
                 nis: prepared.nis,
@@ -681,8 +687,15 @@ impl Ekf {
         &mut self,
         observations: &[(DVector<f64>, SparseJacobian, DMatrix<f64>)],
     ) -> Result<Update> {
+        // Each R on its own: the stacked R is block diagonal, so it is PSD exactly
+        // when every block is, and checking the whole (an eigen-decomposition) would
+        // cost O(m^3) per scan.
+        for (_, _, r) in observations {
+            check_noise("R", r)?;
+        }
         let (innovation, h, r) = stack_observations(observations)?;
-        self.update(&innovation, &h, &r)
+        let prepared = self.prepare(&innovation, &h, &r, true)?;
+        self.apply(prepared, &innovation)
     }
 
     /// Observations one after another, each linearised at the state the previous one
@@ -708,13 +721,18 @@ impl Ekf {
         }
         let new_cap = need.max(cap + cap / 2).max(16);
         check_allocation("state dimension", (new_cap as u128).pow(2), 8)?;
+        self.grow(new_cap);
+        Ok(())
+    }
+
+    /// Moves `P` into a `new_cap x new_cap` buffer (unchecked: see [`Ekf::reserve`]).
+    fn grow(&mut self, new_cap: usize) {
         let d = self.dim();
         let mut grown = DMatrix::zeros(new_cap, new_cap);
         grown
             .view_mut((0, 0), (d, d))
             .copy_from(&self.cov.view((0, 0), (d, d)));
         self.cov = grown;
-        Ok(())
     }
 
     /// Appends a landmark initialised from an observation through the inverse

@@ -173,13 +173,6 @@ struct Screen {
 impl Scene<'_> {
     fn screen(&self, target: Target) -> Option<Screen> {
         let (l, offset) = self.landmark(target)?;
-        let sensor = self.robot.compose(&self.mount);
-        let (dx, dy) = (l.x - sensor.x, l.y - sensor.y);
-        let r = dx.hypot(dy);
-        // A landmark on the sensor (or a NaN) has no bearing: `pairing` refuses it too.
-        if r.is_nan() || r <= 0.0 {
-            return None;
-        }
         let tr_landmark = match (target, offset) {
             (Target::State(_), Some(o)) => {
                 let x = self.ekf.covariance_block_fixed::<2, 2>(o, o)?;
@@ -188,9 +181,22 @@ impl Scene<'_> {
             (Target::Fixed(k), _) => self.fixed[k].cov.trace(),
             _ => 0.0,
         };
+        self.screen_point(&l, tr_landmark)
+    }
+
+    /// The screen of a point at `l` whose own covariance has a trace of at most
+    /// `tr_landmark` (a larger trace only widens the bounds).
+    fn screen_point(&self, l: &Point2<f64>, tr_landmark: f64) -> Option<Screen> {
+        let sensor = self.robot.compose(&self.mount);
+        let (dx, dy) = (l.x - sensor.x, l.y - sensor.y);
+        let r = dx.hypot(dy);
+        // A landmark on the sensor (or a NaN) has no bearing: `pairing` refuses it too.
+        if r.is_nan() || r <= 0.0 {
+            return None;
+        }
         let tr_robot = self.prr.trace();
         let m = self.mount.translation().norm();
-        let range_bound = 2.0 * ((1.0 + m * m) * tr_robot + tr_landmark) + self.w[(0, 0)];
+        let range_bound = self.range_bound(tr_landmark);
         let hb = 1.0 / (r * r) + (1.0 + m / r).powi(2);
         let bearing_bound = 2.0 * (hb * tr_robot + tr_landmark / (r * r)) + self.w[(1, 1)];
         Some(Screen {
@@ -206,6 +212,67 @@ impl Screen {
     fn may_pass(&self, z: &Vector2<f64>, gate: f64) -> bool {
         let (er, eb) = (z.x - self.range, wrap_angle(z.y - self.bearing));
         er * er <= gate * self.range_bound && eb * eb <= gate * self.bearing_bound
+    }
+}
+
+impl Scene<'_> {
+    /// Whether a landmark at `l`, whose own covariance has a trace of at most
+    /// `tr_landmark`, may be individually compatible with one of `detections` (the
+    /// exact [`Screen`]: `false` only when the gate would refuse every pairing).
+    pub fn may_observe(
+        &self,
+        l: &Point2<f64>,
+        tr_landmark: f64,
+        detections: &[Vector2<f64>],
+        gate: f64,
+    ) -> bool {
+        self.screen_point(l, tr_landmark)
+            .is_some_and(|s| detections.iter().any(|z| s.may_pass(z, gate)))
+    }
+
+    /// Whether a landmark at `l` may be individually compatible with one of
+    /// `detections`, given its cross-covariance with the robot `p_rl` and an upper
+    /// bound `p_ll` (PSD order) of its own covariance: the `S` built with the bound is
+    /// at least the true one, so its NIS is at most the true NIS, and `false` only
+    /// when the gate refuses every pairing.
+    pub fn may_pair(
+        &self,
+        l: &Point2<f64>,
+        p_rl: &Matrix3x2<f64>,
+        p_ll: &Matrix2<f64>,
+        detections: &[Vector2<f64>],
+        gate: f64,
+    ) -> bool {
+        let Some((zp, hr, hl)) = observe(&self.robot, &self.mount, l) else {
+            return false; // on the sensor: `pairing` refuses it too
+        };
+        let cross = hr * p_rl * hl.transpose();
+        let s = hr * self.prr * hr.transpose()
+            + cross
+            + cross.transpose()
+            + hl * p_ll * hl.transpose()
+            + self.w;
+        let Some(inv) = s.try_inverse() else {
+            return true;
+        };
+        detections.iter().any(|z| {
+            let nu = Vector2::new(z.x - zp.x, wrap_angle(z.y - zp.y));
+            let nis = nu.dot(&(inv * nu));
+            nis <= gate || nis.is_nan()
+        })
+    }
+
+    /// The largest range innovation that can pass `gate` for a landmark whose own
+    /// covariance has a trace of at most `tr_landmark`, m (the [`Screen`]'s range
+    /// bound: a cheap first test by distance alone).
+    pub fn range_reach(&self, tr_landmark: f64, gate: f64) -> f64 {
+        (gate * self.range_bound(tr_landmark)).sqrt()
+    }
+
+    /// The [`Screen`]'s bound of `S_rr`.
+    fn range_bound(&self, tr_landmark: f64) -> f64 {
+        let m = self.mount.translation().norm();
+        2.0 * ((1.0 + m * m) * self.prr.trace() + tr_landmark) + self.w[(0, 0)]
     }
 }
 

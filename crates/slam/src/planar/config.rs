@@ -39,6 +39,26 @@ rperc_core::named_enum! {
     }
 }
 
+rperc_core::named_enum! {
+    /// Whether the engine runs the compressed EKF of Guivant & Nebot (2001): while the
+    /// robot sees only the landmarks of a local area, only the robot and those are
+    /// updated, and one global update restores the full filter exactly (see
+    /// [`crate::Compressed`]).
+    #[derive(Default)]
+    pub enum Compression: "compression" {
+        /// Compressed whenever it is exact and saves work: a map of point landmarks
+        /// of which at most half are near the robot (`active_radius`), without
+        /// consider freezing (its zero gains break the compression) or walls. Any
+        /// step that touches a passive landmark (an association candidate, a known
+        /// id) first brings it into the active area, exactly: the results equal the
+        /// full EKF's up to round-off.
+        #[default]
+        Auto = "auto",
+        /// The full EKF at every step.
+        Off = "off",
+    }
+}
+
 /// Settings of [`super::PlanarSlam`]. The seed's variants (anchor, external sensor,
 /// freezing) are fields and combine freely.
 #[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
@@ -91,6 +111,12 @@ pub struct PlanarConfig {
     pub initial_pose: [f64; 3],
     /// Variances of the start pose (>= 0; zero: a known start).
     pub initial_pose_variance: [f64; 3],
+    /// Whether to run the compressed EKF (a speed choice: the results are the same).
+    pub compression: Compression,
+    /// The compressed filter's active area: the landmarks within this distance of the
+    /// sensor, m (> 0). The area is made afresh (one global update) once its
+    /// landmarks are more than twice those near the robot.
+    pub active_radius: f64,
     /// Systematic sensor and odometry errors, removed from every detection and
     /// control before use (identity by default; MR.CLAM's are calibrated offline).
     /// `range_variance` and `bearing_variance` are the noise left after it.
@@ -117,6 +143,8 @@ impl Default for PlanarConfig {
             freeze_mode: FreezeMode::Marginalise,
             initial_pose: [0.0; 3],
             initial_pose_variance: [0.0; 3],
+            compression: Compression::Auto,
+            active_radius: 50.0,
             bias: SensorBias::default(),
         }
     }
@@ -141,6 +169,7 @@ impl PlanarConfig {
             ));
         }
         ensure_positive("candidate_window", self.candidate_window)?;
+        ensure_positive("active_radius", self.active_radius)?;
         ensure_non_negative("wall_overlap_gap", self.wall_overlap_gap)?;
         let admission = self.wall_admission_confidence;
         if !(self.gate_confidence..1.0).contains(&admission) {

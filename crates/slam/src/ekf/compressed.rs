@@ -23,10 +23,60 @@
 //! `phi` is `[-P_jA0 psi, I]` (so `P_jB' = P_jB'0 - P_jA0 psi P_A0B'`), and `psi` and
 //! `theta` grow by zeros.
 
-use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Matrix3x2, Point2};
+use nalgebra::{
+    DMatrix, DMatrixView, DMatrixViewMut, DVector, Matrix2, Matrix3, Matrix3x2, Point2,
+};
 
-use super::{Ekf, SparseJacobian, Update, stack_observations};
+use super::{Ekf, SparseJacobian, Update};
 use crate::error::{Result, SlamError};
+
+/// A matrix in a buffer with spare rows and columns, so that growing it a landmark
+/// at a time (the sub-filter by admissions and activations, the basis by
+/// activations) costs amortised O(size of the new block), not a copy of the whole.
+/// Entries past its size are zero.
+#[derive(Debug, Clone, PartialEq)]
+struct Spare {
+    buf: DMatrix<f64>,
+    rows: usize,
+    cols: usize,
+}
+
+impl Spare {
+    fn new(m: DMatrix<f64>) -> Self {
+        let (rows, cols) = m.shape();
+        Self { buf: m, rows, cols }
+    }
+
+    fn view(&self) -> DMatrixView<'_, f64> {
+        self.buf.view((0, 0), (self.rows, self.cols))
+    }
+
+    fn view_mut(&mut self) -> DMatrixViewMut<'_, f64> {
+        self.buf.view_mut((0, 0), (self.rows, self.cols))
+    }
+
+    /// Grows to `rows x cols` (never shrinks); the new entries are zero.
+    fn grow(&mut self, rows: usize, cols: usize) {
+        let (cap_r, cap_c) = self.buf.shape();
+        if rows > cap_r || cols > cap_c {
+            let new_r = if rows > cap_r {
+                rows.max(cap_r + cap_r / 2)
+            } else {
+                cap_r
+            };
+            let new_c = if cols > cap_c {
+                cols.max(cap_c + cap_c / 2)
+            } else {
+                cap_c
+            };
+            let mut buf = DMatrix::zeros(new_r, new_c);
+            buf.view_mut((0, 0), (self.rows, self.cols))
+                .copy_from(&self.view());
+            self.buf = buf;
+        }
+        (self.rows, self.cols) = (self.rows.max(rows), self.cols.max(cols));
+    }
+}
 
 /// A passive landmark, as the screening of an association needs it: where its mean
 /// was at the last refresh ([`Compressed::refresh`]), how far it may have moved since
@@ -63,11 +113,11 @@ pub struct Compressed {
     passive: Vec<Passive>,
     /// `P_BA0`: two rows per landmark passive at the compression (those activated
     /// since are unused), a column per basis entry.
-    u: DMatrix<f64>,
+    u: Spare,
     /// `d_A x a0`: `P_AB = phi P_A0B`.
-    phi: DMatrix<f64>,
+    phi: Spare,
     /// `a0 x a0`, symmetric: `P_BB = P_BB0 - P_BA0 psi P_A0B`.
-    psi: DMatrix<f64>,
+    psi: Spare,
     /// `a0`: `x_B = x_B0 + P_BA0 theta`.
     theta: DVector<f64>,
     /// `theta` at the last refresh of the passive means.
@@ -132,9 +182,9 @@ impl Ekf {
             global: self,
             basis,
             passive,
-            u,
-            phi: DMatrix::identity(a0, a0),
-            psi: DMatrix::zeros(a0, a0),
+            u: Spare::new(u),
+            phi: Spare::new(DMatrix::identity(a0, a0)),
+            psi: Spare::new(DMatrix::zeros(a0, a0)),
             theta: DVector::zeros(a0),
             theta_ref: DVector::zeros(a0),
             admitted: 0,
@@ -197,7 +247,7 @@ impl Compressed {
 
     /// Makes every [`Passive::mean`] current, `x_j0 + P_jA0 theta` (O(n_B a0)).
     pub fn refresh(&mut self) {
-        let dx = &self.u * &self.theta;
+        let dx = self.u.view() * &self.theta;
         let m = self.global.landmark_dim;
         for p in &mut self.passive {
             for i in 0..m {
@@ -213,8 +263,8 @@ impl Compressed {
         let p = &self.passive[k];
         let (mut x, mut y) = (self.global.x[p.offset], self.global.x[p.offset + 1]);
         for (c, t) in self.theta.iter().enumerate() {
-            x += self.u[(p.row, c)] * t;
-            y += self.u[(p.row + 1, c)] * t;
+            x += self.u.buf[(p.row, c)] * t;
+            y += self.u.buf[(p.row + 1, c)] * t;
         }
         Point2::new(x, y)
     }
@@ -226,9 +276,9 @@ impl Compressed {
         let p = &self.passive[k];
         let mut robot = Matrix3x2::zeros();
         for c in 0..self.basis.len() {
-            let u = [self.u[(p.row, c)], self.u[(p.row + 1, c)]];
+            let u = [self.u.buf[(p.row, c)], self.u.buf[(p.row + 1, c)]];
             for i in 0..3 {
-                let phi = self.phi[(i, c)];
+                let phi = self.phi.buf[(i, c)];
                 robot[(i, 0)] += phi * u[0];
                 robot[(i, 1)] += phi * u[1];
             }
@@ -247,7 +297,7 @@ impl Compressed {
     /// Prediction of the sub-filter with the robot Jacobian `fx` (its eq. 12 for the
     /// robot rows of `phi`); call it with every prediction of the sub-filter.
     pub fn predict_planar(&mut self, fx: &Matrix3<f64>) {
-        for mut col in self.phi.column_iter_mut() {
+        for mut col in self.phi.view_mut().column_iter_mut() {
             let moved = fx * nalgebra::Vector3::new(col[0], col[1], col[2]);
             col.fixed_rows_mut::<3>(0).copy_from(&moved);
         }
@@ -261,14 +311,27 @@ impl Compressed {
         observations: &[(DVector<f64>, SparseJacobian, DMatrix<f64>)],
         update: &Update,
     ) -> Result<()> {
-        let (_, h, _) = stack_observations(observations)?;
         let a0 = self.basis.len();
-        // H phi, from the blocks of H (m x a0).
-        let mut h_phi = DMatrix::zeros(h.rows, a0);
-        for b in &h.blocks {
-            let rows = self.phi.rows(b.col, b.h.ncols());
-            let mut out = h_phi.rows_mut(b.row, b.h.nrows());
-            out.gemm(1.0, &b.h, &rows, 1.0);
+        let rows = update.innovation.len();
+        // H phi (m x a0), a row of H's blocks at a time against the rows of phi it
+        // selects (each row of H has a few non-zero entries).
+        let mut h_phi = DMatrix::zeros(rows, a0);
+        let cap = self.phi.buf.nrows();
+        let phi = self.phi.buf.as_slice();
+        let mut first = 0;
+        for (nu, h, _) in observations {
+            for b in &h.blocks {
+                for i in 0..b.h.nrows() {
+                    let coeffs: Vec<(usize, f64)> =
+                        (0..b.h.ncols()).map(|k| (b.col + k, b.h[(i, k)])).collect();
+                    let row = first + b.row + i;
+                    for c in 0..a0 {
+                        let col = &phi[c * cap..];
+                        h_phi[(row, c)] += coeffs.iter().map(|&(r, v)| v * col[r]).sum::<f64>();
+                    }
+                }
+            }
+            first += nu.len();
         }
         // With S = L L^T and Y = L^-1 H phi: psi += Y^T Y, theta += Y^T L^-1 nu. L^-1
         // is small (m x m), so Y is one blocked product, not a triangular solve.
@@ -280,10 +343,10 @@ impl Compressed {
             .ok_or_else(|| SlamError::SingularInnovation("compressed update: S".into()))?;
         let y = &l_inv * &h_phi;
         let y_t = y.transpose();
-        self.psi.gemm(1.0, &y_t, &y, 1.0);
+        self.psi.view_mut().gemm(1.0, &y_t, &y, 1.0);
         self.theta
             .gemv(1.0, &y_t, &(&l_inv * &update.innovation), 1.0);
-        self.phi.gemm(-1.0, &update.gain, &h_phi, 1.0);
+        self.phi.view_mut().gemm(-1.0, &update.gain, &h_phi, 1.0);
         Ok(())
     }
 
@@ -295,11 +358,13 @@ impl Compressed {
         self.admitted += 1;
         let need = self.global.dim() + self.admitted * self.global.landmark_dim;
         self.global.reserve(need)?;
-        let (d, a0) = self.phi.shape();
-        let row = g_robot * self.phi.rows(0, g_robot.ncols());
-        let phi = std::mem::replace(&mut self.phi, DMatrix::zeros(0, 0));
-        self.phi = phi.resize_vertically(d + row.nrows(), 0.0);
-        self.phi.view_mut((d, 0), (row.nrows(), a0)).copy_from(&row);
+        let (d, a0) = (self.phi.rows, self.phi.cols);
+        let row = g_robot * self.phi.buf.view((0, 0), (g_robot.ncols(), a0));
+        self.phi.grow(d + row.nrows(), a0);
+        self.phi
+            .buf
+            .view_mut((d, 0), (row.nrows(), a0))
+            .copy_from(&row);
         Ok(())
     }
 
@@ -308,23 +373,19 @@ impl Compressed {
     pub fn activate(&mut self, local: &mut Ekf, k: usize) -> Result<u64> {
         let p = self.passive.swap_remove(k);
         let m = self.global.landmark_dim;
-        let u = self.u.rows(p.row, m).into_owned(); // P_jA0, m x a0
+        let (d, a0) = (self.phi.rows, self.phi.cols);
+        let u = self.u.buf.view((p.row, 0), (m, a0)).into_owned(); // P_jA0
         let mean = self.global.x.rows(p.offset, m) + &u * &self.theta;
-        let u_psi = &u * &self.psi;
+        let u_psi = &u * self.psi.view();
         let own = self.stale_own(p.offset) - &u_psi * u.transpose();
-        let cross = &u * self.phi.transpose(); // P_jA, m x d_A
+        let cross = (self.phi.view() * u.transpose()).transpose(); // P_jA, m x d_A
         local.append_landmark(p.id, &mean, &cross, &own)?;
         // The basis grows by the landmark: phi = [[phi, 0], [-P_jA0 psi, I]].
-        let (d, a0) = self.phi.shape();
-        let mut phi = DMatrix::zeros(d + m, a0 + m);
-        phi.view_mut((0, 0), (d, a0)).copy_from(&self.phi);
-        phi.view_mut((d, 0), (m, a0)).copy_from(&(-u_psi));
-        phi.view_mut((d, a0), (m, m)).fill_with_identity();
-        self.phi = phi;
-        let grow = |v: DMatrix<f64>, rows: usize| v.resize(rows, a0 + m, 0.0);
-        self.psi = grow(std::mem::take(&mut self.psi), a0 + m);
-        let n_u = self.u.nrows();
-        self.u = grow(std::mem::take(&mut self.u), n_u);
+        self.phi.grow(d + m, a0 + m);
+        self.phi.buf.view_mut((d, 0), (m, a0)).copy_from(&(-u_psi));
+        self.phi.buf.view_mut((d, a0), (m, m)).fill_with_identity();
+        self.psi.grow(a0 + m, a0 + m);
+        self.u.grow(self.u.rows, a0 + m);
         for v in [&mut self.theta, &mut self.theta_ref] {
             *v = std::mem::take(v).resize_vertically(a0 + m, 0.0);
         }
@@ -333,7 +394,7 @@ impl Compressed {
             let mut added = 0.0;
             for (i, c) in (0..m).flat_map(|i| (0..m).map(move |c| (i, c))) {
                 let v = self.global.cov_at(q.offset + i, p.offset + c);
-                self.u[(q.row + i, a0 + c)] = v;
+                self.u.buf[(q.row + i, a0 + c)] = v;
                 added += v * v;
             }
             q.reach = (q.reach * q.reach + added).sqrt();
@@ -363,22 +424,22 @@ impl Compressed {
             .iter()
             .flat_map(|p| p.offset..p.offset + m)
             .collect();
-        let u = DMatrix::from_fn(rows_b.len(), all_u.ncols(), |i, c| {
-            all_u[(passive[i / m].row + i % m, c)]
+        let u = DMatrix::from_fn(rows_b.len(), all_u.cols, |i, c| {
+            all_u.buf[(passive[i / m].row + i % m, c)]
         });
         let dx_b = &u * &theta;
-        let psi = (&psi + psi.transpose()) * 0.5;
+        let psi = (psi.view() + psi.view().transpose()) * 0.5;
         let w = &u * &psi; // n_B x a0
-        let p_ab = &phi * u.transpose(); // d_A x n_B
+        let p_ba = &u * phi.view().transpose(); // P_BA = (phi P_A0B)^T, n_B x d_A
         subtract_lower(&mut global, &rows_b, &w, &u);
         for (i, &g) in rows_b.iter().enumerate() {
             global.x[g] += dx_b[i];
         }
         // The sub-filter's entries, its new landmarks appended to the full filter.
         let rows_a = global.adopt(&local);
-        for (c, &gc) in rows_b.iter().enumerate() {
-            for (i, &gi) in rows_a.iter().enumerate() {
-                global.set_cov(gi, gc, p_ab[(i, c)]);
+        for (i, &gi) in rows_a.iter().enumerate() {
+            for (c, &gc) in rows_b.iter().enumerate() {
+                global.set_cov(gi, gc, p_ba[(c, i)]);
             }
         }
         for c in 0..rows_a.len() {
@@ -403,8 +464,9 @@ fn subtract_lower(global: &mut Ekf, rows: &[usize], w: &DMatrix<f64>, u: &DMatri
         let width = BLOCK.min(n - c0);
         let product = w.rows(c0, n - c0) * u.rows(c0, width).transpose();
         for c in 0..width {
-            for i in c..n - c0 {
-                global.cov[(rows[c0 + i], rows[c0 + c])] -= product[(i, c)];
+            let mut target = global.cov.column_mut(rows[c0 + c]);
+            for (i, v) in product.column(c).iter().enumerate().skip(c) {
+                target[rows[c0 + i]] -= v;
             }
         }
     }

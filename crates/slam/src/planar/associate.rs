@@ -102,9 +102,15 @@ impl<'a> Scene<'a> {
     /// The pairing of detection `det` (measured `z`) with `target`; `None` when the
     /// target sits on the sensor or `S` is singular.
     pub fn pairing(&self, det: usize, z: &Vector2<f64>, target: Target) -> Option<Pairing> {
+        self.linearise(target)?.pairing(det, z)
+    }
+
+    /// What a pairing with `target` needs before any detection: the linearisation at
+    /// the prior and `S^-1`; `None` when the target sits on the sensor or `S` is
+    /// singular.
+    fn linearise(&self, target: Target) -> Option<Linearised> {
         let (l, offset) = self.landmark(target)?;
-        let (zp, h_robot, h_l) = observe(&self.robot, &self.mount, &l)?;
-        let nu = Vector2::new(z.x - zp.x, wrap_angle(z.y - zp.y));
+        let (predicted, h_robot, h_l) = observe(&self.robot, &self.mount, &l)?;
         let (h_landmark, r) = match target {
             // Frozen: the landmark is known with its frozen covariance (text under Fig. 7).
             Target::Fixed(k) => (
@@ -113,19 +119,22 @@ impl<'a> Scene<'a> {
             ),
             _ => (h_l, self.w),
         };
-        let mut p = Pairing {
-            det,
+        let template = Pairing {
+            det: 0,
             target,
-            nu,
+            nu: Vector2::zeros(),
             h_robot,
             h_landmark,
             offset,
             r,
             nis: 0.0,
         };
-        let s = self.cross(&p, &p) + p.r;
-        p.nis = nu.dot(&(s.try_inverse()? * nu));
-        p.nis.is_finite().then_some(p)
+        let s = self.cross(&template, &template) + template.r;
+        Some(Linearised {
+            s_inv: s.try_inverse()?,
+            predicted,
+            template,
+        })
     }
 
     /// `H_a P H_b^T` from the robot, landmark and cross blocks of `P` (read as
@@ -151,6 +160,28 @@ impl<'a> Scene<'a> {
             }
         }
         s
+    }
+}
+
+/// A target linearised at the prior (see [`Scene::linearise`]): the pairings of
+/// several detections with it share it.
+struct Linearised {
+    template: Pairing,
+    predicted: Vector2<f64>,
+    s_inv: Matrix2<f64>,
+}
+
+impl Linearised {
+    /// The pairing of detection `det` (measured `z`); `None` when its NIS is not finite.
+    fn pairing(&self, det: usize, z: &Vector2<f64>) -> Option<Pairing> {
+        let nu = Vector2::new(z.x - self.predicted.x, wrap_angle(z.y - self.predicted.y));
+        let nis = nu.dot(&(self.s_inv * nu));
+        nis.is_finite().then(|| Pairing {
+            det,
+            nu,
+            nis,
+            ..self.template.clone()
+        })
     }
 }
 
@@ -290,20 +321,26 @@ pub(crate) fn compatible(
         .chain((0..scene.fixed.len()).map(Target::Fixed))
         .filter_map(|t| scene.screen(t).map(|s| (t, s)))
         .collect();
-    detections
-        .iter()
-        .enumerate()
-        .map(|(i, z)| {
-            let mut options: Vec<Pairing> = targets
-                .iter()
-                .filter(|(_, screen)| screen.may_pass(z, gate))
-                .filter_map(|&(t, _)| scene.pairing(i, z, t))
-                .filter(|p| p.nis <= gate)
-                .collect();
-            options.sort_by(|a, b| a.nis.total_cmp(&b.nis));
-            options
-        })
-        .collect()
+    let mut options = vec![Vec::new(); detections.len()];
+    for (t, screen) in targets {
+        // Linearised once, when a first detection passes the screen.
+        let mut linearised: Option<Option<Linearised>> = None;
+        for (i, z) in detections.iter().enumerate() {
+            if !screen.may_pass(z, gate) {
+                continue;
+            }
+            let lin = linearised.get_or_insert_with(|| scene.linearise(t));
+            if let Some(p) = lin.as_ref().and_then(|l| l.pairing(i, z))
+                && p.nis <= gate
+            {
+                options[i].push(p);
+            }
+        }
+    }
+    for o in &mut options {
+        o.sort_by(|a, b| a.nis.total_cmp(&b.nis));
+    }
+    options
 }
 
 /// Nearest neighbour: each detection takes its most compatible target; when two

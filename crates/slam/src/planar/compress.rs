@@ -21,6 +21,20 @@ use super::{Association, Compression, FreezeMode};
 use crate::ekf::{Compressed, Ekf, SparseJacobian, Update};
 use crate::error::Result;
 
+/// Multiply-adds of an update of `rows` rows of a compressed filter of `d` states
+/// with a basis of `a`: the Joseph form (`rows d^2`), the gain (`2 d rows^2`), and
+/// `phi` and `psi` (`rows a (d + a)`).
+fn update_work(rows: usize, d: f64, a: f64) -> f64 {
+    let m = rows as f64;
+    m * d * d + 2.0 * d * m * m + m * a * (d + a)
+}
+
+/// Multiply-adds of a global update with `n_b` passive states: `P_BB` (`n_b^2 a / 2`),
+/// `P_BA0 psi` (`n_b a^2`) and `P_AB` (`d a n_b`).
+fn global_work(n_b: f64, d: f64, a: f64) -> f64 {
+    n_b * n_b * a / 2.0 + n_b * a * a + d * a * n_b
+}
+
 /// A compressed filter's auxiliary state and the work an area made afresh would
 /// have saved since this one was made.
 #[derive(Debug, Clone)]
@@ -38,8 +52,9 @@ impl PlanarSlam {
         self.config.compression == Compression::Auto && !consider && self.walls.is_empty()
     }
 
-    /// Landmarks in the full filter (active, passive, or admitted since).
-    pub(super) fn landmarks_in_state(&self) -> usize {
+    /// Landmarks in the filter's state, compressed or not (frozen ones and the
+    /// anchor have left it).
+    pub fn landmarks_in_state(&self) -> usize {
         match &self.cekf {
             Some(c) => c.aux.num_landmarks(&self.ekf),
             None => self.ekf.num_landmarks(),
@@ -101,16 +116,15 @@ impl PlanarSlam {
     /// The rent-or-buy rule of the module docs, for an area of `near` landmarks and
     /// an update of about `rows` rows.
     fn worth_compressing(&mut self, near: usize, rows: usize) -> bool {
-        let fresh = (3 + 2 * near) as f64;
-        let d = self.ekf.state().len() as f64;
+        let n = self.ekf.num_landmarks();
         let Some(c) = &mut self.cekf else {
-            return 2 * near <= self.ekf.num_landmarks() && self.ekf.num_landmarks() > 0;
+            return n > 0 && 2 * near <= n;
         };
-        let a = c.aux.basis_len() as f64;
+        let (d, a) = (self.ekf.state().len() as f64, c.aux.basis_len() as f64);
+        let fresh = (3 + 2 * near) as f64;
         let n_b = 2.0 * c.aux.passive().len() as f64;
-        let cost = |d: f64, a: f64| rows as f64 * (d * d + d * a + a * a);
-        c.regret += (cost(d, a) - cost(fresh, fresh)).max(0.0);
-        c.regret > n_b * n_b * a / 2.0
+        c.regret += (update_work(rows, d, a) - update_work(rows, fresh, fresh)).max(0.0);
+        c.regret > global_work(n_b, d, a)
     }
 
     /// The landmarks (active or passive; a passive one at its last global mean)

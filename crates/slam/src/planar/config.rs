@@ -47,11 +47,12 @@ rperc_core::named_enum! {
     #[derive(Default)]
     pub enum Compression: "compression" {
         /// Compressed whenever it is exact and saves work: a map of point landmarks
-        /// of which at most half are near the robot (`active_radius`), without
+        /// of which at most half are near the sensor (`active_radius`), without
         /// consider freezing (its zero gains break the compression) or walls. Any
         /// step that touches a passive landmark (an association candidate, a known
-        /// id) first brings it into the active area, exactly: the results equal the
-        /// full EKF's up to round-off.
+        /// id) first brings it into the active area, exactly, and freezing (a
+        /// removal) first makes the global update: the results equal the full EKF's
+        /// up to round-off.
         #[default]
         Auto = "auto",
         /// The full EKF at every step.
@@ -113,9 +114,11 @@ pub struct PlanarConfig {
     pub initial_pose_variance: [f64; 3],
     /// Whether to run the compressed EKF (a speed choice: the results are the same).
     pub compression: Compression,
-    /// The compressed filter's active area: the landmarks within this distance of the
-    /// sensor, m (> 0). The area is made afresh (one global update) once its
-    /// landmarks are more than twice those near the robot.
+    /// The compressed filter's active area when it is made: the landmarks within this
+    /// distance of the sensor, m (> 0); any other landmark a scan may be paired with
+    /// joins it when seen. The area is made afresh (one global update) when the work
+    /// it costs over a fresh one has paid for a global update. A speed setting only:
+    /// timed on Victoria Park from 1 to 50 m (0.68 to 0.97 s), the results identical.
     pub active_radius: f64,
     /// Systematic sensor and odometry errors, removed from every detection and
     /// control before use (identity by default; MR.CLAM's are calibrated offline).
@@ -144,7 +147,7 @@ impl Default for PlanarConfig {
             initial_pose: [0.0; 3],
             initial_pose_variance: [0.0; 3],
             compression: Compression::Auto,
-            active_radius: 50.0,
+            active_radius: 5.0,
             bias: SensorBias::default(),
         }
     }

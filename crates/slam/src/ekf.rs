@@ -995,7 +995,6 @@ fn joseph_columns(
     l: &DMatrix<f64>,
     m: &DMatrix<f64>,
 ) -> Result<()> {
-    let cap = p.nrows();
     let obs = k.ncols();
     let mut a = DMatrix::<f64>::zeros(d, 2 * obs);
     a.columns_mut(0, obs).copy_from(k);
@@ -1004,6 +1003,65 @@ fn joseph_columns(
     let mut bt = DMatrix::<f64>::zeros(2 * obs, d);
     bt.rows_mut(0, obs).copy_from(&(-l.transpose()));
     bt.rows_mut(obs, obs).copy_from(&k.transpose());
+    add_lower_product(p, d, &a, &bt)
+}
+
+/// `P += A B^T` on the lower triangle of the leading `d x d` block of `P` (`A`,
+/// `B` `d x k`; `bt` is `B^T`, `k x d`), by column blocks (see [`joseph_columns`]);
+/// a large product goes through a copy with Ctrl-C checkpoints, so that an
+/// interrupted update leaves `P` as it was.
+fn add_lower_product(
+    p: &mut DMatrix<f64>,
+    d: usize,
+    a: &DMatrix<f64>,
+    bt: &DMatrix<f64>,
+) -> Result<()> {
+    let cap = p.nrows();
+    let data = &mut p.as_mut_slice()[..d * cap];
+    // Half the inner size: the observation rows of a Joseph update (its threshold).
+    let obs = a.ncols().div_ceil(2);
+    if (d * d / 2).saturating_mul(obs) < INTERRUPTIBLE_JOSEPH_FLOPS {
+        lower_product_blocks(data, cap, d, 0, a, bt);
+        return Ok(());
+    }
+    check_allocation("covariance copy of a large update", (d * cap) as u128, 8)?;
+    let mut copy = data.to_vec();
+    let step = JOSEPH_BLOCK * JOSEPH_BLOCKS_PER_CHECKPOINT;
+    for first in (0..d).step_by(step) {
+        let cols = step.min(d - first);
+        let chunk = &mut copy[first * cap..(first + cols) * cap];
+        lower_product_blocks(chunk, cap, d, first / JOSEPH_BLOCK, a, bt);
+        rperc_core::interrupt::checkpoint()?;
+    }
+    data.copy_from_slice(&copy);
+    Ok(())
+}
+
+/// `P += A B^T` on the lower triangle of the leading `d x d` block of `P` at once
+/// (no checkpoint: for a global update of a compressed filter, which must not stop
+/// half way).
+pub(crate) fn add_lower_product_now(
+    p: &mut DMatrix<f64>,
+    d: usize,
+    a: &DMatrix<f64>,
+    bt: &DMatrix<f64>,
+) {
+    let cap = p.nrows();
+    lower_product_blocks(&mut p.as_mut_slice()[..d * cap], cap, d, 0, a, bt);
+}
+
+/// The column blocks of `P += A B^T` held in `cols` (whole blocks of `P`'s columns,
+/// `cap` rows each, the first of them block `first`): each block is one product
+/// restricted to the rows on and below it, on all cores for large states, every entry
+/// computed by the same operations whatever the thread count.
+fn lower_product_blocks(
+    cols: &mut [f64],
+    cap: usize,
+    d: usize,
+    first: usize,
+    a: &DMatrix<f64>,
+    bt: &DMatrix<f64>,
+) {
     // Block `b` of columns, `block` starting at row 0 of its first column.
     let update_block = |b: usize, block: &mut [f64]| {
         let j0 = b * JOSEPH_BLOCK;
@@ -1017,34 +1075,13 @@ fn joseph_columns(
         );
         c.gemm(1.0, &a.rows(j0, d - j0), &bt.columns(j0, w), 1.0);
     };
-    // Whole blocks, the first of them block `first`.
-    let update_blocks = |first: usize, cols: &mut [f64]| {
-        if d >= PARALLEL_MIN_DIM {
-            cols.par_chunks_mut(cap * JOSEPH_BLOCK)
-                .enumerate()
-                .for_each(|(b, block)| update_block(first + b, block));
-        } else {
-            cols.chunks_mut(cap * JOSEPH_BLOCK)
-                .enumerate()
-                .for_each(|(b, block)| update_block(first + b, block));
-        }
-    };
-    let data = &mut p.as_mut_slice()[..d * cap];
-    if (d * d / 2).saturating_mul(obs) < INTERRUPTIBLE_JOSEPH_FLOPS {
-        update_blocks(0, data);
-        return Ok(());
+    if d >= PARALLEL_MIN_DIM {
+        cols.par_chunks_mut(cap * JOSEPH_BLOCK)
+            .enumerate()
+            .for_each(|(b, block)| update_block(first + b, block));
+    } else {
+        cols.chunks_mut(cap * JOSEPH_BLOCK)
+            .enumerate()
+            .for_each(|(b, block)| update_block(first + b, block));
     }
-    check_allocation("covariance copy of a large update", (d * cap) as u128, 8)?;
-    let mut copy = data.to_vec();
-    let step = JOSEPH_BLOCK * JOSEPH_BLOCKS_PER_CHECKPOINT;
-    for first in (0..d).step_by(step) {
-        let cols = step.min(d - first);
-        update_blocks(
-            first / JOSEPH_BLOCK,
-            &mut copy[first * cap..(first + cols) * cap],
-        );
-        rperc_core::interrupt::checkpoint()?;
-    }
-    data.copy_from_slice(&copy);
-    Ok(())
 }

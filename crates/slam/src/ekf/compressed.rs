@@ -27,7 +27,7 @@ use nalgebra::{
     DMatrix, DMatrixView, DMatrixViewMut, DVector, Matrix2, Matrix3, Matrix3x2, Point2,
 };
 
-use super::{Ekf, SparseJacobian, Update};
+use super::{Ekf, SparseJacobian, Update, add_lower_product_now};
 use crate::error::{Result, SlamError};
 
 /// A matrix in a buffer with spare rows and columns, so that growing it a landmark
@@ -111,9 +111,10 @@ pub struct Compressed {
     basis: Vec<usize>,
     /// The passive landmarks.
     passive: Vec<Passive>,
-    /// `P_BA0`: two rows per landmark passive at the compression (those activated
-    /// since are unused), a column per basis entry.
-    u: Spare,
+    /// `P_A0B` (transposed, so that a landmark's entries are contiguous): a row per
+    /// basis entry, two columns per landmark passive at the compression (those
+    /// activated since are unused).
+    ut: Spare,
     /// `d_A x a0`: `P_AB = phi P_A0B`.
     phi: Spare,
     /// `a0 x a0`, symmetric: `P_BB = P_BB0 - P_BA0 psi P_A0B`.
@@ -159,7 +160,7 @@ impl Ekf {
         let passive_js: Vec<usize> = (0..self.num_landmarks())
             .filter(|&j| !active_mask[j])
             .collect();
-        let u = DMatrix::from_fn(m * passive_js.len(), basis.len(), |i, c| {
+        let ut = DMatrix::from_fn(basis.len(), m * passive_js.len(), |c, i| {
             self.cov_at(r + passive_js[i / m] * m + i % m, basis[c])
         });
         let passive = passive_js
@@ -173,7 +174,7 @@ impl Ekf {
                     row: k * m,
                     mean: [self.x[off], self.x[off + 1]],
                     trace: (0..m).map(|i| self.cov_at(off + i, off + i)).sum(),
-                    reach: u.rows(k * m, m).norm(),
+                    reach: ut.columns(k * m, m).norm(),
                 }
             })
             .collect();
@@ -182,7 +183,7 @@ impl Ekf {
             global: self,
             basis,
             passive,
-            u: Spare::new(u),
+            ut: Spare::new(ut),
             phi: Spare::new(DMatrix::identity(a0, a0)),
             psi: Spare::new(DMatrix::zeros(a0, a0)),
             theta: DVector::zeros(a0),
@@ -247,7 +248,7 @@ impl Compressed {
 
     /// Makes every [`Passive::mean`] current, `x_j0 + P_jA0 theta` (O(n_B a0)).
     pub fn refresh(&mut self) {
-        let dx = self.u.view() * &self.theta;
+        let dx = self.ut.view().tr_mul(&self.theta);
         let m = self.global.landmark_dim;
         for p in &mut self.passive {
             for i in 0..m {
@@ -261,12 +262,12 @@ impl Compressed {
     /// allocation).
     pub fn passive_mean(&self, k: usize) -> Point2<f64> {
         let p = &self.passive[k];
-        let (mut x, mut y) = (self.global.x[p.offset], self.global.x[p.offset + 1]);
-        for (c, t) in self.theta.iter().enumerate() {
-            x += self.u.buf[(p.row, c)] * t;
-            y += self.u.buf[(p.row + 1, c)] * t;
-        }
-        Point2::new(x, y)
+        let a0 = self.theta.len();
+        let drift = |i: usize| self.ut.buf.view((0, p.row + i), (a0, 1)).dot(&self.theta);
+        Point2::new(
+            self.global.x[p.offset] + drift(0),
+            self.global.x[p.offset + 1] + drift(1),
+        )
     }
 
     /// Passive landmark `k`'s current cross-covariance with the robot, `(phi
@@ -276,7 +277,7 @@ impl Compressed {
         let p = &self.passive[k];
         let mut robot = Matrix3x2::zeros();
         for c in 0..self.basis.len() {
-            let u = [self.u.buf[(p.row, c)], self.u.buf[(p.row + 1, c)]];
+            let u = [self.ut.buf[(c, p.row)], self.ut.buf[(c, p.row + 1)]];
             for i in 0..3 {
                 let phi = self.phi.buf[(i, c)];
                 robot[(i, 0)] += phi * u[0];
@@ -313,39 +314,49 @@ impl Compressed {
     ) -> Result<()> {
         let a0 = self.basis.len();
         let rows = update.innovation.len();
-        // H phi (m x a0), a row of H's blocks at a time against the rows of phi it
-        // selects (each row of H has a few non-zero entries).
-        let mut h_phi = DMatrix::zeros(rows, a0);
-        let cap = self.phi.buf.nrows();
-        let phi = self.phi.buf.as_slice();
+        // H phi (m x a0), a column of phi at a time: each row of H has a few non-zero
+        // entries (its blocks' rows), gathered once with their columns.
+        let mut entries: Vec<(usize, usize, usize, [f64; 3])> = Vec::new();
         let mut first = 0;
         for (nu, h, _) in observations {
             for b in &h.blocks {
                 for i in 0..b.h.nrows() {
-                    let coeffs: Vec<(usize, f64)> =
-                        (0..b.h.ncols()).map(|k| (b.col + k, b.h[(i, k)])).collect();
-                    let row = first + b.row + i;
-                    for c in 0..a0 {
-                        let col = &phi[c * cap..];
-                        h_phi[(row, c)] += coeffs.iter().map(|&(r, v)| v * col[r]).sum::<f64>();
-                    }
+                    let mut coeffs = [0.0; 3];
+                    let n = b.h.ncols().min(3);
+                    (0..n).for_each(|k| coeffs[k] = b.h[(i, k)]);
+                    entries.push((first + b.row + i, b.col, n, coeffs));
+                }
+                if b.h.ncols() > 3 {
+                    return Err(SlamError::dimension(
+                        "a planar block has at most 3 columns".into(),
+                    ));
                 }
             }
             first += nu.len();
         }
-        // With S = L L^T and Y = L^-1 H phi: psi += Y^T Y, theta += Y^T L^-1 nu. L^-1
-        // is small (m x m), so Y is one blocked product, not a triangular solve.
-        let l_inv = update
+        let mut h_phi = DMatrix::zeros(rows, a0);
+        let cap = self.phi.buf.nrows();
+        let phi = &self.phi.buf.as_slice()[..a0 * cap];
+        for (col, mut out) in phi.chunks_exact(cap).zip(h_phi.column_iter_mut()) {
+            for &(row, at, n, coeffs) in &entries {
+                let x = &col[at..at + n];
+                out[row] += x.iter().zip(&coeffs).map(|(x, c)| x * c).sum::<f64>();
+            }
+        }
+        // With S = L L^T and Y = L^-1 H phi: psi += Y^T Y, theta += Y^T L^-1 nu (two
+        // forward substitutions with the small L).
+        let chol = update
             .innovation_cov
             .clone()
             .cholesky()
-            .and_then(|c| c.l().try_inverse())
             .ok_or_else(|| SlamError::SingularInnovation("compressed update: S".into()))?;
-        let y = &l_inv * &h_phi;
+        let mut y = h_phi.clone();
+        chol.l_dirty().solve_lower_triangular_unchecked_mut(&mut y);
+        let mut w = update.innovation.clone();
+        chol.l_dirty().solve_lower_triangular_unchecked_mut(&mut w);
         let y_t = y.transpose();
         self.psi.view_mut().gemm(1.0, &y_t, &y, 1.0);
-        self.theta
-            .gemv(1.0, &y_t, &(&l_inv * &update.innovation), 1.0);
+        self.theta.gemv(1.0, &y_t, &w, 1.0);
         self.phi.view_mut().gemm(-1.0, &update.gain, &h_phi, 1.0);
         Ok(())
     }
@@ -374,7 +385,7 @@ impl Compressed {
         let p = self.passive.swap_remove(k);
         let m = self.global.landmark_dim;
         let (d, a0) = (self.phi.rows, self.phi.cols);
-        let u = self.u.buf.view((p.row, 0), (m, a0)).into_owned(); // P_jA0
+        let u = self.ut.buf.view((0, p.row), (a0, m)).transpose(); // P_jA0
         let mean = self.global.x.rows(p.offset, m) + &u * &self.theta;
         let u_psi = &u * self.psi.view();
         let own = self.stale_own(p.offset) - &u_psi * u.transpose();
@@ -385,7 +396,7 @@ impl Compressed {
         self.phi.buf.view_mut((d, 0), (m, a0)).copy_from(&(-u_psi));
         self.phi.buf.view_mut((d, a0), (m, m)).fill_with_identity();
         self.psi.grow(a0 + m, a0 + m);
-        self.u.grow(self.u.rows, a0 + m);
+        self.ut.grow(a0 + m, self.ut.cols);
         for v in [&mut self.theta, &mut self.theta_ref] {
             *v = std::mem::take(v).resize_vertically(a0 + m, 0.0);
         }
@@ -394,7 +405,7 @@ impl Compressed {
             let mut added = 0.0;
             for (i, c) in (0..m).flat_map(|i| (0..m).map(move |c| (i, c))) {
                 let v = self.global.cov_at(q.offset + i, p.offset + c);
-                self.u.buf[(q.row + i, a0 + c)] = v;
+                self.ut.buf[(a0 + c, q.row + i)] = v;
                 added += v * v;
             }
             q.reach = (q.reach * q.reach + added).sqrt();
@@ -410,36 +421,38 @@ impl Compressed {
         let Compressed {
             mut global,
             passive,
-            u: all_u,
+            ut: all_ut,
             phi,
             psi,
             theta,
             ..
         } = self;
         let m = global.landmark_dim;
-        let mut passive = passive;
-        passive.sort_by_key(|p| p.offset);
-        // The passive rows (state offsets), and U = P_BA0 (n_B x a0).
+        let dg = global.dim();
+        // U = P_BA0 in the full filter's rows (zero on the active ones), so that
+        // P_BB -= U psi U^T is one blocked product over P's columns in place; its
+        // active rows and columns get zero and are overwritten below.
+        let mut u = DMatrix::zeros(dg, all_ut.rows);
+        for p in &passive {
+            for i in 0..m {
+                u.row_mut(p.offset + i)
+                    .tr_copy_from(&all_ut.buf.view((0, p.row + i), (all_ut.rows, 1)));
+            }
+        }
+        global.x += &u * &theta;
+        let psi = (psi.view() + psi.view().transpose()) * 0.5;
+        let minus_w = -(&u * &psi); // dg x a0
+        let p_ba = &u * phi.view().transpose(); // P_BA = (phi P_A0B)^T, rows of B
+        add_lower_product_now(&mut global.cov, dg, &minus_w, &u.transpose());
         let rows_b: Vec<usize> = passive
             .iter()
             .flat_map(|p| p.offset..p.offset + m)
             .collect();
-        let u = DMatrix::from_fn(rows_b.len(), all_u.cols, |i, c| {
-            all_u.buf[(passive[i / m].row + i % m, c)]
-        });
-        let dx_b = &u * &theta;
-        let psi = (psi.view() + psi.view().transpose()) * 0.5;
-        let w = &u * &psi; // n_B x a0
-        let p_ba = &u * phi.view().transpose(); // P_BA = (phi P_A0B)^T, n_B x d_A
-        subtract_lower(&mut global, &rows_b, &w, &u);
-        for (i, &g) in rows_b.iter().enumerate() {
-            global.x[g] += dx_b[i];
-        }
         // The sub-filter's entries, its new landmarks appended to the full filter.
         let rows_a = global.adopt(&local);
         for (i, &gi) in rows_a.iter().enumerate() {
-            for (c, &gc) in rows_b.iter().enumerate() {
-                global.set_cov(gi, gc, p_ba[(c, i)]);
+            for &gc in &rows_b {
+                global.set_cov(gi, gc, p_ba[(gc, i)]);
             }
         }
         for c in 0..rows_a.len() {
@@ -450,25 +463,6 @@ impl Compressed {
         }
         global.wrap_angles();
         global
-    }
-}
-
-/// Columns of `P_BB` per block of [`subtract_lower`].
-const BLOCK: usize = 64;
-
-/// `P_BB -= W U^T` on the stored lower triangle of `P`, `rows` the state offsets of
-/// `B` (ascending), a block of columns at a time (one matrix product per block).
-fn subtract_lower(global: &mut Ekf, rows: &[usize], w: &DMatrix<f64>, u: &DMatrix<f64>) {
-    let n = rows.len();
-    for c0 in (0..n).step_by(BLOCK) {
-        let width = BLOCK.min(n - c0);
-        let product = w.rows(c0, n - c0) * u.rows(c0, width).transpose();
-        for c in 0..width {
-            let mut target = global.cov.column_mut(rows[c0 + c]);
-            for (i, v) in product.column(c).iter().enumerate().skip(c) {
-                target[rows[c0 + i]] -= v;
-            }
-        }
     }
 }
 

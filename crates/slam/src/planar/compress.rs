@@ -198,7 +198,7 @@ impl PlanarSlam {
     /// within the farthest detection's range plus the drift bound of the landmark's
     /// mean since the last refresh plus the association screen's range bound.
     fn passive_near(&self, zs: &[Vector2<f64>]) -> Vec<usize> {
-        let Some(c) = &self.cekf else {
+        let Some(c) = self.cekf.as_ref().filter(|_| !zs.is_empty()) else {
             return Vec::new();
         };
         let scene = self.scene();
@@ -208,10 +208,10 @@ impl PlanarSlam {
         let passive = c.aux.passive().iter().enumerate();
         passive
             .filter(|(_, p)| {
-                let distance = (p.mean[0] - sensor.x).hypot(p.mean[1] - sensor.y);
+                let distance2 = (p.mean[0] - sensor.x).powi(2) + (p.mean[1] - sensor.y).powi(2);
                 let reach = farthest + p.reach * scale + scene.range_reach(p.trace, self.gate);
-                // A NaN keeps the landmark for the exact test.
-                distance <= reach || distance.is_nan() || reach.is_nan()
+                // Compared squared (reach >= 0); a NaN keeps the landmark for the exact test.
+                distance2 <= reach * reach || distance2.is_nan() || reach.is_nan()
             })
             .map(|(k, _)| k)
             .collect()

@@ -111,7 +111,7 @@ def _mrclam(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dict[
     external = "external" in args.variant
     interval = args.fix_interval if external else None
     ev = mrclam_recording(run, fix_interval=interval, fix_sigma=args.fix_sigma)
-    result = PlanarSlam(cfg).run(ev)
+    result = PlanarSlam(cfg).run(ev, progress=True)
     truth = np.c_[run.truth_x, run.truth_y, run.truth_theta]
     aligned = result.ate(run.truth_t, truth, align=True)
     marks = np.c_[run.landmark_x, run.landmark_y]
@@ -137,7 +137,7 @@ def _victoria(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dic
     cfg = {**PRESETS["victoria"], "association": args.association, **_speed(args), **args.config}
     cfg = variant_config(cfg, args.variant)
     ev = victoria_recording(park, gps_sigma=args.gps_sigma if "external" in args.variant else None)
-    result = PlanarSlam(cfg).run(ev)
+    result = PlanarSlam(cfg).run(ev, progress=True)
     # Scored at the laser (the point Guivant and Nebot's filter estimates; a GPS lever
     # arm fitted on the first half of the run alone lands within 0.25 m of it), against
     # the fixes that are not receiver glitches.

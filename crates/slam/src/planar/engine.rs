@@ -767,6 +767,17 @@ impl PlanarSlam {
     /// must be sorted by time (an error names the array and row otherwise), and at
     /// least one event is required.
     pub fn run_arrays(&mut self, arrays: &EventArrays<'_>) -> Result<()> {
+        self.run_arrays_with(arrays, |_, _| true)
+    }
+
+    /// [`PlanarSlam::run_arrays`] that calls `report(done, total)` (rows of the arrays
+    /// consumed, of all) after about every 1 % of the rows and at the end: a progress
+    /// bar. `report` returning `false` stops the run with an error.
+    pub fn run_arrays_with(
+        &mut self,
+        arrays: &EventArrays<'_>,
+        mut report: impl FnMut(usize, usize) -> bool,
+    ) -> Result<()> {
         check_arrays(arrays)?;
         let (c, d, f, w) = (
             arrays.controls,
@@ -775,7 +786,20 @@ impl PlanarSlam {
             arrays.walls,
         );
         let (mut i, mut j, mut k, mut l) = (0, 0, 0, 0);
+        let total = c.len() + d.len() + f.len() + w.len();
+        let step = total.div_ceil(100);
+        let mut next_report = step;
         while i < c.len() || j < d.len() || k < f.len() || l < w.len() {
+            let done = i + j + k + l;
+            if done >= next_report {
+                next_report = done + step;
+                if !report(done, total) {
+                    return Err(SlamError::invalid(
+                        "report",
+                        format!("the progress report stopped the run at row {done} of {total}"),
+                    ));
+                }
+            }
             let tc = c.get(i).map_or(f64::INFINITY, |r| r[0]);
             let td = d.get(j).map_or(f64::INFINITY, |r| r[0]);
             let tf = f.get(k).map_or(f64::INFINITY, |r| r[0]);
@@ -815,7 +839,14 @@ impl PlanarSlam {
             };
             self.process(&event)?;
         }
-        Ok(())
+        if report(total, total) {
+            Ok(())
+        } else {
+            Err(SlamError::invalid(
+                "report",
+                "the progress report stopped the run at its end".into(),
+            ))
+        }
     }
 }
 

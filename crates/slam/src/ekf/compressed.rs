@@ -343,17 +343,17 @@ impl Compressed {
                 out[row] += x.iter().zip(&coeffs).map(|(x, c)| x * c).sum::<f64>();
             }
         }
-        // With S = L L^T and Y = L^-1 H phi: psi += Y^T Y, theta += Y^T L^-1 nu (two
-        // forward substitutions with the small L).
-        let chol = update
+        // With S = L L^T and Y = L^-1 H phi: psi += Y^T Y, theta += Y^T L^-1 nu. L^-1 is
+        // small (m x m): Y is then one product, not a substitution (a division per
+        // entry) through the a0 columns of H phi.
+        let l_inv = update
             .innovation_cov
             .clone()
             .cholesky()
+            .and_then(|c| c.l().solve_lower_triangular(&DMatrix::identity(rows, rows)))
             .ok_or_else(|| SlamError::SingularInnovation("compressed update: S".into()))?;
-        let mut y = h_phi.clone();
-        chol.l_dirty().solve_lower_triangular_unchecked_mut(&mut y);
-        let mut w = update.innovation.clone();
-        chol.l_dirty().solve_lower_triangular_unchecked_mut(&mut w);
+        let y = &l_inv * &h_phi;
+        let w = &l_inv * &update.innovation;
         let y_t = y.transpose();
         self.psi.view_mut().gemm(1.0, &y_t, &y, 1.0);
         self.theta.gemv(1.0, &y_t, &w, 1.0);

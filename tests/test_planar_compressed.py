@@ -53,15 +53,16 @@ def test_victoria_park_compressed_equals_the_full_ekf() -> None:
 @pytest.mark.skipif(MRCLAM is None or not MRCLAM.is_dir(), reason="RPERC_DATA/mrclam6 is absent")
 @pytest.mark.parametrize("variant", [{}, {"anchor": True}, {"freeze_after": 50}])
 def test_mrclam_compressed_by_known_ids_equals_the_full_ekf(variant: dict[str, object]) -> None:
-    """The 15 landmarks of MR.CLAM are all near the robot: with a 0.5 m active area
-    the compressed filter activates them by their barcodes as they are seen."""
+    """The 15 landmarks of MR.CLAM are all near the robot: compressed from the first
+    landmark on (the default waits for 100) with a 0.5 m active area, the filter
+    activates them by their barcodes as they are seen."""
     from rperc.datasets import load_mrclam
 
     run = load_mrclam(MRCLAM, robot=1)
     config = {**PRESETS["mrclam"], **mrclam_start(run), **variant}
     rec = mrclam_recording(run)
     full = PlanarSlam(config, compression="off").run(rec)
-    compressed = PlanarSlam(config, active_radius=0.5).run(rec)
+    compressed = PlanarSlam(config, active_radius=0.5, compression_min_landmarks=1).run(rec)
     assert compressed.statistics["compressions"] > 0
     _assert_same(full, compressed, 1e-9)
 
@@ -73,6 +74,7 @@ def test_bad_compression_settings_are_named() -> None:
         ({"compression": "on"}, "compression"),
         ({"active_radius": 0.0}, "active_radius"),
         ({"active_radius": float("nan")}, "active_radius"),
+        ({"compression_min_landmarks": 0}, "compression_min_landmarks"),
     ):
         with pytest.raises(ValueError, match=name):
             PlanarSlam(**bad).run_arrays(controls, detections, detection_ids=[1])
@@ -86,6 +88,7 @@ def test_cli_takes_the_compression_choice(tmp_path: Path) -> None:
     for choice in ("off", "auto"):
         out = tmp_path / f"{choice}.json"
         argv = ["slam", "mrclam", str(MRCLAM), "--compression", choice, "--active-radius", "0.5"]
+        argv += ["--config", '{"compression_min_landmarks": 1}']
         assert main([*argv, "--json", str(out)]) == 0
         figures[choice] = json.loads(out.read_text())
     assert figures["off"]["statistics"]["compressions"] == 0

@@ -184,6 +184,7 @@ fn bench_compression(c: &mut Criterion) {
         let config = PlanarConfig {
             association: Association::Jcbb,
             compression,
+            compression_min_landmarks: 1,
             ..sim.slam_config()
         };
         group.bench_function(compression.name(), |b| {

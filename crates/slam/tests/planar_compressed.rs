@@ -88,7 +88,8 @@ fn compare(config: PlanarConfig, sim: &SimConfig, seed: u64) -> (PlanarResult, f
 }
 
 /// The compression really happens in these worlds (areas are made, passive
-/// landmarks activated), and changes nothing but round-off.
+/// landmarks activated; from the first landmark on, for the test), and changes
+/// nothing but round-off.
 #[test]
 fn a_compressed_run_equals_the_full_ekf() {
     for association in [
@@ -100,6 +101,7 @@ fn a_compressed_run_equals_the_full_ekf() {
         let config = PlanarConfig {
             association,
             active_radius: 4.0,
+            compression_min_landmarks: 1,
             ..sim.slam_config()
         };
         let (compressed, gap) = compare(config, &sim, 2);
@@ -125,6 +127,7 @@ fn the_seed_variants_compress_exactly() {
     let base = PlanarConfig {
         association: Association::Jcbb,
         active_radius: 5.0,
+        compression_min_landmarks: 1,
         ..sim.slam_config()
     };
     let variants = [
@@ -185,6 +188,12 @@ fn bad_compression_settings_are_refused_by_name() {
         let err = PlanarSlam::new(config).unwrap_err().to_string();
         assert!(err.contains("active_radius"), "{radius}: {err}");
     }
+    let config = PlanarConfig {
+        compression_min_landmarks: 0,
+        ..PlanarConfig::default()
+    };
+    let err = PlanarSlam::new(config).unwrap_err().to_string();
+    assert!(err.contains("compression_min_landmarks"), "{err}");
     let err = "on".parse::<Compression>().unwrap_err().to_string();
     assert!(err.contains("auto") && err.contains("off"), "{err}");
 }
@@ -202,7 +211,12 @@ proptest! {
         let association =
             [Association::Known, Association::NearestNeighbour, Association::Jcbb][method];
         let sim = wide_world(500);
-        let config = PlanarConfig { association, active_radius: radius, ..sim.slam_config() };
+        let config = PlanarConfig {
+            association,
+            active_radius: radius,
+            compression_min_landmarks: 1,
+            ..sim.slam_config()
+        };
         let (_, gap) = compare(config, &sim, seed);
         prop_assert!(gap < 1e-9, "gap {}", gap);
     }

@@ -11,11 +11,12 @@ others:
 - ``freeze_after=50``: landmarks revised more than 50 times leave the state (the text
   under Fig. 7); their sightings still correct the rest.
 
-``compression="auto"`` (the default) runs the compressed EKF of Guivant & Nebot (2001):
-while the robot sees a local area (``active_radius`` metres around the sensor), only the
-robot and the landmarks there are updated, and one global update restores the whole
-filter when the area is remade; a landmark outside the area that a scan might see is
-first brought into it. The results equal the full EKF's up to round-off (tested
+``compression="auto"`` (the default) runs the compressed EKF of Guivant & Nebot (2001)
+once the map holds ``compression_min_landmarks`` (100) landmarks: while the robot sees a
+local area (``active_radius`` metres around the sensor), only the robot and the
+landmarks there are updated, and one global update restores the whole filter when the
+area is remade; a landmark outside the area that a scan might see is first brought
+into it. The results equal the full EKF's up to round-off (tested
 against ``compression="off"``, the full EKF at every step); only the time changes. It
 is off where it would not be exact: with ``freeze_mode="consider"`` and with walls.
 

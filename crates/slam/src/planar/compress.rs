@@ -6,8 +6,8 @@
 //! When: an update of the working filter costs about `m d^2` (Joseph form, `m`
 //! rows, `d` states) and, compressed, `m (d^2 + d a + a^2)` with the auxiliary
 //! matrices (`a` the basis size); a global update costs about `n_B^2 a / 2`. The
-//! filter is compressed once the landmarks near the sensor (`active_radius`) are at
-//! most half of its landmarks, and a compressed one is remade around the robot once
+//! filter is compressed once it holds `compression_min_landmarks` landmarks of which
+//! those near the sensor (`active_radius`) are at most half, and a compressed one is remade around the robot once
 //! the work it would have saved since it was made pays for the global update (the
 //! rent-or-buy rule: never more than twice the work of the best choice made in
 //! hindsight).
@@ -93,6 +93,10 @@ impl PlanarSlam {
             self.decompress();
             return Ok(());
         }
+        let small = self.ekf.num_landmarks() < self.config.compression_min_landmarks as usize;
+        if self.cekf.is_none() && small {
+            return Ok(());
+        }
         let near = self.near_landmarks();
         if self.worth_compressing(near.len(), 2 * zs.len()) {
             self.decompress();
@@ -118,7 +122,8 @@ impl PlanarSlam {
     fn worth_compressing(&mut self, near: usize, rows: usize) -> bool {
         let n = self.ekf.num_landmarks();
         let Some(c) = &mut self.cekf else {
-            return n > 0 && 2 * near <= n;
+            let enough = n >= self.config.compression_min_landmarks as usize;
+            return enough && 2 * near <= n;
         };
         let (d, a) = (self.ekf.state().len() as f64, c.aux.basis_len() as f64);
         let fresh = (3 + 2 * near) as f64;

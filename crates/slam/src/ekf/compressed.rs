@@ -6,16 +6,17 @@
 //! (the *passive* states `B`). With `P_AB = phi P_AB0`:
 //!
 //! - prediction `x_r <- f(x_r)`: `phi_r <- F_x phi_r` (the robot rows);
-//! - update with gain `K_A` and `H` touching `A` only (their eqs. 12-15):
+//! - update with gain `K_A` and `H` touching `A` only:
 //!   `psi += (H phi)^T S^-1 (H phi)`, `theta += (H phi)^T S^-1 nu`,
 //!   `phi <- (I - K_A H) phi` (the prior `phi` on the right);
 //!
-//! and one global update restores the full filter exactly (their eq. 16):
+//! and one global update restores the full filter exactly:
 //! `P_AB = phi P_AB0`, `P_BB = P_BB0 - P_BA0 psi P_AB0`, `x_B = x_B0 + P_BA0 theta`.
 //! The result equals the full EKF's up to round-off, whatever the number of updates,
 //! as long as no update touches a passive state.
 //!
-//! Two operations keep the active set growing without a global update, both exact:
+//! Two operations (ours, exact by the same algebra) let the active set grow without a
+//! global update:
 //! a landmark *initialised* in the sub-filter from the robot (`l = g(x_r, z)`) has
 //! `P_lB = G_r P_rB`, so its row of `phi` is `G_r phi_r`; and a passive landmark
 //! `j` is *activated* by extending the basis `A0` with it: its current mean, own
@@ -414,7 +415,7 @@ impl Compressed {
         Ok(p.id)
     }
 
-    /// The global update (their eq. 16): the full filter, equal to the one every
+    /// The global update: the full filter, equal to the one every
     /// update would have given, with the landmarks admitted to `local` appended in
     /// its order. O(N_B^2 a0).
     pub fn decompress(self, local: Ekf) -> Ekf {

@@ -10,24 +10,32 @@ ratios and accuracies, and the cost growth with the number of landmarks.
 - Victoria Park: rperc's preset (JCBB, 3 sightings before a landmark) against the
   reference with the same settings and the same association, which the reference
   implements itself in Python (individual gate, recursive JCBB, candidate list), so
-  both times include association. Printed: both whole-run times (rperc: median of 3
-  runs; numpy: one run) and their ratio, the RMS distance of each laser path to the
-  plausible GPS fixes after one rigid alignment, the landmark counts and association
-  statistics, and the largest distance between the two paths. ``--vp-scans N`` runs
-  only the first N scans (the headline is the whole run).
+  both times include association. rperc runs twice: compressed (the preset's default,
+  the compressed EKF of Guivant & Nebot 2001) and full (``compression="off"``, the
+  full EKF at every scan, the same algorithm as the reference). Printed: the
+  whole-run times (rperc: median of 3 interleaved runs each; numpy: one run) and the
+  ratios to the structured numpy reference (the fair peer), the RMS distance of each
+  laser path to the plausible GPS fixes after one rigid alignment, the landmark
+  counts and association statistics, and the largest differences between the runs
+  (compressed vs full: path, landmark means and covariances). ``--vp-scans N`` runs
+  only the first N scans (the headline is the whole run); ``--dense-scans N`` also
+  times the dense textbook numpy EKF (O(n^3) per update) on the first N scans
+  (0: skip), against rperc on the same prefix.
 - Growth with the number of landmarks n: rperc's engine per event by its own clock
-  (a prediction; an update with one detection), and one prediction and one update
-  called from Python, rperc's ``Ekf`` and the numpy peer, on a dense random
-  covariance (the Python calls carry a few microseconds of overhead). The slope of
-  log time against log n, fitted over the three largest n (and between successive
-  n), should be about 1 for a prediction and 2 for an update (``cargo bench -p slam
-  --bench planar`` measures the same).
+  (a prediction; an update with one detection), full and compressed, on a map of n
+  landmarks spread over a grid of which the robot sees the nearest few; and one
+  prediction and one update called from Python, rperc's ``Ekf`` and the numpy peer,
+  on a dense random covariance (the Python calls carry a few microseconds of
+  overhead). The slope of log time against log n, fitted over the three largest n
+  (and between successive n), should be about 1 for a full prediction and 2 for a
+  full update, and about 0 compressed (the active area does not grow with the map;
+  ``cargo bench -p slam --bench planar`` measures the same).
 - Both run on one thread by default (rperc's rayon pool and numpy's BLAS; see
   below); the machine may be shared, so each figure is a best or median of repeats,
   and ratios come from the same run.
 
     RPERC_DATA=../shared/data python benchmarks/planar_slam.py [--vp-scans N]
-        [--skip-reference-vp]
+        [--skip-reference-vp] [--dense-scans N]
 """
 
 from __future__ import annotations
@@ -37,6 +45,7 @@ import os
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 # The same threads for both (set before numpy and rayon start): one by default, for
 # rperc's rayon pool (its update splits P's columns over threads from a state of 384
@@ -70,9 +79,19 @@ AGREEMENT: list[str] = []  # how closely rperc and the reference agree, per data
 
 
 def timed(fn):  # type: ignore[no-untyped-def]
-    t0 = time.perf_counter()
+    """``(result, wall seconds, CPU seconds of the process)``: on a shared machine the
+    CPU time counts only the time the run was on a core, so its ratios hold better."""
+    t0, c0 = time.perf_counter(), time.process_time()
     out = fn()
-    return out, time.perf_counter() - t0
+    return out, time.perf_counter() - t0, time.process_time() - c0
+
+
+def fmt_times(wall: float, cpu: float) -> str:
+    return f"{fmt_seconds(wall).strip()} / {fmt_seconds(cpu).strip()}"
+
+
+def fmt_ratio(theirs: tuple[float, float], ours: tuple[float, float]) -> str:
+    return f"{theirs[0] / ours[0]:.0f}x / {theirs[1] / ours[1]:.0f}x"
 
 
 def mrclam_rows() -> list[list[str]]:
@@ -91,9 +110,9 @@ def mrclam_rows() -> list[list[str]]:
     for label, cfg in (("rperc (numpy's settings)", same),
                        ("rperc preset (calibrated)", {**PRESETS["mrclam"], **start})):  # fmt: skip
         runs = [timed(lambda cfg=cfg: PlanarSlam(cfg).run(rec)) for _ in range(5)]
-        res, t = runs[0][0], min(r[1] for r in runs)
+        res, t = runs[0][0], (min(r[1] for r in runs), min(r[2] for r in runs))
         results[label] = (res, t)
-        rows.append(["MR.CLAM r1, known", label, fmt_seconds(t), "",
+        rows.append(["MR.CLAM r1, known", label, fmt_times(*t), "",
                      f"ATE {res.ate(run.truth_t, truth, align=True).rmse:.3f} m",
                      str(len(res.landmark_id))])  # fmt: skip
     slam = ref.PlanarEkfSlam(
@@ -101,11 +120,11 @@ def mrclam_rows() -> list[list[str]]:
         control_noise=np.diag([0.1**2, 0.2**2]), measurement_noise=np.diag([0.1**2, 0.05**2]),
         structured=True,
     )  # fmt: skip
-    theirs = ref.run_mrclam(run, slam)
+    theirs, *t_theirs = timed(lambda: ref.run_mrclam(run, slam))
     ate_ref = evaluation.ate(theirs.t, theirs.poses, run.truth_t, truth, align=True).rmse
     ours, t_ours = results["rperc (numpy's settings)"]
-    rows.insert(1, ["MR.CLAM r1, known", "numpy (structured)", fmt_seconds(theirs.seconds),
-                    f"{theirs.seconds / t_ours:.0f}x", f"ATE {ate_ref:.3f} m",
+    rows.insert(1, ["MR.CLAM r1, known", "numpy (structured)", fmt_times(*t_theirs),
+                    fmt_ratio(t_theirs, t_ours), f"ATE {ate_ref:.3f} m",
                     str(len(theirs.landmarks))])  # fmt: skip
     gap = np.linalg.norm(ours.pose[ours.kind == 0, :2] - theirs.poses[:, :2], axis=1)
     AGREEMENT.append(
@@ -115,10 +134,10 @@ def mrclam_rows() -> list[list[str]]:
     return rows
 
 
-def victoria_rows(with_reference: bool, scans: int | None) -> list[list[str]]:
-    """rperc's Victoria Park preset against the numpy reference with the same
-    settings and association (JCBB, 3 sightings before a landmark), the whole run or
-    its first ``scans`` scans; prints how closely the two agree."""
+def victoria_rows(with_reference: bool, scans: int | None, dense_scans: int) -> list[list[str]]:
+    """rperc's Victoria Park preset, compressed and full, against the numpy reference
+    with the same settings and association (JCBB, 3 sightings before a landmark), the
+    whole run or its first ``scans`` scans; prints how closely they agree."""
     from rperc.datasets import load_victoria_park
     from rperc.datasets.victoria_park import LASER_MOUNT
 
@@ -131,38 +150,106 @@ def victoria_rows(with_reference: bool, scans: int | None) -> list[list[str]]:
     def gps_rms(t: np.ndarray, pose: np.ndarray) -> float:
         return evaluation.gps_error(t, point_path(pose, LASER_MOUNT), t_gps, gps).rms
 
-    cfg = PRESETS["victoria"]
+    configs = {"rperc compressed": PRESETS["victoria"],
+               "rperc full": {**PRESETS["victoria"], "compression": "off"}}  # fmt: skip
     name = f"Victoria Park{'' if scans is None else f' ({scans} scans)'}, jcbb, k=3"
     rec = victoria_recording(park)
-    # Three whole runs (the machine may be shared): the median is the one quoted.
-    runs = [timed(lambda: PlanarSlam(cfg).run(rec)) for _ in range(3)]
-    ours, t_ours = runs[0][0], float(np.median([r[1] for r in runs]))
-    s = ours.statistics
-    counts = f"acc {s['accepted']} rej {s['rejected']} new {s['new']} cand {s['candidate']}"
-    rows = [[name, "rperc", fmt_seconds(t_ours), "", f"GPS {gps_rms(*ours.path()[:2]):.3f} m",
-             str(len(ours.landmark_id)), counts]]  # fmt: skip
-    if not with_reference:
-        return rows
-    slam = ref.ackermann_filter({**defaults(), **cfg})
-    theirs = ref.run_victoria_park(park, slam)
-    st = theirs.stats
-    counts = f"acc {st.accepted} rej {st.rejected} new {st.new} cand {st.candidate}"
-    rows.append([name, "numpy (structured)", fmt_seconds(theirs.seconds),
-                 f"{theirs.seconds / t_ours:.0f}x", f"GPS {gps_rms(theirs.t, theirs.poses):.3f} m",
-                 str(len(theirs.landmarks)), counts])  # fmt: skip
-    # rperc's pose right after each control event is the reference's pose at that
-    # control's time (both have predicted to it, and neither has seen a scan at it).
-    gap = np.linalg.norm(ours.pose[ours.kind == 0, :2] - theirs.poses[:, :2], axis=1)
+    # Three whole runs of each, interleaved (the machine may be shared): medians quoted.
+    runs: dict[str, list[tuple[Any, float, float]]] = {label: [] for label in configs}
+    for _ in range(3):
+        for label, cfg in configs.items():
+            runs[label].append(timed(lambda cfg=cfg: PlanarSlam(cfg).run(rec)))
+    ours = {label: (r[0][0], (float(np.median([x[1] for x in r])),
+                              float(np.median([x[2] for x in r]))))
+            for label, r in runs.items()}  # fmt: skip
+    theirs, t_theirs = None, (0.0, 0.0)
+    if with_reference:
+        slam = ref.ackermann_filter({**defaults(), **PRESETS["victoria"]})
+        theirs, *t = timed(lambda: ref.run_victoria_park(park, slam))
+        t_theirs = (t[0], t[1])
+    rows = []
+    for label, (res, t_ours) in ours.items():
+        s = res.statistics
+        counts = f"acc {s['accepted']} rej {s['rejected']} new {s['new']} cand {s['candidate']}"
+        ratio = fmt_ratio(t_theirs, t_ours) if theirs is not None else ""
+        rows.append([name, label, fmt_times(*t_ours), ratio,
+                     f"GPS {gps_rms(*res.path()[:2]):.3f} m", str(len(res.landmark_id)),
+                     counts])  # fmt: skip
+    compressed, full = ours["rperc compressed"][0], ours["rperc full"][0]
     AGREEMENT.append(
-        f"{name}: same association in both (rperc's engine; the numpy reference's own "
-        f"Python port), timed whole runs including association. Paths differ by at most "
-        f"{gap.max():.2e} m over {len(gap)} control times; landmarks {len(ours.landmark_id)} "
-        f"vs {len(theirs.landmarks)}; statistics "
-        f"{'equal' if same_statistics(s, st) else 'DIFFERENT'}; JCBB out of nodes in "
-        f"{s['jcbb_truncated']} vs {st.truncated} scans. rperc: median of 3 runs "
-        f"({', '.join(f'{r[1]:.2f}' for r in runs)} s); numpy: one run."
+        f"{name}: compressed vs full rperc: paths differ by at most "
+        f"{path_gap(compressed, full):.2e} m, landmarks by {landmark_gap(compressed, full):.2e} "
+        f"(means, m; covariances, m^2), statistics "
+        f"{'equal' if same_counts(compressed.statistics, full.statistics) else 'DIFFERENT'}; "
+        f"the compressed run made {compressed.statistics['compressions']} active areas "
+        f"(a global update each) and activated {compressed.statistics['activations']} passive "
+        f"landmarks. rperc: medians of 3 runs (wall / CPU: "
+        + "; ".join(
+            f"{k}: {', '.join(f'{x[1]:.2f}/{x[2]:.2f}' for x in v)} s" for k, v in runs.items()
+        )
+        + ")."
     )
+    if theirs is not None:
+        st = theirs.stats
+        counts = f"acc {st.accepted} rej {st.rejected} new {st.new} cand {st.candidate}"
+        rows.append([name, "numpy (structured)", fmt_times(*t_theirs), "1x",
+                     f"GPS {gps_rms(theirs.t, theirs.poses):.3f} m", str(len(theirs.landmarks)),
+                     counts])  # fmt: skip
+        # rperc's pose right after each control event is the reference's pose at that
+        # control's time (both have predicted to it, and neither has seen a scan at it).
+        gap = np.linalg.norm(
+            compressed.pose[compressed.kind == 0, :2] - theirs.poses[:, :2], axis=1
+        )
+        AGREEMENT.append(
+            f"{name}: same association in rperc and numpy (rperc's engine; the reference's "
+            f"own Python port), timed whole runs including association. rperc compressed and "
+            f"numpy paths differ by at most {gap.max():.2e} m over {len(gap)} control times; "
+            f"landmarks {len(compressed.landmark_id)} vs {len(theirs.landmarks)}; statistics "
+            f"{'equal' if same_statistics(compressed.statistics, st) else 'DIFFERENT'}; JCBB "
+            f"out of nodes in {compressed.statistics['jcbb_truncated']} vs {st.truncated} "
+            "scans; numpy: one run."
+        )
+    if dense_scans > 0:
+        rows += dense_rows(park, dense_scans)
     return rows
+
+
+def dense_rows(park: Any, scans: int) -> list[list[str]]:
+    """The dense textbook numpy EKF (full ``H``, ``I - K H``: O(n^3) per update) on the
+    first ``scans`` scans, against rperc compressed and full on the same prefix."""
+    prefix = ref.first_scans(park, scans)
+    rec = victoria_recording(prefix)
+    name = f"Victoria Park ({scans} scans), jcbb, k=3"
+    slam = ref.ackermann_filter({**defaults(), **PRESETS["victoria"]})
+    slam.structured = False
+    dense, *t_dense = timed(lambda: ref.run_victoria_park(prefix, slam))
+    rows = []
+    for label, cfg in (("rperc compressed", PRESETS["victoria"]),
+                       ("rperc full", {**PRESETS["victoria"], "compression": "off"})):  # fmt: skip
+        runs = [timed(lambda cfg=cfg: PlanarSlam(cfg).run(rec)) for _ in range(3)]
+        t = (min(r[1] for r in runs), min(r[2] for r in runs))
+        ratio = f"{fmt_ratio((t_dense[0], t_dense[1]), t)} (dense)"
+        rows.append([name, label, fmt_times(*t), ratio, "", str(len(runs[0][0].landmark_id))])
+    rows.append([name, "numpy (dense)", fmt_times(*t_dense), "1x", "", str(len(dense.landmarks))])
+    return rows
+
+
+def path_gap(a: Any, b: Any) -> float:
+    """The largest distance between two runs' robot positions, event by event."""
+    return float(np.max(np.linalg.norm(a.pose[:, :2] - b.pose[:, :2], axis=1)))
+
+
+def landmark_gap(a: Any, b: Any) -> float:
+    """The largest difference between two runs' landmark means and covariances."""
+    if not np.array_equal(a.landmark_id, b.landmark_id):
+        return float("inf")
+    return float(max(np.abs(a.landmark_mean - b.landmark_mean).max(),
+                     np.abs(a.landmark_covariance - b.landmark_covariance).max()))  # fmt: skip
+
+
+def same_counts(a: dict[str, int], b: dict[str, int]) -> bool:
+    """The association statistics agree (how the filter computed them aside)."""
+    return all(a[k] == b[k] for k in ("accepted", "rejected", "new", "candidate", "frozen"))
 
 
 def same_statistics(ours: dict[str, int], theirs: ref.AssociationStats) -> bool:
@@ -198,23 +285,31 @@ def costs(n: int, rng: np.random.Generator) -> dict[str, float]:
 
 def engine_costs(n: int, rng: np.random.Generator, events: int = 400) -> dict[str, float]:
     """Least seconds per event (the least, as for a best of repeats) of rperc's SLAM
-    engine by its own clock (native, no Python call) with ``n`` landmarks mapped: a
-    control event (one prediction) and a scan of one known landmark at a control's
-    time (one update, no prediction). The robot stands still (zero controls), so
-    every detection is exact and accepted."""
-    ranges, bearings = rng.uniform(5.0, 50.0, n), rng.uniform(-np.pi, np.pi, n)
+    engine by its own clock (native, no Python call), full and compressed, with ``n``
+    landmarks mapped: a control event (one prediction) and a scan of one known
+    landmark at a control's time (one update, no prediction). The landmarks lie on a
+    jittered 5 m grid centred on the robot, which stands still (zero controls), maps
+    them all from its first scan, then sees its 20 nearest in turn: the compressed
+    filter's active area (15 m) stays the same whatever the map's size."""
+    side = int(np.ceil(np.sqrt(n + 1)))
+    grid = np.argwhere(np.ones((side, side))) - (side - 1) / 2
+    grid = grid[np.argsort(np.hypot(*grid.T))][1 : n + 1]  # the robot's cell stays free
+    xy = 5.0 * grid + rng.uniform(-1.0, 1.0, grid.shape)
+    ranges, bearings = np.hypot(*xy.T), np.arctan2(xy[:, 1], xy[:, 0])
     t = 1.0 + 0.01 * np.arange(events)
     controls = np.c_[np.r_[0.0, t], np.zeros((events + 1, 2))]
-    seen = np.arange(events // 2) % n  # a scan at every other control time
+    seen = np.arange(events // 2) % min(n, 20)  # a scan at every other control time
     detections = np.r_[np.c_[np.zeros(n), ranges, bearings],
                        np.c_[t[1::2][: len(seen)], ranges[seen], bearings[seen]]]  # fmt: skip
     ids = np.r_[np.arange(n), seen]
-    res = PlanarSlam(association="known").run_arrays(controls, detections, detection_ids=ids)
-    later = res.t > 0  # after the map is made
-    return {
-        "engine predict": float(np.min(res.seconds[later & (res.kind == 0)])),
-        "engine update": float(np.min(res.seconds[later & (res.kind == 1)])),
-    }
+    out = {}
+    for label, compression in (("full", "off"), ("compressed", "auto")):
+        slam = PlanarSlam(association="known", compression=compression, active_radius=15.0)
+        res = slam.run_arrays(controls, detections, detection_ids=ids)
+        later = res.t > 0  # after the map is made
+        out[f"engine predict ({label})"] = float(np.min(res.seconds[later & (res.kind == 0)]))
+        out[f"engine update ({label})"] = float(np.min(res.seconds[later & (res.kind == 1)]))
+    return out
 
 
 def growth(sizes: list[int]) -> None:
@@ -252,6 +347,10 @@ def main() -> int:
     parser.add_argument("--vp-scans", type=int, default=None, metavar="N",
                         help="Victoria Park: its first N scans only (default: all)")  # fmt: skip
     parser.add_argument(
+        "--dense-scans", type=int, default=300, metavar="N",
+        help="Victoria Park: dense numpy EKF on the first N scans (0: skip)",
+    )  # fmt: skip
+    parser.add_argument(
         "--sizes",
         type=int,
         nargs="+",
@@ -263,6 +362,8 @@ def main() -> int:
         parser.error("--sizes needs at least three increasing sizes")
     if args.vp_scans is not None and args.vp_scans < 1:
         parser.error("--vp-scans must be >= 1")
+    if args.dense_scans < 0:
+        parser.error("--dense-scans must be >= 0")
     env = os.environ
     print(f"threads: rperc RAYON_NUM_THREADS={env['RAYON_NUM_THREADS']}, numpy "
           f"OPENBLAS_NUM_THREADS={env['OPENBLAS_NUM_THREADS']}")  # fmt: skip
@@ -270,11 +371,12 @@ def main() -> int:
     if (DATA / "mrclam6").is_dir():
         rows += mrclam_rows()
     if (DATA / "victoria_park").is_dir():
-        rows += victoria_rows(not args.skip_reference_vp, args.vp_scans)
+        rows += victoria_rows(not args.skip_reference_vp, args.vp_scans, args.dense_scans)
     if rows:
-        print_table("whole runs (same process, wall time)",
-                    ["run", "filter", "time", "numpy / rperc", "accuracy", "landmarks",
-                     "association"], [r + [""] * (7 - len(r)) for r in rows])  # fmt: skip
+        print_table("whole runs (same process; wall / CPU seconds)",
+                    ["run", "filter", "time (wall / CPU)", "numpy / rperc (wall / CPU)",
+                     "accuracy", "landmarks", "association"],
+                    [r + [""] * (7 - len(r)) for r in rows])  # fmt: skip
         for line in AGREEMENT:
             print(f"  {line}")
     else:

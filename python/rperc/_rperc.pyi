@@ -1,5 +1,6 @@
 """Type stubs of the native extension. Use the documented wrappers in :mod:`rperc`."""
 
+from collections.abc import Callable
 from typing import Any, TypeAlias, final
 
 import numpy as np
@@ -153,6 +154,7 @@ def planar_slam_run(
     fixes: npt.NDArray[np.float64] | None = None,
     config: dict[str, Any] | None = None,
     walls: npt.NDArray[np.float64] | None = None,
+    progress: Callable[[int, int], object] | None = None,
 ) -> dict[str, Any]: ...
 def monobot_summarize(
     nees: _ArrayLike,

@@ -41,6 +41,21 @@ pub fn min_relative_eigenvalue(c: &DMatrix<f64>) -> f64 {
     }
     // Normalised before the sum, which would overflow near f64::MAX.
     let scale = c.amax().max(f64::MIN_POSITIVE);
+    if c.shape() == (2, 2) {
+        // Closed form (the noise blocks of a planar filter are 2x2, checked at every
+        // step): the eigenvalues of [[a, b], [b, d]] are m -+ r. For m < 0, m - r does
+        // not cancel; for m >= 0 the smaller is det / (m + r), which does not either.
+        let (a, d) = (c[(0, 0)] / scale, c[(1, 1)] / scale);
+        let b = (c[(0, 1)] / scale + c[(1, 0)] / scale) * 0.5;
+        let (m, r) = ((a + d) * 0.5, ((a - d) * 0.5).hypot(b));
+        return if m < 0.0 {
+            m - r
+        } else if m + r > 0.0 {
+            (a * d - b * b) / (m + r)
+        } else {
+            0.0
+        };
+    }
     let sym = (c / scale + c.transpose() / scale) * 0.5;
     sym.symmetric_eigenvalues().min()
 }
@@ -255,6 +270,32 @@ impl Gaussian {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The 2x2 closed form against the symmetric eigen-decomposition, on matrices
+    /// from positive definite through singular to indefinite, at any scale.
+    #[test]
+    fn the_2x2_smallest_eigenvalue_matches_the_decomposition() {
+        use rand::{Rng, SeedableRng, rngs::StdRng};
+        let mut rng = StdRng::seed_from_u64(7);
+        for k in 0..20_000 {
+            let scale = 10f64.powi(rng.random_range(-150..150));
+            let (a, d): (f64, f64) = (rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
+            // Every fourth exactly singular: b^2 = a d.
+            let b = if k % 4 == 0 && a * d >= 0.0 {
+                (a * d).sqrt()
+            } else {
+                rng.random_range(-1.0..1.0)
+            };
+            let c = DMatrix::from_row_slice(2, 2, &[a, b, b, d]) * scale;
+            let s = c.amax().max(f64::MIN_POSITIVE);
+            let want = (&c / s).symmetric_eigenvalues().min();
+            let got = min_relative_eigenvalue(&c);
+            assert!(
+                (got - want).abs() < 1e-12,
+                "{a} {b} {d} {scale:e}: {got} vs {want}"
+            );
+        }
+    }
 
     #[test]
     fn checks_catch_sign_and_symmetry_errors() {

@@ -9,6 +9,7 @@ use slam::planar::sim::{SimConfig, run_nees};
 use slam::planar::{
     Event, EventArrays, PlanarConfig, PlanarResult, PlanarSlam, Statistics, WallEstimate,
 };
+use std::sync::Mutex;
 
 use crate::arrays::{shaped, tensor};
 use crate::errors::{Error, Result, detached, detached_parallel};
@@ -59,9 +60,12 @@ fn ids(obj: Option<&Bound<'_, PyAny>>, detections: usize) -> Result<Option<Vec<i
 /// `detection_ids` (int64), `fixes` rows `(t, x, y, var_x, cov_xy, var_y)`, `walls`
 /// rows `(t, rho, alpha, var_rho, cov, var_alpha, x0, y0, x1, y1)` (sensor frame,
 /// equal times form one scan). Returns a dict of arrays: the robot after every event
-/// and the final maps.
+/// and the final maps. `progress(done, total)`, when given, is called with the rows
+/// consumed about every 1 % (with the GIL); an exception it raises stops the run and
+/// is raised again.
 #[pyfunction]
-#[pyo3(signature = (controls, detections, detection_ids = None, fixes = None, config = None, walls = None))]
+#[pyo3(signature = (controls, detections, detection_ids = None, fixes = None, config = None, walls = None, progress = None))]
+#[allow(clippy::too_many_arguments)]
 pub fn planar_slam_run<'py>(
     py: Python<'py>,
     controls: &Bound<'py, PyAny>,
@@ -70,6 +74,7 @@ pub fn planar_slam_run<'py>(
     fixes: Option<&Bound<'py, PyAny>>,
     config: Option<&Bound<'py, PyAny>>,
     walls: Option<&Bound<'py, PyAny>>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let config: PlanarConfig = crate::config::from_python(config, "planar")?;
     config.validate().map_err(Error::from)?;
@@ -78,18 +83,31 @@ pub fn planar_slam_run<'py>(
     let ids = ids(detection_ids, detections.len())?;
     let fixes = rows::<6>(fixes, "fixes")?;
     let walls = rows::<10>(walls, "walls")?;
+    let raised: Mutex<Option<PyErr>> = Mutex::new(None);
+    let report = |done: usize, total: usize| {
+        let Some(callback) = &progress else {
+            return true;
+        };
+        let called = Python::attach(|py| callback.call1(py, (done, total)).map(drop));
+        let keep = |e| *raised.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
+        called.map_err(keep).is_ok()
+    };
     let result = detached(py, || {
         let mut engine = PlanarSlam::new(config)?;
-        engine.run_arrays(&EventArrays {
+        let arrays = EventArrays {
             controls: &controls,
             detections: &detections,
             detection_ids: ids.as_deref(),
             fixes: &fixes,
             walls: &walls,
-        })?;
+        };
+        engine.run_arrays_with(&arrays, report)?;
         Ok(engine.finish())
-    })?;
-    result_dict(py, result)
+    });
+    if let Some(e) = raised.lock().unwrap_or_else(|p| p.into_inner()).take() {
+        return Err(e);
+    }
+    result_dict(py, result?)
 }
 
 /// The run's arrays, each moved into numpy.
@@ -166,6 +184,8 @@ fn statistics<'py>(py: Python<'py>, s: &Statistics) -> PyResult<Bound<'py, PyDic
         ("walls_rejected", s.walls_rejected),
         ("walls_new", s.walls_new),
         ("walls_vague", s.walls_vague),
+        ("compressions", s.compressions),
+        ("activations", s.activations),
     ] {
         d.set_item(name, value)?;
     }

@@ -2,7 +2,8 @@
 //! the number of landmarks (O(n) and O(n^2): the slopes of log time against log n
 //! should be about 1 and 2), whole simulated runs per association method, and the
 //! full MR.CLAM robot-1 run when the data set is present (`RPERC_DATA`, default
-//! `../shared/data`), and a whole simulated room run with wall landmarks.
+//! `../shared/data`), the compressed EKF against the full one (a simulated world
+//! and Victoria Park, whole runs), and a whole simulated room run with wall landmarks.
 
 use std::hint::black_box;
 use std::path::PathBuf;
@@ -11,7 +12,7 @@ use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 use slam::planar::sim::{SimConfig, simulate};
-use slam::planar::{Association, EventArrays, PlanarConfig, PlanarSlam};
+use slam::planar::{Association, Compression, EventArrays, PlanarConfig, PlanarSlam};
 use slam::{Ekf, unicycle};
 
 /// A filter with `n` landmarks spread around the robot and a dense SPD covariance.
@@ -165,6 +166,78 @@ fn bench_mrclam(c: &mut Criterion) {
     group.finish();
 }
 
+/// The compressed EKF against the full one, whole runs: a simulated world where the
+/// robot sees a small part of the map at a time (60 landmarks on rings around a 25 m
+/// circle, 6 m range, 1600 steps), and Victoria Park with its preset (JCBB, three
+/// sightings) when the data set is present. Both give the same results.
+fn bench_compression(c: &mut Criterion) {
+    let sim = SimConfig {
+        radius: 25.0,
+        landmarks: 60,
+        steps: 1600,
+        ..SimConfig::default()
+    };
+    let data = simulate(&sim, 2, 0);
+    let mut group = c.benchmark_group("planar/wide_world_1600_steps");
+    group.sample_size(10);
+    for compression in [Compression::Off, Compression::Auto] {
+        let config = PlanarConfig {
+            association: Association::Jcbb,
+            compression,
+            compression_min_landmarks: 1,
+            ..sim.slam_config()
+        };
+        group.bench_function(compression.name(), |b| {
+            b.iter(|| {
+                let mut engine = PlanarSlam::new(config.clone()).unwrap();
+                engine.run(black_box(&data.events)).unwrap();
+                engine.statistics().accepted
+            })
+        });
+    }
+    group.finish();
+    let park = data_dir().map(|d| d.with_file_name("victoria_park"));
+    let Some(park) = park.filter(|p| p.is_dir()) else {
+        eprintln!("Victoria Park not found (RPERC_DATA): skipping planar/victoria_park");
+        return;
+    };
+    let controls: Vec<[f64; 3]> = rows(&park.join("inputs.dat"))
+        .iter()
+        .map(|r| [r[0], r[1], r[2]])
+        .collect();
+    // The file's bearing is in the laser frame, pi/2 straight ahead.
+    let detections: Vec<[f64; 3]> = rows(&park.join("measurements.dat"))
+        .iter()
+        .map(|r| [r[0], r[1], r[2] - std::f64::consts::FRAC_PI_2])
+        .collect();
+    let arrays = EventArrays {
+        controls: &controls,
+        detections: &detections,
+        ..EventArrays::default()
+    };
+    let mut group = c.benchmark_group("planar/victoria_park");
+    group.sample_size(10);
+    for compression in [Compression::Off, Compression::Auto] {
+        let config = PlanarConfig {
+            motion: slam::MotionModel::Ackermann(slam::Ackermann::default()),
+            range_variance: 1.0,
+            bearing_variance: 3f64.to_radians().powi(2),
+            association: Association::Jcbb,
+            candidate_sightings: 3,
+            compression,
+            ..PlanarConfig::default()
+        };
+        group.bench_function(compression.name(), |b| {
+            b.iter(|| {
+                let mut engine = PlanarSlam::new(config.clone()).unwrap();
+                engine.run_arrays(black_box(&arrays)).unwrap();
+                engine.statistics().accepted
+            })
+        });
+    }
+    group.finish();
+}
+
 /// Wall landmarks: a whole simulated room run (300 wall scans of about 5 walls, 6
 /// walls in the map), per association method; 300 / time is the scans per second.
 fn bench_wall_room(c: &mut Criterion) {
@@ -194,6 +267,7 @@ criterion_group!(
     bench_update,
     bench_simulated_runs,
     bench_mrclam,
+    bench_compression,
     bench_wall_room
 );
 criterion_main!(benches);

@@ -23,6 +23,9 @@ use rperc_core::{
 
 use crate::error::{Result, SlamError, ensure_finite};
 
+mod compressed;
+pub use compressed::{Compressed, Passive};
+
 /// One dense block of a sparse observation Jacobian `H`: rows `row..row + h.nrows()`
 /// and columns `col..col + h.ncols()` of `H` equal `h`; everything else is zero.
 #[derive(Debug, Clone, PartialEq)]
@@ -589,6 +592,7 @@ impl Ekf {
         innovation: &DVector<f64>,
         h: &SparseJacobian,
         r: &DMatrix<f64>,
+        r_checked: bool,
     ) -> Result<Prepared> {
         let m = h.rows;
         if innovation.len() != m || r.shape() != (m, m) || m == 0 {
@@ -600,7 +604,9 @@ impl Ekf {
         }
         h.validate(self.x.len())?;
         ensure_finite("innovation", innovation.iter())?;
-        check_noise("R", r)?;
+        if !r_checked {
+            check_noise("R", r)?;
+        }
         let l = self.cross_covariance(h);
         let s = innovation_covariance(h, &l, r);
         let (mut gain, nis) = gain_and_nis(&s, &l, innovation)?;
@@ -645,7 +651,7 @@ impl Ekf {
         h: &SparseJacobian,
         r: &DMatrix<f64>,
     ) -> Result<Update> {
-        let prepared = self.prepare(innovation, h, r)?;
+        let prepared = self.prepare(innovation, h, r, false)?;
         self.apply(prepared, innovation)
     }
 
@@ -665,7 +671,7 @@ impl Ekf {
                 format!("must be > 0, got {gate}"),
             ));
         }
-        let prepared = self.prepare(innovation, h, r)?;
+        let prepared = self.prepare(innovation, h, r, false)?;
         if prepared.nis > gate {
             return Ok(Gated::Rejected {
                 nis: prepared.nis,
@@ -681,8 +687,15 @@ impl Ekf {
         &mut self,
         observations: &[(DVector<f64>, SparseJacobian, DMatrix<f64>)],
     ) -> Result<Update> {
+        // Each R on its own: the stacked R is block diagonal, so it is PSD exactly
+        // when every block is, and checking the whole (an eigen-decomposition) would
+        // cost O(m^3) per scan.
+        for (_, _, r) in observations {
+            check_noise("R", r)?;
+        }
         let (innovation, h, r) = stack_observations(observations)?;
-        self.update(&innovation, &h, &r)
+        let prepared = self.prepare(&innovation, &h, &r, true)?;
+        self.apply(prepared, &innovation)
     }
 
     /// Observations one after another, each linearised at the state the previous one
@@ -708,13 +721,18 @@ impl Ekf {
         }
         let new_cap = need.max(cap + cap / 2).max(16);
         check_allocation("state dimension", (new_cap as u128).pow(2), 8)?;
+        self.grow(new_cap);
+        Ok(())
+    }
+
+    /// Moves `P` into a `new_cap x new_cap` buffer (unchecked: see [`Ekf::reserve`]).
+    fn grow(&mut self, new_cap: usize) {
         let d = self.dim();
         let mut grown = DMatrix::zeros(new_cap, new_cap);
         grown
             .view_mut((0, 0), (d, d))
             .copy_from(&self.cov.view((0, 0), (d, d)));
         self.cov = grown;
-        Ok(())
     }
 
     /// Appends a landmark initialised from an observation through the inverse
@@ -977,7 +995,6 @@ fn joseph_columns(
     l: &DMatrix<f64>,
     m: &DMatrix<f64>,
 ) -> Result<()> {
-    let cap = p.nrows();
     let obs = k.ncols();
     let mut a = DMatrix::<f64>::zeros(d, 2 * obs);
     a.columns_mut(0, obs).copy_from(k);
@@ -986,6 +1003,65 @@ fn joseph_columns(
     let mut bt = DMatrix::<f64>::zeros(2 * obs, d);
     bt.rows_mut(0, obs).copy_from(&(-l.transpose()));
     bt.rows_mut(obs, obs).copy_from(&k.transpose());
+    add_lower_product(p, d, &a, &bt)
+}
+
+/// `P += A B^T` on the lower triangle of the leading `d x d` block of `P` (`A`,
+/// `B` `d x k`; `bt` is `B^T`, `k x d`), by column blocks (see [`joseph_columns`]);
+/// a large product goes through a copy with Ctrl-C checkpoints, so that an
+/// interrupted update leaves `P` as it was.
+fn add_lower_product(
+    p: &mut DMatrix<f64>,
+    d: usize,
+    a: &DMatrix<f64>,
+    bt: &DMatrix<f64>,
+) -> Result<()> {
+    let cap = p.nrows();
+    let data = &mut p.as_mut_slice()[..d * cap];
+    // Half the inner size: the observation rows of a Joseph update (its threshold).
+    let obs = a.ncols().div_ceil(2);
+    if (d * d / 2).saturating_mul(obs) < INTERRUPTIBLE_JOSEPH_FLOPS {
+        lower_product_blocks(data, cap, d, 0, a, bt);
+        return Ok(());
+    }
+    check_allocation("covariance copy of a large update", (d * cap) as u128, 8)?;
+    let mut copy = data.to_vec();
+    let step = JOSEPH_BLOCK * JOSEPH_BLOCKS_PER_CHECKPOINT;
+    for first in (0..d).step_by(step) {
+        let cols = step.min(d - first);
+        let chunk = &mut copy[first * cap..(first + cols) * cap];
+        lower_product_blocks(chunk, cap, d, first / JOSEPH_BLOCK, a, bt);
+        rperc_core::interrupt::checkpoint()?;
+    }
+    data.copy_from_slice(&copy);
+    Ok(())
+}
+
+/// `P += A B^T` on the lower triangle of the leading `d x d` block of `P` at once
+/// (no checkpoint: for a global update of a compressed filter, which must not stop
+/// half way).
+pub(crate) fn add_lower_product_now(
+    p: &mut DMatrix<f64>,
+    d: usize,
+    a: &DMatrix<f64>,
+    bt: &DMatrix<f64>,
+) {
+    let cap = p.nrows();
+    lower_product_blocks(&mut p.as_mut_slice()[..d * cap], cap, d, 0, a, bt);
+}
+
+/// The column blocks of `P += A B^T` held in `cols` (whole blocks of `P`'s columns,
+/// `cap` rows each, the first of them block `first`): each block is one product
+/// restricted to the rows on and below it, on all cores for large states, every entry
+/// computed by the same operations whatever the thread count.
+fn lower_product_blocks(
+    cols: &mut [f64],
+    cap: usize,
+    d: usize,
+    first: usize,
+    a: &DMatrix<f64>,
+    bt: &DMatrix<f64>,
+) {
     // Block `b` of columns, `block` starting at row 0 of its first column.
     let update_block = |b: usize, block: &mut [f64]| {
         let j0 = b * JOSEPH_BLOCK;
@@ -999,34 +1075,13 @@ fn joseph_columns(
         );
         c.gemm(1.0, &a.rows(j0, d - j0), &bt.columns(j0, w), 1.0);
     };
-    // Whole blocks, the first of them block `first`.
-    let update_blocks = |first: usize, cols: &mut [f64]| {
-        if d >= PARALLEL_MIN_DIM {
-            cols.par_chunks_mut(cap * JOSEPH_BLOCK)
-                .enumerate()
-                .for_each(|(b, block)| update_block(first + b, block));
-        } else {
-            cols.chunks_mut(cap * JOSEPH_BLOCK)
-                .enumerate()
-                .for_each(|(b, block)| update_block(first + b, block));
-        }
-    };
-    let data = &mut p.as_mut_slice()[..d * cap];
-    if (d * d / 2).saturating_mul(obs) < INTERRUPTIBLE_JOSEPH_FLOPS {
-        update_blocks(0, data);
-        return Ok(());
+    if d >= PARALLEL_MIN_DIM {
+        cols.par_chunks_mut(cap * JOSEPH_BLOCK)
+            .enumerate()
+            .for_each(|(b, block)| update_block(first + b, block));
+    } else {
+        cols.chunks_mut(cap * JOSEPH_BLOCK)
+            .enumerate()
+            .for_each(|(b, block)| update_block(first + b, block));
     }
-    check_allocation("covariance copy of a large update", (d * cap) as u128, 8)?;
-    let mut copy = data.to_vec();
-    let step = JOSEPH_BLOCK * JOSEPH_BLOCKS_PER_CHECKPOINT;
-    for first in (0..d).step_by(step) {
-        let cols = step.min(d - first);
-        update_blocks(
-            first / JOSEPH_BLOCK,
-            &mut copy[first * cap..(first + cols) * cap],
-        );
-        rperc_core::interrupt::checkpoint()?;
-    }
-    data.copy_from_slice(&copy);
-    Ok(())
 }

@@ -11,7 +11,7 @@ pub mod planar;
 pub mod wall;
 
 pub use ackermann::{Ackermann, LaserObservation};
-pub use ekf::{Ekf, Gated, JacobianBlock, SparseJacobian, Update};
+pub use ekf::{Compressed, Ekf, Gated, JacobianBlock, Passive, SparseJacobian, Update};
 pub use error::{Result, SlamError};
 pub use motion::{MotionModel, Prediction, Unicycle, unicycle};
 pub use observation::{landmark_from_range_bearing, range_bearing};

@@ -182,17 +182,17 @@ fn freezing_keeps_frozen_landmarks_in_the_map() {
     let mut engine = PlanarSlam::new(config).unwrap();
     let mut first_frozen = std::collections::HashMap::new();
     for event in &data.events {
-        let before = engine.ekf().num_landmarks();
+        let before = engine.landmarks_in_state();
         engine.process(event).unwrap();
         for l in engine.landmarks().into_iter().filter(|l| l.frozen) {
             if let std::collections::hash_map::Entry::Vacant(slot) = first_frozen.entry(l.id) {
-                assert!(engine.ekf().num_landmarks() < before + 1);
+                assert!(engine.landmarks_in_state() < before + 1);
                 assert_eq!(l.revisions, 21);
                 slot.insert(l);
             }
         }
     }
-    let in_state = engine.ekf().num_landmarks();
+    let in_state = engine.landmarks_in_state();
     let result = engine.finish();
     let frozen: Vec<_> = result.landmarks.iter().filter(|l| l.frozen).collect();
     assert!(!frozen.is_empty() && result.statistics.frozen == frozen.len() as u64);

@@ -57,6 +57,15 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
             "--variant", type=_variants, default=("plain",),
             help="comma-separated, combinable: plain, anchor, external, freeze",
         )  # fmt: skip
+        q.add_argument(
+            "--compression", choices=("auto", "off"), default="auto",
+            help="the compressed EKF of Guivant & Nebot (auto: wherever it is exact; the "
+            "results equal the full EKF's up to round-off) or the full EKF at every step",
+        )  # fmt: skip
+        q.add_argument(
+            "--active-radius", type=positive_float, default=None, metavar="M",
+            help="the compressed filter's active area around the sensor (m)",
+        )  # fmt: skip
         q.add_argument("--config", type=json.loads, default={}, help="JSON config overrides")
         q.add_argument("--tum", type=Path, help="write the estimated path (TUM format, for evo)")
         q.add_argument("--plot", type=Path, help="write the map figure")
@@ -79,6 +88,14 @@ def variant_config(base: dict[str, Any], variants: tuple[str, ...]) -> dict[str,
     return cfg
 
 
+def _speed(args: argparse.Namespace) -> dict[str, Any]:
+    """The speed settings from the command line (they leave the results unchanged)."""
+    cfg: dict[str, Any] = {"compression": args.compression}
+    if args.active_radius is not None:
+        cfg["active_radius"] = args.active_radius
+    return cfg
+
+
 def _mrclam(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dict[str, Any]]:
     from rperc.datasets import load_mrclam
     from rperc.slam.planar import mrclam_start
@@ -88,13 +105,13 @@ def _mrclam(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dict[
         from rperc.slam.calibration import mrclam_window
 
         run = mrclam_window(run, *args.span)
-    cfg = {**PRESETS["mrclam"], **mrclam_start(run), **args.config}
+    cfg = {**PRESETS["mrclam"], **mrclam_start(run), **_speed(args), **args.config}
     cfg = variant_config(cfg, args.variant)
     # Fixes only for the external variant: even ignored, each would split a prediction.
     external = "external" in args.variant
     interval = args.fix_interval if external else None
     ev = mrclam_recording(run, fix_interval=interval, fix_sigma=args.fix_sigma)
-    result = PlanarSlam(cfg).run(ev)
+    result = PlanarSlam(cfg).run(ev, progress=True)
     truth = np.c_[run.truth_x, run.truth_y, run.truth_theta]
     aligned = result.ate(run.truth_t, truth, align=True)
     marks = np.c_[run.landmark_x, run.landmark_y]
@@ -117,10 +134,10 @@ def _victoria(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dic
     from rperc.datasets.victoria_park import LASER_MOUNT
 
     park = load_victoria_park(args.directory)
-    cfg = {**PRESETS["victoria"], "association": args.association, **args.config}
+    cfg = {**PRESETS["victoria"], "association": args.association, **_speed(args), **args.config}
     cfg = variant_config(cfg, args.variant)
     ev = victoria_recording(park, gps_sigma=args.gps_sigma if "external" in args.variant else None)
-    result = PlanarSlam(cfg).run(ev)
+    result = PlanarSlam(cfg).run(ev, progress=True)
     # Scored at the laser (the point Guivant and Nebot's filter estimates; a GPS lever
     # arm fitted on the first half of the run alone lands within 0.25 m of it), against
     # the fixes that are not receiver glitches.

@@ -83,7 +83,8 @@ def _check_time(path: Path, time: np.ndarray, line: np.ndarray, allow_backwards:
         raise DatasetFormatError(
             path,
             int(line[k]),
-            f"time goes backwards: {time[k]!r} after {time[k - 1]!r} (line {int(line[k - 1])})",
+            f"time goes backwards: {float(time[k])!r} after {float(time[k - 1])!r} "
+            f"(line {int(line[k - 1])})",
         )
     return int(back.size)
 

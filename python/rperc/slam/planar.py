@@ -11,6 +11,15 @@ others:
 - ``freeze_after=50``: landmarks revised more than 50 times leave the state (the text
   under Fig. 7); their sightings still correct the rest.
 
+``compression="auto"`` (the default) runs the compressed EKF of Guivant & Nebot (2001)
+once the map holds ``compression_min_landmarks`` (100) landmarks: while the robot sees a
+local area (``active_radius`` metres around the sensor), only the robot and the
+landmarks there are updated, and one global update restores the whole filter when the
+area is remade; a landmark outside the area that a scan might see is first brought
+into it. The results equal the full EKF's up to round-off (tested
+against ``compression="off"``, the full EKF at every step); only the time changes. It
+is off where it would not be exact: with ``freeze_mode="consider"`` and with walls.
+
 >>> import numpy as np
 >>> from rperc.slam import PlanarSlam
 >>> controls = np.array([[0.0, 1.0, 0.0], [1.0, 1.0, 0.0]])   # t, v, omega
@@ -380,6 +389,34 @@ def victoria_recording(park: Any, *, gps_sigma: float | None = None) -> Recordin
     )
 
 
+class _RowProgress:
+    """The engine's ``progress(done, total)`` callback driving :func:`rperc._progress.progress`
+    (a bar on a terminal, log lines elsewhere) over the rows of a run."""
+
+    def __init__(self, total: int) -> None:
+        from rperc._progress import progress
+
+        self._rows = progress(range(total), desc="planar SLAM", total=total, unit="row")
+        self._done = 0
+
+    def __enter__(self) -> _RowProgress:
+        return self
+
+    def __call__(self, done: int, total: int) -> None:
+        for _ in range(done - self._done):
+            next(self._rows, None)
+        self._done = max(self._done, done)
+
+    def __exit__(self, failed: type[BaseException] | None, *exc: object) -> None:
+        if failed is None:
+            for _ in self._rows:  # the final line (or the bar's end)
+                pass
+        else:  # a failed run: no final line
+            close = getattr(self._rows, "close", None)
+            if close is not None:
+                close()
+
+
 class PlanarSlam:
     """Planar EKF-SLAM with point landmarks (see the module docs).
 
@@ -394,12 +431,17 @@ class PlanarSlam:
     def __repr__(self) -> str:
         return f"PlanarSlam({self.config!r})"
 
-    def run(self, recording: Recording) -> SlamResult:
+    def run(self, recording: Recording, *, progress: bool = False) -> SlamResult:
         """Runs over a :class:`Recording` (see :func:`mrclam_recording`,
-        :func:`victoria_recording`)."""
+        :func:`victoria_recording`). ``progress=True``: a bar on a terminal, log lines
+        elsewhere."""
         r = recording
         return self.run_arrays(
-            r.controls, r.detections, detection_ids=r.detection_ids, fixes=r.fixes
+            r.controls,
+            r.detections,
+            detection_ids=r.detection_ids,
+            fixes=r.fixes,
+            progress=progress,
         )
 
     def run_arrays(
@@ -410,15 +452,17 @@ class PlanarSlam:
         detection_ids: npt.ArrayLike | None = None,
         fixes: npt.ArrayLike | None = None,
         walls: npt.ArrayLike | None = None,
+        progress: bool = False,
     ) -> SlamResult:
         """Runs over columnar arrays, each sorted by time: ``controls`` rows ``(t, u0,
         u1)``, ``detections`` rows ``(t, range, bearing)`` (equal times form one scan),
         ``detection_ids`` one int per detection (negative: unknown), ``fixes`` rows
         ``(t, x, y, var_x, cov_xy, var_y)``, ``walls`` rows ``(t, rho, alpha, var_rho,
         cov, var_alpha, x0, y0, x1, y1)`` (sensor frame, equal times form one scan; the
-        result's ``walls`` then holds the wall map)."""
+        result's ``walls`` then holds the wall map). ``progress=True``: a bar on a
+        terminal, log lines elsewhere (the rows of the arrays consumed)."""
         ids = None if detection_ids is None else _integral_ids(detection_ids)
-        out = _rperc.planar_slam_run(
+        arrays = (
             _rows(controls, 3, "controls"),
             _rows(detections, 3, "detections"),
             ids,
@@ -426,6 +470,14 @@ class PlanarSlam:
             self.config or None,
             None if walls is None else _rows(walls, 10, "walls"),
         )
+        if progress:
+            total = sum(
+                0 if a is None else len(a) for a in (arrays[0], arrays[1], arrays[3], arrays[5])
+            )
+            with _RowProgress(total) as report:
+                out = _rperc.planar_slam_run(*arrays, progress=report)
+        else:
+            out = _rperc.planar_slam_run(*arrays)
         fields = ("id", "line", "covariance", "ends", "revisions", "frozen", "anchor")
         wall_map = WallMap(**{f: out.pop(f"wall_{f}") for f in fields})
         anchor = out.pop("anchor")

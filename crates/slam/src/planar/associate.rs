@@ -105,9 +105,15 @@ impl<'a> Scene<'a> {
     /// The pairing of detection `det` (measured `z`) with `target`; `None` when the
     /// target sits on the sensor or `S` is singular.
     pub fn pairing(&self, det: usize, z: &Vector2<f64>, target: Target) -> Option<Pairing> {
+        self.linearise(target)?.pairing(det, z)
+    }
+
+    /// What a pairing with `target` needs before any detection: the linearisation at
+    /// the prior and `S^-1`; `None` when the target sits on the sensor or `S` is
+    /// singular.
+    fn linearise(&self, target: Target) -> Option<Linearised> {
         let (l, offset) = self.landmark(target)?;
-        let (zp, h_robot, h_l) = observe(&self.robot, &self.mount, &l)?;
-        let nu = Vector2::new(z.x - zp.x, wrap_angle(z.y - zp.y));
+        let (predicted, h_robot, h_l) = observe(&self.robot, &self.mount, &l)?;
         let (h_landmark, r) = match target {
             // Frozen: the landmark is known with its frozen covariance (text under Fig. 7).
             Target::Fixed(k) => (
@@ -116,7 +122,22 @@ impl<'a> Scene<'a> {
             ),
             _ => (h_l, self.w),
         };
-        self.scored(det, target, nu, (h_robot, h_landmark, offset), r)
+        let template = Pairing {
+            det: 0,
+            target,
+            nu: Vector2::zeros(),
+            h_robot,
+            h_landmark,
+            offset,
+            r,
+            nis: 0.0,
+        };
+        let s = self.cross(&template, &template) + template.r;
+        Some(Linearised {
+            s_inv: s.try_inverse()?,
+            predicted,
+            template,
+        })
     }
 
     /// The pairing of detection `det` with `target` from its innovation, its
@@ -172,6 +193,28 @@ impl<'a> Scene<'a> {
     }
 }
 
+/// A target linearised at the prior (see [`Scene::linearise`]): the pairings of
+/// several detections with it share it.
+struct Linearised {
+    template: Pairing,
+    predicted: Vector2<f64>,
+    s_inv: Matrix2<f64>,
+}
+
+impl Linearised {
+    /// The pairing of detection `det` (measured `z`); `None` when its NIS is not finite.
+    fn pairing(&self, det: usize, z: &Vector2<f64>) -> Option<Pairing> {
+        let nu = Vector2::new(z.x - self.predicted.x, wrap_angle(z.y - self.predicted.y));
+        let nis = nu.dot(&(self.s_inv * nu));
+        nis.is_finite().then(|| Pairing {
+            det,
+            nu,
+            nis,
+            ..self.template.clone()
+        })
+    }
+}
+
 /// A cheap, conservative screen of one target: its predicted range and bearing and
 /// upper bounds of the diagonal of `S` for any detection of it.
 ///
@@ -191,13 +234,6 @@ struct Screen {
 impl Scene<'_> {
     fn screen(&self, target: Target) -> Option<Screen> {
         let (l, offset) = self.landmark(target)?;
-        let sensor = self.robot.compose(&self.mount);
-        let (dx, dy) = (l.x - sensor.x, l.y - sensor.y);
-        let r = dx.hypot(dy);
-        // A landmark on the sensor (or a NaN) has no bearing: `pairing` refuses it too.
-        if r.is_nan() || r <= 0.0 {
-            return None;
-        }
         let tr_landmark = match (target, offset) {
             (Target::State(_), Some(o)) => {
                 let x = self.ekf.covariance_block_fixed::<2, 2>(o, o)?;
@@ -206,9 +242,22 @@ impl Scene<'_> {
             (Target::Fixed(k), _) => self.fixed[k].cov.trace(),
             _ => 0.0,
         };
+        self.screen_point(&l, tr_landmark)
+    }
+
+    /// The screen of a point at `l` whose own covariance has a trace of at most
+    /// `tr_landmark` (a larger trace only widens the bounds).
+    fn screen_point(&self, l: &Point2<f64>, tr_landmark: f64) -> Option<Screen> {
+        let sensor = self.robot.compose(&self.mount);
+        let (dx, dy) = (l.x - sensor.x, l.y - sensor.y);
+        let r = dx.hypot(dy);
+        // A landmark on the sensor (or a NaN) has no bearing: `pairing` refuses it too.
+        if r.is_nan() || r <= 0.0 {
+            return None;
+        }
         let tr_robot = self.prr.trace();
         let m = self.mount.translation().norm();
-        let range_bound = 2.0 * ((1.0 + m * m) * tr_robot + tr_landmark) + self.w[(0, 0)];
+        let range_bound = self.range_bound(tr_landmark);
         let hb = 1.0 / (r * r) + (1.0 + m / r).powi(2);
         let bearing_bound = 2.0 * (hb * tr_robot + tr_landmark / (r * r)) + self.w[(1, 1)];
         Some(Screen {
@@ -227,6 +276,67 @@ impl Screen {
     }
 }
 
+impl Scene<'_> {
+    /// Whether a landmark at `l`, whose own covariance has a trace of at most
+    /// `tr_landmark`, may be individually compatible with one of `detections` (the
+    /// exact [`Screen`]: `false` only when the gate would refuse every pairing).
+    pub fn may_observe(
+        &self,
+        l: &Point2<f64>,
+        tr_landmark: f64,
+        detections: &[Vector2<f64>],
+        gate: f64,
+    ) -> bool {
+        self.screen_point(l, tr_landmark)
+            .is_some_and(|s| detections.iter().any(|z| s.may_pass(z, gate)))
+    }
+
+    /// Whether a landmark at `l` may be individually compatible with one of
+    /// `detections`, given its cross-covariance with the robot `p_rl` and an upper
+    /// bound `p_ll` (PSD order) of its own covariance: the `S` built with the bound is
+    /// at least the true one, so its NIS is at most the true NIS, and `false` only
+    /// when the gate refuses every pairing.
+    pub fn may_pair(
+        &self,
+        l: &Point2<f64>,
+        p_rl: &Matrix3x2<f64>,
+        p_ll: &Matrix2<f64>,
+        detections: &[Vector2<f64>],
+        gate: f64,
+    ) -> bool {
+        let Some((zp, hr, hl)) = observe(&self.robot, &self.mount, l) else {
+            return false; // on the sensor: `pairing` refuses it too
+        };
+        let cross = hr * p_rl * hl.transpose();
+        let s = hr * self.prr * hr.transpose()
+            + cross
+            + cross.transpose()
+            + hl * p_ll * hl.transpose()
+            + self.w;
+        let Some(inv) = s.try_inverse() else {
+            return true;
+        };
+        detections.iter().any(|z| {
+            let nu = Vector2::new(z.x - zp.x, wrap_angle(z.y - zp.y));
+            let nis = nu.dot(&(inv * nu));
+            nis <= gate || nis.is_nan()
+        })
+    }
+
+    /// The largest range innovation that can pass `gate` for a landmark whose own
+    /// covariance has a trace of at most `tr_landmark`, m (the [`Screen`]'s range
+    /// bound: a cheap first test by distance alone).
+    pub fn range_reach(&self, tr_landmark: f64, gate: f64) -> f64 {
+        (gate * self.range_bound(tr_landmark)).sqrt()
+    }
+
+    /// The [`Screen`]'s bound of `S_rr`.
+    fn range_bound(&self, tr_landmark: f64) -> f64 {
+        let m = self.mount.translation().norm();
+        2.0 * ((1.0 + m * m) * self.prr.trace() + tr_landmark) + self.w[(0, 0)]
+    }
+}
+
 /// Every pairing of each detection with each target whose NIS is within `gate`
 /// (individual compatibility), sorted by NIS. Targets are first screened by
 /// [`Screen`] (exact: it only skips pairings that would fail the gate), so the
@@ -241,20 +351,26 @@ pub(crate) fn compatible(
         .chain((0..scene.fixed.len()).map(Target::Fixed))
         .filter_map(|t| scene.screen(t).map(|s| (t, s)))
         .collect();
-    detections
-        .iter()
-        .enumerate()
-        .map(|(i, z)| {
-            let mut options: Vec<Pairing> = targets
-                .iter()
-                .filter(|(_, screen)| screen.may_pass(z, gate))
-                .filter_map(|&(t, _)| scene.pairing(i, z, t))
-                .filter(|p| p.nis <= gate)
-                .collect();
-            options.sort_by(|a, b| a.nis.total_cmp(&b.nis));
-            options
-        })
-        .collect()
+    let mut options = vec![Vec::new(); detections.len()];
+    for (t, screen) in targets {
+        // Linearised once, when a first detection passes the screen.
+        let mut linearised: Option<Option<Linearised>> = None;
+        for (i, z) in detections.iter().enumerate() {
+            if !screen.may_pass(z, gate) {
+                continue;
+            }
+            let lin = linearised.get_or_insert_with(|| scene.linearise(t));
+            if let Some(p) = lin.as_ref().and_then(|l| l.pairing(i, z))
+                && p.nis <= gate
+            {
+                options[i].push(p);
+            }
+        }
+    }
+    for o in &mut options {
+        o.sort_by(|a, b| a.nis.total_cmp(&b.nis));
+    }
+    options
 }
 
 /// Nearest neighbour: each detection takes its most compatible target; when two

@@ -39,6 +39,27 @@ rperc_core::named_enum! {
     }
 }
 
+rperc_core::named_enum! {
+    /// Whether the engine runs the compressed EKF of Guivant & Nebot (2001): while the
+    /// robot sees only the landmarks of a local area, only the robot and those are
+    /// updated, and one global update restores the full filter exactly (see
+    /// [`crate::Compressed`]).
+    #[derive(Default)]
+    pub enum Compression: "compression" {
+        /// Compressed whenever it is exact and saves work: a map of point landmarks
+        /// of which at most half are near the sensor (`active_radius`), without
+        /// consider freezing (its zero gains break the compression) or walls. Any
+        /// step that touches a passive landmark (an association candidate, a known
+        /// id) first brings it into the active area, exactly, and freezing (a
+        /// removal) first makes the global update: the results equal the full EKF's
+        /// up to round-off.
+        #[default]
+        Auto = "auto",
+        /// The full EKF at every step.
+        Off = "off",
+    }
+}
+
 /// Settings of [`super::PlanarSlam`]. The seed's variants (anchor, external sensor,
 /// freezing) are fields and combine freely.
 #[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
@@ -101,6 +122,19 @@ pub struct PlanarConfig {
     pub initial_pose: [f64; 3],
     /// Variances of the start pose (>= 0; zero: a known start).
     pub initial_pose_variance: [f64; 3],
+    /// Whether to run the compressed EKF (a speed choice: the results are the same).
+    pub compression: Compression,
+    /// The compressed filter's active area when it is made: the landmarks within this
+    /// distance of the sensor, m (> 0); any other landmark a scan may be paired with
+    /// joins it when seen. The area is made afresh (one global update) when the work
+    /// it costs over a fresh one has paid for a global update. A speed setting only:
+    /// timed on Victoria Park from 1 to 50 m (0.68 to 0.97 s), the results identical.
+    pub active_radius: f64,
+    /// The compressed filter is used once the state holds at least this many
+    /// landmarks (>= 1): below, a full update costs less than the compressed one's
+    /// bookkeeping (Victoria Park's first 300 scans, 74 landmarks: 20 ms full, 26 ms
+    /// compressed; MR.CLAM's 15: 36 ms against 60 ms). A speed setting only.
+    pub compression_min_landmarks: u32,
     /// Systematic sensor and odometry errors, removed from every detection and
     /// control before use (identity by default; MR.CLAM's are calibrated offline).
     /// `range_variance` and `bearing_variance` are the noise left after it.
@@ -145,6 +179,9 @@ impl Default for PlanarConfig {
             freeze_mode: FreezeMode::Marginalise,
             initial_pose: [0.0; 3],
             initial_pose_variance: [0.0; 3],
+            compression: Compression::Auto,
+            active_radius: 5.0,
+            compression_min_landmarks: 100,
             bias: SensorBias::default(),
             control_bias_sd: None,
             first_estimates: false,
@@ -171,6 +208,13 @@ impl PlanarConfig {
             ));
         }
         ensure_positive("candidate_window", self.candidate_window)?;
+        ensure_positive("active_radius", self.active_radius)?;
+        if self.compression_min_landmarks == 0 {
+            return Err(SlamError::invalid(
+                "compression_min_landmarks",
+                "must be >= 1".into(),
+            ));
+        }
         ensure_non_negative("wall_overlap_gap", self.wall_overlap_gap)?;
         ensure_positive("wall_max_angle_sd", self.wall_max_angle_sd)?;
         let admission = self.wall_admission_confidence;

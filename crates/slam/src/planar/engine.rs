@@ -65,7 +65,11 @@ struct Candidate {
 #[derive(Debug, Clone)]
 pub struct PlanarSlam {
     pub(super) config: PlanarConfig,
+    /// The working filter: the full one, or while compressed the sub-filter of the
+    /// robot and the active landmarks.
     pub(super) ekf: Ekf,
+    /// The compressed EKF's auxiliary state (Guivant & Nebot 2001), while compressed.
+    pub(super) cekf: Option<super::compress::Local>,
     /// The detection noise `W` (eq. 8).
     w: Matrix2<f64>,
     pub(super) mount: Pose2,
@@ -150,6 +154,7 @@ impl PlanarSlam {
             joint_gates: vec![0.0, gate],
             config,
             ekf,
+            cekf: None,
             time: None,
             control: Vector2::zeros(),
             offset: Vector2::zeros(),
@@ -178,9 +183,18 @@ impl PlanarSlam {
         &self.config
     }
 
-    /// The filter (its state is in the internal frame: the world shifted by the
-    /// anchor's position, see [`PlanarSlam::anchor`]).
+    /// The working filter (its state is in the internal frame: the world shifted by
+    /// the anchor's position, see [`PlanarSlam::anchor`]). While the filter is
+    /// compressed ([`super::Compression`]) this is the sub-filter of the robot and
+    /// the active landmarks; [`PlanarSlam::full_filter`] gives the whole one.
     pub fn ekf(&self) -> &Ekf {
+        &self.ekf
+    }
+
+    /// The whole filter, after the global update of a compressed one (O(n^2 a),
+    /// `a` the active states; the engine then runs on until it compresses again).
+    pub fn full_filter(&mut self) -> &Ekf {
+        self.decompress();
         &self.ekf
     }
 
@@ -254,6 +268,8 @@ impl PlanarSlam {
             }
             Event::Walls { t, walls } => {
                 self.predict_to(*t)?;
+                // Walls are associated against every wall: no compression with them.
+                self.decompress();
                 self.wall_scan(walls)?;
                 Ok(EventKind::Walls)
             }
@@ -311,6 +327,7 @@ impl PlanarSlam {
             let v = self.config.motion.control_noise();
             let fx = self.first_estimate_fx(pred.fx);
             self.ekf.predict_planar(&pred.mean, &fx, &pred.fv, &v)?;
+            self.follow_prediction(&fx);
         }
         self.time = Some(t);
         Ok(())
@@ -331,9 +348,9 @@ impl PlanarSlam {
     }
 
     /// Runs an update and records how far it moved the robot's position.
-    fn shifting<T>(&mut self, update: impl FnOnce(&mut Ekf) -> Result<T>) -> Result<T> {
+    fn shifting<T>(&mut self, update: impl FnOnce(&mut Self) -> Result<T>) -> Result<T> {
         let before = Vector2::new(self.ekf.state()[0], self.ekf.state()[1]);
-        let out = update(&mut self.ekf)?;
+        let out = update(self)?;
         let after = Vector2::new(self.ekf.state()[0], self.ekf.state()[1]);
         self.update_shift += after - before;
         Ok(out)
@@ -411,8 +428,11 @@ impl PlanarSlam {
         let nu = DVector::from_vec(vec![xy[0] - h.x, xy[1] - h.y]);
         let hs = SparseJacobian::new(2).with_block(0, 0, dyn_mat(&jac));
         let gate = self.gate;
-        match self.shifting(|ekf| ekf.update_gated(&nu, &hs, &r, gate))? {
-            Gated::Applied(_) => self.stats.fixes_applied += 1,
+        match self.shifting(|slam| slam.ekf.update_gated(&nu, &hs, &r, gate))? {
+            Gated::Applied(update) => {
+                self.follow_update(&[(nu, hs, r)], &update)?;
+                self.stats.fixes_applied += 1;
+            }
             Gated::Rejected { .. } => self.stats.fixes_rejected += 1,
         }
         Ok(())
@@ -439,6 +459,7 @@ impl PlanarSlam {
         // (a data set's labels must not leak into NN or JCBB).
         let known = self.config.association == Association::Known;
         let ids: Vec<Option<u64>> = detections.iter().map(|d| d.id.filter(|_| known)).collect();
+        self.localise(&zs, &ids)?;
         let (pairings, unmatched) = self.associate(&zs, &ids)?;
         if !pairings.is_empty() {
             self.apply(&pairings, &zs)?;
@@ -598,7 +619,7 @@ impl PlanarSlam {
             stacked.push((DVector::from_column_slice(nu.as_slice()), h, dyn_mat(&r)));
         }
         let ids: Vec<u64> = pairings.iter().map(|p| self.target_id(p.target)).collect();
-        self.shifting(|ekf| ekf.update_batch(&stacked))?;
+        self.shifting(|slam| slam.update_stacked(&stacked))?;
         for id in ids {
             let n = self.revisions.entry(id).or_insert(0);
             *n += 1;
@@ -618,8 +639,13 @@ impl PlanarSlam {
     /// (marginalised) but stays in the map; its later sightings update the rest with
     /// the landmark known at its frozen mean and covariance.
     fn freeze(&mut self, id: u64) -> Result<()> {
-        let Some(j) = self.ekf.landmark_index(id) else {
+        if self.ekf.landmark_index(id).is_none() {
             return Ok(()); // already frozen, or the anchor
+        }
+        // Removal reaches every state: the global update first.
+        self.decompress();
+        let Some(j) = self.ekf.landmark_index(id) else {
+            return Ok(());
         };
         if self.config.freeze_mode == FreezeMode::Consider {
             if !self.ekf.is_consider(j) {
@@ -710,7 +736,7 @@ impl PlanarSlam {
     }
 
     pub(super) fn fresh_id(&mut self) -> u64 {
-        while self.ekf.landmark_index(self.next_id).is_some()
+        while self.in_state(self.next_id)
             || self.fixed_ids.contains(&self.next_id)
             || self.walls.contains_key(&self.next_id)
         {
@@ -725,18 +751,19 @@ impl PlanarSlam {
     fn admit(&mut self, id: u64, z: &Vector2<f64>) -> Result<()> {
         self.stats.new += 1;
         self.revisions.insert(id, 0);
-        if self.config.anchor && self.anchor.is_none() && self.ekf.num_landmarks() == 0 {
+        if self.config.anchor && self.anchor.is_none() && self.landmarks_in_state() == 0 {
             return self.make_anchor(id, z);
         }
         let (l, g_r, g_z) = landmark_from(&self.robot(), &self.mount, z);
+        let g_r = self.robot_block(&g_r);
         self.ekf.add_landmark_with_id(
             id,
             &DVector::from_vec(vec![l.x, l.y]),
-            &self.robot_block(&g_r),
+            &g_r,
             &dyn_mat(&g_z),
             &dyn_mat(&self.w),
         )?;
-        Ok(())
+        self.follow_admission(&g_r)
     }
 
     /// Eqs. (24)-(25): the landmark becomes the global reference. The map (here only
@@ -776,20 +803,21 @@ fn fuse(c: &mut Candidate, l: &Point2<f64>, cov: &Matrix2<f64>, t: f64) {
 
 /// Results and the bulk entry point.
 impl PlanarSlam {
-    /// The map in the world frame, sorted by id.
+    /// The map in the world frame, sorted by id (a compressed filter is read
+    /// through a global update of a copy: O(n^2 a)).
     pub fn landmarks(&self) -> Vec<LandmarkEstimate> {
+        let ekf = self.full_ekf();
         let mut out = Vec::new();
-        for (j, &id) in self.ekf.landmark_ids().iter().enumerate() {
+        for (j, &id) in ekf.landmark_ids().iter().enumerate() {
             if self.walls.contains_key(&id) {
                 continue;
             }
-            let off = self.ekf.landmark_offset(j).expect("landmark index");
-            let x = self.ekf.state();
-            let c = self
-                .ekf
+            let off = ekf.landmark_offset(j).expect("landmark index");
+            let x = ekf.state();
+            let c = ekf
                 .covariance_block(off, off, 2, 2)
                 .expect("landmark block");
-            let frozen = self.ekf.is_consider(j);
+            let frozen = ekf.is_consider(j);
             out.push(self.estimate(id, Point2::new(x[off], x[off + 1]), &c, frozen));
         }
         for (k, &id) in self.fixed_ids.iter().enumerate() {
@@ -817,8 +845,10 @@ impl PlanarSlam {
         }
     }
 
-    /// The trajectory, the map and the statistics.
-    pub fn finish(self) -> PlanarResult {
+    /// The trajectory, the map and the statistics (after the global update of a
+    /// compressed filter).
+    pub fn finish(mut self) -> PlanarResult {
+        self.decompress();
         let landmarks = self.landmarks();
         let walls = self.walls();
         let point_anchor = self.anchor.filter(|id| !self.walls.contains_key(id));
@@ -836,6 +866,17 @@ impl PlanarSlam {
     /// must be sorted by time (an error names the array and row otherwise), and at
     /// least one event is required.
     pub fn run_arrays(&mut self, arrays: &EventArrays<'_>) -> Result<()> {
+        self.run_arrays_with(arrays, |_, _| true)
+    }
+
+    /// [`PlanarSlam::run_arrays`] that calls `report(done, total)` (rows of the arrays
+    /// consumed, of all) after about every 1 % of the rows and at the end: a progress
+    /// bar. `report` returning `false` stops the run with an error.
+    pub fn run_arrays_with(
+        &mut self,
+        arrays: &EventArrays<'_>,
+        mut report: impl FnMut(usize, usize) -> bool,
+    ) -> Result<()> {
         check_arrays(arrays)?;
         let (c, d, f, w) = (
             arrays.controls,
@@ -844,7 +885,20 @@ impl PlanarSlam {
             arrays.walls,
         );
         let (mut i, mut j, mut k, mut l) = (0, 0, 0, 0);
+        let total = c.len() + d.len() + f.len() + w.len();
+        let step = total.div_ceil(100);
+        let mut next_report = step;
         while i < c.len() || j < d.len() || k < f.len() || l < w.len() {
+            let done = i + j + k + l;
+            if done >= next_report {
+                next_report = done + step;
+                if !report(done, total) {
+                    return Err(SlamError::invalid(
+                        "report",
+                        format!("the progress report stopped the run at row {done} of {total}"),
+                    ));
+                }
+            }
             let tc = c.get(i).map_or(f64::INFINITY, |r| r[0]);
             let td = d.get(j).map_or(f64::INFINITY, |r| r[0]);
             let tf = f.get(k).map_or(f64::INFINITY, |r| r[0]);
@@ -884,7 +938,14 @@ impl PlanarSlam {
             };
             self.process(&event)?;
         }
-        Ok(())
+        if report(total, total) {
+            Ok(())
+        } else {
+            Err(SlamError::invalid(
+                "report",
+                "the progress report stopped the run at its end".into(),
+            ))
+        }
     }
 }
 

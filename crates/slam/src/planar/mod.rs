@@ -18,6 +18,7 @@
 
 mod associate;
 mod bias;
+mod compress;
 mod config;
 mod engine;
 mod observe;
@@ -26,7 +27,7 @@ pub mod sim;
 mod walls;
 
 pub use bias::SensorBias;
-pub use config::{Association, FreezeMode, PlanarConfig};
+pub use config::{Association, Compression, FreezeMode, PlanarConfig};
 pub use engine::PlanarSlam;
 
 /// One range-bearing detection of a scan, in the sensor frame.
@@ -218,6 +219,11 @@ pub struct Statistics {
     pub fixes_ignored: u64,
     /// Scans whose JCBB search hit its node budget.
     pub jcbb_truncated: u64,
+    /// Active areas made by the compressed filter (each after a global update of the
+    /// previous one; see [`Compression`]).
+    pub compressions: u64,
+    /// Passive landmarks brought into the active area of a compressed filter.
+    pub activations: u64,
     /// Wall detections paired with a wall and applied.
     pub walls_accepted: u64,
     /// Wall detections compatible with a wall but left out by the association.

@@ -244,3 +244,25 @@ def test_replay_poses_are_not_overconfident(learnt) -> None:
     nees = nees[np.isfinite(nees)]
     assert len(nees) > 100
     assert (nees > chi2.ppf(0.99, 3)).mean() <= 0.05, np.sort(nees)[-10:]
+
+
+def test_covariance_scale_scales_the_stored_mosaic_covariance_only(learnt) -> None:
+    # The same seeded learning run with covariance_scale=3: the same models and key
+    # images, every stored covariance (each model's and the joint one) three times.
+    world, learning = learnt
+    scaled = learn(
+        world, (2.5, 2.5, 0.2), s_path(100), dt=0.1, seed=4, config={"covariance_scale": 3.0}
+    )
+    base, tripled = json.loads(learning.memory.to_json()), json.loads(scaled.memory.to_json())
+    np.testing.assert_array_equal(scaled.memory.model_poses, learning.memory.model_poses)
+    assert tripled["key_images"] == base["key_images"]
+    np.testing.assert_allclose(
+        np.array(tripled["mosaic_covariance"]["matrix"]),
+        3.0 * np.array(base["mosaic_covariance"]["matrix"]),
+        rtol=1e-12,
+    )
+    for a, b in zip(base["models"], tripled["models"], strict=True):
+        np.testing.assert_allclose(np.array(b["covariance"]), 3.0 * np.array(a["covariance"]))
+    for bad in (0.5, float("nan")):
+        with pytest.raises(ValueError, match="covariance_scale"):
+            learn(world, (2.5, 2.5, 0.2), s_path(5), config={"covariance_scale": bad})

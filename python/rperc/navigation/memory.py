@@ -258,7 +258,9 @@ def learn(
     """Drives ``commands`` (``(n, 2)``: ``v`` m/s, ``omega`` rad/s, each ``dt`` s) from
     ``start`` ``(x, y, theta)``, building the mosaic and choosing the key images.
     ``config`` holds the fields of ``defaults()["learn"]`` (``mosaic``, ``keys``,
-    ``odometry``)."""
+    ``odometry``, and ``covariance_scale``, >= 1, which multiplies the stored mosaic
+    covariance: the mapping filter counts a tracker's successive, correlated states as
+    independent)."""
     memory_json, frames = _rperc.visual_memory_learn(
         world._native,
         float_array(start, "start").reshape(-1),

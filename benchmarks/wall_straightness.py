@@ -18,7 +18,7 @@ log alone, as the value that brings the median pair NEES to chi-square(2)'s medi
 2 ln 2 (the median, since a few mispaired walls dominate the mean), then the other
 log is reported with that sigma, untouched.
 
-    python benchmarks/wall_straightness.py --calibrate aces.log --report intel.log
+    python benchmarks/wall_straightness.py [--calibrate LOG] [--report LOG]  # default: ACES, Intel
 """
 
 from __future__ import annotations

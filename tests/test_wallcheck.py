@@ -4,14 +4,17 @@ the difference are right and what the real logs show is about their covariances.
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 
 import numpy as np
+import pytest
 
 from rperc.cli import main
 from rperc.datasets import LaserScans
 from rperc.scansim import ray_cast, room_walls
+from rperc.slam.wallslam import STRAIGHTNESS
 from rperc.wallcheck import consecutive_wall_nees, line_difference, pair_walls
 
 ANGLES = -math.pi / 2 + math.pi / 180 * np.arange(180)
@@ -57,6 +60,41 @@ def test_consecutive_nees_follows_chi_square_when_the_model_holds():
     assert consecutive_wall_nees(scans).mean > 5 * 2.0
 
 
+def test_straightness_adds_its_covariance_to_both_walls_of_a_pair():
+    # Oracle: each pair's NEES written out with the segment-end model's closed form
+    # (var rho = s^2 (1/2 + 2 m^2/L^2), var alpha = 2 s^2/L^2, cov = 2 s^2 m/L^2).
+    from rperc.linesimp import extract_lines
+
+    pose_sd = np.array([0.02, 0.02, math.radians(0.5)])
+    scans, _ = simulated_scans(12, 0.01, pose_sd, seed=5)
+    sigma = 0.03
+    world = [
+        extract_lines(scans.ranges[k], ANGLES, max_range=30.0).to_world(scans.pose[k])
+        for k in range(len(scans))
+    ]
+
+    def floor(w, i):
+        n = np.array([math.cos(w.alpha[i]), math.sin(w.alpha[i])])
+        m = 0.5 * (w.start[i] + w.end[i]) @ np.array([-n[1], n[0]])
+        length2 = float(np.sum((w.end[i] - w.start[i]) ** 2))
+        return sigma**2 * np.array(
+            [[0.5 + 2 * m**2 / length2, 2 * m / length2], [2 * m / length2, 2 / length2]]
+        )
+
+    expected = []
+    for a, b in itertools.pairwise(world):
+        for i, j in pair_walls(a, b):
+            d = line_difference(a, i, b, j)
+            c = a.cov[i] + floor(a, i) + b.cov[j] + floor(b, j)
+            expected.append(d @ np.linalg.solve(c, d))
+    got = consecutive_wall_nees(scans, straightness=sigma, max_range=30.0)
+    assert len(expected) > 20
+    np.testing.assert_allclose(got.nees, expected, rtol=1e-9)
+    assert got.mean < consecutive_wall_nees(scans, max_range=30.0).mean
+    with pytest.raises(ValueError, match="straightness"):
+        consecutive_wall_nees(scans, straightness=-0.01)
+
+
 def test_pairing_uses_geometry_only():
     scans, _ = simulated_scans(2, 0.0, np.zeros(3), seed=1)
     from rperc.linesimp import extract_lines
@@ -84,6 +122,10 @@ def test_cli_lines_nees_writes_what_it_prints(tmp_path, capsys):
     measured = json.loads(js.read_text())
     assert f"{measured['pairs']} wall pairs" in out and measured["scans"] == 12
     assert measured["pose_sigma_theta_deg"] == 0.1 and measured["model_error"] is True
+    # Real logs get the wall SLAM's straightness floor unless told otherwise.
+    assert measured["straightness_m"] == STRAIGHTNESS
+    assert main([*argv[:-2], "--straightness", "0", "--json", str(js)]) == 0
+    assert json.loads(js.read_text())["straightness_m"] == 0.0
 
 
 def test_reading_shares_add_up_and_match_the_extractor():

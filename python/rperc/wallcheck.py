@@ -107,27 +107,40 @@ def consecutive_wall_nees(
     *,
     pose_cov: npt.ArrayLike | None = None,
     every: int = 1,
+    straightness: float = 0.0,
     **extract: Any,
 ) -> NeesSummary:
     """NEES of every wall paired between scans ``k`` and ``k + every``, both in the
     world frame through the logged poses, each pose with covariance ``pose_cov``
-    (3 x 3, independent from scan to scan; None: exact). ``extract`` goes to
+    (3 x 3, independent from scan to scan; None: exact). ``straightness`` (m, >= 0)
+    adds :func:`rperc.slam.wallslam.straightness_covariance` to every wall, the floor
+    the wall SLAM gives real walls (0: the fit's covariance alone). ``extract`` goes to
     :func:`rperc.linesimp.extract_lines` (``max_range`` defaults to the scan's)."""
+    from rperc.slam.wallslam import straightness_covariance
+
+    if not (math.isfinite(straightness) and straightness >= 0):
+        raise ValueError(f"straightness must be a finite length >= 0, got {straightness}")
     nees: list[float] = []
-    prev: WallSegments | None = None
+    prev: tuple[WallSegments, np.ndarray] | None = None
     walls = used = 0
     for k in range(0, len(scans), every):
         n = int(scans.num_beams[k])
         options = {"max_range": float(scans.max_range[k]), **extract}
         found = extract_lines(scans.ranges[k, :n], scans.angles(k), **options)
         world = found.to_world(scans.pose[k], pose_cov)
+        cov = np.asarray(world.cov, dtype=np.float64)
+        if straightness > 0 and len(world):
+            cov = cov + straightness_covariance(
+                world.rho, world.alpha, world.start, world.end, straightness
+            )
         walls += len(found)
         used += 1
         if prev is not None:
-            for i, j in pair_walls(prev, world):
-                d = line_difference(prev, i, world, j)
-                nees.append(float(d @ np.linalg.solve(prev.cov[i] + world.cov[j], d)))
-        prev = world
+            (before, before_cov) = prev
+            for i, j in pair_walls(before, world):
+                d = line_difference(before, i, world, j)
+                nees.append(float(d @ np.linalg.solve(before_cov[i] + cov[j], d)))
+        prev = (world, cov)
     return NeesSummary(np.asarray(nees), used, walls)
 
 

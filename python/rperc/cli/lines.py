@@ -66,6 +66,15 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         "--pose-sigma-theta", type=non_negative_float, default=0.0, help="heading sd, degrees"
     )
     ne.add_argument(
+        "--straightness",
+        type=non_negative_float,
+        default=None,
+        metavar="M",
+        help="perpendicular error of each wall end, m, added to every wall (default: the "
+        "wall SLAM's calibrated floor for real logs, rperc.slam.wallslam.STRAIGHTNESS; "
+        "0 for the fit's covariance alone)",
+    )
+    ne.add_argument(
         "--no-model-error",
         action="store_true",
         help="covariance from the range noise alone, without the residual floor",
@@ -256,13 +265,17 @@ def nees_command(args: argparse.Namespace) -> int:
     print(log.summary(), file=sys.stderr)
     sd = np.array([args.pose_sigma_xy, args.pose_sigma_xy, math.radians(args.pose_sigma_theta)])
     pose_cov = np.diag(sd**2) if sd.any() else None
+    from rperc.slam.wallslam import STRAIGHTNESS
+
+    straightness = STRAIGHTNESS if args.straightness is None else args.straightness
     result = consecutive_wall_nees(
         log.scans,
         pose_cov=pose_cov,
+        straightness=straightness,
         sigma_range=args.sigma_range,
         model_error=not args.no_model_error,
     )
-    print(f"{args.log.name}: {result}")
+    print(f"{args.log.name}: {result} (straightness floor {100 * straightness:.2f} cm)")
     shares = reading_shares(log.scans, sigma_range=args.sigma_range)
     valid = max(shares["valid"], 1)
     print(
@@ -281,6 +294,7 @@ def nees_command(args: argparse.Namespace) -> int:
             "pose_sigma_xy": args.pose_sigma_xy,
             "pose_sigma_theta_deg": args.pose_sigma_theta,
             "model_error": not args.no_model_error,
+            "straightness_m": straightness,
             **result.as_dict(),
         },
     )

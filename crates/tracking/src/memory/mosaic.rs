@@ -260,12 +260,10 @@ impl MosaicBuilder {
         };
         let models: Vec<(usize, Pose2)> =
             ids.iter().map(|&id| (id, self.models[id].pose)).collect();
-        self.filter = Some(PoseFilter::with_map(
-            filter.pose(),
-            filter.pose_covariance(),
-            &models,
-            covariance,
-        ));
+        let mut rigid =
+            PoseFilter::with_map(filter.pose(), filter.pose_covariance(), &models, covariance);
+        rigid.set_rigid_map(self.params.localiser.rigid_map);
+        self.filter = Some(rigid);
     }
 
     /// The mapped models' joint covariance (while mapping, every model after model

@@ -337,3 +337,110 @@ fn the_update_equals_the_information_form_and_stays_positive_definite() {
         assert!(got.symmetric_eigenvalues().min() > 0.0);
     }
 }
+
+/// A stored mosaic of the four models with independent errors of `sigma` metres
+/// (and a tenth of that in radians) on each coordinate: its joint covariance.
+fn stored_map(sigma: f64) -> nalgebra::DMatrix<f64> {
+    let mut c = nalgebra::DMatrix::zeros(12, 12);
+    for k in 0..4 {
+        for (d, s) in [sigma, sigma, 0.1 * sigma].into_iter().enumerate() {
+            c[(3 * k + d, 3 * k + d)] = s * s;
+        }
+    }
+    c
+}
+
+/// One replay-like run against a stored mosaic whose models sit off their truth by
+/// an error drawn from its covariance (one draw per run, shared by every frame):
+/// the NEES of the last frame, relative to the true models.
+fn stored_map_run(seed: u64, p: &LocaliserParams) -> f64 {
+    let mut rng = stream(seed, 4);
+    let sigma = 0.02;
+    let map = stored_map(sigma);
+    let stored: Vec<(usize, Pose2)> = MODELS
+        .iter()
+        .enumerate()
+        .map(|(id, m)| {
+            let s = [sigma, sigma, 0.1 * sigma].map(|s| s * normal(&mut rng));
+            (id, Pose2::new(m[0] + s[0], m[1] + s[1], m[2] + s[2]))
+        })
+        .collect();
+    let mut truth = Pose2::new(0.0, 0.0, 0.1);
+    let guess = Matrix3::from_diagonal_element(0.05f64.powi(2));
+    let start = Pose2::new(
+        truth.x + 0.05 * normal(&mut rng),
+        truth.y + 0.05 * normal(&mut rng),
+        truth.theta + 0.05 * normal(&mut rng),
+    );
+    let mut filter = PoseFilter::with_map(start, guess, &stored, &map);
+    let step = Pose2::new(0.03, 0.0, 0.015);
+    for k in 0..40 {
+        truth = truth.compose(&step);
+        filter.predict(&odometry(&step, p, &mut rng), p, 1.0);
+        for id in [k % 4, (k + 1) % 4] {
+            let s = sighting(id, &truth, &pose(MODELS[id]), p, &mut rng);
+            assert!(filter.update(&SCALE, &s, p.pixel_sigma));
+        }
+    }
+    nees(error(&filter.pose(), &truth), &filter.pose_covariance())
+}
+
+#[test]
+fn a_rigid_stored_mosaic_is_never_corrected_and_stays_honest() {
+    // Against a stored mosaic the models are consider states (Schmidt-Kalman): a
+    // sighting moves the robot alone and leaves the mosaic's means and covariance as
+    // they were; the robot's covariance after the first sighting is the information
+    // form's with the model's covariance counted as sighting noise.
+    let p = LocaliserParams::default();
+    let map = stored_map(0.02);
+    let models: Vec<(usize, Pose2)> = MODELS
+        .iter()
+        .enumerate()
+        .map(|(i, m)| (i, pose(*m)))
+        .collect();
+    let robot = Pose2::new(0.1, 0.05, 0.2);
+    let prior = Matrix3::from_diagonal_element(0.05f64.powi(2));
+    let mut filter = PoseFilter::with_map(robot, prior, &models, &map);
+    let mut loose = filter.clone();
+    loose.set_rigid_map(false);
+    let mut rng = stream(5, 6);
+    let s = sighting(
+        1,
+        &Pose2::new(0.12, 0.04, 0.21),
+        &pose(MODELS[1]),
+        &p,
+        &mut rng,
+    );
+    assert!(filter.update(&SCALE, &s, p.pixel_sigma));
+    assert!(loose.update(&SCALE, &s, p.pixel_sigma));
+    let (_, h_robot, h_model) = observe(&SCALE, &robot, &pose(MODELS[1]));
+    let r = Matrix3::from_diagonal(&Vector3::new(
+        p.pixel_sigma.powi(2),
+        p.pixel_sigma.powi(2),
+        s.rotation_sigma.powi(2),
+    ));
+    let m = map.fixed_view::<3, 3>(3, 3).into_owned();
+    let expected = information_form(&prior, &h_robot, &(r + h_model * m * h_model.transpose()));
+    let got = filter.pose_covariance();
+    assert!(
+        (got - expected).abs().max() < 1e-9 * expected.abs().max(),
+        "{got} vs {expected}"
+    );
+    for (id, model) in &models {
+        let (mean, _) = filter.model(*id).expect("stored");
+        assert_eq!(error(&mean, model), Vector3::zeros(), "model {id} moved");
+    }
+    assert_eq!(filter.map().1, map, "the mosaic's covariance changed");
+    // Corrected as in mapping, the sighted model moves and its covariance shrinks.
+    let (moved, shrunk) = loose.model(1).expect("stored");
+    assert!(error(&moved, &models[1].1).norm() > 0.0 && shrunk[(0, 0)] < m[(0, 0)]);
+    // Over Monte Carlo runs against mosaics drawn from their covariance, the robot's
+    // NEES lies in the chi-square band.
+    let runs = 200;
+    let mean = (0..runs as u64).map(|s| stored_map_run(s, &p)).sum::<f64>() / runs as f64;
+    let (lo, hi) = nees_band(3, runs, 0.99).unwrap();
+    assert!(
+        lo <= mean && mean <= hi,
+        "mean NEES {mean} outside [{lo}, {hi}]"
+    );
+}

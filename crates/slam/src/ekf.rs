@@ -17,8 +17,8 @@ use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Matrix3x2, Vector3};
 use rayon::prelude::*;
 
 use rperc_core::{
-    Definiteness, check_allocation, check_covariance, cholesky_lower, cholesky_solve_mut,
-    wrap_angle,
+    Definiteness, check_allocation, check_covariance, cholesky_inverse, cholesky_lower,
+    cholesky_solve_mut, wrap_angle,
 };
 
 use crate::error::{Result, SlamError, ensure_finite};
@@ -951,8 +951,7 @@ fn gain_and_nis(
     // m triangular solves against the d columns of `L^T`. It runs a block of state
     // rows at a time: with every landmark observed (monobot) it is O(n^3), seconds at
     // n = 3000, and Ctrl-C is heard between blocks.
-    let mut s_inv = DMatrix::<f64>::identity(s.nrows(), s.ncols());
-    cholesky_solve_mut(&factor, &mut s_inv);
+    let s_inv = cholesky_inverse(&factor);
     let mut gain = DMatrix::<f64>::zeros(l.nrows(), l.ncols());
     for start in (0..l.nrows()).step_by(INTERRUPTIBLE_ROWS) {
         let rows = INTERRUPTIBLE_ROWS.min(l.nrows() - start);

@@ -285,8 +285,14 @@ impl Compressed {
                 robot[(i, 1)] += phi * u[1];
             }
         }
-        let own = Matrix2::from_fn(|i, j| self.global.cov_at(p.offset + i, p.offset + j));
-        (robot, own)
+        (robot, self.passive_own(k))
+    }
+
+    /// Passive landmark `k`'s own covariance at the last global update (an upper
+    /// bound of the current one, in the PSD order). O(1).
+    pub fn passive_own(&self, k: usize) -> Matrix2<f64> {
+        let off = self.passive[k].offset;
+        Matrix2::from_fn(|i, j| self.global.cov_at(off + i, off + j))
     }
 
     /// The own covariance at the last global update of the passive entries at

@@ -295,11 +295,14 @@ impl Scene<'_> {
     /// `detections`, given its cross-covariance with the robot `p_rl` and an upper
     /// bound `p_ll` (PSD order) of its own covariance: the `S` built with the bound is
     /// at least the true one, so its NIS is at most the true NIS, and `false` only
-    /// when the gate refuses every pairing.
+    /// when the gate refuses every pairing. Without `p_rl` (`None`, the cheap test
+    /// before reading it), `S` is bounded by `2 H_r P_rr H_r^T + 2 H_l p_ll H_l^T + W`
+    /// (`(a + b)(a + b)^T <= 2 a a^T + 2 b b^T` in the PSD order for the joint
+    /// covariance of robot and landmark), still at least the true one.
     pub fn may_pair(
         &self,
         l: &Point2<f64>,
-        p_rl: &Matrix3x2<f64>,
+        p_rl: Option<&Matrix3x2<f64>>,
         p_ll: &Matrix2<f64>,
         detections: &[Vector2<f64>],
         gate: f64,
@@ -307,12 +310,15 @@ impl Scene<'_> {
         let Some((zp, hr, hl)) = observe(&self.robot, &self.mount, l) else {
             return false; // on the sensor: `pairing` refuses it too
         };
-        let cross = hr * p_rl * hl.transpose();
-        let s = hr * self.prr * hr.transpose()
-            + cross
-            + cross.transpose()
-            + hl * p_ll * hl.transpose()
-            + self.w;
+        let robot = hr * self.prr * hr.transpose();
+        let own = hl * p_ll * hl.transpose();
+        let s = match p_rl {
+            Some(p_rl) => {
+                let cross = hr * p_rl * hl.transpose();
+                robot + cross + cross.transpose() + own + self.w
+            }
+            None => (robot + own) * 2.0 + self.w,
+        };
         let Some(inv) = s.try_inverse() else {
             return true;
         };

@@ -205,17 +205,25 @@ pub fn cholesky_solve_mut(factor: &DMatrix<f64>, b: &mut DMatrix<f64>) {
 }
 
 /// `S^-1 = F^-T F^-1` from the lower factor `S = F F^T` of [`cholesky_lower`]
-/// (infallible for its positive diagonal): `F^-1` by forward substitution, each
-/// column of the identity from its diagonal on (`n^3 / 6`), then one matrix product.
-/// Two solves against the identity ([`cholesky_solve_mut`]) cost `n^3` scalar
-/// operations, the bulk of an EKF update's gain for a scan of a few detections.
+/// (infallible for its positive diagonal): `F^-1` ([`lower_inverse`], `n^3 / 6`),
+/// then one matrix product. Two solves against the identity
+/// ([`cholesky_solve_mut`]) cost `n^3` scalar operations, the bulk of an EKF
+/// update's gain for a scan of a few detections.
 pub fn cholesky_inverse(factor: &DMatrix<f64>) -> DMatrix<f64> {
+    let w = lower_inverse(factor);
+    w.transpose() * w
+}
+
+/// `F^-1` of a lower-triangular `F` with a non-zero diagonal (lower triangular too):
+/// forward substitution of each column of the identity from its diagonal on, by
+/// columns of `F` (`n^3 / 6`).
+pub fn lower_inverse(factor: &DMatrix<f64>) -> DMatrix<f64> {
     let n = factor.nrows();
     let f = factor.as_slice();
     let mut w = DMatrix::<f64>::zeros(n, n);
     for (j, col) in w.as_mut_slice().chunks_exact_mut(n.max(1)).enumerate() {
         col[j] = 1.0;
-        // F y = e_j by columns of F: y_i = b_i / F_ii, then b -= y_i F[i+1.., i].
+        // F y = e_j: y_i = b_i / F_ii, then b -= y_i F[i+1.., i].
         for i in j..n {
             let fi = &f[i * n..(i + 1) * n];
             let coeff = col[i] / fi[i];
@@ -225,7 +233,7 @@ pub fn cholesky_inverse(factor: &DMatrix<f64>) -> DMatrix<f64> {
             }
         }
     }
-    w.transpose() * w
+    w
 }
 
 /// `e^T C^-1 e` through a Cholesky factorisation; an error when `C` is not positive

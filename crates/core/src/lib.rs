@@ -19,7 +19,7 @@ pub use error::{
 };
 pub use gaussian::{
     Definiteness, Gaussian, asymmetry, check_covariance, cholesky_inverse, cholesky_lower,
-    cholesky_solve_mut, mahalanobis2, min_relative_eigenvalue, repair_covariance,
+    cholesky_solve_mut, lower_inverse, mahalanobis2, min_relative_eigenvalue, repair_covariance,
 };
 pub use pose::Pose2;
 /// Re-exported for [`named_enum!`].

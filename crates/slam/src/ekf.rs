@@ -570,12 +570,18 @@ impl Ekf {
         l: &DMatrix<f64>,
         ks_minus_l: &DMatrix<f64>,
     ) -> Result<()> {
-        for i in 0..self.x.len() {
-            let old = self.cov[(i, i)];
-            let mut new = old;
-            for a in 0..gain.ncols() {
-                new += gain[(i, a)] * (ks_minus_l[(i, a)] - l[(i, a)]);
+        let d = self.x.len();
+        let mut change = vec![0.0; d];
+        // Down the columns (contiguous), the sum over them in the same order as a row.
+        for a in 0..gain.ncols() {
+            let (g, m, l) = (gain.column(a), ks_minus_l.column(a), l.column(a));
+            for (i, c) in change.iter_mut().enumerate() {
+                *c += g[i] * (m[i] - l[i]);
             }
+        }
+        for (i, c) in change.into_iter().enumerate() {
+            let old = self.cov[(i, i)];
+            let new = old + c;
             if !new.is_finite() || new < -1e-9 * old.abs().max(f64::MIN_POSITIVE) {
                 return Err(SlamError::Diverged(format!(
                     "update: the variance of state {i} would become {new:.3e} (was {old:.3e})"
@@ -1000,8 +1006,9 @@ fn joseph_columns(
     a.columns_mut(obs, obs).copy_from(m);
     // `B^T` stored so that the block product reads contiguous columns.
     let mut bt = DMatrix::<f64>::zeros(2 * obs, d);
-    bt.rows_mut(0, obs).copy_from(&(-l.transpose()));
-    bt.rows_mut(obs, obs).copy_from(&k.transpose());
+    bt.rows_mut(0, obs).tr_copy_from(l);
+    bt.rows_mut(0, obs).neg_mut();
+    bt.rows_mut(obs, obs).tr_copy_from(k);
     add_lower_product(p, d, &a, &bt)
 }
 

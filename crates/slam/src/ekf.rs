@@ -86,7 +86,7 @@ impl SparseJacobian {
                     state_dim
                 )));
             }
-            ensure_finite("Jacobian", b.h.iter())?;
+            ensure_finite("Jacobian", b.h.as_slice().iter())?;
         }
         Ok(())
     }
@@ -609,7 +609,7 @@ impl Ekf {
             )));
         }
         h.validate(self.x.len())?;
-        ensure_finite("innovation", innovation.iter())?;
+        ensure_finite("innovation", innovation.as_slice().iter())?;
         if !r_checked {
             check_noise("R", r)?;
         }
@@ -626,7 +626,7 @@ impl Ekf {
     /// Applies a prepared update: eq. (6) for the mean, the Joseph form (9) for `P`.
     fn apply(&mut self, p: Prepared, innovation: &DVector<f64>) -> Result<Update> {
         let dx = &p.gain * innovation;
-        if !dx.iter().all(|v| v.is_finite()) {
+        if !dx.as_slice().iter().all(|v| v.is_finite()) {
             return Err(SlamError::SingularInnovation(
                 "the state correction is not finite".into(),
             ));
@@ -930,7 +930,8 @@ fn innovation_covariance(h: &SparseJacobian, l: &DMatrix<f64>, r: &DMatrix<f64>)
 /// `K S - L`, a block of state rows at a time with a Ctrl-C checkpoint between
 /// blocks (O(n m^2); nothing is written to the filter yet, so stopping is safe).
 fn ks_minus_l(p: &Prepared) -> Result<DMatrix<f64>> {
-    let mut out = -p.l.clone();
+    let mut out = p.l.clone();
+    out.as_mut_slice().iter_mut().for_each(|v| *v = -*v);
     for start in (0..out.nrows()).step_by(INTERRUPTIBLE_ROWS) {
         let rows = INTERRUPTIBLE_ROWS.min(out.nrows() - start);
         let mut block = out.rows_mut(start, rows);
@@ -947,7 +948,7 @@ fn gain_and_nis(
     l: &DMatrix<f64>,
     innovation: &DVector<f64>,
 ) -> Result<(DMatrix<f64>, f64)> {
-    if !s.iter().all(|v| v.is_finite()) {
+    if !s.as_slice().iter().all(|v| v.is_finite()) {
         return Err(SlamError::SingularInnovation("S is not finite".into()));
     }
     let factor = cholesky_lower(s)?.ok_or_else(|| {
@@ -965,7 +966,7 @@ fn gain_and_nis(
         block.gemm(1.0, &l.rows(start, rows), &s_inv, 0.0);
         rperc_core::interrupt::checkpoint()?;
     }
-    if !gain.iter().all(|v| v.is_finite()) {
+    if !gain.as_slice().iter().all(|v| v.is_finite()) {
         return Err(SlamError::SingularInnovation(
             "the gain is not finite (S is numerically singular)".into(),
         ));
@@ -1001,14 +1002,19 @@ fn joseph_columns(
     m: &DMatrix<f64>,
 ) -> Result<()> {
     let obs = k.ncols();
-    let mut a = DMatrix::<f64>::zeros(d, 2 * obs);
-    a.columns_mut(0, obs).copy_from(k);
-    a.columns_mut(obs, obs).copy_from(m);
-    // `B^T` stored so that the block product reads contiguous columns.
+    // Column-major `d x obs` matrices are contiguous: `A = [K M]` is the two slices
+    // one after the other.
+    let a =
+        DMatrix::<f64>::from_iterator(d, 2 * obs, k.as_slice().iter().chain(m.as_slice()).copied());
+    // `B^T = [-L K]^T` stored so that the block product reads contiguous columns.
     let mut bt = DMatrix::<f64>::zeros(2 * obs, d);
-    bt.rows_mut(0, obs).tr_copy_from(l);
-    bt.rows_mut(0, obs).neg_mut();
-    bt.rows_mut(obs, obs).tr_copy_from(k);
+    let (ls, ks) = (l.as_slice(), k.as_slice());
+    for (i, col) in bt.as_mut_slice().chunks_exact_mut(2 * obs).enumerate() {
+        for j in 0..obs {
+            col[j] = -ls[j * d + i];
+            col[obs + j] = ks[j * d + i];
+        }
+    }
     add_lower_product(p, d, &a, &bt)
 }
 

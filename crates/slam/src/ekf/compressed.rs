@@ -443,18 +443,21 @@ impl Compressed {
         // U = P_BA0 in the full filter's rows (zero on the active ones), so that
         // P_BB -= U psi U^T is one blocked product over P's columns in place; its
         // active rows and columns get zero and are overwritten below.
-        let mut u = DMatrix::zeros(dg, all_ut.rows);
+        // Built as U^T (a column per state: contiguous copies), transposed once.
+        let a0 = all_ut.rows;
+        let mut ut = DMatrix::zeros(a0, dg);
         for p in &passive {
             for i in 0..m {
-                u.row_mut(p.offset + i)
-                    .tr_copy_from(&all_ut.buf.view((0, p.row + i), (all_ut.rows, 1)));
+                ut.column_mut(p.offset + i)
+                    .copy_from(&all_ut.buf.view((0, p.row + i), (a0, 1)));
             }
         }
+        let u = ut.transpose();
         global.x += &u * &theta;
-        let psi = (psi.view() + psi.view().transpose()) * 0.5;
-        let minus_w = -(&u * &psi); // dg x a0
+        let minus_psi = (psi.view() + psi.view().transpose()) * -0.5;
+        let minus_w = &u * &minus_psi; // dg x a0
         let p_ba = &u * phi.view().transpose(); // P_BA = (phi P_A0B)^T, rows of B
-        add_lower_product_now(&mut global.cov, dg, &minus_w, &u.transpose());
+        add_lower_product_now(&mut global.cov, dg, &minus_w, &ut);
         let rows_b: Vec<usize> = passive
             .iter()
             .flat_map(|p| p.offset..p.offset + m)

@@ -6,7 +6,7 @@
 use nalgebra::{Matrix2, Matrix2x3, Matrix3, Matrix3x2, Point2, Vector2};
 use rperc_core::{Pose2, wrap_angle};
 
-use super::observe::observe;
+use super::observe::observe_from;
 use crate::ekf::Ekf;
 
 /// What a detection is paired with.
@@ -54,6 +54,10 @@ pub(crate) struct Scene<'a> {
     pub w: Matrix2<f64>,
     pub fixed: &'a [FixedPoint],
     prr: Matrix3<f64>,
+    /// The sensor's pose (`robot` composed with `mount`) and its Jacobian wrt the
+    /// robot, made once for every landmark tested against the scan.
+    sensor: Pose2,
+    j_sensor: Matrix3<f64>,
     /// `walls[j]`: state landmark `j` is a wall (empty: no walls), so point
     /// detections are never tried against it.
     walls: Vec<bool>,
@@ -67,10 +71,13 @@ impl<'a> Scene<'a> {
         let prr = ekf
             .covariance_block_fixed::<3, 3>(0, 0)
             .unwrap_or_else(Matrix3::zeros);
+        let (sensor, j_sensor, _) = robot.compose_with_jacobians(&mount);
         Self {
             ekf,
             robot,
             mount,
+            sensor,
+            j_sensor,
             w,
             fixed,
             prr,
@@ -113,7 +120,7 @@ impl<'a> Scene<'a> {
     /// singular.
     fn linearise(&self, target: Target) -> Option<Linearised> {
         let (l, offset) = self.landmark(target)?;
-        let (predicted, h_robot, h_l) = observe(&self.robot, &self.mount, &l)?;
+        let (predicted, h_robot, h_l) = observe_from(&self.sensor, &self.j_sensor, &l)?;
         let (h_landmark, r) = match target {
             // Frozen: the landmark is known with its frozen covariance (text under Fig. 7).
             Target::Fixed(k) => (
@@ -248,7 +255,7 @@ impl Scene<'_> {
     /// The screen of a point at `l` whose own covariance has a trace of at most
     /// `tr_landmark` (a larger trace only widens the bounds).
     fn screen_point(&self, l: &Point2<f64>, tr_landmark: f64) -> Option<Screen> {
-        let sensor = self.robot.compose(&self.mount);
+        let sensor = &self.sensor;
         let (dx, dy) = (l.x - sensor.x, l.y - sensor.y);
         let r = dx.hypot(dy);
         // A landmark on the sensor (or a NaN) has no bearing: `pairing` refuses it too.
@@ -307,7 +314,7 @@ impl Scene<'_> {
         detections: &[Vector2<f64>],
         gate: f64,
     ) -> bool {
-        let Some((zp, hr, hl)) = observe(&self.robot, &self.mount, l) else {
+        let Some((zp, hr, hl)) = observe_from(&self.sensor, &self.j_sensor, l) else {
             return false; // on the sensor: `pairing` refuses it too
         };
         let robot = hr * self.prr * hr.transpose();

@@ -14,6 +14,12 @@ use std::f64::consts::PI;
 /// assert!((wrap_angle(7.0) - (7.0 - 2.0 * PI)).abs() < 1e-15);
 /// ```
 pub fn wrap_angle(a: f64) -> f64 {
+    // Most angles (innovations, headings) are in range already: returned as they
+    // are, exactly (the remainder below would round a negative one by an ulp), and
+    // without a floating-point remainder, which is slow.
+    if a > -PI && a <= PI {
+        return a;
+    }
     let w = a.rem_euclid(2.0 * PI);
     if w > PI { w - 2.0 * PI } else { w }
 }
@@ -38,5 +44,16 @@ mod tests {
             assert!((turns - turns.round()).abs() < 1e-12);
         }
         assert_eq!(angle_diff(-3.0, 3.0), wrap_angle(-6.0));
+    }
+
+    /// An angle already in (-pi, pi] comes back unchanged, bit for bit; the ends
+    /// and NaN follow the general rule.
+    #[test]
+    fn an_angle_in_range_is_unchanged() {
+        for a in [-3.1, -1.0, -1e-300, -0.0, 0.0, 0.3, 2.9, PI] {
+            assert_eq!(wrap_angle(a).to_bits(), a.to_bits(), "{a}");
+        }
+        assert_eq!(wrap_angle(-PI), PI);
+        assert!(wrap_angle(f64::NAN).is_nan());
     }
 }

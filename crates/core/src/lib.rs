@@ -18,8 +18,8 @@ pub use error::{
     ensure_finite, ensure_in_range, ensure_non_negative, ensure_positive, max_allocation_bytes,
 };
 pub use gaussian::{
-    Definiteness, Gaussian, asymmetry, check_covariance, cholesky_lower, cholesky_solve_mut,
-    mahalanobis2, min_relative_eigenvalue, repair_covariance,
+    Definiteness, Gaussian, asymmetry, check_covariance, cholesky_inverse, cholesky_lower,
+    cholesky_solve_mut, lower_inverse, mahalanobis2, min_relative_eigenvalue, repair_covariance,
 };
 pub use pose::Pose2;
 /// Re-exported for [`named_enum!`].

@@ -17,8 +17,8 @@ use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Matrix3x2, Vector3};
 use rayon::prelude::*;
 
 use rperc_core::{
-    Definiteness, check_allocation, check_covariance, cholesky_lower, cholesky_solve_mut,
-    wrap_angle,
+    Definiteness, check_allocation, check_covariance, cholesky_inverse, cholesky_lower,
+    cholesky_solve_mut, wrap_angle,
 };
 
 use crate::error::{Result, SlamError, ensure_finite};
@@ -86,7 +86,7 @@ impl SparseJacobian {
                     state_dim
                 )));
             }
-            ensure_finite("Jacobian", b.h.iter())?;
+            ensure_finite("Jacobian", b.h.as_slice().iter())?;
         }
         Ok(())
     }
@@ -570,12 +570,18 @@ impl Ekf {
         l: &DMatrix<f64>,
         ks_minus_l: &DMatrix<f64>,
     ) -> Result<()> {
-        for i in 0..self.x.len() {
-            let old = self.cov[(i, i)];
-            let mut new = old;
-            for a in 0..gain.ncols() {
-                new += gain[(i, a)] * (ks_minus_l[(i, a)] - l[(i, a)]);
+        let d = self.x.len();
+        let mut change = vec![0.0; d];
+        // Down the columns (contiguous), the sum over them in the same order as a row.
+        for a in 0..gain.ncols() {
+            let (g, m, l) = (gain.column(a), ks_minus_l.column(a), l.column(a));
+            for (i, c) in change.iter_mut().enumerate() {
+                *c += g[i] * (m[i] - l[i]);
             }
+        }
+        for (i, c) in change.into_iter().enumerate() {
+            let old = self.cov[(i, i)];
+            let new = old + c;
             if !new.is_finite() || new < -1e-9 * old.abs().max(f64::MIN_POSITIVE) {
                 return Err(SlamError::Diverged(format!(
                     "update: the variance of state {i} would become {new:.3e} (was {old:.3e})"
@@ -603,7 +609,7 @@ impl Ekf {
             )));
         }
         h.validate(self.x.len())?;
-        ensure_finite("innovation", innovation.iter())?;
+        ensure_finite("innovation", innovation.as_slice().iter())?;
         if !r_checked {
             check_noise("R", r)?;
         }
@@ -620,7 +626,7 @@ impl Ekf {
     /// Applies a prepared update: eq. (6) for the mean, the Joseph form (9) for `P`.
     fn apply(&mut self, p: Prepared, innovation: &DVector<f64>) -> Result<Update> {
         let dx = &p.gain * innovation;
-        if !dx.iter().all(|v| v.is_finite()) {
+        if !dx.as_slice().iter().all(|v| v.is_finite()) {
             return Err(SlamError::SingularInnovation(
                 "the state correction is not finite".into(),
             ));
@@ -924,7 +930,8 @@ fn innovation_covariance(h: &SparseJacobian, l: &DMatrix<f64>, r: &DMatrix<f64>)
 /// `K S - L`, a block of state rows at a time with a Ctrl-C checkpoint between
 /// blocks (O(n m^2); nothing is written to the filter yet, so stopping is safe).
 fn ks_minus_l(p: &Prepared) -> Result<DMatrix<f64>> {
-    let mut out = -p.l.clone();
+    let mut out = p.l.clone();
+    out.as_mut_slice().iter_mut().for_each(|v| *v = -*v);
     for start in (0..out.nrows()).step_by(INTERRUPTIBLE_ROWS) {
         let rows = INTERRUPTIBLE_ROWS.min(out.nrows() - start);
         let mut block = out.rows_mut(start, rows);
@@ -941,7 +948,7 @@ fn gain_and_nis(
     l: &DMatrix<f64>,
     innovation: &DVector<f64>,
 ) -> Result<(DMatrix<f64>, f64)> {
-    if !s.iter().all(|v| v.is_finite()) {
+    if !s.as_slice().iter().all(|v| v.is_finite()) {
         return Err(SlamError::SingularInnovation("S is not finite".into()));
     }
     let factor = cholesky_lower(s)?.ok_or_else(|| {
@@ -951,8 +958,7 @@ fn gain_and_nis(
     // m triangular solves against the d columns of `L^T`. It runs a block of state
     // rows at a time: with every landmark observed (monobot) it is O(n^3), seconds at
     // n = 3000, and Ctrl-C is heard between blocks.
-    let mut s_inv = DMatrix::<f64>::identity(s.nrows(), s.ncols());
-    cholesky_solve_mut(&factor, &mut s_inv);
+    let s_inv = cholesky_inverse(&factor);
     let mut gain = DMatrix::<f64>::zeros(l.nrows(), l.ncols());
     for start in (0..l.nrows()).step_by(INTERRUPTIBLE_ROWS) {
         let rows = INTERRUPTIBLE_ROWS.min(l.nrows() - start);
@@ -960,7 +966,7 @@ fn gain_and_nis(
         block.gemm(1.0, &l.rows(start, rows), &s_inv, 0.0);
         rperc_core::interrupt::checkpoint()?;
     }
-    if !gain.iter().all(|v| v.is_finite()) {
+    if !gain.as_slice().iter().all(|v| v.is_finite()) {
         return Err(SlamError::SingularInnovation(
             "the gain is not finite (S is numerically singular)".into(),
         ));
@@ -996,13 +1002,19 @@ fn joseph_columns(
     m: &DMatrix<f64>,
 ) -> Result<()> {
     let obs = k.ncols();
-    let mut a = DMatrix::<f64>::zeros(d, 2 * obs);
-    a.columns_mut(0, obs).copy_from(k);
-    a.columns_mut(obs, obs).copy_from(m);
-    // `B^T` stored so that the block product reads contiguous columns.
+    // Column-major `d x obs` matrices are contiguous: `A = [K M]` is the two slices
+    // one after the other.
+    let a =
+        DMatrix::<f64>::from_iterator(d, 2 * obs, k.as_slice().iter().chain(m.as_slice()).copied());
+    // `B^T = [-L K]^T` stored so that the block product reads contiguous columns.
     let mut bt = DMatrix::<f64>::zeros(2 * obs, d);
-    bt.rows_mut(0, obs).copy_from(&(-l.transpose()));
-    bt.rows_mut(obs, obs).copy_from(&k.transpose());
+    let (ls, ks) = (l.as_slice(), k.as_slice());
+    for (i, col) in bt.as_mut_slice().chunks_exact_mut(2 * obs).enumerate() {
+        for j in 0..obs {
+            col[j] = -ls[j * d + i];
+            col[obs + j] = ks[j * d + i];
+        }
+    }
     add_lower_product(p, d, &a, &bt)
 }
 

@@ -28,6 +28,8 @@ use nalgebra::{
     DMatrix, DMatrixView, DMatrixViewMut, DVector, Matrix2, Matrix3, Matrix3x2, Point2,
 };
 
+use rperc_core::{cholesky_lower, lower_inverse};
+
 use super::{Ekf, SparseJacobian, Update, add_lower_product_now};
 use crate::error::{Result, SlamError};
 
@@ -285,8 +287,14 @@ impl Compressed {
                 robot[(i, 1)] += phi * u[1];
             }
         }
-        let own = Matrix2::from_fn(|i, j| self.global.cov_at(p.offset + i, p.offset + j));
-        (robot, own)
+        (robot, self.passive_own(k))
+    }
+
+    /// Passive landmark `k`'s own covariance at the last global update (an upper
+    /// bound of the current one, in the PSD order). O(1).
+    pub fn passive_own(&self, k: usize) -> Matrix2<f64> {
+        let off = self.passive[k].offset;
+        Matrix2::from_fn(|i, j| self.global.cov_at(off + i, off + j))
     }
 
     /// The own covariance at the last global update of the passive entries at
@@ -347,12 +355,9 @@ impl Compressed {
         // With S = L L^T and Y = L^-1 H phi: psi += Y^T Y, theta += Y^T L^-1 nu. L^-1 is
         // small (m x m): Y is then one product, not a substitution (a division per
         // entry) through the a0 columns of H phi.
-        let l_inv = update
-            .innovation_cov
-            .clone()
-            .cholesky()
-            .and_then(|c| c.l().solve_lower_triangular(&DMatrix::identity(rows, rows)))
+        let factor = cholesky_lower(&update.innovation_cov)?
             .ok_or_else(|| SlamError::SingularInnovation("compressed update: S".into()))?;
+        let l_inv = lower_inverse(&factor);
         let y = &l_inv * &h_phi;
         let w = &l_inv * &update.innovation;
         let y_t = y.transpose();
@@ -386,15 +391,20 @@ impl Compressed {
         let p = self.passive.swap_remove(k);
         let m = self.global.landmark_dim;
         let (d, a0) = (self.phi.rows, self.phi.cols);
-        let u = self.ut.buf.view((0, p.row), (a0, m)).transpose(); // P_jA0
-        let mean = self.global.x.rows(p.offset, m) + &u * &self.theta;
-        let u_psi = &u * self.psi.view();
-        let own = self.stale_own(p.offset) - &u_psi * u.transpose();
-        let cross = (self.phi.view() * u.transpose()).transpose(); // P_jA, m x d_A
+        // P_A0j (a0 x m, contiguous columns): the products below run down columns
+        // of psi and phi (psi is symmetric: psi P_A0j = (P_jA0 psi)^T).
+        let u = self.ut.buf.view((0, p.row), (a0, m));
+        let mean = self.global.x.rows(p.offset, m) + u.tr_mul(&self.theta);
+        let psi_u = self.psi.view() * u;
+        let own = self.stale_own(p.offset) - u.tr_mul(&psi_u);
+        let cross = (self.phi.view() * u).transpose(); // P_jA, m x d_A
         local.append_landmark(p.id, &mean, &cross, &own)?;
         // The basis grows by the landmark: phi = [[phi, 0], [-P_jA0 psi, I]].
         self.phi.grow(d + m, a0 + m);
-        self.phi.buf.view_mut((d, 0), (m, a0)).copy_from(&(-u_psi));
+        self.phi
+            .buf
+            .view_mut((d, 0), (m, a0))
+            .tr_copy_from(&(-psi_u));
         self.phi.buf.view_mut((d, a0), (m, m)).fill_with_identity();
         self.psi.grow(a0 + m, a0 + m);
         self.ut.grow(a0 + m, self.ut.cols);
@@ -433,18 +443,21 @@ impl Compressed {
         // U = P_BA0 in the full filter's rows (zero on the active ones), so that
         // P_BB -= U psi U^T is one blocked product over P's columns in place; its
         // active rows and columns get zero and are overwritten below.
-        let mut u = DMatrix::zeros(dg, all_ut.rows);
+        // Built as U^T (a column per state: contiguous copies), transposed once.
+        let a0 = all_ut.rows;
+        let mut ut = DMatrix::zeros(a0, dg);
         for p in &passive {
             for i in 0..m {
-                u.row_mut(p.offset + i)
-                    .tr_copy_from(&all_ut.buf.view((0, p.row + i), (all_ut.rows, 1)));
+                ut.column_mut(p.offset + i)
+                    .copy_from(&all_ut.buf.view((0, p.row + i), (a0, 1)));
             }
         }
+        let u = ut.transpose();
         global.x += &u * &theta;
-        let psi = (psi.view() + psi.view().transpose()) * 0.5;
-        let minus_w = -(&u * &psi); // dg x a0
+        let minus_psi = (psi.view() + psi.view().transpose()) * -0.5;
+        let minus_w = &u * &minus_psi; // dg x a0
         let p_ba = &u * phi.view().transpose(); // P_BA = (phi P_A0B)^T, rows of B
-        add_lower_product_now(&mut global.cov, dg, &minus_w, &u.transpose());
+        add_lower_product_now(&mut global.cov, dg, &minus_w, &ut);
         let rows_b: Vec<usize> = passive
             .iter()
             .flat_map(|p| p.offset..p.offset + m)

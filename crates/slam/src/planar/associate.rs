@@ -6,7 +6,7 @@
 use nalgebra::{Matrix2, Matrix2x3, Matrix3, Matrix3x2, Point2, Vector2};
 use rperc_core::{Pose2, wrap_angle};
 
-use super::observe::observe;
+use super::observe::observe_from;
 use crate::ekf::Ekf;
 
 /// What a detection is paired with.
@@ -54,6 +54,10 @@ pub(crate) struct Scene<'a> {
     pub w: Matrix2<f64>,
     pub fixed: &'a [FixedPoint],
     prr: Matrix3<f64>,
+    /// The sensor's pose (`robot` composed with `mount`) and its Jacobian wrt the
+    /// robot, made once for every landmark tested against the scan.
+    sensor: Pose2,
+    j_sensor: Matrix3<f64>,
     /// `walls[j]`: state landmark `j` is a wall (empty: no walls), so point
     /// detections are never tried against it.
     walls: Vec<bool>,
@@ -67,10 +71,13 @@ impl<'a> Scene<'a> {
         let prr = ekf
             .covariance_block_fixed::<3, 3>(0, 0)
             .unwrap_or_else(Matrix3::zeros);
+        let (sensor, j_sensor, _) = robot.compose_with_jacobians(&mount);
         Self {
             ekf,
             robot,
             mount,
+            sensor,
+            j_sensor,
             w,
             fixed,
             prr,
@@ -113,7 +120,7 @@ impl<'a> Scene<'a> {
     /// singular.
     fn linearise(&self, target: Target) -> Option<Linearised> {
         let (l, offset) = self.landmark(target)?;
-        let (predicted, h_robot, h_l) = observe(&self.robot, &self.mount, &l)?;
+        let (predicted, h_robot, h_l) = observe_from(&self.sensor, &self.j_sensor, &l)?;
         let (h_landmark, r) = match target {
             // Frozen: the landmark is known with its frozen covariance (text under Fig. 7).
             Target::Fixed(k) => (
@@ -248,7 +255,7 @@ impl Scene<'_> {
     /// The screen of a point at `l` whose own covariance has a trace of at most
     /// `tr_landmark` (a larger trace only widens the bounds).
     fn screen_point(&self, l: &Point2<f64>, tr_landmark: f64) -> Option<Screen> {
-        let sensor = self.robot.compose(&self.mount);
+        let sensor = &self.sensor;
         let (dx, dy) = (l.x - sensor.x, l.y - sensor.y);
         let r = dx.hypot(dy);
         // A landmark on the sensor (or a NaN) has no bearing: `pairing` refuses it too.
@@ -295,24 +302,30 @@ impl Scene<'_> {
     /// `detections`, given its cross-covariance with the robot `p_rl` and an upper
     /// bound `p_ll` (PSD order) of its own covariance: the `S` built with the bound is
     /// at least the true one, so its NIS is at most the true NIS, and `false` only
-    /// when the gate refuses every pairing.
+    /// when the gate refuses every pairing. Without `p_rl` (`None`, the cheap test
+    /// before reading it), `S` is bounded by `2 H_r P_rr H_r^T + 2 H_l p_ll H_l^T + W`
+    /// (`(a + b)(a + b)^T <= 2 a a^T + 2 b b^T` in the PSD order for the joint
+    /// covariance of robot and landmark), still at least the true one.
     pub fn may_pair(
         &self,
         l: &Point2<f64>,
-        p_rl: &Matrix3x2<f64>,
+        p_rl: Option<&Matrix3x2<f64>>,
         p_ll: &Matrix2<f64>,
         detections: &[Vector2<f64>],
         gate: f64,
     ) -> bool {
-        let Some((zp, hr, hl)) = observe(&self.robot, &self.mount, l) else {
+        let Some((zp, hr, hl)) = observe_from(&self.sensor, &self.j_sensor, l) else {
             return false; // on the sensor: `pairing` refuses it too
         };
-        let cross = hr * p_rl * hl.transpose();
-        let s = hr * self.prr * hr.transpose()
-            + cross
-            + cross.transpose()
-            + hl * p_ll * hl.transpose()
-            + self.w;
+        let robot = hr * self.prr * hr.transpose();
+        let own = hl * p_ll * hl.transpose();
+        let s = match p_rl {
+            Some(p_rl) => {
+                let cross = hr * p_rl * hl.transpose();
+                robot + cross + cross.transpose() + own + self.w
+            }
+            None => (robot + own) * 2.0 + self.w,
+        };
         let Some(inv) = s.try_inverse() else {
             return true;
         };

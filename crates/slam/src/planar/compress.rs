@@ -194,12 +194,15 @@ impl PlanarSlam {
         near.into_iter()
             .filter(|&k| {
                 // The association's screen at the exact mean first (O(a0)), then the
-                // gate itself (O(3 a0)).
+                // gate with a bound of the robot cross-covariance (O(1)), then the gate
+                // itself (O(3 a0)).
                 let l = c.aux.passive_mean(k);
-                scene.may_observe(&l, passive[k].trace, zs, self.gate) && {
-                    let (p_rl, p_ll) = c.aux.passive_covariance(k);
-                    scene.may_pair(&l, &p_rl, &p_ll, zs, self.gate)
-                }
+                scene.may_observe(&l, passive[k].trace, zs, self.gate)
+                    && scene.may_pair(&l, None, &c.aux.passive_own(k), zs, self.gate)
+                    && {
+                        let (p_rl, p_ll) = c.aux.passive_covariance(k);
+                        scene.may_pair(&l, Some(&p_rl), &p_ll, zs, self.gate)
+                    }
             })
             .collect()
     }

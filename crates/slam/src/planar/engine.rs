@@ -504,12 +504,13 @@ impl PlanarSlam {
 
     /// The prior the association works against, with the walls marked.
     pub(super) fn scene(&self) -> Scene<'_> {
-        let walls = self
-            .ekf
-            .landmark_ids()
-            .iter()
-            .map(|id| self.walls.contains_key(id))
-            .collect();
+        // No wall map at all (point landmarks only): nothing to look up per landmark.
+        let walls = if self.walls.is_empty() {
+            Vec::new()
+        } else {
+            let ids = self.ekf.landmark_ids().iter();
+            ids.map(|id| self.walls.contains_key(id)).collect()
+        };
         Scene::new(&self.ekf, self.mount, self.w, &self.fixed).with_walls(walls)
     }
 

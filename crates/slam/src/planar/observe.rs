@@ -10,14 +10,26 @@ use crate::observation::{landmark_from_range_bearing, range_bearing};
 
 /// `(range, bearing)` of `landmark` from the sensor at `mount` on the robot, with
 /// `dz/d(robot)` (2x3) and `dz/d(landmark)` (2x2). `None` when the landmark sits on
-/// the sensor.
+/// the sensor. (The engine calls [`observe_from`] with the sensor made once per
+/// scan; the Jacobian tests check them through this.)
+#[cfg(test)]
 pub(crate) fn observe(
     robot: &Pose2,
     mount: &Pose2,
     landmark: &Point2<f64>,
 ) -> Option<(Vector2<f64>, Matrix2x3<f64>, Matrix2<f64>)> {
     let (sensor, j_robot, _) = robot.compose_with_jacobians(mount);
-    let (z, h_sensor, h_landmark) = range_bearing(&sensor, landmark)?;
+    observe_from(&sensor, &j_robot, landmark)
+}
+
+/// [`observe`] from the sensor pose and its Jacobian wrt the robot
+/// (`robot.compose_with_jacobians(mount)`), made once for many landmarks.
+pub(crate) fn observe_from(
+    sensor: &Pose2,
+    j_robot: &Matrix3<f64>,
+    landmark: &Point2<f64>,
+) -> Option<(Vector2<f64>, Matrix2x3<f64>, Matrix2<f64>)> {
+    let (z, h_sensor, h_landmark) = range_bearing(sensor, landmark)?;
     Some((z, h_sensor * j_robot, h_landmark))
 }
 

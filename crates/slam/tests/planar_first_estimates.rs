@@ -79,13 +79,7 @@ fn first_estimates_room_nees_is_inside_the_chi_square_band() {
     };
     for (name, cfg) in [("plain", plain), ("anchored+consider", frozen)] {
         let mc = room_monte_carlo(&room, &cfg, 50, 1).unwrap();
-        let tail = &mc.mean_nees[5..];
-        let inside = tail
-            .iter()
-            .filter(|n| (mc.band.0..=mc.band.1).contains(*n))
-            .count() as f64
-            / tail.len() as f64;
-        let mean = tail.iter().sum::<f64>() / tail.len() as f64;
+        let (mean, inside) = mc.tail(5);
         println!(
             "{name}: mean NEES {mean:.2}, {:.0} % in band",
             100.0 * inside

@@ -15,13 +15,7 @@ use slam::planar::{
 };
 
 fn summary(name: &str, mc: &MonteCarlo, from: usize) -> (f64, f64) {
-    let tail = &mc.mean_nees[from..];
-    let inside = tail
-        .iter()
-        .filter(|n| (mc.band.0..=mc.band.1).contains(*n))
-        .count() as f64
-        / tail.len() as f64;
-    let mean = tail.iter().sum::<f64>() / tail.len() as f64;
+    let (mean, inside) = mc.tail(from);
     println!(
         "{name}: mean NEES {mean:.2} over scans {from}..{}, {:.0}% in band [{:.2}, {:.2}], final {:.2}",
         mc.mean_nees.len(),

@@ -109,24 +109,32 @@ fn error(estimate: &Pose2, truth: &Pose2) -> Vector3<f64> {
 /// by a noisy odometry and corrected by two of them; the NEES of the last frame.
 fn localisation_run(seed: u64, p: &LocaliserParams) -> f64 {
     let mut rng = stream(seed, 1);
+    drive_arc(&mut rng, p, PoseFilter::new)
+}
+
+/// The robot drives an arc past the models from a start off by 5 cm and 0.05 rad
+/// (1 sigma of the filter's start, which `make` builds), each frame predicted by a
+/// noisy odometry and corrected by two of the models; the NEES of the last frame
+/// against the truth.
+fn drive_arc<R: rand::Rng>(
+    rng: &mut R,
+    p: &LocaliserParams,
+    make: impl FnOnce(Pose2, Matrix3<f64>) -> PoseFilter,
+) -> f64 {
     let mut truth = Pose2::new(0.0, 0.0, 0.1);
-    let guess = Matrix3::from_diagonal(&Vector3::new(
-        0.05f64.powi(2),
-        0.05f64.powi(2),
-        0.05f64.powi(2),
-    ));
+    let guess = Matrix3::from_diagonal_element(0.05f64.powi(2));
     let start = Pose2::new(
-        truth.x + 0.05 * normal(&mut rng),
-        truth.y + 0.05 * normal(&mut rng),
-        truth.theta + 0.05 * normal(&mut rng),
+        truth.x + 0.05 * normal(rng),
+        truth.y + 0.05 * normal(rng),
+        truth.theta + 0.05 * normal(rng),
     );
-    let mut filter = PoseFilter::new(start, guess);
+    let mut filter = make(start, guess);
     let step = Pose2::new(0.03, 0.0, 0.015);
     for k in 0..40 {
         truth = truth.compose(&step);
-        filter.predict(&odometry(&step, p, &mut rng), p, 1.0);
+        filter.predict(&odometry(&step, p, rng), p, 1.0);
         for id in [k % 4, (k + 1) % 4] {
-            let s = sighting(id, &truth, &pose(MODELS[id]), p, &mut rng);
+            let s = sighting(id, &truth, &pose(MODELS[id]), p, rng);
             assert!(filter.update(&SCALE, &s, p.pixel_sigma));
         }
     }
@@ -365,24 +373,9 @@ fn stored_map_run(seed: u64, p: &LocaliserParams) -> f64 {
             (id, Pose2::new(m[0] + s[0], m[1] + s[1], m[2] + s[2]))
         })
         .collect();
-    let mut truth = Pose2::new(0.0, 0.0, 0.1);
-    let guess = Matrix3::from_diagonal_element(0.05f64.powi(2));
-    let start = Pose2::new(
-        truth.x + 0.05 * normal(&mut rng),
-        truth.y + 0.05 * normal(&mut rng),
-        truth.theta + 0.05 * normal(&mut rng),
-    );
-    let mut filter = PoseFilter::with_map(start, guess, &stored, &map);
-    let step = Pose2::new(0.03, 0.0, 0.015);
-    for k in 0..40 {
-        truth = truth.compose(&step);
-        filter.predict(&odometry(&step, p, &mut rng), p, 1.0);
-        for id in [k % 4, (k + 1) % 4] {
-            let s = sighting(id, &truth, &pose(MODELS[id]), p, &mut rng);
-            assert!(filter.update(&SCALE, &s, p.pixel_sigma));
-        }
-    }
-    nees(error(&filter.pose(), &truth), &filter.pose_covariance())
+    drive_arc(&mut rng, p, |start, guess| {
+        PoseFilter::with_map(start, guess, &stored, &map)
+    })
 }
 
 #[test]

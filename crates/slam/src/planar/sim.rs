@@ -391,6 +391,28 @@ pub struct MonteCarlo {
     pub runs: usize,
 }
 
+impl MonteCarlo {
+    /// From step `from` on (the first steps, before the map holds anything, are
+    /// often left out): the mean of `mean_nees` and the share of steps whose
+    /// run-averaged NEES lies inside `band` (Bailey et al. 2006's consistency test).
+    /// `(NaN, NaN)` when no step is left.
+    ///
+    /// ```
+    /// use slam::planar::sim::MonteCarlo;
+    /// let mc = MonteCarlo { mean_nees: vec![9.0, 2.0, 3.0, 5.0], band: (2.5, 4.0), runs: 50 };
+    /// assert_eq!(mc.tail(1), (10.0 / 3.0, 1.0 / 3.0));
+    /// ```
+    pub fn tail(&self, from: usize) -> (f64, f64) {
+        let tail = self.mean_nees.get(from..).unwrap_or(&[]);
+        let n = tail.len() as f64;
+        let inside = tail
+            .iter()
+            .filter(|v| (self.band.0..=self.band.1).contains(*v))
+            .count() as f64;
+        (tail.iter().sum::<f64>() / n, inside / n)
+    }
+}
+
 /// `runs` simulated runs of `slam` in the world `sim` (seeded streams `0..runs` of
 /// `seed`, in parallel), with the robot NEES after each scan.
 pub fn monte_carlo(

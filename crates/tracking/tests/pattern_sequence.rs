@@ -46,6 +46,20 @@ fn small(n_frames: usize) -> SequenceParams {
     }
 }
 
+/// Frame `k` of a generated sequence as the tracker reads it, and the sequence's
+/// region.
+fn tracker_input<'a>(
+    seq: &'a tracking::PatternSequence,
+    params: &SequenceParams,
+    k: usize,
+) -> (PatternFrame<'a>, Region) {
+    let n = params.width * params.height;
+    let data = &seq.frames[k * n..(k + 1) * n];
+    let view = GrayView::new(data, params.width, params.height).unwrap();
+    let [x, y, w, h] = seq.region;
+    (PatternFrame::Gray(view), Region::Box { x, y, w, h })
+}
+
 fn frame(seq: &tracking::PatternSequence, params: &SequenceParams, k: usize) -> GrayImage {
     let n = params.width * params.height;
     let view = GrayView::new(&seq.frames[k * n..(k + 1) * n], params.width, params.height);
@@ -324,13 +338,8 @@ fn three_sigma_run() -> [f64; 3] {
         ..SequenceParams::default()
     };
     let seq = generate_sequence(&patch, &bg, &params).unwrap();
-    let n = params.width * params.height;
-    let view = |k: usize| {
-        let data = &seq.frames[k * n..(k + 1) * n];
-        PatternFrame::Gray(GrayView::new(data, params.width, params.height).unwrap())
-    };
-    let [x, y, w, h] = seq.region;
-    let region = Region::Box { x, y, w, h };
+    let view = |k: usize| tracker_input(&seq, &params, k).0;
+    let region = tracker_input(&seq, &params, 0).1;
     let mut tracker =
         PatternTracker::new(view(0), region, PatternTrackerParams::default(), 2).unwrap();
     let mut sq = [0.0; 3];
@@ -390,13 +399,8 @@ fn steps_near_three_sigma_are_caught() {
             ..SequenceParams::default()
         };
         let seq = generate_sequence(&patch, &bg, &params).unwrap();
-        let n = params.width * params.height;
-        let view = |k: usize| {
-            let data = &seq.frames[k * n..(k + 1) * n];
-            PatternFrame::Gray(GrayView::new(data, params.width, params.height).unwrap())
-        };
-        let [x, y, w, h] = seq.region;
-        let region = Region::Box { x, y, w, h };
+        let view = |k: usize| tracker_input(&seq, &params, k).0;
+        let region = tracker_input(&seq, &params, 0).1;
         for second_look in [0.9, 0.0] {
             let tracker_params = PatternTrackerParams {
                 second_look,

@@ -316,6 +316,45 @@ fn arrays_equal_events() {
     assert_eq!(a.trajectory.kind, kinds);
 }
 
+/// The progress report sees the rows consumed rise to the total, ends at it, and
+/// stops the run when it returns false.
+#[test]
+fn progress_reports_rise_to_the_total_and_can_stop_the_run() {
+    let controls: Vec<[f64; 3]> = (0..250).map(|k| [f64::from(k), 0.1, 0.0]).collect();
+    let detections: Vec<[f64; 3]> = (0..250).map(|k| [f64::from(k) + 0.5, 4.0, 0.2]).collect();
+    let arrays = EventArrays {
+        controls: &controls,
+        detections: &detections,
+        ..EventArrays::default()
+    };
+    let config = PlanarConfig {
+        association: Association::NearestNeighbour,
+        ..PlanarConfig::default()
+    };
+    let mut seen = Vec::new();
+    let mut engine = PlanarSlam::new(config.clone()).unwrap();
+    engine
+        .run_arrays_with(&arrays, |done, total| {
+            seen.push((done, total));
+            true
+        })
+        .unwrap();
+    assert!(seen.iter().all(|&(_, total)| total == 500));
+    assert!(seen.windows(2).all(|w| w[0].0 < w[1].0), "{seen:?}");
+    assert_eq!(seen.last(), Some(&(500, 500)));
+    // About every 1 % of the rows (5 here), never fewer reports than that.
+    assert!(seen.len() >= 100, "{} reports", seen.len());
+    let mut engine = PlanarSlam::new(config).unwrap();
+    let err = engine
+        .run_arrays_with(&arrays, |done, _| done < 100)
+        .unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("stopped the run at row 100 of 500"),
+        "{err}"
+    );
+}
+
 fn at_event(e: &SlamError) -> (usize, &SlamError) {
     match e {
         SlamError::AtEvent { index, source, .. } => (*index, source),

@@ -586,71 +586,88 @@ mod tests {
         next_id: &mut u64,
     ) {
         match rng.random_range(0..4) {
-            0 => {
-                let mean = Vector3::from_fn(|_, _| rng.random_range(-5.0..5.0));
-                let fx = nalgebra::Matrix3::identity()
-                    + nalgebra::Matrix3::from_fn(|_, _| rng.random_range(-0.1..0.1));
-                let fv = Matrix3x2::from_fn(|_, _| rng.random_range(-0.5..0.5));
-                let v = Matrix2::new(0.02, 0.0, 0.0, 0.01);
-                full.predict_planar(&mean, &fx, &fv, &v).unwrap();
-                local.predict_planar(&mean, &fx, &fv, &v).unwrap();
-                aux.predict_planar(&fx);
-            }
-            1 if local.num_landmarks() > 0 => {
-                // A batch of observations of active landmarks (and the robot).
-                let obs: Vec<_> = (0..rng.random_range(1..4))
-                    .map(|_| {
-                        let j = rng.random_range(0..local.num_landmarks());
-                        let id = local.landmark_id(j).unwrap();
-                        (id, random(2, 3, rng), random(2, 2, rng), random(2, 1, rng))
-                    })
-                    .collect();
-                let stack = |ekf: &Ekf| -> Vec<_> {
-                    obs.iter()
-                        .map(|(id, hr, hl, nu)| {
-                            let off = 3 + 2 * ekf.landmark_index(*id).unwrap();
-                            let h = SparseJacobian::new(2)
-                                .with_block(0, 0, hr.clone())
-                                .with_block(0, off, hl.clone());
-                            (nu.column(0).into_owned(), h, DMatrix::identity(2, 2) * 0.3)
-                        })
-                        .collect()
-                };
-                full.update_batch(&stack(full)).unwrap();
-                let items = stack(local);
-                let up = local.update_batch(&items).unwrap();
-                aux.update(&items, &up).unwrap();
-            }
+            0 => predict_both(full, local, aux, rng),
+            1 if local.num_landmarks() > 0 => update_both(full, local, aux, rng),
             2 => {
-                let mean = DVector::from_fn(2, |_, _| rng.random_range(-20.0..20.0));
-                let (g_r, g_z) = (random(2, 3, rng), random(2, 2, rng));
-                let r = DMatrix::identity(2, 2) * 0.2;
-                full.add_landmark_with_id(*next_id, &mean, &g_r, &g_z, &r)
-                    .unwrap();
-                local
-                    .add_landmark_with_id(*next_id, &mean, &g_r, &g_z, &r)
-                    .unwrap();
-                aux.admitted(&g_r).unwrap();
+                admit_both(full, local, aux, rng, *next_id);
                 *next_id += 1;
             }
-            _ if !aux.passive().is_empty() => {
-                let k = rng.random_range(0..aux.passive().len());
-                // The readers of a passive landmark against the full filter first.
-                let j = full.landmark_index(aux.passive()[k].id).unwrap();
-                let off = 3 + 2 * j;
-                let mean = aux.passive_mean(k);
-                assert!((mean.coords - full.state().rows(off, 2)).amax() < 1e-9);
-                let (robot, own) = aux.passive_covariance(k);
-                let want = full.covariance_block(0, off, 3, 2).unwrap();
-                assert!((DMatrix::from_column_slice(3, 2, robot.as_slice()) - want).amax() < 1e-9);
-                // The last global own covariance bounds the current one (PSD order).
-                let now = full.covariance_block(off, off, 2, 2).unwrap();
-                let gap = DMatrix::from_column_slice(2, 2, own.as_slice()) - now;
-                assert!(gap.symmetric_eigenvalues().min() > -1e-9);
-                aux.activate(local, k).unwrap();
-            }
+            _ if !aux.passive().is_empty() => activate_checked(full, local, aux, rng),
             _ => {}
         }
+    }
+
+    fn predict_both(full: &mut Ekf, local: &mut Ekf, aux: &mut Compressed, rng: &mut StdRng) {
+        let mean = Vector3::from_fn(|_, _| rng.random_range(-5.0..5.0));
+        let fx = nalgebra::Matrix3::identity()
+            + nalgebra::Matrix3::from_fn(|_, _| rng.random_range(-0.1..0.1));
+        let fv = Matrix3x2::from_fn(|_, _| rng.random_range(-0.5..0.5));
+        let v = Matrix2::new(0.02, 0.0, 0.0, 0.01);
+        full.predict_planar(&mean, &fx, &fv, &v).unwrap();
+        local.predict_planar(&mean, &fx, &fv, &v).unwrap();
+        aux.predict_planar(&fx);
+    }
+
+    /// A batch of observations of active landmarks (and the robot).
+    fn update_both(full: &mut Ekf, local: &mut Ekf, aux: &mut Compressed, rng: &mut StdRng) {
+        let obs: Vec<_> = (0..rng.random_range(1..4))
+            .map(|_| {
+                let j = rng.random_range(0..local.num_landmarks());
+                let id = local.landmark_id(j).unwrap();
+                (id, random(2, 3, rng), random(2, 2, rng), random(2, 1, rng))
+            })
+            .collect();
+        let stack = |ekf: &Ekf| -> Vec<_> {
+            obs.iter()
+                .map(|(id, hr, hl, nu)| {
+                    let off = 3 + 2 * ekf.landmark_index(*id).unwrap();
+                    let h = SparseJacobian::new(2)
+                        .with_block(0, 0, hr.clone())
+                        .with_block(0, off, hl.clone());
+                    (nu.column(0).into_owned(), h, DMatrix::identity(2, 2) * 0.3)
+                })
+                .collect()
+        };
+        full.update_batch(&stack(full)).unwrap();
+        let items = stack(local);
+        let up = local.update_batch(&items).unwrap();
+        aux.update(&items, &up).unwrap();
+    }
+
+    fn admit_both(
+        full: &mut Ekf,
+        local: &mut Ekf,
+        aux: &mut Compressed,
+        rng: &mut StdRng,
+        id: u64,
+    ) {
+        let mean = DVector::from_fn(2, |_, _| rng.random_range(-20.0..20.0));
+        let (g_r, g_z) = (random(2, 3, rng), random(2, 2, rng));
+        let r = DMatrix::identity(2, 2) * 0.2;
+        full.add_landmark_with_id(id, &mean, &g_r, &g_z, &r)
+            .unwrap();
+        local
+            .add_landmark_with_id(id, &mean, &g_r, &g_z, &r)
+            .unwrap();
+        aux.admitted(&g_r).unwrap();
+    }
+
+    /// Activates a passive landmark after checking its readers against the full
+    /// filter.
+    fn activate_checked(full: &Ekf, local: &mut Ekf, aux: &mut Compressed, rng: &mut StdRng) {
+        let k = rng.random_range(0..aux.passive().len());
+        let j = full.landmark_index(aux.passive()[k].id).unwrap();
+        let off = 3 + 2 * j;
+        let mean = aux.passive_mean(k);
+        assert!((mean.coords - full.state().rows(off, 2)).amax() < 1e-9);
+        let (robot, own) = aux.passive_covariance(k);
+        let want = full.covariance_block(0, off, 3, 2).unwrap();
+        assert!((DMatrix::from_column_slice(3, 2, robot.as_slice()) - want).amax() < 1e-9);
+        // The last global own covariance bounds the current one (PSD order).
+        let now = full.covariance_block(off, off, 2, 2).unwrap();
+        let gap = DMatrix::from_column_slice(2, 2, own.as_slice()) - now;
+        assert!(gap.symmetric_eigenvalues().min() > -1e-9);
+        aux.activate(local, k).unwrap();
     }
 
     proptest! {

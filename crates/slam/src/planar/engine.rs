@@ -879,74 +879,104 @@ impl PlanarSlam {
         mut report: impl FnMut(usize, usize) -> bool,
     ) -> Result<()> {
         check_arrays(arrays)?;
-        let (c, d, f, w) = (
-            arrays.controls,
-            arrays.detections,
-            arrays.fixes,
-            arrays.walls,
-        );
-        let (mut i, mut j, mut k, mut l) = (0, 0, 0, 0);
-        let total = c.len() + d.len() + f.len() + w.len();
+        let mut cursor = Cursor::new(arrays);
+        let total = cursor.total();
         let step = total.div_ceil(100);
         let mut next_report = step;
-        while i < c.len() || j < d.len() || k < f.len() || l < w.len() {
-            let done = i + j + k + l;
-            if done >= next_report {
+        let stopped = |at: usize| {
+            SlamError::invalid(
+                "report",
+                format!("the progress report stopped the run at row {at} of {total}"),
+            )
+        };
+        while let Some(event) = cursor.next_event() {
+            self.process(&event)?;
+            let done = cursor.consumed();
+            if done >= next_report && done < total {
                 next_report = done + step;
                 if !report(done, total) {
-                    return Err(SlamError::invalid(
-                        "report",
-                        format!("the progress report stopped the run at row {done} of {total}"),
-                    ));
+                    return Err(stopped(done));
                 }
             }
-            let tc = c.get(i).map_or(f64::INFINITY, |r| r[0]);
-            let td = d.get(j).map_or(f64::INFINITY, |r| r[0]);
-            let tf = f.get(k).map_or(f64::INFINITY, |r| r[0]);
-            let tw = w.get(l).map_or(f64::INFINITY, |r| r[0]);
-            let event = if tc <= td && tc <= tf && tc <= tw {
-                i += 1;
-                Event::Control {
-                    t: tc,
-                    control: [c[i - 1][1], c[i - 1][2]],
-                }
-            } else if td <= tf && td <= tw {
-                let start = j;
-                while j < d.len() && d[j][0] == td {
-                    j += 1;
-                }
-                Event::Scan {
-                    t: td,
-                    detections: scan_rows(arrays, start, j),
-                }
-            } else if tw <= tf {
-                let start = l;
-                while l < w.len() && w[l][0] == tw {
-                    l += 1;
-                }
-                Event::Walls {
-                    t: tw,
-                    walls: w[start..l].iter().map(wall_row).collect(),
-                }
-            } else {
-                k += 1;
-                let r = f[k - 1];
-                Event::Fix {
-                    t: tf,
-                    xy: [r[1], r[2]],
-                    covariance: [r[3], r[4], r[5]],
-                }
-            };
-            self.process(&event)?;
         }
         if report(total, total) {
             Ok(())
         } else {
-            Err(SlamError::invalid(
-                "report",
-                "the progress report stopped the run at its end".into(),
-            ))
+            Err(stopped(total))
         }
+    }
+}
+
+/// Walks the four time-sorted arrays of an [`EventArrays`] as one stream of events:
+/// at equal times controls first, then a scan's detections, then its walls, then
+/// fixes.
+struct Cursor<'a, 'b> {
+    arrays: &'b EventArrays<'a>,
+    /// The next row of the controls, detections, fixes and walls.
+    next: [usize; 4],
+}
+
+impl<'a, 'b> Cursor<'a, 'b> {
+    fn new(arrays: &'b EventArrays<'a>) -> Self {
+        Self {
+            arrays,
+            next: [0; 4],
+        }
+    }
+
+    fn total(&self) -> usize {
+        let a = self.arrays;
+        a.controls.len() + a.detections.len() + a.fixes.len() + a.walls.len()
+    }
+
+    fn consumed(&self) -> usize {
+        self.next.iter().sum()
+    }
+
+    /// The rows from `start` on that share its time stamp: one scan.
+    fn same_time<const N: usize>(rows: &[[f64; N]], start: usize) -> usize {
+        let t = rows[start][0];
+        start + rows[start..].iter().take_while(|r| r[0] == t).count()
+    }
+
+    fn next_event(&mut self) -> Option<Event> {
+        let a = self.arrays;
+        let [i, j, k, l] = self.next;
+        let tc = a.controls.get(i).map_or(f64::INFINITY, |r| r[0]);
+        let td = a.detections.get(j).map_or(f64::INFINITY, |r| r[0]);
+        let tf = a.fixes.get(k).map_or(f64::INFINITY, |r| r[0]);
+        let tw = a.walls.get(l).map_or(f64::INFINITY, |r| r[0]);
+        if tc.min(td).min(tf).min(tw) == f64::INFINITY {
+            return None;
+        }
+        Some(if tc <= td && tc <= tf && tc <= tw {
+            self.next[0] += 1;
+            let r = a.controls[i];
+            Event::Control {
+                t: tc,
+                control: [r[1], r[2]],
+            }
+        } else if td <= tf && td <= tw {
+            self.next[1] = Self::same_time(a.detections, j);
+            Event::Scan {
+                t: td,
+                detections: scan_rows(a, j, self.next[1]),
+            }
+        } else if tw <= tf {
+            self.next[3] = Self::same_time(a.walls, l);
+            Event::Walls {
+                t: tw,
+                walls: a.walls[l..self.next[3]].iter().map(wall_row).collect(),
+            }
+        } else {
+            self.next[2] += 1;
+            let r = a.fixes[k];
+            Event::Fix {
+                t: tf,
+                xy: [r[1], r[2]],
+                covariance: [r[3], r[4], r[5]],
+            }
+        })
     }
 }
 

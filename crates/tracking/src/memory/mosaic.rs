@@ -807,20 +807,7 @@ impl MosaicBuilder {
         if !self.models.is_empty() && self.filter.is_none() {
             return Ok(()); // nothing to place new models from
         }
-        // Regions already tracked, and those where a model of the mosaic is predicted:
-        // a pattern seen again is the same model, not a new one.
-        let mut taken: Vec<[f64; 4]> = self
-            .tracks
-            .iter()
-            .map(|t| bounds(&t.tracker.last().corners))
-            .collect();
-        if let Some(pose) = self.pose() {
-            taken.extend(self.models.iter().map(|m| {
-                let state = self.scale.predicted_state(&pose, &m.pose);
-                bounds(&corners_of(&m.model, state))
-            }));
-        }
-        let regions = propose_regions(&self.ideal, &taken, &self.params.proposals)?;
+        let regions = propose_regions(&self.ideal, &self.taken(), &self.params.proposals)?;
         for [x, y, w, h] in regions {
             if self.tracks.len() >= self.params.max_tracked {
                 break;
@@ -837,41 +824,63 @@ impl MosaicBuilder {
                 Err(TrackingError::InvalidParameter { name: "region", .. }) => continue,
                 Err(e) => return Err(e),
             };
-            let c_t_i = self.scale.camera_to_model(tracker.last().state);
-            let pose = match self.filter.as_mut() {
-                // Eq. 3; the model joins the filter's state.
-                Some(filter) => filter.add_model(id, &c_t_i),
-                None => {
-                    // M T_0 = I: the robot is where model 0 sees it, exactly (the
-                    // mosaic frame is defined by this view of model 0).
-                    let exact = nalgebra::Matrix3::from_diagonal_element(1e-12);
-                    self.filter = Some(PoseFilter::new(c_t_i.inverse(), exact));
-                    Pose2::identity()
-                }
-            };
-            let covariance = self
-                .filter
-                .as_ref()
-                .and_then(|f| f.model(id))
-                .map_or([[0.0; 3]; 3], |(_, c)| c.transpose().into());
-            self.models.push(MosaicModel {
-                id,
-                pose,
-                model: tracker.model().clone(),
-                covariance,
-                created: self.frame,
-            });
-            // A new model's window defines its frame: its state is exact now.
-            let updates = self.params.localiser.settle_frames;
-            self.tracks.push(Track {
-                id,
-                tracker,
-                updates,
-                used_in: None,
-            });
+            self.place(id, tracker);
             report.created.push(id);
         }
         Ok(())
+    }
+
+    /// Regions already tracked, and those where a model of the mosaic is predicted:
+    /// a pattern seen again is the same model, not a new one.
+    fn taken(&self) -> Vec<[f64; 4]> {
+        let mut taken: Vec<[f64; 4]> = self
+            .tracks
+            .iter()
+            .map(|t| bounds(&t.tracker.last().corners))
+            .collect();
+        if let Some(pose) = self.pose() {
+            taken.extend(self.models.iter().map(|m| {
+                let state = self.scale.predicted_state(&pose, &m.pose);
+                bounds(&corners_of(&m.model, state))
+            }));
+        }
+        taken
+    }
+
+    /// Model `id`, just seen by `tracker`, joins the mosaic (eq. 3) and is tracked.
+    fn place(&mut self, id: usize, tracker: PatternTracker) {
+        let c_t_i = self.scale.camera_to_model(tracker.last().state);
+        let pose = match self.filter.as_mut() {
+            // Eq. 3; the model joins the filter's state.
+            Some(filter) => filter.add_model(id, &c_t_i),
+            None => {
+                // M T_0 = I: the robot is where model 0 sees it, exactly (the
+                // mosaic frame is defined by this view of model 0).
+                let exact = nalgebra::Matrix3::from_diagonal_element(1e-12);
+                self.filter = Some(PoseFilter::new(c_t_i.inverse(), exact));
+                Pose2::identity()
+            }
+        };
+        let covariance = self
+            .filter
+            .as_ref()
+            .and_then(|f| f.model(id))
+            .map_or([[0.0; 3]; 3], |(_, c)| c.transpose().into());
+        self.models.push(MosaicModel {
+            id,
+            pose,
+            model: tracker.model().clone(),
+            covariance,
+            created: self.frame,
+        });
+        // A new model's window defines its frame: its state is exact now.
+        let updates = self.params.localiser.settle_frames;
+        self.tracks.push(Track {
+            id,
+            tracker,
+            updates,
+            used_in: None,
+        });
     }
 
     fn tracked(&self) -> Vec<TrackedModel> {

@@ -465,22 +465,7 @@ pub fn replay(
     params.validate()?;
     memory.validate(world.camera)?;
     let keys = &memory.key_images;
-    let first = keys
-        .first()
-        .ok_or_else(|| TrackingError::InvalidParameter {
-            name: "key_images",
-            reason: "the memory holds no key image".into(),
-        })?;
-    let mut localiser = MosaicBuilder::localiser(
-        *world.camera,
-        params.mosaic.clone(),
-        memory.models.clone(),
-        first.pose,
-        seed,
-    )?;
-    if let Some(c) = &memory.mosaic_covariance {
-        localiser.set_map_covariance(&c.ids, &c.matrix(memory.models.len())?);
-    }
+    let mut localiser = replay_localiser(world, memory, params, seed)?;
     let principal = [world.camera.cx, world.camera.cy];
     let mut rng = stream(params.actuation.seed, 7);
     let mut out = Replay {
@@ -514,22 +499,11 @@ pub fn replay(
         out.truth.push(pose);
         out.reports.push(report);
         out.key_index.push(k);
-        let (v_px, omega) = match step {
-            Step::Reached => {
-                out.outcome = ReplayOutcome::Reached;
+        let (v_px, omega) = match step.command(&mut blind, params.max_blind_frames) {
+            Ok(command) => command,
+            Err(outcome) => {
+                out.outcome = outcome;
                 break;
-            }
-            Step::Blind(v, w) => {
-                blind += 1;
-                if blind > params.max_blind_frames {
-                    out.outcome = ReplayOutcome::Lost;
-                    break;
-                }
-                (v, w)
-            }
-            Step::Drive(v, w) => {
-                blind = 0;
-                (v, w)
             }
         };
         let v = v_px * params.metres_per_pixel;
@@ -539,11 +513,65 @@ pub fn replay(
     Ok(out)
 }
 
+/// The localiser of a replay: the stored mosaic (rigid, with its covariance), the
+/// robot believed at the first key image.
+fn replay_localiser(
+    world: World<'_>,
+    memory: &VisualMemory,
+    params: &ReplayParams,
+    seed: u64,
+) -> Result<MosaicBuilder> {
+    let first = memory
+        .key_images
+        .first()
+        .ok_or_else(|| TrackingError::InvalidParameter {
+            name: "key_images",
+            reason: "the memory holds no key image".into(),
+        })?;
+    let mut localiser = MosaicBuilder::localiser(
+        *world.camera,
+        params.mosaic.clone(),
+        memory.models.clone(),
+        first.pose,
+        seed,
+    )?;
+    if let Some(c) = &memory.mosaic_covariance {
+        localiser.set_map_covariance(&c.ids, &c.matrix(memory.models.len())?);
+    }
+    Ok(localiser)
+}
+
 enum Step {
     Reached,
     /// No model of the key image in view: the command from the localisation alone.
     Blind(f64, f64),
     Drive(f64, f64),
+}
+
+impl Step {
+    /// The command `(v px/s, omega)` to drive, or how the replay ends: reached, or
+    /// lost after more than `max_blind` frames in a row without a shared model.
+    fn command(
+        self,
+        blind: &mut usize,
+        max_blind: usize,
+    ) -> std::result::Result<(f64, f64), ReplayOutcome> {
+        match self {
+            Step::Reached => Err(ReplayOutcome::Reached),
+            Step::Blind(v, w) => {
+                *blind += 1;
+                if *blind > max_blind {
+                    Err(ReplayOutcome::Lost)
+                } else {
+                    Ok((v, w))
+                }
+            }
+            Step::Drive(v, w) => {
+                *blind = 0;
+                Ok((v, w))
+            }
+        }
+    }
 }
 
 /// The servoing command of this frame, passing intermediate key images whose error

@@ -306,3 +306,24 @@ def test_the_demo_worlds_mosaic_and_replays_are_not_overconfident() -> None:
     nees = nees[np.isfinite(nees)]
     assert len(nees) > 300
     assert (nees > chi2.ppf(0.99, 3)).mean() <= 0.05, np.sort(nees)[-10:]
+
+
+def test_worlds_benchmark_reports_a_run_that_cannot_be_learnt(capsys) -> None:
+    """``benchmarks/visual_memory_worlds.py`` keeps going when a world's learning run
+    cannot be learnt: its row carries the reason, and the table says so (a key
+    image's shift limit of 0.001 px breaks the chain at once)."""
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "visual_memory_worlds.py"
+    spec = importlib.util.spec_from_file_location("visual_memory_worlds", path)
+    assert spec is not None and spec.loader is not None
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    configs = ({"keys": {"max_shift": 0.001}}, {})
+    row = bench.one_world(1, 1, 10, None, None, configs)
+    assert row["world"] == 1 and "learn_error" in row
+    assert "cannot be learnt" in row["learn_error"]
+    bench.print_rows([row], 10)
+    out = capsys.readouterr().out
+    assert "| 1* | learning failed:" in out
+    assert "tuning: learning failed in worlds [1]" in out

@@ -56,9 +56,7 @@ impl BinImage {
         for y in y0..y1 {
             let src = &frame.row(y)[3 * x0..3 * x1];
             let out = &mut self.bins[y * self.width + x0..y * self.width + x1];
-            for (o, px) in out.iter_mut().zip(src.chunks_exact(3)) {
-                *o = space.bin([px[0], px[1], px[2]], bins) as u16;
-            }
+            space.bin_row(src, out, bins);
         }
     }
 }

@@ -56,7 +56,7 @@ impl ColorSpace {
     /// assert_eq!(ColorSpace::Opponent.bin([0, 0, 0], [4, 4, 4]), (1 * 4 + 1) * 4);
     /// assert_eq!(ColorSpace::Rgb.bin([255, 0, 128], [2, 2, 2]), (1 * 2 + 0) * 2 + 1);
     /// ```
-    #[inline]
+    #[inline(always)]
     pub fn bin(self, [r, g, b]: [u8; 3], bins: [usize; 3]) -> usize {
         let [b0, b1, b2] = bins.map(|v| v as u32);
         let (r, g, b) = (u32::from(r), u32::from(g), u32::from(b));
@@ -111,6 +111,26 @@ impl ColorSpace {
 
 /// Rows per parallel work item when binning a frame: a few thousand pixels, enough to
 /// pay for a rayon task, and a fixed split so the result never depends on the pool.
+impl ColorSpace {
+    /// Bins a row of RGB pixels (`3 * out.len()` bytes) into `out`. The colour space is
+    /// matched once per row rather than once per pixel, so each space's loop is
+    /// compiled on its own.
+    pub(crate) fn bin_row(self, src: &[u8], out: &mut [u16], bins: [usize; 3]) {
+        #[inline(always)]
+        fn run(space: ColorSpace, src: &[u8], out: &mut [u16], bins: [usize; 3]) {
+            for (o, px) in out.iter_mut().zip(src.chunks_exact(3)) {
+                *o = space.bin([px[0], px[1], px[2]], bins) as u16;
+            }
+        }
+        match self {
+            ColorSpace::Rgb => run(ColorSpace::Rgb, src, out, bins),
+            ColorSpace::Opponent => run(ColorSpace::Opponent, src, out, bins),
+            ColorSpace::NormalizedRg => run(ColorSpace::NormalizedRg, src, out, bins),
+            ColorSpace::Hsv => run(ColorSpace::Hsv, src, out, bins),
+        }
+    }
+}
+
 const BIN_ROWS_PER_TASK: usize = 16;
 
 /// The bin index of every pixel of a frame.
@@ -136,10 +156,7 @@ impl BinImage {
         let width = self.width;
         let bin_rows = |(row0, out): (usize, &mut [u16])| {
             for (k, out_row) in out.chunks_mut(width).enumerate() {
-                let src = frame.row(row0 + k);
-                for (o, px) in out_row.iter_mut().zip(src.chunks_exact(3)) {
-                    *o = space.bin([px[0], px[1], px[2]], bins) as u16;
-                }
+                space.bin_row(frame.row(row0 + k), out_row, bins);
             }
         };
         let chunk = BIN_ROWS_PER_TASK * width;

@@ -109,8 +109,6 @@ impl ColorSpace {
     }
 }
 
-/// Rows per parallel work item when binning a frame: a few thousand pixels, enough to
-/// pay for a rayon task, and a fixed split so the result never depends on the pool.
 impl ColorSpace {
     /// Bins a row of RGB pixels (`3 * out.len()` bytes) into `out`. The colour space is
     /// matched once per row rather than once per pixel, so each space's loop is
@@ -131,6 +129,8 @@ impl ColorSpace {
     }
 }
 
+/// Rows per parallel work item when binning a frame: a few thousand pixels, enough to
+/// pay for a rayon task, and a fixed split so the result never depends on the pool.
 const BIN_ROWS_PER_TASK: usize = 16;
 
 /// The bin index of every pixel of a frame.
@@ -186,6 +186,24 @@ impl BinImage {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A row binned at once equals each pixel binned alone, in every space.
+    #[test]
+    fn a_row_bins_as_its_pixels_do() {
+        let src: Vec<u8> = (0..3 * 97).map(|k| (k * 37 % 256) as u8).collect();
+        for space in [
+            ColorSpace::Rgb,
+            ColorSpace::Opponent,
+            ColorSpace::NormalizedRg,
+            ColorSpace::Hsv,
+        ] {
+            let mut out = vec![0u16; 97];
+            space.bin_row(&src, &mut out, [8, 6, 4]);
+            for (o, px) in out.iter().zip(src.chunks_exact(3)) {
+                assert_eq!(usize::from(*o), space.bin([px[0], px[1], px[2]], [8, 6, 4]));
+            }
+        }
+    }
 
     /// Reference HSV in f64 (the textbook formulas), to check the integer/f32 path.
     fn hsv_ref(r: u8, g: u8, b: u8) -> (f64, f64, f64) {

@@ -262,8 +262,11 @@ pub struct PatternLikelihood<'a> {
     model: &'a PatternModel,
     space: &'a ScaleSpace,
     /// The model points in the order they are visited: interleaved along the
-    /// contours, so that any first few of them spread over the whole pattern.
-    points: Vec<PointGeometry>,
+    /// contours, so that any first few of them spread over the whole pattern (shared:
+    /// computed once per model, see [`PointTable`]).
+    table: PointTable,
+    /// How many of them are weighed ([`Self::with_points`]).
+    count: usize,
     early_exit: Option<EarlyExit>,
 }
 
@@ -364,9 +367,15 @@ pub fn place(state: &SVector<f64, 4>, offset: [f64; 2], phi: f64) -> ([f64; 2], 
     ([x, y], phi - state[2])
 }
 
-impl<'a> PatternLikelihood<'a> {
-    /// The observation model of `model` in the frame whose scale space is `space`.
-    pub fn new(model: &'a PatternModel, space: &'a ScaleSpace) -> Self {
+/// What a [`PatternLikelihood`] needs of each model point besides its vector, in the
+/// order the points are visited: computed once per model (a tracker keeps it from
+/// frame to frame) and shared without copying.
+#[derive(Debug, Clone)]
+pub struct PointTable(Arc<[PointGeometry]>);
+
+impl PointTable {
+    /// The table of `model`.
+    pub fn new(model: &PatternModel) -> Self {
         let config = &model.config;
         let points = interleaved(model.points.len())
             .map(|j| {
@@ -390,18 +399,37 @@ impl<'a> PatternLikelihood<'a> {
                 }
             })
             .collect();
+        Self(points)
+    }
+}
+
+impl<'a> PatternLikelihood<'a> {
+    /// The observation model of `model` in the frame whose scale space is `space`.
+    pub fn new(model: &'a PatternModel, space: &'a ScaleSpace) -> Self {
+        Self::with_table(model, space, &PointTable::new(model))
+    }
+
+    /// [`Self::new`] with the point table of `model` computed before ([`PointTable::new`]
+    /// of the same model): nothing is computed or allocated.
+    pub fn with_table(model: &'a PatternModel, space: &'a ScaleSpace, table: &PointTable) -> Self {
         Self {
             model,
             space,
-            points,
+            table: table.clone(),
+            count: table.0.len(),
             early_exit: None,
         }
+    }
+
+    /// The points weighed, in their visiting order.
+    fn points(&self) -> &[PointGeometry] {
+        &self.table.0[..self.count]
     }
 
     /// The indices of the model points in the order they are visited (interleaved
     /// along the contours).
     pub fn visiting_order(&self) -> impl Iterator<Item = usize> + '_ {
-        self.points.iter().map(|g| g.index)
+        self.points().iter().map(|g| g.index)
     }
 
     /// The same observation model on the first `count` model points of its visiting
@@ -409,7 +437,7 @@ impl<'a> PatternLikelihood<'a> {
     /// pattern): a cheaper, coarser likelihood.
     pub fn with_points(&self, count: usize) -> Self {
         let mut out = self.clone();
-        out.points.truncate(count.max(1));
+        out.count = count.max(1).min(self.count);
         out
     }
 
@@ -482,7 +510,7 @@ impl<'a> PatternLikelihood<'a> {
         floor: f64,
         stop: Stop,
     ) -> Observation {
-        let n = self.points.len();
+        let n = self.points().len();
         if self.space.is_empty()
             || n == 0
             || !state.iter().all(|v| v.is_finite())
@@ -571,11 +599,11 @@ impl<'a> PatternLikelihood<'a> {
         let ns = config.n_samples;
         scratch.observed.resize(BATCH * ns, 0.0);
         scratch.deviations.clear();
-        let n = self.points.len();
+        let n = self.points().len();
         // A batch of points is sampled, then correlated, then turned into deviations:
         // the square roots and divisions of a batch overlap instead of each waiting for
         // its own point's samples.
-        for (b, batch) in self.points.chunks(BATCH).enumerate() {
+        for (b, batch) in self.points().chunks(BATCH).enumerate() {
             let mut inside = [false; BATCH];
             let buffers = scratch.observed.chunks_exact_mut(ns);
             for ((geometry, ok), out) in batch.iter().zip(&mut inside).zip(buffers) {

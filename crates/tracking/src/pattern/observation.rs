@@ -24,10 +24,9 @@ use rperc_core::image::GrayImage;
 pub struct ScaleSpace {
     scales: Vec<f64>,
     levels: Vec<Level>,
+    /// The top-left pixel of the union of the levels' windows in the frame.
     origin: [f64; 2],
     crop: GrayImage,
-    /// The window inside the crop, `[x0, y0, x1, y1)`.
-    inner: [usize; 4],
     kernels: Vec<(f64, Arc<[f32]>)>,
 }
 
@@ -36,6 +35,10 @@ pub struct ScaleSpace {
 #[derive(Debug, Clone, Default)]
 struct Level {
     image: GrayImage,
+    /// The level's window inside the crop, `[x0, y0, x1, y1)`.
+    inner: [usize; 4],
+    /// Its top-left pixel in the frame.
+    origin: [f64; 2],
     kernel: Arc<[f32]>,
     scratch: GrayImage,
     /// Blurred for this frame (see [`ScaleSpace::build_window_for`]).
@@ -43,8 +46,9 @@ struct Level {
 }
 
 impl Level {
-    fn blur(&mut self, crop: &GrayImage, inner: [usize; 4]) {
+    fn blur(&mut self, crop: &GrayImage) {
         // Only the window: the crop's margin is there to be read, not kept.
+        let inner = self.inner;
         crop.convolve_separable_window(&self.kernel, inner, &mut self.scratch, &mut self.image);
         self.ready = true;
     }
@@ -133,6 +137,23 @@ impl ScaleSpace {
         span: [f64; 2],
         needed: Option<&[f64]>,
     ) -> Result<()> {
+        self.build_windows_for(size, crop, model, |_| window, span, needed)
+    }
+
+    /// [`Self::build_window_for`] with a window per level: `window(cell)` is the window
+    /// `[x0, y0, x1, y1)` a level must cover for the states whose scale lies in `cell
+    /// = [s_lo, s_hi]`, the scales of `span` nearest to that level (a pattern seen at
+    /// a smaller scale covers fewer pixels). Each level then reads, inside its window,
+    /// the same values as the whole frame's blur; [`Self::level_at`] gives its origin.
+    pub fn build_windows_for(
+        &mut self,
+        size: [usize; 2],
+        crop: impl FnOnce([usize; 4], &mut GrayImage),
+        model: &PatternModel,
+        mut window: impl FnMut([f64; 2]) -> [usize; 4],
+        span: [f64; 2],
+        needed: Option<&[f64]>,
+    ) -> Result<()> {
         let config = &model.config;
         let all = &config.scale_levels;
         // Clamped first: infinite spans (the whole stack) would tie every level.
@@ -151,12 +172,38 @@ impl ScaleSpace {
             wanted[nearest(&self.scales, s)] = true;
         }
         let [width, height] = size;
-        let [x0, y0] = [window[0].min(width), window[1].min(height)];
-        let [x1, y1] = [window[2].clamp(x0, width), window[3].clamp(y0, height)];
+        let clip = |w: [usize; 4]| {
+            let [x0, y0] = [w[0].min(width), w[1].min(height)];
+            [x0, y0, w[2].clamp(x0, width), w[3].clamp(y0, height)]
+        };
+        // Each level's cell: the scales of `span` nearest to it (both ends of a tie).
+        let n = self.scales.len();
+        let mut union = [usize::MAX, usize::MAX, 0, 0];
+        for k in 0..n {
+            let lo = if k == 0 {
+                span[0]
+            } else {
+                0.5 * (self.scales[k - 1] + self.scales[k])
+            };
+            let hi = if k + 1 == n {
+                span[1]
+            } else {
+                0.5 * (self.scales[k] + self.scales[k + 1])
+            };
+            let w = clip(window([lo.max(span[0]), hi.min(span[1])]));
+            self.levels[k].inner = w;
+            union = [
+                union[0].min(w[0]),
+                union[1].min(w[1]),
+                union[2].max(w[2]),
+                union[3].max(w[3]),
+            ];
+        }
+        let [x0, y0, x1, y1] = clip(union);
         self.origin = [x0 as f64, y0 as f64];
-        // One crop, grown by the widest kernel's radius: every level blurs all of it
-        // and keeps the window, which lies at least its own radius inside the crop
-        // wherever the crop does not stop at the frame's edge.
+        // One crop, grown by the widest kernel's radius: every level blurs its window
+        // from it, which lies at least its own radius inside the crop wherever the
+        // crop does not stop at the frame's edge.
         let r = self
             .levels
             .iter()
@@ -170,7 +217,14 @@ impl ScaleSpace {
             (y1 + r).min(height),
         ];
         crop(grown, &mut self.crop);
-        self.inner = [x0 - grown[0], y0 - grown[1], x1 - grown[0], y1 - grown[1]];
+        for level in &mut self.levels {
+            let [a, b, c, d] = level.inner;
+            // An empty window (a level no state can use) sits at the union's corner.
+            let [a, b] = if a < c && b < d { [a, b] } else { [x0, y0] };
+            let [c, d] = [c.max(a), d.max(b)];
+            level.origin = [a as f64, b as f64];
+            level.inner = [a - grown[0], b - grown[1], c - grown[0], d - grown[1]];
+        }
         self.blur_levels(&wanted);
         Ok(())
     }
@@ -193,26 +247,32 @@ impl ScaleSpace {
 
     /// Blurs the levels `k` with `wanted[k]`, in parallel when there is enough work.
     fn blur_levels(&mut self, wanted: &[bool]) {
-        let (crop, inner) = (&self.crop, self.inner);
+        let crop = &self.crop;
         let chosen = || self.levels.iter().zip(wanted).filter(|(_, w)| **w);
         let taps: usize = chosen().map(|(l, _)| l.kernel.len()).sum();
         let parallel = chosen().count() > 1 && crop.data.len() * taps >= PARALLEL_BLUR_WORK;
         let levels = self.levels.iter_mut().zip(wanted).filter(|(_, w)| **w);
         if parallel {
             let mut todo: Vec<&mut Level> = levels.map(|(l, _)| l).collect();
-            todo.par_iter_mut().for_each(|l| l.blur(crop, inner));
+            todo.par_iter_mut().for_each(|l| l.blur(crop));
         } else {
-            levels.for_each(|(l, _)| l.blur(crop, inner));
+            levels.for_each(|(l, _)| l.blur(crop));
         }
     }
 
-    /// Pixel coordinates of the levels' top-left pixel in the frame.
+    /// Pixel coordinates in the frame of the top-left pixel of the union of the
+    /// levels' windows (every level's with [`Self::build_window`]).
     pub fn origin(&self) -> [f64; 2] {
         self.origin
     }
 
     /// The blurred level nearest to scale `s` (the first one for `s <= 1`).
     pub fn level(&self, s: f64) -> &GrayImage {
+        self.level_at(s).0
+    }
+
+    /// [`Self::level`] and the frame coordinates of its top-left pixel.
+    pub fn level_at(&self, s: f64) -> (&GrayImage, [f64; 2]) {
         let k = self
             .levels
             .iter()
@@ -221,7 +281,8 @@ impl ScaleSpace {
             .filter(|(_, (l, _))| l.ready)
             .min_by(|a, b| (a.1.1 - s).abs().total_cmp(&(b.1.1 - s).abs()))
             .map_or(0, |(k, _)| k);
-        &self.levels[k].image
+        let level = &self.levels[k];
+        (&level.image, level.origin)
     }
 
     /// Number of levels.
@@ -590,8 +651,7 @@ impl<'a> PatternLikelihood<'a> {
         let model = config.deviation;
         let inv = 1.0 / (2.0 * config.sigma * config.sigma);
         let mut cost = 0.0;
-        let image = self.space.level(state[3]);
-        let origin = self.space.origin();
+        let (image, origin) = self.space.level_at(state[3]);
         let (sin, cos) = state[2].sin_cos();
         let scale = state[3];
         let centre = [state[0] - origin[0], state[1] - origin[1]];

@@ -423,11 +423,13 @@ impl PatternTracker {
     }
 
     /// The frame's scale space, built once per frame, never per particle (section
-    /// 3.3), and only where this frame's predicted particles and the refinement look,
-    /// at the levels the particles and the last estimate fall on (the refinement's
-    /// are added once its start is known).
+    /// 3.3), and only where this frame's predicted particles and the refinement look
+    /// (each level where the states nearest to its scale do), at the levels the
+    /// particles and the last estimate fall on (the refinement's are added once its
+    /// start is known).
     fn build_space(&mut self, frame: PatternFrame<'_>) -> Result<()> {
-        let (window, span) = self.reach();
+        let extent = self.reach();
+        let span = [extent.0[3], extent.1[3]];
         let crop = |grown: [usize; 4], out: &mut GrayImage| frame.window_to_gray(grown, out);
         self.needed.clear();
         self.needed
@@ -435,8 +437,12 @@ impl PatternTracker {
         self.needed.push(self.last.state[3]);
         let size = [self.width, self.height];
         let needed = Some(&self.needed[..]);
+        let config = &self.model.config;
+        let profile = 0.5 * config.n_samples as f64 * config.delta;
+        let offsets = &self.offsets;
+        let window = |cell: [f64; 2]| Self::window(offsets, profile, size, extent, cell);
         self.space
-            .build_window_for(size, crop, &self.model, window, span, needed)
+            .build_windows_for(size, crop, &self.model, window, span, needed)
     }
 
     /// Weighs the predicted particles (eq. 6), those far below the best cut short;
@@ -517,15 +523,12 @@ impl PatternTracker {
         self.filter.substitute_lightest(state, gain);
     }
 
-    /// The frame window `[x0, y0, x1, y1)` and the scale span this frame's likelihood
-    /// reads: the extent of the predicted particles and the last estimate (weighed as
-    /// the early exit's reference), grown by the refinement's reach (it starts at the
-    /// weighted mean, inside the extent, and its moves and probes add up to at most
-    /// `refine_first_step * sigma * (1 + 1/2 + ...)`), plus the footprint of the
-    /// model (points and half a profile) over the angles and scales of that extent
-    /// ([`footprint`]). Every state weighed or probed this frame therefore reads the
-    /// same values as from a scale space of the whole frame.
-    fn reach(&self) -> ([usize; 4], [f64; 2]) {
+    /// The extent `(lo, hi)` of the states this frame's likelihood is asked about: the
+    /// predicted particles and the last estimate (weighed as the early exit's
+    /// reference), grown by the refinement's reach (it starts at the weighted mean,
+    /// inside the extent, and its moves and probes add up to at most
+    /// `refine_first_step * sigma * (1 + 1/2 + ...)`).
+    fn reach(&self) -> ([f64; 4], [f64; 4]) {
         let reach = 2.0 * self.params.refine_first_step;
         let sigma = &self.params.sigma;
         let (mut lo, mut hi) = ([f64::INFINITY; 4], [f64::NEG_INFINITY; 4]);
@@ -540,18 +543,31 @@ impl PatternTracker {
             lo[d] -= reach * sigma[d];
             hi[d] += reach * sigma[d];
         }
-        let span = [lo[3], hi[3]];
-        let config = &self.model.config;
-        let profile = 0.5 * config.n_samples as f64 * config.delta;
-        let [fx, fy] = footprint(&self.offsets, [lo[2], hi[2]], span, profile);
+        (lo, hi)
+    }
+
+    /// The window `[x0, y0, x1, y1)` of a `size = [width, height]` frame that the
+    /// states of the extent `(lo, hi)` ([`Self::reach`]) whose scales lie in `scale`
+    /// read: their centres' extent grown by the footprint of the model points at
+    /// `offsets` and their profiles (`profile` pixels each side) over their angles and
+    /// those scales ([`footprint`]). Every such state therefore reads the same
+    /// values as from a scale space of the whole frame.
+    /// (Free of `self`, so that the scale space can call it while it is built.)
+    fn window(
+        offsets: &[[f64; 2]],
+        profile: f64,
+        [width, height]: [usize; 2],
+        (lo, hi): ([f64; 4], [f64; 4]),
+        scale: [f64; 2],
+    ) -> [usize; 4] {
+        let [fx, fy] = footprint(offsets, [lo[2], hi[2]], scale, profile);
         let clamp = |v: f64, n: usize| v.floor().clamp(0.0, n as f64) as usize;
-        let window = [
-            clamp(lo[0] + fx[0] - 2.0, self.width),
-            clamp(lo[1] + fy[0] - 2.0, self.height),
-            clamp(hi[0] + fx[1] + 4.0, self.width),
-            clamp(hi[1] + fy[1] + 4.0, self.height),
-        ];
-        (window, span)
+        [
+            clamp(lo[0] + fx[0] - 2.0, width),
+            clamp(lo[1] + fy[0] - 2.0, height),
+            clamp(hi[0] + fx[1] + 4.0, width),
+            clamp(hi[1] + fy[1] + 4.0, height),
+        ]
     }
 
     /// The weighted mean of the particles, `theta` by the circular mean taken relative

@@ -3,7 +3,7 @@
 //! observed grey-level vectors, with occlusion and scale space handling.
 
 use super::correlation::{autocorrelation_curvature, centred_products, energy};
-use super::model::{DeviationModel, PatternModel, sample_along};
+use super::model::{DeviationModel, PatternModel, sample_along, sample_along_interior};
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -432,7 +432,11 @@ pub fn place(state: &SVector<f64, 4>, offset: [f64; 2], phi: f64) -> ([f64; 2], 
 /// order the points are visited: computed once per model (a tracker keeps it from
 /// frame to frame) and shared without copying.
 #[derive(Debug, Clone)]
-pub struct PointTable(Arc<[PointGeometry]>);
+pub struct PointTable {
+    points: Arc<[PointGeometry]>,
+    /// The largest distance of a point from the centre (pixels at scale 1).
+    radius: f64,
+}
 
 impl PointTable {
     /// The table of `model`.
@@ -459,8 +463,12 @@ impl PointTable {
                     inverse_width: 1.0 / width.max(f64::MIN_POSITIVE),
                 }
             })
-            .collect();
-        Self(points)
+            .collect::<Arc<[PointGeometry]>>();
+        let radius = points
+            .iter()
+            .map(|g| g.offset[0].hypot(g.offset[1]))
+            .fold(0.0, f64::max);
+        Self { points, radius }
     }
 }
 
@@ -477,14 +485,14 @@ impl<'a> PatternLikelihood<'a> {
             model,
             space,
             table: table.clone(),
-            count: table.0.len(),
+            count: table.points.len(),
             early_exit: None,
         }
     }
 
     /// The points weighed, in their visiting order.
     fn points(&self) -> &[PointGeometry] {
-        &self.table.0[..self.count]
+        &self.table.points[..self.count]
     }
 
     /// The indices of the model points in the order they are visited (interleaved
@@ -628,6 +636,26 @@ impl<'a> PatternLikelihood<'a> {
         }
     }
 
+    /// Whether every profile of a state at `centre` (level pixels) and `scale`, with
+    /// `n` samples `step` apart, lies within the bounds of
+    /// [`GrayImage::sample_line_interior`] in `image`: points lie within `scale *
+    /// radius` of the centre and profiles reach half their length from them (plus a
+    /// millipixel for the rounding of the positions), checked once per state instead
+    /// of once per point.
+    fn inside(&self, image: &GrayImage, centre: [f64; 2], scale: f64, step: f64, n: usize) -> bool {
+        use rperc_core::image::INTERIOR_MARGIN;
+        let reach = scale * self.table.radius + 0.5 * (n as f64 - 1.0) * step.abs() + 1e-3;
+        let (w, h) = (image.width as f64, image.height as f64);
+        let huge = 1usize << 36;
+        centre[0] - reach >= INTERIOR_MARGIN
+            && centre[1] - reach >= INTERIOR_MARGIN
+            && centre[0] + reach <= w - 1.0 - INTERIOR_MARGIN
+            && centre[1] + reach <= h - 1.0 - INTERIOR_MARGIN
+            && (1..=1024).contains(&n)
+            && (2..=huge).contains(&image.width)
+            && (2..=huge).contains(&image.height)
+    }
+
     /// The squared deviation `lambda^2` of every model point for `state` into
     /// `scratch.deviations`
     /// (infinite when the observed vector leaves the frame), in the order of
@@ -657,6 +685,7 @@ impl<'a> PatternLikelihood<'a> {
         let centre = [state[0] - origin[0], state[1] - origin[1]];
         let step = config.delta * scale;
         let ns = config.n_samples;
+        let interior = self.inside(image, centre, scale, step, ns);
         scratch.observed.resize(BATCH * ns, 0.0);
         scratch.deviations.clear();
         let n = self.points().len();
@@ -674,7 +703,11 @@ impl<'a> PatternLikelihood<'a> {
                 ];
                 let [u, v] = geometry.direction;
                 let direction = [cos * u + sin * v, -sin * u + cos * v];
-                *ok = sample_along(image, p, direction, step, out);
+                *ok = if interior {
+                    sample_along_interior(image, p, direction, step, out)
+                } else {
+                    sample_along(image, p, direction, step, out)
+                };
             }
             let mut products = [(0.0f32, 0.0f32); BATCH];
             let buffers = scratch.observed.chunks_exact(ns);

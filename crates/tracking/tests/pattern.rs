@@ -581,6 +581,19 @@ fn a_windowed_scale_space_equals_the_whole_frame_blur_inside_its_window() {
     }
 }
 
+/// Reads the window `[x0, y0, x1, y1)` of `frame` into `out`, as a tracker's frame
+/// conversion does for a scale space.
+fn crop_reader(frame: &GrayImage) -> impl FnOnce([usize; 4], &mut GrayImage) + '_ {
+    |g: [usize; 4], out: &mut GrayImage| {
+        out.width = g[2] - g[0];
+        out.height = g[3] - g[1];
+        out.data = (g[1]..g[3])
+            .flat_map(|y| (g[0]..g[2]).map(move |x| (x, y)))
+            .map(|(x, y)| frame.at(x, y))
+            .collect();
+    }
+}
+
 /// A window per level (`build_windows_for`): each level equals the whole frame's blur
 /// inside its own window, at its own origin, whichever cell of scales asked for it,
 /// and a state whose level's window holds its points has the whole frame's likelihood.
@@ -603,14 +616,7 @@ fn per_level_windows_equal_the_whole_frame_blur_inside_each() {
     };
     let mut cells = vec![];
     let mut part = ScaleSpace::new();
-    let copy = |g: [usize; 4], out: &mut GrayImage| {
-        out.width = g[2] - g[0];
-        out.height = g[3] - g[1];
-        out.data = (g[1]..g[3])
-            .flat_map(|y| (g[0]..g[2]).map(move |x| (x, y)))
-            .map(|(x, y)| frame.at(x, y))
-            .collect();
-    };
+    let copy = crop_reader(&frame);
     let record = |cell: [f64; 2]| {
         let w = window_of(cell);
         cells.push((cell, w));
@@ -658,14 +664,7 @@ fn levels_blurred_on_demand_equal_the_whole_stack() {
         })
     };
     let mut part = ScaleSpace::new();
-    let copy = |g: [usize; 4], out: &mut GrayImage| {
-        out.width = g[2] - g[0];
-        out.height = g[3] - g[1];
-        out.data = (g[1]..g[3])
-            .flat_map(|y| (g[0]..g[2]).map(move |x| (x, y)))
-            .map(|(x, y)| frame.at(x, y))
-            .collect();
-    };
+    let copy = crop_reader(&frame);
     // Levels of 1.0-2.0; only 1.0 (nearest to 0.9 and 1.1) is needed.
     part.build_window_for(
         [FRAME, FRAME],

@@ -313,24 +313,15 @@ pub(crate) fn sample_along(
     image.sample_line(start, delta, out)
 }
 
-/// [`sample_along`] for a vector known to lie inside the image
-/// ([`GrayImage::sample_line_interior`]'s bounds): the same values, without checks.
-#[inline]
-pub(crate) fn sample_along_interior(
-    image: &GrayImage,
-    p: [f64; 2],
-    direction: [f64; 2],
-    step: f64,
-    out: &mut [f32],
-) -> bool {
-    let (start, delta) = segment(p, direction, step, out.len());
-    image.sample_line_interior(start, delta, out)
-}
-
 /// The first sample and the step between samples of `n` samples `step` apart along
 /// `direction`, centred on `p`.
 #[inline]
-fn segment(p: [f64; 2], direction: [f64; 2], step: f64, n: usize) -> ([f64; 2], [f64; 2]) {
+pub(crate) fn segment(
+    p: [f64; 2],
+    direction: [f64; 2],
+    step: f64,
+    n: usize,
+) -> ([f64; 2], [f64; 2]) {
     let half = 0.5 * (n as f64 - 1.0);
     let (dx, dy) = (step * direction[0], step * direction[1]);
     ([p[0] - half * dx, p[1] - half * dy], [dx, dy])

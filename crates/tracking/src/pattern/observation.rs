@@ -3,7 +3,7 @@
 //! observed grey-level vectors, with occlusion and scale space handling.
 
 use super::correlation::{autocorrelation_curvature, centred_products, energy};
-use super::model::{DeviationModel, PatternModel, sample_along, sample_along_interior};
+use super::model::{DeviationModel, PatternModel, sample_along, segment};
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -704,7 +704,9 @@ impl<'a> PatternLikelihood<'a> {
                 let [u, v] = geometry.direction;
                 let direction = [cos * u + sin * v, -sin * u + cos * v];
                 *ok = if interior {
-                    sample_along_interior(image, p, direction, step, out)
+                    // As `sample_along`, without its checks.
+                    let (start, delta) = segment(p, direction, step, out.len());
+                    image.sample_line_interior(start, delta, out)
                 } else {
                     sample_along(image, p, direction, step, out)
                 };

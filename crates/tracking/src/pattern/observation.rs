@@ -432,7 +432,7 @@ pub fn place(state: &SVector<f64, 4>, offset: [f64; 2], phi: f64) -> ([f64; 2], 
 /// order the points are visited: computed once per model (a tracker keeps it from
 /// frame to frame) and shared without copying.
 #[derive(Debug, Clone)]
-pub struct PointTable {
+pub(crate) struct PointTable {
     points: Arc<[PointGeometry]>,
     /// The largest distance of a point from the centre (pixels at scale 1).
     radius: f64,
@@ -440,7 +440,7 @@ pub struct PointTable {
 
 impl PointTable {
     /// The table of `model`.
-    pub fn new(model: &PatternModel) -> Self {
+    pub(crate) fn new(model: &PatternModel) -> Self {
         let config = &model.config;
         let points = interleaved(model.points.len())
             .map(|j| {
@@ -479,8 +479,13 @@ impl<'a> PatternLikelihood<'a> {
     }
 
     /// [`Self::new`] with the point table of `model` computed before ([`PointTable::new`]
-    /// of the same model): nothing is computed or allocated.
-    pub fn with_table(model: &'a PatternModel, space: &'a ScaleSpace, table: &PointTable) -> Self {
+    /// of the same model, which the crate's callers keep with it): nothing is
+    /// computed or allocated.
+    pub(crate) fn with_table(
+        model: &'a PatternModel,
+        space: &'a ScaleSpace,
+        table: &PointTable,
+    ) -> Self {
         Self {
             model,
             space,

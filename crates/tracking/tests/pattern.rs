@@ -581,6 +581,72 @@ fn a_windowed_scale_space_equals_the_whole_frame_blur_inside_its_window() {
     }
 }
 
+/// Reads the window `[x0, y0, x1, y1)` of `frame` into `out`, as a tracker's frame
+/// conversion does for a scale space.
+fn crop_reader(frame: &GrayImage) -> impl FnOnce([usize; 4], &mut GrayImage) + '_ {
+    |g: [usize; 4], out: &mut GrayImage| {
+        out.width = g[2] - g[0];
+        out.height = g[3] - g[1];
+        out.data = (g[1]..g[3])
+            .flat_map(|y| (g[0]..g[2]).map(move |x| (x, y)))
+            .map(|(x, y)| frame.at(x, y))
+            .collect();
+    }
+}
+
+/// A window per level (`build_windows_for`): each level equals the whole frame's blur
+/// inside its own window, at its own origin, whichever cell of scales asked for it,
+/// and a state whose level's window holds its points has the whole frame's likelihood.
+#[test]
+fn per_level_windows_equal_the_whole_frame_blur_inside_each() {
+    let m = model();
+    let mut frame = render(TRUTH, m.centre, FRAME);
+    add_noise(&mut frame, 3.0, 23);
+    let mut full = ScaleSpace::new();
+    full.build(&frame, &m).unwrap();
+    // Larger scales get larger windows (as a tracker's footprints do).
+    let window_of = |cell: [f64; 2]| {
+        let r = (50.0 * cell[1]) as usize + 18;
+        [
+            90 - r.min(90),
+            85 - r.min(85),
+            (90 + r).min(FRAME),
+            (85 + r).min(FRAME),
+        ]
+    };
+    let mut cells = vec![];
+    let mut part = ScaleSpace::new();
+    let copy = crop_reader(&frame);
+    let record = |cell: [f64; 2]| {
+        let w = window_of(cell);
+        cells.push((cell, w));
+        w
+    };
+    part.build_windows_for([FRAME, FRAME], copy, &m, record, [0.9, 1.6], None)
+        .unwrap();
+    // Levels 1.0, 1.25, 1.5: the cells split the span at the midpoints.
+    let bounds: Vec<[f64; 2]> = cells.iter().map(|c| c.0).collect();
+    assert_eq!(bounds, vec![[0.9, 1.125], [1.125, 1.375], [1.375, 1.6]]);
+    for (s, (_, w)) in [1.0, 1.25, 1.5].into_iter().zip(&cells) {
+        let (a, (b, origin)) = (full.level(s), part.level_at(s));
+        assert_eq!(origin, [w[0] as f64, w[1] as f64]);
+        assert_eq!((b.width, b.height), (w[2] - w[0], w[3] - w[1]));
+        for y in w[1]..w[3] {
+            for x in w[0]..w[2] {
+                assert_eq!(a.at(x, y), b.at(x - w[0], y - w[1]), "({x}, {y}) s {s}");
+            }
+        }
+    }
+    assert_eq!(part.origin(), [cells[2].1[0] as f64, cells[2].1[1] as f64]);
+    let mut scratch = PatternScratch::default();
+    for s in [1.0, 1.2] {
+        let state = SVector::from([TRUTH[0], TRUTH[1], TRUTH[2], s]);
+        let whole = PatternLikelihood::new(&m, &full).observe(&state, &mut scratch);
+        let windowed = PatternLikelihood::new(&m, &part).observe(&state, &mut scratch);
+        assert_eq!(whole, windowed, "s {s}");
+    }
+}
+
 /// Levels blurred on demand (`build_window_for`, then `ensure`) against the whole
 /// stack: a needed or ensured level equals the whole stack's, and a scale whose level
 /// is not blurred yet reads the nearest blurred one.
@@ -598,14 +664,7 @@ fn levels_blurred_on_demand_equal_the_whole_stack() {
         })
     };
     let mut part = ScaleSpace::new();
-    let copy = |g: [usize; 4], out: &mut GrayImage| {
-        out.width = g[2] - g[0];
-        out.height = g[3] - g[1];
-        out.data = (g[1]..g[3])
-            .flat_map(|y| (g[0]..g[2]).map(move |x| (x, y)))
-            .map(|(x, y)| frame.at(x, y))
-            .collect();
-    };
+    let copy = crop_reader(&frame);
     // Levels of 1.0-2.0; only 1.0 (nearest to 0.9 and 1.1) is needed.
     part.build_window_for(
         [FRAME, FRAME],

@@ -309,9 +309,22 @@ pub(crate) fn sample_along(
     step: f64,
     out: &mut [f32],
 ) -> bool {
-    let half = 0.5 * (out.len() as f64 - 1.0);
+    let (start, delta) = segment(p, direction, step, out.len());
+    image.sample_line(start, delta, out)
+}
+
+/// The first sample and the step between samples of `n` samples `step` apart along
+/// `direction`, centred on `p`.
+#[inline]
+pub(crate) fn segment(
+    p: [f64; 2],
+    direction: [f64; 2],
+    step: f64,
+    n: usize,
+) -> ([f64; 2], [f64; 2]) {
+    let half = 0.5 * (n as f64 - 1.0);
     let (dx, dy) = (step * direction[0], step * direction[1]);
-    image.sample_line([p[0] - half * dx, p[1] - half * dy], [dx, dy], out)
+    ([p[0] - half * dx, p[1] - half * dy], [dx, dy])
 }
 
 impl PatternModel {

@@ -3,7 +3,7 @@
 //! observed grey-level vectors, with occlusion and scale space handling.
 
 use super::correlation::{autocorrelation_curvature, centred_products, energy};
-use super::model::{DeviationModel, PatternModel, sample_along};
+use super::model::{DeviationModel, PatternModel, sample_along, segment};
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -24,10 +24,9 @@ use rperc_core::image::GrayImage;
 pub struct ScaleSpace {
     scales: Vec<f64>,
     levels: Vec<Level>,
+    /// The top-left pixel of the union of the levels' windows in the frame.
     origin: [f64; 2],
     crop: GrayImage,
-    /// The window inside the crop, `[x0, y0, x1, y1)`.
-    inner: [usize; 4],
     kernels: Vec<(f64, Arc<[f32]>)>,
 }
 
@@ -36,6 +35,10 @@ pub struct ScaleSpace {
 #[derive(Debug, Clone, Default)]
 struct Level {
     image: GrayImage,
+    /// The level's window inside the crop, `[x0, y0, x1, y1)`.
+    inner: [usize; 4],
+    /// Its top-left pixel in the frame.
+    origin: [f64; 2],
     kernel: Arc<[f32]>,
     scratch: GrayImage,
     /// Blurred for this frame (see [`ScaleSpace::build_window_for`]).
@@ -43,8 +46,9 @@ struct Level {
 }
 
 impl Level {
-    fn blur(&mut self, crop: &GrayImage, inner: [usize; 4]) {
+    fn blur(&mut self, crop: &GrayImage) {
         // Only the window: the crop's margin is there to be read, not kept.
+        let inner = self.inner;
         crop.convolve_separable_window(&self.kernel, inner, &mut self.scratch, &mut self.image);
         self.ready = true;
     }
@@ -133,6 +137,23 @@ impl ScaleSpace {
         span: [f64; 2],
         needed: Option<&[f64]>,
     ) -> Result<()> {
+        self.build_windows_for(size, crop, model, |_| window, span, needed)
+    }
+
+    /// [`Self::build_window_for`] with a window per level: `window(cell)` is the window
+    /// `[x0, y0, x1, y1)` a level must cover for the states whose scale lies in `cell
+    /// = [s_lo, s_hi]`, the scales of `span` nearest to that level (a pattern seen at
+    /// a smaller scale covers fewer pixels). Each level then reads, inside its window,
+    /// the same values as the whole frame's blur; [`Self::level_at`] gives its origin.
+    pub fn build_windows_for(
+        &mut self,
+        size: [usize; 2],
+        crop: impl FnOnce([usize; 4], &mut GrayImage),
+        model: &PatternModel,
+        mut window: impl FnMut([f64; 2]) -> [usize; 4],
+        span: [f64; 2],
+        needed: Option<&[f64]>,
+    ) -> Result<()> {
         let config = &model.config;
         let all = &config.scale_levels;
         // Clamped first: infinite spans (the whole stack) would tie every level.
@@ -151,12 +172,38 @@ impl ScaleSpace {
             wanted[nearest(&self.scales, s)] = true;
         }
         let [width, height] = size;
-        let [x0, y0] = [window[0].min(width), window[1].min(height)];
-        let [x1, y1] = [window[2].clamp(x0, width), window[3].clamp(y0, height)];
+        let clip = |w: [usize; 4]| {
+            let [x0, y0] = [w[0].min(width), w[1].min(height)];
+            [x0, y0, w[2].clamp(x0, width), w[3].clamp(y0, height)]
+        };
+        // Each level's cell: the scales of `span` nearest to it (both ends of a tie).
+        let n = self.scales.len();
+        let mut union = [usize::MAX, usize::MAX, 0, 0];
+        for k in 0..n {
+            let lo = if k == 0 {
+                span[0]
+            } else {
+                0.5 * (self.scales[k - 1] + self.scales[k])
+            };
+            let hi = if k + 1 == n {
+                span[1]
+            } else {
+                0.5 * (self.scales[k] + self.scales[k + 1])
+            };
+            let w = clip(window([lo.max(span[0]), hi.min(span[1])]));
+            self.levels[k].inner = w;
+            union = [
+                union[0].min(w[0]),
+                union[1].min(w[1]),
+                union[2].max(w[2]),
+                union[3].max(w[3]),
+            ];
+        }
+        let [x0, y0, x1, y1] = clip(union);
         self.origin = [x0 as f64, y0 as f64];
-        // One crop, grown by the widest kernel's radius: every level blurs all of it
-        // and keeps the window, which lies at least its own radius inside the crop
-        // wherever the crop does not stop at the frame's edge.
+        // One crop, grown by the widest kernel's radius: every level blurs its window
+        // from it, which lies at least its own radius inside the crop wherever the
+        // crop does not stop at the frame's edge.
         let r = self
             .levels
             .iter()
@@ -170,7 +217,14 @@ impl ScaleSpace {
             (y1 + r).min(height),
         ];
         crop(grown, &mut self.crop);
-        self.inner = [x0 - grown[0], y0 - grown[1], x1 - grown[0], y1 - grown[1]];
+        for level in &mut self.levels {
+            let [a, b, c, d] = level.inner;
+            // An empty window (a level no state can use) sits at the union's corner.
+            let [a, b] = if a < c && b < d { [a, b] } else { [x0, y0] };
+            let [c, d] = [c.max(a), d.max(b)];
+            level.origin = [a as f64, b as f64];
+            level.inner = [a - grown[0], b - grown[1], c - grown[0], d - grown[1]];
+        }
         self.blur_levels(&wanted);
         Ok(())
     }
@@ -193,26 +247,32 @@ impl ScaleSpace {
 
     /// Blurs the levels `k` with `wanted[k]`, in parallel when there is enough work.
     fn blur_levels(&mut self, wanted: &[bool]) {
-        let (crop, inner) = (&self.crop, self.inner);
+        let crop = &self.crop;
         let chosen = || self.levels.iter().zip(wanted).filter(|(_, w)| **w);
         let taps: usize = chosen().map(|(l, _)| l.kernel.len()).sum();
         let parallel = chosen().count() > 1 && crop.data.len() * taps >= PARALLEL_BLUR_WORK;
         let levels = self.levels.iter_mut().zip(wanted).filter(|(_, w)| **w);
         if parallel {
             let mut todo: Vec<&mut Level> = levels.map(|(l, _)| l).collect();
-            todo.par_iter_mut().for_each(|l| l.blur(crop, inner));
+            todo.par_iter_mut().for_each(|l| l.blur(crop));
         } else {
-            levels.for_each(|(l, _)| l.blur(crop, inner));
+            levels.for_each(|(l, _)| l.blur(crop));
         }
     }
 
-    /// Pixel coordinates of the levels' top-left pixel in the frame.
+    /// Pixel coordinates in the frame of the top-left pixel of the union of the
+    /// levels' windows (every level's with [`Self::build_window`]).
     pub fn origin(&self) -> [f64; 2] {
         self.origin
     }
 
     /// The blurred level nearest to scale `s` (the first one for `s <= 1`).
     pub fn level(&self, s: f64) -> &GrayImage {
+        self.level_at(s).0
+    }
+
+    /// [`Self::level`] and the frame coordinates of its top-left pixel.
+    pub fn level_at(&self, s: f64) -> (&GrayImage, [f64; 2]) {
         let k = self
             .levels
             .iter()
@@ -221,7 +281,8 @@ impl ScaleSpace {
             .filter(|(_, (l, _))| l.ready)
             .min_by(|a, b| (a.1.1 - s).abs().total_cmp(&(b.1.1 - s).abs()))
             .map_or(0, |(k, _)| k);
-        &self.levels[k].image
+        let level = &self.levels[k];
+        (&level.image, level.origin)
     }
 
     /// Number of levels.
@@ -262,8 +323,11 @@ pub struct PatternLikelihood<'a> {
     model: &'a PatternModel,
     space: &'a ScaleSpace,
     /// The model points in the order they are visited: interleaved along the
-    /// contours, so that any first few of them spread over the whole pattern.
-    points: Vec<PointGeometry>,
+    /// contours, so that any first few of them spread over the whole pattern (shared:
+    /// computed once per model, see [`PointTable`]).
+    table: PointTable,
+    /// How many of them are weighed ([`Self::with_points`]).
+    count: usize,
     early_exit: Option<EarlyExit>,
 }
 
@@ -364,9 +428,19 @@ pub fn place(state: &SVector<f64, 4>, offset: [f64; 2], phi: f64) -> ([f64; 2], 
     ([x, y], phi - state[2])
 }
 
-impl<'a> PatternLikelihood<'a> {
-    /// The observation model of `model` in the frame whose scale space is `space`.
-    pub fn new(model: &'a PatternModel, space: &'a ScaleSpace) -> Self {
+/// What a [`PatternLikelihood`] needs of each model point besides its vector, in the
+/// order the points are visited: computed once per model (a tracker keeps it from
+/// frame to frame) and shared without copying.
+#[derive(Debug, Clone)]
+pub(crate) struct PointTable {
+    points: Arc<[PointGeometry]>,
+    /// The largest distance of a point from the centre (pixels at scale 1).
+    radius: f64,
+}
+
+impl PointTable {
+    /// The table of `model`.
+    pub(crate) fn new(model: &PatternModel) -> Self {
         let config = &model.config;
         let points = interleaved(model.points.len())
             .map(|j| {
@@ -389,19 +463,47 @@ impl<'a> PatternLikelihood<'a> {
                     inverse_width: 1.0 / width.max(f64::MIN_POSITIVE),
                 }
             })
-            .collect();
+            .collect::<Arc<[PointGeometry]>>();
+        let radius = points
+            .iter()
+            .map(|g| g.offset[0].hypot(g.offset[1]))
+            .fold(0.0, f64::max);
+        Self { points, radius }
+    }
+}
+
+impl<'a> PatternLikelihood<'a> {
+    /// The observation model of `model` in the frame whose scale space is `space`.
+    pub fn new(model: &'a PatternModel, space: &'a ScaleSpace) -> Self {
+        Self::with_table(model, space, &PointTable::new(model))
+    }
+
+    /// [`Self::new`] with the point table of `model` computed before ([`PointTable::new`]
+    /// of the same model, which the crate's callers keep with it): nothing is
+    /// computed or allocated.
+    pub(crate) fn with_table(
+        model: &'a PatternModel,
+        space: &'a ScaleSpace,
+        table: &PointTable,
+    ) -> Self {
         Self {
             model,
             space,
-            points,
+            table: table.clone(),
+            count: table.points.len(),
             early_exit: None,
         }
+    }
+
+    /// The points weighed, in their visiting order.
+    fn points(&self) -> &[PointGeometry] {
+        &self.table.points[..self.count]
     }
 
     /// The indices of the model points in the order they are visited (interleaved
     /// along the contours).
     pub fn visiting_order(&self) -> impl Iterator<Item = usize> + '_ {
-        self.points.iter().map(|g| g.index)
+        self.points().iter().map(|g| g.index)
     }
 
     /// The same observation model on the first `count` model points of its visiting
@@ -409,7 +511,7 @@ impl<'a> PatternLikelihood<'a> {
     /// pattern): a cheaper, coarser likelihood.
     pub fn with_points(&self, count: usize) -> Self {
         let mut out = self.clone();
-        out.points.truncate(count.max(1));
+        out.count = count.max(1).min(self.count);
         out
     }
 
@@ -482,7 +584,7 @@ impl<'a> PatternLikelihood<'a> {
         floor: f64,
         stop: Stop,
     ) -> Observation {
-        let n = self.points.len();
+        let n = self.points().len();
         if self.space.is_empty()
             || n == 0
             || !state.iter().all(|v| v.is_finite())
@@ -539,6 +641,26 @@ impl<'a> PatternLikelihood<'a> {
         }
     }
 
+    /// Whether every profile of a state at `centre` (level pixels) and `scale`, with
+    /// `n` samples `step` apart, lies within the bounds of
+    /// [`GrayImage::sample_line_interior`] in `image`: points lie within `scale *
+    /// radius` of the centre and profiles reach half their length from them (plus a
+    /// millipixel for the rounding of the positions), checked once per state instead
+    /// of once per point.
+    fn inside(&self, image: &GrayImage, centre: [f64; 2], scale: f64, step: f64, n: usize) -> bool {
+        use rperc_core::image::INTERIOR_MARGIN;
+        let reach = scale * self.table.radius + 0.5 * (n as f64 - 1.0) * step.abs() + 1e-3;
+        let (w, h) = (image.width as f64, image.height as f64);
+        let huge = 1usize << 36;
+        centre[0] - reach >= INTERIOR_MARGIN
+            && centre[1] - reach >= INTERIOR_MARGIN
+            && centre[0] + reach <= w - 1.0 - INTERIOR_MARGIN
+            && centre[1] + reach <= h - 1.0 - INTERIOR_MARGIN
+            && (1..=1024).contains(&n)
+            && (2..=huge).contains(&image.width)
+            && (2..=huge).contains(&image.height)
+    }
+
     /// The squared deviation `lambda^2` of every model point for `state` into
     /// `scratch.deviations`
     /// (infinite when the observed vector leaves the frame), in the order of
@@ -562,20 +684,20 @@ impl<'a> PatternLikelihood<'a> {
         let model = config.deviation;
         let inv = 1.0 / (2.0 * config.sigma * config.sigma);
         let mut cost = 0.0;
-        let image = self.space.level(state[3]);
-        let origin = self.space.origin();
+        let (image, origin) = self.space.level_at(state[3]);
         let (sin, cos) = state[2].sin_cos();
         let scale = state[3];
         let centre = [state[0] - origin[0], state[1] - origin[1]];
         let step = config.delta * scale;
         let ns = config.n_samples;
+        let interior = self.inside(image, centre, scale, step, ns);
         scratch.observed.resize(BATCH * ns, 0.0);
         scratch.deviations.clear();
-        let n = self.points.len();
+        let n = self.points().len();
         // A batch of points is sampled, then correlated, then turned into deviations:
         // the square roots and divisions of a batch overlap instead of each waiting for
         // its own point's samples.
-        for (b, batch) in self.points.chunks(BATCH).enumerate() {
+        for (b, batch) in self.points().chunks(BATCH).enumerate() {
             let mut inside = [false; BATCH];
             let buffers = scratch.observed.chunks_exact_mut(ns);
             for ((geometry, ok), out) in batch.iter().zip(&mut inside).zip(buffers) {
@@ -586,7 +708,13 @@ impl<'a> PatternLikelihood<'a> {
                 ];
                 let [u, v] = geometry.direction;
                 let direction = [cos * u + sin * v, -sin * u + cos * v];
-                *ok = sample_along(image, p, direction, step, out);
+                *ok = if interior {
+                    // As `sample_along`, without its checks.
+                    let (start, delta) = segment(p, direction, step, out.len());
+                    image.sample_line_interior(start, delta, out)
+                } else {
+                    sample_along(image, p, direction, step, out)
+                };
             }
             let mut products = [(0.0f32, 0.0f32); BATCH];
             let buffers = scratch.observed.chunks_exact(ns);

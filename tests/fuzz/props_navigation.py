@@ -98,7 +98,7 @@ def _world() -> CeilingWorld:
 
 LOCALISER = ("pixel_sigma", "rotation_pixel_sigma", "min_rotation_lever", "gate_probability",
              "max_refused_frames", "odometry_sigma", "guess_sigma", "search_sigmas",
-             "settle_frames")  # fmt: skip
+             "settle_frames", "odometry_scale_sigma")  # fmt: skip
 LEARN_NAMES = ("start", "commands", "dt", "seed", "config", "localiser", "mosaic",
                *LOCALISER)  # fmt: skip
 

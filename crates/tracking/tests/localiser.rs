@@ -437,3 +437,103 @@ fn a_rigid_stored_mosaic_is_never_corrected_and_stays_honest() {
         "mean NEES {mean} outside [{lo}, {hi}]"
     );
 }
+
+/// The prediction's Jacobian with respect to the odometry's scale errors, against
+/// central finite differences: with no per-step noise and a pose known exactly, the
+/// predicted pose covariance is `J Sigma_k J^T` alone, and its cross-covariance with
+/// the scales is `J Sigma_k`.
+#[test]
+fn prediction_through_the_scales_matches_finite_differences() {
+    let p = LocaliserParams {
+        odometry_sigma: [0.0; 4],
+        ..LocaliserParams::default()
+    };
+    let start = Pose2::new(0.4, -0.3, 0.9);
+    let motion = Pose2::new(0.05, 0.01, 0.04);
+    let sigma = [0.05, 0.03];
+    let mut filter = PoseFilter::new(start, Matrix3::zeros());
+    filter.set_odometry_scale_sigma(sigma);
+    filter.predict(&motion, &p, 1.0);
+    let moved = |k_d: f64, k_t: f64| {
+        start.compose(&Pose2::new(
+            motion.x * (1.0 + k_d),
+            motion.y * (1.0 + k_d),
+            motion.theta * (1.0 + k_t),
+        ))
+    };
+    let eps = 1e-6;
+    let mut j = nalgebra::Matrix3x2::zeros();
+    for (c, (a, b)) in [
+        (moved(eps, 0.0), moved(-eps, 0.0)),
+        (moved(0.0, eps), moved(0.0, -eps)),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let d = Vector3::new(a.x - b.x, a.y - b.y, wrap_angle(a.theta - b.theta)) / (2.0 * eps);
+        j.set_column(c, &d);
+    }
+    let prior = nalgebra::Matrix2::new(sigma[0].powi(2), 0.0, 0.0, sigma[1].powi(2));
+    let expected = j * prior * j.transpose();
+    assert!((filter.pose_covariance() - expected).amax() < 1e-12);
+    assert!((filter.pose().to_vector() - moved(0.0, 0.0).to_vector()).amax() < 1e-15);
+    let (scales, cov) = filter.odometry_scales();
+    assert_eq!(scales, [0.0, 0.0]);
+    assert!((cov - prior).amax() < 1e-18);
+}
+
+/// A run along an arc whose odometry reads every step scaled by a constant drawn
+/// from the filter's prior (an uncalibrated wheel odometry, here with no per-step
+/// noise at all) and corrected by one model of no rotation lever every 10 frames:
+/// the final NEES, with the scales estimated (`with_scales`) or left out.
+fn scaled_odometry_run(seed: u64, with_scales: bool) -> f64 {
+    let mut rng = stream(seed, 3);
+    let p = LocaliserParams {
+        odometry_scale_sigma: [0.05, 0.05],
+        ..LocaliserParams::default()
+    };
+    let [s_d, s_t] = p.odometry_scale_sigma;
+    let (k_d, k_t) = (s_d * normal(&mut rng), s_t * normal(&mut rng));
+    let mut truth = Pose2::new(0.0, 0.0, 0.1);
+    let mut filter = PoseFilter::new(truth, Matrix3::from_diagonal_element(1e-10));
+    if with_scales {
+        filter.set_odometry_scale_sigma(p.odometry_scale_sigma);
+    }
+    let step = Pose2::new(0.03, 0.0, 0.02);
+    // The odometry reads the true step divided by (1 + k): the robot moved 1 + k
+    // times the reading.
+    let read = Pose2::new(step.x / (1.0 + k_d), 0.0, step.theta / (1.0 + k_t));
+    for k in 1..=60 {
+        truth = truth.compose(&step);
+        filter.predict(&odometry(&read, &p, &mut rng), &p, 1.0);
+        if k % 10 == 0 {
+            let mut s = sighting(k % 4, &truth, &pose(MODELS[k % 4]), &p, &mut rng);
+            s.rotation_sigma = 1.0;
+            s.state[2] = observe(&SCALE, &truth, &pose(MODELS[k % 4])).0[2];
+            assert!(filter.update(&SCALE, &s, p.pixel_sigma));
+        }
+    }
+    nees(error(&filter.pose(), &truth), &filter.pose_covariance())
+}
+
+#[test]
+fn a_scaled_odometry_is_honest_only_with_the_scale_states() {
+    let runs = 200;
+    let mean = |with: bool| {
+        (0..runs as u64)
+            .map(|s| scaled_odometry_run(s, with))
+            .sum::<f64>()
+            / runs as f64
+    };
+    let (lo, hi) = nees_band(3, runs, 0.99).unwrap();
+    let with = mean(true);
+    assert!(
+        lo <= with && with <= hi,
+        "with the scales: mean NEES {with} outside [{lo}, {hi}]"
+    );
+    let without = mean(false);
+    assert!(
+        without > hi,
+        "without them the filter should be overconfident: {without}"
+    );
+}

@@ -252,7 +252,7 @@ impl MosaicBuilder {
         let mut this = Self::new(camera, params, seed)?;
         this.models = models;
         this.mapping = false;
-        this.filter = Some(PoseFilter::new(guess, this.guess_covariance()));
+        this.filter = Some(this.fresh_filter(guess, this.guess_covariance()));
         Ok(this)
     }
 
@@ -268,6 +268,7 @@ impl MosaicBuilder {
         let mut rigid =
             PoseFilter::with_map(filter.pose(), filter.pose_covariance(), &models, covariance);
         rigid.set_rigid_map(self.params.localiser.rigid_map);
+        rigid.set_odometry_scale_sigma(self.params.localiser.odometry_scale_sigma);
         self.filter = Some(rigid);
     }
 
@@ -632,8 +633,16 @@ impl MosaicBuilder {
         let covariance = self.guess_covariance();
         match self.filter.as_mut() {
             Some(f) => f.reset_robot(pose, covariance),
-            None => self.filter = Some(PoseFilter::new(pose, covariance)),
+            None => self.filter = Some(self.fresh_filter(pose, covariance)),
         }
+    }
+
+    /// A filter holding the robot alone at `N(pose, covariance)`, with the
+    /// odometry's scale errors at their prior.
+    fn fresh_filter(&self, pose: Pose2, covariance: nalgebra::Matrix3<f64>) -> PoseFilter {
+        let mut filter = PoseFilter::new(pose, covariance);
+        filter.set_odometry_scale_sigma(self.params.localiser.odometry_scale_sigma);
+        filter
     }
 
     /// The covariance of a starting guess, in mosaic units.
@@ -900,7 +909,7 @@ impl MosaicBuilder {
                 // M T_0 = I: the robot is where model 0 sees it, exactly (the
                 // mosaic frame is defined by this view of model 0).
                 let exact = nalgebra::Matrix3::from_diagonal_element(1e-12);
-                self.filter = Some(PoseFilter::new(c_t_i.inverse(), exact));
+                self.filter = Some(self.fresh_filter(c_t_i.inverse(), exact));
                 Pose2::identity()
             }
         };

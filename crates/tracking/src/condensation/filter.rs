@@ -6,7 +6,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 
-use super::mixture::{Guess, log_importance};
+use super::mixture::{Guess, log_importance, merge_copies};
 use super::resample::{Resampler, ess_normalized};
 use crate::error::{Result, TrackingError};
 
@@ -183,6 +183,10 @@ pub struct ParticleFilter<const D: usize> {
     recovery_chol: SMatrix<f64, D, D>,
     params: FilterParams,
     rng: ChaCha8Rng,
+    /// ICONDENSATION's work space: distinct parents with their log-weights, and the
+    /// importance correction.
+    parents: Vec<(SVector<f64, D>, f64)>,
+    correction: Vec<f64>,
     mean: SVector<f64, D>,
     ess: f64,
     lost: bool,
@@ -246,6 +250,8 @@ impl<const D: usize> ParticleFilter<D> {
             recovery_chol,
             params,
             rng: rperc_core::rng::seeded(seed),
+            parents: Vec::new(),
+            correction: Vec::new(),
             mean,
             ess: n as f64,
             lost: false,
@@ -349,17 +355,17 @@ impl<const D: usize> ParticleFilter<D> {
         guesses: &[Guess<D>],
     ) -> StepReport {
         let resampled = self.resample_if_needed();
-        let parents = self.particles.clone();
-        let parent_log_weights = self.log_weights.clone();
+        // A resampled set holds each ancestor's copies side by side: one Gaussian term
+        // of pi per distinct parent, its copies' weights summed.
+        let mut parents = std::mem::take(&mut self.parents);
+        merge_copies(&self.particles, &self.log_weights, &mut parents);
         self.propagate();
         self.draw_guesses(guesses);
-        let mut correction = Vec::new();
-        let (particles, dynamics) = (&self.particles, &self.dynamics);
+        let mut correction = std::mem::take(&mut self.correction);
         if log_importance(
-            particles,
+            &self.particles,
             &parents,
-            &parent_log_weights,
-            dynamics,
+            &self.dynamics,
             guesses,
             &mut correction,
         )
@@ -369,6 +375,7 @@ impl<const D: usize> ParticleFilter<D> {
             // parents' weights).
             self.log_weights.copy_from_slice(&correction);
         }
+        (self.parents, self.correction) = (parents, correction);
         self.correct_with_scratch(likelihood, scratch, resampled)
     }
 

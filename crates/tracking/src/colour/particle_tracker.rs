@@ -87,8 +87,10 @@ struct HistogramLikelihood<'a> {
 }
 
 /// Histogram intersection eq. (28) of the ellipse `(cx, cy, a, b)` with `model`
-/// (normalised), computed in one pass: each pixel adds `clamp(n m_i - c_i, 0, 1)`, where
-/// `n` is the ellipse's pixel count. A second pass clears `counts`.
+/// (normalised): `sum_i min(n m_i, c_i) / n`, `c_i` the ellipse's count in bin `i` and
+/// `n` its pixel count (pixels outside the frame count in `n`, not in `c`). One pass
+/// over the pixels counts; the sum then runs over the bins, clearing `counts` (or, when
+/// the ellipse has fewer pixels than there are bins, over its pixels again).
 fn intersection(
     image: &BinImage,
     model: &[f32],
@@ -101,33 +103,40 @@ fn intersection(
     let (icx, icy) = (pixel_centre(cx), pixel_centre(cy));
     let ry = vertical_radius(b);
     let (ae, be) = ((a - 0.5).max(0.0), b.max(0.5));
-    let n: i64 = (-ry..=ry)
-        .map(|dy| 2 * i64::from(half_width(ae, be, dy)) + 1)
-        .sum();
+    let (width, height) = (image.width as i32, image.height as i32);
+    // The part of row `dy` inside the frame, if any.
+    let span = |dy: i32, h: i32| {
+        let y = icy + dy;
+        let (x0, x1) = ((icx - h).max(0), (icx + h).min(width - 1));
+        (y >= 0 && y < height && x0 <= x1).then(|| {
+            let row = y as usize * image.width;
+            &image.bins[row + x0 as usize..=row + x1 as usize]
+        })
+    };
+    let mut n = 0i64;
+    for dy in -ry..=ry {
+        let h = half_width(ae, be, dy);
+        n += 2 * i64::from(h) + 1;
+        for &bin in span(dy, h).unwrap_or_default() {
+            counts[bin as usize] += 1;
+        }
+    }
     let n = n as f32;
     let mut inter = 0.0f64;
-    for pass in 0..2 {
+    let mut take = |c: &mut u32, m: f32| {
+        if *c > 0 {
+            inter += f64::from((m * n).min(*c as f32));
+            *c = 0;
+        }
+    };
+    if (model.len() as f32) <= n {
+        for (c, &m) in counts.iter_mut().zip(model) {
+            take(c, m);
+        }
+    } else {
         for dy in -ry..=ry {
-            let y = icy + dy;
-            if y < 0 || y as usize >= image.height {
-                continue;
-            }
-            let h = half_width(ae, be, dy);
-            let x0 = (icx - h).max(0);
-            let x1 = (icx + h).min(image.width as i32 - 1);
-            if x0 > x1 {
-                continue;
-            }
-            let row = y as usize * image.width;
-            for &bin in &image.bins[row + x0 as usize..=row + x1 as usize] {
-                let bin = bin as usize;
-                if pass == 0 {
-                    let c = counts[bin] as f32;
-                    inter += f64::from((model[bin] * n - c).clamp(0.0, 1.0));
-                    counts[bin] += 1;
-                } else {
-                    counts[bin] = 0;
-                }
+            for &bin in span(dy, half_width(ae, be, dy)).unwrap_or_default() {
+                take(&mut counts[bin as usize], model[bin as usize]);
             }
         }
     }
@@ -534,5 +543,71 @@ impl ParticleColorTracker {
     /// The parameters.
     pub fn params(&self) -> &ParticleTrackerParams {
         &self.params
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Eq. (28) by brute force: every pixel of the frame tested against the ellipse's
+    /// rows, the histogram counted, and `sum_i min(m_i, c_i / n)` with `n` the
+    /// ellipse's pixel count, those outside the frame included.
+    fn brute_force(image: &BinImage, model: &[f32], cx: f64, cy: f64, a: f64, b: f64) -> f64 {
+        let (icx, icy) = (pixel_centre(cx), pixel_centre(cy));
+        let ry = vertical_radius(b);
+        let (ae, be) = ((a - 0.5).max(0.0), b.max(0.5));
+        let n: i64 = (-ry..=ry)
+            .map(|dy| 2 * i64::from(half_width(ae, be, dy)) + 1)
+            .sum();
+        let mut hist = vec![0u32; model.len()];
+        for y in 0..image.height as i32 {
+            for x in 0..image.width as i32 {
+                let dy = y - icy;
+                if dy.abs() <= ry && (x - icx).abs() <= half_width(ae, be, dy) {
+                    hist[image.bins[y as usize * image.width + x as usize] as usize] += 1;
+                }
+            }
+        }
+        let n = n as f64;
+        hist.iter()
+            .zip(model)
+            .map(|(&c, &m)| f64::from(m).min(f64::from(c) / n))
+            .sum()
+    }
+
+    #[test]
+    fn intersection_matches_brute_force_inside_and_across_the_border() {
+        let (width, height, n_bins) = (48usize, 36usize, 64usize);
+        let bins: Vec<u16> = (0..width * height)
+            .map(|k| ((k * 7919 + k / width * 31) % n_bins) as u16)
+            .collect();
+        let image = BinImage {
+            bins,
+            width,
+            height,
+        };
+        let raw: Vec<f32> = (0..n_bins).map(|i| ((i * 13) % 17) as f32 + 0.5).collect();
+        let total: f32 = raw.iter().sum();
+        let model: Vec<f32> = raw.iter().map(|v| v / total).collect();
+        let mut counts = vec![0u32; n_bins];
+        // Small ellipses (fewer pixels than bins) and large ones, inside the frame
+        // and reaching past each border.
+        for &(cx, cy, a, b) in &[
+            (24.0, 18.0, 3.0, 2.0),
+            (24.0, 18.0, 12.0, 9.0),
+            (2.0, 18.0, 10.0, 6.0),
+            (46.5, 1.0, 8.0, 8.0),
+            (20.3, 34.7, 5.5, 4.2),
+            (24.0, 18.0, 0.4, 0.3),
+        ] {
+            let fast = intersection(&image, &model, &mut counts, cx, cy, a, b);
+            let slow = brute_force(&image, &model, cx, cy, a, b);
+            assert!(
+                (fast - slow).abs() < 1e-5,
+                "({cx}, {cy}, {a}, {b}): {fast} vs {slow}"
+            );
+            assert!(counts.iter().all(|&c| c == 0), "counts left dirty");
+        }
     }
 }

@@ -471,6 +471,16 @@ impl ParticleColorTracker {
             self.filter
                 .step_with_scratch(&likelihood, &mut self.scratch)
         };
+        self.last = self.conclude(report.lost, previous);
+        Ok(self.last)
+    }
+
+    /// The frame's result from the filter's mean: the box, its eq. (28) score and
+    /// whether it is lost (the filter's own flag or a score under `lost_threshold`);
+    /// the colour model adapts on a confident frame, and the velocity and speed that
+    /// steer the next search follow the centre's move from `previous`.
+    fn conclude(&mut self, filter_lost: bool, previous: (f64, f64)) -> TrackResult {
+        let app = &self.params.appearance;
         let mean = self.filter.mean();
         let scale = mean[2].clamp(self.params.min_scale, self.params.max_scale);
         let (a, b) = (self.base_a * scale, self.base_b * scale);
@@ -484,7 +494,7 @@ impl ParticleColorTracker {
             a,
             b,
         );
-        let lost = report.lost || score < app.lost_threshold;
+        let lost = filter_lost || score < app.lost_threshold;
         if !lost && score > app.adaptation_threshold && app.adaptation_rate > 0.0 {
             self.ellipse.rebuild(a, b, app.upper_fraction());
             self.model.adapt(
@@ -501,12 +511,11 @@ impl ParticleColorTracker {
             (mean[0] - previous.0, mean[1] - previous.1)
         };
         self.speed += 0.5 * (self.velocity.0.hypot(self.velocity.1) - self.speed);
-        self.last = TrackResult {
+        TrackResult {
             bbox: BoundingBox::new(mean[0] - a, mean[1] - b, 2.0 * a, 2.0 * b),
             score,
             lost,
-        };
-        Ok(self.last)
+        }
     }
 
     /// Half-size of the local search's window: grown with the estimated speed.

@@ -122,6 +122,29 @@ fn an_empty_mosaic_or_memory_is_refused() {
     );
 }
 
+/// Renders frame `index` of `scene` from the true pose `truth` into `frame` and has
+/// `builder` process it with `odometry`.
+fn see(
+    scene: &Scene,
+    builder: &mut MosaicBuilder,
+    truth: &Pose2,
+    index: u64,
+    odometry: Option<Pose2>,
+    frame: &mut Vec<u8>,
+) -> tracking::memory::FrameReport {
+    render(
+        &scene.ceiling,
+        &scene.camera,
+        truth,
+        &scene.render,
+        index,
+        frame,
+    )
+    .unwrap();
+    let view = GrayView::new(frame, scene.camera.width, scene.camera.height).unwrap();
+    builder.process(view, odometry).unwrap()
+}
+
 /// The first frame after `from` whose report has `id` in `pick`'s list.
 fn first_after(
     reports: &[tracking::memory::FrameReport],
@@ -161,18 +184,16 @@ fn a_restarted_tracker_is_used_after_settle_frames_updates() {
         let mut reports = Vec::new();
         let mut frame = Vec::new();
         for (k, truth) in learnt.truth.iter().enumerate() {
-            render(
-                &scene.ceiling,
-                &scene.camera,
-                truth,
-                &scene.render,
-                100 + k as u64,
-                &mut frame,
-            )
-            .unwrap();
-            let view = GrayView::new(&frame, scene.camera.width, scene.camera.height).unwrap();
             let odometry = k.checked_sub(1).map(|j| learnt.truth[j].between(truth));
-            reports.push(localiser.process(view, odometry).unwrap());
+            let index = 100 + k as u64;
+            reports.push(see(
+                &scene,
+                &mut localiser,
+                truth,
+                index,
+                odometry,
+                &mut frame,
+            ));
         }
         let mut checked = 0;
         for (k0, r) in reports.iter().enumerate() {
@@ -304,20 +325,10 @@ fn a_lone_refused_model_does_not_move_the_mosaic() {
     let mut builder = MosaicBuilder::new(scene.camera, params.mosaic.clone(), 16).unwrap();
     let mut frame = Vec::new();
     for (k, truth) in run.truth.iter().enumerate() {
-        render(
-            &scene.ceiling,
-            &scene.camera,
-            truth,
-            &scene.render,
-            k as u64,
-            &mut frame,
-        )
-        .unwrap();
-        let view = GrayView::new(&frame, scene.camera.width, scene.camera.height).unwrap();
         let odometry = k
             .checked_sub(1)
             .map(|j| Pose2::identity().advance(run.measured[j][0], run.measured[j][1], 0.1));
-        builder.process(view, odometry).unwrap();
+        see(&scene, &mut builder, truth, k as u64, odometry, &mut frame);
     }
     let pixel = scene.camera.metres_per_pixel();
     let scale = ImageScale {

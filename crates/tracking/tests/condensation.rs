@@ -121,6 +121,43 @@ fn linear_gaussian_filter_converges_to_kalman() {
     }
 }
 
+#[test]
+fn a_shift_is_a_control_input_of_the_random_walk() {
+    // s_t = s_{t-1} + u_t + B w: a filter shifted by each u_t before its step is the
+    // unshifted filter (same seed) of the state minus the summed controls, whose
+    // likelihood is moved by them; every particle differs by that sum.
+    let dynamics = LinearGaussian::random_walk(Vector2::new(0.3, 0.2));
+    let make = || {
+        let params = FilterParams::default();
+        ParticleFilter::new(
+            300,
+            Vector2::zeros(),
+            Matrix2::identity(),
+            dynamics.clone(),
+            params,
+            9,
+        )
+        .unwrap()
+    };
+    let (mut shifted, mut plain) = (make(), make());
+    let mut total = Vector2::zeros();
+    for t in 0..6 {
+        let u = Vector2::new(1.5 - 0.4 * t as f64, 0.25 * t as f64);
+        total += u;
+        let z = total + Vector2::new(0.1, -0.2);
+        shifted.shift(&u);
+        shifted.step(&|s: &SVector<f64, 2>| -0.5 * (s - z).norm_squared());
+        plain.step(&|s: &SVector<f64, 2>| -0.5 * (s + total - z).norm_squared());
+        for (a, b) in shifted.particles().iter().zip(plain.particles()) {
+            assert!(
+                (a - b - total).norm() < 1e-9,
+                "step {t}: {a} vs {b} + {total}"
+            );
+        }
+        assert!((shifted.mean() - plain.mean() - total).norm() < 1e-9);
+    }
+}
+
 // ---------------------------------------------------------------- determinism
 
 fn run_filter(threads: usize, parallel: bool) -> (Vec<SVector<f64, 3>>, Vec<f64>, Vec<StepReport>) {

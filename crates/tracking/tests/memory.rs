@@ -93,6 +93,37 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    /// The image motion an odometry step predicts for a tracked model (the control
+    /// that carries its tracker) is where the camera shows the model after the step.
+    #[test]
+    fn a_moved_state_is_where_the_camera_sees_the_model_after_the_step(
+        r0 in prop::array::uniform3(-5.0f64..5.0),
+        step in prop::array::uniform3(-0.3f64..0.3),
+        offset in prop::array::uniform2(-0.8f64..0.8),
+        turn in -3.0f64..3.0,
+        metric in any::<bool>(),
+    ) {
+        let camera = CeilingCamera::default();
+        let s = scale(&camera, metric);
+        let unit = if metric { 1.0 } else { camera.metres_per_pixel() };
+        let before = Pose2::new(r0[0], r0[1], r0[2]);
+        let motion = Pose2::new(step[0], step[1], step[2]);
+        let after = before.compose(&motion);
+        let origin = before.transform_point(&nalgebra::Point2::new(offset[0], offset[1]));
+        let model = Pose2::new(origin.x, origin.y, before.theta + turn);
+        let in_units = Pose2::new(motion.x / unit, motion.y / unit, motion.theta);
+        let moved = s.moved_state(state(&camera, &before, &model), &in_units);
+        let seen = state(&camera, &after, &model);
+        for k in 0..3 {
+            let d = if k == 2 { rperc_core::angle_diff(moved[k], seen[k]) } else { moved[k] - seen[k] };
+            prop_assert!(d.abs() < 1e-6, "state {k}: {moved:?} vs {seen:?}");
+        }
+    }
+}
+
 #[test]
 fn fusion_is_a_weighted_mean_with_a_circular_heading() {
     let a = Pose2::new(1.0, 2.0, 3.1);

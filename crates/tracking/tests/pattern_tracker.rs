@@ -372,3 +372,66 @@ fn a_frame_of_another_size_is_an_error() {
     // The tracker is unchanged and still usable.
     assert!(tracker.update(gray(&first)).is_ok());
 }
+
+/// RMS errors (position px, angle deg) of a narrow tracker on a patch that turns
+/// 6 degrees and moves 8 px a frame, far beyond its random walk; `control` shifts
+/// the tracker by each step's true motion before the frame, as a robot's odometry
+/// does in the visual memory.
+fn track_steady_turn(control: bool) -> [f64; 2] {
+    let p = patch();
+    let first = render(&p, initial_state(), 2.0, 100);
+    let params = PatternTrackerParams {
+        sigma: [1.0, 1.0, 0.5f64.to_radians(), 0.01],
+        ..PatternTrackerParams::default()
+    };
+    let mut tracker = PatternTracker::new(gray(&first), region(), params, 5).unwrap();
+    let step = [8.0, -3.0, 6f64.to_radians(), 0.0];
+    let (mut state, mut sq) = (initial_state(), [0.0; 2]);
+    let n = 8;
+    for k in 0..n {
+        state = std::array::from_fn(|d| state[d] + step[d]);
+        if control {
+            tracker.shift(step);
+        }
+        let frame = render(&p, state, 2.0, 400 + k as u64);
+        let e = tracker.update(gray(&frame)).unwrap().state;
+        sq[0] += (e[0] - state[0]).powi(2) + (e[1] - state[1]).powi(2);
+        sq[1] += (e[2] - state[2]).to_degrees().powi(2);
+    }
+    sq.map(|s| (s / n as f64).sqrt())
+}
+
+#[test]
+fn a_known_control_carries_the_tracker_through_steps_beyond_its_random_walk() {
+    let [pos, ang] = track_steady_turn(true);
+    let [pos0, ang0] = track_steady_turn(false);
+    println!("shifted: {pos:.3} px {ang:.3} deg; random walk alone: {pos0:.3} px {ang0:.3} deg");
+    assert!(
+        pos < 1.0 && ang < 1.0,
+        "with the control: {pos} px, {ang} deg"
+    );
+    // Without it the narrow walk cannot keep up: the reason the control exists.
+    assert!(pos0 > 3.0 * pos.max(0.3), "without the control: {pos0} px");
+}
+
+#[test]
+fn a_shift_moves_the_last_pose_and_its_corners_by_the_control() {
+    let first = render(&patch(), initial_state(), 2.0, 100);
+    let mut tracker =
+        PatternTracker::new(gray(&first), region(), PatternTrackerParams::default(), 1).unwrap();
+    let before = tracker.last();
+    let mean_before = tracker.filter().mean();
+    let delta = [3.0, -2.0, 0.1, 0.05];
+    tracker.shift(delta);
+    let after = tracker.last();
+    let moved: [f64; 4] = std::array::from_fn(|d| before.state[d] + delta[d]);
+    assert_eq!(after.state, moved);
+    assert_eq!(
+        after.corners,
+        tracking::pattern::corners_of(tracker.model(), moved)
+    );
+    let mean = tracker.filter().mean();
+    for d in 0..4 {
+        assert!((mean[d] - mean_before[d] - delta[d]).abs() < 1e-12);
+    }
+}

@@ -537,6 +537,17 @@ impl<const D: usize> ParticleFilter<D> {
             .fold(SVector::zeros(), |acc, (p, &w)| acc + p * w)
     }
 
+    /// Moves every particle, and the estimate, by `delta`: a known control input, the
+    /// deterministic part of the motion (`s = A s' + u + B w`), as when an odometry
+    /// tells how far the target moved in the image since the last frame. Weights,
+    /// spread and random stream are unchanged.
+    pub fn shift(&mut self, delta: &SVector<f64, D>) {
+        for p in &mut self.particles {
+            *p += delta;
+        }
+        self.mean += delta;
+    }
+
     /// Weighted mean of the particles: the state estimate.
     pub fn mean(&self) -> SVector<f64, D> {
         self.mean

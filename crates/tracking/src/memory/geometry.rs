@@ -46,6 +46,19 @@ impl ImageScale {
         )
     }
 
+    /// The tracker state at which a model seen at `state` is seen again after the
+    /// robot moved by `motion` (robot frame, mosaic units): `C T_i' = motion^-1 C T_i`
+    /// in image coordinates, the scale unchanged.
+    pub fn moved_state(&self, state: [f64; 4], motion: &Pose2) -> [f64; 4] {
+        let c_t_i = motion.inverse().compose(&self.camera_to_model(state));
+        [
+            self.principal[0] + c_t_i.x / self.metres_per_pixel,
+            self.principal[1] + c_t_i.y / self.metres_per_pixel,
+            state[2] + motion.theta,
+            state[3],
+        ]
+    }
+
     /// The tracker state `(x, y, theta, 1)` at which a model at `model_in_mosaic` is
     /// seen from a robot at `robot_in_mosaic`: the inverse of eq. 2, used to restart
     /// the tracker of a model that comes back into view.

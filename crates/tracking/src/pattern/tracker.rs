@@ -590,6 +590,19 @@ impl PatternTracker {
         if s.is_finite() { s } else { 0.0 }
     }
 
+    /// Moves the whole state, the particles and the last answer, by `delta` `(dx, dy,
+    /// dtheta, ds)`: the image motion of the pattern that a known control (say, the
+    /// robot's odometry) predicts before the next frame. The random walk of `sigma`
+    /// then covers only the control's error, not the whole motion: a pattern turning
+    /// with the robot no longer lags behind it.
+    pub fn shift(&mut self, delta: [f64; 4]) {
+        let delta = SVector::from(delta);
+        self.filter.shift(&delta);
+        let state = SVector::from(self.last.state) + delta;
+        self.last.state = state.into();
+        self.last.corners = corners(&self.model, &state);
+    }
+
     /// The last answer (the initial pose, score 1, before the first update).
     pub fn last(&self) -> PatternPose {
         self.last

@@ -8,6 +8,10 @@ written out in numpy, for the plain variant (no anchor, no freezing), term for t
   ``rho_r = rho - (x - o_x) cos a - (y - o_y) sin a``, ``alpha_r = alpha - theta``,
   written with ``rho_r >= 0`` (``crates/slam/src/wall.rs``), the innovation compared
   with the line's other form when the angles are more than pi/2 apart;
+- with ``segment`` (the engine's default ``wall_innovation="segment"``): the
+  innovation's first row is the signed distance, along the predicted normal, of the
+  seen segment's middle (on the detected line) from the predicted line, its Jacobian
+  and noise those of the offset at that point;
 - a detection whose angle sd exceeds ``max_angle_sd`` is not used;
 - pairing: segment overlap on the wall's line (gap <= ``overlap_gap``) and the
   Mahalanobis gate; each detection takes its nearest wall; a detection with no wall
@@ -55,6 +59,24 @@ def wall_to_world(pose: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return np.array([rho, wrap(alpha)]), g_r, g_z
 
 
+def at_segment(
+    z: np.ndarray, r: np.ndarray, pred: np.ndarray, h: np.ndarray, seg: list[np.ndarray]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The innovation, Jacobian and noise of detection ``z`` (noise ``r``, seen end
+    points ``seg``) against ``pred`` (same form, Jacobian rows ``h``) at the middle
+    of the seen segment."""
+    n_seen = np.array([math.cos(z[1]), math.sin(z[1])])
+    mid = 0.5 * (np.asarray(seg[0]) + np.asarray(seg[1]))
+    m = mid - n_seen * (n_seen @ mid - z[0])  # on the detected line
+    n_pred = np.array([math.cos(pred[1]), math.sin(pred[1])])
+    t_pred = np.array([-n_pred[1], n_pred[0]]) @ m
+    t_seen = np.array([-n_seen[1], n_seen[0]]) @ m
+    nu = np.array([n_pred @ m - pred[0], wrap(z[1] - pred[1])])
+    h = np.vstack([h[0] - t_pred * h[1], h[1]])
+    j = np.array([[1.0, -t_seen], [0.0, 1.0]])
+    return nu, h, j @ r @ j.T
+
+
 def shifted(pose: np.ndarray, origin: np.ndarray) -> np.ndarray:
     """The pose seen from a wall's reference point."""
     return np.array([pose[0] - origin[0], pose[1] - origin[1], pose[2]])
@@ -98,6 +120,7 @@ class WallEkfSlam:
     overlap_gap: float = 0.5
     max_angle_sd: float = math.radians(2.0)
     first_estimates: bool = False
+    segment: bool = False
     x: np.ndarray = field(init=False)
     P: np.ndarray = field(init=False)
     extents: list[list[np.ndarray]] = field(init=False, default_factory=list)
@@ -123,8 +146,8 @@ class WallEkfSlam:
         self.P[:3, :3] += fv @ self.control_noise @ fv.T
 
     def _pairing(
-        self, j: int, z: np.ndarray, r: np.ndarray
-    ) -> tuple[float, np.ndarray, np.ndarray]:
+        self, j: int, z: np.ndarray, r: np.ndarray, seg: list[np.ndarray]
+    ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
         o = 3 + 2 * j
         pose = shifted(self.x[:3], self.origins[j])
         pred, h_r, h_l = observe_wall(pose, self.x[o : o + 2])
@@ -139,10 +162,13 @@ class WallEkfSlam:
         else:
             nu = np.array([z[0] + pred[0], wrap(z[1] - pred[1] - math.pi)])
             h_r[0], h_l[0] = -h_r[0], -h_l[0]
+            pred = np.array([-pred[0], pred[1] + math.pi])
         h = np.hstack([h_r, h_l])
+        if self.segment:
+            nu, h, r = at_segment(z, r, pred, h, seg)
         idx = [0, 1, 2, o, o + 1]
         s = h @ self.P[np.ix_(idx, idx)] @ h.T + r
-        return float(nu @ np.linalg.solve(s, nu)), nu, h
+        return float(nu @ np.linalg.solve(s, nu)), nu, h, r
 
     def scan(self, walls: np.ndarray) -> None:
         """One scan's rows ``(t, rho, alpha, var_rho, cov, var_alpha, x0, y0, x1, y1)``."""
@@ -160,15 +186,15 @@ class WallEkfSlam:
             for j, ext in enumerate(self.extents):
                 o = 3 + 2 * j
                 if gap(in_frame(self.x[o : o + 2], self.origins[j]), ext, ends) <= self.overlap_gap:
-                    nis, nu, h = self._pairing(j, z, r)
+                    nis, nu, h, r_used = self._pairing(j, z, r, seg)
                     if nis <= self.new_d2:
-                        opts.append((nis, j, nu, h))
+                        opts.append((nis, j, nu, h, r_used))
             near.append(bool(opts))
             opts = sorted((p for p in opts if p[0] <= self.gate_d2), key=lambda p: p[0])
             best.append(opts[0] if opts else None)
         paired = [(i, b) for i, b in enumerate(best) if b is not None]
         if paired:
-            self._update([(b[1], b[2], b[3], rs[i]) for i, b in paired])
+            self._update([(b[1], b[2], b[3], b[4]) for _, b in paired])
             for i, b in paired:
                 j = b[1]
                 o = 3 + 2 * j

@@ -12,7 +12,7 @@ the filter's own. Prints the robot NEES (3 dof; 3 when consistent) and ATE over 
 for each jamb length and each place of the world origin:
 
     python benchmarks/wall_corridor.py --jambs 0.4 0.8 1.2 0 --offsets 0 60 \\
-        --max-angle-sd 100 2
+        --max-angle-sd 100 2 [--wall-innovation line segment]
 """
 
 from __future__ import annotations
@@ -115,6 +115,7 @@ def run(seed: int, jamb: float, offset: float, args: argparse.Namespace) -> dict
         "initial_pose": ref[0].tolist(),
         "wall_max_angle_sd": math.radians(args.max_angle_sd_now),
         "first_estimates": args.first_estimates,
+        "wall_innovation": args.wall_innovation_now,
     }
     if args.bias_states:
         config["control_bias_sd"] = [ws.SPEED_BIAS, ws.TURN_BIAS]
@@ -137,15 +138,21 @@ def main() -> None:
     ap.add_argument("--association", choices=("nn", "jcbb"), default="nn")
     ap.add_argument("--first-estimates", action="store_true", help="FEJ linearisation")
     ap.add_argument("--bias-states", action="store_true", help="odometry biases as states")
+    ap.add_argument(
+        "--wall-innovation", nargs="+", choices=("line", "segment"), default=["segment"],
+        help="where a sighting is compared with its wall (PlanarSlam's wall_innovation)",
+    )  # fmt: skip
     args = ap.parse_args()
-    for limit in args.max_angle_sd:
+    for form, limit in itertools.product(args.wall_innovation, args.max_angle_sd):
+        args.wall_innovation_now = form
         args.max_angle_sd_now = limit
         for offset in args.offsets:
             for jamb in args.jambs:
                 runs = [run(s, jamb, offset, args) for s in range(args.seeds)]
                 m = {k: float(np.mean([r[k] for r in runs])) for k in runs[0]}
                 print(
-                    f"max angle sd {limit:g} deg, origin {offset:g} m, jambs {jamb:g} m: "
+                    f"{form}: max angle sd {limit:g} deg, origin {offset:g} m, "
+                    f"jambs {jamb:g} m: "
                     f"robot NEES mean {m['nees_mean']:.1f} (3 expected), median "
                     f"{m['nees_median']:.1f}, in band {100 * m['nees_in_band']:.0f} %, "
                     f"ATE {m['ate_rmse']:.3f} m",

@@ -60,10 +60,8 @@ def bench(path: Path) -> list[str]:
         lambda: _rperc.planar_slam_run(controls, empty, None, None, config, walls)
     )
     v = np.diag([SPEED_SIGMA**2, TURN_SIGMA**2])
-    t_numpy, est_np = seconds(
-        lambda: run_reference(controls, walls, WallEkfSlam(ref[0], v, first_estimates=True)),
-        repeat=1,
-    )
+    peer = WallEkfSlam(ref[0], v, first_estimates=True, segment=True)
+    t_numpy, est_np = seconds(lambda: run_reference(controls, walls, peer), repeat=1)
     rows = out["pose"][out["kind"] == 3]  # type: ignore[index]
     diff = float(np.max(np.abs(rows - est_np))) if rows.shape == est_np.shape else float("nan")
     n = len(ref)

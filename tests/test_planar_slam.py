@@ -321,10 +321,12 @@ def _room_recording(seed: int = 0, steps: int = 200) -> tuple[np.ndarray, np.nda
 WREF = _wall_reference()
 
 
+@pytest.mark.parametrize("form", ["line", "segment"])
 @pytest.mark.parametrize("first_estimates", [False, True])
-def test_wall_landmarks_match_the_numpy_reference_filter(first_estimates: bool) -> None:
+def test_wall_landmarks_match_the_numpy_reference_filter(first_estimates: bool, form: str) -> None:
     """The engine with wall landmarks (plain, nearest neighbour; linearised at the
-    current or at the first estimates) against the same filter written out in numpy
+    current or at the first estimates; the innovation at the sensor's foot or at the
+    seen segment) against the same filter written out in numpy
     (``benchmarks/reference_wall_ekf.py``): the same trajectory after every wall scan
     and the same walls, in a simulated room with two collinear walls that only
     segment overlap keeps apart."""
@@ -337,9 +339,13 @@ def test_wall_landmarks_match_the_numpy_reference_filter(first_estimates: bool) 
         "association": "nn",
         "initial_pose": [2.0, 0.0, math.pi / 2],
         "first_estimates": first_estimates,
+        "wall_innovation": form,
     }
     out = _rperc.planar_slam_run(controls, np.zeros((0, 3)), None, None, config, walls)
-    ref = WREF.WallEkfSlam(np.array([2.0, 0.0, math.pi / 2]), v, first_estimates=first_estimates)
+    ref = WREF.WallEkfSlam(
+        np.array([2.0, 0.0, math.pi / 2]), v, first_estimates=first_estimates,
+        segment=form == "segment",
+    )  # fmt: skip
     poses = WREF.run(controls, walls, ref)
     np.testing.assert_allclose(out["pose"][out["kind"] == 3], poses, atol=1e-9)
     assert len(out["wall_id"]) == len(ref.extents) == 6

@@ -27,7 +27,7 @@ pub mod sim;
 mod walls;
 
 pub use bias::SensorBias;
-pub use config::{Association, Compression, FreezeMode, PlanarConfig};
+pub use config::{Association, Compression, FreezeMode, PlanarConfig, WallInnovation};
 pub use engine::PlanarSlam;
 
 /// One range-bearing detection of a scan, in the sensor frame.

@@ -1,5 +1,6 @@
 //! Walls in the planar engine, the second landmark kind: each scan's walls are
-//! paired with the map by a Mahalanobis gate on `(rho, alpha)` plus segment overlap,
+//! paired with the map by a Mahalanobis gate plus segment overlap (the innovation
+//! taken at the seen segment or at the sensor's foot, `wall_innovation`),
 //! applied in one batch update with the observation model of [`crate::wall`], and the
 //! rest admitted with their full covariance (the inverse model, with the robot's
 //! covariance and cross-covariances). Freezing and the anchor follow the config
@@ -25,9 +26,11 @@ use rperc_core::{Definiteness, Pose2, check_covariance, chi2_gate, wrap_angle};
 
 use super::associate::{self, Pairing, Scene, Target};
 use super::engine::dyn_mat;
-use super::{Association, PlanarSlam, WallDetection, WallEstimate};
+use super::{Association, PlanarSlam, WallDetection, WallEstimate, WallInnovation};
 use crate::error::{Result, SlamError, ensure_finite};
-use crate::wall::{WallJacobians, observe_wall, wall_innovation, wall_to_world};
+use crate::wall::{
+    WallJacobians, observe_wall, segment_innovation, segment_middle, wall_innovation, wall_to_world,
+};
 
 /// A wall the filter no longer estimates (frozen, or a wall anchor with a zero
 /// covariance): observed as known, its covariance added to the noise.
@@ -65,6 +68,9 @@ struct Seen {
     z: Vector2<f64>,
     r: Matrix2<f64>,
     local: [Point2<f64>; 2],
+    /// Where the innovation is taken ([`WallInnovation::Segment`]): the middle of
+    /// the seen segment, on its line; `None` at the sensor's foot.
+    mid: Option<Point2<f64>>,
 }
 
 fn checked(i: usize, d: &WallDetection) -> Result<Seen> {
@@ -87,6 +93,7 @@ fn checked(i: usize, d: &WallDetection) -> Result<Seen> {
         z: Vector2::new(d.rho, wrap_angle(d.alpha)),
         r,
         local: [Point2::from(d.start), Point2::from(d.end)],
+        mid: None,
     })
 }
 
@@ -147,17 +154,30 @@ fn wall_pairing(
     let (target, fixed) = (wall.target, wall.fixed);
     let from = about(sensor, &wall.extent.origin);
     let pred = observe_wall(&from, &wall.line)?;
-    let (nu, sign) = wall_innovation(&seen.z, &pred.wall);
+    let (mut nu, sign) = wall_innovation(&seen.z, &pred.wall);
     let jac = linearised_at(&from, &pred, &wall.linearised)?;
     let mut h_robot = jac.d_pose * j_sensor;
     let mut h_l = jac.d_wall;
+    let mut r = seen.r;
     if sign < 0.0 {
         h_robot.row_mut(0).neg_mut();
         h_l.row_mut(0).neg_mut();
     }
+    if let Some(mid) = &seen.mid {
+        let form = if sign < 0.0 {
+            Vector2::new(-pred.wall.x, wrap_angle(pred.wall.y + PI))
+        } else {
+            pred.wall
+        };
+        let at = segment_innovation(&seen.z, &form, mid);
+        nu = at.nu;
+        h_robot = at.j_predicted * h_robot;
+        h_l = at.j_predicted * h_l;
+        r = at.j_seen * r * at.j_seen.transpose();
+    }
     let (h_landmark, r, offset) = match (target, fixed) {
-        (Target::State(j), _) => (h_l, seen.r, Some(scene.ekf.robot_dim() + 2 * j)),
-        (_, Some(c)) => (Matrix2::zeros(), seen.r + h_l * c * h_l.transpose(), None),
+        (Target::State(j), _) => (h_l, r, Some(scene.ekf.robot_dim() + 2 * j)),
+        (_, Some(c)) => (Matrix2::zeros(), r + h_l * c * h_l.transpose(), None),
         _ => return None,
     };
     scene.scored(det, target, nu, (h_robot, h_landmark, offset), r)
@@ -186,12 +206,20 @@ impl PlanarSlam {
         (sensor, j_robot)
     }
 
+    /// `seen` with the point its innovation is taken at, when configured.
+    fn with_mid(&self, seen: Seen) -> Seen {
+        let mid = (self.config.wall_innovation == WallInnovation::Segment)
+            .then(|| segment_middle(&seen.z, &seen.local));
+        Seen { mid, ..seen }
+    }
+
     /// A wall scan: association, one batch update, extents grown, new walls admitted.
     pub(super) fn wall_scan(&mut self, detections: &[WallDetection]) -> Result<()> {
         let seen = detections
             .iter()
             .enumerate()
             .map(|(i, d)| checked(i, d))
+            .map(|s| s.map(|s| self.with_mid(s)))
             .collect::<Result<Vec<_>>>()?;
         // Detections with a loose angle are left out (`wall_max_angle_sd`): no
         // options, never admitted, paired with `None`.

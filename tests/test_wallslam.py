@@ -240,7 +240,8 @@ def test_segment_innovation_keeps_loose_walls_consistent():
     for form in ("line", "segment"):
         args = argparse.Namespace(
             sigma=0.03, range=8.0, bias=True, association="nn", max_angle_sd_now=100.0,
-            first_estimates=True, bias_states=True, wall_innovation_now=form,
+            first_estimates=True, bias_states=True, wall_innovation_now=form, door=0.0,
+            recess=0.0, gap_now=0.5,
         )  # fmt: skip
         runs = [corridor.run(seed, 0.4, 0.0, args) for seed in range(2)]
         share[form] = float(np.mean([r["nees_in_band"] for r in runs]))

@@ -356,3 +356,22 @@ fn a_lone_refused_model_does_not_move_the_mosaic() {
         );
     }
 }
+
+#[test]
+fn a_non_finite_odometry_is_refused_and_changes_nothing() {
+    let scene = scene(3);
+    let mut builder =
+        MosaicBuilder::new(scene.camera, LearnParams::default().mosaic.clone(), 3).unwrap();
+    let mut frame = Vec::new();
+    let start = Pose2::new(3.0, 3.0, 0.0);
+    see(&scene, &mut builder, &start, 0, None, &mut frame);
+    let before = builder.pose();
+    let view = GrayView::new(&frame, scene.camera.width, scene.camera.height).unwrap();
+    for bad in [f64::NAN, f64::INFINITY] {
+        let err = builder
+            .process(view, Some(Pose2::new(bad, 0.0, 0.0)))
+            .unwrap_err();
+        assert!(err.to_string().contains("odometry"), "{err}");
+    }
+    assert_eq!(builder.pose(), before);
+}

@@ -342,7 +342,17 @@ impl MosaicBuilder {
     /// One frame of the real camera, with the odometry's motion since the last frame
     /// (robot frame, metres; converted to the mosaic's units here), which predicts
     /// the pose filter.
+    ///
+    /// # Errors
+    /// A frame of the wrong size, or an odometry motion that is not finite (it would
+    /// carry every tracker off the image and poison the pose filter).
     pub fn process(&mut self, frame: GrayView<'_>, odometry: Option<Pose2>) -> Result<FrameReport> {
+        if let Some(d) = odometry.filter(|d| ![d.x, d.y, d.theta].iter().all(|v| v.is_finite())) {
+            return Err(TrackingError::InvalidParameter {
+                name: "odometry",
+                reason: format!("must be finite, got ({}, {}, {})", d.x, d.y, d.theta),
+            });
+        }
         self.correct(frame)?;
         let mut report = FrameReport::default();
         if let Some(d) = odometry.filter(|_| self.params.odometry_prediction) {

@@ -145,7 +145,7 @@ fn a_shift_is_a_control_input_of_the_random_walk() {
         let u = Vector2::new(1.5 - 0.4 * t as f64, 0.25 * t as f64);
         total += u;
         let z = total + Vector2::new(0.1, -0.2);
-        shifted.shift(&u);
+        shifted.shift(&u).unwrap();
         shifted.step(&|s: &SVector<f64, 2>| -0.5 * (s - z).norm_squared());
         plain.step(&|s: &SVector<f64, 2>| -0.5 * (s + total - z).norm_squared());
         for (a, b) in shifted.particles().iter().zip(plain.particles()) {
@@ -156,6 +156,11 @@ fn a_shift_is_a_control_input_of_the_random_walk() {
         }
         assert!((shifted.mean() - plain.mean() - total).norm() < 1e-9);
     }
+    // A non-finite control is refused and moves nothing.
+    let before = shifted.particles().to_vec();
+    assert!(shifted.shift(&Vector2::new(f64::NAN, 0.0)).is_err());
+    assert!(shifted.shift(&Vector2::new(0.0, f64::INFINITY)).is_err());
+    assert_eq!(shifted.particles(), &before[..]);
 }
 
 // ---------------------------------------------------------------- determinism

@@ -391,7 +391,7 @@ fn track_steady_turn(control: bool) -> [f64; 2] {
     for k in 0..n {
         state = std::array::from_fn(|d| state[d] + step[d]);
         if control {
-            tracker.shift(step);
+            tracker.shift(step).unwrap();
         }
         let frame = render(&p, state, 2.0, 400 + k as u64);
         let e = tracker.update(gray(&frame)).unwrap().state;
@@ -422,7 +422,9 @@ fn a_shift_moves_the_last_pose_and_its_corners_by_the_control() {
     let before = tracker.last();
     let mean_before = tracker.filter().mean();
     let delta = [3.0, -2.0, 0.1, 0.05];
-    tracker.shift(delta);
+    assert!(tracker.shift([f64::NAN, 0.0, 0.0, 0.0]).is_err());
+    assert_eq!(tracker.last(), before);
+    tracker.shift(delta).unwrap();
     let after = tracker.last();
     let moved: [f64; 4] = std::array::from_fn(|d| before.state[d] + delta[d]);
     assert_eq!(after.state, moved);

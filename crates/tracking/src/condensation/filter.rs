@@ -541,11 +541,22 @@ impl<const D: usize> ParticleFilter<D> {
     /// deterministic part of the motion (`s = A s' + u + B w`), as when an odometry
     /// tells how far the target moved in the image since the last frame. Weights,
     /// spread and random stream are unchanged.
-    pub fn shift(&mut self, delta: &SVector<f64, D>) {
+    ///
+    /// # Errors
+    /// [`TrackingError::InvalidParameter`] for a non-finite `delta`; the set is then
+    /// left as it was.
+    pub fn shift(&mut self, delta: &SVector<f64, D>) -> Result<()> {
+        if !delta.iter().all(|v| v.is_finite()) {
+            return Err(TrackingError::InvalidParameter {
+                name: "delta",
+                reason: format!("must be finite, got {:?}", delta.as_slice()),
+            });
+        }
         for p in &mut self.particles {
             *p += delta;
         }
         self.mean += delta;
+        Ok(())
     }
 
     /// Weighted mean of the particles: the state estimate.

@@ -356,7 +356,7 @@ impl MosaicBuilder {
         self.correct(frame)?;
         let mut report = FrameReport::default();
         if let Some(d) = odometry.filter(|_| self.params.odometry_prediction) {
-            self.carry_tracks(&d);
+            self.carry_tracks(&d)?;
         }
         self.update_tracks(&mut report)?;
         self.localise(&mut report, odometry);
@@ -463,15 +463,16 @@ impl MosaicBuilder {
     /// Moves every tracker's state by the image motion the odometry's `motion`
     /// (metres, robot frame) predicts for its model: the tracker's random walk then
     /// covers the odometry's error instead of the robot's whole motion.
-    fn carry_tracks(&mut self, motion: &Pose2) {
+    fn carry_tracks(&mut self, motion: &Pose2) -> Result<()> {
         let units = self.units_per_metre();
         let motion = Pose2::new(motion.x * units, motion.y * units, motion.theta);
         for t in &mut self.tracks {
             let state = t.tracker.last().state;
             let moved = self.scale.moved_state(state, &motion);
             let delta: [f64; 4] = std::array::from_fn(|k| moved[k] - state[k]);
-            t.tracker.shift(delta);
+            t.tracker.shift(delta)?;
         }
+        Ok(())
     }
 
     /// Updates every tracker; stops the lost, the weak and those leaving the view.

@@ -595,12 +595,16 @@ impl PatternTracker {
     /// robot's odometry) predicts before the next frame. The random walk of `sigma`
     /// then covers only the control's error, not the whole motion: a pattern turning
     /// with the robot no longer lags behind it.
-    pub fn shift(&mut self, delta: [f64; 4]) {
+    ///
+    /// # Errors
+    /// [`TrackingError::InvalidParameter`] for a non-finite `delta`; nothing moves.
+    pub fn shift(&mut self, delta: [f64; 4]) -> Result<()> {
         let delta = SVector::from(delta);
-        self.filter.shift(&delta);
+        self.filter.shift(&delta)?;
         let state = SVector::from(self.last.state) + delta;
         self.last.state = state.into();
         self.last.corners = corners(&self.model, &state);
+        Ok(())
     }
 
     /// The last answer (the initial pose, score 1, before the first update).

@@ -137,6 +137,7 @@ def test_the_same_seed_gives_the_same_track() -> None:
         ({"refine_first_step": math.nan}, ValueError, "refine_first_step"),
         ({"deviation": "cubic"}, ValueError, "deviation"),
         ({"refine_fine_rounds": -1}, ValueError, "refine_fine_rounds"),
+        ({"newton_steps": -1}, ValueError, "newton_steps"),
         ({"second_look": 1.5}, ValueError, "second_look"),
         ({"second_look": math.nan}, ValueError, "second_look"),
         ({"frame": np.zeros((H, W), np.float32)}, TypeError, "uint8"),

@@ -201,6 +201,39 @@ impl GrayImage {
         Some(top * (1.0 - fy) + bottom * fy)
     }
 
+    /// [`Self::sample_bilinear`] with the bilinear interpolant's gradient: `[value,
+    /// d/dx, d/dy]` at `(x, y)`, `None` outside `[0, w-1] x [0, h-1]`. The gradient is
+    /// the one of the cell `(x, y)` falls in (one-sided on the last row and column),
+    /// so that a Gauss-Newton step sees the derivative of exactly what it samples.
+    ///
+    /// # Examples
+    /// ```
+    /// use rperc_core::image::GrayImage;
+    ///
+    /// let img = GrayImage { data: vec![0.0, 10.0, 20.0, 30.0], width: 2, height: 2 };
+    /// assert_eq!(img.sample_bilinear_gradient(0.5, 0.5), Some([15.0, 10.0, 20.0]));
+    /// ```
+    #[inline]
+    pub fn sample_bilinear_gradient(&self, x: f64, y: f64) -> Option<[f32; 3]> {
+        let (w, h) = (self.width as f64, self.height as f64);
+        if !(x >= 0.0 && y >= 0.0 && x <= w - 1.0 && y <= h - 1.0) {
+            return None;
+        }
+        // The cell to the left of / above the last column / row, so that its
+        // difference is the gradient there (images one pixel wide have none). The
+        // coordinates are >= 0 here: truncation is the floor, without a libm call.
+        let x0 = (x as usize).min(self.width.saturating_sub(2));
+        let y0 = (y as usize).min(self.height.saturating_sub(2));
+        let (x1, y1) = ((x0 + 1).min(self.width - 1), (y0 + 1).min(self.height - 1));
+        let (fx, fy) = ((x - x0 as f64) as f32, (y - y0 as f64) as f32);
+        let (a, b) = (self.at(x0, y0), self.at(x1, y0));
+        let (c, d) = (self.at(x0, y1), self.at(x1, y1));
+        let top = a + fx * (b - a);
+        let bottom = c + fx * (d - c);
+        let gx = (b - a) + fy * ((d - c) - (b - a));
+        Some([top + fy * (bottom - top), gx, bottom - top])
+    }
+
     /// Gaussian blur of standard deviation `sigma` pixels into `out` (separable, a
     /// kernel of radius `ceil(3 sigma)`, borders reflected without repeating the edge
     /// pixel as OpenCV's `BORDER_REFLECT_101`). `scratch` holds the horizontal pass;
@@ -655,6 +688,35 @@ mod tests {
             proptest::prop_assert!(img.sample_line_interior(start, [dx, dy], &mut b));
             let bits = |v: &[f32]| v.iter().map(|g| g.to_bits()).collect::<Vec<_>>();
             proptest::prop_assert_eq!(bits(&a), bits(&b));
+        }
+    }
+
+    proptest::proptest! {
+        /// The sampled gradient is the interpolant's: central differences of
+        /// `sample_bilinear` inside a cell (away from its edges, where the bilinear
+        /// surface is smooth), and the value is `sample_bilinear`'s.
+        #[test]
+        fn the_bilinear_gradient_matches_central_differences(
+            cx in 0usize..19, cy in 0usize..19, fx in 0.01f64..0.99, fy in 0.01f64..0.99,
+            w in 2usize..20, h in 2usize..20,
+        ) {
+            let img = GrayImage {
+                data: (0..w * h).map(|i| ((i * 53) % 97) as f32 * 1.3).collect(),
+                width: w,
+                height: h,
+            };
+            // A point inside a cell, 0.01 px from its edges so that the differences
+            // stay in it.
+            let px = (cx % (w - 1)) as f64 + fx;
+            let py = (cy % (h - 1)) as f64 + fy;
+            let [value, gx, gy] = img.sample_bilinear_gradient(px, py).unwrap();
+            let at = |u: f64, v: f64| f64::from(img.sample_bilinear(u, v).unwrap());
+            let e = 1e-3;
+            let dx = (at(px + e, py) - at(px - e, py)) / (2.0 * e);
+            let dy = (at(px, py + e) - at(px, py - e)) / (2.0 * e);
+            proptest::prop_assert!((f64::from(value) - at(px, py)).abs() < 1e-3);
+            proptest::prop_assert!((f64::from(gx) - dx).abs() < 1e-2, "{} vs {}", gx, dx);
+            proptest::prop_assert!((f64::from(gy) - dy).abs() < 1e-2, "{} vs {}", gy, dy);
         }
     }
 

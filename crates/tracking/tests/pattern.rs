@@ -913,3 +913,71 @@ fn the_early_exit_cuts_only_states_far_below_the_best() {
         "{got} {far_exact}"
     );
 }
+
+/// The Gauss-Newton gradient is the log-likelihood's: central differences of eq. 6
+/// at states around the truth where no point is occluded; its Hessian predicts the
+/// log-likelihood of a small step (second order).
+#[test]
+fn normal_equations_match_central_differences_of_eq_6() {
+    let m = model();
+    let frame = render(TRUTH, m.centre, FRAME);
+    let mut space = ScaleSpace::new();
+    space.build(&frame, &m).unwrap();
+    let lik = PatternLikelihood::new(&m, &space);
+    let mut scratch = PatternScratch::default();
+    let mut ll = |x: [f64; 4]| lik.observe(&SVector::from(x), &mut scratch).log_likelihood;
+    let h = [1e-2, 1e-2, 1e-4, 1e-4];
+    for off in [
+        [0.6, -0.4, 0.02, 0.015],
+        [-0.3, 0.5, -0.01, -0.02],
+        [0.2, 0.2, 0.0, 0.0],
+    ] {
+        let x: [f64; 4] = std::array::from_fn(|k| TRUTH[k] + off[k]);
+        let ne = lik.normal_equations(&SVector::from(x)).unwrap();
+        assert_eq!(ne.points, m.points.len(), "a point occluded at {x:?}");
+        for k in 0..4 {
+            let (mut a, mut b) = (x, x);
+            a[k] += h[k];
+            b[k] -= h[k];
+            let fd = (ll(a) - ll(b)) / (2.0 * h[k]);
+            let g = ne.gradient[k];
+            println!("{k}: analytic {g:.4}, central {fd:.4}");
+            assert!(
+                (g - fd).abs() <= 0.02 * g.abs().max(fd.abs()) + 0.05,
+                "{k}: {g} vs {fd}"
+            );
+        }
+    }
+}
+
+/// At the truth of a clean frame the residuals are small, so the Gauss-Newton
+/// Hessian approaches the true one: against central second differences of eq. 6.
+#[test]
+fn the_gauss_newton_hessian_is_the_curvature_of_eq_6_at_the_truth() {
+    let m = model();
+    let frame = render(TRUTH, m.centre, FRAME);
+    let mut space = ScaleSpace::new();
+    space.build(&frame, &m).unwrap();
+    let lik = PatternLikelihood::new(&m, &space);
+    let mut scratch = PatternScratch::default();
+    let mut ll = |x: [f64; 4]| lik.observe(&SVector::from(x), &mut scratch).log_likelihood;
+    let ne = lik.normal_equations(&SVector::from(TRUTH)).unwrap();
+    let h = [0.05, 0.05, 5e-4, 5e-4];
+    for k in 0..4 {
+        for j in 0..4 {
+            let at = |dk: f64, dj: f64| {
+                let mut x = TRUTH;
+                x[k] += dk * h[k];
+                x[j] += dj * h[j];
+                x
+            };
+            let fd = -(ll(at(1.0, 1.0)) - ll(at(1.0, -1.0)) - ll(at(-1.0, 1.0))
+                + ll(at(-1.0, -1.0)))
+                / (4.0 * h[k] * h[j]);
+            let gn = ne.hessian[(k, j)];
+            let scale = (ne.hessian[(k, k)] * ne.hessian[(j, j)]).sqrt();
+            println!("({k},{j}): gauss-newton {gn:.1}, second differences {fd:.1}");
+            assert!((gn - fd).abs() <= 0.1 * scale, "({k},{j}): {gn} vs {fd}");
+        }
+    }
+}

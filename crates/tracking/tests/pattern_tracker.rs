@@ -152,6 +152,7 @@ fn the_seeds_plain_weighted_mean_is_coarser_than_the_refined_estimate() {
     let truth = trajectory(15, 1);
     let plain = PatternTrackerParams {
         refine_steps: 0,
+        newton_steps: 0,
         ..PatternTrackerParams::default()
     };
     let [pos0, ang0, _] = track(&truth, plain, 3);

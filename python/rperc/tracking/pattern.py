@@ -126,7 +126,9 @@ class PatternTracker:
     frame (0: the seed's plain mean), with steps starting at ``refine_first_step``
     sigmas and halved each round; with ``refined_particle`` the refined pose replaces
     the lightest particle, so that the next frame starts from it. All but the last
-    ``refine_fine_rounds`` rounds weigh every other model point only (coarse). A frame
+    ``refine_fine_rounds`` rounds weigh every other model point only (coarse);
+    ``newton_steps`` Gauss-Newton steps of eq. 6 on every point then place the peak
+    (kept only when they raise the likelihood; 0: the coordinate search alone). A frame
     scoring below ``second_look`` times the track's recent best score gets a second
     CONDENSATION iteration (half its particles around the last pose, twice as wide)
     and keeps the better estimate; 0 never.
@@ -163,6 +165,7 @@ class PatternTracker:
         refine_first_step: float = _TRACKER["refine_first_step"],
         refined_particle: bool = _TRACKER["refined_particle"],
         refine_fine_rounds: int = _TRACKER["refine_fine_rounds"],
+        newton_steps: int = _TRACKER["newton_steps"],
         second_look: float = _TRACKER["second_look"],
         lost_occluded_fraction: float = _TRACKER["lost_occluded_fraction"],
         canny_low: float = _PATTERN["canny_low"],
@@ -202,6 +205,7 @@ class PatternTracker:
             "refine_first_step": refine_first_step,
             "refined_particle": refined_particle,
             "refine_fine_rounds": refine_fine_rounds,
+            "newton_steps": newton_steps,
             "second_look": second_look,
             "lost_occluded_fraction": lost_occluded_fraction,
             "pattern": pattern,

@@ -67,6 +67,10 @@ impl Default for MosaicParams {
                 refine_steps: 4,
                 refine_first_step: 0.25,
                 refined_particle: false,
+                // The coordinate search alone, as validated on the worlds (issue 13);
+                // the tracker's Gauss-Newton stage has not been tried on them.
+                refine_fine_rounds: 2,
+                newton_steps: 0,
                 ..PatternTrackerParams::default()
             },
             proposals: ProposalParams::default(),

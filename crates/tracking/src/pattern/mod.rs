@@ -14,7 +14,8 @@ pub use model::{
     DeviationModel, MIN_REGION_SIDE, ModelPoint, PatternConfig, PatternModel, Region, sample_vector,
 };
 pub use observation::{
-    EXTRAPOLATE_AFTER, Observation, PatternLikelihood, PatternScratch, ScaleSpace, place,
+    EXTRAPOLATE_AFTER, NormalEquations, Observation, PatternLikelihood, PatternScratch, ScaleSpace,
+    place,
 };
 pub use sequence::{PatternSequence, SequenceParams, generate_sequence};
 pub use tracker::{PatternFrame, PatternPose, PatternTracker, PatternTrackerParams, corners_of};

@@ -12,6 +12,9 @@ use crate::error::Result;
 use nalgebra::SVector;
 use rperc_core::image::GrayImage;
 
+mod newton;
+pub use newton::NormalEquations;
+
 /// A per-frame stack of Gaussian-blurred copies of the frame, one per scale level
 /// (section 3.3, "scale changing effects"): level `k` of scale `s_k` is blurred by
 /// `blur_sigma * s_k`, so that a pattern seen `s_k` times larger, once rescaled, has
@@ -360,7 +363,7 @@ impl Stop {
 
 /// Points seen before [`PatternLikelihood::with_early_exit`] extrapolates a state's
 /// log-likelihood.
-pub const EXTRAPOLATE_AFTER: usize = 16;
+pub const EXTRAPOLATE_AFTER: usize = 8;
 
 /// Model points sampled and correlated together (and between two checks of the early
 /// exit's bound).

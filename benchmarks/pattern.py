@@ -63,9 +63,15 @@ def images() -> tuple[np.ndarray, np.ndarray, str]:
 
 
 def run_rperc(
-    seq: PatternSequence, n_particles: int, max_points: int = 200, parallel: bool = True
+    seq: PatternSequence,
+    n_particles: int,
+    max_points: int = 200,
+    parallel: bool = True,
+    parallel_min_work: int | None = None,
 ) -> tuple[np.ndarray, int, float]:
-    """(estimates (n-1, 4), lost frames, seconds per update)."""
+    """(estimates (n-1, 4), lost frames, seconds per update); ``parallel_min_work``
+    None keeps the tracker's default."""
+    extra = {} if parallel_min_work is None else {"parallel_min_work": parallel_min_work}
     tracker = PatternTracker(
         seq.frames[0],
         seq.region,
@@ -73,6 +79,7 @@ def run_rperc(
         seed=1,
         max_points=max_points,
         parallel=parallel,
+        **extra,
     )
     out, lost = [], 0
     t0 = time.perf_counter()
@@ -210,13 +217,17 @@ def ecc_seconds(seq: PatternSequence) -> float:
 
 
 def speed_headline(seq: PatternSequence, repeats: int) -> None:
-    """rperc at 200 particles (both cores, then one) against ECC on the same frames,
-    alternated ``repeats`` times so that the machine's load falls on all of them;
-    the median of each."""
+    """rperc at 200 particles (defaults: the pool only for enough work, which 200
+    particles are not; forced onto both cores; one thread) against ECC on the same
+    frames, alternated ``repeats`` times so that the machine's load falls on all of
+    them; the median of each."""
     runs: dict[str, list[float]] = {}
     for _ in range(repeats):
         timed = {
             "rperc PatternTracker, 200 particles": run_rperc(seq, 200)[2],
+            "rperc PatternTracker, 200 particles, forced onto the pool": run_rperc(
+                seq, 200, parallel_min_work=0
+            )[2],
             "rperc PatternTracker, 200 particles, 1 thread": run_rperc(seq, 200, parallel=False)[2],
         }
         if cv2 is not None:

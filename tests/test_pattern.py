@@ -117,9 +117,10 @@ def test_an_all_black_frame_is_lost_with_the_pose_kept() -> None:
 def test_the_same_seed_gives_the_same_track() -> None:
     first = _first_frame()
     moved = np.roll(first, 4, axis=1)
-    a = PatternTracker(first, BOX, seed=9, parallel=True).update(moved)
+    a = PatternTracker(first, BOX, seed=9, parallel=True, parallel_min_work=0).update(moved)
     b = PatternTracker(first, BOX, seed=9, parallel=False).update(moved)
-    assert a == b
+    c = PatternTracker(first, BOX, seed=9).update(moved)
+    assert a == b == c
 
 
 @pytest.mark.parametrize(
@@ -138,6 +139,7 @@ def test_the_same_seed_gives_the_same_track() -> None:
         ({"deviation": "cubic"}, ValueError, "deviation"),
         ({"refine_fine_rounds": -1}, ValueError, "refine_fine_rounds"),
         ({"newton_steps": -1}, ValueError, "newton_steps"),
+        ({"parallel_min_work": -1}, ValueError, "parallel_min_work"),
         ({"second_look": 1.5}, ValueError, "second_look"),
         ({"second_look": math.nan}, ValueError, "second_look"),
         ({"frame": np.zeros((H, W), np.float32)}, TypeError, "uint8"),

@@ -272,17 +272,38 @@ impl GrayImage {
         scratch: &mut GrayImage,
         out: &mut GrayImage,
     ) {
+        let [x0, y0, x1, y1] = self.clamp_window(window);
+        resize_for(out, x1 - x0, y1 - y0);
+        self.convolve_separable_window_into(kernel, window, scratch, &mut out.data);
+    }
+
+    /// `window = [x0, y0, x1, y1)` clamped to the image (ends no smaller than starts).
+    pub fn clamp_window(&self, window: [usize; 4]) -> [usize; 4] {
         let (w, h) = (self.width, self.height);
         let [x0, y0] = [window[0].min(w), window[1].min(h)];
-        let [x1, y1] = [window[2].clamp(x0, w), window[3].clamp(y0, h)];
+        [x0, y0, window[2].clamp(x0, w), window[3].clamp(y0, h)]
+    }
+
+    /// [`Self::convolve_separable_window`] into the rows of `out`, which holds the
+    /// clamped window's levels row by row (nothing is written unless `out.len()` is
+    /// its size): bands of rows of one window can then be blurred on separate threads
+    /// into disjoint parts of one image, each with the whole window's numbers.
+    pub fn convolve_separable_window_into(
+        &self,
+        kernel: &[f32],
+        window: [usize; 4],
+        scratch: &mut GrayImage,
+        out: &mut [f32],
+    ) {
+        let (w, h) = (self.width, self.height);
+        let [x0, y0, x1, y1] = self.clamp_window(window);
         let (ww, wh) = (x1 - x0, y1 - y0);
         let r = kernel.len() / 2;
         // The rows the vertical pass reads: the window's, grown by the radius
         // (reflected ones are among them).
         let (r0, r1) = (y0.saturating_sub(r), (y1 + r).min(h));
         resize_for(scratch, ww, r1 - r0);
-        resize_for(out, ww, wh);
-        if ww == 0 || wh == 0 || kernel.is_empty() {
+        if ww == 0 || wh == 0 || kernel.is_empty() || out.len() != ww * wh {
             return;
         }
         for y in r0..r1 {
@@ -296,7 +317,7 @@ impl GrayImage {
             for (k, start) in starts.iter_mut().enumerate() {
                 *start = (reflect101(y as isize + k as isize - r as isize, h) - r0) * ww;
             }
-            let dst = &mut out.data[(y - y0) * ww..(y - y0 + 1) * ww];
+            let dst = &mut out[(y - y0) * ww..(y - y0 + 1) * ww];
             if ww < LANES {
                 for (x, d) in dst.iter_mut().enumerate() {
                     *d = kernel
@@ -750,6 +771,40 @@ mod tests {
                     proptest::prop_assert_eq!(a.to_bits(), b.to_bits(), "({}, {})", x, y);
                 }
             }
+        }
+    }
+
+    proptest::proptest! {
+        /// Two bands of rows of a window, blurred into the two parts of one buffer,
+        /// give the window's blur bit for bit; a buffer of the wrong size is left as
+        /// it was.
+        #[test]
+        fn bands_of_a_window_blur_as_the_window_does(
+            w in 1usize..40, h in 1usize..30, taps in 0usize..6,
+            x0 in 0usize..20, y0 in 0usize..20, ww in 0usize..40, wh in 0usize..30,
+            split in 0.0f64..1.0,
+        ) {
+            let img = GrayImage {
+                data: (0..w * h).map(|i| ((i * 37) % 89) as f32 * 1.3).collect(),
+                width: w,
+                height: h,
+            };
+            let kernel: Vec<f32> = (0..2 * taps + 1).map(|k| 0.2 + (k % 2) as f32 * 0.3).collect();
+            let window = [x0, y0, x0 + ww, y0 + wh];
+            let (mut scratch, mut part) = (GrayImage::default(), GrayImage::default());
+            img.convolve_separable_window(&kernel, window, &mut scratch, &mut part);
+            let [cx0, cy0, cx1, cy1] = img.clamp_window(window);
+            let rows = cy1 - cy0;
+            let mid = cy0 + (split * rows as f64) as usize;
+            let mut out = vec![f32::NAN; (cx1 - cx0) * rows];
+            let (top, bottom) = out.split_at_mut((cx1 - cx0) * (mid - cy0));
+            img.convolve_separable_window_into(&kernel, [cx0, cy0, cx1, mid], &mut scratch, top);
+            img.convolve_separable_window_into(&kernel, [cx0, mid, cx1, cy1], &mut scratch, bottom);
+            let bits = |v: &[f32]| v.iter().map(|g| g.to_bits()).collect::<Vec<_>>();
+            proptest::prop_assert_eq!(bits(&out), bits(&part.data));
+            let mut wrong = vec![7.0f32; out.len() + 1];
+            img.convolve_separable_window_into(&kernel, window, &mut scratch, &mut wrong);
+            proptest::prop_assert!(wrong.iter().all(|&g| g == 7.0));
         }
     }
 

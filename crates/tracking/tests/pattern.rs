@@ -981,3 +981,31 @@ fn the_gauss_newton_hessian_is_the_curvature_of_eq_6_at_the_truth() {
         }
     }
 }
+
+/// A scale space built on a worker of a pool of 3 threads (each level blurred in
+/// bands of rows, in parallel) holds the serial build's numbers bit for bit (the test
+/// thread is not a worker: there it blurs serially).
+#[test]
+fn a_scale_space_blurred_in_parallel_bands_equals_the_serial_one() {
+    let m = model();
+    let mut frame = render(TRUTH, m.centre, FRAME);
+    add_noise(&mut frame, 3.0, 21);
+    let mut serial = ScaleSpace::new();
+    serial.build(&frame, &m).unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(3)
+        .build()
+        .unwrap();
+    let parallel = pool.install(|| {
+        let mut space = ScaleSpace::new();
+        space.build(&frame, &m).unwrap();
+        space
+    });
+    assert_eq!(serial.len(), m.config.scale_levels.len());
+    for &s in &m.config.scale_levels {
+        let bits = |img: &GrayImage| img.data.iter().map(|g| g.to_bits()).collect::<Vec<_>>();
+        let (a, b) = (serial.level(s), parallel.level(s));
+        assert_eq!((a.width, a.height), (b.width, b.height), "scale {s}");
+        assert!(bits(a) == bits(b), "scale {s}");
+    }
+}

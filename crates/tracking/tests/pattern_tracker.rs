@@ -174,6 +174,8 @@ fn run_on_threads(threads: usize, parallel: bool) -> Vec<[u64; 4]> {
         let mut params = PatternTrackerParams::default();
         params.filter.chunk_size = 16;
         params.filter.parallel = parallel;
+        // The pool whatever the work, so that its paths are the ones compared.
+        params.parallel_min_work = 0;
         let mut tracker = PatternTracker::new(gray(&first), region(), params, 11).unwrap();
         trajectory(4, 2)
             .iter()

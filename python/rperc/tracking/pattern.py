@@ -139,7 +139,10 @@ class PatternTracker:
     auto-correlation whose inverse turns an inter-correlation into the deviation
     ``lambda``: ``"line"`` is the seed's, ``"parabola"`` (default) keeps ``lambda``
     proportional to a sub-sample offset where the line makes it grow as its square.
-    A seed gives the same track on any number of threads.
+    A seed gives the same track on any number of threads. With ``parallel`` a frame is
+    processed on the thread pool only when particles times model points reaches
+    ``parallel_min_work`` (default 100 000): below it, handing a frame to the pool
+    and back costs more than two cores save.
 
     Examples
     --------
@@ -181,6 +184,7 @@ class PatternTracker:
         resampler: ResamplerName = _FILTER["resampler"],
         chunk_size: int = _FILTER["chunk_size"],
         parallel: bool = _FILTER["parallel"],
+        parallel_min_work: int = _TRACKER["parallel_min_work"],
     ) -> None:
         sig = np.asarray(sigma, dtype=np.float64).reshape(-1)
         if sig.shape != (4,):
@@ -206,6 +210,7 @@ class PatternTracker:
             "refined_particle": refined_particle,
             "refine_fine_rounds": refine_fine_rounds,
             "newton_steps": newton_steps,
+            "parallel_min_work": parallel_min_work,
             "second_look": second_look,
             "lost_occluded_fraction": lost_occluded_fraction,
             "pattern": pattern,

@@ -33,8 +33,8 @@ pub struct ScaleSpace {
     kernels: Vec<(f64, Arc<[f32]>)>,
 }
 
-/// One level of a [`ScaleSpace`] with its own work buffers, so that levels blur in
-/// parallel.
+/// One level of a [`ScaleSpace`] with its own work buffers (one per band of rows),
+/// so that levels, and bands of one level, blur in parallel.
 #[derive(Debug, Clone, Default)]
 struct Level {
     image: GrayImage,
@@ -43,17 +43,63 @@ struct Level {
     /// Its top-left pixel in the frame.
     origin: [f64; 2],
     kernel: Arc<[f32]>,
-    scratch: GrayImage,
+    scratch: Vec<GrayImage>,
     /// Blurred for this frame (see [`ScaleSpace::build_window_for`]).
     ready: bool,
+}
+
+/// Rows `window` of a level's blur, computed as one task into `out`, their part of
+/// the level's image.
+struct Band<'a> {
+    kernel: &'a [f32],
+    window: [usize; 4],
+    scratch: &'a mut GrayImage,
+    out: &'a mut [f32],
 }
 
 impl Level {
     fn blur(&mut self, crop: &GrayImage) {
         // Only the window: the crop's margin is there to be read, not kept.
         let inner = self.inner;
-        crop.convolve_separable_window(&self.kernel, inner, &mut self.scratch, &mut self.image);
+        if self.scratch.is_empty() {
+            self.scratch.push(GrayImage::default());
+        }
+        crop.convolve_separable_window(&self.kernel, inner, &mut self.scratch[0], &mut self.image);
         self.ready = true;
+    }
+
+    /// The level's window cut into `n` bands of rows, each with its own scratch and
+    /// its rows of the level's image (sized here): blurred separately, they hold the
+    /// whole window's numbers (`GrayImage::convolve_separable_window_into`).
+    fn bands(&mut self, crop: &GrayImage, n: usize) -> Vec<Band<'_>> {
+        let [x0, y0, x1, y1] = crop.clamp_window(self.inner);
+        let (width, height) = (x1 - x0, y1 - y0);
+        self.image.width = width;
+        self.image.height = height;
+        self.image.data.resize(width * height, 0.0);
+        self.ready = true;
+        let rows = height.div_ceil(n.max(1)).max(1);
+        if width * height == 0 {
+            return Vec::new();
+        }
+        self.scratch
+            .resize_with(height.div_ceil(rows), GrayImage::default);
+        let kernel = &self.kernel[..];
+        self.image
+            .data
+            .chunks_mut(width * rows)
+            .zip(self.scratch.iter_mut())
+            .enumerate()
+            .map(|(i, (out, scratch))| {
+                let top = y0 + i * rows;
+                Band {
+                    kernel,
+                    window: [x0, top, x1, (top + rows).min(y1)],
+                    scratch,
+                    out,
+                }
+            })
+            .collect()
     }
 }
 
@@ -248,16 +294,28 @@ impl ScaleSpace {
         self.blur_levels(&wanted);
     }
 
-    /// Blurs the levels `k` with `wanted[k]`, in parallel when there is enough work.
+    /// Blurs the levels `k` with `wanted[k]`, in parallel when there is enough work
+    /// and it runs on a worker of the rayon pool:
+    /// each level in as many bands of rows as there are threads, so that one large
+    /// level (the usual case) uses every core too. The numbers do not depend on the
+    /// banding.
     fn blur_levels(&mut self, wanted: &[bool]) {
         let crop = &self.crop;
         let chosen = || self.levels.iter().zip(wanted).filter(|(_, w)| **w);
         let taps: usize = chosen().map(|(l, _)| l.kernel.len()).sum();
-        let parallel = chosen().count() > 1 && crop.data.len() * taps >= PARALLEL_BLUR_WORK;
+        // Only from a worker of the pool (a tracker's parallel update runs there):
+        // from any other thread each fork would be a hand-over to the pool.
+        let threads = rayon::current_num_threads();
+        let parallel = rayon::current_thread_index().is_some()
+            && threads > 1
+            && crop.data.len() * taps >= PARALLEL_BLUR_WORK;
         let levels = self.levels.iter_mut().zip(wanted).filter(|(_, w)| **w);
         if parallel {
-            let mut todo: Vec<&mut Level> = levels.map(|(l, _)| l).collect();
-            todo.par_iter_mut().for_each(|l| l.blur(crop));
+            let mut bands: Vec<Band<'_>> =
+                levels.flat_map(|(l, _)| l.bands(crop, threads)).collect();
+            bands.par_iter_mut().for_each(|b| {
+                crop.convolve_separable_window_into(b.kernel, b.window, b.scratch, b.out);
+            });
         } else {
             levels.for_each(|(l, _)| l.blur(crop));
         }

@@ -234,6 +234,90 @@ impl GrayImage {
         Some([top + fy * (bottom - top), gx, bottom - top])
     }
 
+    /// [`Self::sample_bilinear_gradient`] at `start + l * step`, `l = 0..out.len()`:
+    /// `false`, with `out` partly written, when a sample falls outside `[0, w-1] x [0,
+    /// h-1]` (or is NaN). The bounds are checked at the two ends; a segment at least
+    /// [`INTERIOR_MARGIN`] inside steps through the pixels in fixed point, as
+    /// [`Self::sample_line`] does (positions exact to 6e-8 px).
+    pub fn sample_line_gradient(
+        &self,
+        start: [f64; 2],
+        step: [f64; 2],
+        out: &mut [[f32; 3]],
+    ) -> bool {
+        const FRACTION_BITS: u32 = 24;
+        let Some(last) = out.len().checked_sub(1) else {
+            return true;
+        };
+        let end = [
+            start[0] + last as f64 * step[0],
+            start[1] + last as f64 * step[1],
+        ];
+        let (w, h) = (self.width as f64, self.height as f64);
+        let inner = |p: [f64; 2]| {
+            p[0] >= INTERIOR_MARGIN
+                && p[1] >= INTERIOR_MARGIN
+                && p[0] <= w - 1.0 - INTERIOR_MARGIN
+                && p[1] <= h - 1.0 - INTERIOR_MARGIN
+        };
+        let huge = 1usize << 36;
+        if !(inner(start)
+            && inner(end)
+            && out.len() <= 1024
+            && self.width <= huge
+            && self.height <= huge)
+        {
+            return self.sample_line_gradient_checked(start, step, out);
+        }
+        let one = f64::from(1u32 << FRACTION_BITS);
+        let (unit, mask) = (1.0 / one as f32, (1u64 << FRACTION_BITS) - 1);
+        let fixed = |v: f64| (v * one) as i64;
+        let (mut fx, mut fy) = (fixed(start[0]), fixed(start[1]));
+        let (dx, dy) = (fixed(step[0]), fixed(step[1]));
+        let width = self.width;
+        for g in out.iter_mut() {
+            // Non-negative and inside: the ends are MARGIN = 1677 units inside and the
+            // rounding drifts by at most 1024 units.
+            let (ux, uy) = (fx as u64, fy as u64);
+            let (x0, y0) = (
+                (ux >> FRACTION_BITS) as usize,
+                (uy >> FRACTION_BITS) as usize,
+            );
+            let tx = (ux & mask) as f32 * unit;
+            let ty = (uy & mask) as f32 * unit;
+            let i = y0 * width + x0;
+            let Some(quad) = self.data.get(i..i + width + 2) else {
+                return self.sample_line_gradient_checked(start, step, out);
+            };
+            let (a, b, c, d) = (quad[0], quad[1], quad[width], quad[width + 1]);
+            let top = a + tx * (b - a);
+            let bottom = c + tx * (d - c);
+            let gx = (b - a) + ty * ((d - c) - (b - a));
+            *g = [top + ty * (bottom - top), gx, bottom - top];
+            fx += dx;
+            fy += dy;
+        }
+        true
+    }
+
+    /// [`Self::sample_line_gradient`] point by point (near the image's edges).
+    fn sample_line_gradient_checked(
+        &self,
+        start: [f64; 2],
+        step: [f64; 2],
+        out: &mut [[f32; 3]],
+    ) -> bool {
+        for (l, g) in out.iter_mut().enumerate() {
+            let x = start[0] + l as f64 * step[0];
+            let y = start[1] + l as f64 * step[1];
+            match self.sample_bilinear_gradient(x, y) {
+                Some(v) => *g = v,
+                None => return false,
+            }
+        }
+        true
+    }
+
     /// Gaussian blur of standard deviation `sigma` pixels into `out` (separable, a
     /// kernel of radius `ceil(3 sigma)`, borders reflected without repeating the edge
     /// pixel as OpenCV's `BORDER_REFLECT_101`). `scratch` holds the horizontal pass;
@@ -738,6 +822,44 @@ mod tests {
             proptest::prop_assert!((f64::from(value) - at(px, py)).abs() < 1e-3);
             proptest::prop_assert!((f64::from(gx) - dx).abs() < 1e-2, "{} vs {}", gx, dx);
             proptest::prop_assert!((f64::from(gy) - dy).abs() < 1e-2, "{} vs {}", gy, dy);
+        }
+    }
+
+    proptest::proptest! {
+        /// The line sampler with gradients gives the point sampler's values (to the
+        /// fixed point's rounding of the positions), inside and near the edges, and
+        /// refuses a segment that leaves the image.
+        #[test]
+        fn the_gradient_line_sampler_matches_the_point_sampler(
+            x in -0.5f64..1.5, y in -0.5f64..1.5, dx in -1.5f64..1.5, dy in -1.5f64..1.5,
+            n in 1usize..16, w in 2usize..30, h in 2usize..30,
+        ) {
+            let img = GrayImage {
+                data: (0..w * h).map(|i| ((i * 53) % 97) as f32 * 1.3).collect(),
+                width: w,
+                height: h,
+            };
+            let start = [x * (w as f64 - 1.0), y * (h as f64 - 1.0)];
+            let mut out = vec![[0.0f32; 3]; n];
+            let ok = img.sample_line_gradient(start, [dx, dy], &mut out);
+            let points: Vec<Option<[f32; 3]>> = (0..n)
+                .map(|l| img.sample_bilinear_gradient(start[0] + l as f64 * dx, start[1] + l as f64 * dy))
+                .collect();
+            proptest::prop_assert_eq!(ok, points.iter().all(Option::is_some));
+            if ok {
+                for (l, (got, want)) in out.iter().zip(&points).enumerate() {
+                    let want = want.unwrap();
+                    let (px, py) = (start[0] + l as f64 * dx, start[1] + l as f64 * dy);
+                    let off_grid = |v: f64| (v - v.round()).abs() > 1e-6;
+                    // Values are off by at most a position rounding (6e-8 px) times the
+                    // steepest slope; gradients too, unless the rounding crosses a cell
+                    // edge (a sample within 1e-6 px of a grid line) where they jump.
+                    let compared = if off_grid(px) && off_grid(py) { 3 } else { 1 };
+                    for k in 0..compared {
+                        proptest::prop_assert!((got[k] - want[k]).abs() < 1e-3, "{:?} vs {:?}", got, want);
+                    }
+                }
+            }
         }
     }
 

@@ -28,6 +28,31 @@ pub struct NormalEquations {
     pub points: usize,
 }
 
+/// Samples of a profile read at once (a stack buffer: profiles are usually 12 long).
+const SAMPLES_AT_ONCE: usize = 32;
+
+impl PointSums {
+    /// One sample: stored level `a`, observed level `value` and its derivatives `d`.
+    /// Whole rows of four, which the compiler keeps in vector registers (the full
+    /// outer product costs less than its upper triangle, element by element).
+    #[inline]
+    fn add(&mut self, a: f32, value: f32, d: [f32; 4]) {
+        for (k, &dk) in d.iter().enumerate() {
+            self.d[k] += dk;
+            self.ad[k] += a * dk;
+            self.od[k] += value * dk;
+        }
+        for (row, &dk) in self.dd.iter_mut().zip(&d) {
+            for (entry, &dm) in row.iter_mut().zip(&d) {
+                *entry += dk * dm;
+            }
+        }
+        self.o += value;
+        self.oo += value * value;
+        self.ao += a * value;
+    }
+}
+
 /// A state's similarity in its scale-space level's pixels.
 struct Placement<'a> {
     image: &'a GrayImage,
@@ -118,37 +143,37 @@ impl PatternLikelihood<'_> {
         let stored = &self.model.points[geometry.index].vector;
         let mut sums = PointSums::default();
         let inverse_scale = (1.0 / scale) as f32;
-        let mut first = 0.0;
-        for (l, &a) in stored.iter().enumerate() {
-            let x = start[0] + l as f64 * delta[0];
-            let y = start[1] + l as f64 * delta[1];
-            let [value, gx, gy] = image.sample_bilinear_gradient(x, y)?;
+        // The first sample's place relative to the centre, and the step between two:
+        // d p / d theta = (q_y, -q_x), d p / d s = q / s (the profile's step grows
+        // with s too).
+        let q0 = [(start[0] - centre[0]) as f32, (start[1] - centre[1]) as f32];
+        let step = [delta[0] as f32, delta[1] as f32];
+        let mut first = None;
+        let mut samples = [[0.0f32; 3]; SAMPLES_AT_ONCE];
+        for (c, chunk) in stored.chunks(SAMPLES_AT_ONCE).enumerate() {
+            let l0 = c * SAMPLES_AT_ONCE;
+            let from = [
+                start[0] + l0 as f64 * delta[0],
+                start[1] + l0 as f64 * delta[1],
+            ];
+            let samples = &mut samples[..chunk.len()];
+            if !image.sample_line_gradient(from, delta, samples) {
+                return None;
+            }
             // Levels taken from the first one's, so that the energy's difference of
             // sums does not cancel in f32 (the correlation ignores an offset).
-            if l == 0 {
-                first = value;
+            let first = *first.get_or_insert(samples[0][0]);
+            for (l, (&a, &[value, gx, gy])) in (l0..).zip(chunk.iter().zip(samples.iter())) {
+                let value = value - first;
+                let q = [q0[0] + l as f32 * step[0], q0[1] + l as f32 * step[1]];
+                let d = [
+                    gx,
+                    gy,
+                    gx * q[1] - gy * q[0],
+                    (gx * q[0] + gy * q[1]) * inverse_scale,
+                ];
+                sums.add(a, value, d);
             }
-            let value = value - first;
-            // The sample's place relative to the centre: d p / d theta = (q_y, -q_x),
-            // d p / d s = q / s (the profile's step grows with s too).
-            let q = [(x - centre[0]) as f32, (y - centre[1]) as f32];
-            let d = [
-                gx,
-                gy,
-                gx * q[1] - gy * q[0],
-                (gx * q[0] + gy * q[1]) * inverse_scale,
-            ];
-            for k in 0..4 {
-                sums.d[k] += d[k];
-                sums.ad[k] += a * d[k];
-                sums.od[k] += value * d[k];
-                for m in k..4 {
-                    sums.dd[k][m] += d[k] * d[m];
-                }
-            }
-            sums.o += value;
-            sums.oo += value * value;
-            sums.ao += a * value;
         }
         Some(sums)
     }

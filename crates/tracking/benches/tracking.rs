@@ -1,7 +1,7 @@
 //! Hot paths of the crate: one particle-filter step (weighting + resampling), and one
 //! update of each colour tracker on a 320 x 240 frame, and the pattern likelihood of one
-//! state with its per-frame scale space, and one pattern-tracker update (200 particles,
-//! 640 x 480, the speed goal of issue 12).
+//! state (and its Gauss-Newton system) with its per-frame scale space, and one
+//! pattern-tracker update (200 particles, 640 x 480, the speed goal of issue 12).
 
 use std::hint::black_box;
 
@@ -145,6 +145,10 @@ fn pattern_likelihood(c: &mut Criterion) {
     let state = nalgebra::SVector::from([model.centre[0] + 1.0, model.centre[1], 0.05, 1.1]);
     group.bench_function("observe_one_state", |b| {
         b.iter(|| black_box(lik.observe(black_box(&state), &mut scratch)))
+    });
+    // One Gauss-Newton system of the refinement (about three likelihoods' worth).
+    group.bench_function("normal_equations_one_state", |b| {
+        b.iter(|| black_box(lik.normal_equations(black_box(&state))))
     });
     group.finish();
 }

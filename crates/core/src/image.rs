@@ -245,59 +245,17 @@ impl GrayImage {
         step: [f64; 2],
         out: &mut [[f32; 3]],
     ) -> bool {
-        const FRACTION_BITS: u32 = 24;
-        let Some(last) = out.len().checked_sub(1) else {
-            return true;
-        };
-        let end = [
-            start[0] + last as f64 * step[0],
-            start[1] + last as f64 * step[1],
-        ];
-        let (w, h) = (self.width as f64, self.height as f64);
-        let inner = |p: [f64; 2]| {
-            p[0] >= INTERIOR_MARGIN
-                && p[1] >= INTERIOR_MARGIN
-                && p[0] <= w - 1.0 - INTERIOR_MARGIN
-                && p[1] <= h - 1.0 - INTERIOR_MARGIN
-        };
-        let huge = 1usize << 36;
-        if !(inner(start)
-            && inner(end)
-            && out.len() <= 1024
-            && self.width <= huge
-            && self.height <= huge)
-        {
+        if !self.walks_inside(start, step, out.len()) {
             return self.sample_line_gradient_checked(start, step, out);
         }
-        let one = f64::from(1u32 << FRACTION_BITS);
-        let (unit, mask) = (1.0 / one as f32, (1u64 << FRACTION_BITS) - 1);
-        let fixed = |v: f64| (v * one) as i64;
-        let (mut fx, mut fy) = (fixed(start[0]), fixed(start[1]));
-        let (dx, dy) = (fixed(step[0]), fixed(step[1]));
-        let width = self.width;
-        for g in out.iter_mut() {
-            // Non-negative and inside: the ends are MARGIN = 1677 units inside and the
-            // rounding drifts by at most 1024 units.
-            let (ux, uy) = (fx as u64, fy as u64);
-            let (x0, y0) = (
-                (ux >> FRACTION_BITS) as usize,
-                (uy >> FRACTION_BITS) as usize,
-            );
-            let tx = (ux & mask) as f32 * unit;
-            let ty = (uy & mask) as f32 * unit;
-            let i = y0 * width + x0;
-            let Some(quad) = self.data.get(i..i + width + 2) else {
-                return self.sample_line_gradient_checked(start, step, out);
-            };
-            let (a, b, c, d) = (quad[0], quad[1], quad[width], quad[width + 1]);
+        let interpolate = |g: &mut [f32; 3], [a, b, c, d]: [f32; 4], tx: f32, ty: f32| {
             let top = a + tx * (b - a);
             let bottom = c + tx * (d - c);
             let gx = (b - a) + ty * ((d - c) - (b - a));
             *g = [top + ty * (bottom - top), gx, bottom - top];
-            fx += dx;
-            fy += dy;
-        }
-        true
+        };
+        self.walk_cells(start, step, out, interpolate)
+            || self.sample_line_gradient_checked(start, step, out)
     }
 
     /// [`Self::sample_line_gradient`] point by point (near the image's edges).
@@ -455,23 +413,12 @@ impl GrayImage {
         }
         // Fixed point with FRACTION_BITS fractional bits (positions exact to 6e-8 px):
         // integer steps and a shift instead of a saturating float-to-int cast per
-        // sample, which cost more than the interpolation. Segments within MARGIN px of
-        // the last row or column (where the right or lower neighbour does not exist)
+        // sample, which cost more than the interpolation. Segments within
+        // INTERIOR_MARGIN px of the last row or column (where the right or lower neighbour does not exist)
         // or of the first (where the fixed-point rounding, a unit per sample, could
         // cross them), segments of more than 1024 samples, and images too small or too
         // large for it, go point by point.
-        const MARGIN: f64 = INTERIOR_MARGIN;
-        let fast = |p: [f64; 2]| {
-            p[0] >= MARGIN && p[1] >= MARGIN && p[0] <= w - 1.0 - MARGIN && p[1] <= h - 1.0 - MARGIN
-        };
-        let huge = 1usize << 36;
-        if !(fast(start) && fast(end))
-            || out.len() > 1024
-            || self.width < 2
-            || self.height < 2
-            || self.width > huge
-            || self.height > huge
-        {
+        if !self.walks_inside(start, step, out.len()) {
             return self.sample_line_checked(start, step, out);
         }
         self.sample_line_interior(start, step, out)
@@ -497,29 +444,61 @@ impl GrayImage {
     /// ```
     #[inline]
     pub fn sample_line_interior(&self, start: [f64; 2], step: [f64; 2], out: &mut [f32]) -> bool {
-        const FRACTION_BITS: u32 = 24;
-        debug_assert!({
-            let last = out.len().saturating_sub(1) as f64;
-            let end = [start[0] + last * step[0], start[1] + last * step[1]];
-            let (w, h) = (self.width as f64, self.height as f64);
-            let fast = |p: [f64; 2]| {
-                p[0] >= INTERIOR_MARGIN
-                    && p[1] >= INTERIOR_MARGIN
-                    && p[0] <= w - 1.0 - INTERIOR_MARGIN
-                    && p[1] <= h - 1.0 - INTERIOR_MARGIN
-            };
-            fast(start) && fast(end) && out.len() <= 1024 && self.width >= 2 && self.height >= 2
-        });
+        debug_assert!(self.walks_inside(start, step, out.len()));
+        let interpolate = |g: &mut f32, [a, b, c, d]: [f32; 4], tx: f32, ty: f32| {
+            let upper = a + tx * (b - a);
+            let lower = c + tx * (d - c);
+            *g = upper + ty * (lower - upper);
+        };
+        // Out of the image only when the caller broke the bounds.
+        self.walk_cells(start, step, out, interpolate) || self.sample_line_checked(start, step, out)
+    }
+
+    /// Whether `n` samples from `start` by `step` suit the fixed-point walk of
+    /// [`Self::walk_cells`]: both ends at least [`INTERIOR_MARGIN`] px inside the first
+    /// and last rows and columns, at most 1024 samples, an image 2 to 2^36 pixels
+    /// wide and high.
+    fn walks_inside(&self, start: [f64; 2], step: [f64; 2], n: usize) -> bool {
+        let last = n.saturating_sub(1) as f64;
+        let end = [start[0] + last * step[0], start[1] + last * step[1]];
+        let (w, h) = (self.width as f64, self.height as f64);
+        let inner = |p: [f64; 2]| {
+            p[0] >= INTERIOR_MARGIN
+                && p[1] >= INTERIOR_MARGIN
+                && p[0] <= w - 1.0 - INTERIOR_MARGIN
+                && p[1] <= h - 1.0 - INTERIOR_MARGIN
+        };
+        let sizes = 2..=1usize << 36;
+        inner(start)
+            && inner(end)
+            && n <= 1024
+            && sizes.contains(&self.width)
+            && sizes.contains(&self.height)
+    }
+
+    /// Visits the samples `out[l]` at `start + l * step` with their cell's four
+    /// neighbours `[top-left, top-right, bottom-left, bottom-right]` and the fractions
+    /// `(tx, ty)` of the position in it, stepping in fixed point with
+    /// [`FRACTION_BITS`] fractional bits (positions truncated, no libm call: at most
+    /// one unit, 6e-8 px, off); `false` as soon as a cell leaves the image (the ends
+    /// are meant to lie [`INTERIOR_MARGIN`] inside, which keeps every cell in it).
+    #[inline(always)]
+    fn walk_cells<T>(
+        &self,
+        start: [f64; 2],
+        step: [f64; 2],
+        out: &mut [T],
+        mut visit: impl FnMut(&mut T, [f32; 4], f32, f32),
+    ) -> bool {
         let one = f64::from(1u32 << FRACTION_BITS);
         let (unit, mask) = (1.0 / one as f32, (1u64 << FRACTION_BITS) - 1);
-        // Truncated (no libm call): at most one unit, 6e-8 px, off.
         let fixed = |v: f64| (v * one) as i64;
         let (mut fx, mut fy) = (fixed(start[0]), fixed(start[1]));
         let (dx, dy) = (fixed(step[0]), fixed(step[1]));
         let w = self.width;
         for g in out.iter_mut() {
-            // Non-negative and below (size - 1) * 2^24: the ends are MARGIN = 1677
-            // units inside and the rounding drifts by at most 1024 units.
+            // Non-negative and below (size - 1) * 2^24 when the ends are MARGIN = 1677
+            // units inside: the rounding drifts by at most 1024 units.
             let (ux, uy) = (fx as u64, fy as u64);
             let (x0, y0) = (
                 (ux >> FRACTION_BITS) as usize,
@@ -530,13 +509,9 @@ impl GrayImage {
             let i = y0 * w + x0;
             // One slice over the four neighbours: one bounds check, not one per pixel.
             let Some(quad) = self.data.get(i..i + w + 2) else {
-                // Only when the caller broke the bounds.
-                return self.sample_line_checked(start, step, out);
+                return false;
             };
-            let (top, bottom) = ([quad[0], quad[1]], [quad[w], quad[w + 1]]);
-            let upper = top[0] + tx * (top[1] - top[0]);
-            let lower = bottom[0] + tx * (bottom[1] - bottom[0]);
-            *g = upper + ty * (lower - upper);
+            visit(g, [quad[0], quad[1], quad[w], quad[w + 1]], tx, ty);
             fx += dx;
             fy += dy;
         }
@@ -557,6 +532,9 @@ impl GrayImage {
         true
     }
 }
+
+/// Fractional bits of the fixed-point positions of the line samplers (2^-24 px).
+const FRACTION_BITS: u32 = 24;
 
 /// How far inside the first and last rows and columns [`GrayImage::sample_line`]'s
 /// fixed-point path needs a segment's ends (see [`GrayImage::sample_line_interior`]).

@@ -914,15 +914,20 @@ fn the_early_exit_cuts_only_states_far_below_the_best() {
     );
 }
 
+/// The scale space of a noise-free render of the pattern at the truth.
+fn clean_space(m: &PatternModel) -> ScaleSpace {
+    let mut space = ScaleSpace::new();
+    space.build(&render(TRUTH, m.centre, FRAME), m).unwrap();
+    space
+}
+
 /// The Gauss-Newton gradient is the log-likelihood's: central differences of eq. 6
 /// at states around the truth where no point is occluded; its Hessian predicts the
 /// log-likelihood of a small step (second order).
 #[test]
 fn normal_equations_match_central_differences_of_eq_6() {
     let m = model();
-    let frame = render(TRUTH, m.centre, FRAME);
-    let mut space = ScaleSpace::new();
-    space.build(&frame, &m).unwrap();
+    let space = clean_space(&m);
     let lik = PatternLikelihood::new(&m, &space);
     let mut scratch = PatternScratch::default();
     let mut ll = |x: [f64; 4]| lik.observe(&SVector::from(x), &mut scratch).log_likelihood;
@@ -955,9 +960,7 @@ fn normal_equations_match_central_differences_of_eq_6() {
 #[test]
 fn the_gauss_newton_hessian_is_the_curvature_of_eq_6_at_the_truth() {
     let m = model();
-    let frame = render(TRUTH, m.centre, FRAME);
-    let mut space = ScaleSpace::new();
-    space.build(&frame, &m).unwrap();
+    let space = clean_space(&m);
     let lik = PatternLikelihood::new(&m, &space);
     let mut scratch = PatternScratch::default();
     let mut ll = |x: [f64; 4]| lik.observe(&SVector::from(x), &mut scratch).log_likelihood;

@@ -463,6 +463,21 @@ struct PointGeometry {
 }
 
 impl PointGeometry {
+    /// The point's position and gradient direction for a state whose centre is
+    /// `centre` (level pixels), rotation `[sin theta, cos theta]` and scale `scale`:
+    /// `centre + s R (dx, dy)` and `R (cos phi, sin phi)`, `R = [[c, s], [-s, c]]` (see
+    /// [`place`]).
+    #[inline]
+    fn placed(&self, centre: [f64; 2], [sin, cos]: [f64; 2], scale: f64) -> ([f64; 2], [f64; 2]) {
+        let [dx, dy] = self.offset;
+        let p = [
+            centre[0] + scale * (cos * dx + sin * dy),
+            centre[1] + scale * (-sin * dx + cos * dy),
+        ];
+        let [u, v] = self.direction;
+        (p, [cos * u + sin * v, -sin * u + cos * v])
+    }
+
     /// `lambda^2` of eq. 6 for inter-correlation `c`: `((1 - c) / |W|)^2` for the
     /// line, `(1 - c) / a` for the parabola (`correlation::deviation`,
     /// `correlation::deviation_parabolic`, squared).
@@ -762,13 +777,7 @@ impl<'a> PatternLikelihood<'a> {
             let mut inside = [false; BATCH];
             let buffers = scratch.observed.chunks_exact_mut(ns);
             for ((geometry, ok), out) in batch.iter().zip(&mut inside).zip(buffers) {
-                let [dx, dy] = geometry.offset;
-                let p = [
-                    centre[0] + scale * (cos * dx + sin * dy),
-                    centre[1] + scale * (-sin * dx + cos * dy),
-                ];
-                let [u, v] = geometry.direction;
-                let direction = [cos * u + sin * v, -sin * u + cos * v];
+                let (p, direction) = geometry.placed(centre, [sin, cos], scale);
                 *ok = if interior {
                     // As `sample_along`, without its checks.
                     let (start, delta) = segment(p, direction, step, out.len());

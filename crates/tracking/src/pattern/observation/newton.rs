@@ -132,13 +132,7 @@ impl PatternLikelihood<'_> {
             rotation: [sin, cos],
             scale,
         } = *placement;
-        let [dx, dy] = geometry.offset;
-        let p = [
-            centre[0] + scale * (cos * dx + sin * dy),
-            centre[1] + scale * (-sin * dx + cos * dy),
-        ];
-        let [u, v] = geometry.direction;
-        let direction = [cos * u + sin * v, -sin * u + cos * v];
+        let (p, direction) = geometry.placed(centre, [sin, cos], scale);
         let (start, delta) = segment(p, direction, config.delta * scale, config.n_samples);
         let stored = &self.model.points[geometry.index].vector;
         let mut sums = PointSums::default();

@@ -139,6 +139,7 @@ def test_the_same_seed_gives_the_same_track() -> None:
         ({"deviation": "cubic"}, ValueError, "deviation"),
         ({"refine_fine_rounds": -1}, ValueError, "refine_fine_rounds"),
         ({"newton_steps": -1}, ValueError, "newton_steps"),
+        ({"newton_steps": 10**6}, ValueError, "newton_steps"),
         ({"parallel_min_work": -1}, ValueError, "parallel_min_work"),
         ({"second_look": 1.5}, ValueError, "second_look"),
         ({"second_look": math.nan}, ValueError, "second_look"),

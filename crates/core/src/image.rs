@@ -641,6 +641,16 @@ fn reflect101(i: isize, n: usize) -> usize {
 mod tests {
     use super::*;
 
+    /// A `w x h` image of hashed grey levels (no two neighbours alike), the samplers'
+    /// test image.
+    fn hashed(w: usize, h: usize) -> GrayImage {
+        GrayImage {
+            data: (0..w * h).map(|i| ((i * 53) % 97) as f32 * 1.3).collect(),
+            width: w,
+            height: h,
+        }
+    }
+
     #[test]
     fn reflect101_matches_opencv_rule() {
         let got: Vec<usize> = (-3..7).map(|i| reflect101(i, 4)).collect();
@@ -724,11 +734,7 @@ mod tests {
             x in -3.0f64..12.0, y in -3.0f64..10.0, dx in -2.0f64..2.0, dy in -2.0f64..2.0,
             n in 1usize..16, w in 1usize..10, h in 1usize..8,
         ) {
-            let img = GrayImage {
-                data: (0..w * h).map(|i| ((i * 53) % 97) as f32 * 1.3).collect(),
-                width: w,
-                height: h,
-            };
+            let img = hashed(w, h);
             let mut out = vec![0.0; n];
             let ok = img.sample_line([x, y], [dx, dy], &mut out);
             let each: Option<Vec<f32>> = (0..n)
@@ -751,11 +757,7 @@ mod tests {
             x in 0.0f64..1.0, y in 0.0f64..1.0, dx in -1.5f64..1.5, dy in -1.5f64..1.5,
             n in 1usize..16, w in 2usize..30, h in 2usize..30,
         ) {
-            let img = GrayImage {
-                data: (0..w * h).map(|i| ((i * 53) % 97) as f32 * 1.3).collect(),
-                width: w,
-                height: h,
-            };
+            let img = hashed(w, h);
             let last = (n - 1) as f64;
             let start = [
                 INTERIOR_MARGIN + x * (w as f64 - 1.0 - 2.0 * INTERIOR_MARGIN),
@@ -783,11 +785,7 @@ mod tests {
             cx in 0usize..19, cy in 0usize..19, fx in 0.01f64..0.99, fy in 0.01f64..0.99,
             w in 2usize..20, h in 2usize..20,
         ) {
-            let img = GrayImage {
-                data: (0..w * h).map(|i| ((i * 53) % 97) as f32 * 1.3).collect(),
-                width: w,
-                height: h,
-            };
+            let img = hashed(w, h);
             // A point inside a cell, 0.01 px from its edges so that the differences
             // stay in it.
             let px = (cx % (w - 1)) as f64 + fx;
@@ -812,11 +810,7 @@ mod tests {
             x in -0.5f64..1.5, y in -0.5f64..1.5, dx in -1.5f64..1.5, dy in -1.5f64..1.5,
             n in 1usize..16, w in 2usize..30, h in 2usize..30,
         ) {
-            let img = GrayImage {
-                data: (0..w * h).map(|i| ((i * 53) % 97) as f32 * 1.3).collect(),
-                width: w,
-                height: h,
-            };
+            let img = hashed(w, h);
             let start = [x * (w as f64 - 1.0), y * (h as f64 - 1.0)];
             let mut out = vec![[0.0f32; 3]; n];
             let ok = img.sample_line_gradient(start, [dx, dy], &mut out);

@@ -533,9 +533,18 @@ fn non_finite_grey_levels_are_refused_or_occluded() {
     }
     let mut space = ScaleSpace::new();
     space.build(&frame, &m).unwrap();
-    let obs = PatternLikelihood::new(&m, &space)
-        .observe(&SVector::from(TRUTH), &mut PatternScratch::default());
+    let lik = PatternLikelihood::new(&m, &space);
+    let obs = lik.observe(&SVector::from(TRUTH), &mut PatternScratch::default());
     assert!(obs.log_likelihood.is_finite() && obs.occluded_fraction > 0.2);
+    // The Gauss-Newton system leaves those points out too: finite, on fewer points.
+    let ne = lik.normal_equations(&SVector::from(TRUTH)).unwrap();
+    assert!(ne.points < m.points.len());
+    assert!(
+        ne.gradient
+            .iter()
+            .chain(ne.hessian.iter())
+            .all(|v| v.is_finite())
+    );
 }
 
 #[test]
@@ -922,8 +931,7 @@ fn clean_space(m: &PatternModel) -> ScaleSpace {
 }
 
 /// The Gauss-Newton gradient is the log-likelihood's: central differences of eq. 6
-/// at states around the truth where no point is occluded; its Hessian predicts the
-/// log-likelihood of a small step (second order).
+/// at states around the truth where no point is occluded.
 #[test]
 fn normal_equations_match_central_differences_of_eq_6() {
     let m = model();

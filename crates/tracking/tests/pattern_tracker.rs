@@ -161,6 +161,31 @@ fn the_seeds_plain_weighted_mean_is_coarser_than_the_refined_estimate() {
     assert!(pos < pos0 && ang < ang0);
 }
 
+#[test]
+fn gauss_newton_steps_alone_bring_the_weighted_mean_to_the_truth() {
+    // The Newton stage from the plain weighted mean, without the coordinate rounds:
+    // against the generator's truth, it must beat the mean and meet the goals.
+    let truth = trajectory(15, 1);
+    let plain = PatternTrackerParams {
+        refine_steps: 0,
+        newton_steps: 0,
+        ..PatternTrackerParams::default()
+    };
+    let newton = PatternTrackerParams {
+        refine_steps: 0,
+        newton_steps: 3,
+        ..PatternTrackerParams::default()
+    };
+    let [pos0, ang0, _] = track(&truth, plain, 3);
+    let [pos, ang, scale] = track(&truth, newton, 3);
+    println!("plain mean: {pos0:.3} px {ang0:.3} deg; Newton: {pos:.3} px {ang:.3} deg");
+    assert!(pos < pos0 && ang < ang0);
+    assert!(
+        pos < 1.0 && ang < 1.0 && scale < 0.02,
+        "{pos} {ang} {scale}"
+    );
+}
+
 /// The (x, y, theta, s) bits of every pose of a short run on `threads` threads, with
 /// the filter's (and the refinement's and the scale space's) parallel paths or not.
 fn run_on_threads(threads: usize, parallel: bool) -> Vec<[u64; 4]> {

@@ -70,6 +70,10 @@ const NEGLIGIBLE_LOG_WEIGHT: f64 = 30.0;
 /// a smaller model): fewer locate a pattern less well than its own noise.
 const COARSE_MIN_POINTS: usize = 64;
 
+/// More Gauss-Newton steps than this are refused: the search converges in a few, and
+/// a huge count (a typo) would only spend time where it has not.
+const MAX_NEWTON_STEPS: usize = 100;
+
 /// How fast the typical score of `second_look` forgets a good frame (per frame).
 const TYPICAL_SCORE_DECAY: f64 = 0.95;
 
@@ -109,7 +113,7 @@ pub struct PatternTrackerParams {
     /// deviation only; see [`PatternTracker::update`]): each costs about three
     /// likelihoods where a round of the coordinate search costs twelve. 0 leaves the
     /// whole refinement to the coordinate search (6 rounds, the last 2 fine, were the
-    /// default before). Default 3.
+    /// default before). Default 3, at most 100.
     pub newton_steps: usize,
     /// With `filter.parallel`, a frame is processed on the rayon pool only when the
     /// tracker's work, particles times model points, reaches this: handing a frame to
@@ -168,6 +172,15 @@ impl PatternTrackerParams {
             });
         }
         rperc_core::ensure_in_range("second_look", self.second_look, 0.0, 1.0)?;
+        if self.newton_steps > MAX_NEWTON_STEPS {
+            return Err(TrackingError::InvalidParameter {
+                name: "newton_steps",
+                reason: format!(
+                    "must be at most {MAX_NEWTON_STEPS}, got {}",
+                    self.newton_steps
+                ),
+            });
+        }
         if !(self.refine_first_step.is_finite() && self.refine_first_step > 0.0) {
             return Err(TrackingError::InvalidParameter {
                 name: "refine_first_step",
@@ -549,7 +562,8 @@ impl PatternTracker {
                 }
             }
         }
-        if self.params.refined_particle && self.params.refine_steps > 0 && !lost {
+        let refined = self.params.refine_steps > 0 || self.params.newton_steps > 0;
+        if self.params.refined_particle && refined && !lost {
             self.join_particles(estimate, &observation);
         }
         (estimate, observation)

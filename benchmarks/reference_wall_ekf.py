@@ -22,7 +22,11 @@ written out in numpy, for the plain variant (no anchor, no freezing), term for t
   cross-covariance ``G_r P_r,:``;
 - with ``first_estimates`` (Huang, Mourikis & Roumeliotis 2008): each wall's
   observation linearised at its first angle, the robot's position in the motion
-  Jacobian and in a new wall's Jacobian at its prediction (before the scan's update).
+  Jacobian and in a new wall's Jacobian at its prediction (before the scan's update);
+- with ``shared_sd`` (the engine's ``wall_shared_sd``): a detection's noise gets the
+  straightness covariance of ``shared_sd`` times ``sqrt(n)``, ``n`` its wall's earlier
+  paired detections whose stretch of the line overlaps its own by more than half of
+  the shorter (stretches placed with the pose before the scan's update).
 """
 
 from __future__ import annotations
@@ -77,6 +81,17 @@ def at_segment(
     return nu, h, j @ r @ j.T
 
 
+def straightness(z: np.ndarray, seg: list[np.ndarray], sigma: float) -> np.ndarray:
+    """The straightness covariance of detection ``z`` seen over ``seg`` (each end off
+    the wall by ``sigma``; ``wallslam.straightness_covariance``, written out)."""
+    n = np.array([math.cos(z[1]), math.sin(z[1])])
+    mid = 0.5 * (np.asarray(seg[0]) + np.asarray(seg[1]))
+    m = np.array([-n[1], n[0]]) @ mid
+    l2 = max(float(np.sum((np.asarray(seg[1]) - np.asarray(seg[0])) ** 2)), 1e-6)
+    q = np.array([[0.5 + 2 * m * m / l2, 2 * m / l2], [2 * m / l2, 2 / l2]])
+    return sigma**2 * q
+
+
 def shifted(pose: np.ndarray, origin: np.ndarray) -> np.ndarray:
     """The pose seen from a wall's reference point."""
     return np.array([pose[0] - origin[0], pose[1] - origin[1], pose[2]])
@@ -121,11 +136,13 @@ class WallEkfSlam:
     max_angle_sd: float = math.radians(2.0)
     first_estimates: bool = False
     segment: bool = False
+    shared_sd: float = 0.0
     x: np.ndarray = field(init=False)
     P: np.ndarray = field(init=False)
     extents: list[list[np.ndarray]] = field(init=False, default_factory=list)
     origins: list[np.ndarray] = field(init=False, default_factory=list)
     first_alpha: list[float] = field(init=False, default_factory=list)
+    parts: list[list[tuple[float, float]]] = field(init=False, default_factory=list)
     shift: np.ndarray = field(init=False, default_factory=lambda: np.zeros(2))
 
     def __post_init__(self) -> None:
@@ -149,6 +166,10 @@ class WallEkfSlam:
         self, j: int, z: np.ndarray, r: np.ndarray, seg: list[np.ndarray]
     ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
         o = 3 + 2 * j
+        if self.shared_sd > 0:
+            lo, hi = self._stretch(j, seg)
+            n = sum(min(hi, b) - max(lo, a) > 0.5 * min(hi - lo, b - a) for a, b in self.parts[j])
+            r = r + math.sqrt(n) * straightness(z, seg, self.shared_sd)
         pose = shifted(self.x[:3], self.origins[j])
         pred, h_r, h_l = observe_wall(pose, self.x[o : o + 2])
         if self.first_estimates:
@@ -169,6 +190,12 @@ class WallEkfSlam:
         idx = [0, 1, 2, o, o + 1]
         s = h @ self.P[np.ix_(idx, idx)] @ h.T + r
         return float(nu @ np.linalg.solve(s, nu)), nu, h, r
+
+    def _stretch(self, j: int, seg: list[np.ndarray]) -> tuple[float, float]:
+        """The stretch of wall ``j``'s line that the seen segment covers."""
+        line = in_frame(self.x[3 + 2 * j : 5 + 2 * j], self.origins[j])
+        a, b = (along(line, to_world(self.x[:3], p))[1] for p in seg)
+        return min(a, b), max(a, b)
 
     def scan(self, walls: np.ndarray) -> None:
         """One scan's rows ``(t, rho, alpha, var_rho, cov, var_alpha, x0, y0, x1, y1)``."""
@@ -194,7 +221,10 @@ class WallEkfSlam:
             best.append(opts[0] if opts else None)
         paired = [(i, b) for i, b in enumerate(best) if b is not None]
         if paired:
+            stretches = [self._stretch(b[1], local[i]) for i, b in paired]
             self._update([(b[1], b[2], b[3], b[4]) for _, b in paired])
+            for (_, b), part in zip(paired, stretches, strict=True):
+                self.parts[b[1]].append(part)
             for i, b in paired:
                 j = b[1]
                 o = 3 + 2 * j
@@ -242,6 +272,7 @@ class WallEkfSlam:
         self.P = p
         self.x = np.r_[self.x, line]
         self.first_alpha.append(float(line[1]))
+        self.parts.append([])
         self.origins.append(origin)
         self.extents.append(covering(in_frame(line, origin), ends))
 

@@ -54,13 +54,14 @@ def bench(path: Path) -> list[str]:
         "association": "nn",
         "initial_pose": ref[0].tolist(),
         "first_estimates": True,
+        "wall_shared_sd": STRAIGHTNESS,
     }
     empty = np.zeros((0, 3))
     t_slam, out = seconds(
         lambda: _rperc.planar_slam_run(controls, empty, None, None, config, walls)
     )
     v = np.diag([SPEED_SIGMA**2, TURN_SIGMA**2])
-    peer = WallEkfSlam(ref[0], v, first_estimates=True, segment=True)
+    peer = WallEkfSlam(ref[0], v, first_estimates=True, segment=True, shared_sd=STRAIGHTNESS)
     t_numpy, est_np = seconds(lambda: run_reference(controls, walls, peer), repeat=1)
     rows = out["pose"][out["kind"] == 3]  # type: ignore[index]
     diff = float(np.max(np.abs(rows - est_np))) if rows.shape == est_np.shape else float("nan")

@@ -352,6 +352,34 @@ def test_wall_landmarks_match_the_numpy_reference_filter(first_estimates: bool, 
     np.testing.assert_allclose(out["wall_line"], ref.world_lines(), atol=1e-9)
 
 
+def test_shared_straightness_matches_the_numpy_reference_filter() -> None:
+    """``wall_shared_sd`` (repeated sightings of one stretch of a wall share its
+    straightness error) against the same rule written out in numpy: the same
+    trajectory and walls, and not those of the run without it."""
+    from rperc import _rperc
+
+    controls, walls = _room_recording()
+    v = np.diag([0.1**2, 0.03**2])
+    start = np.array([2.0, 0.0, math.pi / 2])
+    config = {
+        "motion": {"unicycle": {"speed_variance": v[0, 0], "turn_rate_variance": v[1, 1]}},
+        "association": "nn",
+        "initial_pose": start.tolist(),
+        "first_estimates": True,
+    }
+    runs = {}
+    for shared in (0.0, 0.05):
+        out = _rperc.planar_slam_run(
+            controls, np.zeros((0, 3)), None, None, {**config, "wall_shared_sd": shared}, walls
+        )
+        ref = WREF.WallEkfSlam(start, v, first_estimates=True, segment=True, shared_sd=shared)
+        poses = WREF.run(controls, walls, ref)
+        np.testing.assert_allclose(out["pose"][out["kind"] == 3], poses, atol=1e-9)
+        np.testing.assert_allclose(out["wall_line"], ref.world_lines(), atol=1e-9)
+        runs[shared] = poses
+    assert np.max(np.abs(runs[0.0] - runs[0.05])) > 1e-4
+
+
 def test_typed_run_returns_the_wall_map() -> None:
     """The same closed-form case through ``PlanarSlam.run_arrays(walls=...)``: the
     typed result's WallMap holds the new wall's ``G_r P G_r^T + R`` and extent; a run

@@ -178,6 +178,39 @@ pub fn segment_innovation(
     }
 }
 
+/// The covariance a wall detection `z = (rho, alpha)` (sensor frame) gets when each
+/// end of its seen segment `ends` lies off the ideal straight wall by an independent
+/// perpendicular error of `sigma` metres (a wall that is not straight at the cm level):
+/// the line through the two ends has offset error `(e1 + e2) / 2` at the midpoint and
+/// angle error `(e2 - e1) / L`, so at the sensor's foot (the midpoint at `m` along the
+/// line) `var(rho) = sigma^2 (1/2 + 2 m^2 / L^2)`, `cov = 2 sigma^2 m / L^2` and
+/// `var(alpha) = 2 sigma^2 / L^2`. Unlike a fit's covariance it does not shrink with
+/// the number of readings. (`rperc.slam.wallslam.straightness_covariance` is the same
+/// model over arrays.)
+///
+/// # Examples
+/// ```
+/// use nalgebra::{Point2, Vector2};
+/// use slam::wall::straightness_covariance;
+///
+/// // The wall x = 2 seen from y = -1 to y = 1: the midpoint is at the foot.
+/// let ends = [Point2::new(2.0, -1.0), Point2::new(2.0, 1.0)];
+/// let c = straightness_covariance(&Vector2::new(2.0, 0.0), &ends, 0.01);
+/// assert!((c[(0, 0)] - 0.5e-4).abs() < 1e-15 && (c[(1, 1)] - 0.5e-4).abs() < 1e-15);
+/// ```
+pub fn straightness_covariance(
+    z: &Vector2<f64>,
+    ends: &[Point2<f64>; 2],
+    sigma: f64,
+) -> Matrix2<f64> {
+    let (s, c) = z.y.sin_cos();
+    let mid = (ends[0].coords + ends[1].coords) * 0.5;
+    let m = Vector2::new(-s, c).dot(&mid);
+    let l2 = (ends[1] - ends[0]).norm_squared().max(1e-6);
+    let q = Matrix2::new(0.5 + 2.0 * m * m / l2, 2.0 * m / l2, 2.0 * m / l2, 2.0 / l2);
+    q * (sigma * sigma)
+}
+
 /// The foot on the line `z = (rho, alpha)` of the middle of the segment `ends`.
 pub fn segment_middle(z: &Vector2<f64>, ends: &[Point2<f64>; 2]) -> Point2<f64> {
     let n = Vector2::new(z.y.cos(), z.y.sin());
@@ -464,5 +497,54 @@ mod tests {
             (cov[(1, 1)] / r_mid[(1, 1)] - 1.0).abs() < 0.03,
             "{cov} vs {r_mid}"
         );
+    }
+
+    /// `(rho, alpha)` of the line through `a` and `b`, with its normal on the side of
+    /// `alpha_near`.
+    fn line_through(a: Point2<f64>, b: Point2<f64>, alpha_near: f64) -> Vector2<f64> {
+        let t = (b - a).normalize();
+        let mut n = Vector2::new(-t.y, t.x);
+        if n.dot(&Vector2::new(alpha_near.cos(), alpha_near.sin())) < 0.0 {
+            n = -n;
+        }
+        Vector2::new(n.dot(&a.coords), n.y.atan2(n.x))
+    }
+
+    proptest! {
+        /// The straightness covariance is the first-order covariance of the line
+        /// through the two end points, each moved across the wall by `sigma`
+        /// (central differences in the two perpendicular errors).
+        #[test]
+        fn straightness_covariance_is_the_two_end_point_model(
+            rho in 0.5..6.0f64,
+            alpha in -PI..PI,
+            along0 in -5.0..5.0f64,
+            length in 0.3..8.0f64,
+            sigma in 0.001..0.05f64,
+        ) {
+            let n = Vector2::new(alpha.cos(), alpha.sin());
+            let t = Vector2::new(-n.y, n.x);
+            let ends = [
+                Point2::from(n * rho + t * along0),
+                Point2::from(n * rho + t * (along0 + length)),
+            ];
+            let z = Vector2::new(rho, alpha);
+            let h = 1e-6;
+            let mut jac = Matrix2::zeros();
+            for k in 0..2 {
+                let moved = |e: f64| {
+                    let mut p = ends;
+                    p[k] += n * e;
+                    line_through(p[0], p[1], alpha)
+                };
+                let (up, down) = (moved(h), moved(-h));
+                jac[(0, k)] = (up.x - down.x) / (2.0 * h);
+                jac[(1, k)] = wrap_angle(up.y - down.y) / (2.0 * h);
+            }
+            let expected = jac * jac.transpose() * sigma * sigma;
+            let got = straightness_covariance(&z, &ends, sigma);
+            let scale = expected.abs().max();
+            prop_assert!((got - expected).abs().max() < 1e-6 * scale, "{got} vs {expected}");
+        }
     }
 }

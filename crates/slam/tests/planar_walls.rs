@@ -505,6 +505,92 @@ fn walls_with_a_loose_angle_are_not_used() {
     );
 }
 
+/// Repeated sightings of one stretch of a wall share its straightness error
+/// (`wall_shared_sd`): from a known pose, the wall x = 3 seen again and again over the
+/// same 2 m has, after its admission and `n` paired sightings, the information
+/// `R^-1 + sum_k (R + sqrt(k) S)^-1` (k = 0..n-1, `S` the straightness covariance;
+/// the segment's middle is the sensor's foot, so the observation is the identity),
+/// and `(n + 1) R^-1` without the shared error.
+#[test]
+fn repeated_sightings_of_one_stretch_share_the_straightness_error() {
+    let var = [1e-4, 4e-4];
+    let sigma = 0.05;
+    // Straightness of a 2 m segment whose middle is the foot: sigma^2 (1/2, 2 / L^2).
+    let s = [0.5 * sigma * sigma, 2.0 * sigma * sigma / 4.0];
+    for shared in [0.0, sigma] {
+        let cfg = PlanarConfig {
+            wall_shared_sd: shared,
+            ..PlanarConfig::default()
+        };
+        let mut slam = PlanarSlam::new(cfg).unwrap();
+        let n = 6;
+        for _ in 0..=n {
+            let walls = vec![detection(3.0, 0.0, var)];
+            slam.process(&Event::Walls { t: 0.0, walls }).unwrap();
+        }
+        assert_eq!(slam.walls().len(), 1);
+        let c = slam.walls()[0].covariance;
+        for (i, got) in [(0, c[0]), (1, c[3])] {
+            let repeats = |k: usize| if shared > 0.0 { (k as f64).sqrt() } else { 0.0 };
+            let info: f64 = 1.0 / var[i]
+                + (0..n)
+                    .map(|k| 1.0 / (var[i] + repeats(k) * s[i]))
+                    .sum::<f64>();
+            assert!(
+                (got - 1.0 / info).abs() < 1e-12 * got.max(1e-12) + 1e-15,
+                "{i}: {got} vs {}",
+                1.0 / info
+            );
+        }
+        assert!(c[1].abs() < 1e-15);
+    }
+    for bad in [-0.01, f64::NAN] {
+        let cfg = PlanarConfig {
+            wall_shared_sd: bad,
+            ..PlanarConfig::default()
+        };
+        let err = PlanarSlam::new(cfg).unwrap_err().to_string();
+        assert!(err.contains("wall_shared_sd"), "{err}");
+    }
+}
+
+/// Only a sighting that covers more than half of an earlier one's stretch is a
+/// repeat: after the wall x = 3 is admitted from y in [-1, 0] and seen over [0, 1], a
+/// third sighting over [0.6, 1.6] (0.4 m shared) counts as independent, one over
+/// [0.4, 1.4] (0.6 m) as a repeat, which leaves the wall less certain.
+#[test]
+fn only_sightings_of_the_same_stretch_are_repeats() {
+    let var = [1e-4, 4e-4];
+    let stretch = |y0: f64| WallDetection {
+        rho: 3.0,
+        alpha: 0.0,
+        covariance: [var[0], 0.0, 0.0, var[1]],
+        start: [3.0, y0],
+        end: [3.0, y0 + 1.0],
+    };
+    let run = |shared: f64, third: f64| {
+        let cfg = PlanarConfig {
+            wall_shared_sd: shared,
+            ..PlanarConfig::default()
+        };
+        let mut slam = PlanarSlam::new(cfg).unwrap();
+        for y0 in [-1.0, 0.0, third] {
+            let walls = vec![stretch(y0)];
+            slam.process(&Event::Walls { t: 0.0, walls }).unwrap();
+        }
+        slam.walls()[0].covariance
+    };
+    let (independent, apart) = (run(0.0, 0.6), run(0.05, 0.6));
+    for i in 0..4 {
+        assert!(
+            (independent[i] - apart[i]).abs() < 1e-15,
+            "{independent:?} vs {apart:?}"
+        );
+    }
+    let repeat = run(0.05, 0.4);
+    assert!(repeat[0] > independent[0] * (1.0 + 1e-6) && repeat[3] > independent[3] * (1.0 + 1e-6));
+}
+
 /// A wall anchor with control-bias states: the pose is re-expressed as without them
 /// (the closed form above), the bias states keep their variances, and the robot
 /// block is five long.

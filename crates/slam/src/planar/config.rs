@@ -120,6 +120,20 @@ pub struct PlanarConfig {
     /// 0.8 m 10.7 / 4.6 / 82 %, 1.2 m 8.9 / 3.7 / 88 %, no jambs 7.6 / 2.4 / 96 %;
     /// with this 2-degree limit 7.9 / 2.5 / 91 % with 0.4 m jambs).
     pub wall_max_angle_sd: f64,
+    /// The straightness error a detection shares with earlier detections of the same
+    /// part of its wall, m (>= 0; 0: none): a wall's own bends stay where they are,
+    /// so sightings of one stretch of it repeat their error instead of averaging it
+    /// away. A detection paired with a wall gets
+    /// [`crate::wall::straightness_covariance`] of this `sigma` times `sqrt(n)` added
+    /// to its noise, `n` the wall's earlier paired detections covering more than half
+    /// of the same stretch (the shorter one's). Its own covariance should already
+    /// hold the floor once (`rperc.slam.wallslam` adds it to every sighting). `sqrt(n)`
+    /// lies between independent sightings (no growth) and one error shared by all
+    /// (`n`); chosen on ACES with the floor `wallslam.STRAIGHTNESS`, Intel held out
+    /// (`benchmarks/wall_fig7.py`): on ACES, 10 seeds, the robot NEES mean went from
+    /// 4.7 to 3.5 with `sqrt(n)`, 14.6 with `n`. The detection that admits a wall is
+    /// not counted: counted, two ACES seeds of ten ended with NEES 145-149.
+    pub wall_shared_sd: f64,
     /// Where a wall detection is compared with the map's wall (`segment`, the
     /// default, or seed 000's `line`).
     pub wall_innovation: WallInnovation,
@@ -192,6 +206,7 @@ impl Default for PlanarConfig {
             wall_overlap_gap: 0.5,
             wall_admission_confidence: 0.999_999,
             wall_max_angle_sd: 2f64.to_radians(),
+            wall_shared_sd: 0.0,
             wall_innovation: WallInnovation::Segment,
             anchor: false,
             external_fix: false,
@@ -238,6 +253,7 @@ impl PlanarConfig {
         }
         ensure_non_negative("wall_overlap_gap", self.wall_overlap_gap)?;
         ensure_positive("wall_max_angle_sd", self.wall_max_angle_sd)?;
+        ensure_non_negative("wall_shared_sd", self.wall_shared_sd)?;
         let admission = self.wall_admission_confidence;
         if !(self.gate_confidence..1.0).contains(&admission) {
             return Err(SlamError::invalid(

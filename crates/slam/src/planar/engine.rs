@@ -91,6 +91,9 @@ pub struct PlanarSlam {
     pub(super) fixed_wall_ids: Vec<u64>,
     /// Every wall's seen extent (state, frozen or anchor), in the internal frame.
     pub(super) walls: HashMap<u64, Extent>,
+    /// The stretches `(from, to)` of each wall's line (coordinates along it, frame
+    /// form) covered by its paired detections, for `wall_shared_sd`.
+    pub(super) wall_parts: HashMap<u64, Vec<(f64, f64)>>,
     /// The last wall scan: each detection's wall id (paired or admitted), or `None`.
     pub(super) wall_pairing: Vec<Option<u64>>,
     pub(super) revisions: HashMap<u64, u32>,
@@ -165,6 +168,7 @@ impl PlanarSlam {
             fixed_walls: Vec::new(),
             fixed_wall_ids: Vec::new(),
             walls: HashMap::new(),
+            wall_parts: HashMap::new(),
             wall_pairing: Vec::new(),
             revisions: HashMap::new(),
             first: HashMap::new(),

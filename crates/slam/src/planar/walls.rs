@@ -29,7 +29,8 @@ use super::engine::dyn_mat;
 use super::{Association, PlanarSlam, WallDetection, WallEstimate, WallInnovation};
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::wall::{
-    WallJacobians, observe_wall, segment_innovation, segment_middle, wall_innovation, wall_to_world,
+    WallJacobians, observe_wall, segment_innovation, segment_middle, straightness_covariance,
+    wall_innovation, wall_to_world,
 };
 
 /// A wall the filter no longer estimates (frozen, or a wall anchor with a zero
@@ -139,6 +140,25 @@ struct WallTarget<'a> {
     linearised: Vector2<f64>,
     fixed: Option<&'a Matrix2<f64>>,
     extent: &'a Extent,
+    /// The stretches its earlier paired detections covered.
+    parts: &'a [(f64, f64)],
+}
+
+/// The stretch `(from, to)` of `line` (frame form) that detection `seen` covers,
+/// placed with `sensor`.
+fn part_on(line: &Vector2<f64>, sensor: &Pose2, seen: &Seen) -> (f64, f64) {
+    let [a, b] = seen
+        .local
+        .map(|p| along(line, &sensor.transform_point(&p)).1);
+    (a.min(b), a.max(b))
+}
+
+/// How many of `parts` overlap `part` by more than half of the shorter of the two.
+fn overlapping(parts: &[(f64, f64)], (lo, hi): (f64, f64)) -> usize {
+    parts
+        .iter()
+        .filter(|(a, b)| hi.min(*b) - lo.max(*a) > 0.5 * (hi - lo).min(b - a))
+        .count()
 }
 
 /// The pairing of detection `det` with `wall`, seen from the sensor (with its
@@ -150,6 +170,7 @@ fn wall_pairing(
     det: usize,
     seen: &Seen,
     wall: &WallTarget<'_>,
+    shared_sd: f64,
 ) -> Option<Pairing> {
     let (target, fixed) = (wall.target, wall.fixed);
     let from = about(sensor, &wall.extent.origin);
@@ -159,6 +180,11 @@ fn wall_pairing(
     let mut h_robot = jac.d_pose * j_sensor;
     let mut h_l = jac.d_wall;
     let mut r = seen.r;
+    if shared_sd > 0.0 {
+        let line = in_frame(&wall.line, &wall.extent.origin);
+        let repeats = overlapping(wall.parts, part_on(&line, sensor, seen)) as f64;
+        r += straightness_covariance(&seen.z, &seen.local, shared_sd) * repeats.sqrt();
+    }
     if sign < 0.0 {
         h_robot.row_mut(0).neg_mut();
         h_l.row_mut(0).neg_mut();
@@ -237,7 +263,13 @@ impl PlanarSlam {
         if !pairings.is_empty() {
             let ids: Vec<u64> = pairings.iter().map(|p| self.target_id(p.target)).collect();
             let zs: Vec<Vector2<f64>> = seen.iter().map(|s| s.z).collect();
+            // The stretches seen, placed before the update moves the walls, as
+            // their pairings were made.
+            let parts = self.parts_seen(&pairings, &ids, &seen);
             self.apply(&pairings, &zs)?;
+            for (id, part) in ids.iter().zip(parts) {
+                self.wall_parts.entry(*id).or_default().extend(part);
+            }
             self.stats.walls_accepted += pairings.len() as u64;
             for (p, id) in pairings.iter().zip(ids) {
                 self.extend(id, &seen[p.det]);
@@ -263,6 +295,26 @@ impl PlanarSlam {
         Ok(())
     }
 
+    /// The stretch of its wall each pairing's detection covers (`None` for a wall
+    /// no longer in the map).
+    fn parts_seen(
+        &self,
+        pairings: &[Pairing],
+        ids: &[u64],
+        seen: &[Seen],
+    ) -> Vec<Option<(f64, f64)>> {
+        let (sensor, _) = self.sensor();
+        pairings
+            .iter()
+            .zip(ids)
+            .map(|(p, id)| {
+                let (line, _, _) = self.wall_line(*id)?;
+                let origin = self.walls.get(id)?.origin;
+                Some(part_on(&in_frame(&line, &origin), &sensor, &seen[p.det]))
+            })
+            .collect()
+    }
+
     /// Every wall (state or fixed) whose extent overlaps the detection's segment
     /// within `wall_overlap_gap` and whose pairing passes the gate, by NIS; and
     /// whether some overlapping wall is within `new_gate`, the wider gate a detection
@@ -271,6 +323,7 @@ impl PlanarSlam {
         let scene = self.scene();
         let sensor = self.sensor();
         let targets = self.wall_targets();
+        let shared_sd = self.config.wall_shared_sd;
         seen.iter()
             .enumerate()
             .map(|(i, s)| {
@@ -281,7 +334,7 @@ impl PlanarSlam {
                         let line = in_frame(&w.line, &w.extent.origin);
                         gap(&line, w.extent, &ends) <= self.config.wall_overlap_gap
                     })
-                    .filter_map(|w| wall_pairing(&scene, &sensor, i, s, w))
+                    .filter_map(|w| wall_pairing(&scene, &sensor, i, s, w, shared_sd))
                     .filter(|p| p.nis <= new_gate)
                     .collect();
                 let near = !o.is_empty();
@@ -290,6 +343,11 @@ impl PlanarSlam {
                 (o, near)
             })
             .unzip()
+    }
+
+    /// The stretches wall `id`'s paired detections covered.
+    fn parts_of(&self, id: u64) -> &[(f64, f64)] {
+        self.wall_parts.get(&id).map_or(&[], Vec::as_slice)
     }
 
     /// The walls of the map: in the state, then fixed.
@@ -306,6 +364,7 @@ impl PlanarSlam {
                     linearised: first.copied().unwrap_or(line),
                     fixed: None,
                     extent,
+                    parts: self.parts_of(*id),
                 });
             }
         }
@@ -318,6 +377,7 @@ impl PlanarSlam {
                     linearised: f.line,
                     fixed: Some(&f.cov),
                     extent,
+                    parts: self.parts_of(*id),
                 });
             }
         }

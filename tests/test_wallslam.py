@@ -134,6 +134,29 @@ def test_straightness_covariance_against_a_monte_carlo_of_the_end_points():
         np.testing.assert_allclose(empirical / scale, q / scale, atol=0.02)
 
 
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"rho": [1.0, 2.0]}, "one row per wall"),
+        ({"start": [[0.0, 1.0, 2.0, 3.0]]}, "start"),
+        ({"alpha": [float("nan")]}, "finite"),
+        ({"end": [[float("inf"), 1.0]]}, "finite"),
+        ({"sigma": -0.01}, "sigma"),
+        ({"sigma": float("nan")}, "sigma"),
+    ],
+)
+def test_straightness_covariance_refuses_bad_input(kwargs, match):
+    """Mismatched lengths, a wrong shape, NaN or inf, and a negative or NaN sigma are
+    a ValueError naming the problem; lists work like arrays."""
+    from rperc.slam.wallslam import straightness_covariance
+
+    args = {"rho": [2.0], "alpha": [0.0], "start": [[2.0, -1.0]], "end": [[2.0, 1.0]]}
+    good = straightness_covariance(**args, sigma=0.01)
+    np.testing.assert_allclose(good, [[[0.5e-4, 0.0], [0.0, 0.5e-4]]], atol=1e-15)
+    with pytest.raises(ValueError, match=match):
+        straightness_covariance(**{**args, "sigma": 0.01, **kwargs})
+
+
 def test_wall_rows_equal_one_extraction_per_scan(loop_log):
     """The one-pass rows against each scan's extract_lines (and the straightness
     covariance) row by row, and the valid readings counted scan by scan."""

@@ -52,6 +52,7 @@ __all__ = [
     "visual_memory_defaults",
     "visual_memory_learn",
     "visual_memory_replay",
+    "wall_straightness_covariance",
 ]
 
 __version__: str
@@ -156,6 +157,9 @@ def planar_slam_run(
     walls: npt.NDArray[np.float64] | None = None,
     progress: Callable[[int, int], object] | None = None,
 ) -> dict[str, Any]: ...
+def wall_straightness_covariance(
+    rho: _ArrayLike, alpha: _ArrayLike, start: _ArrayLike, end: _ArrayLike, sigma: float
+) -> _Array: ...
 def monobot_summarize(
     nees: _ArrayLike,
     robot_error: _ArrayLike,

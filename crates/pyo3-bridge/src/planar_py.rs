@@ -11,7 +11,7 @@ use slam::planar::{
 };
 use std::sync::Mutex;
 
-use crate::arrays::{shaped, tensor};
+use crate::arrays::{float_vector, point_rows, shaped, tensor};
 use crate::errors::{Error, Result, detached, detached_parallel};
 
 /// The default planar SLAM configuration as a dict.
@@ -299,4 +299,46 @@ pub fn planar_simulate<'py>(
     let marks: Vec<f64> = data.landmarks.iter().flat_map(|p| [p.x, p.y]).collect();
     d.set_item("landmarks", shaped(py, marks, &[data.landmarks.len(), 2])?)?;
     Ok(d)
+}
+
+/// [`slam::wall::straightness_covariance`] of each sensor-frame wall `(rho[k],
+/// alpha[k])` seen from `start[k]` to `end[k]` ((K, 2) each), as a (K, 2, 2) array.
+#[pyfunction]
+pub fn wall_straightness_covariance<'py>(
+    py: Python<'py>,
+    rho: &Bound<'py, PyAny>,
+    alpha: &Bound<'py, PyAny>,
+    start: &Bound<'py, PyAny>,
+    end: &Bound<'py, PyAny>,
+    sigma: f64,
+) -> PyResult<Bound<'py, numpy::PyArrayDyn<f64>>> {
+    use nalgebra::Vector2;
+    let (rho, alpha) = (float_vector(rho, "rho")?, float_vector(alpha, "alpha")?);
+    let (start, end) = (point_rows(start, "start")?, point_rows(end, "end")?);
+    let (start, end) = (start.as_points(), end.as_points());
+    let k = rho.len();
+    if alpha.len() != k || start.len() != k || end.len() != k {
+        return Err(Error::Value(format!(
+            "rho, alpha, start and end must have one row per wall, got {k}, {}, {} and {}",
+            alpha.len(),
+            start.len(),
+            end.len()
+        ))
+        .into());
+    }
+    if !(sigma.is_finite() && sigma >= 0.0) {
+        return Err(Error::Value(format!("sigma must be finite and >= 0, got {sigma}")).into());
+    }
+    let values = rho.iter().chain(&alpha);
+    let points = start.iter().chain(end).flat_map(|p| [p.x, p.y]);
+    if !values.copied().chain(points).all(f64::is_finite) {
+        return Err(Error::Value("rho, alpha, start and end must be finite".into()).into());
+    }
+    let mut out = Vec::with_capacity(4 * k);
+    for i in 0..k {
+        let ends = [start[i], end[i]];
+        let c = slam::wall::straightness_covariance(&Vector2::new(rho[i], alpha[i]), &ends, sigma);
+        out.extend([c[(0, 0)], c[(0, 1)], c[(1, 0)], c[(1, 1)]]);
+    }
+    Ok(shaped(py, out, &[k, 2, 2])?)
 }

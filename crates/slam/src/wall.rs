@@ -185,8 +185,8 @@ pub fn segment_innovation(
 /// angle error `(e2 - e1) / L`, so at the sensor's foot (the midpoint at `m` along the
 /// line) `var(rho) = sigma^2 (1/2 + 2 m^2 / L^2)`, `cov = 2 sigma^2 m / L^2` and
 /// `var(alpha) = 2 sigma^2 / L^2`. Unlike a fit's covariance it does not shrink with
-/// the number of readings. (`rperc.slam.wallslam.straightness_covariance` is the same
-/// model over arrays.)
+/// the number of readings. (Python reaches it over arrays as
+/// `rperc.slam.wallslam.straightness_covariance`.)
 ///
 /// # Examples
 /// ```

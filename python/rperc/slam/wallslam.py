@@ -43,7 +43,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from rperc._args import whole_number
+from rperc import _rperc
+from rperc._args import float_array, real_number, whole_number
 from rperc.slam.planar import PlanarSlam, SlamResult
 
 __all__ = [
@@ -133,7 +134,7 @@ def noisy_controls(controls: np.ndarray, seed: int, *, bias: bool = True) -> np.
 
 
 def straightness_covariance(
-    rho: np.ndarray, alpha: np.ndarray, start: np.ndarray, end: np.ndarray, sigma: float
+    rho: npt.ArrayLike, alpha: npt.ArrayLike, start: npt.ArrayLike, end: npt.ArrayLike, sigma: float
 ) -> np.ndarray:
     """The ``(K, 2, 2)`` covariance a wall's ``(rho, alpha)`` gets when each end of the
     seen segment lies off the ideal straight wall by an independent perpendicular error
@@ -143,16 +144,14 @@ def straightness_covariance(
     of the perpendicular (tangent coordinate 0, the midpoint at ``m``)
     ``var(rho) = sigma^2 (1/2 + 2 m^2 / L^2)``, ``var(alpha) = 2 sigma^2 / L^2`` and
     ``cov = 2 sigma^2 m / L^2`` (``m`` along ``(-sin alpha, cos alpha)``).
-    Unlike the fit's covariance it does not shrink with the number of readings."""
-    n = np.stack([np.cos(alpha), np.sin(alpha)], axis=-1)
-    tangent = np.stack([-n[:, 1], n[:, 0]], axis=-1)
-    m = np.einsum("ki,ki->k", 0.5 * (start + end), tangent)
-    length2 = np.maximum(np.sum((end - start) ** 2, axis=1), 1e-6)
-    q = np.empty((len(rho), 2, 2))
-    q[:, 0, 0] = 0.5 + 2 * m**2 / length2
-    q[:, 1, 1] = 2 / length2
-    q[:, 0, 1] = q[:, 1, 0] = 2 * m / length2
-    out: np.ndarray = sigma**2 * q
+    Unlike the fit's covariance it does not shrink with the number of readings. The
+    engine's own function (``slam::wall::straightness_covariance``), which
+    ``wall_shared_sd`` uses."""
+    arrays = {k: float_array(v, k) for k, v in (("rho", rho), ("alpha", alpha))}
+    ends = {k: float_array(v, k) for k, v in (("start", start), ("end", end))}
+    out: np.ndarray = _rperc.wall_straightness_covariance(
+        arrays["rho"], arrays["alpha"], ends["start"], ends["end"], real_number(sigma, "sigma")
+    )
     return out
 
 

@@ -13,7 +13,12 @@ for each jamb length and each place of the world origin:
 
     python benchmarks/wall_corridor.py --jambs 0.4 0.8 1.2 0 --offsets 0 60 \\
         --max-angle-sd 100 2 [--wall-innovation line segment]
-        [--door 1.0 --recess 0.03 --gaps 0.5 1.5]
+        [--door 1.0 --recess 0.03 --gaps 0.5 1.5] [--bend 0.02 [--shared]]
+
+``--bend SD`` gives every wall bends of its own (N(0, SD) at knots 1 m apart, fixed
+for the run), so sightings of one stretch share their error; ``--shared`` tells the
+filter so (``wall_shared_sd``). With ``--door 1.0 --sigma 0.01 --bend 0.02``, FEJ,
+bias and bias states, 12 seeds: 78 % of scans in band without it, 89 % with it.
 
 ``--door`` breaks the inner walls into sections with doorways between them, each
 section a wall of its own when ``wall_overlap_gap`` is under the doorway. That is
@@ -85,16 +90,34 @@ def loop(side: float, step: float, laps: int) -> np.ndarray:
     return np.c_[xy, np.r_[th, th[-1]]]
 
 
+def bent(
+    segs: np.ndarray, sd: float, rng: np.random.Generator, knot: float = 1.0
+) -> list[np.ndarray]:
+    """Each wall's own bends: its offset across its line at knots ``knot`` metres apart
+    along it, N(0, ``sd``) each, linear in between; fixed for the whole run, so that
+    every sighting of a stretch shares them."""
+    out = []
+    for x0, y0, x1, y1 in segs:
+        k = math.ceil(math.hypot(x1 - x0, y1 - y0) / knot) + 1
+        out.append(rng.normal(0.0, sd, k) if sd > 0 else np.zeros(k))
+    return out
+
+
 def seen_walls(
-    pose: np.ndarray, segs: np.ndarray, rng: np.random.Generator, sigma: float, reach: float
-) -> list[list[float]]:
+    pose: np.ndarray, segs: np.ndarray, rng: np.random.Generator,
+    sigma: float | tuple[float, float], reach: float, bends: list[np.ndarray] | None = None,
+) -> list[list[float]]:  # fmt: skip
     """Rows ``(rho, alpha, var_rho, cov, var_alpha, x0, y0, x1, y1)`` in the sensor
-    frame of every wall with at least 0.3 m within ``reach`` (no occlusion)."""
+    frame of every wall with at least 0.3 m within ``reach`` (no occlusion). Each end
+    seen is off the wall by its bend there (``bends``, from :func:`bent`) plus fresh
+    N(0, ``sigma``) noise; ``sigma`` may be ``(fresh, told)``, ``told`` the sd the
+    reported covariance assumes (the bends and the fresh noise together)."""
+    sigma, told = (sigma, sigma) if isinstance(sigma, float | int) else sigma
     c, s = math.cos(pose[2]), math.sin(pose[2])
     rot = np.array([[c, s], [-s, c]])
     rows = []
     tt = np.linspace(0.0, 1.0, 201)
-    for x0, y0, x1, y1 in segs:
+    for w, (x0, y0, x1, y1) in enumerate(segs):
         p = np.c_[x0 + (x1 - x0) * tt, y0 + (y1 - y0) * tt]
         inside = np.hypot(*(p - pose[:2]).T) < reach
         if inside.sum() < 2:
@@ -104,7 +127,14 @@ def seen_walls(
         if length < 0.3:
             continue
         n = np.array([-(b - a)[1], (b - a)[0]]) / length
-        a, b = a + n * rng.normal(0.0, sigma), b + n * rng.normal(0.0, sigma)
+        ends = tt[inside][[0, -1]]
+        bend = (
+            np.interp(ends, np.linspace(0.0, 1.0, len(bends[w])), bends[w])
+            if bends is not None
+            else np.zeros(2)
+        )
+        a = a + n * (bend[0] + rng.normal(0.0, sigma))
+        b = b + n * (bend[1] + rng.normal(0.0, sigma))
         t = (b - a) / np.hypot(*(b - a))
         n = np.array([-t[1], t[0]])
         rho = float(n @ a)
@@ -112,7 +142,7 @@ def seen_walls(
             rho, n = -rho, -n
         alpha = math.atan2(n[1], n[0])
         cov = ws.straightness_covariance(
-            np.array([rho]), np.array([alpha]), a[None], b[None], sigma
+            np.array([rho]), np.array([alpha]), a[None], b[None], told
         )[0]
         rows.append([rho, alpha, cov[0, 0], cov[0, 1], cov[1, 1], *a, *b])
     return rows
@@ -124,10 +154,12 @@ def run(seed: int, jamb: float, offset: float, args: argparse.Namespace) -> dict
     segs = world(40.0, 2.5, jamb, door=args.door, recess=args.recess, rng=doors) + offset
     ref = loop(40.0, 0.73, 2) + np.array([offset, offset, 0.0])
     exact, t = ws.increments(ref)
+    bends = bent(segs, args.bend, np.random.default_rng(3000 + seed))
+    told = math.hypot(args.sigma, args.bend)
     rows = [
         [t[k], *r]
         for k, p in enumerate(ref)
-        for r in seen_walls(p, segs, rng, args.sigma, args.range)
+        for r in seen_walls(p, segs, rng, (args.sigma, told), args.range, bends)
     ]
     controls = ws.noisy_controls(exact, seed, bias=args.bias)
     config = {
@@ -143,6 +175,7 @@ def run(seed: int, jamb: float, offset: float, args: argparse.Namespace) -> dict
         "first_estimates": args.first_estimates,
         "wall_innovation": args.wall_innovation_now,
         "wall_overlap_gap": args.gap_now,
+        "wall_shared_sd": args.bend if args.shared else 0.0,
     }
     if args.bias_states:
         config["control_bias_sd"] = [ws.SPEED_BIAS, ws.TURN_BIAS]
@@ -172,6 +205,11 @@ def main() -> None:
     ap.add_argument("--door", type=float, default=0.0, help="doorways in the inner walls, m")
     ap.add_argument("--recess", type=float, default=0.0, help="sd of a section's offset, m")
     ap.add_argument("--gaps", type=float, nargs="+", default=[0.5], help="wall_overlap_gap, m")
+    ap.add_argument("--bend", type=float, default=0.0, help="sd of the walls' own bends, m")
+    ap.add_argument(
+        "--shared", action="store_true",
+        help="tell the filter that sightings of a stretch share its bends (wall_shared_sd)",
+    )  # fmt: skip
     args = ap.parse_args()
     for form, limit, gap in itertools.product(args.wall_innovation, args.max_angle_sd, args.gaps):
         args.wall_innovation_now, args.max_angle_sd_now, args.gap_now = form, limit, gap

@@ -26,7 +26,8 @@ written out in numpy, for the plain variant (no anchor, no freezing), term for t
 - with ``shared_sd`` (the engine's ``wall_shared_sd``): a detection's noise gets the
   straightness covariance of ``shared_sd`` times ``sqrt(n)``, ``n`` its wall's earlier
   paired detections whose stretch of the line overlaps its own by more than half of
-  the shorter (stretches placed with the pose before the scan's update).
+  the shorter, among its latest ``PARTS_KEPT`` (stretches placed with the pose
+  before the scan's update).
 """
 
 from __future__ import annotations
@@ -79,6 +80,9 @@ def at_segment(
     h = np.vstack([h[0] - t_pred * h[1], h[1]])
     j = np.array([[1.0, -t_seen], [0.0, 1.0]])
     return nu, h, j @ r @ j.T
+
+
+PARTS_KEPT = 256  # the engine's WALL_PARTS_KEPT
 
 
 def straightness(z: np.ndarray, seg: list[np.ndarray], sigma: float) -> np.ndarray:
@@ -224,7 +228,7 @@ class WallEkfSlam:
             stretches = [self._stretch(b[1], local[i]) for i, b in paired]
             self._update([(b[1], b[2], b[3], b[4]) for _, b in paired])
             for (_, b), part in zip(paired, stretches, strict=True):
-                self.parts[b[1]].append(part)
+                self.parts[b[1]] = [*self.parts[b[1]], part][-PARTS_KEPT:]
             for i, b in paired:
                 j = b[1]
                 o = 3 + 2 * j

@@ -11,7 +11,8 @@ use rperc_core::{Pose2, angle_diff};
 use slam::planar::room::{RoomConfig, room_monte_carlo, room_nees, simulate_room};
 use slam::planar::sim::MonteCarlo;
 use slam::planar::{
-    Association, Event, EventKind, FreezeMode, PlanarConfig, PlanarSlam, WallDetection,
+    Association, Event, EventKind, FreezeMode, PlanarConfig, PlanarSlam, WALL_PARTS_KEPT,
+    WallDetection,
 };
 
 fn summary(name: &str, mc: &MonteCarlo, from: usize) -> (f64, f64) {
@@ -508,9 +509,10 @@ fn walls_with_a_loose_angle_are_not_used() {
 /// Repeated sightings of one stretch of a wall share its straightness error
 /// (`wall_shared_sd`): from a known pose, the wall x = 3 seen again and again over the
 /// same 2 m has, after its admission and `n` paired sightings, the information
-/// `R^-1 + sum_k (R + sqrt(k) S)^-1` (k = 0..n-1, `S` the straightness covariance;
-/// the segment's middle is the sensor's foot, so the observation is the identity),
-/// and `(n + 1) R^-1` without the shared error.
+/// `R^-1 + sum_k (R + sqrt(min(k, K)) S)^-1` (k = 0..n-1, `S` the straightness
+/// covariance, `K` = `WALL_PARTS_KEPT` the detections remembered; the segment's middle
+/// is the sensor's foot, so the observation is the identity), and `(n + 1) R^-1`
+/// without the shared error. `n` runs past `K`.
 #[test]
 fn repeated_sightings_of_one_stretch_share_the_straightness_error() {
     let var = [1e-4, 4e-4];
@@ -523,7 +525,7 @@ fn repeated_sightings_of_one_stretch_share_the_straightness_error() {
             ..PlanarConfig::default()
         };
         let mut slam = PlanarSlam::new(cfg).unwrap();
-        let n = 6;
+        let n = WALL_PARTS_KEPT + 40;
         for _ in 0..=n {
             let walls = vec![detection(3.0, 0.0, var)];
             slam.process(&Event::Walls { t: 0.0, walls }).unwrap();
@@ -531,7 +533,13 @@ fn repeated_sightings_of_one_stretch_share_the_straightness_error() {
         assert_eq!(slam.walls().len(), 1);
         let c = slam.walls()[0].covariance;
         for (i, got) in [(0, c[0]), (1, c[3])] {
-            let repeats = |k: usize| if shared > 0.0 { (k as f64).sqrt() } else { 0.0 };
+            let repeats = |k: usize| {
+                if shared > 0.0 {
+                    (k.min(WALL_PARTS_KEPT) as f64).sqrt()
+                } else {
+                    0.0
+                }
+            };
             let info: f64 = 1.0 / var[i]
                 + (0..n)
                     .map(|k| 1.0 / (var[i] + repeats(k) * s[i]))

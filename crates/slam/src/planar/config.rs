@@ -126,7 +126,8 @@ pub struct PlanarConfig {
     /// away. A detection paired with a wall gets
     /// [`crate::wall::straightness_covariance`] of this `sigma` times `sqrt(n)` added
     /// to its noise, `n` the wall's earlier paired detections covering more than half
-    /// of the same stretch (the shorter one's). Its own covariance should already
+    /// of the same stretch (the shorter one's), among its latest
+    /// [`super::WALL_PARTS_KEPT`]. Its own covariance should already
     /// hold the floor once (`rperc.slam.wallslam` adds it to every sighting). `sqrt(n)`
     /// lies between independent sightings (no growth) and one error shared by all
     /// (`n`). In a simulated corridor whose walls have bends of their own (2 cm sd,

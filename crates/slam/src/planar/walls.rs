@@ -144,6 +144,10 @@ struct WallTarget<'a> {
     parts: &'a [(f64, f64)],
 }
 
+/// How many of a wall's latest paired detections `wall_shared_sd` compares a new one
+/// with: `n` in its `sqrt(n)` is at most this.
+pub const WALL_PARTS_KEPT: usize = 256;
+
 /// The stretch `(from, to)` of `line` (frame form) that detection `seen` covers,
 /// placed with `sensor`.
 fn part_on(line: &Vector2<f64>, sensor: &Pose2, seen: &Seen) -> (f64, f64) {
@@ -268,7 +272,13 @@ impl PlanarSlam {
             let parts = self.parts_seen(&pairings, &ids, &seen);
             self.apply(&pairings, &zs)?;
             for (id, part) in ids.iter().zip(parts) {
-                self.wall_parts.entry(*id).or_default().extend(part);
+                let kept = self.wall_parts.entry(*id).or_default();
+                kept.extend(part);
+                // Bounded, so that a robot parked before a wall for hours neither
+                // grows the list nor slows each pairing (Intel's most is 136).
+                if kept.len() > WALL_PARTS_KEPT {
+                    kept.remove(0);
+                }
             }
             self.stats.walls_accepted += pairings.len() as u64;
             for (p, id) in pairings.iter().zip(ids) {

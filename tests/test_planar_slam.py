@@ -399,6 +399,36 @@ def test_typed_run_returns_the_wall_map() -> None:
         slam.run_arrays(np.zeros((0, 3)), np.zeros((0, 3)), walls=walls[:, :9])
 
 
+def test_wall_pairing_accounts_for_every_wall_row() -> None:
+    """``wall_pairing`` gives each wall row its wall (paired or admitted) or -1:
+    one entry per row, every id in the map, each wall's first row its admission
+    (as many as ``walls_new``), the -1 rows exactly the vague and the ambiguous
+    ones, and the paired rows ``walls_accepted``; a row with a loose angle is -1."""
+    controls, walls = _room_recording()
+    v = (0.1**2, 0.03**2)
+    slam = PlanarSlam(
+        motion={"unicycle": {"speed_variance": v[0], "turn_rate_variance": v[1]}},
+        association="nn", initial_pose=[2.0, 0.0, math.pi / 2],
+    )  # fmt: skip
+    out = slam.run_arrays(controls, np.zeros((0, 3)), walls=walls)
+    pairing, s = out.wall_pairing, out.statistics
+    assert pairing is not None and out.walls is not None
+    assert pairing.shape == (len(walls),) and pairing.dtype == np.int64
+    used = pairing[pairing >= 0]
+    assert set(used.tolist()) <= set(out.walls.id.tolist())
+    assert len(np.unique(used)) == s["walls_new"]
+    assert len(used) == s["walls_new"] + s["walls_accepted"]
+    assert np.count_nonzero(pairing < 0) == s["walls_vague"] + s["walls_rejected"]
+    vague = np.array([[0.0, 3.0, 0.0, 1e-4, 0.0, 1.0, 3.0, -1.0, 3.0, 1.0]])
+    sharp = vague * [1, 1, 1, 1, 1, 1e-4, 1, 1, 1, 1]
+    rows = np.r_[vague, sharp]
+    one = PlanarSlam(wall_max_angle_sd=0.1).run_arrays(
+        np.zeros((0, 3)), np.zeros((0, 3)), walls=rows
+    )
+    assert one.wall_pairing is not None and one.wall_pairing.tolist() == [-1, 0]
+    assert PlanarSlam().run_arrays(np.zeros((1, 3)), np.zeros((0, 3))).wall_pairing is None
+
+
 # --- Same association as the numpy reference (JCBB, candidate list) ----------------
 
 

@@ -139,6 +139,13 @@ fn result_dict(py: Python<'_>, r: PlanarResult) -> PyResult<Bound<'_, PyDict>> {
     let anchor: Vec<bool> = lm.iter().map(|l| l.anchor).collect();
     d.set_item("landmark_anchor", anchor.into_pyarray(py))?;
     wall_items(py, &d, &r.walls)?;
+    // -1: a detection left out (ids are admission counters, far below i64::MAX).
+    let pairing: Vec<i64> = r
+        .wall_pairing
+        .iter()
+        .map(|p| p.map_or(-1, |id| id as i64))
+        .collect();
+    d.set_item("wall_pairing", pairing.into_pyarray(py))?;
     d.set_item("statistics", statistics(py, &r.statistics)?)?;
     d.set_item("anchor", r.anchor.map(|a| a.to_vec()))?;
     d.set_item("anchor_time", r.anchor_time)?;

@@ -192,6 +192,9 @@ class SlamResult:
     config: dict[str, Any] = field(default_factory=dict)
     anchor_time: float | None = None  # when the anchor was made (eqs. 24-25)
     walls: WallMap | None = None  # the wall landmarks, when the run was given walls
+    #: The walls' data association: for each row of ``walls``, the id of the wall it
+    #: was paired with or admitted as, -1 when left out (too vague, or ambiguous).
+    wall_pairing: np.ndarray | None = None
 
     def __repr__(self) -> str:
         s = self.statistics
@@ -483,6 +486,7 @@ class PlanarSlam:
         anchor = out.pop("anchor")
         anchor_time = out.pop("anchor_time")
         stats = {k: int(v) for k, v in out.pop("statistics").items()}
+        pairing = out.pop("wall_pairing")
         return SlamResult(
             **out,
             statistics=stats,
@@ -490,6 +494,7 @@ class PlanarSlam:
             config=dict(self.config),
             anchor_time=None if anchor_time is None else float(anchor_time),
             walls=None if walls is None else wall_map,
+            wall_pairing=None if walls is None else pairing,
         )
 
 

@@ -96,6 +96,8 @@ pub struct PlanarSlam {
     pub(super) wall_parts: HashMap<u64, Vec<(f64, f64)>>,
     /// The last wall scan: each detection's wall id (paired or admitted), or `None`.
     pub(super) wall_pairing: Vec<Option<u64>>,
+    /// Every wall detection so far, in the order processed: as `wall_pairing`.
+    pub(super) wall_pairings: Vec<Option<u64>>,
     pub(super) revisions: HashMap<u64, u32>,
     /// Each wall's first estimate, where its observation is linearised with
     /// `first_estimates`.
@@ -170,6 +172,7 @@ impl PlanarSlam {
             walls: HashMap::new(),
             wall_parts: HashMap::new(),
             wall_pairing: Vec::new(),
+            wall_pairings: Vec::new(),
             revisions: HashMap::new(),
             first: HashMap::new(),
             update_shift: Vector2::zeros(),
@@ -864,6 +867,7 @@ impl PlanarSlam {
             trajectory: self.trajectory,
             landmarks,
             statistics: self.stats,
+            wall_pairing: self.wall_pairings,
         }
     }
 

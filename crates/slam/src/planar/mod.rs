@@ -253,4 +253,8 @@ pub struct PlanarResult {
     /// The time the anchor was made: the robot covariance is relative to the anchor
     /// from then on, in the world frame before.
     pub anchor_time: Option<f64>,
+    /// The data association of the walls: for every wall detection, in the order
+    /// given, the id of the wall it was paired with or admitted as; `None` when it
+    /// was left out (too vague an angle, or ambiguous).
+    pub wall_pairing: Vec<Option<u64>>,
 }

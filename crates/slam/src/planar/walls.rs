@@ -302,6 +302,7 @@ impl PlanarSlam {
                 self.stats.walls_rejected += 1;
             }
         }
+        self.wall_pairings.extend_from_slice(&self.wall_pairing);
         Ok(())
     }
 

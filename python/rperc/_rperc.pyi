@@ -41,6 +41,7 @@ __all__ = [
     "planar_sim_slam_config",
     "planar_simulate",
     "planar_slam_run",
+    "planar_smooth_walls",
     "pose_transform_points",
     "resample",
     "scan_params_defaults",
@@ -160,6 +161,17 @@ def planar_slam_run(
 def wall_straightness_covariance(
     rho: _ArrayLike, alpha: _ArrayLike, start: _ArrayLike, end: _ArrayLike, sigma: float
 ) -> _Array: ...
+def planar_smooth_walls(
+    controls: npt.NDArray[np.float64],
+    times: npt.NDArray[np.float64],
+    poses: npt.NDArray[np.float64],
+    walls: npt.NDArray[np.float64],
+    pairing: npt.NDArray[np.int64],
+    map_id: npt.NDArray[np.int64],
+    map_line: npt.NDArray[np.float64],
+    config: dict[str, Any] | None = None,
+    options: dict[str, Any] | None = None,
+) -> dict[str, Any]: ...
 def monobot_summarize(
     nees: _ArrayLike,
     robot_error: _ArrayLike,

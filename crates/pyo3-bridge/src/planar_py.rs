@@ -349,3 +349,91 @@ pub fn wall_straightness_covariance<'py>(
     }
     Ok(shaped(py, out, &[k, 2, 2])?)
 }
+
+/// Reads an int64 array of `n` entries named `name`.
+fn int_rows(obj: &Bound<'_, PyAny>, name: &str, n: usize) -> Result<Vec<i64>> {
+    let a: PyReadonlyArray1<'_, i64> = obj
+        .extract()
+        .map_err(|_| Error::Type(format!("{name} must be a 1-D int64 numpy array")))?;
+    let a = a.as_array().to_vec();
+    if a.len() != n {
+        return Err(Error::Value(format!(
+            "{name} has {} entries, expected {n}",
+            a.len()
+        )));
+    }
+    Ok(a)
+}
+
+/// Smooths a wall-SLAM run ([`slam::planar::smooth::smooth_walls`], GIL released):
+/// the filter's `controls` and `walls` rows and `config`, the scan `times` with the
+/// filter's `poses` there `(S, 3)`, `pairing` (int64 per wall row, -1: unused) and
+/// its final map `map_id` (int64) with `map_line` `(W, 2)`. Returns a dict of arrays.
+#[pyfunction]
+#[pyo3(signature = (controls, times, poses, walls, pairing, map_id, map_line, config = None, options = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn planar_smooth_walls<'py>(
+    py: Python<'py>,
+    controls: &Bound<'py, PyAny>,
+    times: &Bound<'py, PyAny>,
+    poses: &Bound<'py, PyAny>,
+    walls: &Bound<'py, PyAny>,
+    pairing: &Bound<'py, PyAny>,
+    map_id: &Bound<'py, PyAny>,
+    map_line: &Bound<'py, PyAny>,
+    config: Option<&Bound<'py, PyAny>>,
+    options: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    use slam::planar::smooth::{SmootherConfig, WallRun, smooth_walls};
+    let config: PlanarConfig = crate::config::from_python(config, "planar")?;
+    let options: SmootherConfig = crate::config::from_python(options, "smoother")?;
+    let controls = rows::<3>(Some(controls), "controls")?;
+    let times = float_vector(times, "times")?;
+    let poses = rows::<3>(Some(poses), "poses")?;
+    let walls = rows::<10>(Some(walls), "walls")?;
+    let pairing = int_rows(pairing, "pairing", walls.len())?;
+    let pairing: Vec<Option<u64>> = pairing.iter().map(|&p| u64::try_from(p).ok()).collect();
+    let map_line = rows::<2>(Some(map_line), "map_line")?;
+    let map_id = int_rows(map_id, "map_id", map_line.len())?;
+    let map = map_id
+        .iter()
+        .zip(&map_line)
+        .map(|(&id, l)| {
+            u64::try_from(id)
+                .map(|id| (id, *l))
+                .map_err(|_| Error::Value(format!("map_id must be >= 0, got {id}")))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let out = detached(py, || {
+        let run = WallRun {
+            config: &config,
+            controls: &controls,
+            times: &times,
+            poses: &poses,
+            walls: &walls,
+            pairing: &pairing,
+            map: &map,
+        };
+        Ok(smooth_walls(&run, &options)?)
+    })?;
+    let d = PyDict::new(py);
+    let (s, w) = (out.pose.len(), out.walls.len());
+    d.set_item("pose", shaped(py, out.pose.concat(), &[s, 3])?)?;
+    d.set_item(
+        "covariance",
+        shaped(py, out.covariance.concat(), &[s, 3, 3])?,
+    )?;
+    let ids: Vec<i64> = out.walls.iter().map(|w| w.id as i64).collect();
+    d.set_item("wall_id", ids.into_pyarray(py))?;
+    let lines: Vec<f64> = out.walls.iter().flat_map(|w| w.line).collect();
+    d.set_item("wall_line", shaped(py, lines, &[w, 2])?)?;
+    let cov: Vec<f64> = out.walls.iter().flat_map(|w| w.covariance).collect();
+    d.set_item("wall_covariance", shaped(py, cov, &[w, 2, 2])?)?;
+    let ends: Vec<f64> = out.walls.iter().flat_map(|w| w.ends.concat()).collect();
+    d.set_item("wall_ends", shaped(py, ends, &[w, 2, 2])?)?;
+    d.set_item("bias", out.bias.to_vec())?;
+    d.set_item("iterations", out.iterations)?;
+    d.set_item("cost", out.cost)?;
+    d.set_item("residuals", out.residuals)?;
+    Ok(d)
+}

@@ -3,7 +3,8 @@
 //! should be about 1 and 2), whole simulated runs per association method, and the
 //! full MR.CLAM robot-1 run when the data set is present (`RPERC_DATA`, default
 //! `../shared/data`), the compressed EKF against the full one (a simulated world
-//! and Victoria Park, whole runs), and a whole simulated room run with wall landmarks.
+//! and Victoria Park, whole runs), a whole simulated room run with wall landmarks, and
+//! the batch smoothing of that run.
 
 use std::hint::black_box;
 use std::path::PathBuf;
@@ -261,6 +262,61 @@ fn bench_wall_room(c: &mut Criterion) {
     group.finish();
 }
 
+/// The batch smoother over a whole simulated room run (300 scans, 6 walls, the
+/// filter's association and estimates as the start).
+fn bench_wall_smoother(c: &mut Criterion) {
+    use slam::planar::room::{RoomConfig, simulate_room};
+    use slam::planar::smooth::{SmootherConfig, WallRun, smooth_walls};
+    use slam::planar::{Event, EventKind};
+    let room = RoomConfig::default();
+    let data = simulate_room(&room, 3, 0);
+    let config = room.slam_config();
+    let mut engine = PlanarSlam::new(config.clone()).unwrap();
+    engine.run(&data.events).unwrap();
+    let result = engine.finish();
+    let (mut controls, mut rows, mut times) = (vec![], vec![], vec![0.0]);
+    for event in &data.events {
+        match event {
+            Event::Control { t, control } => controls.push([*t, control[0], control[1]]),
+            Event::Walls { t, walls } => {
+                times.push(*t);
+                rows.extend(walls.iter().map(|w| {
+                    let c = w.covariance;
+                    [
+                        *t, w.rho, w.alpha, c[0], c[1], c[3], w.start[0], w.start[1], w.end[0],
+                        w.end[1],
+                    ]
+                }));
+            }
+            _ => {}
+        }
+    }
+    let tr = &result.trajectory;
+    let mut poses = vec![config.initial_pose];
+    poses.extend(
+        (0..tr.t.len())
+            .filter(|&i| tr.kind[i] == EventKind::Walls)
+            .map(|i| tr.pose[i]),
+    );
+    let map: Vec<(u64, [f64; 2])> = result.walls.iter().map(|w| (w.id, w.line)).collect();
+    let run = WallRun {
+        config: &config,
+        controls: &controls,
+        times: &times,
+        poses: &poses,
+        walls: &rows,
+        pairing: &result.wall_pairing,
+        map: &map,
+    };
+    c.bench_function("planar/wall_smoother_300_scans", |b| {
+        b.iter(|| {
+            smooth_walls(black_box(&run), &SmootherConfig::default())
+                .unwrap()
+                .iterations
+        })
+    });
+}
+
 criterion_group!(
     benches,
     bench_predict,
@@ -268,6 +324,7 @@ criterion_group!(
     bench_simulated_runs,
     bench_mrclam,
     bench_compression,
-    bench_wall_room
+    bench_wall_room,
+    bench_wall_smoother
 );
 criterion_main!(benches);

@@ -16,6 +16,7 @@
 //! paired by a Mahalanobis gate plus segment overlap, and frozen and anchored by the
 //! same config as the points (see [`PlanarSlam`]).
 
+mod arrow;
 mod associate;
 mod bias;
 mod compress;
@@ -24,6 +25,7 @@ mod engine;
 mod observe;
 pub mod room;
 pub mod sim;
+pub mod smooth;
 mod walls;
 
 pub use bias::SensorBias;

@@ -158,7 +158,7 @@ fn part_on(line: &Vector2<f64>, sensor: &Pose2, seen: &Seen) -> (f64, f64) {
 }
 
 /// How many of `parts` overlap `part` by more than half of the shorter of the two.
-fn overlapping(parts: &[(f64, f64)], (lo, hi): (f64, f64)) -> usize {
+pub(super) fn overlapping(parts: &[(f64, f64)], (lo, hi): (f64, f64)) -> usize {
     parts
         .iter()
         .filter(|(a, b)| hi.min(*b) - lo.max(*a) > 0.5 * (hi - lo).min(b - a))

@@ -8,7 +8,9 @@ walls come from the extractor's defaults with the straightness floor
 (``wallslam.STRAIGHTNESS``, calibrated on ACES only). Runs per seed: odometry only,
 plain EKF with wall landmarks, anchored (first wall) with freezing after 50 revisions
 (the text under Fig. 7), and, not in the figure, anchored with consider (Schmidt)
-freezing. Scores against the corrected path at every scan (``wallslam.score``): ATE
+freezing. Each run with walls is also smoothed (``rperc.slam.smoothing``: every pose,
+wall and bias from all of the scans, with the filter's association), scored as
+``<run>+smoothed``. Scores against the corrected path at every scan (``wallslam.score``): ATE
 RMSE (not aligned), loop-closure error, final pose error, and the robot NEES (its
 mean, and the share of scans inside chi-square's two-sided 95 % band for 3 dof).
 
@@ -38,19 +40,28 @@ KEYS = ("ate_rmse", "loop_error", "final_error", "nees_mean", "nees_in_band", "w
 
 def run_log(path: Path, seeds: int, straightness: float, association: str) -> dict[str, Any]:
     prepared = ws.prepare(load_carmen(path), straightness=straightness)
-    results: dict[str, list[dict[str, float]]] = {m: [] for m in METHODS}
-    seconds = dict.fromkeys(METHODS, 0.0)
+    names = [*METHODS, *(f"{m}+smoothed" for m in METHODS if m != "odometry")]
+    results: dict[str, list[dict[str, float]]] = {m: [] for m in names}
+    seconds = dict.fromkeys(names, 0.0)
     first: dict[str, ws.WallSlamResult] = {}
     for seed in range(seeds):
         for name, extra in METHODS.items():
             t0 = time.perf_counter()
+            walls = name != "odometry"
             res = ws.run_prepared(
-                prepared, seed=seed, use_walls=name != "odometry", association=association,
+                prepared, seed=seed, use_walls=walls, association=association, smooth=walls,
                 **extra,
             )  # fmt: skip
-            seconds[name] += time.perf_counter() - t0
+            seconds[name] += time.perf_counter() - t0 - res.seconds["smooth"]
             results[name].append({**res.metrics, "walls": float(res.counts["walls"])})
             first.setdefault(name, res)
+            if walls:
+                smoothed = res.smoothed()
+                seconds[f"{name}+smoothed"] += res.seconds["smooth"]
+                results[f"{name}+smoothed"].append(
+                    {**smoothed.metrics, "walls": float(res.counts["walls"])}
+                )
+                first.setdefault(f"{name}+smoothed", smoothed)
     summary = {
         name: {
             k: {"mean": float(np.mean(v)), "std": float(np.std(v, ddof=1)) if seeds > 1 else 0.0}
@@ -83,13 +94,14 @@ def plot(results: list[dict[str, Any]], path: Path) -> None:
     from rperc.plot.wallslam import wall_maps_figure
 
     for res in results:
-        runs = [(name, res["_seed0"][name]) for name in ws.METHODS]
+        runs = [(name, res["_seed0"][name]) for name in [*ws.METHODS, "plain+smoothed"]]
         prepared = res["_prepared"]
         s = res["summary"]
         title = (
             f"{res['log']}, seed 0 shown; over {res['seeds']} seeds ATE "
             + " / ".join(f"{s[n]['ate_rmse']['mean']:.2f}" for n in ws.METHODS)
-            + " m (odometry / plain / anchored+freeze50)"
+            + f" / {s['plain+smoothed']['ate_rmse']['mean']:.2f}"
+            + " m (odometry / plain / anchored+freeze50 / plain smoothed)"
         )
         fig = wall_maps_figure(
             runs, title=title, reference_label="corrected path (reference)",
@@ -121,7 +133,7 @@ def main() -> None:
         for name, s in res["summary"].items():
             cells = ", ".join(f"{k} {s[k]['mean']:.3f}+-{s[k]['std']:.3f}" for k in KEYS)
             secs = res["slam_seconds_per_run"][name]
-            print(f"  {name:20s} {cells}, {secs:.3f} s/run")
+            print(f"  {name:30s} {cells}, {secs:.3f} s/run")
     if args.json:
         clean = [{k: v for k, v in r.items() if not k.startswith("_")} for r in results]
         args.json.write_text(json.dumps(clean, indent=2))

@@ -153,6 +153,37 @@ def test_walls_json_matches_the_api_and_evo_reads_the_tum(tmp_path):
     np.testing.assert_allclose(poses, result.pose, atol=1e-12)
 
 
+def test_walls_smooth_writes_the_smoothed_path_and_its_scores(tmp_path, capsys):
+    """``--smooth``: the JSON's ``smoothed_*`` scores equal the API's smoothed run,
+    recomputed by brute force against the log's poses; ``--smoothed-tum`` holds that
+    path at the scan timestamps; ``--smoothed-tum`` without ``--smooth`` is an
+    error."""
+    from rperc.datasets import read_tum
+    from rperc.datasets.carmen import load_carmen
+    from rperc.scansim import write_loop_log
+    from rperc.slam.wallslam import STRAIGHTNESS, run_walls
+
+    log_path = write_loop_log(tmp_path / "loop.log", seed=3, laps=1.2)
+    out, tum = tmp_path / "run.json", tmp_path / "smoothed.tum"
+    argv = ["slam", "walls", str(log_path), "--seed", "2", "--smooth"]
+    assert main([*argv, "--json", str(out), "--smoothed-tum", str(tum)]) == 0
+    measured = json.loads(out.read_text())
+    log = load_carmen(log_path)
+    smoothed = run_walls(log, seed=2, straightness=STRAIGHTNESS, smooth=True).smoothed()
+    assert measured["smoothed_ate_rmse_m"] == pytest.approx(smoothed.metrics["ate_rmse"])
+    err = smoothed.pose[:, :2] - log.scans.pose[:, :2]
+    assert measured["smoothed_ate_rmse_m"] == pytest.approx(
+        float(np.sqrt(np.mean(np.sum(err**2, axis=1)))), rel=1e-9
+    )
+    assert measured["smoothed_iterations"] >= 1 and "smoothed_speed_bias" in measured
+    t, poses = read_tum(tum)
+    np.testing.assert_allclose(t, log.scans.timestamp)
+    np.testing.assert_allclose(poses, smoothed.pose, atol=1e-12)
+    capsys.readouterr()
+    assert main(["slam", "walls", str(log_path), "--smoothed-tum", str(tum)]) == 2
+    assert "--smoothed-tum needs --smooth" in capsys.readouterr().err
+
+
 @pytest.mark.skipif(
     DATA is None or not (DATA / "carmen" / "aces.log").is_file(),
     reason="RPERC_DATA/carmen/aces.log is absent",

@@ -213,6 +213,7 @@ def test_sightings_placed_with_the_true_path_lie_on_the_true_walls(loop_log):
     [
         ("wall_corridor.py", ["--jambs", "0", "--seeds", "1"]),
         ("wall_fig7.py", ["--seeds", "1", "--straightness", "0"]),
+        ("wall_smoother.py", ["--seeds", "1"]),
     ],
 )
 def test_wall_benchmarks_run(script, args, tmp_path):
@@ -223,9 +224,11 @@ def test_wall_benchmarks_run(script, args, tmp_path):
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[1]
+    log = write_loop_log(tmp_path / "loop.log", seed=1, laps=1.2)
     if script == "wall_fig7.py":
-        log = write_loop_log(tmp_path / "loop.log", seed=1, laps=1.2)
         args = [*args, "--logs", str(log), "--plot", str(tmp_path / "fig7.png")]
+    if script == "wall_smoother.py":
+        args = [*args, "--logs", str(log)]
     out = subprocess.run(
         [sys.executable, str(root / "benchmarks" / script), *args],
         capture_output=True, text=True, check=True, cwd=root / "benchmarks",

@@ -38,7 +38,16 @@ def add_walls_command(kinds: argparse._SubParsersAction) -> None:  # type: ignor
     )  # fmt: skip
     w.add_argument("--association", choices=("nn", "jcbb"), default="nn")
     w.add_argument("--seed", type=seed_type, default=0, help="the odometry noise draw")
+    w.add_argument(
+        "--smooth", action="store_true",
+        help="also smooth the run (every pose, wall and bias from all of the scans, with "
+        "the filter's association): smoothed_* metrics, and a second map in --plot",
+    )  # fmt: skip
     w.add_argument("--tum", type=Path, help="write the estimated path (TUM format, for evo)")
+    w.add_argument(
+        "--smoothed-tum", type=Path, metavar="PATH",
+        help="write the smoothed path (TUM format; needs --smooth)",
+    )  # fmt: skip
     w.add_argument("--plot", type=Path, help="write the map figure")
     add_json_option(w)
     w.set_defaults(run=walls_command)
@@ -58,34 +67,58 @@ def measured(result: WallSlamResult) -> dict[str, Any]:
         "readings_used_share": result.counts["readings_used"]
         / max(result.counts["readings_valid"], 1),
         **{f"seconds_{k}": v for k, v in result.seconds.items()},
+        **_smoothed_metrics(result),
+    }  # fmt: skip
+
+
+def _smoothed_metrics(result: WallSlamResult) -> dict[str, Any]:
+    """The smoothed run's scores (``smoothed_``), its biases and iterations."""
+    if result.smoothing is None:
+        return {}
+    sm = result.smoothing
+    return {
+        **{f"smoothed_{k}_m" if k in ("ate_rmse", "loop_error", "final_error")
+           else f"smoothed_{k}": v for k, v in result.smoothed().metrics.items()},
+        "smoothed_speed_bias": sm.bias[0], "smoothed_turn_bias_rad_per_m": sm.bias[1],
+        "smoothed_iterations": sm.iterations,
     }  # fmt: skip
 
 
 def walls_command(args: argparse.Namespace) -> int:
     for path, option, figure in (
-        (args.tum, "--tum", False), (args.plot, "--plot", True), (args.json, "--json", False)
+        (args.tum, "--tum", False), (args.plot, "--plot", True), (args.json, "--json", False),
+        (args.smoothed_tum, "--smoothed-tum", False),
     ):  # fmt: skip
         check_output_file(path, option, figure=figure)
+    if args.smoothed_tum is not None and not args.smooth:
+        print("error: --smoothed-tum needs --smooth", file=sys.stderr)
+        return 2
     from rperc.datasets.carmen import load_carmen
 
     log = load_carmen(args.log)
     result = run_walls(
         log, seed=args.seed, anchor=args.anchor, freeze_after=args.freeze,
         show_progress=True, straightness=args.straightness, association=args.association,
+        smooth=args.smooth,
     )  # fmt: skip
     metrics = measured(result)
     print(" ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}"
                    for k, v in metrics.items()))  # fmt: skip
     if args.tum is not None:
         wrote(result.to_tum(args.tum))
+    if args.smoothed_tum is not None:
+        wrote(result.smoothed().to_tum(args.smoothed_tum))
     if args.plot is not None:
         from rperc.plot import save
         from rperc.plot.wallslam import wall_maps_figure
 
         name = "anchored" if args.anchor else "plain"
         name += f", frozen after {args.freeze}" if args.freeze else ""
+        runs = [(name, result)]
+        if result.smoothing is not None:
+            runs.append((f"{name}, smoothed", result.smoothed()))
         fig = wall_maps_figure(
-            [(name, result)], title=f"{result.log}, odometry seed {args.seed}: estimate vs "
+            runs, title=f"{result.log}, odometry seed {args.seed}: estimate vs "
             "the log's corrected path", reference_label="corrected path (reference)",
         )  # fmt: skip
         wrote(save(fig, args.plot))
@@ -117,7 +150,8 @@ def demo_wall_slam(out: Path, seed: int) -> DemoResult:
     plain = runs["plain"]
     summary = (
         f"wall_slam: simulated corridor loop, {len(plain.pose)} scans, ATE {ates} m, "
-        f"loop error {loops} m (odometry / plain / anchored+freeze50), plain robot NEES "
+        f"loop error {loops} m (odometry / plain / anchored+freeze50 / plain smoothed), "
+        "plain robot NEES "
         f"mean {plain.metrics['nees_mean']:.2f} (3 expected), {len(plain.wall_id)} walls"
     )
     measured_runs: dict[str, Any] = {"seed": seed, **{n: measured(r) for n, r in runs.items()}}
@@ -154,13 +188,16 @@ def _fig7(
 
     prepared = prepare(log, straightness=straightness)
     runs = {
-        name: run_prepared(prepared, seed=seed, **_overrides(kw)) for name, kw in DEMO_RUNS.items()
+        name: run_prepared(prepared, seed=seed, smooth=name == "plain", **_overrides(kw))
+        for name, kw in DEMO_RUNS.items()
     }
+    # The batch smoothing of the plain run: every pose from all of the scans.
+    runs["plain, smoothed"] = runs["plain"].smoothed()
     ates = " / ".join(f"{r.metrics['ate_rmse']:.3f}" for r in runs.values())
     reference = "true path" if straightness == 0.0 else "corrected path (reference)"
     title = (
         f"wall SLAM, {what} ({len(prepared.t)} scans), odometry seed {seed}: "
-        f"ATE {ates} m (odometry / plain / anchored+freeze50)"
+        f"ATE {ates} m (odometry / plain / anchored+freeze50 / plain smoothed)"
     )
     fig = wall_maps_figure(
         list(runs.items()), title=title, reference_label=reference,

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -46,6 +46,7 @@ import numpy.typing as npt
 from rperc import _rperc
 from rperc._args import float_array, real_number, whole_number
 from rperc.slam.planar import PlanarSlam, SlamResult
+from rperc.slam.smoothing import SmoothedRun, smooth_walls
 
 __all__ = [
     "METHODS",
@@ -279,6 +280,26 @@ class WallSlamResult:
     counts: dict[str, int]
     seconds: dict[str, float]
     config: dict[str, Any] = field(default_factory=dict)
+    #: The batch smoothing of the run (``run_prepared(smooth=True)``), or ``None``.
+    smoothing: SmoothedRun | None = None
+
+    def smoothed(self) -> WallSlamResult:
+        """The run with the smoothed trajectory, walls (with their extents seen from
+        the smoothed poses) and scores in place of the filter's."""
+        sm = self.smoothing
+        if sm is None:
+            raise ValueError("the run was not smoothed: run_prepared(..., smooth=True)")
+        order = np.minimum(np.searchsorted(sm.wall_id, self.wall_id), len(sm.wall_id) - 1)
+        if not np.array_equal(sm.wall_id[order], self.wall_id):
+            raise ValueError("the smoothing's walls are not the run's")
+        line, cov, ends = sm.wall_line[order], sm.wall_covariance[order], sm.wall_ends[order]
+        pairs = loop_pairs(self.reference)
+        return replace(
+            self, pose=sm.pose, covariance=sm.covariance,
+            nees=pose_nees(sm.pose, sm.covariance, self.reference),
+            wall_line=line, wall_covariance=cov, wall_ends=ends,
+            metrics=score(sm.pose, sm.covariance, self.reference, pairs), smoothing=None,
+        )  # fmt: skip
 
     def __repr__(self) -> str:
         m = self.metrics
@@ -352,25 +373,34 @@ def run_walls(
     show_progress: bool = False,
     straightness: float = 0.0,
     association: str = "nn",
+    smooth: bool = False,
 ) -> WallSlamResult:
     """Wall SLAM over a :class:`rperc.datasets.CarmenLog` from odometry drawn with
     ``seed`` (see the module docs); ``use_walls=False`` is odometry alone;
     ``straightness`` (m) adds :func:`straightness_covariance` to every sighting (0,
     the default, suits simulated straight walls; :data:`STRAIGHTNESS` real logs);
-    ``association`` is the engine's (``"nn"`` or ``"jcbb"``)."""
+    ``association`` is the engine's (``"nn"`` or ``"jcbb"``); ``smooth=True`` also
+    smooths the run (:meth:`WallSlamResult.smoothed`)."""
     prepared = prepare(log, straightness=straightness, show_progress=show_progress)
     overrides: dict[str, Any] = {"association": association, "anchor": anchor}
     if freeze_after is not None:
         overrides["freeze_after"] = whole_number(freeze_after, "freeze_after", 1)
-    return run_prepared(prepared, seed=seed, use_walls=use_walls, **overrides)
+    return run_prepared(prepared, seed=seed, use_walls=use_walls, smooth=smooth, **overrides)
 
 
 def run_prepared(
-    prepared: PreparedLog, *, seed: int = 0, use_walls: bool = True, **overrides: Any
+    prepared: PreparedLog,
+    *,
+    seed: int = 0,
+    use_walls: bool = True,
+    smooth: bool = False,
+    **overrides: Any,
 ) -> WallSlamResult:
     """One run over a :func:`prepare`d log: odometry drawn with ``seed``, the filter
     config's stated noise and start with ``overrides`` (e.g. ``anchor=True``,
-    ``freeze_after=50``, ``association="jcbb"``) on top."""
+    ``freeze_after=50``, ``association="jcbb"``) on top. ``smooth=True`` also smooths
+    the run (:func:`rperc.slam.smoothing.smooth_walls`, one pose per scan): see
+    :meth:`WallSlamResult.smoothed`."""
     seed = whole_number(seed, "seed", 0, limit=2**64)
     ref, t = prepared.reference, prepared.t
     rows = prepared.rows if use_walls else np.zeros((0, 10))
@@ -396,6 +426,11 @@ def run_prepared(
     assert walls is not None  # run with walls=, so the result has them
     slam_s = time.perf_counter() - t0
     est, cov = at_scans(out, t)
+    smoothing, smooth_s = None, 0.0
+    if smooth and use_walls:
+        t0 = time.perf_counter()
+        smoothing = smooth_walls(out, controls, rows, t)
+        smooth_s = time.perf_counter() - t0
     pairs = loop_pairs(ref)
     counts = {
         "scans": len(ref),
@@ -418,6 +453,10 @@ def run_prepared(
         wall_anchor=walls.anchor,
         metrics=score(est, cov, ref, pairs),
         counts=counts,
-        seconds={"extract": prepared.extract_seconds if use_walls else 0.0, "slam": slam_s},
+        seconds={
+            "extract": prepared.extract_seconds if use_walls else 0.0, "slam": slam_s,
+            "smooth": smooth_s,
+        },
         config={**config, "straightness": prepared.straightness},
+        smoothing=smoothing,
     )  # fmt: skip

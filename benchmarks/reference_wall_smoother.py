@@ -278,3 +278,30 @@ def smooth(problem: Problem, max_iterations: int = 100, tolerance: float = 1e-9)
     pose_cov = np.stack([cov[3 * k : 3 * k + 3, 3 * k : 3 * k + 3] for k in range(s)])
     return {"pose": x, "covariance": pose_cov, "bias": bias, "cost": cost,
             "iterations": iterations, "lines": lines, "ids": problem.sg["ids"]}  # fmt: skip
+
+
+def wallslam_run(prepared: Any, seed: int) -> tuple[Any, np.ndarray, Any]:
+    """One ``rperc.slam.wallslam`` run over a prepared log: its result, the controls
+    the engine was given, and the engine's own result (with ``wall_pairing``)."""
+    from rperc.slam import PlanarSlam
+    from rperc.slam import wallslam as ws
+
+    res = ws.run_prepared(prepared, seed=seed)
+    config = {k: v for k, v in res.config.items() if k != "straightness"}
+    t = prepared.t
+    controls = np.r_[ws.noisy_controls(prepared.exact, seed), [[t[-1], 0.0, 0.0]]]
+    out = PlanarSlam(config).run_arrays(controls, np.zeros((0, 3)), walls=prepared.rows)
+    return res, controls, out
+
+
+def wallslam_problem(prepared: Any, controls: np.ndarray, out: Any) -> Problem:
+    """The peer's problem for a :func:`wallslam_run`, from the filter's poses."""
+    from rperc.slam import wallslam as ws
+
+    start, _ = ws.at_scans(out, prepared.t)
+    return Problem(
+        controls, prepared.t, start, prepared.rows, out.wall_pairing, out.walls.id,
+        out.walls.line, speed_var=ws.SPEED_SIGMA**2, turn_var=ws.TURN_SIGMA**2,
+        bias_sd=(ws.SPEED_BIAS, ws.TURN_BIAS), start=prepared.reference[0],
+        start_var=np.zeros(3), shared_sd=prepared.straightness,
+    )  # fmt: skip

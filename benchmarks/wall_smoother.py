@@ -24,29 +24,18 @@ import reference_wall_smoother as ref
 
 from rperc.datasets.carmen import load_carmen
 from rperc.scansim import write_loop_log
-from rperc.slam import PlanarSlam
 from rperc.slam import wallslam as ws
 from rperc.slam.smoothing import smooth_walls
 
 
 def one_run(prepared: ws.PreparedLog, seed: int) -> dict[str, float]:
-    res = ws.run_prepared(prepared, seed=seed)
-    config = {k: v for k, v in res.config.items() if k != "straightness"}
+    res, controls, out = ref.wallslam_run(prepared, seed)
     t = prepared.t
-    controls = np.r_[ws.noisy_controls(prepared.exact, seed), [[t[-1], 0.0, 0.0]]]
-    out = PlanarSlam(config).run_arrays(controls, np.zeros((0, 3)), walls=prepared.rows)
     t0 = time.perf_counter()
     sm = smooth_walls(out, controls, prepared.rows, t)
     ours = time.perf_counter() - t0
-    start, _ = ws.at_scans(out, t)
     t0 = time.perf_counter()
-    problem = ref.Problem(
-        controls, t, start, prepared.rows, out.wall_pairing, out.walls.id, out.walls.line,
-        speed_var=ws.SPEED_SIGMA**2, turn_var=ws.TURN_SIGMA**2,
-        bias_sd=(ws.SPEED_BIAS, ws.TURN_BIAS), start=prepared.reference[0],
-        start_var=np.zeros(3), shared_sd=prepared.straightness,
-    )  # fmt: skip
-    peer = ref.smooth(problem)
+    peer = ref.smooth(ref.wallslam_problem(prepared, controls, out))
     theirs = time.perf_counter() - t0
     return {
         "rperc_s": ours,

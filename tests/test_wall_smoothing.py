@@ -10,6 +10,7 @@ import math
 import os
 import sys
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 import pytest
@@ -35,33 +36,22 @@ def loop(loop_log: object) -> ws.PreparedLog:
     return ws.prepare(loop_log, straightness=ws.STRAIGHTNESS)
 
 
-def _filter_run(prepared: ws.PreparedLog, seed: int) -> tuple[dict, np.ndarray, object]:
-    """What run_prepared gives the engine, and the engine's result."""
-    res = ws.run_prepared(prepared, seed=seed)
-    config = {k: v for k, v in res.config.items() if k != "straightness"}
-    controls = np.r_[ws.noisy_controls(prepared.exact, seed), [[prepared.t[-1], 0.0, 0.0]]]
-    out = PlanarSlam(config).run_arrays(controls, np.zeros((0, 3)), walls=prepared.rows)
-    return config, controls, out
+def _peer() -> ModuleType:
+    """The numpy/scipy peer, from benchmarks/."""
+    sys.path.insert(0, str(BENCH))
+    import reference_wall_smoother
+
+    return reference_wall_smoother
 
 
 def test_smoother_matches_the_scipy_peer(loop):
     """The same optimum, covariances and biases as the peer, with the shared
     straightness floor on (repeated sightings of a stretch counted as the filter
     counts them)."""
-    sys.path.insert(0, str(BENCH))
-    import reference_wall_smoother as ref
-
-    _, controls, out = _filter_run(loop, seed=3)
-    t = loop.t
-    sm = smooth_walls(out, controls, loop.rows, t)
-    start, _ = ws.at_scans(out, t)
-    problem = ref.Problem(
-        controls, t, start, loop.rows, out.wall_pairing, out.walls.id, out.walls.line,
-        speed_var=ws.SPEED_SIGMA**2, turn_var=ws.TURN_SIGMA**2,
-        bias_sd=(ws.SPEED_BIAS, ws.TURN_BIAS), start=loop.reference[0],
-        start_var=np.zeros(3), shared_sd=loop.straightness,
-    )  # fmt: skip
-    peer = ref.smooth(problem)
+    ref = _peer()
+    _, controls, out = ref.wallslam_run(loop, seed=3)
+    sm = smooth_walls(out, controls, loop.rows, loop.t)
+    peer = ref.smooth(ref.wallslam_problem(loop, controls, out))
     np.testing.assert_allclose(sm.pose[:, :2], peer["pose"][:, :2], atol=1e-5)
     np.testing.assert_allclose(np.angle(np.exp(1j * (sm.pose[:, 2] - peer["pose"][:, 2]))), 0,
                                atol=1e-6)  # fmt: skip
@@ -108,8 +98,9 @@ def test_smoothing_reaches_the_issue_goal_on_the_real_logs(log):
 
 
 def test_bad_input_is_named(loop):
-    config, controls, out = _filter_run(loop, seed=0)
+    res, controls, out = _peer().wallslam_run(loop, seed=0)
     t = loop.t
+    config = {k: v for k, v in res.config.items() if k != "straightness"}
     no_walls = PlanarSlam(config).run_arrays(controls, np.zeros((0, 3)))
     with pytest.raises(ValueError, match="no walls"):
         smooth_walls(no_walls, controls, loop.rows, t)

@@ -39,20 +39,9 @@ fn rows<const K: usize>(obj: Option<&Bound<'_, PyAny>>, name: &str) -> Result<Ve
 
 /// Reads the detections' ids (int64, one per detection; negative: unknown).
 fn ids(obj: Option<&Bound<'_, PyAny>>, detections: usize) -> Result<Option<Vec<i64>>> {
-    let Some(obj) = obj.filter(|o| !o.is_none()) else {
-        return Ok(None);
-    };
-    let ids: PyReadonlyArray1<'_, i64> = obj
-        .extract()
-        .map_err(|_| Error::Type("detection_ids must be a 1-D int64 numpy array".into()))?;
-    let ids = ids.as_array().to_vec();
-    if ids.len() != detections {
-        return Err(Error::Value(format!(
-            "detection_ids has {} entries for {detections} detections",
-            ids.len()
-        )));
-    }
-    Ok(Some(ids))
+    obj.filter(|o| !o.is_none())
+        .map(|o| int_rows(o, "detection_ids", detections))
+        .transpose()
 }
 
 /// Runs planar EKF-SLAM over a recording (GIL released): `controls` rows `(t, u0, u1)`,
@@ -358,13 +347,12 @@ fn int_rows(obj: &Bound<'_, PyAny>, name: &str, n: usize) -> Result<Vec<i64>> {
     let a = a.as_array().to_vec();
     if a.len() != n {
         return Err(Error::Value(format!(
-            "{name} has {} entries, expected {n}",
+            "{name} has {} entries for {n} rows",
             a.len()
         )));
     }
     Ok(a)
 }
-
 /// Smooths a wall-SLAM run ([`slam::planar::smooth::smooth_walls`], GIL released):
 /// the filter's `controls` and `walls` rows and `config`, the scan `times` with the
 /// filter's `poses` there `(S, 3)`, `pairing` (int64 per wall row, -1: unused) and

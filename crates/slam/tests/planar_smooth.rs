@@ -118,18 +118,22 @@ fn simulate(seed: u64, noise: f64) -> Sim {
     sim
 }
 
-fn smooth(sim: &Sim, map: &[(u64, [f64; 2])]) -> slam::planar::smooth::SmoothedRun {
-    let config = config();
-    let run = WallRun {
-        config: &config,
+/// The run to smooth: the simulation's data, from dead reckoning and `map`.
+fn run_of<'a>(sim: &'a Sim, config: &'a PlanarConfig, map: &'a [(u64, [f64; 2])]) -> WallRun<'a> {
+    WallRun {
+        config,
         controls: &sim.controls,
         times: &sim.times,
         poses: &sim.dead_reckoning,
         walls: &sim.walls,
         pairing: &sim.pairing,
         map,
-    };
-    smooth_walls(&run, &SmootherConfig::default()).unwrap()
+    }
+}
+
+fn smooth(sim: &Sim, map: &[(u64, [f64; 2])]) -> slam::planar::smooth::SmoothedRun {
+    let config = config();
+    smooth_walls(&run_of(sim, &config, map), &SmootherConfig::default()).unwrap()
 }
 
 fn true_map() -> Vec<(u64, [f64; 2])> {
@@ -222,15 +226,7 @@ fn bad_runs_are_errors_that_name_the_input() {
     let config = config();
     let mut map = true_map();
     map.pop();
-    let run = WallRun {
-        config: &config,
-        controls: &sim.controls,
-        times: &sim.times,
-        poses: &sim.dead_reckoning,
-        walls: &sim.walls,
-        pairing: &sim.pairing,
-        map: &map,
-    };
+    let run = run_of(&sim, &config, &map);
     let err = smooth_walls(&run, &SmootherConfig::default())
         .unwrap_err()
         .to_string();

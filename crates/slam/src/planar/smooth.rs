@@ -212,6 +212,7 @@ impl Problem {
         let poses: Vec<Vector3<f64>> = run.poses.iter().map(|p| Vector3::from(*p)).collect();
         let links = links(&config.motion, run.controls, run.times)?;
         let (sightings, origins, ids, lines) = sightings(run, &poses)?;
+        check_size(poses.len(), 2 * origins.len() + 2)?;
         let var = config.initial_pose_variance;
         let floor = START_SD_FLOOR * START_SD_FLOOR;
         let start_whiten =
@@ -235,6 +236,25 @@ impl Problem {
         };
         Ok((problem, est))
     }
+}
+
+/// The most numbers the solver's dense border may hold (`3 S g` for `S` poses and `g`
+/// wall and bias unknowns, twice): 2^27, 1 GiB of `f64`.
+pub const MAX_BORDER: usize = 1 << 27;
+
+/// Refuses a run whose border would not fit, before allocating it.
+fn check_size(poses: usize, global: usize) -> Result<()> {
+    let need = 3usize.saturating_mul(poses).saturating_mul(global);
+    if need > MAX_BORDER {
+        return Err(SlamError::invalid(
+            "times",
+            format!(
+                "{poses} poses with {global} wall and bias unknowns need {need} numbers \
+                 per border, over the smoother's {MAX_BORDER}: smooth the run in parts"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 fn check_run(run: &WallRun<'_>) -> Result<()> {
@@ -868,6 +888,14 @@ mod tests {
 
     /// Controls held until the next row, zero before the first, and a row at a pose's
     /// time applying after it (as the engine integrates them).
+    #[test]
+    fn a_run_too_large_for_the_border_is_refused_by_size() {
+        assert!(check_size(1000, 2000).is_ok());
+        let err = check_size(100_000, 1_000).unwrap_err().to_string();
+        assert!(err.contains("smooth the run in parts"), "{err}");
+        assert!(check_size(usize::MAX, usize::MAX).is_err());
+    }
+
     #[test]
     fn links_split_the_controls_at_the_poses_times() {
         let controls = [[0.5, 1.0, 0.0], [1.5, 2.0, 0.1], [2.0, 3.0, 0.0]];

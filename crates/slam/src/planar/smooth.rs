@@ -242,15 +242,20 @@ impl Problem {
 /// wall and bias unknowns, twice): 2^27, 1 GiB of `f64`.
 pub const MAX_BORDER: usize = 1 << 27;
 
-/// Refuses a run whose border would not fit, before allocating it.
+/// The most wall and bias unknowns: their Schur complement is dense and factored
+/// whole (4096: 128 MiB, seconds per factorisation).
+pub const MAX_GLOBAL: usize = 4096;
+
+/// Refuses a run whose dense parts would not fit, before allocating them.
 fn check_size(poses: usize, global: usize) -> Result<()> {
     let need = 3usize.saturating_mul(poses).saturating_mul(global);
-    if need > MAX_BORDER {
+    if need > MAX_BORDER || global > MAX_GLOBAL {
         return Err(SlamError::invalid(
             "times",
             format!(
-                "{poses} poses with {global} wall and bias unknowns need {need} numbers \
-                 per border, over the smoother's {MAX_BORDER}: smooth the run in parts"
+                "{poses} poses with {global} wall and bias unknowns exceed the smoother's \
+                 dense limits ({MAX_BORDER} border numbers, {MAX_GLOBAL} unknowns): smooth \
+                 the run in parts"
             ),
         ));
     }
@@ -633,6 +638,8 @@ impl Problem {
         let mut iterations = 0;
         let (mut cost, _) = self.linearise(&est, false)?;
         while iterations < options.max_iterations {
+            // Ctrl-C from Python stops here, between iterations.
+            rperc_core::interrupt::checkpoint()?;
             iterations += 1;
             let (_, normal) = self.linearise(&est, true)?;
             let (h, grad) = normal.expect("asked for the normal equations");
@@ -893,6 +900,7 @@ mod tests {
         assert!(check_size(1000, 2000).is_ok());
         let err = check_size(100_000, 1_000).unwrap_err().to_string();
         assert!(err.contains("smooth the run in parts"), "{err}");
+        assert!(check_size(2, MAX_GLOBAL + 1).is_err());
         assert!(check_size(usize::MAX, usize::MAX).is_err());
     }
 

@@ -13,7 +13,7 @@ for each jamb length and each place of the world origin:
 
     python benchmarks/wall_corridor.py --jambs 0.4 0.8 1.2 0 --offsets 0 60 \\
         --max-angle-sd 100 2 [--wall-innovation line segment]
-        [--door 1.0 --recess 0.03 --gaps 0.5 1.5] [--bend 0.02 [--shared]]
+        [--door 1.0 --recess 0.03 --gaps 0.5 1.5] [--bend 0.02 [--shared]] [--smooth]
 
 ``--bend SD`` gives every wall bends of its own (N(0, SD) at knots 1 m apart, fixed
 for the run), so sightings of one stretch share their error; ``--shared`` tells the
@@ -39,6 +39,7 @@ import numpy as np
 
 from rperc.slam import wallslam as ws
 from rperc.slam.planar import PlanarSlam
+from rperc.slam.smoothing import smooth_walls
 
 
 def world(
@@ -179,11 +180,16 @@ def run(seed: int, jamb: float, offset: float, args: argparse.Namespace) -> dict
     }
     if args.bias_states:
         config["control_bias_sd"] = [ws.SPEED_BIAS, ws.TURN_BIAS]
-    out = PlanarSlam(config).run_arrays(
-        np.r_[controls, [[t[-1], 0.0, 0.0]]], np.zeros((0, 3)), walls=np.array(rows)
-    )
+    controls = np.r_[controls, [[t[-1], 0.0, 0.0]]]
+    walls = np.array(rows)
+    out = PlanarSlam(config).run_arrays(controls, np.zeros((0, 3)), walls=walls)
     est, cov = ws.at_scans(out, t)
-    return ws.score(est, cov, ref, ws.loop_pairs(ref))
+    scores = ws.score(est, cov, ref, ws.loop_pairs(ref))
+    if getattr(args, "smooth", False):
+        sm = smooth_walls(out, controls, walls, t)
+        smoothed = ws.score(sm.pose, sm.covariance, ref, ws.loop_pairs(ref))
+        scores |= {f"smoothed_{k}": v for k, v in smoothed.items()}
+    return scores
 
 
 def main() -> None:
@@ -210,6 +216,7 @@ def main() -> None:
         "--shared", action="store_true",
         help="tell the filter that sightings of a stretch share its bends (wall_shared_sd)",
     )  # fmt: skip
+    ap.add_argument("--smooth", action="store_true", help="also score the smoothed runs")
     args = ap.parse_args()
     for form, limit, gap in itertools.product(args.wall_innovation, args.max_angle_sd, args.gaps):
         args.wall_innovation_now, args.max_angle_sd_now, args.gap_now = form, limit, gap
@@ -222,7 +229,15 @@ def main() -> None:
                     f"jambs {jamb:g} m: "
                     f"robot NEES mean {m['nees_mean']:.1f} (3 expected), median "
                     f"{m['nees_median']:.1f}, in band {100 * m['nees_in_band']:.0f} %, "
-                    f"ATE {m['ate_rmse']:.3f} m",
+                    f"ATE {m['ate_rmse']:.3f} m"
+                    + (
+                        f"; smoothed: NEES mean {m['smoothed_nees_mean']:.1f}, median "
+                        f"{m['smoothed_nees_median']:.1f}, in band "
+                        f"{100 * m['smoothed_nees_in_band']:.0f} %, ATE "
+                        f"{m['smoothed_ate_rmse']:.3f} m"
+                        if args.smooth
+                        else ""
+                    ),
                     flush=True,
                 )
 

@@ -385,15 +385,7 @@ fn sightings(run: &WallRun<'_>, poses: &[Vector3<f64>]) -> Result<Sightings> {
     let mut parts: Vec<Vec<(f64, f64)>> = Vec::new();
     for (i, (row, id)) in run.walls.iter().zip(run.pairing).enumerate() {
         let Some(id) = *id else { continue };
-        let node = run
-            .times
-            .binary_search_by(|t| t.total_cmp(&row[0]))
-            .map_err(|_| {
-                SlamError::invalid(
-                    "walls",
-                    format!("row {i}: time {} is not one of the poses' times", row[0]),
-                )
-            })?;
+        let node = node_of(run.times, i, row[0])?;
         let pose = Pose2::from_vector(&poses[node]);
         let z = Vector2::new(row[1], row[2]);
         let ends = [Point2::new(row[6], row[7]), Point2::new(row[8], row[9])];
@@ -418,19 +410,10 @@ fn sightings(run: &WallRun<'_>, poses: &[Vector3<f64>]) -> Result<Sightings> {
         let r = Matrix2::new(row[3], row[4], row[4], row[5]);
         let mut cov = jac * r * jac.transpose();
         let sigma = run.config.wall_shared_sd;
+        // The admitting sighting is not among the repeats, as in the filter.
         if sigma > 0.0 && !admitted {
-            // The stretch on the wall's starting line; the admitting sighting is not
-            // among the repeats, as in the filter.
-            let t = Vector2::new(-lines[j].y.sin(), lines[j].y.cos());
-            let [a, b] = ends.map(|p| t.dot(&pose.transform_point(&p).coords));
-            let part = (a.min(b), a.max(b));
-            let repeats = super::walls::overlapping(&parts[j], part) as f64;
-            let floor = crate::wall::straightness_covariance(&z, &ends, sigma);
-            cov += jac * floor * jac.transpose() * repeats.sqrt();
-            parts[j].push(part);
-            if parts[j].len() > super::walls::WALL_PARTS_KEPT {
-                parts[j].remove(0);
-            }
+            let floor = shared_floor(&mut parts[j], lines[j].y, &pose, &z, &ends, sigma);
+            cov += jac * floor * jac.transpose();
         }
         if cov.cholesky().is_none() {
             return Err(SlamError::invalid(
@@ -448,6 +431,40 @@ fn sightings(run: &WallRun<'_>, poses: &[Vector3<f64>]) -> Result<Sightings> {
         });
     }
     Ok((out, origins, ids, lines))
+}
+
+/// The pose index of a wall row's time (row `i`), which must be one of `times`.
+fn node_of(times: &[f64], i: usize, t: f64) -> Result<usize> {
+    times.binary_search_by(|x| x.total_cmp(&t)).map_err(|_| {
+        SlamError::invalid(
+            "walls",
+            format!("row {i}: time {t} is not one of the poses' times"),
+        )
+    })
+}
+
+/// The shared straightness floor of a repeated sighting (`wall_shared_sd`, as the
+/// filter counts it): `sqrt(n)` times the floor's `(rho, alpha)` covariance, `n` the
+/// wall's earlier stretches in `parts` (its latest `WALL_PARTS_KEPT`) overlapping
+/// this one by more than half. The stretch is placed with `pose` on the wall's
+/// starting line (angle `alpha`) and kept.
+fn shared_floor(
+    parts: &mut Vec<(f64, f64)>,
+    alpha: f64,
+    pose: &Pose2,
+    z: &Vector2<f64>,
+    ends: &[Point2<f64>; 2],
+    sigma: f64,
+) -> Matrix2<f64> {
+    let t = Vector2::new(-alpha.sin(), alpha.cos());
+    let [a, b] = ends.map(|p| t.dot(&pose.transform_point(&p).coords));
+    let part = (a.min(b), a.max(b));
+    let repeats = super::walls::overlapping(parts, part) as f64;
+    parts.push(part);
+    if parts.len() > super::walls::WALL_PARTS_KEPT {
+        parts.remove(0);
+    }
+    crate::wall::straightness_covariance(z, ends, sigma) * repeats.sqrt()
 }
 
 /// The seen segment's middle on the detected line (sensor frame), and the Jacobian
@@ -552,9 +569,12 @@ impl Problem {
     /// `J^T r` (poses first, then walls, then biases).
     fn linearise(&self, est: &Estimate, normal: bool) -> Result<(f64, Option<Normal>)> {
         let s = est.poses.len();
-        let g = self.global_dim();
-        let bias_at = 2 * self.origins.len();
-        let mut h = normal.then(|| (Arrow::zeros(s, g), DVector::zeros(3 * s + g)));
+        let mut h = normal.then(|| {
+            (
+                Arrow::zeros(s, self.global_dim()),
+                DVector::zeros(3 * s + self.global_dim()),
+            )
+        });
         let mut e0 = est.poses[0] - self.start;
         e0.z = wrap_angle(e0.z);
         let r0 = self.start_whiten * e0;
@@ -564,16 +584,30 @@ impl Problem {
             a.diag[0] += w.transpose() * w;
             grad.rows_mut(0, 3).add_assign(w.transpose() * r0);
         }
-        for (k, link) in self.links.iter().enumerate() {
-            let (r, [ja, jb], jbias) = link_residual(
-                &self.motion,
-                link,
-                &est.poses[k],
-                &est.poses[k + 1],
-                &est.bias,
-            )?;
+        cost += self.add_links(est, h.as_mut())?;
+        cost += self.add_sightings(est, h.as_mut())?;
+        if let Some(wb) = self.bias_whiten {
+            let r = est.bias.component_mul(&wb);
             cost += r.norm_squared();
-            let Some((a, grad)) = h.as_mut() else {
+            if let Some((a, grad)) = h.as_mut() {
+                let (at, w) = (2 * self.origins.len(), Matrix2::from_diagonal(&wb));
+                a.global.view_mut((at, at), (2, 2)).add_assign(w * w);
+                grad.rows_mut(3 * s + at, 2).add_assign(w * r);
+            }
+        }
+        Ok((cost, h))
+    }
+
+    /// The odometry terms: their cost, added to the normal equations when given.
+    fn add_links(&self, est: &Estimate, mut h: Option<&mut Normal>) -> Result<f64> {
+        let s = est.poses.len();
+        let at = 2 * self.origins.len();
+        let mut cost = 0.0;
+        for (k, link) in self.links.iter().enumerate() {
+            let (a, b) = (&est.poses[k], &est.poses[k + 1]);
+            let (r, [ja, jb], jbias) = link_residual(&self.motion, link, a, b, &est.bias)?;
+            cost += r.norm_squared();
+            let Some((a, grad)) = h.as_deref_mut() else {
                 continue;
             };
             a.diag[k] += ja.transpose() * ja;
@@ -583,24 +617,31 @@ impl Problem {
             grad.rows_mut(3 * k + 3, 3).add_assign(jb.transpose() * r);
             if self.bias_whiten.is_some() {
                 a.border[k]
-                    .view_mut((0, bias_at), (3, 2))
+                    .view_mut((0, at), (3, 2))
                     .add_assign(ja.transpose() * jbias);
                 a.border[k + 1]
-                    .view_mut((0, bias_at), (3, 2))
+                    .view_mut((0, at), (3, 2))
                     .add_assign(jb.transpose() * jbias);
                 a.global
-                    .view_mut((bias_at, bias_at), (2, 2))
+                    .view_mut((at, at), (2, 2))
                     .add_assign(jbias.transpose() * jbias);
-                grad.rows_mut(3 * s + bias_at, 2)
+                grad.rows_mut(3 * s + at, 2)
                     .add_assign(jbias.transpose() * r);
             }
         }
+        Ok(cost)
+    }
+
+    /// The wall terms: their cost, added to the normal equations when given.
+    fn add_sightings(&self, est: &Estimate, mut h: Option<&mut Normal>) -> Result<f64> {
+        let s = est.poses.len();
+        let mut cost = 0.0;
         for sg in &self.sightings {
             let (k, j) = (sg.node, sg.wall);
             let (r, jx, jl) =
                 sighting_residual(sg, &est.poses[k], &est.lines[j], &self.origins[j])?;
             cost += r.norm_squared();
-            let Some((a, grad)) = h.as_mut() else {
+            let Some((a, grad)) = h.as_deref_mut() else {
                 continue;
             };
             a.diag[k] += jx.transpose() * jx;
@@ -614,18 +655,7 @@ impl Problem {
             grad.rows_mut(3 * s + 2 * j, 2)
                 .add_assign(jl.transpose() * r);
         }
-        if let Some(wb) = self.bias_whiten {
-            let r = est.bias.component_mul(&wb);
-            cost += r.norm_squared();
-            if let Some((a, grad)) = h.as_mut() {
-                let w = Matrix2::from_diagonal(&wb);
-                a.global
-                    .view_mut((bias_at, bias_at), (2, 2))
-                    .add_assign(w * w);
-                grad.rows_mut(3 * s + bias_at, 2).add_assign(w * r);
-            }
-        }
-        Ok((cost, h))
+        Ok(cost)
     }
 
     /// Levenberg-Marquardt (Marquardt's scaling: the damping is `lambda diag(H)`).

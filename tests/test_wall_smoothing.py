@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import os
+import pickle
 import sys
 from pathlib import Path
 from types import ModuleType
@@ -59,6 +60,9 @@ def test_smoother_matches_the_scipy_peer(loop):
     np.testing.assert_allclose(sm.bias, peer["bias"], atol=1e-6)
     assert sm.cost == pytest.approx(peer["cost"], rel=1e-6)
     assert isinstance(sm, SmoothedRun) and "poses" in repr(sm)
+    again = pickle.loads(pickle.dumps(sm))
+    np.testing.assert_array_equal(again.pose, sm.pose)
+    assert again.bias == sm.bias
 
 
 def test_smoothing_beats_the_filter_and_is_consistent(loop_log):

@@ -140,8 +140,10 @@ def test_bad_input_is_named(loop):
         smooth_walls(out, controls, loop.rows, t - 1.0)
     with pytest.raises(ValueError, match="times"):
         smooth_walls(out, controls, loop.rows, t[::-1].copy())
+    with pytest.raises(ValueError, match="start prior"):
+        smooth_walls(out, controls, loop.rows, t[1:].copy())
     with pytest.raises(ValueError, match="row"):
-        smooth_walls(out, controls, loop.rows, t + 1e-3)
+        smooth_walls(out, controls, loop.rows, np.r_[t[0], t[1:] + 1e-3])
     bad = loop.rows.copy()
     bad[0, 3] = math.nan
     with pytest.raises(ValueError, match="walls"):

@@ -179,12 +179,18 @@ fn exact_data_is_recovered_from_dead_reckoning_and_a_wrong_map() {
 }
 
 #[test]
-fn smoothed_poses_are_consistent_over_monte_carlo_runs() {
+fn smoothed_poses_and_walls_are_consistent_over_monte_carlo_runs() {
     let runs = 40;
     let (mut sum, mut count, mut better) = (0.0, 0usize, 0);
+    let mut wall_sum = 0.0;
     for seed in 0..runs {
         let sim = simulate(100 + seed, 1.0);
         let out = smooth(&sim, &true_map());
+        for (w, t) in out.walls.iter().zip(WALLS) {
+            let e = nalgebra::Vector2::new(w.line[0] - t[0], wrap_angle(w.line[1] - t[1]));
+            let cov = nalgebra::Matrix2::from_row_slice(&w.covariance);
+            wall_sum += e.dot(&(cov.try_inverse().unwrap() * e));
+        }
         let (mut sq, mut sq_dr) = (0.0, 0.0);
         for ((p, c), (t, d)) in out
             .pose
@@ -217,6 +223,16 @@ fn smoothed_poses_are_consistent_over_monte_carlo_runs() {
     assert_eq!(
         better, runs as usize,
         "smoothing must beat dead reckoning on every run"
+    );
+    // The walls' NEES (2 dof), the band again that of the runs' count.
+    let wall_mean = wall_sum / (runs as f64 * WALLS.len() as f64);
+    let (lo, hi) = (
+        chi2_quantile(0.005, 2.0 * n).unwrap() / n,
+        chi2_quantile(0.995, 2.0 * n).unwrap() / n,
+    );
+    assert!(
+        wall_mean > lo && wall_mean < hi,
+        "mean wall NEES {wall_mean:.2} outside [{lo:.2}, {hi:.2}]"
     );
 }
 

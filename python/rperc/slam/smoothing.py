@@ -73,11 +73,12 @@ def smooth_walls(
     tolerance: float = 1e-9,
 ) -> SmoothedRun:
     """Smooths the run ``result`` of :meth:`PlanarSlam.run_arrays` given the same
-    ``controls`` and ``walls`` rows: one pose at each of ``times`` (increasing, the
-    first the start; every wall row's time among them), starting from the filter's
-    pose there and its final walls, with its association (``result.wall_pairing``)
-    and its config. Stops after ``max_iterations`` or when a step lowers the cost by
-    less than the fraction ``tolerance``."""
+    ``controls`` and ``walls`` rows: one pose at each of ``times`` (increasing; the
+    first the run's first event, where the config's initial pose holds; every wall
+    row's time among them), starting from the filter's pose there and its final
+    walls, with its association (``result.wall_pairing``) and its config. Stops after
+    ``max_iterations`` or when a step lowers the cost by less than the fraction
+    ``tolerance``."""
     if result.walls is None or result.wall_pairing is None:
         raise ValueError("result has no walls: run PlanarSlam.run_arrays with walls=")
     t = np.ascontiguousarray(times, dtype=np.float64)
@@ -86,6 +87,12 @@ def smooth_walls(
     rows = np.searchsorted(result.t, t, side="right") - 1
     if len(result.t) == 0 or rows.min() < 0:
         raise ValueError("times must not come before the run's first event")
+    if t[0] != result.t[0]:
+        # The config's initial pose is the prior of the first pose: it holds there only.
+        raise ValueError(
+            f"times[0] must be the run's first event time {result.t[0]!r} (where the "
+            f"start prior holds), got {t[0]!r}"
+        )
     options: dict[str, Any] = {"max_iterations": max_iterations, "tolerance": tolerance}
     out = _rperc.planar_smooth_walls(
         np.ascontiguousarray(controls, dtype=np.float64),

@@ -85,7 +85,8 @@ pub struct WallRun<'a> {
     pub config: &'a PlanarConfig,
     /// Control rows `(t, u0, u1)`, sorted by time, each held until the next.
     pub controls: &'a [[f64; 3]],
-    /// The times of the poses to estimate, increasing; the first is the start.
+    /// The times of the poses to estimate, increasing; the first is the start, where
+    /// `config.initial_pose` (with `initial_pose_variance`) is the prior.
     pub times: &'a [f64],
     /// The filter's pose at each of `times`: where the iterations start.
     pub poses: &'a [[f64; 3]],

@@ -115,6 +115,72 @@ def test_smoothing_is_consistent_in_the_corridor_with_bent_walls():
     assert lo < float(np.mean([r["smoothed_nees_mean"] for r in runs])) < hi
 
 
+def _causal_bound() -> ModuleType:
+    """``benchmarks/wall_causal_bound.py``."""
+    sys.path.insert(0, str(BENCH))
+    import wall_causal_bound
+
+    return wall_causal_bound
+
+
+def test_causal_optimum_is_the_batch_over_the_past(loop):
+    """The causal bound's solve at scan ``k`` is the scipy peer's optimum over the
+    controls up to ``k``'s time and the sightings at or before it (an independent
+    truncation), and at the last scan the full smoothing; on the simulated loop the
+    causal path is the filter's to millimetres."""
+    cb, peer = _causal_bound(), _peer()
+    controls, out = cb.filter_run(loop, seed=2)
+    filtered, _ = ws.at_scans(out, loop.t)
+    walls = (out.walls.id, out.walls.line)
+    k = 150
+    ours = cb.smooth_upto(k, controls, loop, out.wall_pairing, walls, filtered[: k + 1], out.config)
+    t = loop.t
+    seen = loop.rows[:, 0] <= t[k]
+    truncated = np.r_[controls[controls[:, 0] <= t[k]], [[t[k], 0.0, 0.0]]]
+    theirs = peer.smooth(peer.Problem(
+        truncated, t[: k + 1], filtered[: k + 1], loop.rows[seen], out.wall_pairing[seen],
+        out.walls.id, out.walls.line, speed_var=ws.SPEED_SIGMA**2, turn_var=ws.TURN_SIGMA**2,
+        bias_sd=(ws.SPEED_BIAS, ws.TURN_BIAS), start=loop.reference[0], start_var=np.zeros(3),
+        shared_sd=loop.straightness,
+    ))  # fmt: skip
+    np.testing.assert_allclose(ours["pose"][:, :2], theirs["pose"][:, :2], atol=1e-5)
+    # From the same start as smooth_walls (the filter's poses, which also place the
+    # stretches the shared floor counts), the last scan's solve is the full smoothing.
+    last = cb.smooth_upto(len(t) - 1, controls, loop, out.wall_pairing, walls, filtered,
+                          out.config)  # fmt: skip
+    full = smooth_walls(out, controls, loop.rows, t)
+    np.testing.assert_allclose(last["pose"][:, :2], full.pose[:, :2], atol=1e-9)
+    scans, causal = cb.causal_path(controls, loop, out.wall_pairing, walls, filtered, out.config,
+                                   every=60)  # fmt: skip
+    assert scans[0] == 0 and scans[-1] == len(t) - 1 and np.all(np.diff(scans) > 0)
+    np.testing.assert_array_equal(causal[0], loop.reference[0])
+    # The EKF is the causal optimum up to its linearisation, small on this loop: the two
+    # agree within 5 mm where each is about 15 mm from the truth.
+    assert np.max(np.hypot(*(causal[:, :2] - filtered[scans, :2]).T)) < 0.005
+
+
+def test_oracle_pairing_groups_sightings_of_one_wall(loop):
+    """The causal bound's oracle association on the simulated loop, whose reference is
+    the truth: every sighting it keeps lies on its group's first sighting's line
+    within ``ORACLE_OFFSET`` (both ends) when placed with the truth, the vague ones are
+    left out unless asked for, and the filter never has more walls than it has groups
+    short of its vague and ambiguous rows."""
+    cb = _causal_bound()
+    pairing = cb.oracle_pairing(loop)
+    rows, ref = loop.rows, loop.reference
+    vague = rows[:, 5] > math.radians(2.0) ** 2
+    assert np.all(pairing[vague] == -1) and np.all(pairing[~vague] >= 0)
+    assert np.all(cb.oracle_pairing(loop, vague=True) >= 0)
+    scan = np.searchsorted(loop.t, rows[:, 0])
+    for g in np.unique(pairing[pairing >= 0]):
+        members = np.flatnonzero(pairing == g)
+        a, b = cb._ends_in_world(ref[scan[members[0]]], rows[members[0]])
+        n = np.array([-(b - a)[1], (b - a)[0]]) / np.hypot(*(b - a))
+        for i in members:
+            for end in cb._ends_in_world(ref[scan[i]], rows[i]):
+                assert abs((end - a) @ n) <= 2 * cb.ORACLE_OFFSET
+
+
 @pytest.mark.parametrize("log", ["intel", "aces"])
 def test_smoothing_reaches_the_issue_goal_on_the_real_logs(log):
     """Issue 11's goal, ATE <= 0.3 m, by the smoothed path over 10 odometry seeds

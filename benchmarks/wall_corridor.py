@@ -27,6 +27,14 @@ doorways, 6 seeds: robot NEES median 6.5 (2.6 with whole walls); ``--gaps 1.5``,
 sections merged into one line, 4.7. With sigma 0.005 and no limit (4 seeds), the
 squared errors along and across the corridor are about 9 times the variances
 claimed with FEJ, 2 times without.
+
+Stepped walls: ``--door 0.3 --recess 0.1`` makes each inner wall sections 0.3 m apart,
+each moved off the line by N(0, 10 cm), which the 0.5 m ``wall_overlap_gap`` lets one
+wall landmark join (a recess or a cabinet along a real wall). With ``--sigma 0.01
+--bend 0.02 --shared``, FEJ, bias and bias states, the 2-degree limit, 12 seeds, the
+robot's share in band is 62 % with ``--association nn`` and 86 % with ``jcbb``
+(median NEES 7.2 and 2.6); with ``--recess 0``, 92 and 90 %. That chose JCBB for
+``wallslam``.
 """
 
 from __future__ import annotations

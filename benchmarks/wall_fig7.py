@@ -121,7 +121,7 @@ def main() -> None:
         "--straightness", type=float, default=ws.STRAIGHTNESS,
         help="straightness floor sigma (m) added to every wall sighting",
     )  # fmt: skip
-    ap.add_argument("--association", choices=("nn", "jcbb"), default="nn")
+    ap.add_argument("--association", choices=("nn", "jcbb"), default="jcbb")
     args = ap.parse_args()
     results = [run_log(Path(p), args.seeds, args.straightness, args.association) for p in args.logs]
     for res in results:

@@ -36,7 +36,10 @@ def add_walls_command(kinds: argparse._SubParsersAction) -> None:  # type: ignor
         help=f"straightness floor (m) added to every wall sighting (default {STRAIGHTNESS}, "
         "calibrated on ACES by benchmarks/wall_straightness.py; 0 turns it off)",
     )  # fmt: skip
-    w.add_argument("--association", choices=("nn", "jcbb"), default="nn")
+    w.add_argument(
+        "--association", choices=("nn", "jcbb"), default="jcbb",
+        help="data association: joint compatibility (the default) or nearest neighbours",
+    )  # fmt: skip
     w.add_argument("--seed", type=seed_type, default=0, help="the odometry noise draw")
     w.add_argument(
         "--smooth", action="store_true",

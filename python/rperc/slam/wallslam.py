@@ -372,15 +372,15 @@ def run_walls(
     use_walls: bool = True,
     show_progress: bool = False,
     straightness: float = 0.0,
-    association: str = "nn",
+    association: str = "jcbb",
     smooth: bool = False,
 ) -> WallSlamResult:
     """Wall SLAM over a :class:`rperc.datasets.CarmenLog` from odometry drawn with
     ``seed`` (see the module docs); ``use_walls=False`` is odometry alone;
     ``straightness`` (m) adds :func:`straightness_covariance` to every sighting (0,
     the default, suits simulated straight walls; :data:`STRAIGHTNESS` real logs);
-    ``association`` is the engine's (``"nn"`` or ``"jcbb"``); ``smooth=True`` also
-    smooths the run (:meth:`WallSlamResult.smoothed`)."""
+    ``association`` is the engine's (``"jcbb"``, the default, or ``"nn"``);
+    ``smooth=True`` also smooths the run (:meth:`WallSlamResult.smoothed`)."""
     prepared = prepare(log, straightness=straightness, show_progress=show_progress)
     overrides: dict[str, Any] = {"association": association, "anchor": anchor}
     if freeze_after is not None:
@@ -398,7 +398,7 @@ def run_prepared(
 ) -> WallSlamResult:
     """One run over a :func:`prepare`d log: odometry drawn with ``seed``, the filter
     config's stated noise and start with ``overrides`` (e.g. ``anchor=True``,
-    ``freeze_after=50``, ``association="jcbb"``) on top. ``smooth=True`` also smooths
+    ``freeze_after=50``, ``association="nn"``) on top. ``smooth=True`` also smooths
     the run (:func:`rperc.slam.smoothing.smooth_walls`, one pose per scan): see
     :meth:`WallSlamResult.smoothed`."""
     seed = whole_number(seed, "seed", 0, limit=2**64)
@@ -408,7 +408,12 @@ def run_prepared(
         "motion": {
             "unicycle": {"speed_variance": SPEED_SIGMA**2, "turn_rate_variance": TURN_SIGMA**2}
         },
-        "association": "nn",
+        # Joint compatibility: a stretch of a wall that steps off its line (a recess,
+        # a cabinet) is tested with the scan's other walls, which pin the robot. In
+        # the simulated corridor with stepped sections (`benchmarks/wall_corridor.py
+        # --door 0.3 --recess 0.1`, 12 seeds) the robot's share in band is 62 % with
+        # nearest neighbours, 86 % with JCBB; with straight sections 92 and 90 %.
+        "association": "jcbb",
         "initial_pose": ref[0].tolist(),
         # The biases are unknown constants of the stated size: estimated as states.
         "control_bias_sd": [SPEED_BIAS, TURN_BIAS],

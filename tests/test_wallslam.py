@@ -275,6 +275,25 @@ def test_segment_innovation_keeps_loose_walls_consistent():
     assert share["line"] < 0.6, share
 
 
+def _bent_corridor(*, association: str, door: float, recess: float, shared: bool):
+    """The corridor with walls bent by 2 cm of their own (1 m knots), 1 cm of fresh
+    noise per end, biased odometry with bias states, FEJ and the 2-degree limit, over
+    seeds 0-7: the robot's mean share of scans in band and mean median NEES."""
+    import argparse
+
+    corridor = _corridor_module()
+    args = argparse.Namespace(
+        sigma=0.01, range=8.0, bias=True, association=association, max_angle_sd_now=2.0,
+        first_estimates=True, bias_states=True, wall_innovation_now="segment",
+        door=door, recess=recess, gap_now=0.5, bend=0.02, shared=shared,
+    )  # fmt: skip
+    runs = [corridor.run(seed, 0.0, 0.0, args) for seed in range(8)]
+    return (
+        float(np.mean([r["nees_in_band"] for r in runs])),
+        float(np.mean([r["nees_median"] for r in runs])),
+    )
+
+
 def test_a_shared_floor_keeps_bent_walls_consistent():
     """Walls with bends of their own (2 cm sd at 1 m knots, fixed for the run) and
     1 m doorways, each sighting's ends also off by 1 cm of fresh noise: told only the
@@ -284,21 +303,10 @@ def test_a_shared_floor_keeps_bent_walls_consistent():
     the room test asks (85 %). Seeds 0-7 here; over seeds 0-11 the share in band is
     78 % without and 89 % with, the mean of the runs' median NEES 5.35 and 2.30 (2.37
     expected). Single seeds vary: the worst goes from 21.1 to 4.7."""
-    import argparse
-
-    corridor = _corridor_module()
-    out = {}
-    for shared in (False, True):
-        args = argparse.Namespace(
-            sigma=0.01, range=8.0, bias=True, association="nn", max_angle_sd_now=2.0,
-            first_estimates=True, bias_states=True, wall_innovation_now="segment",
-            door=1.0, recess=0.0, gap_now=0.5, bend=0.02, shared=shared,
-        )  # fmt: skip
-        runs = [corridor.run(seed, 0.0, 0.0, args) for seed in range(8)]
-        out[shared] = (
-            float(np.mean([r["nees_in_band"] for r in runs])),
-            float(np.mean([r["nees_median"] for r in runs])),
-        )
+    out = {
+        shared: _bent_corridor(association="nn", door=1.0, recess=0.0, shared=shared)
+        for shared in (False, True)
+    }
     assert out[True][0] >= 0.85 and out[True][1] < 3.5, out
     assert out[False][0] < out[True][0] - 0.05 and out[False][1] > 4.0, out
 
@@ -311,20 +319,9 @@ def test_joint_compatibility_keeps_stepped_walls_consistent():
     walls (JCBB, ``wallslam``'s default) it is left out and the robot NEES is back in
     chi-square's 95 % band at about the rate of the other corridor tests. Seeds 0-7:
     65 % in band with nearest neighbours, 85 % with JCBB (12 seeds: 62 and 86 %)."""
-    import argparse
-
-    corridor = _corridor_module()
-    out = {}
-    for association in ("nn", "jcbb"):
-        args = argparse.Namespace(
-            sigma=0.01, range=8.0, bias=True, association=association, max_angle_sd_now=2.0,
-            first_estimates=True, bias_states=True, wall_innovation_now="segment",
-            door=0.3, recess=0.1, gap_now=0.5, bend=0.02, shared=True,
-        )  # fmt: skip
-        runs = [corridor.run(seed, 0.0, 0.0, args) for seed in range(8)]
-        out[association] = (
-            float(np.mean([r["nees_in_band"] for r in runs])),
-            float(np.mean([r["nees_median"] for r in runs])),
-        )
+    out = {
+        association: _bent_corridor(association=association, door=0.3, recess=0.1, shared=True)
+        for association in ("nn", "jcbb")
+    }
     assert out["jcbb"][0] >= 0.8 and out["jcbb"][1] < 3.5, out
     assert out["nn"][0] < out["jcbb"][0] - 0.1 and out["nn"][1] > 4.0, out

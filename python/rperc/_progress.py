@@ -8,6 +8,8 @@ loop reports through the ``rperc`` logger at INFO level instead, at most once ev
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import logging
 import sys
 import time
@@ -18,7 +20,21 @@ T = TypeVar("T")
 
 logger = logging.getLogger("rperc")
 
-__all__ = ["logger", "progress"]
+__all__ = ["logger", "progress", "quiet"]
+
+# Set inside a batch of runs (``rperc bench``): the batch reports its own progress,
+# and a bar or log line per run would bury it.
+_QUIET = contextvars.ContextVar("rperc_progress_quiet", default=False)
+
+
+@contextlib.contextmanager
+def quiet() -> Iterator[None]:
+    """No progress is reported by the loops run inside this block."""
+    token = _QUIET.set(True)
+    try:
+        yield
+    finally:
+        _QUIET.reset(token)
 
 
 def progress(
@@ -35,6 +51,9 @@ def progress(
     ``total`` defaults to ``len(iterable)`` when it has one. ``interval`` (seconds)
     spaces the log lines; ``clock`` is there so tests can drive time.
     """
+    if _QUIET.get():
+        yield from iterable
+        return
     if total is None and hasattr(iterable, "__len__"):
         total = len(iterable)  # type: ignore[arg-type]
     if _stderr_is_terminal():

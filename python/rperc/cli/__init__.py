@@ -13,6 +13,8 @@
     rperc track-pattern SOURCE --region x,y,w,h
                                 planar pattern tracker on a video or image folder
     rperc demo pattern          pattern tracker: Fig. 8 and the harness vs OpenCV
+    rperc bench SUITE           a capability over a corpus x seeds x settings grid,
+                                serial or on Dask (track, laser, mrclam, pattern)
 
 Run ``rperc COMMAND --help`` for the options of each. Results go to stdout, notes
 ("wrote ...", progress) to stderr; ``--json PATH`` writes the measured figures. A
@@ -57,7 +59,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from rperc.cli import demo, lines, pattern, slamrun, track
+    from rperc.cli import bench, demo, lines, pattern, slamrun, track
 
     parser = _Parser(prog="rperc", description="Robot perception in Rust, driven from Python.")
     parser.add_argument("--version", action="version", version=f"rperc {__version__}")
@@ -67,6 +69,7 @@ def build_parser() -> argparse.ArgumentParser:
     track.add_commands(sub)
     pattern.add_commands(sub)
     slamrun.add_commands(sub)
+    bench.add_commands(sub)
     return parser
 
 

@@ -13,7 +13,14 @@ from typing import Any
 import numpy as np
 
 from rperc.cli.demo import DemoResult
-from rperc.cli.outputs import add_json_option, check_output_file, positive_float, write_json, wrote
+from rperc.cli.outputs import (
+    add_json_option,
+    check_output_file,
+    positive_float,
+    seed_type,
+    write_json,
+    wrote,
+)
 from rperc.slam import PlanarSlam, SlamResult
 from rperc.slam.planar import PRESETS, mrclam_recording, victoria_recording
 
@@ -43,6 +50,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         help="external variant: seconds between xy fixes made from the ground truth",
     )  # fmt: skip
     m.add_argument("--fix-sigma", type=positive_float, default=0.1, help="their noise (m)")
+    m.add_argument("--seed", type=seed_type, default=0, help="the draw of the fixes' noise")
     m.add_argument(
         "--span", type=float, nargs=2, metavar=("START", "STOP"),
         help="only seconds [START, STOP) after the first odometry row (the mrclam preset "
@@ -97,20 +105,40 @@ def _speed(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _mrclam(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dict[str, Any]]:
+    return mrclam_run(
+        args.directory, robot=args.robot, variants=args.variant, seed=args.seed,
+        fix_interval=args.fix_interval, fix_sigma=args.fix_sigma, span=args.span,
+        config={**_speed(args), **args.config},
+    )  # fmt: skip
+
+
+def mrclam_run(
+    directory: str | Path,
+    *,
+    robot: int,
+    variants: tuple[str, ...] = ("plain",),
+    seed: int = 0,
+    fix_interval: float = 1.0,
+    fix_sigma: float = 0.1,
+    span: tuple[float, float] | None = None,
+    config: dict[str, Any] | None = None,
+) -> tuple[SlamResult, dict[str, Any], dict[str, Any]]:
+    """One MR.CLAM robot through planar EKF-SLAM with ``variants`` (the ``mrclam``
+    preset, ``config`` on top): the result, its scores (``rperc slam mrclam``'s) and
+    the reference. ``seed`` draws the external variant's fix noise."""
     from rperc.datasets import load_mrclam
     from rperc.slam.planar import mrclam_start
 
-    run = load_mrclam(args.directory, robot=args.robot)
-    if args.span is not None:
+    run = load_mrclam(directory, robot=robot)
+    if span is not None:
         from rperc.slam.calibration import mrclam_window
 
-        run = mrclam_window(run, *args.span)
-    cfg = {**PRESETS["mrclam"], **mrclam_start(run), **_speed(args), **args.config}
-    cfg = variant_config(cfg, args.variant)
+        run = mrclam_window(run, *span)
+    cfg = {**PRESETS["mrclam"], **mrclam_start(run), **(config or {})}
+    cfg = variant_config(cfg, variants)
     # Fixes only for the external variant: even ignored, each would split a prediction.
-    external = "external" in args.variant
-    interval = args.fix_interval if external else None
-    ev = mrclam_recording(run, fix_interval=interval, fix_sigma=args.fix_sigma)
+    interval = fix_interval if "external" in variants else None
+    ev = mrclam_recording(run, fix_interval=interval, fix_sigma=fix_sigma, seed=seed)
     result = PlanarSlam(cfg).run(ev, progress=True)
     truth = np.c_[run.truth_x, run.truth_y, run.truth_theta]
     aligned = result.ate(run.truth_t, truth, align=True)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import argparse
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -109,21 +109,27 @@ def box_type(text: str) -> tuple[float, float, float, float]:
 
 
 def run_tracker(
-    name: str, frames: Sequence[np.ndarray] | np.ndarray, first_box: Sequence[float], seed: int
+    name: str,
+    frames: Sequence[np.ndarray] | np.ndarray,
+    first_box: Sequence[float],
+    seed: int,
+    settings: Mapping[str, Any] | None = None,
 ) -> TrackerRun:
-    """Run tracker ``name`` from ``first_box`` over ``frames``. This is the one place
+    """Run tracker ``name`` from ``first_box`` over ``frames``, ``settings`` passed to
+    its constructor as keywords (``rperc bench`` sweeps them). This is the one place
     that calls the trackers' Python API (construction and ``update``)."""
     from rperc.tracking import ColorHistogramTracker, ColorShapeTracker, ParticleColorTracker
 
     x, y, w, h = (float(v) for v in first_box)
     box = (x, y, w, h)
+    kw = dict(settings or {})
     start = time.perf_counter()
     if name == "color":
-        tracker: Any = ColorHistogramTracker(frames[0], box)
+        tracker: Any = ColorHistogramTracker(frames[0], box, **kw)
     elif name == "color-pf":
-        tracker = ParticleColorTracker(frames[0], box, seed=seed)
+        tracker = ParticleColorTracker(frames[0], box, seed=seed, **kw)
     elif name == "color-shape":
-        tracker = ColorShapeTracker(frames[0], box, seed=seed)
+        tracker = ColorShapeTracker(frames[0], box, seed=seed, **kw)
     else:
         raise ValueError(f"unknown tracker {name!r}; expected one of {', '.join(CLI_TRACKERS)}")
     boxes: list[tuple[float, ...]] = [box]

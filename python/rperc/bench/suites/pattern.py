@@ -1,0 +1,160 @@
+"""``rperc bench pattern``: the seed 001 pattern tracker and OpenCV's peers on
+generated sequences (a patch moving over clutter, seed 001 section 4.1), every
+parameter stepping uniformly up to ``steps`` sigma of the seed's evolution model at
+once. One row per case, tracker and seed (the seed draws the sequence and the
+tracker's particles): RMS errors of the position (px), angle (degrees) and scale (%),
+the alignment error of the four corners (median, precision at 5 and 15 px), frames
+lost or failed, and fps.
+
+The patch is cut from ``images/camera.png`` and moved over ``images/grass.png`` of the
+data folder; without it a generated patch and block clutter are used (the row's
+``images`` column says which). The sequence is generated on the worker from the seed:
+only its description travels.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rperc.bench.tasks import Task
+
+TRACKERS = ("rperc", "ecc-euclidean", "ecc-affine", "match-template", "csrt")
+DEFAULT_TRACKERS = ("rperc", "ecc-affine")
+SHOWN = ("position_rms_px", "angle_rms_deg", "scale_rms_pct", "precision_5px", "failures", "fps")
+PRIMARY = ("position_rms_px", "px")
+#: The seed's evolution model (section 4.1): 5 px, 5 px, 3 degrees, 0.1 scale.
+SIGMA = (5.0, 5.0, math.radians(3.0), 0.1)
+
+
+def case_name(steps: float) -> str:
+    """A generated case's name: its step bound in sigmas."""
+    return f"steps<={steps:g}sigma"
+
+
+def case_steps(name: str) -> float:
+    """The step bound of a case named by :func:`case_name`."""
+    body = name.removeprefix("steps<=").removesuffix("sigma")
+    try:
+        return float(body)
+    except ValueError:
+        raise ValueError(f"{name!r} is not a generated pattern case (steps<=Nsigma)") from None
+
+
+def parse_steps(text: str) -> list[float]:
+    """Comma-separated step bounds in sigmas, each in (0, 10]."""
+    try:
+        steps = [float(s) for s in text.split(",") if s.strip()]
+    except ValueError:
+        raise ValueError(f"--steps {text!r}: expected numbers such as 1,2,3") from None
+    if not steps or not all(0 < s <= 10 for s in steps):
+        raise ValueError(f"--steps {text!r}: each bound must be in (0, 10] sigma")
+    return list(dict.fromkeys(steps))
+
+
+def settings_taken() -> set[str]:
+    import inspect
+
+    from rperc.tracking import PatternTracker
+
+    params = inspect.signature(PatternTracker.__init__).parameters
+    return {n for n, p in params.items() if p.kind is p.KEYWORD_ONLY and n != "seed"}
+
+
+def images(root: str) -> tuple[np.ndarray, np.ndarray, str]:
+    """(patch, background, where from): camera.png over grass.png from ``root``'s
+    ``images/``, else the generated pair of ``rperc demo pattern``."""
+    folder = Path(root) / "images" if root else None
+    if (
+        folder is not None
+        and (folder / "camera.png").is_file()
+        and (folder / "grass.png").is_file()
+    ):
+        from PIL import Image
+
+        with Image.open(folder / "camera.png") as cam, Image.open(folder / "grass.png") as grass:
+            camera = np.asarray(cam.convert("L"), dtype=np.float64)
+            background = np.asarray(grass.convert("L"), dtype=np.float64)
+        return camera[60:160, 200:300], background, "camera.png over grass.png"
+    from rperc.cli.pattern import demo_images
+
+    patch, background = demo_images(0)
+    return patch, background, "generated"
+
+
+def corner_pose(corners: np.ndarray, width: float) -> np.ndarray:
+    """``(x, y, theta, scale)`` per frame of corners ``(n, 4, 2)``: the centre, the
+    top edge's angle (counter-clockwise on screen) and its length over ``width``."""
+    c = np.asarray(corners, dtype=np.float64)
+    centre = c.mean(axis=1)
+    top = c[:, 1] - c[:, 0]
+    theta = np.arctan2(-top[:, 1], top[:, 0])
+    pose: np.ndarray = np.c_[centre, theta, np.hypot(top[:, 0], top[:, 1]) / width]
+    return pose
+
+
+def _tracker(name: str, settings: dict[str, Any], seed: int) -> Any:
+    from rperc.tracking import planar
+
+    if name == "rperc":
+        return lambda f, r: planar.run_pattern(f, r, seed=seed, **settings)
+    if settings:
+        raise ValueError(f"the OpenCV peer {name} takes no settings")
+    return {
+        "ecc-euclidean": lambda f, r: planar.run_ecc(f, r, "euclidean"),
+        "ecc-affine": lambda f, r: planar.run_ecc(f, r, "affine"),
+        "match-template": planar.run_match_template,
+        "csrt": planar.run_csrt,
+    }[name]
+
+
+def run(task: Task) -> dict[str, Any]:
+    """One tracker on one generated case."""
+    from rperc.tracking import pattern_sequence, planar
+
+    steps = case_steps(task.dataset)
+    patch, background, source = images(task.text("images"))
+    seq = pattern_sequence(
+        patch,
+        background,
+        n_frames=int(task.number("frames") or 40),
+        size=(640, 480),
+        max_step_sigmas=steps,
+        other_step_sigmas=steps,
+        seed=task.seed,
+    )
+    if task.method not in TRACKERS:
+        raise ValueError(f"unknown tracker {task.method!r}; expected one of {', '.join(TRACKERS)}")
+    result = _tracker(task.method, task.kwargs, task.seed)(seq.frames, seq.region)
+    truth = planar.truth_corners(seq)
+    s = planar.score(task.dataset, result, truth)
+    est = corner_pose(result.corners, seq.region[2])
+    ref = corner_pose(truth, seq.region[2])
+    err = est - ref
+    err[:, 2] = np.angle(np.exp(1j * err[:, 2]))
+    rms = np.sqrt(np.nanmean(err**2, axis=0))
+    return {
+        "library": "rperc" if task.method == "rperc" else "OpenCV " + _cv2_version(),
+        "images": source,
+        "frames": len(truth),
+        "position_rms_px": float(math.hypot(rms[0], rms[1])),
+        # A position-only peer (CSRT) estimates no angle or scale.
+        "angle_rms_deg": math.nan if result.position_only else float(math.degrees(rms[2])),
+        "scale_rms_pct": math.nan
+        if result.position_only
+        else float(100 * np.sqrt(np.nanmean((est[:, 3] / ref[:, 3] - 1) ** 2))),
+        "median_alignment_px": s.median_alignment,
+        "precision_5px": s.precision_5,
+        "precision_15px": s.precision_15,
+        "failures": s.failures,
+        "fps": s.fps,
+    }
+
+
+def _cv2_version() -> str:
+    import cv2
+
+    return str(cv2.__version__)

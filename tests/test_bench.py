@@ -274,6 +274,22 @@ def test_laser_row_equals_rperc_slam_walls(loop_log: Path, tmp_path: Path) -> No
         assert row[key] == single[key], key
 
 
+def test_laser_row_on_a_log_whose_scan_times_do_not_increase(
+    loop_log: Path, tmp_path: Path
+) -> None:
+    """Every scan stamped 0 (as orebro.log.gz does): the times are repaired on reading
+    and the run does not use them, so the row holds the same scores as the log with
+    its times, not an error row (pytest turns the repair's warning into an error)."""
+    zeros = tmp_path / "zeros.log"
+    lines = [line.split() for line in loop_log.read_text().splitlines()]
+    zeros.write_text("".join(" ".join([*tok[:-3], "0", tok[-2], "0"]) + "\n" for tok in lines))
+    (row,) = bench.laser(zeros, variants=["plain"], seeds=[0]).rows
+    (timed,) = bench.laser(loop_log, variants=["plain"], seeds=[0]).rows
+    assert row["error"] == ""
+    for key in ("ate_rmse_m", "loop_error_m", "nees_mean", "scans", "walls"):
+        assert row[key] == timed[key], key
+
+
 def test_smoothed_laser_row_equals_the_smoothed_scores(loop_log: Path, tmp_path: Path) -> None:
     out = tmp_path / "walls.json"
     assert (

@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from rperc.datasets import DatasetFormatError, load_carmen
+from rperc.datasets import DatasetFormatError, TimestampRepairWarning, load_carmen
 
 ODOM = "ODOM {x} {y} {th} 0 0 0 {t} host {t}\n"
 
@@ -19,18 +19,38 @@ def flaser(ranges: list[str], pose: str = "0.5 0.25 0.1", t: float = 12.5) -> st
     return f"FLASER {len(ranges)} {' '.join(ranges)} {pose} {pose} {t} host {t}\n"
 
 
-@pytest.mark.parametrize("name", ["intel.log", "aces.log"])
-def test_real_logs_round_trip(data, tmp_path, name):
+def load_repaired(path, repaired: int):
+    """``load_carmen(path)``, expecting exactly ``repaired`` scan times to be repaired:
+    one TimestampRepairWarning naming the file and the count when there are some, no
+    warning at all otherwise (pytest turns any warning into an error)."""
+    if not repaired:
+        log = load_carmen(path)
+    else:
+        with pytest.warns(TimestampRepairWarning) as caught:
+            log = load_carmen(path)
+        assert len(caught) == 1
+        message = str(caught[0].message)
+        assert message.startswith(f"{path}: {repaired} of {len(log.scans)} scan times")
+    assert log.times_repaired == repaired
+    return log
+
+
+@pytest.mark.parametrize(("name", "repaired"), [("intel.log", 4), ("aces.log", 0)])
+def test_real_logs_round_trip(data, tmp_path, name, repaired):
     """Every FLASER and ODOM line of the real logs, parsed independently by numpy,
-    equals what the reader returns; written back as gzip, the log reads the same."""
+    equals what the reader returns (the scan times as written in ``timestamp_raw``;
+    intel.log's four steps back repaired in ``timestamp``); written back as gzip, the
+    log reads the same."""
     path = data / "carmen" / name
     text = path.read_text().splitlines()
-    log = load_carmen(path)
+    log = load_repaired(path, repaired)
     flines = [line.split() for line in text if line.startswith("FLASER ")]
     oracle = np.array([[float(v) for v in tok[2:-2]] for tok in flines])
     np.testing.assert_array_equal(log.scans.ranges, oracle[:, :180])
     np.testing.assert_array_equal(log.scans.pose, oracle[:, 180:183])
-    np.testing.assert_array_equal(log.scans.timestamp, oracle[:, 186])
+    np.testing.assert_array_equal(log.scans.timestamp_raw, oracle[:, 186])
+    same = log.scans.timestamp == oracle[:, 186]
+    assert np.count_nonzero(~same) == repaired and np.all(np.diff(log.scans.timestamp) > 0)
     odom = np.array([[float(v) for v in line.split()[1:8]] for line in text if line[:5] == "ODOM "])
     np.testing.assert_array_equal(log.odometry.pose, odom[:, :3])
     assert log.errors == () and log.scans_without_pose == 0
@@ -44,7 +64,7 @@ def test_real_logs_round_trip(data, tmp_path, name):
     # Round trip through gzip, whatever the suffix.
     gz = tmp_path / "copy.log"
     gz.write_bytes(gzip.compress(path.read_bytes()))
-    again = load_carmen(gz)
+    again = load_repaired(gz, repaired)
     np.testing.assert_array_equal(again.scans.ranges, log.scans.ranges)
     np.testing.assert_array_equal(again.scans.pose, log.scans.pose)
     assert again.skipped == log.skipped and again.params == log.params
@@ -65,7 +85,7 @@ def test_truncated_last_line_raises_or_is_skipped(tmp_path):
 
 def test_bad_ranges_become_counted_invalid_readings(tmp_path):
     path = tmp_path / "r.log"
-    path.write_text(flaser(["1.0", "nan", "-0.5", "inf", "2.0"]) + flaser(["1", "2", "3"]))
+    path.write_text(flaser(["1.0", "nan", "-0.5", "inf", "2.0"]) + flaser(["1", "2", "3"], t=13))
     scans = load_carmen(path).scans
     row = scans.ranges[0]
     assert row[0] == 1.0 and row[4] == 2.0 and np.isnan(row[1:4]).all()
@@ -89,7 +109,10 @@ def test_nan_poses_are_errors_with_line(tmp_path, pose):
 def test_non_utf8_line_is_reported_or_skipped(tmp_path):
     path = tmp_path / "u.log"
     path.write_bytes(
-        b"\xef\xbb\xbf" + flaser(["1", "2"]).encode() + b"NEFF \xe9 2\n" + flaser(["3"]).encode()
+        b"\xef\xbb\xbf"
+        + flaser(["1", "2"]).encode()
+        + b"NEFF \xe9 2\n"
+        + flaser(["3"], t=13).encode()
     )
     with pytest.raises(DatasetFormatError, match=r"u\.log:2: byte 5 of the line \(0xe9\)"):
         load_carmen(path)
@@ -101,13 +124,13 @@ def test_non_utf8_line_is_reported_or_skipped(tmp_path):
 def test_param_lines_set_max_range_fov_and_resolution(tmp_path):
     path = tmp_path / "param.log"
     path.write_text(
-        flaser(["1"] * 180)
+        flaser(["1"] * 180, t=1)
         + "PARAM robot_front_laser_max 50.0 nohost 0\n"
         + "PARAM laser_front_laser_fov 100 nohost 0\n"
-        + flaser(["1"] * 101)
+        + flaser(["1"] * 101, t=2)
         + "PARAM laser_front_laser_resolution 0.5 nohost 0\n"
-        + flaser(["1"] * 201)
-        + "RLASER 3 1 2 3 0 0 0 0 0 0 1 h 1\n"
+        + flaser(["1"] * 201, t=3)
+        + "RLASER 3 1 2 3 0 0 0 0 0 0 4 h 4\n"
     )
     log = load_carmen(path)
     s = log.scans
@@ -135,7 +158,7 @@ def test_no_return_marker_is_inferred_without_a_max_range_param(tmp_path):
 
     rng = np.random.default_rng(3)
     spread = [f"{v:.2f}" for v in rng.uniform(0.5, 29.0, 4000)]
-    lines = "".join(flaser(spread[k : k + 40] + ["30.00"] * 5) for k in range(0, 4000, 40))
+    lines = "".join(flaser(spread[k : k + 40] + ["30.00"] * 5, t=k) for k in range(0, 4000, 40))
     path = tmp_path / "marker.log"
     path.write_text(lines)
     log = load_carmen(path)
@@ -148,7 +171,7 @@ def test_no_return_marker_is_inferred_without_a_max_range_param(tmp_path):
     walls = extract_lines(log.scans.ranges[0], log.scans.angles(0), max_range=30.0)
     assert not np.isin(walls.flat_indices, np.arange(40, 45)).any()
     # Far readings all distinct: no marker, the default.
-    path.write_text("".join(flaser(spread[k : k + 45]) for k in range(0, 3960, 45)))
+    path.write_text("".join(flaser(spread[k : k + 45], t=k) for k in range(0, 3960, 45)))
     log = load_carmen(path)
     assert log.no_return == {} and np.all(log.scans.max_range == FLASER_MAX_RANGE)
     # A few repeats of the largest value (a wall seen twice) are not a marker.
@@ -205,3 +228,60 @@ def test_on_error_is_checked(tmp_path):
     path.write_text(flaser(["1"]))
     with pytest.raises(ValueError, match="on_error"):
         load_carmen(path, on_error="ignore")  # type: ignore[arg-type]
+
+
+# ------------------------------------------------- scan times that do not increase
+
+
+@pytest.mark.parametrize(
+    ("name", "repaired"),
+    [("orebro.log.gz", 236), ("intel.log", 4), ("infinite-corridor.log.gz", 1939)],
+)
+def test_real_logs_get_strictly_increasing_scan_times(data, name, repaired):
+    """orebro stamps every scan 0, the infinite corridor steps back three times and
+    then repeats one value 1,937 times, intel steps back four times: read, every log
+    keeps one time per scan, in log order, strictly increasing, with one warning that
+    names the file and the count; the times that were consistent are kept, and the
+    file's own times stay in ``timestamp_raw``."""
+    path = data / "carmen" / name
+    log = load_repaired(path, repaired)
+    with gzip.open(path, "rt") if path.suffix == ".gz" else path.open() as f:
+        written = [float(line.split()[-3]) for line in f if line.startswith("FLASER ")]
+    t, raw = log.scans.timestamp, log.scans.timestamp_raw
+    assert len(t) == len(written) == len(log.scans) and np.all(np.diff(t) > 0)
+    np.testing.assert_array_equal(raw, written)
+    assert np.count_nonzero(t != raw) == repaired
+    assert f"{repaired} scan times repaired to increase strictly (first at line" in log.summary()
+
+
+def test_repeated_and_backward_times_are_spread_between_their_neighbours(tmp_path):
+    """A synthetic log: a run of repeats and a step back are spread evenly between the
+    neighbouring kept times, the last repeats continue at the median step; the lines of
+    the scans and the warning say where."""
+    path = tmp_path / "times.log"
+    times = [5.0, 5.0, 5.0, 8.0, 7.5, 10.0, 10.0]
+    path.write_text(ODOM.format(x=0, y=0, th=0, t=4) + "".join(flaser(["1"], t=t) for t in times))
+    with pytest.warns(TimestampRepairWarning, match=r"times\.log: 4 of 7 scan times .*line 3\)"):
+        log = load_carmen(path)
+    np.testing.assert_array_equal(log.scans.timestamp, [5, 6, 7, 8, 9, 10, 11])
+    np.testing.assert_array_equal(log.scans.timestamp_raw, times)
+    assert log.times_repaired == 4 and log.scans.line.tolist() == list(range(2, 9))
+    assert "4 scan times repaired to increase strictly (first at line 3)" in log.summary()
+    np.testing.assert_array_equal(log.odometry.timestamp, [4.0])  # odometry as written
+
+
+def test_increasing_times_are_kept_without_a_warning(tmp_path):
+    path = tmp_path / "fine.log"
+    path.write_text("".join(flaser(["1"], t=t) for t in (1.0, 1.5, 3.0)))
+    log = load_carmen(path)  # any warning would fail the test
+    assert log.times_repaired == 0 and "repaired" not in log.summary()
+    assert log.scans.timestamp_raw is log.scans.timestamp
+
+
+def test_times_that_cannot_be_repaired_name_the_line(tmp_path):
+    """Times at the top of the float range leave no room to increase: an error naming
+    the scan's line, not a silent infinity."""
+    path = tmp_path / "huge.log"
+    path.write_text("# log\n" + flaser(["1"], t=1.7976931348623157e308) * 2)
+    with pytest.raises(DatasetFormatError, match=r"huge\.log:3: t\[1\] cannot be given"):
+        load_carmen(path)

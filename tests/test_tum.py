@@ -1,13 +1,21 @@
 """TUM trajectory files: round trips, evo reading our files and we reading evo's,
 malformed files named by line, and evo_ape (the command line tool, run on files we
-wrote) agreeing with our ATE with and without alignment."""
+wrote) agreeing with our ATE with and without alignment. Time increases strictly in
+every file written or read; files are written whole (concurrent writers and readers);
+``rperc slam walls --tum`` on logs whose scan times do not increase writes one row per
+scan, in log order, that we and evo accept."""
 
 from __future__ import annotations
 
+import gzip
+import hashlib
+import json
 import math
 import os
 import subprocess
 import sys
+import textwrap
+import time
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +26,15 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from rperc.datasets import DatasetFormatError, load_mrclam, read_tum, write_tum
+from rperc.cli import main
+from rperc.datasets import (
+    DatasetFormatError,
+    TimestampRepairWarning,
+    load_carmen,
+    load_mrclam,
+    read_tum,
+    write_tum,
+)
 from rperc.slam.evaluation import ate
 
 coordinate = st.floats(-1e6, 1e6, allow_nan=False)
@@ -27,7 +43,9 @@ coordinate = st.floats(-1e6, 1e6, allow_nan=False)
 @st.composite
 def planar_trajectories(draw: st.DrawFn) -> tuple[np.ndarray, np.ndarray]:
     n = draw(st.integers(1, 30))
-    steps = draw(arrays(np.float64, n, elements=st.floats(0.0, 100.0)))
+    # Times increase strictly (write_tum refuses anything else): steps well above the
+    # float spacing at 2e9 s.
+    steps = draw(arrays(np.float64, n, elements=st.floats(1e-3, 100.0)))
     t = draw(st.floats(0.0, 2e9)) + np.cumsum(steps)
     xy = draw(arrays(np.float64, (n, 2), elements=coordinate))
     theta = draw(arrays(np.float64, n, elements=st.floats(-math.pi, math.pi)))
@@ -85,7 +103,8 @@ GOOD = "1.0 0 0 0 0 0 0 1\n"
         (GOOD + "2.0 0 0 0 0 0 0\n", 2, "expected 8 columns"),
         (GOOD + "2.0 0 x 0 0 0 0 1\n", 2, "not a number"),
         (GOOD + "2.0 0 nan 0 0 0 0 1\n", 2, "non-finite"),
-        ("# header\n" + GOOD + "0.5 0 0 0 0 0 0 1\n", 3, "time goes backwards"),
+        ("# header\n" + GOOD + "0.5 0 0 0 0 0 0 1\n", 3, "time goes backwards: 0.5 after 1.0"),
+        (GOOD + "1.0 0 0 0 0 0 0 1\n", 2, r"time repeats: 1\.0 after 1\.0 \(line 1\)"),
         (GOOD + "2.0 0 0 0.5 0 0 0 1\n", 2, "not planar: z"),
         (GOOD + "2.0 0 0 0 0.6 0 0 0.8\n", 2, "not planar: the rotation"),
         (GOOD + "2.0 0 0 0 0 0 0 2\n", 2, "quaternion norm"),
@@ -114,6 +133,158 @@ def test_write_refuses_bad_arrays(tmp_path: Path, t: list, poses: list, name: st
     with pytest.raises(ValueError, match=name):
         write_tum(tmp_path / "x.txt", t, poses)
     assert not (tmp_path / "x.txt").exists()
+
+
+@pytest.mark.parametrize(
+    ("t", "message"),
+    [
+        ([0.0, 0.0, 0.0], r"t repeats at index 1: 0\.0 after 0\.0"),
+        ([0.0, 2.0, 1.0], r"t goes backwards at index 2: 1\.0 after 2\.0"),
+        ([0.0, math.inf, 5.0], r"t\[1\] is inf"),
+    ],
+)
+def test_write_refuses_times_that_do_not_increase(tmp_path: Path, t: list, message: str) -> None:
+    """Nothing is written, not even over an older file, and no temporary file stays."""
+    path = tmp_path / "x.tum"
+    path.write_text("old\n")
+    with pytest.raises(ValueError, match=message):
+        write_tum(path, t, np.zeros((3, 3)))
+    assert path.read_text() == "old\n" and os.listdir(tmp_path) == ["x.tum"]
+
+
+# ------------------------------------------------------------------ atomic writes
+
+WRITER = textwrap.dedent(
+    """
+    import sys
+    import numpy as np
+    from rperc.datasets import write_tum
+
+    k, path, own, repeats = int(sys.argv[1]), sys.argv[2], sys.argv[3], int(sys.argv[4])
+    rng = np.random.default_rng(k)
+    n = 4000 + 1000 * k  # files of different lengths: a mix shows
+    t = 100.0 * k + np.cumsum(rng.uniform(0.01, 0.1, n))
+    poses = np.c_[rng.normal(size=(n, 2)), rng.uniform(-3, 3, n)]
+    write_tum(own, t, poses)
+    for _ in range(repeats):
+        write_tum(path, t, poses)
+    """
+)
+
+
+def test_concurrent_writers_leave_one_whole_file(tmp_path: Path) -> None:
+    """Four processes write their own trajectory to one path, over and over, while
+    this one reads it: every read, and the final file, is exactly one writer's whole
+    file (compared byte for byte with the copy each wrote alone), and no temporary
+    file is left behind."""
+    shared = tmp_path / "shared.tum"
+    own = [tmp_path / f"own{k}.tum" for k in range(4)]
+    writers = [
+        subprocess.Popen([sys.executable, "-c", WRITER, str(k), str(shared), str(own[k]), "8"])
+        for k in range(4)
+    ]
+    seen: set[str] = set()
+    reads = 0
+    deadline = time.monotonic() + 120
+    while any(w.poll() is None for w in writers) and time.monotonic() < deadline:
+        try:
+            seen.add(hashlib.sha256(shared.read_bytes()).hexdigest())
+            reads += 1
+        except FileNotFoundError:
+            pass
+    assert [w.wait(timeout=60) for w in writers] == [0, 0, 0, 0]
+    whole = {hashlib.sha256(p.read_bytes()).hexdigest() for p in own}
+    assert len(whole) == 4
+    final = hashlib.sha256(shared.read_bytes()).hexdigest()
+    assert final in whole
+    assert seen <= whole, f"{len(seen - whole)} of {reads} reads saw a mixed or partial file"
+    assert sorted(os.listdir(tmp_path)) == sorted(p.name for p in [shared, *own])
+    read_tum(shared)
+
+
+def test_a_failed_write_keeps_the_old_file(tmp_path: Path, monkeypatch) -> None:
+    """An error while the new file is written (here: the disk refuses to sync) leaves
+    the old file as it was and removes the temporary one."""
+    from rperc.datasets import tum
+
+    path = tmp_path / "keep.tum"
+    write_tum(path, [1.0, 2.0], np.zeros((2, 3)))
+    before = path.read_bytes()
+
+    def refuse(fd: int) -> None:
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(tum.os, "fsync", refuse)
+    with pytest.raises(OSError, match="No space"):
+        write_tum(path, [1.0, 2.0, 3.0], np.ones((3, 3)))
+    assert path.read_bytes() == before and os.listdir(tmp_path) == ["keep.tum"]
+
+
+def test_written_file_has_the_permissions_open_gives(tmp_path: Path) -> None:
+    """The temporary file is created like any new file (the umask applies), so the
+    renamed result is not left private to its owner as mkstemp's would be."""
+    write_tum(tmp_path / "a.tum", [1.0], [[0.0, 0.0, 0.0]])
+    (tmp_path / "b.txt").write_text("x")
+    assert (tmp_path / "a.tum").stat().st_mode == (tmp_path / "b.txt").stat().st_mode
+
+
+# ----------------------------------- rperc slam walls --tum on logs that repeat times
+
+
+def flaser_times(path: Path) -> list[float]:
+    """Each FLASER line's time as the file writes it, in file order (read directly)."""
+    with gzip.open(path, "rt") if path.suffix == ".gz" else path.open() as f:
+        return [float(line.split()[-3]) for line in f if line.startswith("FLASER ")]
+
+
+def check_walls_tum(tmp_path: Path, log_path: Path, repaired: int, capsys) -> None:
+    """``rperc slam walls LOG --tum``: a note on stderr names the repair; the file has
+    one row per scan, at the log's repaired times, in log order (its path scores the
+    JSON's ATE against the log's poses row by row); read_tum and evo accept it."""
+    tum, js = tmp_path / "out.tum", tmp_path / "out.json"
+    assert main(["slam", "walls", str(log_path), "--tum", str(tum), "--json", str(js)]) == 0
+    err = capsys.readouterr().err
+    scans = len(flaser_times(log_path))
+    assert f"note: {log_path.name}: {repaired} of {scans} scan times did not increase" in err
+    with pytest.warns(TimestampRepairWarning, match=f"{repaired} of {scans} scan times"):
+        log = load_carmen(log_path)
+    t, poses = read_tum(tum)
+    assert len(t) == scans and np.all(np.diff(t) > 0)
+    np.testing.assert_array_equal(t, log.scans.timestamp)
+    kept = log.scans.timestamp_raw == t
+    np.testing.assert_array_equal(t[kept], np.asarray(flaser_times(log_path))[kept])
+    err_xy = poses[:, :2] - log.scans.pose[:, :2]
+    ate = math.sqrt(float(np.mean(np.sum(err_xy**2, axis=1))))
+    assert ate == pytest.approx(json.loads(js.read_text())["ate_rmse_m"], rel=1e-9)
+    traj = file_interface.read_tum_trajectory_file(tum)
+    valid, details = traj.check()
+    assert valid, details
+    assert traj.num_poses == scans
+    np.testing.assert_array_equal(traj.timestamps, t)
+
+
+def test_slam_walls_tum_on_orebro(data: Path, tmp_path: Path, capsys) -> None:
+    """orebro.log.gz stamps all 237 scans 0."""
+    check_walls_tum(tmp_path, data / "carmen" / "orebro.log.gz", 236, capsys)
+
+
+def test_slam_walls_tum_on_a_log_with_repeated_and_backward_times(tmp_path: Path, capsys) -> None:
+    """A simulated loop log whose scans share times three by three, with one time
+    that steps back."""
+    from rperc.scansim import write_loop_log
+
+    path = write_loop_log(tmp_path / "loop.log", seed=3, laps=1.2)
+    lines = path.read_text().splitlines()
+    times = [0.5 * (k // 3) for k in range(len(lines))]
+    times[10] = 0.25
+    out = []
+    for line, t in zip(lines, times, strict=True):
+        tok = line.split()
+        tok[-3] = tok[-1] = f"{t:g}"
+        out.append(" ".join(tok))
+    path.write_text("\n".join(out) + "\n")
+    repaired = len(lines) - len(set(times[:10] + times[11:]))
+    check_walls_tum(tmp_path, path, repaired, capsys)
 
 
 # ------------------------------------------------------------------ evo_ape on our files

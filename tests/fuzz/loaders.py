@@ -36,8 +36,12 @@ def carmen(draw: st.DrawFn) -> Fixture:
 
     def extract(log: Any) -> dict[str, np.ndarray]:
         s, o = log.scans, log.odometry
+        # Drawn times need not increase: the file's are kept in timestamp_raw, and
+        # timestamp is repaired to increase strictly, one per scan.
+        assert len(s.timestamp) == len(s.timestamp_raw) and np.all(np.diff(s.timestamp) > 0)
+        assert log.times_repaired == np.count_nonzero(s.timestamp != s.timestamp_raw)
         return {
-            "scans": _stack(s.ranges, s.pose, s.odom, s.timestamp),
+            "scans": _stack(s.ranges, s.pose, s.odom, s.timestamp_raw),
             "odom": _stack(o.pose, o.velocity, o.timestamp).reshape(-1, 7),
         }
 

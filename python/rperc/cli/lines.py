@@ -22,10 +22,10 @@ from rperc.cli.outputs import (
     count_at_least,
     non_negative_float,
     positive_float,
+    read_carmen_log,
     write_json,
     wrote,
 )
-from rperc.datasets import load_carmen
 from rperc.linesimp import simplify
 from rperc.pose import to_world
 
@@ -220,7 +220,7 @@ def _walls_of_log(
     trajectory (S, 2)."""
     from rperc.linesimp import extract_lines
 
-    scans = load_carmen(args.log).scans
+    scans = read_carmen_log(args.log).scans
     if len(scans) == 0:
         raise ValueError(f"{args.log} holds no laser scans")
     picked = range(0, len(scans), args.every)
@@ -261,7 +261,7 @@ def nees_command(args: argparse.Namespace) -> int:
     from rperc.wallcheck import consecutive_wall_nees, reading_shares
 
     check_output_file(args.json, "--json")
-    log = load_carmen(args.log)
+    log = read_carmen_log(args.log)
     print(log.summary(), file=sys.stderr)
     sd = np.array([args.pose_sigma_xy, args.pose_sigma_xy, math.radians(args.pose_sigma_theta)])
     pose_cov = np.diag(sd**2) if sd.any() else None

@@ -10,11 +10,15 @@ import json
 import math
 import os
 import sys
+import warnings
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from rperc.datasets import CarmenLog
 
 
 def count_at_least(minimum: int, maximum: int | None = None) -> Callable[[str], int]:
@@ -102,6 +106,26 @@ def prepare_output_folder(path: Path, option: str) -> Path:
 
 def wrote(path: Path) -> None:
     print(f"wrote {path}", file=sys.stderr)
+
+
+def read_carmen_log(path: Path) -> CarmenLog:
+    """:func:`rperc.datasets.load_carmen` for a command: a repair of the log's scan times
+    (:class:`~rperc.datasets.TimestampRepairWarning`) is told as one ``note:`` line on
+    stderr, in the command's words, instead of a Python warning."""
+    from rperc.datasets import TimestampRepairWarning, load_carmen
+
+    with warnings.catch_warnings():
+        # Told below from the log's own count; every other warning goes through.
+        warnings.simplefilter("ignore", TimestampRepairWarning)
+        log = load_carmen(path)
+    if log.times_repaired:
+        print(
+            f"note: {path.name}: {log.times_repaired} of {len(log.scans)} scan times did not "
+            "increase strictly; repaired (rperc.datasets.timestamps) so that trajectories "
+            "written from them have one row per scan in log order",
+            file=sys.stderr,
+        )
+    return log
 
 
 def _plain(value: Any) -> Any:

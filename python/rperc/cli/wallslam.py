@@ -16,6 +16,7 @@ from rperc.cli.outputs import (
     check_output_file,
     count_at_least,
     non_negative_float,
+    read_carmen_log,
     seed_type,
     write_json,
     wrote,
@@ -96,9 +97,7 @@ def walls_command(args: argparse.Namespace) -> int:
     if args.smoothed_tum is not None and not args.smooth:
         print("error: --smoothed-tum needs --smooth", file=sys.stderr)
         return 2
-    from rperc.datasets.carmen import load_carmen
-
-    log = load_carmen(args.log)
+    log = read_carmen_log(args.log)
     result = run_walls(
         log, seed=args.seed, anchor=args.anchor, freeze_after=args.freeze,
         show_progress=True, straightness=args.straightness, association=args.association,
@@ -162,8 +161,9 @@ def demo_wall_slam(out: Path, seed: int) -> DemoResult:
     intel = _intel_log()
     if intel is not None:
         real, real_path = _fig7(
-            load_carmen(intel), seed, STRAIGHTNESS, out / "wall_slam_fig7_intel.png", "intel.log"
-        )
+            read_carmen_log(intel), seed, STRAIGHTNESS, out / "wall_slam_fig7_intel.png",
+            "intel.log",
+        )  # fmt: skip
         paths.append(real_path)
         summary += "; intel.log (corrected path as reference): " + ", ".join(
             f"{n} {r.metrics['ate_rmse']:.3f} m" for n, r in real.items()

@@ -15,6 +15,12 @@ from rperc.datasets.polylines import (
     write_geometries,
     write_polyline,
 )
+from rperc.datasets.timestamps import (
+    TimeOrderError,
+    TimestampRepairWarning,
+    check_increasing,
+    repair_increasing,
+)
 from rperc.datasets.tum import read_tum, write_tum
 from rperc.datasets.victoria_park import VictoriaPark, load_victoria_park
 
@@ -26,7 +32,10 @@ __all__ = [
     "Odometry",
     "OtbSequence",
     "SkippedLine",
+    "TimeOrderError",
+    "TimestampRepairWarning",
     "VictoriaPark",
+    "check_increasing",
     "data_dir",
     "data_path",
     "load_carmen",
@@ -37,6 +46,7 @@ __all__ = [
     "read_geometries",
     "read_polylines",
     "read_tum",
+    "repair_increasing",
     "write_geometries",
     "write_polyline",
     "write_tum",

@@ -34,13 +34,23 @@ range is the SICK default of 81.83 m.
 Old-style FLASER lines carry no angular resolution: without a resolution parameter we
 use fov/n for even n (180, 360 beams: 1 and 0.5 degree steps over 180 degrees) and
 fov/(n-1) for odd n (181, 361: both ends included).
+
+Scan times that do not increase strictly (``orebro.log.gz`` stamps every scan 0, the
+infinite corridor repeats one value after its first four scans, ``intel.log`` steps back
+four times) are repaired by :func:`rperc.datasets.timestamps.repair_increasing` (the rule
+every trajectory writer and reader shares), with one
+:class:`~rperc.datasets.timestamps.TimestampRepairWarning` naming the file and the count:
+``scans.timestamp`` is strictly increasing, with one time per scan in log order;
+``scans.timestamp_raw`` keeps the times as written, and :attr:`CarmenLog.times_repaired`
+and the summary say how many changed. Odometry times are kept as written.
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Literal
 
@@ -48,6 +58,7 @@ import numpy as np
 
 from rperc.datasets._text import decode_lines
 from rperc.datasets.errors import DatasetFormatError
+from rperc.datasets.timestamps import TimeOrderError, TimestampRepairWarning, repair_increasing
 
 # FLASER max range is not in the line; SICK LMS scanners of those logs report 81.9 m
 # for "no return", which is beyond any indoor wall.
@@ -71,7 +82,9 @@ class LaserScans:
     """S scans of up to n beams each. Scans with fewer beams are NaN-padded (NaN
     readings are invalid everywhere in rperc); ``num_beams`` keeps the true count.
     Readings the file gives as NaN, infinite or negative are stored as NaN and counted
-    per scan in ``invalid``."""
+    per scan in ``invalid``. ``timestamp`` increases strictly when read by
+    :func:`load_carmen` (repaired where the file's do not); ``timestamp_raw`` holds the
+    times as written (``timestamp`` itself when not given)."""
 
     ranges: np.ndarray  # (S, n) float64
     num_beams: np.ndarray  # (S,) int
@@ -86,6 +99,17 @@ class LaserScans:
     """(S,) readings of each scan that were NaN, infinite or negative in the file."""
     kind: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype="<U11"))
     """(S,) the record type of each scan (``FLASER``, ``RAWLASER1``, ...)."""
+    timestamp_raw: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """(S,) each scan's time as the file writes it, before any repair."""
+
+    def __post_init__(self) -> None:
+        if self.timestamp_raw.size == 0 and self.timestamp.size:
+            object.__setattr__(self, "timestamp_raw", self.timestamp)
+        elif self.timestamp_raw.shape != self.timestamp.shape:
+            raise ValueError(
+                f"timestamp_raw has shape {self.timestamp_raw.shape}, "
+                f"timestamp {self.timestamp.shape}"
+            )
 
     def __len__(self) -> int:
         return len(self.ranges)
@@ -147,6 +171,9 @@ class CarmenLog:
     """Per laser type without a max-range ``PARAM``: the no-return marker found in its
     readings (:func:`infer_no_return`) and how many readings carry it; that marker is
     those scans' ``max_range``."""
+    times_repaired: int = 0
+    """Scans whose time did not increase and was repaired (``scans.timestamp`` differs
+    from ``scans.timestamp_raw`` there)."""
 
     def summary(self) -> str:
         """Every count: scans by type, invalid readings, odometry records, PARAM lines,
@@ -161,6 +188,12 @@ class CarmenLog:
         )
         if self.scans_without_pose:
             parts.append(f"{self.scans_without_pose} RAWLASER1 scans without a pose")
+        if self.times_repaired:
+            first = int(np.argmax(self.scans.timestamp != self.scans.timestamp_raw))
+            parts.append(
+                f"{self.times_repaired} scan times repaired to increase strictly "
+                f"(first at line {int(self.scans.line[first])})"
+            )
         parts += [
             f"{kind} no-return marker {value:g} m inferred ({count} readings, no max-range PARAM)"
             for kind, (value, count) in sorted(self.no_return.items())
@@ -326,6 +359,8 @@ def load_carmen(
     with their first line in :attr:`CarmenLog.skipped` and :attr:`CarmenLog.first_line`;
     with ``strict=True`` an unknown type (anything but the known ones and ``SYNC``) is
     an error. Type names are matched as written: ``flaser`` is not ``FLASER``.
+    Scan times that do not increase strictly are repaired (see the module docs) with a
+    :class:`~rperc.datasets.timestamps.TimestampRepairWarning`.
     """
     if on_error not in ("raise", "skip"):
         raise ValueError(f"on_error must be 'raise' or 'skip', got {on_error!r}")
@@ -351,10 +386,30 @@ def load_carmen(
     odometry = _stack_odometry(odom)
     no_return = _default_max_range(rows)
     scans, no_pose = _stack_scans(rows, odometry)
+    scans, repaired = _repair_times(path, scans)
     return CarmenLog(
         path, scans, odometry, dict(skipped), first_line, params, tuple(errors), no_pose,
-        comments, no_return,
+        comments, no_return, repaired,
     )  # fmt: skip
+
+
+def _repair_times(path: Path, scans: LaserScans) -> tuple[LaserScans, int]:
+    """The scans with strictly increasing times, and how many were repaired (warned)."""
+    try:
+        times, repaired = repair_increasing(scans.timestamp)
+    except TimeOrderError as exc:  # only times near the largest float
+        raise DatasetFormatError(path, int(scans.line[exc.index]), str(exc)) from None
+    if not repaired:
+        return scans, 0
+    first = int(np.argmax(times != scans.timestamp))
+    warnings.warn(
+        f"{path}: {repaired} of {len(scans)} scan times did not increase strictly (first "
+        f"at line {int(scans.line[first])}) and were repaired; the file's times are in "
+        "scans.timestamp_raw",
+        TimestampRepairWarning,
+        stacklevel=3,
+    )
+    return replace(scans, timestamp=times, timestamp_raw=scans.timestamp), repaired
 
 
 def infer_no_return(ranges: np.ndarray) -> tuple[float, int] | None:

@@ -5,11 +5,20 @@ unit quaternion (Hamilton, scalar last).
 A planar pose ``(x, y, theta)`` is written with ``z = 0`` and the rotation about the
 z axis by ``theta``: ``(qx, qy, qz, qw) = (0, 0, sin(theta/2), cos(theta/2))``. Numbers
 are written with 17 significant digits, so reading back gives the same float64 values.
+
+Time increases strictly, row by row, in every file written or read
+(:func:`rperc.datasets.timestamps.check_increasing`, the rule every trajectory writer and
+reader shares): evo refuses repeated or unsorted stamps too. A file is written whole or
+not at all: into a temporary file in the same folder, then renamed over the target
+(``os.replace``), so a reader never sees half a file and two writers of one path leave
+one of their files, never lines of both.
 """
 
 from __future__ import annotations
 
 import math
+import os
+import secrets
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +26,7 @@ import numpy.typing as npt
 
 from rperc.datasets._table import read_table
 from rperc.datasets.errors import DatasetFormatError
+from rperc.datasets.timestamps import check_increasing, first_not_increasing, step_problem
 
 __all__ = ["read_tum", "write_tum"]
 
@@ -32,25 +42,55 @@ def _planar_poses(t: npt.ArrayLike, poses: npt.ArrayLike) -> tuple[np.ndarray, n
         raise ValueError(f"t has {len(times)} rows but poses has {len(p)}")
     if len(times) == 0:
         raise ValueError("t and poses are empty: a TUM file needs at least one pose")
-    for name, arr in (("t", times), ("poses", p)):
-        bad = np.argwhere(~np.isfinite(arr))
-        if bad.size:
-            raise ValueError(f"{name} holds a non-finite value at index {tuple(bad[0].tolist())}")
-    return times, p
+    bad = np.argwhere(~np.isfinite(p))
+    if bad.size:
+        raise ValueError(f"poses holds a non-finite value at index {tuple(bad[0].tolist())}")
+    return check_increasing(times, "t"), p
 
 
 def write_tum(path: str | Path, t: npt.ArrayLike, poses: npt.ArrayLike) -> None:
     """Writes planar ``poses`` ``(N, 3)`` at times ``t`` ``(N,)`` to ``path`` in the TUM
-    format (``z = 0``, quaternion from the heading)."""
+    format (``z = 0``, quaternion from the heading).
+
+    ``t`` must be finite and increase strictly (a ``ValueError`` naming the first index
+    that does not, and nothing written). The file appears whole: written to a temporary
+    file in the same folder, then renamed over ``path``.
+    """
     times, p = _planar_poses(t, poses)
     half = p[:, 2] / 2.0
     zeros = np.zeros(len(p))
     rows = np.column_stack(
         [times, p[:, 0], p[:, 1], zeros, zeros, zeros, np.sin(half), np.cos(half)]
     )
-    np.savetxt(
-        path, rows, fmt="%.17g", header="t x y z qx qy qz qw (rperc, planar: z = 0, yaw only)"
-    )
+    header = "t x y z qx qy qz qw (rperc, planar: z = 0, yaw only)"
+    _write_atomically(Path(path), rows, header)
+
+
+def _write_atomically(path: Path, rows: np.ndarray, header: str) -> None:
+    """Writes ``rows`` to a new temporary file beside ``path`` (same folder, so the same
+    file system; created as ``open`` would create it, so the umask applies), flushes it
+    to disk, then renames it over ``path``: readers see the old file or the new one, and
+    the last of several writers wins whole."""
+    tmp, fd = _new_file(path)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            np.savetxt(f, rows, fmt="%.17g", header=header)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def _new_file(path: Path) -> tuple[Path, int]:
+    """A file beside ``path`` that did not exist before, open for writing."""
+    while True:
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(6)}.tmp")
+        try:
+            return tmp, os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        except FileExistsError:  # pragma: no cover - 48 random bits collided
+            continue
 
 
 def _yaw(path: Path, line: int, q: np.ndarray, tolerance: float) -> float:
@@ -73,14 +113,24 @@ def read_tum(path: str | Path, *, planar_tolerance: float = 1e-6) -> tuple[np.nd
     """Reads a TUM trajectory as ``(t (N,), poses (N, 3))`` with headings in (-pi, pi].
 
     A :class:`DatasetFormatError` names the file and line of a malformed record, a NaN,
-    a time going backwards, a quaternion that is not of unit norm, or a pose that is not
-    planar (``|z|``, ``|qx|`` or ``|qy|`` above ``planar_tolerance``).
+    a time that does not increase strictly (going backwards or repeating), a quaternion
+    that is not of unit norm, or a pose that is not planar (``|z|``, ``|qx|`` or ``|qy|``
+    above ``planar_tolerance``).
     """
-    table = read_table(path, 8)
+    table = read_table(path, 8, allow_time_backwards=True)
     values, lines = table.values, table.line
     where = np.flatnonzero(~np.isfinite(values).all(axis=1))
     if where.size:
         raise DatasetFormatError(table.path, int(lines[where[0]]), "non-finite value")
+    k = first_not_increasing(values[:, 0])
+    if k is not None:
+        previous, current = float(values[k - 1, 0]), float(values[k, 0])
+        raise DatasetFormatError(
+            table.path,
+            int(lines[k]),
+            f"time {step_problem(previous, current)} (line {int(lines[k - 1])}); "
+            "times must increase strictly",
+        )
     off_plane = np.flatnonzero(np.abs(values[:, 3]) > planar_tolerance)
     if off_plane.size:
         k = int(off_plane[0])

@@ -28,6 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
+from rperc.datasets.timestamps import check_increasing
 
 __all__ = [
     "Association",
@@ -172,10 +173,8 @@ def associate(
     _same_length(t_ref, "t_reference", ref, "reference")
     if len(t_ref) < 2:
         raise ValueError("t_reference needs at least two samples to interpolate")
+    check_increasing(t_ref, "t_reference")  # the rule every trajectory reader shares
     steps = np.diff(t_ref)
-    if np.any(steps <= 0):
-        at = int(np.flatnonzero(steps <= 0)[0]) + 1
-        raise ValueError(f"t_reference must increase strictly; it does not at index {at}")
     if max_gap is not None and not (math.isfinite(max_gap) and max_gap > 0):
         raise ValueError(f"max_gap must be finite and > 0, got {max_gap!r}")
     early, late = t_est < t_ref[0], t_est > t_ref[-1]

@@ -1,7 +1,7 @@
 """Type stubs of the native extension. Use the documented wrappers in :mod:`rperc`."""
 
-from collections.abc import Callable
-from typing import Any, TypeAlias, final
+from collections.abc import Callable, Mapping
+from typing import Any, TypeAlias, TypedDict, final
 
 import numpy as np
 import numpy.typing as npt
@@ -21,6 +21,9 @@ __all__ = [
     "color_shape_defaults",
     "effective_sample_size",
     "extract_lines",
+    "laser_defaults",
+    "laser_run",
+    "laser_scan_points",
     "information_spectrum",
     "monobot_defaults",
     "monobot_monte_carlo",
@@ -331,3 +334,39 @@ def visual_memory_replay(
 ) -> tuple[str, npt.NDArray[np.float64], _Frames]: ...
 def visual_memory_defaults() -> tuple[dict[str, Any], dict[str, Any]]: ...
 def visual_memory_check(memory: str) -> None: ...
+
+class _LaserRunOutput(TypedDict):
+    """What :func:`laser_run` returns: every scan's final pose ``(S, 3)`` and
+    covariance ``(S, 3, 3)``, the online path, the front end's match statistics, the
+    key scans and the loop closures."""
+
+    pose: npt.NDArray[np.float64]
+    covariance: npt.NDArray[np.float64]
+    causal_pose: npt.NDArray[np.float64]
+    matched: npt.NDArray[np.bool_]
+    inliers: npt.NDArray[np.int64]
+    rms: npt.NDArray[np.float64]
+    keys: npt.NDArray[np.int64]
+    closures: npt.NDArray[np.float64]
+    closure_chi2: npt.NDArray[np.float64]
+    closures_rejected: int
+    closure_attempts: int
+
+def laser_defaults() -> dict[str, Any]: ...
+def laser_run(
+    ranges: npt.NDArray[np.float64],
+    counts: npt.NDArray[np.int64],
+    angle_min: npt.NDArray[np.float64],
+    angle_increment: npt.NDArray[np.float64],
+    max_range: npt.NDArray[np.float64],
+    controls: npt.NDArray[np.float64],
+    times: npt.NDArray[np.float64],
+    config: Mapping[str, Any] | None = None,
+) -> _LaserRunOutput: ...
+def laser_scan_points(
+    ranges: _ArrayLike,
+    angle_min: float,
+    angle_increment: float,
+    max_range: float,
+    config: Mapping[str, Any] | None = None,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...

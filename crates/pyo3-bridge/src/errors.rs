@@ -48,6 +48,9 @@ pub enum Error {
     /// From the tracking crate.
     #[error(transparent)]
     Tracking(#[from] tracking::TrackingError),
+    /// From the laser SLAM crate.
+    #[error(transparent)]
+    Laser(#[from] laser::LaserError),
     /// A Python exception raised while reading the arguments; re-raised as it is.
     #[error("{0}")]
     Python(#[from] PyErr),
@@ -63,6 +66,7 @@ impl Error {
             Error::LineSimp(e) => Some(e.class()),
             Error::Slam(e) => Some(e.class()),
             Error::Tracking(e) => Some(e.class()),
+            Error::Laser(e) => Some(e.class()),
             Error::Value(_) => Some(ErrorClass::InvalidInput),
             Error::Type(_) | Error::Panic(_) | Error::Python(_) => None,
         }

@@ -11,6 +11,7 @@ mod colour_shape_py;
 mod config;
 mod errors;
 mod eval_py;
+mod laser_py;
 mod linesimp_py;
 mod memory_py;
 mod parallel;
@@ -37,6 +38,8 @@ mod _rperc {
         otb_center_error, otb_groundtruth, otb_iou, otb_precision, otb_success_curve,
         pose_transform_points,
     };
+    #[pymodule_export]
+    use crate::laser_py::{laser_defaults, laser_run, laser_scan_points};
     #[pymodule_export]
     use crate::linesimp_py::{
         extract_lines, scan_params_defaults, simplify_indices, simplify_many_indices,

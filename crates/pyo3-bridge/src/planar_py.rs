@@ -21,7 +21,10 @@ pub fn planar_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
 }
 
 /// Reads an `(N, K)` float array named `name` as rows; `None` is no rows.
-fn rows<const K: usize>(obj: Option<&Bound<'_, PyAny>>, name: &str) -> Result<Vec<[f64; K]>> {
+pub(crate) fn rows<const K: usize>(
+    obj: Option<&Bound<'_, PyAny>>,
+    name: &str,
+) -> Result<Vec<[f64; K]>> {
     let Some(obj) = obj.filter(|o| !o.is_none()) else {
         return Ok(Vec::new());
     };
@@ -340,7 +343,7 @@ pub fn wall_straightness_covariance<'py>(
 }
 
 /// Reads an int64 array of `n` entries named `name`.
-fn int_rows(obj: &Bound<'_, PyAny>, name: &str, n: usize) -> Result<Vec<i64>> {
+pub(crate) fn int_rows(obj: &Bound<'_, PyAny>, name: &str, n: usize) -> Result<Vec<i64>> {
     let a: PyReadonlyArray1<'_, i64> = obj
         .extract()
         .map_err(|_| Error::Type(format!("{name} must be a 1-D int64 numpy array")))?;

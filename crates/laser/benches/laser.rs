@@ -1,0 +1,56 @@
+//! Criterion benches of the laser pipeline's hot paths: scan preprocessing and one
+//! ICP match against a local map, on simulated scans of a cluttered room.
+
+use std::hint::black_box;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use laser::scan::{Beams, ScanConfig, scan_points};
+use laser::sim::{cluttered_room, ray_cast};
+use laser::{IcpConfig, MapIndex, Prior, match_scan};
+use nalgebra::Matrix3;
+use rperc_core::Pose2;
+
+fn angles(n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|i| -std::f64::consts::FRAC_PI_2 + std::f64::consts::PI * i as f64 / (n - 1) as f64)
+        .collect()
+}
+
+fn bench_scan(c: &mut Criterion) {
+    let walls = cluttered_room(12.0, 8.0);
+    let a = angles(361);
+    let pose = Pose2::new(3.0, 2.0, 0.3);
+    let ranges = ray_cast(&walls, &pose, &a, 80.0);
+    let beams = Beams {
+        ranges: &ranges,
+        angle_min: a[0],
+        angle_increment: a[1] - a[0],
+        max_range: 80.0,
+    };
+    let cfg = ScanConfig::default();
+    c.bench_function("scan_points/361 beams", |b| {
+        b.iter(|| scan_points(black_box(&beams), &cfg).unwrap())
+    });
+
+    let scan = scan_points(&beams, &cfg).unwrap();
+    let (mut pts, mut nrm) = (Vec::new(), Vec::new());
+    for (p, n) in scan.points.iter().zip(&scan.normals) {
+        if let Some(n) = n {
+            pts.push(pose.transform_point(&(*p).into()).coords);
+            nrm.push(pose.rotation() * n);
+        }
+    }
+    let map = MapIndex::new(pts, nrm, 0.3).unwrap();
+    let start = Pose2::new(3.05, 1.97, 0.31);
+    let prior = Prior {
+        mean: start,
+        information: Matrix3::from_diagonal(&nalgebra::Vector3::new(400.0, 400.0, 3000.0)),
+    };
+    let icp = IcpConfig::default();
+    c.bench_function("match_scan/one scan", |b| {
+        b.iter(|| match_scan(black_box(&scan), &map, start, &prior, &icp).unwrap())
+    });
+}
+
+criterion_group!(benches, bench_scan);
+criterion_main!(benches);

@@ -1,0 +1,214 @@
+//! A map of points with normals, indexed by a uniform grid for nearest-neighbour
+//! look-ups: the cells are stored as one sorted index array with per-cell offsets
+//! (counting sort), so building it allocates three vectors and a query touches the
+//! 3 x 3 cells around the point.
+
+use nalgebra::Vector2;
+
+use crate::error::{LaserError, Result};
+
+/// At most this many cells: a map spanning more gets coarser cells (a campus log
+/// with 80 m readings would otherwise ask for millions).
+const MAX_CELLS: usize = 1 << 22;
+
+/// Points with unit normals (the map's lines), indexed for [`MapIndex::nearest`].
+#[derive(Debug, Clone, Default)]
+pub struct MapIndex {
+    points: Vec<Vector2<f64>>,
+    normals: Vec<Vector2<f64>>,
+    origin: Vector2<f64>,
+    cell: f64,
+    cols: usize,
+    rows: usize,
+    /// `order[start[c]..start[c + 1]]` are the points of cell `c`.
+    start: Vec<u32>,
+    order: Vec<u32>,
+}
+
+/// A map point found near a query: its index, position, normal and squared distance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Neighbour {
+    /// Index of the point in the map.
+    pub index: usize,
+    /// The map point.
+    pub point: Vector2<f64>,
+    /// Its unit normal.
+    pub normal: Vector2<f64>,
+    /// Squared distance from the query, m^2.
+    pub distance2: f64,
+}
+
+impl MapIndex {
+    /// Indexes `points` with their `normals` in cells of at least `cell` metres; a
+    /// query finds every point within `cell` of it.
+    pub fn new(points: Vec<Vector2<f64>>, normals: Vec<Vector2<f64>>, cell: f64) -> Result<Self> {
+        if points.len() != normals.len() {
+            return Err(LaserError::dimension(format!(
+                "{} map points but {} normals",
+                points.len(),
+                normals.len()
+            )));
+        }
+        if !(cell.is_finite() && cell > 0.0) {
+            return Err(LaserError::invalid(
+                "cell",
+                format!("must be finite and > 0, got {cell}"),
+            ));
+        }
+        if points.len() >= u32::MAX as usize {
+            return Err(LaserError::invalid(
+                "points",
+                format!("{} is too many map points", points.len()),
+            ));
+        }
+        let finite = |p: &Vector2<f64>| p.x.is_finite() && p.y.is_finite();
+        if !points.iter().all(finite) || !normals.iter().all(finite) {
+            return Err(LaserError::Core(rperc_core::CoreError::NonFinite(
+                "map points",
+            )));
+        }
+        let mut map = MapIndex {
+            points,
+            normals,
+            cell,
+            ..Default::default()
+        };
+        map.build();
+        Ok(map)
+    }
+
+    fn build(&mut self) {
+        if self.points.is_empty() {
+            return;
+        }
+        let (mut lo, mut hi) = (self.points[0], self.points[0]);
+        for p in &self.points {
+            lo = lo.inf(p);
+            hi = hi.sup(p);
+        }
+        let span = hi - lo;
+        // Coarser cells when the span would need too many (queries stay correct).
+        let mut cell = self.cell;
+        while ((span.x / cell) as usize + 1) * ((span.y / cell) as usize + 1) > MAX_CELLS {
+            cell *= 2.0;
+        }
+        self.cell = cell;
+        self.origin = lo;
+        self.cols = (span.x / cell) as usize + 1;
+        self.rows = (span.y / cell) as usize + 1;
+        let cells: Vec<usize> = self.points.iter().map(|p| self.cell_of(p)).collect();
+        let mut start = vec![0u32; self.cols * self.rows + 1];
+        for &c in &cells {
+            start[c + 1] += 1;
+        }
+        for c in 0..self.cols * self.rows {
+            start[c + 1] += start[c];
+        }
+        let mut fill = start.clone();
+        let mut order = vec![0u32; self.points.len()];
+        for (i, &c) in cells.iter().enumerate() {
+            order[fill[c] as usize] = i as u32;
+            fill[c] += 1;
+        }
+        self.start = start;
+        self.order = order;
+    }
+
+    fn cell_of(&self, p: &Vector2<f64>) -> usize {
+        let (i, j) = self.coords(p);
+        j as usize * self.cols + i as usize
+    }
+
+    fn coords(&self, p: &Vector2<f64>) -> (i64, i64) {
+        let d = (p - self.origin) / self.cell;
+        (d.x.floor() as i64, d.y.floor() as i64)
+    }
+
+    /// The number of map points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Whether the map has no point.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// The side of the cells, m (at least the one asked for).
+    pub fn cell(&self) -> f64 {
+        self.cell
+    }
+
+    /// The map's points.
+    pub fn points(&self) -> &[Vector2<f64>] {
+        &self.points
+    }
+
+    /// The map's normals.
+    pub fn normals(&self) -> &[Vector2<f64>] {
+        &self.normals
+    }
+
+    /// The nearest map point within `max_distance` (at most the cell size) of `q`.
+    pub fn nearest(&self, q: &Vector2<f64>, max_distance: f64) -> Option<Neighbour> {
+        if self.points.is_empty() || !(q.x.is_finite() && q.y.is_finite()) {
+            return None;
+        }
+        let (ci, cj) = self.coords(q);
+        let limit = max_distance.min(self.cell);
+        let mut best: Option<(usize, f64)> = None;
+        for j in (cj - 1).max(0)..=(cj + 1).min(self.rows as i64 - 1) {
+            for i in (ci - 1).max(0)..=(ci + 1).min(self.cols as i64 - 1) {
+                let c = j as usize * self.cols + i as usize;
+                for &k in &self.order[self.start[c] as usize..self.start[c + 1] as usize] {
+                    let d2 = (self.points[k as usize] - q).norm_squared();
+                    if d2 <= limit * limit && best.is_none_or(|(_, b)| d2 < b) {
+                        best = Some((k as usize, d2));
+                    }
+                }
+            }
+        }
+        best.map(|(index, distance2)| Neighbour {
+            index,
+            point: self.points[index],
+            normal: self.normals[index],
+            distance2,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The grid's nearest neighbour equals a brute-force search (the oracle).
+    #[test]
+    fn nearest_equals_brute_force() {
+        let mut pts = Vec::new();
+        for k in 0..500 {
+            let a = k as f64 * 0.37;
+            pts.push(Vector2::new(10.0 * (a * 1.3).sin(), 7.0 * (a * 0.7).cos()));
+        }
+        let normals = vec![Vector2::new(1.0, 0.0); pts.len()];
+        let map = MapIndex::new(pts.clone(), normals, 0.5).unwrap();
+        for k in 0..300 {
+            let q = Vector2::new(-11.0 + 0.073 * k as f64, 8.0 - 0.055 * k as f64);
+            let brute = pts
+                .iter()
+                .enumerate()
+                .map(|(i, p)| (i, (p - q).norm_squared()))
+                .filter(|&(_, d2)| d2 <= 0.25)
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            let found = map.nearest(&q, 0.5).map(|n| (n.index, n.distance2));
+            assert_eq!(found.map(|f| f.1), brute.map(|b| b.1), "query {q:?}");
+        }
+    }
+
+    #[test]
+    fn a_huge_span_gets_coarser_cells() {
+        let pts = vec![Vector2::new(0.0, 0.0), Vector2::new(1e6, 1e6)];
+        let map = MapIndex::new(pts, vec![Vector2::new(0.0, 1.0); 2], 0.1).unwrap();
+        assert!(map.cols * map.rows <= MAX_CELLS);
+        assert_eq!(map.nearest(&Vector2::new(1e6, 1e6), 0.1).unwrap().index, 1);
+    }
+}

@@ -1,0 +1,282 @@
+//! Point-to-line ICP (Censi 2008) with a Gaussian prior on the pose.
+//!
+//! Each scan point `p` (laser frame), moved by the pose to `q = R p + t`, is paired
+//! with the nearest map point `m` within a gate and contributes the residual
+//! `r = n^T (q - m)`, its distance to the map's line through `m` with normal `n`.
+//! The prior (the odometry step from the previous pose) adds `e^T Lambda e`, `e` the
+//! pose's difference from the prior mean. Gauss-Newton minimises the sum, with Huber
+//! weights on the residuals (clutter and moved furniture). At the optimum the scan's
+//! information `H_s = sum w J^T J / sigma^2` (Censi 2007's Hessian approximation),
+//! inflated by `covariance_scale` for the residuals' correlation (neighbouring
+//! points share the map's and the wall's errors), and the prior's `Lambda` give the
+//! fused covariance `(H_s / scale + Lambda)^-1`. Where the scan sees nothing (along a
+//! featureless corridor) `H_s` is zero and the estimate and its variance stay the
+//! prior's: the odometry's.
+
+use nalgebra::{Matrix3, Vector2, Vector3};
+use rperc_core::{Pose2, wrap_angle};
+
+use crate::error::{LaserError, Result};
+use crate::grid::MapIndex;
+use crate::scan::ScanPoints;
+
+/// Settings of [`match_scan`].
+#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct IcpConfig {
+    /// Gauss-Newton iterations at most (>= 1).
+    pub iterations: usize,
+    /// A point pairs with a map point at most this far away, m (> 0).
+    pub max_distance: f64,
+    /// Standard deviation of a point's distance to its line, m (> 0): range noise
+    /// and the map's own thickness.
+    pub sigma: f64,
+    /// Residuals beyond this many `sigma` are down-weighted (Huber), (> 0).
+    pub huber: f64,
+    /// The scan's covariance is inflated by this factor (>= 1) for the correlation
+    /// of its residuals.
+    pub covariance_scale: f64,
+    /// A match with fewer paired points is refused (>= 3).
+    pub min_inliers: usize,
+    /// Iterations stop when a step moves less than this, m or rad (> 0).
+    pub tolerance: f64,
+    /// A point pairs only with a map point whose normal is within this
+    /// angle of its own, rad (in (0, pi]): near a corner the nearest map point often
+    /// lies on the other wall, and its line would pull the pose askew.
+    pub max_normal_angle: f64,
+}
+
+impl Default for IcpConfig {
+    fn default() -> Self {
+        Self {
+            iterations: 20,
+            max_distance: 0.3,
+            sigma: 0.03,
+            huber: 2.0,
+            covariance_scale: 10.0,
+            min_inliers: 20,
+            tolerance: 1e-5,
+            max_normal_angle: 30f64.to_radians(),
+        }
+    }
+}
+
+impl IcpConfig {
+    /// Refuses bad values with the parameter's name.
+    pub fn validate(&self) -> Result<()> {
+        if !(1..=1000).contains(&self.iterations) {
+            let n = self.iterations;
+            return Err(LaserError::invalid(
+                "iterations",
+                format!("must be in 1..=1000, got {n}"),
+            ));
+        }
+        let positive = [
+            ("max_distance", self.max_distance),
+            ("sigma", self.sigma),
+            ("huber", self.huber),
+            ("tolerance", self.tolerance),
+        ];
+        for (name, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(LaserError::invalid(
+                    name,
+                    format!("must be finite and > 0, got {v}"),
+                ));
+            }
+        }
+        if !(self.covariance_scale.is_finite() && self.covariance_scale >= 1.0) {
+            let s = self.covariance_scale;
+            return Err(LaserError::invalid(
+                "covariance_scale",
+                format!("must be finite and >= 1, got {s}"),
+            ));
+        }
+        let a = self.max_normal_angle;
+        if !(a > 0.0 && a <= std::f64::consts::PI) {
+            return Err(LaserError::invalid(
+                "max_normal_angle",
+                format!("must be in (0, pi], got {a}"),
+            ));
+        }
+        if self.min_inliers < 3 {
+            return Err(LaserError::invalid(
+                "min_inliers",
+                format!("must be >= 3, got {}", self.min_inliers),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A Gaussian prior on a pose: its mean and information (inverse covariance) over
+/// `(x, y, theta)` in the world frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Prior {
+    /// The prior mean.
+    pub mean: Pose2,
+    /// Its information matrix (symmetric positive semi-definite).
+    pub information: Matrix3<f64>,
+}
+
+/// What a match found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Match {
+    /// The fused pose (the prior's mean when the match was refused).
+    pub pose: Pose2,
+    /// Its covariance: `(H_s / covariance_scale + Lambda)^-1`, or the prior's.
+    pub covariance: Matrix3<f64>,
+    /// The scan's information `H_s / covariance_scale` (zero when refused).
+    pub information: Matrix3<f64>,
+    /// Points paired with the map in the last iteration.
+    pub inliers: usize,
+    /// Points matched.
+    pub points: usize,
+    /// RMS distance of the paired points to their lines, m.
+    pub rms: f64,
+    /// Gauss-Newton iterations made.
+    pub iterations: usize,
+    /// Whether the scan was used (enough pairs, a finite solution).
+    pub accepted: bool,
+}
+
+/// The normal equations of the scan's residuals at `pose`, their pair count and the
+/// sum of the squared residuals of the pairs.
+struct Normal {
+    h: Matrix3<f64>,
+    g: Vector3<f64>,
+    pairs: usize,
+    sum_r2: f64,
+}
+
+fn scan_terms(scan: &ScanPoints, map: &MapIndex, pose: &Pose2, cfg: &IcpConfig) -> Normal {
+    let (s, c) = pose.theta.sin_cos();
+    let t = Vector2::new(pose.x, pose.y);
+    let inv_var = 1.0 / (cfg.sigma * cfg.sigma);
+    let k = cfg.huber * cfg.sigma;
+    let min_cos = cfg.max_normal_angle.cos();
+    let rotate = |v: &Vector2<f64>| Vector2::new(c * v.x - s * v.y, s * v.x + c * v.y);
+    let mut out = Normal {
+        h: Matrix3::zeros(),
+        g: Vector3::zeros(),
+        pairs: 0,
+        sum_r2: 0.0,
+    };
+    for (p, own) in scan.points.iter().zip(&scan.normals) {
+        // Only points on a line of their own: a point without one (a corner, clutter,
+        // a far reading between sparse beams) pairs as easily with the wall round the
+        // corner as with its own, and that wall's line pulls the pose askew.
+        let Some(own) = own else { continue };
+        let rp = rotate(p);
+        let q = rp + t;
+        let Some(nb) = map.nearest(&q, cfg.max_distance) else {
+            continue;
+        };
+        let n = nb.normal;
+        if rotate(own).dot(&n) < min_cos {
+            continue;
+        }
+        let r = n.dot(&(q - nb.point));
+        // d(R p)/d theta = (-(R p)_y, (R p)_x).
+        let j = Vector3::new(n.x, n.y, n.x * -rp.y + n.y * rp.x);
+        let w = if r.abs() <= k { 1.0 } else { k / r.abs() };
+        out.h += j * j.transpose() * (w * inv_var);
+        out.g += j * (w * r * inv_var);
+        out.pairs += 1;
+        out.sum_r2 += r * r;
+    }
+    out
+}
+
+fn prior_error(pose: &Pose2, prior: &Prior) -> Vector3<f64> {
+    Vector3::new(
+        pose.x - prior.mean.x,
+        pose.y - prior.mean.y,
+        wrap_angle(pose.theta - prior.mean.theta),
+    )
+}
+
+/// Matches `scan` (laser frame) to `map` from `start`, fused with `prior`.
+pub fn match_scan(
+    scan: &ScanPoints,
+    map: &MapIndex,
+    start: Pose2,
+    prior: &Prior,
+    cfg: &IcpConfig,
+) -> Result<Match> {
+    let prior_cov = prior
+        .information
+        .try_inverse()
+        .filter(|m| m.iter().all(|v| v.is_finite()));
+    let refused = |inliers: usize, iterations: usize| -> Result<Match> {
+        let cov = prior_cov
+            .ok_or_else(|| LaserError::Numerical("the prior's information is singular".into()))?;
+        Ok(Match {
+            pose: prior.mean,
+            covariance: cov,
+            information: Matrix3::zeros(),
+            inliers,
+            points: scan.points.len(),
+            rms: f64::NAN,
+            iterations,
+            accepted: false,
+        })
+    };
+    let mut pose = start;
+    let mut iterations = 0;
+    for _ in 0..cfg.iterations {
+        iterations += 1;
+        let terms = scan_terms(scan, map, &pose, cfg);
+        if terms.pairs < cfg.min_inliers {
+            return refused(terms.pairs, iterations);
+        }
+        let h = terms.h / cfg.covariance_scale + prior.information;
+        let g = terms.g / cfg.covariance_scale + prior.information * prior_error(&pose, prior);
+        let Some(chol) = h.cholesky() else {
+            return refused(terms.pairs, iterations);
+        };
+        let step = -chol.solve(&g);
+        if !step.iter().all(|v| v.is_finite()) {
+            return refused(terms.pairs, iterations);
+        }
+        pose = Pose2::new(
+            pose.x + step.x,
+            pose.y + step.y,
+            wrap_angle(pose.theta + step.z),
+        );
+        if step.x.abs().max(step.y.abs()) < cfg.tolerance && step.z.abs() < cfg.tolerance {
+            break;
+        }
+    }
+    finish(scan, map, pose, prior, cfg, iterations, refused)
+}
+
+/// The covariance and statistics at the final pose.
+fn finish(
+    scan: &ScanPoints,
+    map: &MapIndex,
+    pose: Pose2,
+    prior: &Prior,
+    cfg: &IcpConfig,
+    iterations: usize,
+    refused: impl Fn(usize, usize) -> Result<Match>,
+) -> Result<Match> {
+    let terms = scan_terms(scan, map, &pose, cfg);
+    if terms.pairs < cfg.min_inliers {
+        return refused(terms.pairs, iterations);
+    }
+    let information = terms.h / cfg.covariance_scale;
+    let Some(covariance) = (information + prior.information).try_inverse() else {
+        return refused(terms.pairs, iterations);
+    };
+    Ok(Match {
+        pose,
+        covariance: (covariance + covariance.transpose()) * 0.5,
+        information,
+        inliers: terms.pairs,
+        points: scan.points.len(),
+        rms: (terms.sum_r2 / terms.pairs as f64).sqrt(),
+        iterations,
+        accepted: true,
+    })
+}

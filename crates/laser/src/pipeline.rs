@@ -1,0 +1,497 @@
+//! The whole run over a log: odometry steps, the front end at every scan, a pose
+//! graph over the key scans with the front end's chain and verified loop closures,
+//! and every scan's final pose with its covariance.
+//!
+//! The causal path is what the run knew at each scan: the front end's pose, moved
+//! whenever a confirmed closure re-optimised the graph. The final path is the graph's
+//! optimum over all closures, each scan placed from its key scan by the front end's
+//! motion since; its covariance is the key scan's marginal (Takahashi) plus that
+//! motion's.
+
+use nalgebra::Matrix3;
+use rperc_core::Pose2;
+use slam::motion::Unicycle;
+
+use crate::error::{LaserError, Result};
+use crate::frontend::{FrontEnd, KeyScan, LocalMapConfig, world_map};
+use crate::graph::{Edge, PoseGraph};
+use crate::icp::IcpConfig;
+use crate::loops::{Closure, LoopConfig, agree, close_loop};
+use crate::odometry::{Step, steps};
+use crate::scan::{Beams, ScanConfig, ScanPoints, check_beams, scan_points};
+
+/// Every setting of a run.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LaserConfig {
+    /// Scans to points.
+    pub scan: ScanConfig,
+    /// Scan matching.
+    pub icp: IcpConfig,
+    /// The front end's local map.
+    pub local_map: LocalMapConfig,
+    /// Loop closures.
+    pub loops: LoopConfig,
+    /// The odometry's control noise (the same model as the EKF's motion).
+    pub motion: Unicycle,
+    /// The first scan's pose.
+    pub initial_pose: [f64; 3],
+    /// Gauss-Newton iterations of the pose graph at most (>= 1).
+    pub graph_iterations: usize,
+    /// ... stopped when a step moves no pose more than this, m or rad (> 0).
+    pub graph_tolerance: f64,
+}
+
+impl Default for LaserConfig {
+    fn default() -> Self {
+        Self {
+            scan: ScanConfig::default(),
+            icp: IcpConfig::default(),
+            local_map: LocalMapConfig::default(),
+            loops: LoopConfig::default(),
+            motion: Unicycle::default(),
+            initial_pose: [0.0; 3],
+            graph_iterations: 10,
+            graph_tolerance: 1e-5,
+        }
+    }
+}
+
+impl LaserConfig {
+    /// Refuses bad values with the parameter's name.
+    pub fn validate(&self) -> Result<()> {
+        self.scan.validate()?;
+        self.icp.validate()?;
+        self.local_map.validate(&self.icp)?;
+        self.loops.validate()?;
+        self.motion.validate()?;
+        rperc_core::ensure_finite("initial_pose", &self.initial_pose)?;
+        if !(1..=1000).contains(&self.graph_iterations) {
+            let n = self.graph_iterations;
+            return Err(LaserError::invalid(
+                "graph_iterations",
+                format!("must be in 1..=1000, got {n}"),
+            ));
+        }
+        if !(self.graph_tolerance.is_finite() && self.graph_tolerance > 0.0) {
+            let t = self.graph_tolerance;
+            return Err(LaserError::invalid(
+                "graph_tolerance",
+                format!("must be finite and > 0, got {t}"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A log's scans: `width` readings per row of `ranges` (row-major, NaN-padded),
+/// `counts[s]` of them real, with each scan's beam geometry and maximum range.
+#[derive(Debug, Clone, Copy)]
+pub struct ScanLog<'a> {
+    /// `S x width` readings, m.
+    pub ranges: &'a [f64],
+    /// Readings per row.
+    pub width: usize,
+    /// Real readings per scan.
+    pub counts: &'a [usize],
+    /// First beam's angle per scan, rad.
+    pub angle_min: &'a [f64],
+    /// Angle between beams per scan, rad.
+    pub angle_increment: &'a [f64],
+    /// Maximum range per scan, m.
+    pub max_range: &'a [f64],
+}
+
+impl ScanLog<'_> {
+    fn len(&self) -> usize {
+        self.counts.len()
+    }
+
+    fn check(&self) -> Result<()> {
+        let s = self.len();
+        if self.ranges.len() != s * self.width
+            || [
+                self.angle_min.len(),
+                self.angle_increment.len(),
+                self.max_range.len(),
+            ]
+            .iter()
+            .any(|&n| n != s)
+        {
+            return Err(LaserError::dimension(format!(
+                "{s} scans of {} readings: the arrays disagree",
+                self.width
+            )));
+        }
+        for (k, &c) in self.counts.iter().enumerate() {
+            check_beams(&self.ranges[k * self.width..(k + 1) * self.width], c, k)?;
+        }
+        Ok(())
+    }
+
+    fn points(&self, k: usize, cfg: &ScanConfig) -> Result<ScanPoints> {
+        let row = &self.ranges[k * self.width..k * self.width + self.counts[k]];
+        let beams = Beams {
+            ranges: row,
+            angle_min: self.angle_min[k],
+            angle_increment: self.angle_increment[k],
+            max_range: self.max_range[k],
+        };
+        scan_points(&beams, cfg).map_err(|e| LaserError::AtScan {
+            index: k,
+            source: Box::new(e),
+        })
+    }
+}
+
+/// What a run gives.
+#[derive(Debug, Clone, Default)]
+pub struct LaserRun {
+    /// Every scan's final pose.
+    pub pose: Vec<Pose2>,
+    /// Its covariance.
+    pub covariance: Vec<Matrix3<f64>>,
+    /// Every scan's pose as the run knew it then (the online path).
+    pub causal_pose: Vec<Pose2>,
+    /// Whether each scan's match was used (the first scan's: true).
+    pub matched: Vec<bool>,
+    /// Points of each scan paired with the local map (0 for the first).
+    pub inliers: Vec<usize>,
+    /// Their RMS distance to the map's lines, m (NaN where the match was refused).
+    pub rms: Vec<f64>,
+    /// The key scans' indices.
+    pub keys: Vec<usize>,
+    /// Closures in the final graph: (earlier key scan, later key scan).
+    pub closures: Vec<(usize, usize)>,
+    /// Their squared errors at the final optimum (by their own information).
+    pub closure_chi2: Vec<f64>,
+    /// Closure matches refused by verification or joint consistency, or removed for
+    /// disagreeing with the graph.
+    pub closures_rejected: usize,
+    /// Closure attempts made.
+    pub closure_attempts: usize,
+}
+
+/// A key scan of the graph.
+struct Key {
+    scan: usize,
+    node: usize,
+    path: f64,
+    shape: KeyScan,
+}
+
+/// A closure waiting for a second one to confirm it.
+struct Pending {
+    key: usize,
+    candidate: usize,
+    estimate: Pose2,
+    closure: Closure,
+}
+
+/// The motion since the last key scan, accumulated.
+#[derive(Clone, Copy)]
+struct SinceKey {
+    node: usize,
+    motion: Pose2,
+    covariance: Matrix3<f64>,
+}
+
+impl SinceKey {
+    fn at(node: usize) -> Self {
+        SinceKey {
+            node,
+            motion: Pose2::identity(),
+            covariance: Matrix3::zeros(),
+        }
+    }
+
+    fn then(&self, motion: &Pose2, cov: &Matrix3<f64>) -> Self {
+        let (m, j1, j2) = self.motion.compose_with_jacobians(motion);
+        let c = j1 * self.covariance * j1.transpose() + j2 * cov * j2.transpose();
+        SinceKey {
+            node: self.node,
+            motion: m,
+            covariance: (c + c.transpose()) * 0.5,
+        }
+    }
+}
+
+struct Run<'a> {
+    cfg: &'a LaserConfig,
+    front: FrontEnd,
+    graph: PoseGraph,
+    keys: Vec<Key>,
+    since: SinceKey,
+    path: f64,
+    pending: Option<Pending>,
+    out: LaserRun,
+    placed: Vec<SinceKey>,
+}
+
+/// Runs the pipeline over `log` with odometry `controls` `(t, v, omega)` and the
+/// scans' `times`.
+pub fn run(
+    log: &ScanLog<'_>,
+    controls: &[[f64; 3]],
+    times: &[f64],
+    cfg: &LaserConfig,
+) -> Result<LaserRun> {
+    cfg.validate()?;
+    log.check()?;
+    if times.len() != log.len() || log.len() == 0 {
+        return Err(LaserError::dimension(format!(
+            "{} scan times for {} scans",
+            times.len(),
+            log.len()
+        )));
+    }
+    rperc_core::check_allocation("scans", log.len() as u128, 512)?;
+    let odometry = steps(controls, times, &cfg.motion)?;
+    let start = Pose2::new(
+        cfg.initial_pose[0],
+        cfg.initial_pose[1],
+        cfg.initial_pose[2],
+    );
+    let mut run = Run {
+        cfg,
+        front: FrontEnd::new(start, cfg.icp, cfg.local_map)?,
+        graph: PoseGraph::new(start, Matrix3::identity() * 1e12),
+        keys: Vec::new(),
+        since: SinceKey::at(0),
+        path: 0.0,
+        pending: None,
+        out: LaserRun::default(),
+        placed: Vec::with_capacity(log.len()),
+    };
+    let first = log.points(0, &cfg.scan)?;
+    run.front.first(0, &first)?;
+    run.keys.push(Key {
+        scan: 0,
+        node: 0,
+        path: 0.0,
+        shape: shape(0, start, &first),
+    });
+    run.record(start, None);
+    for k in 1..log.len() {
+        rperc_core::interrupt::checkpoint()?;
+        let scan = log.points(k, &cfg.scan)?;
+        run.step(k, &scan, &odometry[k - 1])
+            .map_err(|e| LaserError::AtScan {
+                index: k,
+                source: Box::new(e),
+            })?;
+    }
+    run.finish()
+}
+
+fn shape(index: usize, pose: Pose2, scan: &ScanPoints) -> KeyScan {
+    let (points, normals) = scan
+        .points
+        .iter()
+        .zip(&scan.normals)
+        .filter_map(|(p, n)| n.map(|n| (*p, n)))
+        .unzip();
+    KeyScan {
+        index,
+        pose,
+        points,
+        normals,
+    }
+}
+
+impl Run<'_> {
+    fn record(&mut self, pose: Pose2, matched: Option<&crate::icp::Match>) {
+        self.out.causal_pose.push(pose);
+        self.out.matched.push(matched.is_none_or(|m| m.accepted));
+        self.out.inliers.push(matched.map_or(0, |m| m.inliers));
+        self.out.rms.push(matched.map_or(f64::NAN, |m| m.rms));
+        self.placed.push(self.since);
+    }
+
+    fn step(&mut self, k: usize, scan: &ScanPoints, odo: &Step) -> Result<()> {
+        let tracked = self.front.track(k, scan, odo)?;
+        self.path += tracked.motion.translation().norm();
+        self.since = self.since.then(&tracked.motion, &tracked.motion_covariance);
+        if tracked.key {
+            self.add_key(k, tracked.pose, scan)?;
+        }
+        self.record(self.front.pose(), Some(&tracked.matched));
+        Ok(())
+    }
+
+    fn add_key(&mut self, k: usize, pose: Pose2, scan: &ScanPoints) -> Result<()> {
+        let node = self.graph.add_pose(pose);
+        let information =
+            self.since.covariance.try_inverse().ok_or_else(|| {
+                LaserError::Numerical("a key step's covariance is singular".into())
+            })?;
+        let edge = Edge {
+            from: self.since.node,
+            to: node,
+            measurement: self.since.motion,
+            information,
+            robust: None,
+        };
+        self.graph.add_edge(edge)?;
+        self.since = SinceKey::at(node);
+        self.keys.push(Key {
+            scan: k,
+            node,
+            path: self.path,
+            shape: shape(k, pose, scan),
+        });
+        let due = (self.keys.len() - 1).is_multiple_of(self.cfg.loops.every_keys)
+            || self.pending.is_some();
+        if self.cfg.loops.enabled && due {
+            self.try_closure(scan)?;
+        }
+        Ok(())
+    }
+
+    /// The nearest earlier key far enough back along the path and within its window.
+    fn candidate(&self) -> Option<usize> {
+        let me = self.keys.last()?;
+        let here = self.graph.poses[me.node];
+        self.keys
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| me.path - c.path > self.cfg.loops.min_path)
+            .map(|(i, c)| {
+                (
+                    i,
+                    self.graph.poses[c.node].between(&here).translation().norm(),
+                    me.path - c.path,
+                )
+            })
+            .filter(|&(_, d, path)| d <= self.cfg.loops.window(path).0)
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(i, _, _)| i)
+    }
+
+    fn try_closure(&mut self, scan: &ScanPoints) -> Result<()> {
+        let Some(c) = self.candidate() else {
+            self.pending = None;
+            return Ok(());
+        };
+        self.out.closure_attempts += 1;
+        let w = self.cfg.loops.submap_keys;
+        let around = &self.keys[c.saturating_sub(w)..(c + w + 1).min(self.keys.len())];
+        let submap = world_map(
+            around
+                .iter()
+                .map(|k| (self.graph.poses[k.node], &k.shape.points, &k.shape.normals)),
+            self.cfg.local_map.cell,
+        )?;
+        let me = self.keys.len() - 1;
+        let estimate = self.graph.poses[self.keys[me].node];
+        let path = self.keys[me].path - self.keys[c].path;
+        match close_loop(
+            scan,
+            &submap,
+            &estimate,
+            path,
+            &self.cfg.icp,
+            &self.cfg.loops,
+        )? {
+            Err(_) => {
+                self.out.closures_rejected += 1;
+                self.pending = None;
+            }
+            Ok(closure) => self.confirm(Pending {
+                key: me,
+                candidate: c,
+                estimate,
+                closure,
+            })?,
+        }
+        Ok(())
+    }
+
+    /// A closure joins the graph once a second one agrees with it.
+    fn confirm(&mut self, new: Pending) -> Result<()> {
+        let Some(old) = self.pending.take() else {
+            self.pending = Some(new);
+            return Ok(());
+        };
+        if !agree(
+            (&old.estimate, &old.closure),
+            (&new.estimate, &new.closure),
+            &self.cfg.loops,
+        ) {
+            self.out.closures_rejected += 1;
+            self.pending = Some(new);
+            return Ok(());
+        }
+        for p in [old, new] {
+            self.add_closure(&p)?;
+        }
+        self.settle()?;
+        let poses = &self.graph.poses;
+        let by_scan: std::collections::HashMap<usize, Pose2> =
+            self.keys.iter().map(|k| (k.scan, poses[k.node])).collect();
+        let latest = poses[self.keys[self.keys.len() - 1].node];
+        self.front.relocate(latest, |s| by_scan.get(&s).copied())
+    }
+
+    fn add_closure(&mut self, p: &Pending) -> Result<()> {
+        let (from, to) = (self.keys[p.candidate].node, self.keys[p.key].node);
+        // The closure places the key scan in the world with the submap's poses as
+        // they were: as a measurement from the candidate's pose.
+        let anchor = self.graph.poses[from];
+        let (z, _, j) = anchor.between_with_jacobians(&p.closure.pose);
+        let j_inv = j
+            .try_inverse()
+            .ok_or_else(|| LaserError::Numerical("closure Jacobian".into()))?;
+        let information = j_inv.transpose() * p.closure.information * j_inv;
+        self.graph.add_edge(Edge {
+            from,
+            to,
+            measurement: z,
+            information,
+            robust: None,
+        })?;
+        Ok(())
+    }
+
+    /// Optimises the graph, removing the closures that disagree with it (see
+    /// [`PoseGraph::optimize_consistent`]; the chain's edges join consecutive keys).
+    fn settle(&mut self) -> Result<()> {
+        let cfg = self.cfg;
+        let removed = self.graph.optimize_consistent(
+            cfg.graph_iterations,
+            cfg.graph_tolerance,
+            cfg.loops.max_chi2,
+            |e| e.to != e.from + 1,
+        )?;
+        self.out.closures_rejected += removed.len();
+        Ok(())
+    }
+
+    fn finish(mut self) -> Result<LaserRun> {
+        self.settle()?;
+        let marginals = self.graph.marginals()?;
+        for placed in &self.placed {
+            let (pose, j1, j2) =
+                self.graph.poses[placed.node].compose_with_jacobians(&placed.motion);
+            let c = j1 * marginals[placed.node] * j1.transpose()
+                + j2 * placed.covariance * j2.transpose();
+            self.out.pose.push(pose);
+            self.out.covariance.push((c + c.transpose()) * 0.5);
+        }
+        self.out.keys = self.keys.iter().map(|k| k.scan).collect();
+        let closures: Vec<usize> = (0..self.graph.edges.len())
+            .filter(|&k| self.graph.edges[k].to != self.graph.edges[k].from + 1)
+            .collect();
+        self.out.closures = closures
+            .iter()
+            .map(|&k| {
+                (
+                    self.keys[self.graph.edges[k].from].scan,
+                    self.keys[self.graph.edges[k].to].scan,
+                )
+            })
+            .collect();
+        self.out.closure_chi2 = closures.iter().map(|&k| self.graph.chi2(k)).collect();
+        Ok(self.out)
+    }
+}

@@ -1,0 +1,248 @@
+//! From a range scan to the points ICP matches: the valid beams as points in the
+//! laser frame, thinned to a minimum spacing, each with the normal of the line its
+//! neighbours along the scan lie on (when they lie on one).
+
+use nalgebra::{Matrix2, SymmetricEigen, Vector2};
+
+use crate::error::{LaserError, Result};
+
+/// How a scan becomes points.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ScanConfig {
+    /// Readings shorter than this are the robot itself or noise, m (>= 0).
+    pub min_range: f64,
+    /// Readings within this of the scan's maximum range are no-returns, m (>= 0).
+    pub max_range_margin: f64,
+    /// Kept points are at least this far apart along the scan, m (> 0): a near wall
+    /// gives many readings per centimetre and would outweigh everything else.
+    pub point_spacing: f64,
+    /// A point's normal is fitted to the readings within this distance of it that
+    /// are contiguous along the scan, m (> 0); at least three beam spacings at the
+    /// point's range.
+    pub normal_radius: f64,
+    /// A normal needs at least this many readings (>= 3).
+    pub normal_min_points: usize,
+    /// The fit's smaller spread over its larger one must stay under this for the
+    /// readings to count as a line (in (0, 1)): corners and clutter get no normal.
+    pub max_flatness: f64,
+    /// Two successive readings further apart than this are not contiguous, m (> 0);
+    /// at least three beam spacings at their range.
+    pub max_gap: f64,
+}
+
+impl Default for ScanConfig {
+    fn default() -> Self {
+        Self {
+            min_range: 0.05,
+            max_range_margin: 0.01,
+            point_spacing: 0.05,
+            normal_radius: 0.2,
+            normal_min_points: 4,
+            max_flatness: 0.02,
+            max_gap: 0.3,
+        }
+    }
+}
+
+impl ScanConfig {
+    /// Refuses bad values with the parameter's name.
+    pub fn validate(&self) -> Result<()> {
+        let non_negative = [
+            ("min_range", self.min_range),
+            ("max_range_margin", self.max_range_margin),
+        ];
+        for (name, v) in non_negative {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(LaserError::invalid(
+                    name,
+                    format!("must be finite and >= 0, got {v}"),
+                ));
+            }
+        }
+        let positive = [
+            ("point_spacing", self.point_spacing),
+            ("normal_radius", self.normal_radius),
+            ("max_gap", self.max_gap),
+        ];
+        for (name, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(LaserError::invalid(
+                    name,
+                    format!("must be finite and > 0, got {v}"),
+                ));
+            }
+        }
+        if self.normal_min_points < 3 || self.normal_min_points > 10_000 {
+            let n = self.normal_min_points;
+            return Err(LaserError::invalid(
+                "normal_min_points",
+                format!("must be in 3..=10000, got {n}"),
+            ));
+        }
+        if !(self.max_flatness > 0.0 && self.max_flatness < 1.0) {
+            let f = self.max_flatness;
+            return Err(LaserError::invalid(
+                "max_flatness",
+                format!("must be in (0, 1), got {f}"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The beams of one scan: `ranges[i]` at angle `angle_min + i * angle_increment`
+/// (laser frame, radians); readings that are not finite, below `min_range` or at the
+/// maximum range are no-returns.
+#[derive(Debug, Clone, Copy)]
+pub struct Beams<'a> {
+    /// The readings, m.
+    pub ranges: &'a [f64],
+    /// Angle of the first beam, rad.
+    pub angle_min: f64,
+    /// Angle between beams, rad.
+    pub angle_increment: f64,
+    /// The scanner's maximum range, m.
+    pub max_range: f64,
+}
+
+/// A scan's points in the laser frame: every kept point (what is matched) and, for
+/// those on a line, its unit normal facing the sensor (what a map is made of).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ScanPoints {
+    /// The kept points, in scan order.
+    pub points: Vec<Vector2<f64>>,
+    /// The unit normal of each kept point, `None` off lines (corners, clutter).
+    pub normals: Vec<Option<Vector2<f64>>>,
+}
+
+impl ScanPoints {
+    /// How many points have a normal.
+    pub fn with_normals(&self) -> usize {
+        self.normals.iter().filter(|n| n.is_some()).count()
+    }
+}
+
+/// The valid readings as points, in scan order.
+fn raw_points(beams: &Beams<'_>, cfg: &ScanConfig) -> Result<Vec<Vector2<f64>>> {
+    let Beams {
+        ranges,
+        angle_min,
+        angle_increment,
+        max_range,
+    } = *beams;
+    if !(angle_min.is_finite() && angle_increment.is_finite() && angle_increment != 0.0) {
+        return Err(LaserError::invalid(
+            "angle_increment",
+            format!(
+                "the beam angles must be finite and distinct, got start {angle_min}, step {angle_increment}"
+            ),
+        ));
+    }
+    if max_range.is_nan() || max_range <= 0.0 {
+        return Err(LaserError::invalid(
+            "max_range",
+            format!("must be > 0, got {max_range}"),
+        ));
+    }
+    let far = max_range - cfg.max_range_margin;
+    let valid = |r: f64| r.is_finite() && r >= cfg.min_range && r < far;
+    Ok(ranges
+        .iter()
+        .enumerate()
+        .filter(|&(_, &r)| valid(r))
+        .map(|(i, &r)| {
+            let a = angle_min + i as f64 * angle_increment;
+            Vector2::new(r * a.cos(), r * a.sin())
+        })
+        .collect())
+}
+
+/// The points of a scan (see [`ScanPoints`]).
+///
+/// # Examples
+/// ```
+/// use laser::scan::{Beams, ScanConfig, scan_points};
+///
+/// // A wall 2 m ahead, seen by 181 beams over 180 degrees.
+/// let angles: Vec<f64> = (0..181).map(|i| (i as f64 - 90.0).to_radians()).collect();
+/// let ranges: Vec<f64> = angles.iter().map(|a| if a.cos() > 0.3 { 2.0 / a.cos() } else { f64::NAN }).collect();
+/// let beams = Beams { ranges: &ranges, angle_min: -90f64.to_radians(), angle_increment: 1f64.to_radians(), max_range: 80.0 };
+/// let scan = scan_points(&beams, &ScanConfig::default()).unwrap();
+/// // Every point with a normal sees the wall face-on: normal (-1, 0).
+/// for n in scan.normals.iter().flatten() {
+///     assert!((n.x + 1.0).abs() < 1e-9 && n.y.abs() < 1e-6);
+/// }
+/// assert!(scan.with_normals() > 10);
+/// ```
+pub fn scan_points(beams: &Beams<'_>, cfg: &ScanConfig) -> Result<ScanPoints> {
+    let raw = raw_points(beams, cfg)?;
+    let step = beams.angle_increment.abs();
+    let mut out = ScanPoints::default();
+    let mut last: Option<Vector2<f64>> = None;
+    for (i, p) in raw.iter().enumerate() {
+        if last.is_some_and(|q| (p - q).norm() < cfg.point_spacing) {
+            continue;
+        }
+        last = Some(*p);
+        out.points.push(*p);
+        out.normals.push(fit_normal(&raw, i, step, cfg));
+    }
+    Ok(out)
+}
+
+/// The normal of the line through the readings around `raw[i]`: those within a
+/// radius of it and contiguous along the scan, fitted by the smallest eigenvector of
+/// their scatter. Far from the sensor the beams spread, so the radius and the gap
+/// allowed between neighbours grow with the range (three beam spacings at least).
+fn fit_normal(raw: &[Vector2<f64>], i: usize, step: f64, cfg: &ScanConfig) -> Option<Vector2<f64>> {
+    let centre = raw[i];
+    let spread = 3.0 * centre.norm() * step;
+    let (radius, gap) = (cfg.normal_radius.max(spread), cfg.max_gap.max(spread));
+    let near = |j: usize| (raw[j] - centre).norm() <= radius;
+    let mut lo = i;
+    while lo > 0 && near(lo - 1) && (raw[lo] - raw[lo - 1]).norm() <= gap {
+        lo -= 1;
+    }
+    let mut hi = i;
+    while hi + 1 < raw.len() && near(hi + 1) && (raw[hi + 1] - raw[hi]).norm() <= gap {
+        hi += 1;
+    }
+    let group = &raw[lo..=hi];
+    if group.len() < cfg.normal_min_points {
+        return None;
+    }
+    let mean = group.iter().sum::<Vector2<f64>>() / group.len() as f64;
+    let scatter = group.iter().fold(Matrix2::zeros(), |acc, p| {
+        let d = p - mean;
+        acc + d * d.transpose()
+    });
+    let eig = SymmetricEigen::new(scatter);
+    let (small, large) = if eig.eigenvalues[0] <= eig.eigenvalues[1] {
+        (0, 1)
+    } else {
+        (1, 0)
+    };
+    if eig.eigenvalues[large] <= 0.0
+        || eig.eigenvalues[small] > cfg.max_flatness * eig.eigenvalues[large]
+    {
+        return None;
+    }
+    let mut n: Vector2<f64> = eig.eigenvectors.column(small).into_owned();
+    // Facing the sensor, so that the two sides of a thin wall stay apart.
+    if n.dot(&centre) > 0.0 {
+        n = -n;
+    }
+    Some(n.normalize())
+}
+
+/// Checks that a scan has as many readings as it says.
+pub(crate) fn check_beams(ranges: &[f64], count: usize, index: usize) -> Result<()> {
+    if ranges.len() < count {
+        return Err(LaserError::dimension(format!(
+            "scan {index} says {count} beams but has {} readings",
+            ranges.len()
+        )));
+    }
+    Ok(())
+}

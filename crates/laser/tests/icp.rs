@@ -1,0 +1,202 @@
+//! PL-ICP against ray-cast truth: exact recovery without noise, an honest covariance
+//! (NEES over Monte Carlo runs with range noise), and no false information along a
+//! featureless corridor.
+
+use laser::scan::{Beams, ScanConfig, scan_points};
+use laser::sim::{Segment, cluttered_room, corridor, ray_cast};
+use laser::{IcpConfig, MapIndex, Prior, match_scan};
+use nalgebra::{Matrix3, Vector2, Vector3};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use rperc_core::{Pose2, wrap_angle};
+
+const MAX_RANGE: f64 = 30.0;
+
+fn angles() -> Vec<f64> {
+    (0..361)
+        .map(|i| (-90.0 + 0.5 * i as f64).to_radians())
+        .collect()
+}
+
+/// The scan points (laser frame) of `walls` seen from `pose`, ranges with noise.
+fn scan(walls: &[Segment], pose: &Pose2, noise: f64, rng: &mut ChaCha8Rng) -> laser::ScanPoints {
+    let a = angles();
+    let normal = Normal::new(0.0, noise.max(1e-300)).unwrap();
+    let ranges: Vec<f64> = ray_cast(walls, pose, &a, MAX_RANGE)
+        .into_iter()
+        .map(|r| {
+            if noise > 0.0 && r < MAX_RANGE {
+                r + normal.sample(rng)
+            } else {
+                r
+            }
+        })
+        .collect();
+    let beams = Beams {
+        ranges: &ranges,
+        angle_min: a[0],
+        angle_increment: a[1] - a[0],
+        max_range: MAX_RANGE,
+    };
+    scan_points(&beams, &ScanConfig::default()).unwrap()
+}
+
+/// A map made of a scan taken at `pose` (known exactly), in the world frame.
+fn map_from(walls: &[Segment], pose: &Pose2, noise: f64, rng: &mut ChaCha8Rng) -> MapIndex {
+    let s = scan(walls, pose, noise, rng);
+    let (mut pts, mut nrm) = (Vec::new(), Vec::new());
+    for (p, n) in s.points.iter().zip(&s.normals) {
+        if let Some(n) = n {
+            pts.push(pose.transform_point(&(*p).into()).coords);
+            nrm.push(pose.rotation() * n);
+        }
+    }
+    MapIndex::new(pts, nrm, 0.3).unwrap()
+}
+
+fn error(est: &Pose2, truth: &Pose2) -> Vector3<f64> {
+    Vector3::new(
+        est.x - truth.x,
+        est.y - truth.y,
+        wrap_angle(est.theta - truth.theta),
+    )
+}
+
+fn loose_prior(mean: Pose2) -> Prior {
+    Prior {
+        mean,
+        information: Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 10.0)),
+    }
+}
+
+#[test]
+fn noise_free_match_recovers_the_pose() {
+    let walls = cluttered_room(12.0, 8.0);
+    let mut rng = ChaCha8Rng::seed_from_u64(0);
+    let map = map_from(&walls, &Pose2::new(4.0, 3.0, 0.2), 0.0, &mut rng);
+    let truth = Pose2::new(4.3, 3.1, 0.25);
+    let s = scan(&walls, &truth, 0.0, &mut rng);
+    let start = Pose2::new(4.36, 3.05, 0.25 + 2f64.to_radians());
+    let cfg = IcpConfig {
+        covariance_scale: 1.0,
+        ..Default::default()
+    };
+    let m = match_scan(&s, &map, start, &loose_prior(start), &cfg).unwrap();
+    assert!(m.accepted);
+    let e = error(&m.pose, &truth);
+    // The loose prior pulls by at most its weight against hundreds of points.
+    assert!(
+        e.x.abs() < 2e-3 && e.y.abs() < 2e-3 && e.z.abs() < 2e-4,
+        "error {e:?}"
+    );
+}
+
+/// Over Monte Carlo runs with 1 cm range noise in the map and the scan, the NEES of
+/// the match against the truth stays below the chi-square band's top: the default
+/// covariance is not overconfident.
+#[test]
+fn covariance_is_not_overconfident() {
+    let walls = cluttered_room(12.0, 8.0);
+    let scale: f64 = std::env::var("SCALE")
+        .map(|v| v.parse().unwrap())
+        .unwrap_or(IcpConfig::default().covariance_scale);
+    let cfg = IcpConfig {
+        covariance_scale: scale,
+        ..Default::default()
+    };
+    let mut nees = Vec::new();
+    for run in 0..60 {
+        let mut rng = ChaCha8Rng::seed_from_u64(100 + run);
+        let from = Pose2::new(2.0 + 0.03 * run as f64, 1.2, 0.1);
+        let map = map_from(&walls, &from, 0.01, &mut rng);
+        let truth = from.compose(&Pose2::new(0.3, 0.05, 0.05));
+        let s = scan(&walls, &truth, 0.01, &mut rng);
+        // The prior: the truth moved by a draw from the prior's own covariance.
+        let sd = Vector3::new(0.05, 0.05, 0.02);
+        let draw = |rng: &mut ChaCha8Rng, k: usize| Normal::new(0.0, sd[k]).unwrap().sample(rng);
+        let mean = Pose2::new(
+            truth.x + draw(&mut rng, 0),
+            truth.y + draw(&mut rng, 1),
+            truth.theta + draw(&mut rng, 2),
+        );
+        let prior = Prior {
+            mean,
+            information: Matrix3::from_diagonal(&sd.map(|v| 1.0 / (v * v))),
+        };
+        let m = match_scan(&s, &map, mean, &prior, &cfg).unwrap();
+        assert!(m.accepted, "run {run}: {m:?}");
+        let e = error(&m.pose, &truth);
+        nees.push((e.transpose() * m.covariance.try_inverse().unwrap() * e)[(0, 0)]);
+    }
+    let mean = nees.iter().sum::<f64>() / nees.len() as f64;
+    eprintln!("NEES mean {mean}");
+    // 60 runs of 3 dof: the mean of chi2(180)/60 stays below 3.8 with 99 % probability.
+    assert!(
+        mean < 3.8,
+        "NEES mean {mean} (3 expected for an exact covariance)"
+    );
+    // And the covariance is not uselessly loose either.
+    assert!(mean > 0.05, "NEES mean {mean}");
+}
+
+/// In a corridor along x the scan fixes y and the heading only: the match keeps the
+/// prior's x and its variance, and corrects y.
+#[test]
+fn a_featureless_corridor_gives_no_information_along_it() {
+    let walls = corridor(200.0, 3.0);
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let map = map_from(&walls, &Pose2::new(-0.5, 0.1, 0.0), 0.0, &mut rng);
+    let truth = Pose2::new(0.0, 0.2, 0.02);
+    let s = scan(&walls, &truth, 0.0, &mut rng);
+    let prior_mean = Pose2::new(0.25, 0.27, 0.0);
+    let sd = [0.3, 0.3, 0.05];
+    let prior = Prior {
+        mean: prior_mean,
+        information: Matrix3::from_diagonal(&Vector3::new(
+            1.0 / (sd[0] * sd[0]),
+            1.0 / (sd[1] * sd[1]),
+            1.0 / (sd[2] * sd[2]),
+        )),
+    };
+    let m = match_scan(&s, &map, prior_mean, &prior, &IcpConfig::default()).unwrap();
+    assert!(m.accepted);
+    assert!(
+        (m.pose.y - truth.y).abs() < 2e-3,
+        "cross-corridor {}",
+        m.pose.y
+    );
+    assert!(
+        (m.pose.theta - truth.theta).abs() < 1e-3,
+        "heading {}",
+        m.pose.theta
+    );
+    // Along the corridor: the prior's x, and the prior's variance (no information).
+    assert!((m.pose.x - prior_mean.x).abs() < 1e-3, "along {}", m.pose.x);
+    let var_x = m.covariance[(0, 0)];
+    assert!(
+        (var_x / (sd[0] * sd[0]) - 1.0).abs() < 1e-3,
+        "var x {var_x}"
+    );
+    assert!(m.covariance[(1, 1)] < 1e-2 * sd[1] * sd[1], "{m:?}");
+}
+
+#[test]
+fn too_few_pairs_refuse_the_match_and_keep_the_prior() {
+    let walls = cluttered_room(12.0, 8.0);
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    let map = map_from(&walls, &Pose2::new(4.0, 3.0, 0.0), 0.0, &mut rng);
+    // A scan from far outside the room pairs with nothing.
+    let s = scan(
+        &[Segment::new(100.0, -5.0, 100.0, 5.0)],
+        &Pose2::new(98.0, 0.0, 0.0),
+        0.0,
+        &mut rng,
+    );
+    let prior = loose_prior(Pose2::new(4.0, 3.0, 0.0));
+    let m = match_scan(&s, &map, prior.mean, &prior, &IcpConfig::default()).unwrap();
+    assert!(!m.accepted);
+    assert_eq!(m.pose, prior.mean);
+    assert!((m.covariance - prior.information.try_inverse().unwrap()).norm() < 1e-12);
+    let _ = Vector2::<f64>::zeros();
+}

@@ -360,6 +360,8 @@ def test_cli_writes_rows_summary_and_figure(
         "laser",
         "--logs",
         str(loop_log),
+        "--variants",
+        "plain",
         "--seeds",
         "0-2",
         "--config",

@@ -174,10 +174,36 @@ impl PoseGraph {
     }
 
     /// The factor of the normal equations at the current estimates, and the gradient.
+    ///
+    /// Information matrices that span many orders of magnitude (a robot standing
+    /// still next to a long chain) can leave a pivot block that rounding makes
+    /// indefinite; then a Levenberg-Marquardt damping, growing tenfold, is added to
+    /// the diagonal until the factorisation succeeds (a shorter step, same optimum).
     fn factor(&self) -> Result<(Factor<'_>, Vec<Vector3<f64>>)> {
-        let (diag, off, grad, _) = self.normal_equations();
+        let (mut diag, off, grad, _) = self.normal_equations();
         let pattern = &self.pattern.as_ref().expect("ensure_pattern first").1;
-        Ok((Factor::new(pattern, &diag, &off)?, grad))
+        let scale = diag.iter().map(|d| d.diagonal().max()).fold(0.0, f64::max);
+        let mut damping = 0.0;
+        for _ in 0..12 {
+            match Factor::new(pattern, &diag, &off) {
+                Ok(f) => return Ok((f, grad)),
+                Err(LaserError::Numerical(_)) => {
+                    let next = if damping == 0.0 {
+                        1e-12 * scale
+                    } else {
+                        10.0 * damping
+                    };
+                    for d in diag.iter_mut() {
+                        *d += Matrix3::identity() * (next - damping);
+                    }
+                    damping = next;
+                }
+                Err(e) => return Err(e),
+            }
+        }
+        Err(LaserError::Numerical(
+            "the pose graph stays indefinite under damping".into(),
+        ))
     }
 
     /// The normal equations at the current estimates: diagonal and off-diagonal

@@ -53,8 +53,8 @@ impl Default for IcpConfig {
             max_distance: 0.3,
             sigma: 0.03,
             huber: 2.0,
-            covariance_scale: 10.0,
-            min_inliers: 20,
+            covariance_scale: 3.0,
+            min_inliers: 10,
             tolerance: 1e-5,
             max_normal_angle: 30f64.to_radians(),
         }

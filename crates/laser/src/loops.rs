@@ -43,6 +43,9 @@ pub struct LoopConfig {
     /// A closure is tried at every this many key scans (>= 1), and at the next one
     /// while a closure waits for its confirmation.
     pub every_keys: usize,
+    /// After a confirmed pair of closures, no closure is tried for this many key scans
+    /// (>= 0): the place is closed, and each attempt costs a correlative search.
+    pub cooldown_keys: usize,
     /// Coarse search step in x and y, m (> 0).
     pub coarse_step: f64,
     /// A point scores when within this of the submap, m (> 0).
@@ -80,6 +83,7 @@ impl Default for LoopConfig {
             max_angle: 30f64.to_radians(),
             submap_keys: 6,
             every_keys: 3,
+            cooldown_keys: 10,
             coarse_step: 0.15,
             hit_distance: 0.15,
             refine: 4,
@@ -261,7 +265,7 @@ impl HitGrid {
 
 /// At most this many of a scan's points score a pose: the score is a share, and
 /// more points only cost time.
-const SCORED_POINTS: usize = 80;
+const SCORED_POINTS: usize = 60;
 
 /// The best `keep` poses (with their scores) on a grid of `steps` cells of `grid`
 /// and `dth` rad around `centre`, within `radius` m and `angle`, scored by the share
@@ -328,7 +332,15 @@ fn coarse_search(
 ) -> Vec<(f64, Pose2)> {
     let stride = points.len().div_ceil(SCORED_POINTS).max(1);
     let pts: Vec<Vector2<f64>> = points.iter().step_by(stride).copied().collect();
-    let far = pts.iter().map(|p| p.norm()).fold(1.0, f64::max);
+    // The heading step moves a point at the median range by about one step; farther
+    // points land within the fine search and ICP's reach.
+    let mut ranges: Vec<f64> = pts.iter().map(|p| p.norm()).collect();
+    ranges.sort_by(f64::total_cmp);
+    let far = ranges
+        .get(ranges.len() / 2)
+        .copied()
+        .unwrap_or(1.0)
+        .max(1.0);
     // Coarse: steps of twice the fine step, hits dilated to match; fine: cells of
     // half a step, so both move the points by two whole cells a step.
     let coarse = 2.0 * cfg.coarse_step;

@@ -9,9 +9,10 @@ use slam::motion::Unicycle;
 
 use crate::error::{LaserError, Result};
 
-/// Added to every step's covariance: a step with no control between its scans (two
-/// scans at one time) would otherwise claim to be known exactly.
-const FLOOR: [f64; 3] = [1e-8, 1e-8, 1e-10];
+/// Added to every step's covariance (1 mm, 1 mrad): a step with no control between
+/// its scans (two scans at one time, a robot standing still) would otherwise claim to
+/// be known exactly, and a pose graph of such steps is numerically singular.
+const FLOOR: [f64; 3] = [1e-6, 1e-6, 1e-6];
 
 /// One odometry step and its covariance (in the frame of the step's start).
 #[derive(Debug, Clone, Copy, PartialEq)]

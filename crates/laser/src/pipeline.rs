@@ -224,6 +224,8 @@ struct Run<'a> {
     since: SinceKey,
     path: f64,
     pending: Option<Pending>,
+    /// The key index before which no closure is tried (after a confirmed pair).
+    quiet_until: usize,
     out: LaserRun,
     placed: Vec<SinceKey>,
 }
@@ -255,11 +257,13 @@ pub fn run(
     let mut run = Run {
         cfg,
         front: FrontEnd::new(start, cfg.icp, cfg.local_map)?,
-        graph: PoseGraph::new(start, Matrix3::identity() * 1e12),
+        // The start is known: 0.1 mm and 0.1 mrad, loose enough for the factorisation.
+        graph: PoseGraph::new(start, Matrix3::identity() * 1e8),
         keys: Vec::new(),
         since: SinceKey::at(0),
         path: 0.0,
         pending: None,
+        quiet_until: 0,
         out: LaserRun::default(),
         placed: Vec::with_capacity(log.len()),
     };
@@ -340,8 +344,9 @@ impl Run<'_> {
             path: self.path,
             shape: shape(k, pose, scan),
         });
-        let due = (self.keys.len() - 1).is_multiple_of(self.cfg.loops.every_keys)
-            || self.pending.is_some();
+        let key = self.keys.len() - 1;
+        let due = key >= self.quiet_until
+            && (key.is_multiple_of(self.cfg.loops.every_keys) || self.pending.is_some());
         if self.cfg.loops.enabled && due {
             self.try_closure(scan)?;
         }
@@ -426,6 +431,7 @@ impl Run<'_> {
             self.add_closure(&p)?;
         }
         self.settle()?;
+        self.quiet_until = self.keys.len() + self.cfg.loops.cooldown_keys;
         let poses = &self.graph.poses;
         let by_scan: std::collections::HashMap<usize, Pose2> =
             self.keys.iter().map(|k| (k.scan, poses[k.node])).collect();

@@ -39,7 +39,7 @@ impl Default for ScanConfig {
             point_spacing: 0.05,
             normal_radius: 0.2,
             normal_min_points: 4,
-            max_flatness: 0.02,
+            max_flatness: 0.05,
             max_gap: 0.3,
         }
     }

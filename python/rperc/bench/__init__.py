@@ -135,7 +135,7 @@ def laser(
     paths = [Path(logs)] if isinstance(logs, str | Path) else [Path(p) for p in logs or []]
     files = _laser.log_files(paths or [_data("carmen")])
     names = _laser.parse_variants(",".join(variants))
-    combos = _combos(grid, _laser.SETTINGS, "laser")
+    combos = _combos(grid, {*_laser.SETTINGS, *_laser.laser_settings()}, "laser")
     tasks = make_tasks("laser", files, names, _seeds(seeds), combos, tunable=names)
     return _run("laser", tasks, _laser, combos, scheduler, workers)
 

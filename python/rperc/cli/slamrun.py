@@ -39,7 +39,7 @@ def _variants(text: str) -> tuple[str, ...]:
 
 def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = sub.add_parser(
-        "slam", help="planar EKF-SLAM on MR.CLAM, Victoria Park or a CARMEN log's walls"
+        "slam", help="planar EKF-SLAM on MR.CLAM or Victoria Park; laser or wall SLAM on CARMEN"
     )
     kinds = p.add_subparsers(dest="dataset", required=True, metavar="DATASET")
     m = kinds.add_parser("mrclam", help="MR.CLAM: one robot, known association (barcodes)")
@@ -83,9 +83,11 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         )  # fmt: skip
         add_json_option(q)
         q.set_defaults(run=slam_command)
+    from rperc.cli.laserslam import add_laser_command
     from rperc.cli.wallslam import add_walls_command
 
     add_walls_command(kinds)
+    add_laser_command(kinds)
 
 
 def variant_config(base: dict[str, Any], variants: tuple[str, ...]) -> dict[str, Any]:

@@ -28,7 +28,7 @@ def sighted_walls(rows: np.ndarray, t: np.ndarray, pose: np.ndarray) -> np.ndarr
     return out
 
 
-def _frame(ref: np.ndarray) -> tuple[tuple[float, float], tuple[float, float]]:
+def reference_limits(ref: np.ndarray) -> tuple[tuple[float, float], tuple[float, float]]:
     """Limits around the reference path (10 % margin), the same for every panel, so
     that a diverged estimate does not set them."""
     lo, hi = ref[:, :2].min(axis=0), ref[:, :2].max(axis=0)
@@ -54,7 +54,7 @@ def _panel(
         ax.add_collection(LineCollection(list(seen), colors="k", linewidths=0.3, alpha=0.5))
         ax.plot([], [], "k-", lw=0.5, alpha=0.5, label="wall sightings on this path")
     ax.plot(res.pose[:, 0], res.pose[:, 1], color="tab:red", lw=1, label="path (estimate)")
-    (x0, x1), (y0, y1) = _frame(ref)
+    (x0, x1), (y0, y1) = reference_limits(ref)
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)
     out = np.any(

@@ -4,7 +4,12 @@ One row per log, seed and variant: ATE, loop error, final error, the robot NEES 
 and share in its 95 % band, and scans per second end to end (reading the log
 included).
 
-Variants, combinable with ``+`` (``anchor+freeze``):
+Methods:
+
+- ``laser``: the laser pipeline (``rperc slam laser``: scan matching, loop closures,
+  pose graph); ``scan-matching``: its front end alone, without closures;
+
+and wall SLAM's variants, combinable with ``+`` (``anchor+freeze``):
 
 - ``plain``: wall-landmark EKF-SLAM (``rperc slam walls``);
 - ``anchor``: the first wall is the anchor (seed 000 eqs 24-25);
@@ -12,7 +17,9 @@ Variants, combinable with ``+`` (``anchor+freeze``):
 - ``smoothed``: the run smoothed in batch; its scores replace the filter's;
 - ``odometry``: dead reckoning alone, the baseline.
 
-A settings grid may set ``straightness`` and ``association`` (``nn``, ``jcbb``).
+A settings grid may set wall SLAM's ``straightness`` and ``association`` (``nn``,
+``jcbb``), and any of the laser pipeline's settings by its dotted name
+(``icp.covariance_scale``, ``loops.max_radius``: see ``rperc.slam.laser.defaults()``).
 """
 
 from __future__ import annotations
@@ -26,15 +33,18 @@ from typing import Any
 from rperc.bench.tasks import Task, parse_names
 
 VARIANT_PARTS = ("plain", "anchor", "freeze", "smoothed", "odometry")
-DEFAULT_VARIANTS = ("plain",)
+#: The laser pipeline's methods (each stands alone) and their ``run_laser`` variant.
+LASER_METHODS = {"laser": "loops", "scan-matching": "scan-matching"}
+DEFAULT_VARIANTS = ("laser",)
 SETTINGS = ("straightness", "association")
 #: What the table and the figure show first.
 SHOWN = (
     "ate_rmse_m",
+    "ate_rmse_causal_m",
     "loop_error_m",
-    "final_error_m",
     "nees_mean",
     "nees_in_band",
+    "loop_closures_accepted",
     "scans_per_second",
 )
 PRIMARY = ("ate_rmse_m", "m")
@@ -48,6 +58,9 @@ def parse_variants(text: str) -> list[str]:
     :data:`VARIANT_PARTS`."""
     out = []
     for v in (v.strip() for v in text.split(",") if v.strip()):
+        if v in LASER_METHODS:
+            out.append(v)
+            continue
         parts = parse_names(v.replace("+", ","), VARIANT_PARTS, "--variants")
         if "odometry" in parts and len(parts) > 1:
             raise ValueError(f"--variants {v!r}: odometry combines with nothing")
@@ -84,13 +97,67 @@ def walls_options(variant: str, settings: dict[str, Any]) -> dict[str, Any]:
     }
     unknown = set(settings) - set(SETTINGS)
     if unknown:
-        raise ValueError(f"unknown laser setting(s) {', '.join(sorted(unknown))}")
+        raise ValueError(f"{', '.join(sorted(unknown))}: not wall SLAM settings")
     return kw | settings
+
+
+def laser_settings() -> set[str]:
+    """The laser pipeline's settings by dotted name (``icp.sigma``)."""
+    from rperc.slam.laser import defaults
+
+    def walk(d: dict[str, Any], prefix: str) -> set[str]:
+        names: set[str] = set()
+        for k, v in d.items():
+            names |= walk(v, f"{prefix}{k}.") if isinstance(v, dict) else {prefix + k}
+        return names
+
+    return walk(defaults(), "")
+
+
+def nested(settings: dict[str, Any]) -> dict[str, Any]:
+    """Dotted settings (``{"icp.sigma": 0.02}``) as a nested config."""
+    out: dict[str, Any] = {}
+    for name, value in settings.items():
+        *path, leaf = name.split(".")
+        node = out
+        for part in path:
+            node = node.setdefault(part, {})
+        node[leaf] = value
+    return out
+
+
+def run_laser_task(task: Task) -> dict[str, Any]:
+    """The laser pipeline over one log: ``rperc slam laser``'s scores."""
+    from rperc.slam.laser import load_and_run
+
+    wall = set(task.kwargs) & set(SETTINGS)
+    if wall:
+        raise ValueError(f"{', '.join(sorted(wall))}: wall SLAM settings, not the laser pipeline's")
+    result = load_and_run(
+        task.dataset, seed=task.seed, variant=LASER_METHODS[task.method], config=nested(task.kwargs)
+    )
+    m = result.measured()
+    return {
+        "library": "rperc",
+        "dataset": Path(task.dataset).name,
+        "scans": m["scans"],
+        "ate_rmse_m": m["ate_rmse_m"],
+        "ate_rmse_causal_m": m["ate_rmse_causal_m"],
+        "loop_error_m": m["loop_error_m"],
+        "final_error_m": m["final_error_m"],
+        "nees_mean": m["nees_mean"],
+        "nees_in_band": m["nees_in_band"],
+        "loop_closures_accepted": m["loop_closures_accepted"],
+        "loop_closures_rejected": m["loop_closures_rejected"],
+        "scans_per_second": m["scans_per_second"],
+    }
 
 
 def run(task: Task) -> dict[str, Any]:
     """One variant over one log with the task's seed: the scores of ``rperc slam
-    walls`` (for ``smoothed``, of the smoothed path)."""
+    walls`` (for ``smoothed``, of the smoothed path), or of ``rperc slam laser``."""
+    if task.method in LASER_METHODS:
+        return run_laser_task(task)
     from rperc.cli.wallslam import measured
     from rperc.datasets import TimestampRepairWarning
     from rperc.datasets.carmen import load_carmen
@@ -110,7 +177,10 @@ def run(task: Task) -> dict[str, Any]:
         "library": "rperc",
         "dataset": Path(task.dataset).name,
         "scans": m["scans"],
-        **{k: m[k] for k in SHOWN if k != "scans_per_second"},
+        **{
+            k: m[k]
+            for k in ("ate_rmse_m", "loop_error_m", "final_error_m", "nees_mean", "nees_in_band")
+        },
         "walls": m["walls"],
         "scans_per_second": m["scans"] / seconds,
     }

@@ -1,0 +1,78 @@
+"""``rperc slam laser LOG``: laser SLAM (scan matching, loop closures, a pose graph)
+on a CARMEN log, from odometry made from its corrected path with seeded noise (the
+experiment of ``rperc slam walls``; see :mod:`rperc.slam.laser`)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from rperc.cli.outputs import (
+    add_json_option,
+    check_output_file,
+    read_carmen_log,
+    seed_type,
+    write_json,
+    wrote,
+)
+from rperc.slam.laser import VARIANTS, run_laser
+
+
+def add_laser_command(kinds: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    w = kinds.add_parser("laser", help="CARMEN log: scan matching, loop closures, pose graph")
+    w.add_argument("log", type=Path, help="CARMEN log (.log or .gz) whose poses are corrected")
+    w.add_argument("--seed", type=seed_type, default=0, help="the odometry noise draw")
+    w.add_argument(
+        "--variant",
+        choices=tuple(VARIANTS),
+        default="loops",
+        help="loops (the default), scan-matching (no closures) or odometry",
+    )
+    w.add_argument(
+        "--config",
+        type=json.loads,
+        default={},
+        metavar="JSON",
+        help='settings overrides, nested by part, e.g. \'{"icp": {"sigma": 0.02}}\'',
+    )
+    w.add_argument("--tum", type=Path, help="write every scan's final pose (TUM format, for evo)")
+    w.add_argument("--plot", type=Path, help="write the map figure")
+    add_json_option(w)
+    w.set_defaults(run=laser_command)
+
+
+def laser_command(args: argparse.Namespace) -> int:
+    for path, option, figure in (
+        (args.tum, "--tum", False),
+        (args.plot, "--plot", True),
+        (args.json, "--json", False),
+    ):
+        check_output_file(path, option, figure=figure)
+    if not isinstance(args.config, dict):
+        raise ValueError("--config must be a JSON object")
+    t0 = time.perf_counter()
+    log = read_carmen_log(args.log)
+    read_s = time.perf_counter() - t0
+    result = run_laser(
+        log, seed=args.seed, variant=args.variant, config=args.config, read_seconds=read_s
+    )
+    measured = result.measured()
+    print(
+        " ".join(
+            f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in measured.items()
+        )
+    )
+    if args.tum is not None:
+        wrote(result.to_tum(args.tum))
+    if args.plot is not None:
+        from rperc.plot import save
+        from rperc.plot.laser import laser_map_figure, scan_cloud
+
+        fig = laser_map_figure(result, scan_cloud(log, result.pose))
+        wrote(save(fig, args.plot))
+    write_json(args.json, measured)
+    sys.stdout.flush()
+    return 0

@@ -1,0 +1,152 @@
+"""Laser SLAM (issue 33): scan matching, loop closures and the pose graph on a
+simulated corridor loop with known truth, the command's outputs (TUM read back by
+evo, the JSON keys), the bench row against the command, and bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rperc.cli import main
+from rperc.slam.laser import VARIANTS, defaults, load_and_run
+
+
+@pytest.fixture(scope="module")
+def loop_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Two laps of the simulated corridor loop (1 cm range noise), the true path as
+    the log's corrected poses."""
+    from rperc.scansim import write_loop_log
+
+    return write_loop_log(tmp_path_factory.mktemp("laser") / "loop.log", seed=1, laps=2.0)
+
+
+def _truth_ate(pose: np.ndarray, truth: np.ndarray) -> float:
+    """ATE written out here, not taken from the code under test."""
+    d = pose[:, :2] - truth[:, :2]
+    return float(np.sqrt(np.mean(d[:, 0] ** 2 + d[:, 1] ** 2)))
+
+
+def test_each_stage_beats_the_one_before_against_the_truth(loop_log: Path) -> None:
+    """Over six odometry draws, scan matching removes most of the odometry's drift
+    and the loop closures most of what is left (the simulated truth is the oracle;
+    1 cm range noise, so every seed's final path is within 10 cm)."""
+    from rperc.datasets.carmen import load_carmen
+
+    truth = np.asarray(load_carmen(loop_log).scans.pose)
+    ate: dict[str, list[float]] = {v: [] for v in VARIANTS}
+    for seed in range(6):
+        for v in VARIANTS:
+            r = load_and_run(loop_log, seed=seed, variant=v)
+            ate[v].append(_truth_ate(r.pose, truth))
+            assert r.metrics["ate_rmse_m"] == pytest.approx(ate[v][-1], rel=1e-12)
+            if v == "loops":
+                assert r.counts["loop_closures_accepted"] >= 2
+    mean = {v: float(np.mean(a)) for v, a in ate.items()}
+    assert mean["scan-matching"] < 0.5 * mean["odometry"], ate
+    assert mean["loops"] < 0.3 * mean["scan-matching"], ate
+    assert max(ate["loops"]) < 0.1, ate
+
+
+def test_final_covariance_is_not_overconfident_in_simulation(loop_log: Path) -> None:
+    """The robot NEES of the final path against the truth, over four odometry draws,
+    stays under the 3-dof band's top (9.35) on average: the graph's marginals are
+    not overconfident."""
+    from rperc.datasets.carmen import load_carmen
+
+    truth = np.asarray(load_carmen(loop_log).scans.pose)
+    nees = []
+    for seed in range(4):
+        r = load_and_run(loop_log, seed=seed)
+        err = r.pose[1:] - truth[1:]
+        err[:, 2] = np.angle(np.exp(1j * err[:, 2]))
+        nees.append(np.einsum("ni,nij,nj->n", err, np.linalg.inv(r.covariance[1:]), err))
+    mean = float(np.mean(np.concatenate(nees)))
+    assert mean < 3.0 * 1.5, mean
+
+
+def test_command_writes_tum_json_and_map(loop_log: Path, tmp_path: Path) -> None:
+    tum, out, png = tmp_path / "run.tum", tmp_path / "run.json", tmp_path / "map.png"
+    argv = ["slam", "laser", str(loop_log), "--seed", "2", "--tum", str(tum), "--json", str(out)]
+    assert main([*argv, "--plot", str(png)]) == 0
+    measured = json.loads(out.read_text())
+    for key in (
+        "ate_rmse_m",
+        "ate_rmse_causal_m",
+        "nees_mean",
+        "nees_in_band",
+        "loop_closures_accepted",
+        "loop_closures_rejected",
+        "scans_per_second",
+    ):
+        assert key in measured, key
+    from evo.tools import file_interface
+
+    from rperc.datasets import read_tum
+    from rperc.datasets.carmen import load_carmen
+
+    t, poses = read_tum(tum)
+    scans = load_carmen(loop_log).scans
+    assert len(t) == len(scans.pose) and np.all(np.diff(t) > 0)
+    traj = file_interface.read_tum_trajectory_file(str(tum))
+    assert traj.num_poses == len(t)
+    # The TUM rows are the final estimate, in log order: their ATE is the JSON's.
+    assert _truth_ate(poses, np.asarray(scans.pose)) == pytest.approx(
+        measured["ate_rmse_m"], rel=1e-6
+    )
+    assert png.stat().st_size > 20_000
+
+
+def test_bench_row_equals_the_command(loop_log: Path, tmp_path: Path) -> None:
+    from rperc import bench
+
+    out = tmp_path / "run.json"
+    assert main(["slam", "laser", str(loop_log), "--seed", "3", "--json", str(out)]) == 0
+    single = json.loads(out.read_text())
+    (row,) = bench.laser(loop_log, variants=["laser"], seeds=[3]).rows
+    for key in (
+        "ate_rmse_m",
+        "ate_rmse_causal_m",
+        "nees_mean",
+        "nees_in_band",
+        "loop_closures_accepted",
+        "loop_closures_rejected",
+    ):
+        assert row[key] == single[key], key
+
+
+def test_a_settings_grid_reaches_the_pipeline(loop_log: Path) -> None:
+    from rperc import bench
+
+    result = bench.laser(
+        loop_log, variants=["laser"], seeds=[0], grid={"loops.enabled": [False, True]}
+    )
+    off, on = result.rows
+    assert off["loops.enabled"] is False and off["loop_closures_accepted"] == 0
+    assert on["loop_closures_accepted"] > 0
+    with pytest.raises(ValueError, match="unknown setting"):
+        bench.laser(loop_log, variants=["laser"], grid={"icp.sigmaa": [0.1]})
+
+
+@pytest.mark.parametrize(
+    ("config", "error", "match"),
+    [
+        ({"icp": {"sigma": -1.0}}, ValueError, "sigma"),
+        ({"icp": {"sigmaa": 1.0}}, TypeError, "sigmaa"),
+        ({"loops": {"coarse_step": 1e-6}}, ValueError, "coarse_step"),
+        ({"local_map": {"cell": 0.1}}, ValueError, "cell"),
+        ({"scan": {"max_flatness": float("nan")}}, ValueError, "max_flatness"),
+    ],
+)
+def test_bad_settings_name_the_field(loop_log: Path, config: dict, error: type, match: str) -> None:
+    with pytest.raises(error, match=match):
+        load_and_run(loop_log, config=config)
+
+
+def test_bad_variant_and_defaults() -> None:
+    with pytest.raises(ValueError, match="variant"):
+        load_and_run("unused.log", variant="teleport")
+    d = defaults()
+    assert set(d) >= {"scan", "icp", "local_map", "loops", "motion"}

@@ -351,6 +351,7 @@ class _LaserRunOutput(TypedDict):
     closure_chi2: npt.NDArray[np.float64]
     closures_rejected: int
     closure_attempts: int
+    rejections: dict[str, int]
 
 def laser_defaults() -> dict[str, Any]: ...
 def laser_run(

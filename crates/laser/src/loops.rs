@@ -10,7 +10,7 @@
 //! the robot along it). The caller adds a closure only when a second one, from the
 //! next attempt, implies the same correction (joint consistency).
 
-use nalgebra::{Matrix3, Vector2, Vector3};
+use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use rperc_core::{Pose2, wrap_angle};
 
 use crate::error::{LaserError, Result};
@@ -26,17 +26,20 @@ pub struct LoopConfig {
     pub enabled: bool,
     /// A place is a candidate only after this much path since it, m (> 0).
     pub min_path: f64,
-    /// Search radius around the current estimate at no path travelled, m (> 0),
+    /// The search window spans this many standard deviations of the current key
+    /// scan's pose relative to the place (from the chain of the graph), (> 0).
+    pub sigmas: f64,
+    /// A place is a candidate when it may lie within this of the current key scan,
+    /// m (> 0), the window's reach included: the scans of two poses this far apart
+    /// still overlap.
+    pub overlap: f64,
+    /// The window's radius is at least this, m (> 0), ...
     pub radius: f64,
-    /// ... growing by this share of the path travelled since the place (>= 0),
-    pub radius_per_metre: f64,
-    /// ... up to this, m (>= radius).
+    /// ... and at most this along any axis, m (>= radius).
     pub max_radius: f64,
-    /// Heading window, rad (> 0), growing with the path as the radius does.
+    /// The heading window is at least this, rad (> 0), ...
     pub angle: f64,
-    /// Heading window's growth, rad per metre of path (>= 0), up to `max_angle`.
-    pub angle_per_metre: f64,
-    /// The heading window's limit, rad (in (0, pi]).
+    /// ... and at most this, rad (in [angle, pi]).
     pub max_angle: f64,
     /// Key scans on each side of the candidate that make its submap (>= 0).
     pub submap_keys: usize,
@@ -75,11 +78,11 @@ impl Default for LoopConfig {
         Self {
             enabled: true,
             min_path: 8.0,
+            sigmas: 3.0,
+            overlap: 2.0,
             radius: 0.5,
-            radius_per_metre: 0.05,
-            max_radius: 4.0,
+            max_radius: 30.0,
             angle: 5f64.to_radians(),
-            angle_per_metre: 0.2f64.to_radians(),
             max_angle: 30f64.to_radians(),
             submap_keys: 6,
             every_keys: 3,
@@ -113,6 +116,8 @@ impl LoopConfig {
     pub fn validate(&self) -> Result<()> {
         for (name, v) in [
             ("min_path", self.min_path),
+            ("sigmas", self.sigmas),
+            ("overlap", self.overlap),
             ("radius", self.radius),
             ("angle", self.angle),
             ("coarse_step", self.coarse_step),
@@ -125,17 +130,6 @@ impl LoopConfig {
         ] {
             positive(name, v)?;
         }
-        for (name, v) in [
-            ("radius_per_metre", self.radius_per_metre),
-            ("angle_per_metre", self.angle_per_metre),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(LaserError::invalid(
-                    name,
-                    format!("must be finite and >= 0, got {v}"),
-                ));
-            }
-        }
         if !(self.max_radius.is_finite()
             && self.max_radius >= self.radius
             && self.max_radius <= 100.0)
@@ -145,10 +139,10 @@ impl LoopConfig {
                 format!("must be in [radius, 100], got {}", self.max_radius),
             ));
         }
-        if !(self.max_angle > 0.0 && self.max_angle <= std::f64::consts::PI) {
+        if !(self.max_angle >= self.angle && self.max_angle <= std::f64::consts::PI) {
             return Err(LaserError::invalid(
                 "max_angle",
-                format!("must be in (0, pi], got {}", self.max_angle),
+                format!("must be in [angle, pi], got {}", self.max_angle),
             ));
         }
         if !(self.min_inlier_share > 0.0 && self.min_inlier_share <= 1.0) {
@@ -170,26 +164,53 @@ impl LoopConfig {
                 ),
             ));
         }
-        // The coarse search's work grows with (radius / step)^2: refuse a search that
-        // would take seconds per attempt.
-        let cells = (2.0 * self.max_radius / self.coarse_step + 1.0).powi(2);
-        if cells > 1e6 {
+        if self.coarse_step < 1e-3 {
             return Err(LaserError::invalid(
                 "coarse_step",
-                format!(
-                    "{cells:.0} positions per heading for max_radius {}; use a larger step",
-                    self.max_radius
-                ),
+                format!("must be at least 1 mm, got {}", self.coarse_step),
             ));
         }
         Ok(())
     }
 
-    /// The search window (radius, heading) after `path` metres since the place.
-    pub fn window(&self, path: f64) -> (f64, f64) {
-        let r = (self.radius + self.radius_per_metre * path).min(self.max_radius);
-        let a = (self.angle + self.angle_per_metre * path).min(self.max_angle);
-        (r, a)
+    /// The search window around the current estimate when its pose relative to the
+    /// place has covariance `relative` (world axes): `sigmas` standard deviations,
+    /// within the configured radius and angle limits.
+    pub fn window(&self, relative: &Matrix3<f64>) -> Window {
+        let k2 = self.sigmas * self.sigmas;
+        let floor = Matrix2::identity() * (self.radius * self.radius);
+        let xy: Matrix2<f64> = relative.fixed_view::<2, 2>(0, 0) * k2 + floor;
+        // Cap every axis at max_radius, keeping the ellipse's orientation.
+        let eig = xy.symmetric_eigen();
+        let capped = eig
+            .eigenvalues
+            .map(|v| v.clamp(0.0, self.max_radius * self.max_radius));
+        let xy = eig.eigenvectors * Matrix2::from_diagonal(&capped) * eig.eigenvectors.transpose();
+        let sd = relative[(2, 2)].max(0.0).sqrt();
+        let angle = (self.sigmas * sd).clamp(self.angle, self.max_angle);
+        Window { xy, angle }
+    }
+}
+
+/// Where a closure is searched for: an ellipse `d^T xy^-1 d <= 1` around the current
+/// estimate (world axes, m^2) and a heading window of +- `angle` rad.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Window {
+    /// The ellipse's matrix.
+    pub xy: Matrix2<f64>,
+    /// The heading half-window, rad.
+    pub angle: f64,
+}
+
+impl Window {
+    /// Whether an offset lies inside the ellipse (`inverse` is `xy`'s).
+    fn contains(&self, d: &Vector2<f64>, inverse: &Matrix2<f64>) -> bool {
+        (d.transpose() * inverse * d)[(0, 0)] <= 1.0 + 1e-9
+    }
+
+    /// The half-extent of the ellipse along x and y.
+    fn extent(&self) -> Vector2<f64> {
+        Vector2::new(self.xy[(0, 0)].sqrt(), self.xy[(1, 1)].sqrt())
     }
 }
 
@@ -267,38 +288,45 @@ impl HitGrid {
 /// more points only cost time.
 const SCORED_POINTS: usize = 60;
 
+/// At most about this many positions in a coarse search: a wider window gets a
+/// coarser step, so an attempt never costs more than a few hundred thousand look-ups.
+const MAX_POSITIONS: f64 = 3000.0;
+
 /// The best `keep` poses (with their scores) on a grid of `steps` cells of `grid`
-/// and `dth` rad around `centre`, within `radius` m and `angle`, scored by the share
-/// of `points` (laser frame) that land on `grid`'s hits. Translations are whole
-/// cells, so each heading moves the points to cells once and every translation is
-/// an integer offset.
-#[allow(clippy::too_many_arguments)]
+/// and `dth` rad around `centre`, within `window`, scored by the share of `points`
+/// (laser frame) that land on `grid`'s hits. Translations are whole cells, so each
+/// heading moves the points to cells once and every translation is an integer
+/// offset.
 fn grid_search(
     points: &[Vector2<f64>],
     grid: &HitGrid,
     centre: &Pose2,
-    radius: f64,
-    angle: f64,
+    window: &Window,
     steps: i64,
     dth: f64,
     keep: usize,
 ) -> Vec<(f64, Pose2)> {
     let step = steps as f64 * grid.cell;
-    let nth = (angle / dth).round() as i64;
-    let nxy = (radius / step).round() as i64;
+    let nth = (window.angle / dth).round() as i64;
+    let reach = window.extent();
+    let (nx, ny) = (
+        (reach.x / step).round() as i64,
+        (reach.y / step).round() as i64,
+    );
+    let inverse = window.xy.try_inverse().unwrap_or_else(Matrix2::zeros);
     let mut best: Vec<(f64, Pose2)> = Vec::new();
     let mut cells = vec![(0i64, 0i64); points.len()];
     for a in -nth..=nth {
         let th = centre.theta + a as f64 * dth;
         let (s, c) = th.sin_cos();
         for (cell, p) in cells.iter_mut().zip(points) {
-            *cell = grid.coords(
-                &(Vector2::new(c * p.x - s * p.y, s * p.x + c * p.y) + centre.translation()),
-            );
+            let r = Vector2::new(c * p.x - s * p.y, s * p.x + c * p.y);
+            *cell = grid.coords(&(r + centre.translation()));
         }
-        for j in -nxy..=nxy {
-            for i in -nxy..=nxy {
-                if ((i * i + j * j) as f64).sqrt() * step > radius + 1e-9 {
+        for j in -ny..=ny {
+            for i in -nx..=nx {
+                let d = Vector2::new(i as f64, j as f64) * step;
+                if !window.contains(&d, &inverse) {
                     continue;
                 }
                 let (di, dj) = (i * steps, j * steps);
@@ -307,7 +335,7 @@ fn grid_search(
                     .filter(|&&(ci, cj)| grid.is_hit_cell(ci + di, cj + dj))
                     .count();
                 let score = hits as f64 / points.len().max(1) as f64;
-                let t = centre.translation() + Vector2::new(i as f64, j as f64) * step;
+                let t = centre.translation() + d;
                 keep_best(
                     &mut best,
                     (score, Pose2::new(t.x, t.y, wrap_angle(th))),
@@ -321,13 +349,12 @@ fn grid_search(
 
 /// Coarse to fine: the window searched on a coarse grid of poses against hits
 /// dilated to the coarse step, then the best few searched again on a fine grid
-/// around them. The heading step moves the farthest point by about one step.
+/// around them.
 fn coarse_search(
     points: &[Vector2<f64>],
     submap: &[Vector2<f64>],
     centre: &Pose2,
-    radius: f64,
-    angle: f64,
+    window: &Window,
     cfg: &LoopConfig,
 ) -> Vec<(f64, Pose2)> {
     let stride = points.len().div_ceil(SCORED_POINTS).max(1);
@@ -341,26 +368,23 @@ fn coarse_search(
         .copied()
         .unwrap_or(1.0)
         .max(1.0);
-    // Coarse: steps of twice the fine step, hits dilated to match; fine: cells of
-    // half a step, so both move the points by two whole cells a step.
-    let coarse = 2.0 * cfg.coarse_step;
+    // Coarse: steps of twice the fine step (more for a wide window), hits dilated to
+    // match; fine: cells of half a step. Both move the points by two whole cells.
+    let area = std::f64::consts::PI * window.xy.determinant().max(0.0).sqrt();
+    let coarse_cell = cfg.coarse_step.max((area / MAX_POSITIONS).sqrt() / 2.0);
+    let coarse = 2.0 * coarse_cell;
     let dth_coarse = (coarse / far).clamp(0.5f64.to_radians(), 3f64.to_radians());
-    let wide = HitGrid::new(submap, cfg.hit_distance.max(coarse), cfg.coarse_step);
-    let first = grid_search(
-        &pts,
-        &wide,
-        centre,
-        radius,
-        angle,
-        2,
-        dth_coarse,
-        2 * cfg.refine,
-    );
+    let wide = HitGrid::new(submap, cfg.hit_distance.max(coarse), coarse_cell);
+    let first = grid_search(&pts, &wide, centre, window, 2, dth_coarse, 2 * cfg.refine);
     let fine = HitGrid::new(submap, cfg.hit_distance, cfg.coarse_step / 2.0);
     let dth = (cfg.coarse_step / far).clamp(0.25f64.to_radians(), 2f64.to_radians());
+    let around = Window {
+        xy: Matrix2::identity() * (coarse * coarse),
+        angle: dth_coarse,
+    };
     let mut best = Vec::new();
     for (_, start) in first {
-        for item in grid_search(&pts, &fine, &start, coarse, dth_coarse, 2, dth, cfg.refine) {
+        for item in grid_search(&pts, &fine, &start, &around, 2, dth, cfg.refine) {
             keep_best(&mut best, item, cfg.refine);
         }
     }
@@ -393,7 +417,7 @@ pub struct Closure {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Rejection {
     /// Too few points paired.
-    Inliers,
+    Inliers = 0,
     /// Too large a residual.
     Residual,
     /// Too little information in some direction.
@@ -406,7 +430,7 @@ pub fn close_loop(
     scan: &ScanPoints,
     submap: &MapIndex,
     estimate: &Pose2,
-    path: f64,
+    window: &Window,
     icp: &IcpConfig,
     cfg: &LoopConfig,
 ) -> Result<std::result::Result<Closure, Rejection>> {
@@ -420,8 +444,7 @@ pub fn close_loop(
     if lines.len() < icp.min_inliers || submap.is_empty() {
         return Ok(Err(Rejection::Inliers));
     }
-    let (radius, angle) = cfg.window(path);
-    let starts = coarse_search(&lines, submap.points(), estimate, radius, angle, cfg);
+    let starts = coarse_search(&lines, submap.points(), estimate, window, cfg);
     // A weak prior keeps ICP's normal equations regular where the scan sees nothing;
     // only the scan's own information goes into the closure.
     let weak = Matrix3::from_diagonal(&Vector3::new(1e-6, 1e-6, 1e-6));
@@ -451,6 +474,10 @@ pub fn close_loop(
     if m.rms > cfg.max_rms {
         return Ok(Err(Rejection::Residual));
     }
+    // A place seen along a featureless corridor cannot place the robot along it:
+    // such a closure is refused rather than trusted in its other directions (tried:
+    // its poorly determined directions zeroed, it still let along-corridor guesses
+    // in; the robot NEES on the infinite corridor went from 20 to 12,000).
     if m.information.symmetric_eigenvalues().min() < cfg.min_information {
         return Ok(Err(Rejection::Degenerate));
     }

@@ -8,7 +8,7 @@
 //! motion since; its covariance is the key scan's marginal (Takahashi) plus that
 //! motion's.
 
-use nalgebra::Matrix3;
+use nalgebra::{Matrix3, Vector2};
 use rperc_core::Pose2;
 use slam::motion::Unicycle;
 
@@ -170,6 +170,9 @@ pub struct LaserRun {
     pub closures_rejected: usize,
     /// Closure attempts made.
     pub closure_attempts: usize,
+    /// Refusals by reason: too few pairs, too large a residual, degenerate, not
+    /// confirmed by the next attempt, removed for disagreeing with the graph.
+    pub rejections: [usize; 5],
 }
 
 /// A key scan of the graph.
@@ -221,6 +224,8 @@ struct Run<'a> {
     front: FrontEnd,
     graph: PoseGraph,
     keys: Vec<Key>,
+    /// The chain's steps between consecutive keys and their covariances.
+    chain: Vec<(Pose2, Matrix3<f64>)>,
     since: SinceKey,
     path: f64,
     pending: Option<Pending>,
@@ -260,6 +265,7 @@ pub fn run(
         // The start is known: 0.1 mm and 0.1 mrad, loose enough for the factorisation.
         graph: PoseGraph::new(start, Matrix3::identity() * 1e8),
         keys: Vec::new(),
+        chain: Vec::new(),
         since: SinceKey::at(0),
         path: 0.0,
         pending: None,
@@ -337,6 +343,7 @@ impl Run<'_> {
             robust: None,
         };
         self.graph.add_edge(edge)?;
+        self.chain.push((self.since.motion, self.since.covariance));
         self.since = SinceKey::at(node);
         self.keys.push(Key {
             scan: k,
@@ -353,31 +360,60 @@ impl Run<'_> {
         Ok(())
     }
 
-    /// The nearest earlier key far enough back along the path and within its window.
-    fn candidate(&self) -> Option<usize> {
+    /// The covariance of the latest key's pose relative to each earlier key, from the
+    /// chain alone (the key steps composed backwards, in world axes): an upper bound,
+    /// since closures only shrink it, of how far the graph can have drifted since.
+    fn relative_covariances(&self) -> Vec<Matrix3<f64>> {
+        let n = self.keys.len();
+        let mut out = vec![Matrix3::zeros(); n];
+        let (mut rel, mut cov) = (Pose2::identity(), Matrix3::zeros());
+        for k in (0..n - 1).rev() {
+            let (z, z_cov) = self.chain[k];
+            let (r, j1, j2) = z.compose_with_jacobians(&rel);
+            cov = j1 * z_cov * j1.transpose() + j2 * cov * j2.transpose();
+            rel = r;
+            // Into world axes with the earlier key's heading.
+            let (sin, cos) = self.graph.poses[self.keys[k].node].theta.sin_cos();
+            let rot = Matrix3::new(cos, -sin, 0.0, sin, cos, 0.0, 0.0, 0.0, 1.0);
+            out[k] = rot * cov * rot.transpose();
+        }
+        out
+    }
+
+    /// The earlier key most likely to overlap the latest one: far enough back along
+    /// the path, and within `overlap` of it up to `sigmas` standard deviations of the
+    /// chain's drift since; with the covariance that sets the search window.
+    fn candidate(&self) -> Option<(usize, Matrix3<f64>)> {
         let me = self.keys.last()?;
-        let here = self.graph.poses[me.node];
+        let here = self.graph.poses[me.node].translation();
+        let cfg = &self.cfg.loops;
+        let covs = self.relative_covariances();
         self.keys
             .iter()
             .enumerate()
-            .filter(|(_, c)| me.path - c.path > self.cfg.loops.min_path)
-            .map(|(i, c)| {
-                (
-                    i,
-                    self.graph.poses[c.node].between(&here).translation().norm(),
-                    me.path - c.path,
-                )
+            .filter(|(_, c)| me.path - c.path > cfg.min_path)
+            .filter_map(|(i, c)| {
+                let d = here - self.graph.poses[c.node].translation();
+                let dist = d.norm();
+                let u = if dist > 1e-9 { d / dist } else { Vector2::x() };
+                let sd = (u.transpose() * covs[i].fixed_view::<2, 2>(0, 0) * u)[(0, 0)]
+                    .max(0.0)
+                    .sqrt();
+                let gap = (dist - cfg.overlap).max(0.0);
+                (gap <= cfg.sigmas * sd).then_some((i, gap / sd.max(1e-9), dist, covs[i]))
             })
-            .filter(|&(_, d, path)| d <= self.cfg.loops.window(path).0)
-            .min_by(|a, b| a.1.total_cmp(&b.1))
-            .map(|(i, _, _)| i)
+            // The least surprising place first; among places that may overlap (no
+            // gap), the nearest.
+            .min_by(|a, b| a.1.total_cmp(&b.1).then(a.2.total_cmp(&b.2)))
+            .map(|(i, _, _, cov)| (i, cov))
     }
 
     fn try_closure(&mut self, scan: &ScanPoints) -> Result<()> {
-        let Some(c) = self.candidate() else {
+        let Some((c, relative)) = self.candidate() else {
             self.pending = None;
             return Ok(());
         };
+        let window = self.cfg.loops.window(&relative);
         self.out.closure_attempts += 1;
         let w = self.cfg.loops.submap_keys;
         let around = &self.keys[c.saturating_sub(w)..(c + w + 1).min(self.keys.len())];
@@ -389,17 +425,17 @@ impl Run<'_> {
         )?;
         let me = self.keys.len() - 1;
         let estimate = self.graph.poses[self.keys[me].node];
-        let path = self.keys[me].path - self.keys[c].path;
         match close_loop(
             scan,
             &submap,
             &estimate,
-            path,
+            &window,
             &self.cfg.icp,
             &self.cfg.loops,
         )? {
-            Err(_) => {
+            Err(why) => {
                 self.out.closures_rejected += 1;
+                self.out.rejections[why as usize] += 1;
                 self.pending = None;
             }
             Ok(closure) => self.confirm(Pending {
@@ -424,6 +460,7 @@ impl Run<'_> {
             &self.cfg.loops,
         ) {
             self.out.closures_rejected += 1;
+            self.out.rejections[3] += 1;
             self.pending = Some(new);
             return Ok(());
         }
@@ -470,6 +507,7 @@ impl Run<'_> {
             |e| e.to != e.from + 1,
         )?;
         self.out.closures_rejected += removed.len();
+        self.out.rejections[4] += removed.len();
         Ok(())
     }
 

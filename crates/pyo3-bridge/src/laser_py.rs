@@ -88,6 +88,18 @@ pub fn laser_run<'py>(
     d.set_item("closure_chi2", out.closure_chi2.into_pyarray(py))?;
     d.set_item("closures_rejected", out.closures_rejected)?;
     d.set_item("closure_attempts", out.closure_attempts)?;
+    let reasons = [
+        "inliers",
+        "residual",
+        "degenerate",
+        "unconfirmed",
+        "disagreeing",
+    ];
+    let why = PyDict::new(py);
+    for (name, count) in reasons.iter().zip(out.rejections) {
+        why.set_item(name, count)?;
+    }
+    d.set_item("rejections", why)?;
     Ok(d)
 }
 

@@ -179,6 +179,7 @@ def run_laser(
         "loop_closures_accepted": len(out["closures"]),
         "loop_closures_rejected": int(out["closures_rejected"]),
         "loop_closure_attempts": int(out["closure_attempts"]),
+        **{f"loop_closures_rejected_{k}": int(v) for k, v in out["rejections"].items()},
     }
     return LaserResult(
         log=Path(log.path).name,

@@ -95,8 +95,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     )
     la.add_argument(
         "--variants",
-        default="plain",
-        help=f"comma-separated, parts joined by +: {', '.join(laser.VARIANT_PARTS)}",
+        default=",".join(laser.DEFAULT_VARIANTS),
+        help="comma-separated: laser (the default), scan-matching, or wall SLAM's "
+        f"variants with parts joined by +: {', '.join(laser.VARIANT_PARTS)}",
     )
     _common(la, "0")
     m = kinds.add_parser("mrclam", help="MR.CLAM robots through planar EKF-SLAM")

@@ -142,7 +142,7 @@ RELINEARIZE_THRESHOLD = 0.01
 NUM_THREADS = 1
 
 EXTRA_HINT = "the laser peer needs small_gicp and gtsam: pip install 'rperc[laser-peer]'"
-VARIANTS = ("icp", "icp+loops")
+VARIANTS = ("icp", "icp+loops", "rperc")
 
 
 @dataclass(frozen=True)
@@ -513,6 +513,23 @@ def run_peer(log_path: str | Path, seed: int, loops: bool, **settings: Any) -> d
     }  # fmt: skip
 
 
+def run_rperc(log_path: str | Path, seed: int) -> dict[str, Any]:
+    """rperc's laser pipeline (``rperc slam laser``) on the same log with the same
+    odometry draw, in the same run, as a row of the peer's table."""
+    from rperc.slam.laser import load_and_run
+
+    r = load_and_run(log_path, seed=seed)
+    m = r.measured()
+    odo_ate, odo_final = ate(odometry(r.reference, seed)[0], r.reference)
+    return {
+        "log": Path(log_path).name, "seed": int(seed), "variant": "rperc",
+        "ate_rmse_m": m["ate_rmse_m"], "final_error_m": m["final_error_m"],
+        "odometry_ate_rmse_m": odo_ate, "odometry_final_error_m": odo_final,
+        "loop_closures": m["loop_closures_accepted"], "scans": m["scans"],
+        "nees_mean": m["nees_mean"], "scans_per_second": m["scans_per_second"],
+    }  # fmt: skip
+
+
 # ---- The command line. ----
 def log_files(items: Iterable[str]) -> list[Path]:
     """Files as given; a directory gives its CARMEN logs (``*.log``, ``*.log.gz``)."""
@@ -568,7 +585,10 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--logs", nargs="+", default=[str(default)], help="log files or directories")
     ap.add_argument("--seeds", default="0-2", help="e.g. 0-2 or 0,3,5 (default 0-2)")
-    ap.add_argument("--variants", default="icp,icp+loops", help="icp, icp+loops or both")
+    ap.add_argument(
+        "--variants", default="icp,icp+loops,rperc",
+        help="icp, icp+loops (the peer) and rperc (rperc slam laser in the same run)",
+    )  # fmt: skip
     ap.add_argument("--json", type=Path, help="write every run's row (no paths) here")
     args = ap.parse_args(argv)
     variants = [v.strip() for v in args.variants.split(",") if v.strip()]
@@ -584,12 +604,16 @@ def main(argv: list[str] | None = None) -> int:
         for path in log_files(args.logs):
             for v in variants:
                 for seed in seed_list(args.seeds):
-                    r = run_peer(path, seed, loops=v == "icp+loops")
+                    if v == "rperc":
+                        r = run_rperc(path, seed)
+                    else:
+                        r = run_peer(path, seed, loops=v == "icp+loops")
                     rows.append({k: x for k, x in r.items() if not isinstance(x, np.ndarray)})
                     print(
                         f"{r['log']} {v} seed {seed}: ATE {r['ate_rmse_m']:.3f} m (odometry "
                         f"{r['odometry_ate_rmse_m']:.3f}), loops {r['loop_closures']}, "
-                        f"rejected {r['icp_rejected']}, {r['scans_per_second']:.0f} scans/s",
+                        f"rejected {r.get('icp_rejected', '-')}, "
+                        f"{r['scans_per_second']:.0f} scans/s",
                         file=sys.stderr, flush=True,
                     )  # fmt: skip
     except KeyboardInterrupt:
@@ -599,7 +623,29 @@ def main(argv: list[str] | None = None) -> int:
         if args.json is not None and rows:
             args.json.write_text(json.dumps(rows, indent=1) + "\n")
     print(table(rows, variants))
+    print(verdict(rows))
     return 0
+
+
+def verdict(rows: list[dict[str, Any]]) -> str:
+    """Per log, whether rperc's mean ATE is within the peer's ICP + loops mean plus
+    5 cm (issue 33's goal), and the speed ratio, from this run's rows."""
+    lines = []
+    for log in dict.fromkeys(r["log"] for r in rows):
+        mine = {v: [r for r in rows if r["log"] == log and r["variant"] == v] for v in VARIANTS}
+        if not mine["rperc"] or not mine["icp+loops"]:
+            continue
+        ours = float(np.mean([r["ate_rmse_m"] for r in mine["rperc"]]))
+        peer = float(np.mean([r["ate_rmse_m"] for r in mine["icp+loops"]]))
+        speed = np.mean([r["scans_per_second"] for r in mine["rperc"]]) / np.mean(
+            [r["scans_per_second"] for r in mine["icp+loops"]]
+        )
+        ok = "yes" if ours <= peer + 0.05 else "no"
+        lines.append(
+            f"{log}: rperc {ours:.3f} m, peer {peer:.3f} m, within +5 cm: {ok}, "
+            f"{speed:.1f}x the peer's scans/s"
+        )
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":

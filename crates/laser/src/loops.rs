@@ -292,6 +292,10 @@ const SCORED_POINTS: usize = 60;
 /// coarser step, so an attempt never costs more than a few hundred thousand look-ups.
 const MAX_POSITIONS: f64 = 3000.0;
 
+/// Submap points farther than this from the search centre are not scored, m: it
+/// bounds the hit grids (cells of a few centimetres) to some tens of megabytes.
+const MAX_REACH: f64 = 250.0;
+
 /// The best `keep` poses (with their scores) on a grid of `steps` cells of `grid`
 /// and `dth` rad around `centre`, within `window`, scored by the share of `points`
 /// (laser frame) that land on `grid`'s hits. Translations are whole cells, so each
@@ -359,6 +363,19 @@ fn coarse_search(
 ) -> Vec<(f64, Pose2)> {
     let stride = points.len().div_ceil(SCORED_POINTS).max(1);
     let pts: Vec<Vector2<f64>> = points.iter().step_by(stride).copied().collect();
+    // Only the submap points the scan can reach from inside the window score; this
+    // also bounds the hit grids' size whatever the log's ranges (at most 250 m).
+    let reach_scan = pts.iter().map(|p| p.norm()).fold(0.0, f64::max);
+    let limit = (window.extent().max() + reach_scan + 2.0 * cfg.hit_distance).min(MAX_REACH);
+    let near: Vec<Vector2<f64>> = submap
+        .iter()
+        .filter(|p| (*p - centre.translation()).norm() <= limit)
+        .copied()
+        .collect();
+    let submap = &near[..];
+    if submap.is_empty() {
+        return Vec::new();
+    }
     // The heading step moves a point at the median range by about one step; farther
     // points land within the fine search and ICP's reach.
     let mut ranges: Vec<f64> = pts.iter().map(|p| p.norm()).collect();

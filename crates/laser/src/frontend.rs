@@ -90,7 +90,8 @@ pub struct KeyScan {
 }
 
 impl KeyScan {
-    fn new(index: usize, pose: Pose2, scan: &ScanPoints) -> Self {
+    /// Scan `index` at `pose`: its points that lie on lines, with their normals.
+    pub fn new(index: usize, pose: Pose2, scan: &ScanPoints) -> Self {
         let (points, normals) = scan
             .points
             .iter()

@@ -279,7 +279,7 @@ pub fn run(
         scan: 0,
         node: 0,
         path: 0.0,
-        shape: shape(0, start, &first),
+        shape: KeyScan::new(0, start, &first),
     });
     run.record(start, None);
     for k in 1..log.len() {
@@ -292,21 +292,6 @@ pub fn run(
             })?;
     }
     run.finish()
-}
-
-fn shape(index: usize, pose: Pose2, scan: &ScanPoints) -> KeyScan {
-    let (points, normals) = scan
-        .points
-        .iter()
-        .zip(&scan.normals)
-        .filter_map(|(p, n)| n.map(|n| (*p, n)))
-        .unzip();
-    KeyScan {
-        index,
-        pose,
-        points,
-        normals,
-    }
 }
 
 impl Run<'_> {
@@ -349,7 +334,7 @@ impl Run<'_> {
             scan: k,
             node,
             path: self.path,
-            shape: shape(k, pose, scan),
+            shape: KeyScan::new(k, pose, scan),
         });
         let key = self.keys.len() - 1;
         let due = key >= self.quiet_until

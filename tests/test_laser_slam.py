@@ -138,6 +138,7 @@ def test_a_settings_grid_reaches_the_pipeline(loop_log: Path) -> None:
         ({"loops": {"coarse_step": 1e-6}}, ValueError, "coarse_step"),
         ({"local_map": {"cell": 0.1}}, ValueError, "cell"),
         ({"scan": {"max_flatness": float("nan")}}, ValueError, "max_flatness"),
+        ({"chain_inflation": 0.5}, ValueError, "chain_inflation"),
     ],
 )
 def test_bad_settings_name_the_field(loop_log: Path, config: dict, error: type, match: str) -> None:

@@ -40,6 +40,12 @@ pub struct LaserConfig {
     pub graph_iterations: usize,
     /// ... stopped when a step moves no pose more than this, m or rad (> 0).
     pub graph_tolerance: f64,
+    /// The front end's motion covariances are multiplied by this in the pose graph's
+    /// chain (>= 1): consecutive matches against one local map share its errors, so
+    /// the chain drifts more than independent steps would. Calibrated on intel, aces,
+    /// freiburg-101 and edmonton (seeds 0-2) for a robot NEES mean of 3 over them:
+    /// 4.55 at 1, 3.1 at 1.5, 2.6 at 2, 1.8 at 3.
+    pub chain_inflation: f64,
 }
 
 impl Default for LaserConfig {
@@ -53,6 +59,7 @@ impl Default for LaserConfig {
             initial_pose: [0.0; 3],
             graph_iterations: 10,
             graph_tolerance: 1e-5,
+            chain_inflation: 1.5,
         }
     }
 }
@@ -71,6 +78,13 @@ impl LaserConfig {
             return Err(LaserError::invalid(
                 "graph_iterations",
                 format!("must be in 1..=1000, got {n}"),
+            ));
+        }
+        if !(self.chain_inflation.is_finite() && (1.0..=1e6).contains(&self.chain_inflation)) {
+            let c = self.chain_inflation;
+            return Err(LaserError::invalid(
+                "chain_inflation",
+                format!("must be in [1, 1e6], got {c}"),
             ));
         }
         if !(self.graph_tolerance.is_finite() && self.graph_tolerance > 0.0) {
@@ -306,7 +320,8 @@ impl Run<'_> {
     fn step(&mut self, k: usize, scan: &ScanPoints, odo: &Step) -> Result<()> {
         let tracked = self.front.track(k, scan, odo)?;
         self.path += tracked.motion.translation().norm();
-        self.since = self.since.then(&tracked.motion, &tracked.motion_covariance);
+        let cov = tracked.motion_covariance * self.cfg.chain_inflation;
+        self.since = self.since.then(&tracked.motion, &cov);
         if tracked.key {
             self.add_key(k, tracked.pose, scan)?;
         }

@@ -1,9 +1,11 @@
 //! Criterion benches of the laser pipeline's hot paths: scan preprocessing and one
-//! ICP match against a local map, on simulated scans of a cluttered room.
+//! ICP match against a local map, and one loop-closure attempt, on simulated scans
+//! of a cluttered room.
 
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use laser::loops::{LoopConfig, close_loop};
 use laser::scan::{Beams, ScanConfig, scan_points};
 use laser::sim::{cluttered_room, ray_cast};
 use laser::{IcpConfig, MapIndex, Prior, match_scan};
@@ -49,6 +51,17 @@ fn bench_scan(c: &mut Criterion) {
     let icp = IcpConfig::default();
     c.bench_function("match_scan/one scan", |b| {
         b.iter(|| match_scan(black_box(&scan), &map, start, &prior, &icp).unwrap())
+    });
+
+    // A closure attempt: the correlative search (branch and bound) over a window of
+    // about 2 m and 15 degrees, then ICP from its best poses.
+    let loops = LoopConfig::default();
+    let window = loops.window(&Matrix3::from_diagonal(&nalgebra::Vector3::new(
+        0.4, 0.3, 0.0025,
+    )));
+    let guess = Pose2::new(3.6, 1.5, 0.2);
+    c.bench_function("close_loop/2 m window", |b| {
+        b.iter(|| close_loop(black_box(&scan), &map, &guess, &window, &icp, &loops).unwrap())
     });
 }
 

@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 #![deny(missing_docs)]
 
+mod correlative;
 mod error;
 pub mod frontend;
 pub mod graph;

@@ -223,16 +223,23 @@ mod tests {
         }
         let normals = vec![Vector2::new(1.0, 0.0); pts.len()];
         let map = MapIndex::new(pts.clone(), normals, 0.5).unwrap();
-        for k in 0..300 {
-            let q = Vector2::new(-11.0 + 0.073 * k as f64, 8.0 - 0.055 * k as f64);
-            let brute = pts
-                .iter()
-                .enumerate()
-                .map(|(i, p)| (i, (p - q).norm_squared()))
-                .filter(|&(_, d2)| d2 <= 0.25)
-                .min_by(|a, b| a.1.total_cmp(&b.1));
-            let found = map.nearest(&q, 0.5).map(|n| (n.index, n.distance2));
-            assert_eq!(found.map(|f| f.1), brute.map(|b| b.1), "query {q:?}");
+        // Queries on a line across the map, and scattered near its points, at the
+        // full radius and a smaller one.
+        let queries = (0..300)
+            .map(|k| Vector2::new(-11.0 + 0.073 * k as f64, 8.0 - 0.055 * k as f64))
+            .chain(pts.iter().enumerate().map(|(k, p)| {
+                p + Vector2::new(0.3 * (k as f64 * 2.1).sin(), 0.3 * (k as f64 * 1.7).cos())
+            }));
+        for q in queries {
+            for radius in [0.5, 0.17] {
+                let brute = pts
+                    .iter()
+                    .map(|p| (p - q).norm_squared())
+                    .filter(|&d2| d2 <= radius * radius)
+                    .min_by(f64::total_cmp);
+                let found = map.nearest(&q, radius).map(|n| n.distance2);
+                assert_eq!(found, brute, "query {q:?}, radius {radius}");
+            }
         }
     }
 

@@ -327,3 +327,23 @@ def test_worlds_benchmark_reports_a_run_that_cannot_be_learnt(capsys) -> None:
     out = capsys.readouterr().out
     assert "| 1* | learning failed:" in out
     assert "tuning: learning failed in worlds [1]" in out
+
+
+@pytest.mark.parametrize(
+    ("case", "offset", "other_world"),
+    [("100 m away", (100.0, 0.0, 0.0), False), ("kidnapped 0.7 m", (0.7, 0.0, 0.0), False),
+     ("another world", (0.0, 0.0, 0.0), True)],
+)  # fmt: skip
+def test_a_replay_that_never_localises_is_lost_not_reached(learnt, case, offset, other_world):
+    # Issue 38: replays whose every frame was lost reported 'reached' (ending 100 m or
+    # 0.7 m from B): the servo measured the key error from trackers the localisation
+    # had refused. The one rule: a lost frame sees no key image.
+    world, learning = learnt
+    if other_world:
+        world = CeilingWorld(ceiling={"seed": 9}, render={**RENDER, "seed": 9})
+    start = learning.frames.truth[0] + np.array(offset)
+    run = replay(world, learning.memory, start, seed=2)
+    assert run.outcome == "lost", (case, run)
+    assert not run.reached
+    # Never reached with a lost last frame, whatever else happened.
+    assert run.frames.lost[-1]

@@ -36,6 +36,10 @@ CASES = {
     # seconds (the factorisation, gain, covariance write and NEES are all checkpointed).
     "one monobot step with thousands of landmarks": "from rperc.slam import monobot\n"
     + "print('ready', flush=True)\nmonobot.simulate(landmarks=3000, steps=1)\n",
+    # Issue 38: the runs went to rayon's pool, whose threads never saw the signal
+    # (a SIGINT at 2 s left it running 40 s later).
+    "planar Monte Carlo": "from rperc.slam.planar import monte_carlo\n"
+    + "print('ready', flush=True)\nmonte_carlo({'steps': 3000}, runs=2000)\n",
     # A 1 GB ceiling texture (80 x 80 m at 5 mm): seconds of tile levels to generate.
     "a huge ceiling world": "from rperc.navigation import CeilingWorld\n"
     + "print('ready', flush=True)\nCeilingWorld(ceiling={'size': [80.0, 80.0]})\n",

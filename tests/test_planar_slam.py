@@ -509,3 +509,19 @@ def test_victoria_park_start_associates_as_the_numpy_reference():
     nn = PlanarSlam(PRESETS["victoria"], association="nn").run(victoria_recording(park))
     assert s["rejected"] > 0 and s["candidate"] > 0
     assert nn.statistics["accepted"] != s["accepted"]
+
+
+def test_more_known_landmarks_than_memory_allows_is_refused_naming_them():
+    # Issue 38: 30,000 landmarks failed seconds into the run, naming a "546484129 state
+    # dimension" (a square the caller never set). Their covariance is (3 + 2 n)^2
+    # doubles; the ids are counted before the run starts.
+    n = 30_000
+    controls = np.array([[0.0, 1.0, 0.0], [1.0, 1.0, 0.0]])
+    det = np.c_[np.full(n, 0.5), np.full(n, 2.0), np.zeros(n)]
+    need = (3 + 2 * n) ** 2 * 8
+    with pytest.raises(MemoryError, match=rf"^'landmarks' = {n} would need {need} bytes"):
+        PlanarSlam().run_arrays(controls, det, detection_ids=np.arange(n))
+    # A few landmarks seen many times are counted once.
+    few = np.c_[np.repeat([0.5, 0.6, 0.7], 3), np.full(9, 2.0), np.tile([0.0, 1.0, -1.0], 3)]
+    out = PlanarSlam().run_arrays(controls, few, detection_ids=np.tile([0, 1, 2], 3))
+    assert len(out.landmark_id) == 3

@@ -98,7 +98,20 @@ pub fn max_allocation_bytes() -> u128 {
 /// assert!(err.to_string().starts_with("'n' = 1099511627776 would need 8796093022208 bytes"));
 /// ```
 pub fn check_allocation(name: &'static str, count: u128, bytes_each: u128) -> Result<()> {
-    let bytes = count.saturating_mul(bytes_each);
+    check_bytes(name, count, count.saturating_mul(bytes_each))
+}
+
+/// `Err(TooLarge)` when the `bytes` that `count` (the value the caller set for `name`)
+/// implies exceed [`max_allocation_bytes`]: for sizes that grow faster than linearly,
+/// such as a covariance of `(3 + 2 n)^2` entries for `n` landmarks, so that the
+/// message still names what the caller asked for, not a derived dimension.
+///
+/// # Examples
+/// ```
+/// let err = rperc_core::check_bytes("landmarks", 30_000, 60_003u128.pow(2) * 8).unwrap_err();
+/// assert!(err.to_string().starts_with("'landmarks' = 30000 would need 28802880072 bytes"));
+/// ```
+pub fn check_bytes(name: &'static str, count: u128, bytes: u128) -> Result<()> {
     let limit = max_allocation_bytes();
     if bytes <= limit {
         Ok(())

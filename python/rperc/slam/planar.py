@@ -611,10 +611,10 @@ def monte_carlo(
     filt = dict(slam) if slam is not None else sim_slam_config(sim)
     runs = whole_number(runs, "runs", 1)
     seed = whole_number(seed, "seed", 0, limit=2**64)
+    _rperc.planar_sim_check(sim, filt, runs)  # refused before any run starts
     if executor is None:
         nees = _rperc.planar_sim_nees(sim, filt, seed, 0, runs)
     else:
-        _rperc.planar_sim_nees({**sim, "steps": 1}, filt, seed, 0, 1)  # validate early
         futures = [executor.submit(_sim_run_nees, sim, filt, seed, i) for i in range(runs)]
         nees = np.stack([f.result() for f in futures])
     lo, hi = _rperc.nees_bounds(3, runs, confidence)

@@ -56,6 +56,7 @@ from typing import Literal
 
 import numpy as np
 
+from rperc._args import excerpt
 from rperc.datasets._text import decode_lines
 from rperc.datasets.errors import DatasetFormatError
 from rperc.datasets.timestamps import TimeOrderError, TimestampRepairWarning, repair_increasing
@@ -227,9 +228,18 @@ class CarmenLog:
 def _floats(path: Path, lineno: int, fields: list[str], what: str) -> list[float]:
     try:
         values = [float(f) for f in fields]
-    except ValueError as exc:
-        raise DatasetFormatError(path, lineno, f"{what}: {exc}") from None
+    except ValueError:
+        bad = next(f for f in fields if not _parses(f))
+        raise DatasetFormatError(path, lineno, f"{what}: not a number: {excerpt(bad)}") from None
     return values
+
+
+def _parses(token: str) -> bool:
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
 
 
 def _finite(path: Path, lineno: int, values: list[float], what: str) -> list[float]:
@@ -243,7 +253,7 @@ def _int(path: Path, lineno: int, tok: list[str], k: int, what: str) -> int:
     try:
         return int(tok[k])
     except (ValueError, IndexError):
-        got = repr(tok[k]) if k < len(tok) else "nothing"
+        got = excerpt(tok[k]) if k < len(tok) else "nothing"
         raise DatasetFormatError(path, lineno, f"{tok[0]} {what}: got {got}") from None
 
 
@@ -530,7 +540,7 @@ def _read_record(
         return kind
     else:
         if strict and kind not in SKIPPED_TYPES:
-            raise DatasetFormatError(path, lineno, f"unknown record type {kind!r}")
+            raise DatasetFormatError(path, lineno, f"unknown record type {excerpt(kind)}")
         return kind
     return None
 

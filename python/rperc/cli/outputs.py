@@ -17,6 +17,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rperc._atomic import write_text_atomically
+
 if TYPE_CHECKING:
     from rperc.datasets import CarmenLog
 
@@ -149,5 +151,5 @@ def write_json(path: Path | None, measured: Mapping[str, Any]) -> None:
     """Write ``measured`` to ``path`` (checked earlier with :func:`check_output_file`)."""
     if path is None:
         return
-    path.write_text(json.dumps(_plain(measured), indent=2) + "\n", encoding="utf-8")
+    write_text_atomically(path, json.dumps(_plain(measured), indent=2) + "\n")
     wrote(path)

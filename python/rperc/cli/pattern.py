@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from rperc._atomic import write_atomically, write_text_atomically
 from rperc._progress import progress
 from rperc.cli.demo import DemoResult
 from rperc.cli.outputs import (
@@ -115,7 +116,7 @@ def demo_pattern(out: Path, seed: int, frames: int = 60) -> DemoResult:
     cases = planar.harness_cases(patch, background, n_frames=max(frames // 2, 8), seed=seed)
     scores = planar.run_harness(cases)
     table = planar.format_table(scores)
-    (out / "pattern_harness.txt").write_text(table + "\n")
+    write_text_atomically(out / "pattern_harness.txt", table + "\n")
     p5 = {s.tracker: s.precision_5 for s in scores if s.case == "steps <= 1 sigma"}
     summary = (
         f"pattern: Fig. 8 sequence ({frames} frames, seed {seed}, steps to 4 sigma), within "
@@ -267,7 +268,8 @@ def track_pattern_command(args: argparse.Namespace) -> int:
     if args.animation is not None:
         import imageio.v3 as iio  # type: ignore[import-not-found,unused-ignore]
 
-        iio.imwrite(args.animation, [_draw_quad(f, q) for f, q in zip(frames, quads, strict=True)])
+        drawn = [_draw_quad(f, q) for f, q in zip(frames, quads, strict=True)]
+        write_atomically(args.animation, lambda tmp: iio.imwrite(tmp, drawn))
         wrote(args.animation)
     write_json(
         args.json,

@@ -34,6 +34,7 @@ import numpy.typing as npt
 
 from rperc import _rperc
 from rperc._args import float_array, real_number, whole_number
+from rperc._atomic import write_text_atomically
 from rperc.navigation.world import CeilingWorld
 
 __all__ = [
@@ -132,9 +133,7 @@ class VisualMemory:
                 "image_size": self._data["image_size"],
             },
         }
-        p = Path(path)
-        p.write_text(json.dumps(out))
-        return p
+        return write_text_atomically(path, json.dumps(out))
 
     @classmethod
     def load(cls, path: str | Path) -> VisualMemory:

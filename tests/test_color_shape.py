@@ -120,3 +120,16 @@ def test_every_size_in_the_config_has_a_named_upper_bound(field: str) -> None:
     for start in ({"box": (10, 8, 20, 20)}, {"contour": _SQUARE}):
         with pytest.raises(ValueError, match=f"'{field}': must be in"):
             ColorShapeTracker(frame, config={field: 10**9}, **start)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"seed": None}, r"^seed must be a non-negative integer below 2\*\*64, got None"),
+        ({"sigma": "abc"}, r"^sigma must be a real number, got 'abc'"),
+    ],
+)
+def test_bad_arguments_name_the_parameter(kwargs, message):
+    frame = np.zeros((40, 50, 3), np.uint8)
+    with pytest.raises(ValueError, match=message):
+        ColorShapeTracker(frame, (10, 8, 20, 20), **kwargs)

@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
-from rperc._args import whole_number
+from rperc._args import real_number, whole_number
 
 ColorSpace = Literal["hsv", "opponent", "rg", "rgb"]
 ModelKind = Literal["bimodal", "single"]
@@ -457,7 +457,7 @@ class ColorShapeTracker:
         cfg.update(
             color_space=color_space,
             n_samples=whole_number(n_samples, "n_samples", 1, limit=1_000_000),
-            sigma=float(sigma),
+            sigma=real_number(sigma, "sigma"),
             seed=whole_number(seed, "seed", 0, limit=2**64),
         )
         poly = None if contour is None else np.asarray(contour, dtype=np.float64)

@@ -18,6 +18,7 @@ __all__ = [
     "__version__",
     "ceiling_defaults",
     "ceiling_drive",
+    "check_allocation",
     "color_shape_defaults",
     "effective_sample_size",
     "extract_lines",
@@ -304,6 +305,7 @@ class CeilingWorld:
     ) -> tuple[list[str], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
     def configs(self) -> tuple[dict[str, Any], dict[str, Any]]: ...
 
+def check_allocation(name: str, count: int, bytes_each: int) -> None: ...
 def ceiling_drive(
     start: npt.NDArray[np.float64],
     commands: npt.NDArray[np.float64],

@@ -29,7 +29,7 @@ pub enum CoreError {
         reason: String,
     },
     /// A size a caller asked for would need more memory than rperc allows itself.
-    #[error("'{name}' = {count} would need {bytes} bytes, over the limit of {limit} bytes")]
+    #[error("{}", too_large(name, *count, *bytes, *limit))]
     TooLarge {
         /// The parameter that sets the size.
         name: &'static str,
@@ -53,6 +53,12 @@ pub enum CoreError {
         /// The valid names.
         expected: &'static [&'static str],
     },
+}
+
+/// The message of [`CoreError::TooLarge`], also for a size named at run time (the
+/// Python layer's own allocations).
+pub fn too_large(name: &str, count: u128, bytes: u128, limit: u128) -> String {
+    format!("'{name}' = {count} would need {bytes} bytes, over the limit of {limit} bytes")
 }
 
 fn quoted(names: &[&str]) -> String {

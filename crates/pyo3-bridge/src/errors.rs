@@ -91,6 +91,20 @@ impl From<Error> for PyErr {
     }
 }
 
+/// `count` items of `bytes_each` bytes as the core crates check them
+/// ([`rperc_core::check_allocation`]): `MemoryError` naming `name` when over the
+/// limit. The Python layer's own allocations (a fix every `fix_interval` seconds)
+/// obey the same limit through this one check.
+#[pyfunction]
+pub fn check_allocation(name: &str, count: u128, bytes_each: u128) -> PyResult<()> {
+    rperc_core::check_allocation("count", count, bytes_each).map_err(|e| match e {
+        rperc_core::CoreError::TooLarge { bytes, limit, .. } => {
+            PyMemoryError::new_err(rperc_core::too_large(name, count, bytes, limit))
+        }
+        other => Error::Core(other).into(),
+    })
+}
+
 /// Exclusive access to a native object for a mutating call. PyO3 refuses a second
 /// concurrent borrow with a bare "Already borrowed"; this says what to do instead.
 pub fn exclusive<'py, T>(slf: &Bound<'py, T>) -> PyResult<pyo3::PyRefMut<'py, T>>

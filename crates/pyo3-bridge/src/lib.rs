@@ -34,6 +34,8 @@ mod _rperc {
     #[pymodule_export]
     use crate::errors::RpercError;
     #[pymodule_export]
+    use crate::errors::check_allocation;
+    #[pymodule_export]
     use crate::eval_py::{
         otb_center_error, otb_groundtruth, otb_iou, otb_precision, otb_success_curve,
         pose_transform_points,

@@ -43,7 +43,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
-from rperc._args import whole_number
+from rperc._args import real_number, whole_number
 from rperc.slam import evaluation
 
 __all__ = [
@@ -355,12 +355,18 @@ def mrclam_recording(
     seeded Gaussian noise of ``fix_sigma`` metres (the issue's stand-in for a GPS)."""
     fixes = None
     if fix_interval is not None:
-        if not fix_interval > 0 or not fix_sigma > 0:
+        fix_interval = real_number(fix_interval, "fix_interval")
+        if not fix_interval > 0 or not real_number(fix_sigma, "fix_sigma") > 0:
             raise ValueError("fix_interval and fix_sigma must be > 0")
         # From the run's start (its first odometry row, where mrclam_start puts the
         # robot): MR.CLAM's Vicon starts 12 s earlier, and fixes from then would
         # start the filter 12 s early, away from its start pose.
         start = max(float(run.truth_t[0]), float(run.odometry_t[0]))
+        # Checked before np.arange: 1e-9 s asked numpy for 5.5 TiB (issue 38). A fix
+        # is a row of six floats, built from a few arrays as long.
+        count = max(0.0, float(run.truth_t[-1]) - start) / fix_interval
+        wanted = int(min(count, 2.0**100)) + 1
+        _rperc.check_allocation(f"fixes every fix_interval={fix_interval:g} s", wanted, 6 * 8 * 4)
         t = np.arange(start, run.truth_t[-1], fix_interval)
         xy = np.c_[np.interp(t, run.truth_t, run.truth_x), np.interp(t, run.truth_t, run.truth_y)]
         xy += np.random.default_rng(seed).normal(scale=fix_sigma, size=xy.shape)

@@ -97,3 +97,33 @@ def test_interruptible_calls_still_return_their_results():
         [0, 2],
         [0, 2],
     ]
+
+
+def test_ctrl_c_during_the_start_up_imports_prints_one_line(tmp_path):
+    # Issue 38: a SIGINT while the command imported numpy, the extension, PIL and
+    # matplotlib printed a traceback. A stand-in matplotlib that takes 30 s to import
+    # holds the start-up where the signal must land.
+    fake = tmp_path / "matplotlib"
+    fake.mkdir()
+    (fake / "__init__.py").write_text(
+        "import sys, time\nprint('ready', flush=True)\ntime.sleep(30)\n"
+    )
+    code = DEFAULT_SIGINT + (
+        f"import sys\nsys.path.insert(0, {str(tmp_path)!r})\n"
+        "sys.argv = ['rperc', 'demo', 'lines']\n"
+        "import runpy\nrunpy.run_module('rperc', run_name='__main__')\n"
+    )
+    child = subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    try:
+        assert child.stdout is not None
+        assert child.stdout.readline().strip() == "ready"
+        os.kill(child.pid, signal.SIGINT)
+        _, stderr = child.communicate(timeout=20)
+    finally:
+        if child.poll() is None:
+            child.kill()
+            child.wait()
+    assert stderr.strip() == "rperc: interrupted", stderr[-2000:]
+    assert child.returncode == 130

@@ -40,6 +40,10 @@ CASES = {
     # (a SIGINT at 2 s left it running 40 s later).
     "planar Monte Carlo": "from rperc.slam.planar import monte_carlo\n"
     + "print('ready', flush=True)\nmonte_carlo({'steps': 3000}, runs=2000)\n",
+    # Ten million landmarks scanned at each of 2000 steps: minutes of simulation.
+    "a planar world of millions of landmarks": "from rperc.slam.planar import simulate\n"
+    + "print('ready', flush=True)\n"
+    + "simulate({'landmarks': 10**7, 'steps': 2000, 'max_range': 1.0})\n",
     # A 1 GB ceiling texture (80 x 80 m at 5 mm): seconds of tile levels to generate.
     "a huge ceiling world": "from rperc.navigation import CeilingWorld\n"
     + "print('ready', flush=True)\nCeilingWorld(ceiling={'size': [80.0, 80.0]})\n",

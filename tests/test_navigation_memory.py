@@ -347,3 +347,9 @@ def test_a_replay_that_never_localises_is_lost_not_reached(learnt, case, offset,
     assert not run.reached
     # Never reached with a lost last frame, whatever else happened.
     assert run.frames.lost[-1]
+
+
+def test_a_replay_longer_than_memory_allows_is_refused_naming_max_frames(learnt):
+    world, learning = learnt
+    with pytest.raises(MemoryError, match=r"^'max_frames' = 1000000000000 would need "):
+        replay(world, learning.memory, learning.frames.truth[0], {"max_frames": 10**12})

@@ -269,7 +269,7 @@ pub fn planar_simulate<'py>(
     run: u64,
 ) -> PyResult<Bound<'py, PyDict>> {
     let sim = sim_config(sim)?;
-    let data = detached(py, || Ok(slam::planar::sim::simulate(&sim, seed, run)))?;
+    let data = detached(py, || Ok(slam::planar::sim::simulate(&sim, seed, run)?))?;
     let (mut controls, mut detections, mut ids, mut fixes, mut truth) = (
         Vec::new(),
         Vec::new(),

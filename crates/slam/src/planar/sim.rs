@@ -326,7 +326,12 @@ fn detections(
 }
 
 /// Run `run` of the world seeded by `seed` (stream `run` of `seed`).
-pub fn simulate(cfg: &SimConfig, seed: u64, run: u64) -> SimRun {
+///
+/// # Errors
+/// [`SlamError::Core`] with `Interrupted` when the caller's interrupt token is stopped
+/// (Ctrl-C from Python): a world of millions of steps or landmarks is a long loop.
+pub fn simulate(cfg: &SimConfig, seed: u64, run: u64) -> Result<SimRun> {
+    let mut meter = rperc_core::interrupt::Work::new();
     let mut rng = rng::stream(seed, run);
     let world = cfg.world();
     let mut robot = Circle::new(
@@ -338,6 +343,7 @@ pub fn simulate(cfg: &SimConfig, seed: u64, run: u64) -> SimRun {
     );
     let (mut events, mut truth) = (Vec::new(), Vec::new());
     for k in 0..cfg.steps {
+        meter.advance(1 + world.len() as u64)?;
         let (control, before) = robot.step(k, &mut rng);
         events.push(control);
         truth.push(before);
@@ -361,11 +367,11 @@ pub fn simulate(cfg: &SimConfig, seed: u64, run: u64) -> SimRun {
             truth.push(pose);
         }
     }
-    SimRun {
+    Ok(SimRun {
         events,
         truth,
         landmarks: world,
-    }
+    })
 }
 
 /// The robot-pose NEES `e^T P_rr^-1 e` after every event (`NaN` where `P_rr` is
@@ -392,7 +398,7 @@ pub fn robot_nees(result: &PlanarResult, truth: &[Pose2], landmarks: &[Point2<f6
 /// Run `run` of `seed` (as [`simulate`]) through `slam`: the robot NEES after each
 /// scan, one per control step. What one worker of a Monte Carlo computes.
 pub fn run_nees(sim: &SimConfig, slam: &PlanarConfig, seed: u64, run: u64) -> Result<Vec<f64>> {
-    let data = simulate(sim, seed, run);
+    let data = simulate(sim, seed, run)?;
     let mut engine = PlanarSlam::new(slam.clone())?;
     engine.run(&data.events)?;
     let result = engine.finish();

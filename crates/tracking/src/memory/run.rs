@@ -423,6 +423,9 @@ impl ReplayParams {
                 reason: "must be >= 1".into(),
             });
         }
+        // Every frame keeps its report (pose, covariance, tracked models): refused
+        // up front rather than growing towards an abort (issue 38).
+        rperc_core::check_allocation("max_frames", self.max_frames as u128, 1024)?;
         Ok(())
     }
 }

@@ -353,3 +353,15 @@ def test_a_replay_longer_than_memory_allows_is_refused_naming_max_frames(learnt)
     world, learning = learnt
     with pytest.raises(MemoryError, match=r"^'max_frames' = 1000000000000 would need "):
         replay(world, learning.memory, learning.frames.truth[0], {"max_frames": 10**12})
+
+
+@pytest.mark.parametrize(
+    ("start", "message"),
+    [([1e300, 0.0, 0.0], "start: coordinates must be finite and within"),
+     (np.zeros(10**6), "start must be 3 finite values .* got 1000000 values$")],
+)  # fmt: skip
+def test_a_start_beyond_any_world_or_of_another_shape_is_named_briefly(learnt, start, message):
+    world, learning = learnt
+    with pytest.raises(ValueError, match=message) as info:
+        replay(world, learning.memory, start)
+    assert len(str(info.value)) < 120

@@ -525,3 +525,21 @@ def test_more_known_landmarks_than_memory_allows_is_refused_naming_them():
     few = np.c_[np.repeat([0.5, 0.6, 0.7], 3), np.full(9, 2.0), np.tile([0.0, 1.0, -1.0], 3)]
     out = PlanarSlam().run_arrays(controls, few, detection_ids=np.tile([0, 1, 2], 3))
     assert len(out.landmark_id) == 3
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [("initial_pose", [1e300, 0.0, 0.0]), ("initial_pose", [0.0, -2e9, 0.0]),
+     ("fix_lever_arm", [0.0, 1e300])],
+)  # fmt: skip
+def test_coordinates_beyond_any_world_are_refused_naming_the_field(field, value):
+    # Issue 38's finite-range rule for coordinates: a start at 1e300 m ran, every
+    # motion added to it lost below the float's resolution.
+    controls, det, ids, _ = _recording(steps=20)
+    with pytest.raises(ValueError, match=rf"'{field}': coordinates must be finite and within"):
+        PlanarSlam({field: value}).run_arrays(controls, det, detection_ids=ids)
+    fixes = np.array([[0.5, 1e300, 0.0, 0.1, 0.0, 0.1]])
+    with pytest.raises(ValueError, match=r"'fixes': coordinates must be finite"):
+        PlanarSlam().run_arrays(controls, det, detection_ids=ids, fixes=fixes)
+    # A world of a few thousand kilometres still runs.
+    PlanarSlam({"initial_pose": [2e6, -3e6, 0.0]}).run_arrays(controls, det, detection_ids=ids)

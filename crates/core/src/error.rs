@@ -146,6 +146,37 @@ pub fn ensure_finite<'a>(
     }
 }
 
+/// The largest coordinate magnitude (metres, or pixels) a position may have: there a
+/// float still resolves a tenth of a micrometre, and no robot's world or image is
+/// larger. A start at 1e300 m stood still to every motion added to it (issue 38).
+pub const MAX_COORDINATE: f64 = 1e9;
+
+/// `Err(InvalidParameter)` unless every value is finite and within
+/// [`MAX_COORDINATE`]: the one finite-range check of a coordinate input.
+///
+/// # Examples
+/// ```
+/// assert!(rperc_core::ensure_coordinates("start", &[3.0, -2.5e6]).is_ok());
+/// assert!(rperc_core::ensure_coordinates("start", &[1e300, 0.0]).is_err());
+/// ```
+pub fn ensure_coordinates<'a>(
+    name: &'static str,
+    values: impl IntoIterator<Item = &'a f64>,
+) -> Result<()> {
+    match values
+        .into_iter()
+        .find(|v| !(v.is_finite() && v.abs() <= MAX_COORDINATE))
+    {
+        None => Ok(()),
+        Some(v) => Err(CoreError::InvalidParameter {
+            name,
+            reason: format!(
+                "coordinates must be finite and within +-{MAX_COORDINATE:e}, got {v:e}"
+            ),
+        }),
+    }
+}
+
 /// `Err(InvalidParameter)` unless `value` is finite and `> 0`.
 pub fn ensure_positive(name: &'static str, value: f64) -> Result<()> {
     if value.is_finite() && value > 0.0 {

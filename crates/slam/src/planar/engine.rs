@@ -1054,6 +1054,8 @@ fn check_arrays(a: &EventArrays<'_>) -> Result<()> {
         ("fixes", a.fixes.iter().map(|r| r[0]).collect()),
         ("walls", a.walls.iter().map(|r| r[0]).collect()),
     ];
+    // Fix positions are world coordinates: the one range check of a coordinate.
+    rperc_core::ensure_coordinates("fixes", a.fixes.iter().flat_map(|r| &r[1..3]))?;
     for (name, t) in times {
         ensure_finite(name, t.iter())?;
         if let Some(row) = t.windows(2).position(|w| w[1] < w[0]) {

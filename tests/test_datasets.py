@@ -369,3 +369,15 @@ def test_errors_quote_at_most_about_80_characters_of_a_huge_line(tmp_path, kind)
         call()
     assert len(str(info.value)) < 200 + len(str(path)), str(info.value)[:300]
     assert "more characters" in str(info.value)
+
+
+@pytest.mark.parametrize("line", ["1 2 3 " + "4" * 5_000_000 + "x", "1,2," * 1_000_000])
+def test_otb_ground_truth_errors_quote_a_huge_line_briefly(tmp_path, line):
+    # The Rust reader's messages quoted whole lines ({:?}); now at most 80 characters.
+    from rperc.datasets.otb import read_boxes
+
+    path = tmp_path / "groundtruth_rect.txt"
+    path.write_text("1 2 3 4\n" + line + "\n")
+    with pytest.raises(DatasetFormatError, match=r"groundtruth_rect\.txt:2: ") as info:
+        read_boxes(path)
+    assert len(str(info.value)) < 200 + len(str(path)) and "more characters" in str(info.value)

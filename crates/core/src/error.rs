@@ -61,6 +61,29 @@ pub fn too_large(name: &str, count: u128, bytes: u128, limit: u128) -> String {
     format!("'{name}' = {count} would need {bytes} bytes, over the limit of {limit} bytes")
 }
 
+/// The most characters of a caller's input an error message quotes.
+pub const QUOTE_LIMIT: usize = 80;
+
+/// `text` quoted (Rust's `{:?}`), cut after [`QUOTE_LIMIT`] characters with a count of
+/// the rest: an error names enough of its input to find it, never a 50 MB line
+/// (issue 38; `rperc._args.excerpt` is the Python side's).
+///
+/// # Examples
+/// ```
+/// assert_eq!(rperc_core::excerpt("1 2 x"), "\"1 2 x\"");
+/// let long = "7".repeat(1000);
+/// assert_eq!(rperc_core::excerpt(&long), format!("{:?}... (920 more characters)", &long[..80]));
+/// ```
+pub fn excerpt(text: &str) -> String {
+    match text.char_indices().nth(QUOTE_LIMIT) {
+        None => format!("{text:?}"),
+        Some((cut, _)) => {
+            let rest = text[cut..].chars().count();
+            format!("{:?}... ({rest} more characters)", &text[..cut])
+        }
+    }
+}
+
 fn quoted(names: &[&str]) -> String {
     names
         .iter()

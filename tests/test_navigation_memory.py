@@ -365,3 +365,18 @@ def test_a_start_beyond_any_world_or_of_another_shape_is_named_briefly(learnt, s
     with pytest.raises(ValueError, match=message) as info:
         replay(world, learning.memory, start)
     assert len(str(info.value)) < 120
+
+
+def test_a_binary_file_is_refused_as_a_memory_from_its_first_bytes(tmp_path):
+    # Issue 38's rule for binary input, in the memory's reader: a 1 GB sparse file is
+    # refused without being read.
+    import time
+
+    path = tmp_path / "memory.json"
+    with path.open("wb") as f:
+        f.write(b'{"format": \x00')
+        f.truncate(1 << 30)
+    started = time.monotonic()
+    with pytest.raises(ValueError, match=r"not a visual-memory file: .*not a text file"):
+        VisualMemory.load(path)
+    assert time.monotonic() - started < 2.0

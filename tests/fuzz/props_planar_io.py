@@ -217,3 +217,35 @@ def prop_carmen_header_values(params, robotlaser, skip):
     assert np.all(np.isfinite(s.max_range)) and np.all(s.max_range > 0), s.max_range
     span = s.angle_increment * (s.num_beams - 1)
     assert np.all(span <= 2 * math.pi + 1e-9), span
+
+
+HEADER_LINES = st.one_of(
+    st.sampled_from(["# t x y z qx qy qz qw", "#", "# \x00 binary", "#" + "x" * 100_000,
+                     "t x y z qx qy qz qw", "% comment", "\ufeff# bom", "   # indented"]),
+    st.text(max_size=40).map(lambda s: "# " + s.replace("\n", " ").replace("\r", " ")),
+)  # fmt: skip
+
+
+@examples(60)
+@given(st.lists(HEADER_LINES, max_size=3))
+def prop_tum_header_lines(header):
+    """A TUM file with hostile header lines before two good poses: read back as
+    written, or refused by a short error naming the file and a line of the header."""
+    body = "1 0 0 0 0 0 0 1\n2 1 0 0 0 0 0.5 0.8660254037844386\n"
+    folder = Path(tempfile.mkdtemp(prefix="rperc-fuzz-"))
+    try:
+        path = folder / "run.tum"
+        path.write_text("".join(h + "\n" for h in header) + body, encoding="utf-8")
+        case("read_tum", header=header)
+        ok, got = outcome(read_tum, path)
+    finally:
+        shutil.rmtree(folder)
+    if not ok:
+        text = str(got)
+        assert "run.tum:" in text and len(text) < 400, text[:500]
+        line = int(text.split("run.tum:")[1].split(":")[0])
+        assert 1 <= line <= len(header), (line, header)
+        return
+    t, poses = got
+    np.testing.assert_array_equal(t, [1.0, 2.0])
+    np.testing.assert_allclose(poses, [[0, 0, 0], [1, 0, math.pi / 3]], atol=1e-12)

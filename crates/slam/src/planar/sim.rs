@@ -103,8 +103,9 @@ impl SimConfig {
             ));
         }
         // Sizes a caller sets are checked before anything is allocated: 10^9
-        // landmarks aborted the process, 10^9 steps ran for minutes (issue 38). A step
-        // holds a control, a scan of up to every landmark and the true pose.
+        // landmarks aborted the process, 10^9 steps ran for minutes (issue 38). A
+        // step holds a control, the true poses and a scan of the landmarks in range
+        // (a handful in these worlds): a few hundred bytes.
         rperc_core::check_allocation("landmarks", self.landmarks as u128, 16)?;
         rperc_core::check_allocation("steps", self.steps as u128, 256)?;
         if self.ring_gap >= self.radius {

@@ -543,3 +543,22 @@ def test_coordinates_beyond_any_world_are_refused_naming_the_field(field, value)
         PlanarSlam().run_arrays(controls, det, detection_ids=ids, fixes=fixes)
     # A world of a few thousand kilometres still runs.
     PlanarSlam({"initial_pose": [2e6, -3e6, 0.0]}).run_arrays(controls, det, detection_ids=ids)
+
+
+@pytest.mark.parametrize(
+    ("config", "kind", "start"),
+    [
+        ({"association": "x" * 5_000_000}, ValueError, "planar: association: unknown association"),
+        ({"range_variance": "y" * 5_000_000}, TypeError, "planar: range_variance: Invalid type"),
+        ({"z" * 5_000_000: 1}, TypeError, "planar: zzzz"),
+        ({"candidate_sightings": 10**5000}, ValueError, "planar.candidate_sightings: an integer"),
+    ],
+)
+def test_config_errors_quote_a_huge_value_briefly(config, kind, start):
+    # Issue 38: serde's messages quoted the whole refused value (5 MB), and an int of
+    # 5000 digits failed in repr with a message naming no field.
+    controls, det, ids, _ = _recording(steps=20)
+    with pytest.raises(kind) as info:
+        PlanarSlam(config).run_arrays(controls, det, detection_ids=ids)
+    text = str(info.value)
+    assert text.startswith(start) and len(text) < 500, text[:600]

@@ -44,7 +44,11 @@ pub enum CoreError {
     #[error("interrupted")]
     Interrupted,
     /// A string option that names no known choice.
-    #[error("unknown {kind} '{got}'; expected one of {}", quoted(expected))]
+    #[error(
+        "unknown {kind} '{}'; expected one of {}",
+        clip(got, QUOTE_LIMIT),
+        quoted(expected)
+    )]
     UnknownName {
         /// What was being parsed (`method`, `metric`, ...).
         kind: &'static str,
@@ -75,12 +79,33 @@ pub const QUOTE_LIMIT: usize = 80;
 /// assert_eq!(rperc_core::excerpt(&long), format!("{:?}... (920 more characters)", &long[..80]));
 /// ```
 pub fn excerpt(text: &str) -> String {
-    match text.char_indices().nth(QUOTE_LIMIT) {
-        None => format!("{text:?}"),
-        Some((cut, _)) => {
-            let rest = text[cut..].chars().count();
-            format!("{:?}... ({rest} more characters)", &text[..cut])
-        }
+    let (head, rest) = split_at_char(text, QUOTE_LIMIT);
+    match rest {
+        0 => format!("{head:?}"),
+        _ => format!("{head:?}... ({rest} more characters)"),
+    }
+}
+
+/// `text` unquoted, cut after `limit` characters with a count of the rest: for a
+/// message that carries input inside it (serde's, a library's).
+///
+/// # Examples
+/// ```
+/// assert_eq!(rperc_core::clip("unknown field `x`", 80), "unknown field `x`");
+/// assert_eq!(rperc_core::clip(&"z".repeat(10), 4), "zzzz... (6 more characters)");
+/// ```
+pub fn clip(text: &str, limit: usize) -> String {
+    match split_at_char(text, limit) {
+        (head, 0) => head.to_owned(),
+        (head, rest) => format!("{head}... ({rest} more characters)"),
+    }
+}
+
+/// The first `limit` characters of `text` and how many follow.
+fn split_at_char(text: &str, limit: usize) -> (&str, usize) {
+    match text.char_indices().nth(limit) {
+        None => (text, 0),
+        Some((cut, _)) => (&text[..cut], text[cut..].chars().count()),
     }
 }
 

@@ -15,8 +15,9 @@ pub use angle::{angle_diff, wrap_angle};
 pub use chi2::{chi2_cdf, chi2_gate, chi2_quantile, nees_band};
 pub use error::{
     CoreError, ErrorClass, MAX_ALLOCATION_BYTES, MAX_ALLOCATION_ENV, MAX_COORDINATE, QUOTE_LIMIT,
-    Result, check_allocation, check_bytes, ensure_coordinates, ensure_finite, ensure_in_range,
-    ensure_non_negative, ensure_positive, excerpt, max_allocation_bytes, too_large,
+    Result, check_allocation, check_bytes, clip, ensure_coordinates, ensure_finite,
+    ensure_in_range, ensure_non_negative, ensure_positive, excerpt, max_allocation_bytes,
+    too_large,
 };
 pub use gaussian::{
     Definiteness, Gaussian, asymmetry, check_covariance, cholesky_inverse, cholesky_lower,

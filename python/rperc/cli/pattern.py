@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from rperc._args import excerpt
 from rperc._atomic import write_atomically, write_text_atomically
 from rperc._progress import progress
 from rperc.cli.demo import DemoResult
@@ -161,7 +162,9 @@ def region_type(text: str) -> tuple[int, int, int, int]:
     """``x,y,w,h``: four whole non-negative pixel counts."""
     parts = text.split(",")
     if len(parts) != 4 or not all(p.strip().isdigit() for p in parts):
-        raise argparse.ArgumentTypeError(f"--region must be x,y,w,h in whole pixels, got {text!r}")
+        raise argparse.ArgumentTypeError(
+            f"--region must be x,y,w,h in whole pixels, got {excerpt(text)}"
+        )
     x, y, w, h = (int(p) for p in parts)
     return (x, y, w, h)
 

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from rperc._args import excerpt
 from rperc._atomic import write_atomically, write_text_atomically
 from rperc._progress import progress
 from rperc.cli.demo import DemoResult
@@ -100,12 +101,14 @@ def box_type(text: str) -> tuple[float, float, float, float]:
     try:
         values = [float(v) for v in parts]
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected x,y,w,h (numbers), got {text!r}") from None
+        raise argparse.ArgumentTypeError(
+            f"expected x,y,w,h (numbers), got {excerpt(text)}"
+        ) from None
     if len(values) != 4 or not np.isfinite(values).all():
-        raise argparse.ArgumentTypeError(f"expected 4 finite numbers x,y,w,h, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected 4 finite numbers x,y,w,h, got {excerpt(text)}")
     x, y, w, h = values
     if w <= 0 or h <= 0:
-        raise argparse.ArgumentTypeError(f"w and h must be > 0, got {text!r}")
+        raise argparse.ArgumentTypeError(f"w and h must be > 0, got {excerpt(text)}")
     return (x, y, w, h)
 
 
@@ -132,7 +135,9 @@ def run_tracker(
     elif name == "color-shape":
         tracker = ColorShapeTracker(frames[0], box, seed=seed, **kw)
     else:
-        raise ValueError(f"unknown tracker {name!r}; expected one of {', '.join(CLI_TRACKERS)}")
+        raise ValueError(
+            f"unknown tracker {excerpt(name)}; expected one of {', '.join(CLI_TRACKERS)}"
+        )
     boxes: list[tuple[float, ...]] = [box]
     scores = [1.0]
     lost = [False]

@@ -403,7 +403,7 @@ def load_carmen(
     :class:`~rperc.datasets.timestamps.TimestampRepairWarning`.
     """
     if on_error not in ("raise", "skip"):
-        raise ValueError(f"on_error must be 'raise' or 'skip', got {on_error!r}")
+        raise ValueError(f"on_error must be 'raise' or 'skip', got {excerpt(on_error)}")
     path = Path(path)
     rows, odom, params = _ScanRows(), list[list[float]](), dict[str, str]()
     skipped: Counter[str] = Counter()

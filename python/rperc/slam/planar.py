@@ -43,7 +43,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
-from rperc._args import real_number, whole_number
+from rperc._args import excerpt, real_number, whole_number
 from rperc.slam import evaluation
 
 __all__ = [
@@ -647,7 +647,7 @@ def consistency(
     out = {}
     for name in variants:
         if name not in VARIANTS:
-            raise ValueError(f"unknown variant {name!r}; expected one of {list(VARIANTS)}")
+            raise ValueError(f"unknown variant {excerpt(name)}; expected one of {list(VARIANTS)}")
         sim = dict(config or {})
         if name == "external":
             sim["fix_every"] = fix_every

@@ -285,3 +285,59 @@ def test_times_that_cannot_be_repaired_name_the_line(tmp_path):
     path.write_text("# log\n" + flaser(["1"], t=1.7976931348623157e308) * 2)
     with pytest.raises(DatasetFormatError, match=r"huge\.log:3: t\[1\] cannot be given"):
         load_carmen(path)
+
+
+ROBOTLASER = (
+    "ROBOTLASER1 0 -1.5 {fov} {res} {max_range} 0.01 0 3 1.0 2.0 3.0 0 "
+    "0 0 0 0 0 0 0 0 0 0 0 10 host 10\n"
+)
+
+
+@pytest.mark.parametrize(
+    ("name", "value"),
+    [
+        ("laser_front_laser_resolution", "0"),
+        ("laser_front_laser_resolution", "nan"),
+        ("laser_rear_laser_resolution", "-1"),
+        ("robot_front_laser_max", "-5"),
+        ("robot_rear_laser_max", "inf"),
+        ("laser_front_laser_fov", "0"),
+        ("laser_front_laser_fov", "400"),
+        ("laser_front_laser_fov", "wide"),
+    ],
+)
+def test_bad_laser_params_are_refused_at_their_line(tmp_path, name, value):
+    # Issue 38: a resolution of 0 or NaN and a negative maximum range were accepted and
+    # used for every scan after them; a value that did not parse was silently replaced.
+    path = tmp_path / "param.log"
+    path.write_text(
+        flaser(["1"] * 3, t=1) + f"PARAM {name} {value} nohost 0\n" + flaser(["1"] * 3, t=2)
+    )
+    with pytest.raises(DatasetFormatError, match=rf"param\.log:2: .*{name}"):
+        load_carmen(path)
+    # Skipped, the PARAM is left out: the later scan keeps the defaults.
+    log = load_carmen(path, on_error="skip")
+    assert [e.line for e in log.errors] == [2] and name not in log.params
+    assert log.scans.max_range[1] == log.scans.max_range[0]
+    assert log.scans.angle_increment[1] == log.scans.angle_increment[0]
+
+
+@pytest.mark.parametrize(
+    ("fov", "res", "max_range", "field"),
+    [
+        ("0", "0", "20", "fov"),
+        ("3.0", "0", "20", "resolution"),
+        ("3.0", "-0.1", "20", "resolution"),
+        ("3.0", "1.5", "-20", "max range"),
+        ("3.0", "1.5", "0", "max range"),
+        ("7.0", "1.5", "20", "fov"),
+    ],
+)
+def test_a_robotlaser1_without_a_real_geometry_is_refused(tmp_path, fov, res, max_range, field):
+    # Issue 38: a ROBOTLASER1 with resolution and field of view 0 was read as scans.
+    path = tmp_path / "robot.log"
+    path.write_text(ROBOTLASER.format(fov=fov, res=res, max_range=max_range))
+    with pytest.raises(DatasetFormatError, match=rf"robot\.log:1: ROBOTLASER1 {field} is"):
+        load_carmen(path)
+    path.write_text(ROBOTLASER.format(fov="3.0", res="1.5", max_range="20"))
+    assert load_carmen(path).scans.angle_increment.tolist() == [1.5]

@@ -200,3 +200,23 @@ def test_walls_on_aces_beats_odometry(tmp_path):
     odo = run_walls(load_carmen(DATA / "carmen" / "aces.log"), seed=0, use_walls=False)
     assert measured["scans"] == 440 and measured["walls"] > 0
     assert measured["loop_error_m"] < odo.metrics["loop_error"]
+
+
+def test_a_fix_interval_beyond_memory_is_one_line_before_any_allocation(data, capsys):
+    # Issue 38: --fix-interval 1e-9 asked numpy for 5.5 TiB and ended in a traceback.
+    code = main(["slam", "mrclam", str(data / "mrclam6"), "--variant", "external",
+                 "--fix-interval", "1e-9"])  # fmt: skip
+    err = capsys.readouterr().err.strip()
+    assert code == 2, err
+    assert err.startswith("rperc: error: 'fixes every fix_interval=1e-09 s' = "), err
+    assert "over the limit" in err and len(err.splitlines()) == 1
+
+
+@pytest.mark.parametrize("robot", [True, False, 1.0, "1", 0, 6])
+def test_load_mrclam_refuses_a_robot_that_is_not_1_to_5(data, robot):
+    # Issue 38: robot=True was taken as robot 1's number and looked for
+    # RobotTrue_Odometry.dat.
+    from rperc.datasets import load_mrclam
+
+    with pytest.raises(ValueError, match=r"^robot must be 1\.\.5, got "):
+        load_mrclam(data / "mrclam6", robot=robot)

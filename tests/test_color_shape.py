@@ -84,3 +84,52 @@ def test_bad_input_is_refused_clearly() -> None:
     t = ColorShapeTracker(frame, (5, 5, 10, 10))
     with pytest.raises((ValueError, RpercError), match="frame size"):
         t.update(np.zeros((41, 50, 3), np.uint8))
+
+
+_SQUARE = np.array([[10.0, 8.0], [30.0, 8.0], [30.0, 28.0], [10.0, 28.0]])
+
+
+@pytest.mark.parametrize(
+    "shift",
+    [(1000.0, 0.0), (0.0, 1000.0), (-1000.0, 0.0), (40.0, 0.0), (1e300, 1e300)],
+    ids=["right", "below", "left", "just-off", "1e300"],
+)
+def test_a_contour_off_the_frame_is_a_value_error_not_a_panic(shift: tuple[float, float]) -> None:
+    # Issue 38: a contour right of or below the frame panicked (an RpercError "internal
+    # error"), and one at 1e300 came back as a box of 1e300. The rule is the box's.
+    frame = np.zeros((40, 50, 3), np.uint8)
+    with pytest.raises(ValueError, match=r"contour.*not inside the 50x40 frame") as info:
+        ColorShapeTracker(frame, contour=_SQUARE + np.array(shift))
+    assert "internal error" not in str(info.value)
+
+
+def test_a_contour_inside_the_frame_still_starts_the_tracker() -> None:
+    frame = np.zeros((40, 50, 3), np.uint8)
+    frame[8:29, 10:31] = (200, 40, 40)
+    t = ColorShapeTracker(frame, contour=_SQUARE, seed=1)
+    x, y, w, h = t.update(frame).box
+    assert 8 <= x <= 12 and 6 <= y <= 10 and 16 <= w <= 24 and 16 <= h <= 24
+
+
+@pytest.mark.parametrize(
+    "field", ["contour_points", "snake_iterations", "deform_passes", "deform", "cloud_points"]
+)
+def test_every_size_in_the_config_has_a_named_upper_bound(field: str) -> None:
+    # contour_points = 10**9 aborted the process (SIGABRT); the iteration counts hung.
+    frame = np.zeros((40, 50, 3), np.uint8)
+    for start in ({"box": (10, 8, 20, 20)}, {"contour": _SQUARE}):
+        with pytest.raises(ValueError, match=f"'{field}': must be in"):
+            ColorShapeTracker(frame, config={field: 10**9}, **start)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"seed": None}, r"^seed must be a non-negative integer below 2\*\*64, got None"),
+        ({"sigma": "abc"}, r"^sigma must be a real number, got 'abc'"),
+    ],
+)
+def test_bad_arguments_name_the_parameter(kwargs, message):
+    frame = np.zeros((40, 50, 3), np.uint8)
+    with pytest.raises(ValueError, match=message):
+        ColorShapeTracker(frame, (10, 8, 20, 20), **kwargs)

@@ -322,3 +322,62 @@ def test_load_otb_with_more_images_than_boxes_uses_the_boxes_and_warns(tmp_path)
         load_otb(seq)
     # The docstring states the conversion the test of Girl's first box checks.
     assert "1-based" in (load_otb.__doc__ or "") and "0-based" in (load_otb.__doc__ or "")
+
+
+def test_binary_input_is_refused_at_once_naming_the_file(tmp_path):
+    # Issue 38: a 2 GB binary file was read for 26 s before a MemoryError. Only its
+    # first bytes are read now: a 200 MB sparse file (no disk used) is refused fast.
+    import gzip
+    import time
+
+    from rperc.datasets import load_carmen
+    from rperc.datasets._table import read_table
+
+    big = tmp_path / "big.bin"
+    with big.open("wb") as f:
+        f.write(b"FLASER 3\n\x00\x01")
+        f.truncate(200 << 20)
+    for reader in (load_carmen, lambda p: read_table(p, 4)):
+        started = time.monotonic()
+        with pytest.raises(DatasetFormatError, match=r"big\.bin:2: not a text file"):
+            reader(big)
+        assert time.monotonic() - started < 2.0  # reading it all takes far longer
+    zipped = tmp_path / "bin.gz"
+    zipped.write_bytes(gzip.compress(b"\x00" * 100))
+    with pytest.raises(DatasetFormatError, match=r"bin\.gz:1: not a text file"):
+        load_carmen(zipped)
+
+
+@pytest.mark.parametrize("kind", ["token", "columns", "record type"])
+def test_errors_quote_at_most_about_80_characters_of_a_huge_line(tmp_path, kind):
+    # Issue 38: errors embedded 20-50 MB input lines in their message.
+    from rperc.datasets import load_carmen
+    from rperc.datasets._table import read_table
+
+    path = tmp_path / "huge.dat"
+    huge = "7" * 5_000_000
+    if kind == "token":
+        path.write_text(f"1 2 3 {huge}x\n")
+        call = lambda: read_table(path, 4)  # noqa: E731
+    elif kind == "columns":
+        path.write_text(" ".join(["1"] * 1_000_000) + "\n")
+        call = lambda: read_table(path, 4)  # noqa: E731
+    else:
+        path.write_text(f"FLASER{huge} 1 2\n")
+        call = lambda: load_carmen(path, strict=True)  # noqa: E731
+    with pytest.raises(DatasetFormatError, match=r"huge\.dat:1: ") as info:
+        call()
+    assert len(str(info.value)) < 200 + len(str(path)), str(info.value)[:300]
+    assert "more characters" in str(info.value)
+
+
+@pytest.mark.parametrize("line", ["1 2 3 " + "4" * 5_000_000 + "x", "1,2," * 1_000_000])
+def test_otb_ground_truth_errors_quote_a_huge_line_briefly(tmp_path, line):
+    # The Rust reader's messages quoted whole lines ({:?}); now at most 80 characters.
+    from rperc.datasets.otb import read_boxes
+
+    path = tmp_path / "groundtruth_rect.txt"
+    path.write_text("1 2 3 4\n" + line + "\n")
+    with pytest.raises(DatasetFormatError, match=r"groundtruth_rect\.txt:2: ") as info:
+        read_boxes(path)
+    assert len(str(info.value)) < 200 + len(str(path)) and "more characters" in str(info.value)

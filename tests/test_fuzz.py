@@ -20,6 +20,8 @@ MODULES = [
     "props_eval",
     "props_files",
     "props_cli",
+    "props_shape_pattern",
+    "props_planar_io",
 ]
 BATCH_TIMEOUT = 3000.0 if LONG else 300.0
 

@@ -36,6 +36,14 @@ CASES = {
     # seconds (the factorisation, gain, covariance write and NEES are all checkpointed).
     "one monobot step with thousands of landmarks": "from rperc.slam import monobot\n"
     + "print('ready', flush=True)\nmonobot.simulate(landmarks=3000, steps=1)\n",
+    # Issue 38: the runs went to rayon's pool, whose threads never saw the signal
+    # (a SIGINT at 2 s left it running 40 s later).
+    "planar Monte Carlo": "from rperc.slam.planar import monte_carlo\n"
+    + "print('ready', flush=True)\nmonte_carlo({'steps': 3000}, runs=2000)\n",
+    # Ten million landmarks scanned at each of 2000 steps: minutes of simulation.
+    "a planar world of millions of landmarks": "from rperc.slam.planar import simulate\n"
+    + "print('ready', flush=True)\n"
+    + "simulate({'landmarks': 10**7, 'steps': 2000, 'max_range': 1.0})\n",
     # A 1 GB ceiling texture (80 x 80 m at 5 mm): seconds of tile levels to generate.
     "a huge ceiling world": "from rperc.navigation import CeilingWorld\n"
     + "print('ready', flush=True)\nCeilingWorld(ceiling={'size': [80.0, 80.0]})\n",
@@ -93,3 +101,33 @@ def test_interruptible_calls_still_return_their_results():
         [0, 2],
         [0, 2],
     ]
+
+
+def test_ctrl_c_during_the_start_up_imports_prints_one_line(tmp_path):
+    # Issue 38: a SIGINT while the command imported numpy, the extension, PIL and
+    # matplotlib printed a traceback. A stand-in matplotlib that takes 30 s to import
+    # holds the start-up where the signal must land.
+    fake = tmp_path / "matplotlib"
+    fake.mkdir()
+    (fake / "__init__.py").write_text(
+        "import sys, time\nprint('ready', flush=True)\ntime.sleep(30)\n"
+    )
+    code = DEFAULT_SIGINT + (
+        f"import sys\nsys.path.insert(0, {str(tmp_path)!r})\n"
+        "sys.argv = ['rperc', 'demo', 'lines']\n"
+        "import runpy\nrunpy.run_module('rperc', run_name='__main__')\n"
+    )
+    child = subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    try:
+        assert child.stdout is not None
+        assert child.stdout.readline().strip() == "ready"
+        os.kill(child.pid, signal.SIGINT)
+        _, stderr = child.communicate(timeout=20)
+    finally:
+        if child.poll() is None:
+            child.kill()
+            child.wait()
+    assert stderr.strip() == "rperc: interrupted", stderr[-2000:]
+    assert child.returncode == 130

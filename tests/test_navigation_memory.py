@@ -327,3 +327,56 @@ def test_worlds_benchmark_reports_a_run_that_cannot_be_learnt(capsys) -> None:
     out = capsys.readouterr().out
     assert "| 1* | learning failed:" in out
     assert "tuning: learning failed in worlds [1]" in out
+
+
+@pytest.mark.parametrize(
+    ("case", "offset", "other_world"),
+    [("100 m away", (100.0, 0.0, 0.0), False), ("kidnapped 0.7 m", (0.7, 0.0, 0.0), False),
+     ("another world", (0.0, 0.0, 0.0), True)],
+)  # fmt: skip
+def test_a_replay_that_never_localises_is_lost_not_reached(learnt, case, offset, other_world):
+    # Issue 38: replays whose every frame was lost reported 'reached' (ending 100 m or
+    # 0.7 m from B): the servo measured the key error from trackers the localisation
+    # had refused. The one rule: a lost frame sees no key image.
+    world, learning = learnt
+    if other_world:
+        world = CeilingWorld(ceiling={"seed": 9}, render={**RENDER, "seed": 9})
+    start = learning.frames.truth[0] + np.array(offset)
+    run = replay(world, learning.memory, start, seed=2)
+    assert run.outcome == "lost", (case, run)
+    assert not run.reached
+    # Never reached with a lost last frame, whatever else happened.
+    assert run.frames.lost[-1]
+
+
+def test_a_replay_longer_than_memory_allows_is_refused_naming_max_frames(learnt):
+    world, learning = learnt
+    with pytest.raises(MemoryError, match=r"^'max_frames' = 1000000000000 would need "):
+        replay(world, learning.memory, learning.frames.truth[0], {"max_frames": 10**12})
+
+
+@pytest.mark.parametrize(
+    ("start", "message"),
+    [([1e300, 0.0, 0.0], "start: coordinates must be finite and within"),
+     (np.zeros(10**6), "start must be 3 finite values .* got 1000000 values$")],
+)  # fmt: skip
+def test_a_start_beyond_any_world_or_of_another_shape_is_named_briefly(learnt, start, message):
+    world, learning = learnt
+    with pytest.raises(ValueError, match=message) as info:
+        replay(world, learning.memory, start)
+    assert len(str(info.value)) < 120
+
+
+def test_a_binary_file_is_refused_as_a_memory_from_its_first_bytes(tmp_path):
+    # Issue 38's rule for binary input, in the memory's reader: a 1 GB sparse file is
+    # refused without being read.
+    import time
+
+    path = tmp_path / "memory.json"
+    with path.open("wb") as f:
+        f.write(b'{"format": \x00')
+        f.truncate(1 << 30)
+    started = time.monotonic()
+    with pytest.raises(ValueError, match=r"not a visual-memory file: .*not a text file"):
+        VisualMemory.load(path)
+    assert time.monotonic() - started < 2.0

@@ -224,3 +224,21 @@ def test_a_real_patch_over_real_clutter_is_tracked(data) -> None:  # type: ignor
         assert not pose.lost
         errors.append(math.hypot(pose.x - truth[0], pose.y - truth[1]))
     assert float(np.sqrt(np.mean(np.square(errors)))) < 1.0
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"seed": None}, r"^seed must be a non-negative integer below 2\*\*64, got None"),
+        ({"seed": float("nan")}, r"^seed must be a non-negative integer below 2\*\*64, got nan"),
+        ({"sigma": "abc"}, r"^sigma must hold real numbers"),
+        ({"refine_steps": 10**9}, r"'refine_steps': must be at most 64, got 1000000000"),
+    ],
+)
+def test_bad_arguments_name_the_parameter(kwargs, message):
+    # Issue 38: seed=None or nan and sigma='abc' failed inside int() or numpy with
+    # messages that named nothing; refine_steps=10**9 never returned.
+    frame = np.full((120, 160), 90, np.uint8)
+    frame[40:70, 50:90] = 200
+    with pytest.raises((ValueError, TypeError), match=message):
+        PatternTracker(frame, (45, 35, 50, 40), **kwargs)

@@ -83,3 +83,16 @@ def test_bad_config_is_named():
         monte_carlo(SHORT, slam=sim_slam_config(SHORT, range_variance=-1.0), runs=2)
     with pytest.raises(ValueError, match="variant"):
         consistency(SHORT, variants=("magic",))
+
+
+@pytest.mark.parametrize("executor", [None, "threads"])
+def test_runs_beyond_the_memory_limit_are_refused_at_once(executor):
+    # Issue 38: runs=10**9 neither refused nor answered within 60 s. The (runs, steps)
+    # NEES array alone would need 10**9 * 150 * 8 bytes; the message names runs.
+    pool = ThreadPoolExecutor(1) if executor else None
+    try:
+        with pytest.raises(MemoryError, match=r"^'runs' = 1000000000 would need 1200000000000 "):
+            monte_carlo(SHORT, runs=10**9, executor=pool)
+    finally:
+        if pool is not None:
+            pool.shutdown()

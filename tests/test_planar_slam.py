@@ -509,3 +509,56 @@ def test_victoria_park_start_associates_as_the_numpy_reference():
     nn = PlanarSlam(PRESETS["victoria"], association="nn").run(victoria_recording(park))
     assert s["rejected"] > 0 and s["candidate"] > 0
     assert nn.statistics["accepted"] != s["accepted"]
+
+
+def test_more_known_landmarks_than_memory_allows_is_refused_naming_them():
+    # Issue 38: 30,000 landmarks failed seconds into the run, naming a "546484129 state
+    # dimension" (a square the caller never set). Their covariance is (3 + 2 n)^2
+    # doubles; the ids are counted before the run starts.
+    n = 30_000
+    controls = np.array([[0.0, 1.0, 0.0], [1.0, 1.0, 0.0]])
+    det = np.c_[np.full(n, 0.5), np.full(n, 2.0), np.zeros(n)]
+    need = (3 + 2 * n) ** 2 * 8
+    with pytest.raises(MemoryError, match=rf"^'landmarks' = {n} would need {need} bytes"):
+        PlanarSlam().run_arrays(controls, det, detection_ids=np.arange(n))
+    # A few landmarks seen many times are counted once.
+    few = np.c_[np.repeat([0.5, 0.6, 0.7], 3), np.full(9, 2.0), np.tile([0.0, 1.0, -1.0], 3)]
+    out = PlanarSlam().run_arrays(controls, few, detection_ids=np.tile([0, 1, 2], 3))
+    assert len(out.landmark_id) == 3
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [("initial_pose", [1e300, 0.0, 0.0]), ("initial_pose", [0.0, -2e9, 0.0]),
+     ("fix_lever_arm", [0.0, 1e300])],
+)  # fmt: skip
+def test_coordinates_beyond_any_world_are_refused_naming_the_field(field, value):
+    # Issue 38's finite-range rule for coordinates: a start at 1e300 m ran, every
+    # motion added to it lost below the float's resolution.
+    controls, det, ids, _ = _recording(steps=20)
+    with pytest.raises(ValueError, match=rf"'{field}': coordinates must be finite and within"):
+        PlanarSlam({field: value}).run_arrays(controls, det, detection_ids=ids)
+    fixes = np.array([[0.5, 1e300, 0.0, 0.1, 0.0, 0.1]])
+    with pytest.raises(ValueError, match=r"'fixes': coordinates must be finite"):
+        PlanarSlam().run_arrays(controls, det, detection_ids=ids, fixes=fixes)
+    # A world of a few thousand kilometres still runs.
+    PlanarSlam({"initial_pose": [2e6, -3e6, 0.0]}).run_arrays(controls, det, detection_ids=ids)
+
+
+@pytest.mark.parametrize(
+    ("config", "kind", "start"),
+    [
+        ({"association": "x" * 5_000_000}, ValueError, "planar: association: unknown association"),
+        ({"range_variance": "y" * 5_000_000}, TypeError, "planar: range_variance: Invalid type"),
+        ({"z" * 5_000_000: 1}, TypeError, "planar: zzzz"),
+        ({"candidate_sightings": 10**5000}, ValueError, "planar.candidate_sightings: an integer"),
+    ],
+)
+def test_config_errors_quote_a_huge_value_briefly(config, kind, start):
+    # Issue 38: serde's messages quoted the whole refused value (5 MB), and an int of
+    # 5000 digits failed in repr with a message naming no field.
+    controls, det, ids, _ = _recording(steps=20)
+    with pytest.raises(kind) as info:
+        PlanarSlam(config).run_arrays(controls, det, detection_ids=ids)
+    text = str(info.value)
+    assert text.startswith(start) and len(text) < 500, text[:600]

@@ -166,3 +166,11 @@ def test_dask_executor_path():
 def test_bad_monobot_input(kwargs, exc, message):
     with pytest.raises(exc, match=message):
         monobot.simulate(**kwargs)
+
+
+def test_a_monobot_monte_carlo_beyond_memory_is_refused_naming_runs():
+    # Issue 38's cause in another surface: runs=10**9 ran on for minutes.
+    from rperc.slam import monobot
+
+    with pytest.raises(MemoryError, match=r"^'runs' = 1000000000 would need "):
+        monobot.monte_carlo(runs=10**9, steps=10)

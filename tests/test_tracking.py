@@ -207,3 +207,15 @@ def test_config_errors_name_the_field():
     # Non-finite values survive the path (max_range may be infinite) and reach validate().
     with pytest.raises(ValueError, match="sigma_range"):
         _rperc.extract_lines(np.ones(5), np.linspace(0, 0.1, 5), {"sigma_range": np.nan})
+
+
+@pytest.mark.parametrize("method", ["multinomial", "systematic", "stratified", "residual"])
+def test_weights_near_the_largest_float_resample_like_their_scaled_down_copy(method):
+    # Issue 38: weights of 1e308 overflowed the sum and every particle went to the last
+    # index. Scaling the weights changes nothing (same seed, same draws).
+    huge = WEIGHTS / WEIGHTS.max() * np.finfo(float).max
+    want = resample(WEIGHTS, 600, method, seed=4)
+    assert np.array_equal(resample(huge, 600, method, seed=4), want)
+    # Equal weights: systematic resampling keeps each particle once.
+    assert len(set(resample(np.full(10, 1e308), 10, "systematic", seed=4).tolist())) == 10
+    assert effective_sample_size(huge) == pytest.approx(effective_sample_size(WEIGHTS))

@@ -205,7 +205,7 @@ def test_concurrent_writers_leave_one_whole_file(tmp_path: Path) -> None:
 def test_a_failed_write_keeps_the_old_file(tmp_path: Path, monkeypatch) -> None:
     """An error while the new file is written (here: the disk refuses to sync) leaves
     the old file as it was and removes the temporary one."""
-    from rperc.datasets import tum
+    from rperc import _atomic
 
     path = tmp_path / "keep.tum"
     write_tum(path, [1.0, 2.0], np.zeros((2, 3)))
@@ -214,7 +214,7 @@ def test_a_failed_write_keeps_the_old_file(tmp_path: Path, monkeypatch) -> None:
     def refuse(fd: int) -> None:
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(tum.os, "fsync", refuse)
+    monkeypatch.setattr(_atomic.os, "fsync", refuse)
     with pytest.raises(OSError, match="No space"):
         write_tum(path, [1.0, 2.0, 3.0], np.ones((3, 3)))
     assert path.read_bytes() == before and os.listdir(tmp_path) == ["keep.tum"]

@@ -10,6 +10,21 @@ Subpackages:
 - the ``rperc`` command-line program (:mod:`rperc.cli`).
 """
 
-from rperc._rperc import NumericalError, RpercError, __version__
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from rperc._rperc import NumericalError, RpercError, __version__
 
 __all__ = ["NumericalError", "RpercError", "__version__"]
+
+
+def __getattr__(name: str) -> Any:
+    # Loaded on first use, not at import: the ``rperc`` command imports this package
+    # before it can catch Ctrl-C, and the extension pulls in numpy (issue 38).
+    if name in __all__:
+        from rperc import _rperc
+
+        return getattr(_rperc, name)
+    raise AttributeError(f"module 'rperc' has no attribute {name!r}")

@@ -9,6 +9,27 @@ import math
 import numbers
 from typing import Any
 
+#: The most characters of a caller's input an error message quotes.
+QUOTE_LIMIT = 80
+
+
+def excerpt(value: object, limit: int = QUOTE_LIMIT) -> str:
+    """``repr(value)`` cut to about ``limit`` characters, saying how much was left out:
+    an error quotes enough of the input to find it, never the whole of a 50 MB line
+    (issue 38). Only the first ``4 * limit`` characters of a string are ever read.
+
+    >>> excerpt("x" * 1000, limit=10)
+    "'xxxxxxxxx... (991 more characters)"
+    >>> excerpt(3.5)
+    '3.5'
+    """
+    if isinstance(value, str) and len(value) > limit:
+        return f"{value[: 4 * limit]!r}"[:limit] + f"... ({len(value) - limit + 1} more characters)"
+    text = repr(value)
+    if len(text) <= limit:
+        return text
+    return text[:limit] + f"... ({len(text) - limit} more characters)"
+
 
 def whole_number(value: object, name: str, minimum: int, limit: int = 2**63) -> int:
     """``value`` as an int, after checking it is a whole number in ``[minimum, limit)``.
@@ -20,7 +41,9 @@ def whole_number(value: object, name: str, minimum: int, limit: int = 2**63) -> 
         what = {0: "a non-negative integer", 1: "a positive integer"}.get(
             minimum, f"an integer >= {minimum}"
         )
-        raise ValueError(f"{name} must be {what} below 2**{limit.bit_length() - 1}, got {value!r}")
+        raise ValueError(
+            f"{name} must be {what} below 2**{limit.bit_length() - 1}, got {excerpt(value)}"
+        )
     return number
 
 
@@ -41,7 +64,7 @@ def real_number(value: object, name: str) -> float:
     ``name`` (``float("1")`` would quietly accept a string). NaN and infinities pass:
     the caller decides what range is valid."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ValueError(f"{name} must be a real number, got {value!r}")
+        raise ValueError(f"{name} must be a real number, got {excerpt(value)}")
     return float(value)
 
 

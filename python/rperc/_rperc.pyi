@@ -18,6 +18,7 @@ __all__ = [
     "__version__",
     "ceiling_defaults",
     "ceiling_drive",
+    "check_allocation",
     "color_shape_defaults",
     "effective_sample_size",
     "extract_lines",
@@ -39,6 +40,7 @@ __all__ = [
     "pattern_defaults",
     "pattern_sequence",
     "planar_defaults",
+    "planar_sim_check",
     "planar_sim_defaults",
     "planar_sim_nees",
     "planar_sim_slam_config",
@@ -149,6 +151,9 @@ def planar_defaults() -> dict[str, Any]: ...
 def planar_sim_defaults() -> dict[str, Any]: ...
 def planar_simulate(sim: dict[str, Any] | None, seed: int, run: int = 0) -> dict[str, Any]: ...
 def planar_sim_slam_config(sim: dict[str, Any] | None = None) -> dict[str, Any]: ...
+def planar_sim_check(
+    sim: dict[str, Any] | None, slam: dict[str, Any] | None, runs: int
+) -> None: ...
 def planar_sim_nees(
     sim: dict[str, Any] | None, slam: dict[str, Any] | None, seed: int, first: int, runs: int
 ) -> _Array: ...
@@ -300,6 +305,7 @@ class CeilingWorld:
     ) -> tuple[list[str], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
     def configs(self) -> tuple[dict[str, Any], dict[str, Any]]: ...
 
+def check_allocation(name: str, count: int, bytes_each: int) -> None: ...
 def ceiling_drive(
     start: npt.NDArray[np.float64],
     commands: npt.NDArray[np.float64],

@@ -36,7 +36,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _geo, _rperc
-from rperc._args import float_array, real_number, whole_number
+from rperc._args import excerpt, float_array, real_number, whole_number
 from rperc.pose import to_world as pose_to_world
 
 Method = Literal["auto", "hull", "dp", "vw"]
@@ -73,9 +73,10 @@ def _as_points(points: npt.ArrayLike, name: str = "points") -> np.ndarray:
 
 
 def _check_epsilon(epsilon: float) -> float:
-    eps = float(epsilon)
+    # real_number, not float(): float("1") passes and float(a 5 MB string) quotes it.
+    eps = real_number(epsilon, "epsilon")
     if not np.isfinite(eps) or eps < 0:
-        raise ValueError(f"epsilon must be finite and >= 0, got {epsilon!r}")
+        raise ValueError(f"epsilon must be finite and >= 0, got {excerpt(epsilon)}")
     return eps
 
 
@@ -310,7 +311,7 @@ def simplify_many(
     eps = _check_epsilon(epsilon)
     bad_threads = isinstance(threads, bool) or (threads is not None and int(threads) < 1)
     if bad_threads:
-        raise ValueError(f"threads must be a positive integer or None, got {threads!r}")
+        raise ValueError(f"threads must be a positive integer or None, got {excerpt(threads)}")
     indices = _rperc.simplify_many_indices(arrays, eps, method, metric, tie, threads)
     if return_indices:
         return indices
@@ -432,7 +433,7 @@ def wall_to_world_jacobians(
 def _pose3(pose: npt.ArrayLike) -> tuple[float, float, float]:
     arr = np.asarray(pose, dtype=np.float64)
     if arr.shape != (3,) or not np.isfinite(arr).all():
-        raise ValueError(f"pose must be 3 finite numbers (x, y, theta), got {arr!r}")
+        raise ValueError(f"pose must be 3 finite numbers (x, y, theta), got {excerpt(arr)}")
     return float(arr[0]), float(arr[1]), float(arr[2])
 
 

@@ -13,6 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from rperc._atomic import write_text_atomically
+
 
 @dataclass(frozen=True)
 class SimulatedScan:
@@ -227,6 +229,4 @@ def write_loop_log(
         t = 0.5 * k
         pose = f"{x:.6f} {y:.6f} {th:.6f}"
         lines.append(f"FLASER 180 {ranges} {pose} {pose} {t:.1f} sim {t:.1f}")
-    out = Path(path)
-    out.write_text("\n".join(lines) + "\n")
-    return out
+    return write_text_atomically(path, "\n".join(lines) + "\n")

@@ -227,3 +227,47 @@ def prop_memory_json(data: Any, value: Any) -> None:
     ok, run = outcome(replay, world, memory, [2.0, 1.5, 0.3], {"max_frames": 3})
     if not ok:
         assert isinstance(run, ValueError), repr(run)
+
+
+REPLAY_FIELDS = ("max_frames", "max_blind_frames", "dt", "metres_per_pixel")
+
+
+@examples(20)
+@given(
+    st.tuples(st.sampled_from([0.0, 0.05, 0.7, 3.0, 100.0, 1e300, -1e300, np.nan]),
+              st.sampled_from([0.0, -0.05, 0.7]), st.sampled_from([0.0, 0.1, 3.0])),
+    st.sampled_from(REPLAY_FIELDS),
+    st.one_of(EDGE_NUMBERS, st.integers(0, 40)),
+    st.booleans(),
+)  # fmt: skip
+def prop_replay_reaches_only_when_localised(offset: Any, field: str, value: Any, other: bool):
+    """Replays from starts near, far and kidnapped, in the learnt world or another,
+    with a hostile replay setting: 'reached' only when the last frame is localised
+    (issue 38: replays whose every frame was lost reported 'reached'), or a clear
+    error naming the start or the setting."""
+    from rperc.navigation import replay
+
+    world, learning = _learning()
+    if other:
+        world = _other_world()
+    start = learning.frames.truth[0] + np.asarray(offset)
+    config = {"max_frames": 40, field: value}
+    case("replay", start=start, config=config, other_world=other)
+    ok, run = outcome(replay, world, learning.memory, start, config)
+    if not ok:
+        assert any(n in str(run) for n in ("start", *REPLAY_FIELDS)), run
+        return
+    assert run.outcome in ("reached", "lost", "timed_out")
+    if run.reached:
+        assert not run.frames.lost[-1], "reached on a lost frame"
+    if run.frames.lost.all():
+        assert not run.reached, "reached with every frame lost"
+
+
+def _other_world() -> CeilingWorld:
+    """A world of the same size with other patterns than the learnt one."""
+    if len(_LEARNT) < 2:
+        ceiling = {"size": [4.0, 3.0], "n_patterns": 6, "min_spacing": 0.8,
+                   "resolution": 0.01, "seed": 7}  # fmt: skip
+        _LEARNT.append(CeilingWorld(ceiling))
+    return _LEARNT[1]

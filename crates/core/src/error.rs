@@ -29,7 +29,7 @@ pub enum CoreError {
         reason: String,
     },
     /// A size a caller asked for would need more memory than rperc allows itself.
-    #[error("'{name}' = {count} would need {bytes} bytes, over the limit of {limit} bytes")]
+    #[error("{}", too_large(name, *count, *bytes, *limit))]
     TooLarge {
         /// The parameter that sets the size.
         name: &'static str,
@@ -44,7 +44,11 @@ pub enum CoreError {
     #[error("interrupted")]
     Interrupted,
     /// A string option that names no known choice.
-    #[error("unknown {kind} '{got}'; expected one of {}", quoted(expected))]
+    #[error(
+        "unknown {kind} '{}'; expected one of {}",
+        clip(got, QUOTE_LIMIT),
+        quoted(expected)
+    )]
     UnknownName {
         /// What was being parsed (`method`, `metric`, ...).
         kind: &'static str,
@@ -53,6 +57,56 @@ pub enum CoreError {
         /// The valid names.
         expected: &'static [&'static str],
     },
+}
+
+/// The message of [`CoreError::TooLarge`], also for a size named at run time (the
+/// Python layer's own allocations).
+pub fn too_large(name: &str, count: u128, bytes: u128, limit: u128) -> String {
+    format!("'{name}' = {count} would need {bytes} bytes, over the limit of {limit} bytes")
+}
+
+/// The most characters of a caller's input an error message quotes.
+pub const QUOTE_LIMIT: usize = 80;
+
+/// `text` quoted (Rust's `{:?}`), cut after [`QUOTE_LIMIT`] characters with a count of
+/// the rest: an error names enough of its input to find it, never a 50 MB line
+/// (issue 38; `rperc._args.excerpt` is the Python side's).
+///
+/// # Examples
+/// ```
+/// assert_eq!(rperc_core::excerpt("1 2 x"), "\"1 2 x\"");
+/// let long = "7".repeat(1000);
+/// assert_eq!(rperc_core::excerpt(&long), format!("{:?}... (920 more characters)", &long[..80]));
+/// ```
+pub fn excerpt(text: &str) -> String {
+    let (head, rest) = split_at_char(text, QUOTE_LIMIT);
+    match rest {
+        0 => format!("{head:?}"),
+        _ => format!("{head:?}... ({rest} more characters)"),
+    }
+}
+
+/// `text` unquoted, cut after `limit` characters with a count of the rest: for a
+/// message that carries input inside it (serde's, a library's).
+///
+/// # Examples
+/// ```
+/// assert_eq!(rperc_core::clip("unknown field `x`", 80), "unknown field `x`");
+/// assert_eq!(rperc_core::clip(&"z".repeat(10), 4), "zzzz... (6 more characters)");
+/// ```
+pub fn clip(text: &str, limit: usize) -> String {
+    match split_at_char(text, limit) {
+        (head, 0) => head.to_owned(),
+        (head, rest) => format!("{head}... ({rest} more characters)"),
+    }
+}
+
+/// The first `limit` characters of `text` and how many follow.
+fn split_at_char(text: &str, limit: usize) -> (&str, usize) {
+    match text.char_indices().nth(limit) {
+        None => (text, 0),
+        Some((cut, _)) => (&text[..cut], text[cut..].chars().count()),
+    }
 }
 
 fn quoted(names: &[&str]) -> String {
@@ -98,7 +152,20 @@ pub fn max_allocation_bytes() -> u128 {
 /// assert!(err.to_string().starts_with("'n' = 1099511627776 would need 8796093022208 bytes"));
 /// ```
 pub fn check_allocation(name: &'static str, count: u128, bytes_each: u128) -> Result<()> {
-    let bytes = count.saturating_mul(bytes_each);
+    check_bytes(name, count, count.saturating_mul(bytes_each))
+}
+
+/// `Err(TooLarge)` when the `bytes` that `count` (the value the caller set for `name`)
+/// implies exceed [`max_allocation_bytes`]: for sizes that grow faster than linearly,
+/// such as a covariance of `(3 + 2 n)^2` entries for `n` landmarks, so that the
+/// message still names what the caller asked for, not a derived dimension.
+///
+/// # Examples
+/// ```
+/// let err = rperc_core::check_bytes("landmarks", 30_000, 60_003u128.pow(2) * 8).unwrap_err();
+/// assert!(err.to_string().starts_with("'landmarks' = 30000 would need 28802880072 bytes"));
+/// ```
+pub fn check_bytes(name: &'static str, count: u128, bytes: u128) -> Result<()> {
     let limit = max_allocation_bytes();
     if bytes <= limit {
         Ok(())
@@ -124,6 +191,37 @@ pub fn ensure_finite<'a>(
         Ok(())
     } else {
         Err(CoreError::NonFinite(what))
+    }
+}
+
+/// The largest coordinate magnitude (metres, or pixels) a position may have: there a
+/// float still resolves a tenth of a micrometre, and no robot's world or image is
+/// larger. A start at 1e300 m stood still to every motion added to it (issue 38).
+pub const MAX_COORDINATE: f64 = 1e9;
+
+/// `Err(InvalidParameter)` unless every value is finite and within
+/// [`MAX_COORDINATE`]: the one finite-range check of a coordinate input.
+///
+/// # Examples
+/// ```
+/// assert!(rperc_core::ensure_coordinates("start", &[3.0, -2.5e6]).is_ok());
+/// assert!(rperc_core::ensure_coordinates("start", &[1e300, 0.0]).is_err());
+/// ```
+pub fn ensure_coordinates<'a>(
+    name: &'static str,
+    values: impl IntoIterator<Item = &'a f64>,
+) -> Result<()> {
+    match values
+        .into_iter()
+        .find(|v| !(v.is_finite() && v.abs() <= MAX_COORDINATE))
+    {
+        None => Ok(()),
+        Some(v) => Err(CoreError::InvalidParameter {
+            name,
+            reason: format!(
+                "coordinates must be finite and within +-{MAX_COORDINATE:e}, got {v:e}"
+            ),
+        }),
     }
 }
 

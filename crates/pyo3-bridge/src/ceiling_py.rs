@@ -225,9 +225,21 @@ impl PyCeilingWorld {
 pub(crate) fn one_pose(obj: &Bound<'_, PyAny>, name: &str) -> Result<Pose2, Error> {
     let v = crate::arrays::float_vector(obj, name)?;
     if v.len() != 3 || !v.iter().all(|x| x.is_finite()) {
+        // The values only when there are three: never a whole array in a message.
+        let got = if v.len() == 3 {
+            format!("{v:?}")
+        } else {
+            format!("{} values", v.len())
+        };
         return Err(Error::Value(format!(
-            "{name} must be 3 finite values (x, y, theta), got {v:?}"
+            "{name} must be 3 finite values (x, y, theta), got {got}"
         )));
+    }
+    // The core's rule; the message names this argument (`start`, `pose`).
+    if let Err(rperc_core::CoreError::InvalidParameter { reason, .. }) =
+        rperc_core::ensure_coordinates("pose", &v[..2])
+    {
+        return Err(Error::Value(format!("{name}: {reason}")));
     }
     Ok(Pose2::new(v[0], v[1], v[2]))
 }

@@ -10,6 +10,8 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use serde::de::DeserializeOwned;
 
+use rperc_core::{QUOTE_LIMIT, clip};
+
 use crate::errors::{Error, Result, guarded};
 
 /// Reads `obj` (a dict of keywords, a dataclass, or `None` for all defaults) as `T`.
@@ -26,12 +28,19 @@ pub fn from_python<T: DeserializeOwned + Default>(
     // serde-pyobject panics on Python types it does not know; `plain` refuses those
     // first, and the guard stays for anything it missed.
     let value = guarded(|| {
-        serde_pyobject::from_pyobject::<serde_value::Value, _>(obj.clone())
-            .map_err(|e| Error::Type(format!("{what}: {}", e.0.value(obj.py()))))
+        serde_pyobject::from_pyobject::<serde_value::Value, _>(obj.clone()).map_err(|e| {
+            let msg = e.0.value(obj.py()).to_string();
+            Error::Type(format!("{what}: {}", clip(&msg, 4 * QUOTE_LIMIT)))
+        })
     })?;
     serde_path_to_error::deserialize::<_, T>(value).map_err(|e| {
         let (field, msg) = (e.path().to_string(), e.inner().to_string());
-        let text = format!("{what}: {field}: {msg}");
+        // serde quotes the value it refused: never a whole 5 MB string (issue 38).
+        let text = format!(
+            "{what}: {}: {}",
+            clip(&field, QUOTE_LIMIT),
+            clip(&msg, 4 * QUOTE_LIMIT)
+        );
         let lower = msg.to_lowercase();
         if lower.starts_with("unknown field") || lower.starts_with("invalid type") {
             Error::Type(text)
@@ -49,10 +58,13 @@ pub fn from_python<T: DeserializeOwned + Default>(
 fn plain<'py>(obj: &Bound<'py, PyAny>, path: &str) -> Result<Bound<'py, PyAny>> {
     let py = obj.py();
     // serde-pyobject reads ints as i64 and its overflow error names no field.
+    // The size, not the digits: repr refuses ints over 4300 digits, and a message
+    // quotes no more than a few dozen characters of its input.
     if obj.is_instance_of::<PyInt>() && obj.extract::<i64>().is_err() {
+        let bits: u64 = obj.call_method0("bit_length")?.extract()?;
         return Err(Error::Value(format!(
-            "{path}: {} does not fit a 64-bit integer",
-            obj.repr()?
+            "{}: an integer of {bits} bits does not fit a 64-bit integer",
+            clip(path, QUOTE_LIMIT)
         )));
     }
     if obj.is_none()
@@ -86,7 +98,8 @@ fn plain<'py>(obj: &Bound<'py, PyAny>, path: &str) -> Result<Bound<'py, PyAny>> 
             && !item.is_instance_of::<PyBool>()
         {
             return Err(Error::Type(format!(
-                "{path}: expected a number, got {}",
+                "{}: expected a number, got {}",
+                clip(path, QUOTE_LIMIT),
                 obj.repr()?
             )));
         }
@@ -96,7 +109,8 @@ fn plain<'py>(obj: &Bound<'py, PyAny>, path: &str) -> Result<Bound<'py, PyAny>> 
         return Ok(obj.clone());
     }
     Err(Error::Type(format!(
-        "{path}: unsupported type {}",
+        "{}: unsupported type {}",
+        clip(path, QUOTE_LIMIT),
         obj.get_type().name()?
     )))
 }

@@ -91,6 +91,20 @@ impl From<Error> for PyErr {
     }
 }
 
+/// `count` items of `bytes_each` bytes as the core crates check them
+/// ([`rperc_core::check_allocation`]): `MemoryError` naming `name` when over the
+/// limit. The Python layer's own allocations (a fix every `fix_interval` seconds)
+/// obey the same limit through this one check.
+#[pyfunction]
+pub fn check_allocation(name: &str, count: u128, bytes_each: u128) -> PyResult<()> {
+    rperc_core::check_allocation("count", count, bytes_each).map_err(|e| match e {
+        rperc_core::CoreError::TooLarge { bytes, limit, .. } => {
+            PyMemoryError::new_err(rperc_core::too_large(name, count, bytes, limit))
+        }
+        other => Error::Core(other).into(),
+    })
+}
+
 /// Exclusive access to a native object for a mutating call. PyO3 refuses a second
 /// concurrent borrow with a bare "Already borrowed"; this says what to do instead.
 pub fn exclusive<'py, T>(slf: &Bound<'py, T>) -> PyResult<pyo3::PyRefMut<'py, T>>
@@ -151,14 +165,18 @@ fn signalled(pending: &Pending) -> bool {
     }
 }
 
-/// The work's result as a Python result: an interrupted run re-raises the signal
-/// handler's exception.
+/// The work's result as a Python result. A signal handler's exception caught while
+/// the work ran is raised whatever the work returned: the poll has consumed the
+/// signal, so when the work ended before its next checkpoint, returning its result
+/// lost the Ctrl-C (issue 38: a SIGINT at 1 s of a 2.5 s run, and the run completed).
 fn finish<T>(out: Result<T>, pending: &Pending) -> PyResult<T> {
+    if let Some(raised) = pending.lock().unwrap_or_else(|e| e.into_inner()).take() {
+        return Err(raised);
+    }
     match out {
         Ok(value) => Ok(value),
         Err(err) if err.class() == Some(ErrorClass::Interrupted) => {
-            let raised = pending.lock().unwrap_or_else(|e| e.into_inner()).take();
-            Err(raised.unwrap_or_else(|| PyKeyboardInterrupt::new_err("interrupted")))
+            Err(PyKeyboardInterrupt::new_err("interrupted"))
         }
         Err(err) => Err(err.into()),
     }
@@ -266,6 +284,20 @@ mod tests {
                     .is_subclass(&py.get_type::<RpercError>())
                     .unwrap()
             );
+        });
+    }
+
+    #[test]
+    fn a_signal_caught_as_the_work_ends_is_raised_not_lost() {
+        Python::initialize();
+        Python::attach(|py| {
+            let pending = Pending::default();
+            *pending.lock().unwrap() = Some(PyKeyboardInterrupt::new_err("from the handler"));
+            let err = finish(Ok(7), &pending).unwrap_err();
+            assert!(err.get_type(py).is(py.get_type::<PyKeyboardInterrupt>()));
+            assert_eq!(err.value(py).to_string(), "from the handler");
+            // Without a signal the result passes through.
+            assert_eq!(finish(Ok(7), &Pending::default()).unwrap(), 7);
         });
     }
 

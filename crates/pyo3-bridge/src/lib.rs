@@ -34,6 +34,8 @@ mod _rperc {
     #[pymodule_export]
     use crate::errors::RpercError;
     #[pymodule_export]
+    use crate::errors::check_allocation;
+    #[pymodule_export]
     use crate::eval_py::{
         otb_center_error, otb_groundtruth, otb_iou, otb_precision, otb_success_curve,
         pose_transform_points,
@@ -53,8 +55,9 @@ mod _rperc {
     use crate::pattern_py::{PyPatternTracker, pattern_defaults, pattern_sequence};
     #[pymodule_export]
     use crate::planar_py::{
-        planar_defaults, planar_sim_defaults, planar_sim_nees, planar_sim_slam_config,
-        planar_simulate, planar_slam_run, planar_smooth_walls, wall_straightness_covariance,
+        planar_defaults, planar_sim_check, planar_sim_defaults, planar_sim_nees,
+        planar_sim_slam_config, planar_simulate, planar_slam_run, planar_smooth_walls,
+        wall_straightness_covariance,
     };
     #[pymodule_export]
     use crate::slam_py::{

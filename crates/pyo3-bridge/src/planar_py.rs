@@ -5,7 +5,7 @@
 use numpy::{IntoPyArray, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use slam::planar::sim::{SimConfig, run_nees};
+use slam::planar::sim::{SimConfig, check_runs, parallel_runs, run_nees};
 use slam::planar::{
     Event, EventArrays, PlanarConfig, PlanarResult, PlanarSlam, Statistics, WallEstimate,
 };
@@ -215,6 +215,22 @@ pub fn planar_sim_slam_config<'py>(
     serde_pyobject::to_pyobject(py, &cfg).map_err(PyErr::from)
 }
 
+/// Checks the world, the filter and `runs` as [`planar_sim_nees`] would, without running
+/// anything: a caller that sends the runs elsewhere (an executor) is refused at once.
+#[pyfunction]
+#[pyo3(signature = (sim, slam, runs))]
+pub fn planar_sim_check(
+    sim: Option<&Bound<'_, PyAny>>,
+    slam: Option<&Bound<'_, PyAny>>,
+    runs: u64,
+) -> PyResult<()> {
+    let sim = sim_config(sim)?;
+    let slam: PlanarConfig = crate::config::from_python(slam, "planar")?;
+    slam.validate().map_err(Error::from)?;
+    let runs = usize::try_from(runs).unwrap_or(usize::MAX);
+    Ok(check_runs(runs, sim.steps).map_err(Error::from)?)
+}
+
 /// The robot NEES after each scan of runs `first..first + runs` of the simulated world
 /// seeded by `seed` (run `i` draws from stream `i`), as a `(runs, steps)` array; the
 /// runs go in parallel on all cores with the GIL released.
@@ -232,15 +248,12 @@ pub fn planar_sim_nees<'py>(
     let slam: PlanarConfig = crate::config::from_python(slam, "planar")?;
     slam.validate().map_err(Error::from)?;
     let steps = sim.steps;
+    let runs = usize::try_from(runs).unwrap_or(usize::MAX);
     let nees = detached_parallel(py, || {
-        use rayon::prelude::*;
-        let per_run = (first..first + runs)
-            .into_par_iter()
-            .map(|r| run_nees(&sim, &slam, seed, r))
-            .collect::<slam::Result<Vec<_>>>()?;
+        let per_run = parallel_runs(first, runs, steps, |r| run_nees(&sim, &slam, seed, r))?;
         Ok(per_run.concat())
     })?;
-    Ok(shaped(py, nees, &[runs as usize, steps])?)
+    Ok(shaped(py, nees, &[runs, steps])?)
 }
 
 /// Run `run` of the simulated world seeded by `seed` as the columnar arrays
@@ -256,7 +269,7 @@ pub fn planar_simulate<'py>(
     run: u64,
 ) -> PyResult<Bound<'py, PyDict>> {
     let sim = sim_config(sim)?;
-    let data = detached(py, || Ok(slam::planar::sim::simulate(&sim, seed, run)))?;
+    let data = detached(py, || Ok(slam::planar::sim::simulate(&sim, seed, run)?))?;
     let (mut controls, mut detections, mut ids, mut fixes, mut truth) = (
         Vec::new(),
         Vec::new(),

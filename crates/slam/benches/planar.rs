@@ -67,7 +67,7 @@ fn bench_simulated_runs(c: &mut Criterion) {
     let mut group = c.benchmark_group("planar/sim_600_steps");
     group.sample_size(10);
     let sim = SimConfig::default();
-    let data = simulate(&sim, 1, 0);
+    let data = simulate(&sim, 1, 0).unwrap();
     for association in [
         Association::Known,
         Association::NearestNeighbour,
@@ -178,7 +178,7 @@ fn bench_compression(c: &mut Criterion) {
         steps: 1600,
         ..SimConfig::default()
     };
-    let data = simulate(&sim, 2, 0);
+    let data = simulate(&sim, 2, 0).unwrap();
     let mut group = c.benchmark_group("planar/wide_world_1600_steps");
     group.sample_size(10);
     for compression in [Compression::Off, Compression::Auto] {

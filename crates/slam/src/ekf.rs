@@ -726,7 +726,8 @@ impl Ekf {
             return Ok(());
         }
         let new_cap = need.max(cap + cap / 2).max(16);
-        check_allocation("state dimension", (new_cap as u128).pow(2), 8)?;
+        // The count is the dimension itself (not its square, which no caller set).
+        check_allocation("state dimension", new_cap as u128, new_cap as u128 * 8)?;
         self.grow(new_cap);
         Ok(())
     }

@@ -114,7 +114,7 @@ fn nn_and_jcbb_recover_the_true_association() {
         steps: 400,
         ..SimConfig::default()
     };
-    let data = simulate(&sim, 3, 0);
+    let data = simulate(&sim, 3, 0).unwrap();
     let base = PlanarConfig {
         gate_confidence: 0.9999,
         ..sim.slam_config()
@@ -168,7 +168,7 @@ fn freezing_keeps_frozen_landmarks_in_the_map() {
         steps: 300,
         ..SimConfig::default()
     };
-    let data = simulate(&sim, 4, 0);
+    let data = simulate(&sim, 4, 0).unwrap();
     let config = PlanarConfig {
         freeze_after: Some(20),
         ..sim.slam_config()
@@ -462,7 +462,7 @@ fn nn_ignores_detection_ids() {
         steps: 200,
         ..SimConfig::default()
     };
-    let data = simulate(&sim, 1, 0);
+    let data = simulate(&sim, 1, 0).unwrap();
     let config = PlanarConfig {
         association: Association::NearestNeighbour,
         gate_confidence: 0.9,
@@ -487,6 +487,7 @@ fn calibrated_bias_recovers_the_unbiased_run() {
     };
     // A camera sees ahead only: keep the detections within 70 degrees.
     let events: Vec<Event> = simulate(&sim, 8, 0)
+        .unwrap()
         .events
         .into_iter()
         .map(|e| match e {
@@ -590,7 +591,7 @@ fn consider_freezing_keeps_the_nees_in_band_where_marginalising_does_not() {
         "marginalise mean {mean} is not over the band"
     );
     // The consider run still freezes: its landmarks are frozen, their sightings used.
-    let data = simulate(&sim, 4, 0);
+    let data = simulate(&sim, 4, 0).unwrap();
     let result = run(with(FreezeMode::Consider), &data.events);
     let frozen = result.landmarks.iter().filter(|l| l.frozen).count();
     assert!(frozen > 0 && result.statistics.frozen == frozen as u64);

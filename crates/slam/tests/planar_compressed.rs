@@ -71,7 +71,7 @@ fn wide_world(steps: usize) -> SimConfig {
 }
 
 fn compare(config: PlanarConfig, sim: &SimConfig, seed: u64) -> (PlanarResult, f64) {
-    let data = simulate(sim, seed, 0);
+    let data = simulate(sim, seed, 0).unwrap();
     let off = PlanarConfig {
         compression: Compression::Off,
         ..config.clone()

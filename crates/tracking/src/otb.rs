@@ -40,22 +40,24 @@ pub fn parse_groundtruth(text: &str, name: &str) -> Result<Vec<BoundingBox>> {
             .collect();
         if fields.len() != 4 {
             return Err(bad(format!(
-                "expected 4 numbers x y w h, got {} fields in {line:?}",
-                fields.len()
+                "expected 4 numbers x y w h, got {} fields in {}",
+                fields.len(),
+                rperc_core::excerpt(line)
             )));
         }
         let mut v = [0.0; 4];
         for (slot, f) in v.iter_mut().zip(&fields) {
             *slot = f
                 .parse::<f64>()
-                .map_err(|_| bad(format!("{f:?} is not a number")))?;
+                .map_err(|_| bad(format!("{} is not a number", rperc_core::excerpt(f))))?;
             if !slot.is_finite() {
-                return Err(bad(format!("{f:?} is not finite")));
+                return Err(bad(format!("{} is not finite", rperc_core::excerpt(f))));
             }
         }
         if v[2] < 0.0 || v[3] < 0.0 {
             return Err(bad(format!(
-                "a box cannot have a negative size, got {line:?}"
+                "a box cannot have a negative size, got {}",
+                rperc_core::excerpt(line)
             )));
         }
         boxes.push(BoundingBox::new(v[0] - 1.0, v[1] - 1.0, v[2], v[3]));

@@ -463,3 +463,37 @@ fn substitute_lightest_weighs_the_new_state_against_the_heaviest() {
     pf.substitute_lightest(Vector1::new(f64::INFINITY), 1.0);
     assert_eq!(pf.weights(), &kept[..]);
 }
+
+/// Issue 38: weights near the largest float overflowed the plain sum to infinity, and
+/// every particle went to the last index. Scaled by any positive factor, the weights
+/// must resample exactly as the small ones do (same seed, same draws).
+#[test]
+fn resampling_is_invariant_to_the_weights_scale_up_to_the_largest_float() {
+    let small = [1.0, 2.0, 3.0, 4.0];
+    for r in [
+        Resampler::Multinomial,
+        Resampler::Systematic,
+        Resampler::Stratified,
+        Resampler::Residual,
+    ] {
+        let draw = |w: &[f64]| {
+            let mut idx = Vec::new();
+            r.resample(w, 400, &mut ChaCha8Rng::seed_from_u64(3), &mut idx)
+                .unwrap();
+            idx
+        };
+        let reference = draw(&small);
+        // Particle k is expected 40 (k + 1) times of 400.
+        for k in 0..4 {
+            let copies = reference.iter().filter(|&&i| i == k).count();
+            assert!(copies >= 40 * (k + 1) - 30, "{r:?}: {copies} copies of {k}");
+        }
+        // The largest weight is f64::MAX itself: the plain sum overflows.
+        for scale in [1e300, f64::MAX / 4.0] {
+            let big: Vec<f64> = small.iter().map(|w| w * scale).collect();
+            assert_eq!(draw(&big), reference, "{r:?} at scale {scale:e}");
+        }
+    }
+    let ess = effective_sample_size(&[f64::MAX; 10]).unwrap();
+    assert!((ess - 10.0).abs() < 1e-9, "{ess}");
+}

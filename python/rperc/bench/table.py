@@ -4,12 +4,9 @@ table and a figure of the methods side by side per dataset."""
 
 from __future__ import annotations
 
-import contextlib
 import csv
 import json
 import math
-import os
-import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from rperc._atomic import write_atomically, write_text_atomically
 from rperc.bench.runner import Row
 
 #: Columns that identify a run rather than measure it.
@@ -79,25 +77,6 @@ def _plain(v: Any) -> Any:
     return v
 
 
-def _atomic_write(path: Path, write: Any, mode: str = "w") -> Path:
-    """Write through a temporary file in the same folder, then rename: a reader never
-    sees half a file."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        if "b" in mode:
-            os.close(fd)
-            write(tmp)
-        else:
-            with os.fdopen(fd, mode, encoding="utf-8", newline="") as f:
-                write(f)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-    return path
-
-
 def write_rows(rows: Sequence[Row], path: str | Path) -> Path:
     """One row per run, every column (settings included) its own: ``.csv``, ``.json``
     (a list of objects) or ``.parquet`` (needs pyarrow)."""
@@ -106,16 +85,17 @@ def write_rows(rows: Sequence[Row], path: str | Path) -> Path:
     suffix = p.suffix.lower()
     if suffix == ".csv":
 
-        def write_csv(f: Any) -> None:
-            w = csv.DictWriter(f, fieldnames=cols, restval="", lineterminator="\n")
-            w.writeheader()
-            for r in rows:
-                w.writerow({k: "" if _plain(v) is None else _plain(v) for k, v in r.items()})
+        def write_csv(tmp: Path) -> None:
+            with tmp.open("w", encoding="utf-8", newline="") as f:
+                w = csv.DictWriter(f, fieldnames=cols, restval="", lineterminator="\n")
+                w.writeheader()
+                for r in rows:
+                    w.writerow({k: "" if _plain(v) is None else _plain(v) for k, v in r.items()})
 
-        return _atomic_write(p, write_csv)
+        return write_atomically(p, write_csv)
     if suffix == ".json":
         text = json.dumps([{k: _plain(v) for k, v in r.items()} for r in rows], indent=1)
-        return _atomic_write(p, lambda f: f.write(text + "\n"))
+        return write_text_atomically(p, text + "\n")
     if suffix == ".parquet":
         try:
             import pyarrow as pa  # type: ignore[import-untyped,unused-ignore]
@@ -123,7 +103,7 @@ def write_rows(rows: Sequence[Row], path: str | Path) -> Path:
         except ImportError:
             raise ValueError(f"--out {p}: Parquet needs pyarrow (pip install pyarrow)") from None
         table = pa.Table.from_pylist([{c: _plain(r.get(c)) for c in cols} for r in rows])
-        return _atomic_write(p, lambda tmp: pq.write_table(table, tmp), mode="wb")
+        return write_atomically(p, lambda tmp: pq.write_table(table, tmp))
     raise ValueError(f"--out {p}: use a .csv, .json or .parquet file name")
 
 
@@ -133,7 +113,7 @@ def write_summary(
     """The summary as JSON: ``about`` (the command, seeds, scheduler) and the groups."""
     p = Path(path)
     text = json.dumps({**about, "groups": [_plain_tree(g) for g in summary]}, indent=1)
-    return _atomic_write(p, lambda f: f.write(text + "\n"))
+    return write_text_atomically(p, text + "\n")
 
 
 def _plain_tree(v: Any) -> Any:

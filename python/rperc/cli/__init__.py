@@ -24,6 +24,9 @@ mistake in the command line or the input exits with status 2 and one
 
 from __future__ import annotations
 
+# Only the standard library at import: a Ctrl-C during the start-up imports (numpy,
+# the extension, PIL, matplotlib: most of a second) must reach main's handler and
+# print "rperc: interrupted", not a traceback (issue 38).
 import argparse
 import contextlib
 import logging
@@ -31,23 +34,27 @@ import sys
 from collections.abc import Iterator, Sequence
 from typing import NoReturn
 
-from PIL import Image
 
-from rperc import RpercError, __version__
+def user_errors() -> tuple[type[BaseException], ...]:
+    """What a user can cause: bad options or input files (ValueError, TypeError, our
+    own errors), sizes beyond the memory limit (MemoryError, raised before anything
+    is allocated), unreadable or unwritable paths and corrupt images (OSError, which
+    includes PIL's UnidentifiedImageError and truncated files). PIL reports some broken
+    PNGs as SyntaxError and oversized ones as DecompressionBombError. Anything else is
+    a bug and keeps its traceback."""
+    from PIL import Image
 
-# What a user can cause: bad options or input files (ValueError, TypeError, our own
-# errors), unreadable or unwritable paths and corrupt images (OSError, which includes
-# PIL's UnidentifiedImageError and truncated files). PIL reports some broken PNGs as
-# SyntaxError and oversized ones as DecompressionBombError. Anything else is a bug and
-# keeps its traceback.
-USER_ERRORS: tuple[type[BaseException], ...] = (
-    RpercError,
-    ValueError,
-    TypeError,
-    OSError,
-    SyntaxError,
-    Image.DecompressionBombError,
-)
+    from rperc import RpercError
+
+    return (
+        RpercError,
+        ValueError,
+        TypeError,
+        MemoryError,
+        OSError,
+        SyntaxError,
+        Image.DecompressionBombError,
+    )
 
 
 class _Parser(argparse.ArgumentParser):
@@ -59,6 +66,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from rperc import __version__
     from rperc.cli import bench, demo, lines, pattern, slamrun, track
 
     parser = _Parser(prog="rperc", description="Robot perception in Rust, driven from Python.")
@@ -107,22 +115,28 @@ def _one_line(exc: BaseException) -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the console script; returns the exit status."""
+    try:
+        return _run(argv)
+    except KeyboardInterrupt:  # from the start-up imports on
+        print("rperc: interrupted", file=sys.stderr)
+        return 130
+
+
+def _run(argv: Sequence[str] | None) -> int:
     import matplotlib
 
     # The command only writes files: select Agg before anything imports pyplot, so no
     # display is needed. (The library itself never chooses a backend.)
     matplotlib.use("Agg")
+    expected = user_errors()
     parser = build_parser()
     args = parser.parse_args(argv)
     with _progress_on_stderr():
         try:
             return int(args.run(args) or 0)
-        except USER_ERRORS as exc:
+        except expected as exc:
             print(f"rperc: error: {_one_line(exc)}", file=sys.stderr)
             return 2
-        except KeyboardInterrupt:
-            print("rperc: interrupted", file=sys.stderr)
-            return 130
 
 
 if __name__ == "__main__":  # pragma: no cover

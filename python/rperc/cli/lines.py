@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rperc._atomic import write_text_atomically
 from rperc._progress import progress
 from rperc.cli.demo import DemoResult
 from rperc.cli.outputs import (
@@ -158,7 +159,7 @@ def simplify_command(args: argparse.Namespace) -> int:
     if args.plot:
         _plot_simplification(args, inputs, results)
     if args.json:
-        args.json.write_text(json.dumps(_summary(args, rows), indent=2) + "\n", encoding="utf-8")
+        write_text_atomically(args.json, json.dumps(_summary(args, rows), indent=2) + "\n")
         print(f"wrote {args.json}", file=sys.stderr)
     return 0
 

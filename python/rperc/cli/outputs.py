@@ -17,6 +17,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rperc._args import excerpt
+from rperc._atomic import write_text_atomically
+
 if TYPE_CHECKING:
     from rperc.datasets import CarmenLog
 
@@ -28,7 +31,7 @@ def count_at_least(minimum: int, maximum: int | None = None) -> Callable[[str], 
         try:
             value = int(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+            raise argparse.ArgumentTypeError(f"expected an integer, got {excerpt(text)}") from None
         if value < minimum:
             raise argparse.ArgumentTypeError(f"must be an integer >= {minimum}, got {value}")
         if maximum is not None and value > maximum:
@@ -48,7 +51,7 @@ def positive_float(text: str) -> float:
     try:
         value = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected a number, got {excerpt(text)}") from None
     if not math.isfinite(value) or value <= 0:
         raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
     return value
@@ -59,7 +62,7 @@ def non_negative_float(text: str) -> float:
     try:
         value = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected a number, got {excerpt(text)}") from None
     if not math.isfinite(value) or value < 0:
         raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}")
     return value
@@ -149,5 +152,5 @@ def write_json(path: Path | None, measured: Mapping[str, Any]) -> None:
     """Write ``measured`` to ``path`` (checked earlier with :func:`check_output_file`)."""
     if path is None:
         return
-    path.write_text(json.dumps(_plain(measured), indent=2) + "\n", encoding="utf-8")
+    write_text_atomically(path, json.dumps(_plain(measured), indent=2) + "\n")
     wrote(path)

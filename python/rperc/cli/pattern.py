@@ -12,6 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from rperc._args import excerpt
+from rperc._atomic import write_atomically, write_text_atomically
 from rperc._progress import progress
 from rperc.cli.demo import DemoResult
 from rperc.cli.outputs import (
@@ -115,7 +117,7 @@ def demo_pattern(out: Path, seed: int, frames: int = 60) -> DemoResult:
     cases = planar.harness_cases(patch, background, n_frames=max(frames // 2, 8), seed=seed)
     scores = planar.run_harness(cases)
     table = planar.format_table(scores)
-    (out / "pattern_harness.txt").write_text(table + "\n")
+    write_text_atomically(out / "pattern_harness.txt", table + "\n")
     p5 = {s.tracker: s.precision_5 for s in scores if s.case == "steps <= 1 sigma"}
     summary = (
         f"pattern: Fig. 8 sequence ({frames} frames, seed {seed}, steps to 4 sigma), within "
@@ -160,7 +162,9 @@ def region_type(text: str) -> tuple[int, int, int, int]:
     """``x,y,w,h``: four whole non-negative pixel counts."""
     parts = text.split(",")
     if len(parts) != 4 or not all(p.strip().isdigit() for p in parts):
-        raise argparse.ArgumentTypeError(f"--region must be x,y,w,h in whole pixels, got {text!r}")
+        raise argparse.ArgumentTypeError(
+            f"--region must be x,y,w,h in whole pixels, got {excerpt(text)}"
+        )
     x, y, w, h = (int(p) for p in parts)
     return (x, y, w, h)
 
@@ -267,7 +271,8 @@ def track_pattern_command(args: argparse.Namespace) -> int:
     if args.animation is not None:
         import imageio.v3 as iio  # type: ignore[import-not-found,unused-ignore]
 
-        iio.imwrite(args.animation, [_draw_quad(f, q) for f, q in zip(frames, quads, strict=True)])
+        drawn = [_draw_quad(f, q) for f, q in zip(frames, quads, strict=True)]
+        write_atomically(args.animation, lambda tmp: iio.imwrite(tmp, drawn))
         wrote(args.animation)
     write_json(
         args.json,

@@ -21,6 +21,8 @@ from typing import Any
 
 import numpy as np
 
+from rperc._args import excerpt
+from rperc._atomic import write_atomically, write_text_atomically
 from rperc._progress import progress
 from rperc.cli.demo import DemoResult
 from rperc.cli.outputs import (
@@ -99,12 +101,14 @@ def box_type(text: str) -> tuple[float, float, float, float]:
     try:
         values = [float(v) for v in parts]
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected x,y,w,h (numbers), got {text!r}") from None
+        raise argparse.ArgumentTypeError(
+            f"expected x,y,w,h (numbers), got {excerpt(text)}"
+        ) from None
     if len(values) != 4 or not np.isfinite(values).all():
-        raise argparse.ArgumentTypeError(f"expected 4 finite numbers x,y,w,h, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected 4 finite numbers x,y,w,h, got {excerpt(text)}")
     x, y, w, h = values
     if w <= 0 or h <= 0:
-        raise argparse.ArgumentTypeError(f"w and h must be > 0, got {text!r}")
+        raise argparse.ArgumentTypeError(f"w and h must be > 0, got {excerpt(text)}")
     return (x, y, w, h)
 
 
@@ -131,7 +135,9 @@ def run_tracker(
     elif name == "color-shape":
         tracker = ColorShapeTracker(frames[0], box, seed=seed, **kw)
     else:
-        raise ValueError(f"unknown tracker {name!r}; expected one of {', '.join(CLI_TRACKERS)}")
+        raise ValueError(
+            f"unknown tracker {excerpt(name)}; expected one of {', '.join(CLI_TRACKERS)}"
+        )
     boxes: list[tuple[float, ...]] = [box]
     scores = [1.0]
     lost = [False]
@@ -334,7 +340,7 @@ def write_boxes_csv(path: Path, run: TrackerRun) -> None:
     lines = ["frame,x,y,w,h,score,lost"]
     for k, (b, sc, lo) in enumerate(zip(run.boxes, scores, run.lost, strict=True)):
         lines.append(f"{k},{b[0]:.2f},{b[1]:.2f},{b[2]:.2f},{b[3]:.2f},{sc:.4f},{int(lo)}")
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    write_text_atomically(path, "\n".join(lines) + "\n")
 
 
 def draw_box(frame: np.ndarray, box: Sequence[float], colour: Sequence[int]) -> np.ndarray:
@@ -390,9 +396,13 @@ def write_annotated(path: Path, frames: Sequence[np.ndarray], run: TrackerRun, f
         drawn_frames.append(out)
     drawn = np.stack(drawn_frames)
     if path.suffix.lower() == ".gif":
-        iio.imwrite(path, drawn, duration=1000.0 / fps, loop=0)
+        write_atomically(path, lambda tmp: iio.imwrite(tmp, drawn, duration=1000.0 / fps, loop=0))
     else:
-        iio.imwrite(path, drawn, fps=fps, codec="libx264", macro_block_size=1)
+
+        def write_video(tmp: Path) -> None:
+            iio.imwrite(tmp, drawn, fps=fps, codec="libx264", macro_block_size=1)
+
+        write_atomically(path, write_video)
 
 
 def demo_tracking(out: Path, seed: int, frames: int = 150) -> DemoResult:

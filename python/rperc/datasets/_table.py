@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rperc._args import excerpt
 from rperc.datasets._text import read_lines
 from rperc.datasets.errors import DatasetFormatError
 
@@ -44,9 +45,8 @@ def _records(path: Path, lines: list[str], columns: int) -> tuple[list[str], lis
         if not fields or fields[0].startswith("#"):
             continue
         if len(fields) != columns:
-            raise DatasetFormatError(
-                path, number, f"expected {columns} columns, got {len(fields)}: {text.strip()!r}"
-            )
+            got = f"got {len(fields)}: {excerpt(text.strip())}"
+            raise DatasetFormatError(path, number, f"expected {columns} columns, {got}")
         tokens.extend(fields)
         numbers.append(number)
     if not numbers:
@@ -67,7 +67,7 @@ def _to_floats(path: Path, tokens: list[str], numbers: list[int], columns: int) 
         except ValueError:
             line = numbers[k // columns]
             raise DatasetFormatError(
-                path, line, f"column {k % columns + 1} is not a number: {token!r}"
+                path, line, f"column {k % columns + 1} is not a number: {excerpt(token)}"
             ) from None
     raise AssertionError("numpy refused a table whose every token parses")  # pragma: no cover
 

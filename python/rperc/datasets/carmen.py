@@ -56,6 +56,7 @@ from typing import Literal
 
 import numpy as np
 
+from rperc._args import excerpt
 from rperc.datasets._text import decode_lines
 from rperc.datasets.errors import DatasetFormatError
 from rperc.datasets.timestamps import TimeOrderError, TimestampRepairWarning, repair_increasing
@@ -71,6 +72,16 @@ NO_RETURN_MIN_COUNT = 20
 #: ``NO_RETURN_BAND`` (relative) below it.
 NO_RETURN_DOMINANCE = 10
 NO_RETURN_BAND = 0.1
+#: The laser geometry PARAMs: what each is, and its valid range ``(low, high]``.
+_GEOMETRY_PARAMS = {
+    name: rule
+    for side in ("front", "rear")
+    for name, rule in (
+        (f"robot_{side}_laser_max", ("a maximum range (m)", 0.0, math.inf)),
+        (f"laser_{side}_laser_fov", ("a field of view (degrees)", 0.0, 360.0)),
+        (f"laser_{side}_laser_resolution", ("a resolution (degrees)", 0.0, 360.0)),
+    )
+}
 _LASER_PARAMS = {
     "FLASER": ("robot_front_laser_max", "laser_front_laser_fov", "laser_front_laser_resolution"),
     "RLASER": ("robot_rear_laser_max", "laser_rear_laser_fov", "laser_rear_laser_resolution"),
@@ -217,9 +228,18 @@ class CarmenLog:
 def _floats(path: Path, lineno: int, fields: list[str], what: str) -> list[float]:
     try:
         values = [float(f) for f in fields]
-    except ValueError as exc:
-        raise DatasetFormatError(path, lineno, f"{what}: {exc}") from None
+    except ValueError:
+        bad = next(f for f in fields if not _parses(f))
+        raise DatasetFormatError(path, lineno, f"{what}: not a number: {excerpt(bad)}") from None
     return values
+
+
+def _parses(token: str) -> bool:
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
 
 
 def _finite(path: Path, lineno: int, values: list[float], what: str) -> list[float]:
@@ -233,7 +253,7 @@ def _int(path: Path, lineno: int, tok: list[str], k: int, what: str) -> int:
     try:
         return int(tok[k])
     except (ValueError, IndexError):
-        got = repr(tok[k]) if k < len(tok) else "nothing"
+        got = excerpt(tok[k]) if k < len(tok) else "nothing"
         raise DatasetFormatError(path, lineno, f"{tok[0]} {what}: got {got}") from None
 
 
@@ -257,10 +277,7 @@ def _flaser_geometry(kind: str, n: int, params: dict[str, str]) -> tuple[float, 
     max_name, fov_name, res_name = _LASER_PARAMS[kind]
 
     def value(name: str, default: float) -> float:
-        try:
-            return float(params.get(name, default))
-        except ValueError:
-            return default
+        return float(params.get(name, default))  # checked by _parse_param
 
     max_range = value(max_name, math.nan)
     fov = math.radians(value(fov_name, 180.0))
@@ -295,6 +312,10 @@ def _laser_config(path: Path, lineno: int, tok: list[str]) -> tuple[int, int, li
     if n <= 0 or m < 0:
         raise DatasetFormatError(path, lineno, f"{tok[0]} with bad counts ({n} beams, {m})")
     config = _finite(path, lineno, _floats(path, lineno, tok[2:6], "laser config"), "config")
+    turn = 2 * math.pi
+    _in_range(path, lineno, f"{tok[0]} fov", config[1], "a field of view (rad)", 0.0, turn)
+    _in_range(path, lineno, f"{tok[0]} resolution", config[2], "a resolution (rad)", 0.0, turn)
+    _in_range(path, lineno, f"{tok[0]} max range", config[3], "a maximum range (m)", 0.0, math.inf)
     return n, m, config
 
 
@@ -341,7 +362,26 @@ def _parse_odom(path: Path, lineno: int, tok: list[str], odom: list[list[float]]
 def _parse_param(path: Path, lineno: int, tok: list[str], params: dict[str, str]) -> None:
     if len(tok) < 3:
         raise DatasetFormatError(path, lineno, "PARAM needs a name and a value")
+    if tok[1] in _GEOMETRY_PARAMS:
+        # Checked where it is written: a resolution of 0 or NaN or a negative maximum
+        # range used to be taken as it was (or silently replaced by the default when
+        # it did not parse) by every laser line after it (issue 38).
+        what, low, high = _GEOMETRY_PARAMS[tok[1]]
+        value = _floats(path, lineno, tok[2:3], tok[1])[0]
+        _in_range(path, lineno, f"PARAM {tok[1]}", value, what, low, high)
     params[tok[1]] = tok[2]
+
+
+def _in_range(
+    path: Path, lineno: int, name: str, value: float, what: str, low: float, high: float
+) -> float:
+    """``value`` when finite and in ``(low, high]``, else a DatasetFormatError naming
+    ``name``: the one range check of a laser's geometry, from a PARAM or a line."""
+    if not (math.isfinite(value) and low < value <= high):
+        raise DatasetFormatError(
+            path, lineno, f"{name} is {value!r}; {what} must be in ({low:g}, {high:g}]"
+        )
+    return value
 
 
 def load_carmen(
@@ -363,7 +403,7 @@ def load_carmen(
     :class:`~rperc.datasets.timestamps.TimestampRepairWarning`.
     """
     if on_error not in ("raise", "skip"):
-        raise ValueError(f"on_error must be 'raise' or 'skip', got {on_error!r}")
+        raise ValueError(f"on_error must be 'raise' or 'skip', got {excerpt(on_error)}")
     path = Path(path)
     rows, odom, params = _ScanRows(), list[list[float]](), dict[str, str]()
     skipped: Counter[str] = Counter()
@@ -500,7 +540,7 @@ def _read_record(
         return kind
     else:
         if strict and kind not in SKIPPED_TYPES:
-            raise DatasetFormatError(path, lineno, f"unknown record type {kind!r}")
+            raise DatasetFormatError(path, lineno, f"unknown record type {excerpt(kind)}")
         return kind
     return None
 

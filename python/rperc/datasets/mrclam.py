@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rperc._args import excerpt
 from rperc.datasets._table import Table, data_file, read_id_table, read_table
 from rperc.datasets.errors import DatasetFormatError
 
@@ -109,8 +110,9 @@ def load_mrclam(
     empty file or (unless ``allow_time_backwards``, which counts them) a time going
     backwards; ``ValueError`` for a robot number outside 1..5.
     """
-    if not isinstance(robot, int) or robot not in ROBOT_SUBJECTS:
-        raise ValueError(f"robot must be 1..5, got {robot!r}")
+    # bool is an int: True passed as robot 1 and looked for RobotTrue_Odometry.dat.
+    if isinstance(robot, bool) or not isinstance(robot, int) or robot not in ROBOT_SUBJECTS:
+        raise ValueError(f"robot must be 1..5, got {excerpt(robot)}")
     folder = Path(directory)
     timed = {
         kind: read_table(

@@ -22,6 +22,8 @@ from typing import Any
 import numpy as np
 
 from rperc import _geo
+from rperc._args import excerpt
+from rperc._atomic import write_atomically, write_text_atomically
 from rperc.datasets._text import read_text, split_lines
 from rperc.datasets.errors import DatasetFormatError
 
@@ -84,7 +86,7 @@ def _read_wkt(path: Path, text: str) -> list[tuple[int, _geo.Geometry]]:
             geom = shapely.from_wkt(body)
         except (shapely.errors.ShapelyError, ValueError) as exc:
             raise DatasetFormatError(
-                path, lineno, f"bad WKT {line.strip()[:40]!r}: {exc}"
+                path, lineno, f"bad WKT {excerpt(line.strip())}: {exc}"
             ) from None
         if srid:
             geom = shapely.set_srid(geom, int(srid.group(1)))
@@ -195,7 +197,7 @@ def _read_csv(path: Path, text: str) -> list[tuple[int, np.ndarray]]:
         except ValueError:
             if lineno == 1:  # header
                 continue
-            raise DatasetFormatError(path, lineno, f"bad CSV row {line.strip()!r}") from None
+            raise DatasetFormatError(path, lineno, f"bad CSV row {excerpt(line.strip())}") from None
         if len(values) not in (2, 3) or (width is not None and len(values) != width):
             raise DatasetFormatError(
                 path, lineno, f"rows must have 2 or 3 values, got {len(values)}"
@@ -229,8 +231,7 @@ def write_geometries(path: str | Path, geometries: Iterable[Any]) -> Path:
         text = _feature_collection(geoms)
     else:
         text = _csv_text(geoms)
-    path.write_text(text, encoding="utf-8")
-    return path
+    return write_text_atomically(path, text)
 
 
 def wkt_line(geom: _geo.Geometry) -> str:
@@ -277,6 +278,10 @@ def write_polyline(path: str | Path, points: np.ndarray) -> Path:
         raise ValueError(f"points must have shape (N, 2) or (N, 3), got {pts.shape}")
     if format_of(path) == "csv":
         header = "x,y,z" if pts.shape[1] == 3 else "x,y"
-        np.savetxt(path, pts, delimiter=",", header=header, comments="", fmt="%.17g")
-        return path
+        return write_atomically(
+            path,
+            lambda tmp: np.savetxt(
+                tmp, pts, delimiter=",", header=header, comments="", fmt="%.17g"
+            ),
+        )
     return write_geometries(path, [_geo.shapely_module().LineString(pts)])

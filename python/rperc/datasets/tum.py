@@ -17,13 +17,12 @@ one of their files, never lines of both.
 from __future__ import annotations
 
 import math
-import os
-import secrets
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
+from rperc._atomic import write_atomically
 from rperc.datasets._table import read_table
 from rperc.datasets.errors import DatasetFormatError
 from rperc.datasets.timestamps import check_increasing, first_not_increasing, step_problem
@@ -67,30 +66,8 @@ def write_tum(path: str | Path, t: npt.ArrayLike, poses: npt.ArrayLike) -> None:
 
 
 def _write_atomically(path: Path, rows: np.ndarray, header: str) -> None:
-    """Writes ``rows`` to a new temporary file beside ``path`` (same folder, so the same
-    file system; created as ``open`` would create it, so the umask applies), flushes it
-    to disk, then renames it over ``path``: readers see the old file or the new one, and
-    the last of several writers wins whole."""
-    tmp, fd = _new_file(path)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            np.savetxt(f, rows, fmt="%.17g", header=header)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-
-
-def _new_file(path: Path) -> tuple[Path, int]:
-    """A file beside ``path`` that did not exist before, open for writing."""
-    while True:
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(6)}.tmp")
-        try:
-            return tmp, os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-        except FileExistsError:  # pragma: no cover - 48 random bits collided
-            continue
+    """Writes ``rows`` through :func:`rperc._atomic.write_atomically`."""
+    write_atomically(path, lambda tmp: np.savetxt(tmp, rows, fmt="%.17g", header=header))
 
 
 def _yaw(path: Path, line: int, q: np.ndarray, tolerance: float) -> float:

@@ -34,6 +34,9 @@ import numpy.typing as npt
 
 from rperc import _rperc
 from rperc._args import float_array, real_number, whole_number
+from rperc._atomic import write_text_atomically
+from rperc.datasets._text import read_text
+from rperc.datasets.errors import DatasetFormatError
 from rperc.navigation.world import CeilingWorld
 
 __all__ = [
@@ -132,9 +135,7 @@ class VisualMemory:
                 "image_size": self._data["image_size"],
             },
         }
-        p = Path(path)
-        p.write_text(json.dumps(out))
-        return p
+        return write_text_atomically(path, json.dumps(out))
 
     @classmethod
     def load(cls, path: str | Path) -> VisualMemory:
@@ -142,8 +143,9 @@ class VisualMemory:
         mosaic, or a mosaic altered since, is a ``ValueError``."""
         p = Path(path)
         try:
-            data = json.loads(p.read_text())
-        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            # The readers' text rule: binary input refused from its first bytes.
+            data = json.loads(read_text(p))
+        except (DatasetFormatError, json.JSONDecodeError) as exc:
             raise ValueError(f"{p}: not a visual-memory file: {exc}") from None
         if not isinstance(data, dict) or data.get("format") != FORMAT:
             raise ValueError(f"{p}: not a visual-memory file (format {FORMAT!r} expected)")

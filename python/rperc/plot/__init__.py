@@ -18,6 +18,8 @@ from matplotlib.axes import Axes
 from matplotlib.backend_bases import FigureCanvasBase
 from matplotlib.figure import Figure
 
+from rperc._atomic import write_atomically
+
 Limits = tuple[tuple[float, float], tuple[float, float]]
 
 __all__ = ["Limits", "figure_format", "outside", "robust_limits", "save", "set_limits"]
@@ -48,7 +50,7 @@ def save(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
     folder = path.parent
     if not folder.is_dir():
         raise FileNotFoundError(f"folder {folder} does not exist (writing {path})")
-    fig.savefig(path, format=fmt, dpi=dpi, bbox_inches="tight")
+    write_atomically(path, lambda tmp: fig.savefig(tmp, format=fmt, dpi=dpi, bbox_inches="tight"))
     if "matplotlib.pyplot" in sys.modules:  # a figure made by pyplot stays registered
         import matplotlib.pyplot as plt
 

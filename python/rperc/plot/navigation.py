@@ -11,6 +11,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from rperc._atomic import write_atomically
 from rperc.plot import robust_limits, save, set_limits
 
 __all__ = ["replay_strip", "visual_memory_figure"]
@@ -156,6 +157,6 @@ def replay_strip(world: Any, learning: Any, run: Any, out: Path, frames: int = 8
     step = max(1, len(truth) // 60)
     clip = world.render(truth[::step])
     path = out / "replay.gif"
-    iio.imwrite(path, clip, duration=100, loop=0)
+    write_atomically(path, lambda tmp: iio.imwrite(tmp, clip, duration=100, loop=0))
     written.append(path)
     return written

@@ -28,6 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
+from rperc._args import excerpt
 from rperc.datasets.timestamps import check_increasing
 
 __all__ = [
@@ -176,7 +177,7 @@ def associate(
     check_increasing(t_ref, "t_reference")  # the rule every trajectory reader shares
     steps = np.diff(t_ref)
     if max_gap is not None and not (math.isfinite(max_gap) and max_gap > 0):
-        raise ValueError(f"max_gap must be finite and > 0, got {max_gap!r}")
+        raise ValueError(f"max_gap must be finite and > 0, got {excerpt(max_gap)}")
     early, late = t_est < t_ref[0], t_est > t_ref[-1]
     inside = ~(early | late)
     k = np.clip(np.searchsorted(t_ref, t_est, side="right") - 1, 0, len(t_ref) - 2)
@@ -507,7 +508,7 @@ def pose_nees(
             f"covariances must have shape ({association.total}, 3, 3), got {cov.shape}"
         )
     if not 0.0 < confidence < 1.0:
-        raise ValueError(f"confidence must be in (0, 1), got {confidence!r}")
+        raise ValueError(f"confidence must be in (0, 1), got {excerpt(confidence)}")
     cov = cov[association.estimate_index]
     _check_covariances(cov)
     err = association.estimate - association.reference

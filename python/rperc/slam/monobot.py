@@ -30,7 +30,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
-from rperc._args import whole_number
+from rperc._args import excerpt, whole_number
 from rperc._progress import progress as _progress
 
 Model = Literal["relative", "anchor", "external"]
@@ -112,7 +112,7 @@ def _config(config: MonobotConfig | None, overrides: dict[str, Any]) -> MonobotC
         spec = getattr(cfg, name)
         if not isinstance(spec, (tuple, list)) or len(spec) != 2 or spec[0] not in _NOISE_KINDS:
             raise ValueError(
-                f"{name} must be ('constant', variance) or ('proportional', k), got {spec!r}"
+                f"{name} must be ('constant', variance) or ('proportional', k), got {excerpt(spec)}"
             )
     return cfg
 

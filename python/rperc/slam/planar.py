@@ -43,7 +43,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
-from rperc._args import whole_number
+from rperc._args import excerpt, real_number, whole_number
 from rperc.slam import evaluation
 
 __all__ = [
@@ -355,12 +355,18 @@ def mrclam_recording(
     seeded Gaussian noise of ``fix_sigma`` metres (the issue's stand-in for a GPS)."""
     fixes = None
     if fix_interval is not None:
-        if not fix_interval > 0 or not fix_sigma > 0:
+        fix_interval = real_number(fix_interval, "fix_interval")
+        if not fix_interval > 0 or not real_number(fix_sigma, "fix_sigma") > 0:
             raise ValueError("fix_interval and fix_sigma must be > 0")
         # From the run's start (its first odometry row, where mrclam_start puts the
         # robot): MR.CLAM's Vicon starts 12 s earlier, and fixes from then would
         # start the filter 12 s early, away from its start pose.
         start = max(float(run.truth_t[0]), float(run.odometry_t[0]))
+        # Checked before np.arange: 1e-9 s asked numpy for 5.5 TiB (issue 38). A fix
+        # is a row of six floats, built from a few arrays as long.
+        count = max(0.0, float(run.truth_t[-1]) - start) / fix_interval
+        wanted = int(min(count, 2.0**100)) + 1
+        _rperc.check_allocation(f"fixes every fix_interval={fix_interval:g} s", wanted, 6 * 8 * 4)
         t = np.arange(start, run.truth_t[-1], fix_interval)
         xy = np.c_[np.interp(t, run.truth_t, run.truth_x), np.interp(t, run.truth_t, run.truth_y)]
         xy += np.random.default_rng(seed).normal(scale=fix_sigma, size=xy.shape)
@@ -611,10 +617,10 @@ def monte_carlo(
     filt = dict(slam) if slam is not None else sim_slam_config(sim)
     runs = whole_number(runs, "runs", 1)
     seed = whole_number(seed, "seed", 0, limit=2**64)
+    _rperc.planar_sim_check(sim, filt, runs)  # refused before any run starts
     if executor is None:
         nees = _rperc.planar_sim_nees(sim, filt, seed, 0, runs)
     else:
-        _rperc.planar_sim_nees({**sim, "steps": 1}, filt, seed, 0, 1)  # validate early
         futures = [executor.submit(_sim_run_nees, sim, filt, seed, i) for i in range(runs)]
         nees = np.stack([f.result() for f in futures])
     lo, hi = _rperc.nees_bounds(3, runs, confidence)
@@ -641,7 +647,7 @@ def consistency(
     out = {}
     for name in variants:
         if name not in VARIANTS:
-            raise ValueError(f"unknown variant {name!r}; expected one of {list(VARIANTS)}")
+            raise ValueError(f"unknown variant {excerpt(name)}; expected one of {list(VARIANTS)}")
         sim = dict(config or {})
         if name == "external":
             sim["fix_every"] = fix_every

@@ -44,7 +44,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
-from rperc._args import float_array, real_number, whole_number
+from rperc._args import excerpt, float_array, real_number, whole_number
 from rperc.slam.planar import PlanarSlam, SlamResult
 from rperc.slam.smoothing import SmoothedRun, smooth_walls
 
@@ -349,7 +349,7 @@ def prepare(log: Any, *, straightness: float = 0.0, show_progress: bool = False)
     """The reference, odometry increments and wall sightings of a
     :class:`rperc.datasets.CarmenLog` (walls extracted once for every run over it)."""
     if not (math.isfinite(straightness) and straightness >= 0):
-        raise ValueError(f"straightness must be finite and >= 0, got {straightness!r}")
+        raise ValueError(f"straightness must be finite and >= 0, got {excerpt(straightness)}")
     ref = np.asarray(log.scans.pose, dtype=np.float64)
     if len(ref) < 2 or not np.all(np.isfinite(ref)):
         raise ValueError(f"{log.path}: needs at least 2 scans, each with a finite pose")

@@ -33,7 +33,7 @@ from typing import Literal
 
 import numpy as np
 
-from rperc._args import whole_number
+from rperc._args import excerpt, whole_number
 from rperc.tracking.synthetic import SyntheticSequence
 
 __all__ = ["CHALLENGES", "Challenge", "challenge_sequence"]
@@ -148,7 +148,7 @@ def challenge_sequence(kind: Challenge, frames: int = 150, seed: int = 0) -> Syn
     """The ``kind`` sequence of ``frames`` 320 x 240 frames; the same seed gives the same
     frames and boxes."""
     if kind not in CHALLENGES:
-        raise ValueError(f"kind must be one of {', '.join(CHALLENGES)}, got {kind!r}")
+        raise ValueError(f"kind must be one of {', '.join(CHALLENGES)}, got {excerpt(kind)}")
     n = whole_number(frames, "frames", 2)
     seed = whole_number(seed, "seed", 0)
     rng = np.random.default_rng([seed, CHALLENGES.index(kind)])

@@ -24,6 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
+from rperc._args import float_array, whole_number
 from rperc.tracking.trackers import ResamplerName, _plain
 
 _TRACKER, _SEQUENCE = _rperc.pattern_defaults()
@@ -111,9 +112,8 @@ def _region(region: Sequence[int] | npt.ArrayLike) -> tuple[int, int, int, int] 
 
 
 def _seed(seed: int) -> int:
-    if isinstance(seed, bool) or int(seed) != seed or not 0 <= seed < 2**64:
-        raise ValueError(f"seed must be an integer in [0, 2**64), got {seed!r}")
-    return int(seed)
+    # None or NaN failed inside int() with a message that named no parameter.
+    return whole_number(seed, "seed", 0, limit=2**64)
 
 
 class PatternTracker:
@@ -186,7 +186,7 @@ class PatternTracker:
         parallel: bool = _FILTER["parallel"],
         parallel_min_work: int = _TRACKER["parallel_min_work"],
     ) -> None:
-        sig = np.asarray(sigma, dtype=np.float64).reshape(-1)
+        sig = float_array(sigma, "sigma").reshape(-1)
         if sig.shape != (4,):
             raise ValueError(f"sigma must be 4 numbers (x, y, theta, s), got {np.shape(sigma)}")
         pattern = {

@@ -34,7 +34,7 @@ from typing import Literal
 
 import numpy as np
 
-from rperc._args import whole_number
+from rperc._args import excerpt, whole_number
 
 __all__ = ["EXPERIMENTS", "ShapeSequence", "shape_sequence"]
 
@@ -223,6 +223,6 @@ def shape_sequence(name: Experiment, frames: int = 120, seed: int = 0) -> ShapeS
     elif name in ("nonrigid", "clutter"):
         f, m, outline = _nonrigid(rng, n, clutter=name == "clutter")
     else:
-        raise ValueError(f"experiment must be one of {EXPERIMENTS}, got {name!r}")
+        raise ValueError(f"experiment must be one of {EXPERIMENTS}, got {excerpt(name)}")
     space: Literal["rgb", "opponent"] = "rgb" if name == "circles" else "opponent"
     return ShapeSequence(name, np.stack(f), np.stack(m), np.asarray(outline, float), space, seed)

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rperc._args import whole_number
+from rperc._args import excerpt, whole_number
 
 __all__ = ["SyntheticSequence", "synthetic_sequence"]
 
@@ -147,7 +147,7 @@ def synthetic_sequence(
     if (1 + SCALE_SWING) * tw + 8 >= width or (1 + SCALE_SWING) * th + 8 >= height:
         raise ValueError(f"target {target} does not fit a {width} x {height} frame")
     if not np.isfinite(noise) or noise < 0:
-        raise ValueError(f"noise must be finite and >= 0, got {noise!r}")
+        raise ValueError(f"noise must be finite and >= 0, got {excerpt(noise)}")
     seed = _count(seed, "seed", 0)
     rng = np.random.default_rng(seed)
     background = _background(rng, height, width)

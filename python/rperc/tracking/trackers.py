@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
-from rperc._args import whole_number
+from rperc._args import excerpt, real_number, whole_number
 
 ColorSpace = Literal["hsv", "opponent", "rg", "rgb"]
 ModelKind = Literal["bimodal", "single"]
@@ -90,7 +90,7 @@ def _channels(channels: str) -> Channels:
         return "rgb"
     if channels == "bgr":
         return "bgr"
-    raise ValueError(f"channels must be 'rgb' or 'bgr', got {channels!r}")
+    raise ValueError(f"channels must be 'rgb' or 'bgr', got {excerpt(channels)}")
 
 
 def _first_box(box: Sequence[float] | npt.ArrayLike, frame: np.ndarray) -> Box:
@@ -457,7 +457,7 @@ class ColorShapeTracker:
         cfg.update(
             color_space=color_space,
             n_samples=whole_number(n_samples, "n_samples", 1, limit=1_000_000),
-            sigma=float(sigma),
+            sigma=real_number(sigma, "sigma"),
             seed=whole_number(seed, "seed", 0, limit=2**64),
         )
         poly = None if contour is None else np.asarray(contour, dtype=np.float64)
@@ -544,10 +544,12 @@ def opencv(
     """
     if isinstance(tracker, str):
         if tracker not in _BY_NAME:
-            raise ValueError(f"tracker must be one of {', '.join(_BY_NAME)}, got {tracker!r}")
+            raise ValueError(
+                f"tracker must be one of {', '.join(_BY_NAME)}, got {excerpt(tracker)}"
+            )
         kind = _BY_NAME[tracker]
     elif tracker in _BY_NAME.values():
         kind = tracker
     else:
-        raise TypeError(f"tracker must be a name or an rperc tracker class, got {tracker!r}")
+        raise TypeError(f"tracker must be a name or an rperc tracker class, got {excerpt(tracker)}")
     return OpenCVTracker(kind, _channels(channels), options)

@@ -17,6 +17,11 @@ pub fn monte_carlo(
     if runs == 0 {
         return Err(SlamError::invalid("runs", "must be >= 1".into()));
     }
+    // Refused before any run starts, naming runs: 10^9 of them ran on for minutes
+    // (issue 38). A run keeps, per step, its errors (robot, NEES, each landmark) and
+    // the estimate with its covariance's diagonal: a few floats per landmark.
+    let per_step = 8 * (4 + 4 * config.landmarks as u128);
+    rperc_core::check_allocation("runs", runs as u128, per_step * (config.steps as u128 + 1))?;
     // The pool's threads work under the caller's interrupt token (if any).
     let token = rperc_core::interrupt::current();
     (0..runs)

@@ -280,8 +280,9 @@ impl PlanarConfig {
         for sd in self.control_bias_sd.iter().flatten() {
             ensure_positive("control_bias_sd", *sd)?;
         }
+        rperc_core::ensure_coordinates("initial_pose", &self.initial_pose[..2])?;
         rperc_core::ensure_finite("initial_pose", self.initial_pose.iter())?;
-        rperc_core::ensure_finite("fix_lever_arm", self.fix_lever_arm.iter())?;
+        rperc_core::ensure_coordinates("fix_lever_arm", self.fix_lever_arm.iter())?;
         for v in self.initial_pose_variance {
             ensure_non_negative("initial_pose_variance", v)?;
         }

@@ -293,7 +293,28 @@ impl PlanarSlam {
         if events.is_empty() {
             return Err(SlamError::invalid("events", "is empty".into()));
         }
+        let ids = events.iter().flat_map(|e| match e {
+            Event::Scan { detections, .. } => detections.iter().filter_map(|d| d.id).collect(),
+            _ => Vec::new(),
+        });
+        self.check_known_landmarks(ids)?;
         events.iter().try_for_each(|e| self.process(e))
+    }
+
+    /// Refuses at once a run whose known landmark ids would need a covariance over
+    /// the allocation limit: found only as the state grew, the error came seconds into
+    /// the run and named a state dimension the caller never set (issue 38).
+    fn check_known_landmarks(&self, ids: impl Iterator<Item = u64>) -> Result<()> {
+        if self.config.association != Association::Known {
+            return Ok(());
+        }
+        let landmarks = ids.collect::<std::collections::HashSet<u64>>().len() as u128;
+        let dim = self.ekf.robot_dim() as u128 + 2 * landmarks;
+        Ok(rperc_core::check_bytes(
+            "landmarks",
+            landmarks,
+            dim * dim * 8,
+        )?)
     }
 
     fn record(&mut self, t: f64, kind: EventKind, seconds: f64) {
@@ -887,6 +908,8 @@ impl PlanarSlam {
         mut report: impl FnMut(usize, usize) -> bool,
     ) -> Result<()> {
         check_arrays(arrays)?;
+        let ids = arrays.detection_ids.unwrap_or(&[]).iter();
+        self.check_known_landmarks(ids.filter_map(|&id| u64::try_from(id).ok()))?;
         let mut cursor = Cursor::new(arrays);
         let total = cursor.total();
         let step = total.div_ceil(100);
@@ -1031,6 +1054,8 @@ fn check_arrays(a: &EventArrays<'_>) -> Result<()> {
         ("fixes", a.fixes.iter().map(|r| r[0]).collect()),
         ("walls", a.walls.iter().map(|r| r[0]).collect()),
     ];
+    // Fix positions are world coordinates: the one range check of a coordinate.
+    rperc_core::ensure_coordinates("fixes", a.fixes.iter().flat_map(|r| &r[1..3]))?;
     for (name, t) in times {
         ensure_finite(name, t.iter())?;
         if let Some(row) = t.windows(2).position(|w| w[1] < w[0]) {

@@ -102,6 +102,12 @@ impl SimConfig {
                 "steps, landmarks and fix_every must be >= 1".into(),
             ));
         }
+        // Sizes a caller sets are checked before anything is allocated: 10^9
+        // landmarks aborted the process, 10^9 steps ran for minutes (issue 38). A
+        // step holds a control, the true poses and a scan of the landmarks in range
+        // (a handful in these worlds): a few hundred bytes.
+        rperc_core::check_allocation("landmarks", self.landmarks as u128, 16)?;
+        rperc_core::check_allocation("steps", self.steps as u128, 256)?;
         if self.ring_gap >= self.radius {
             return Err(SlamError::invalid(
                 "ring_gap",
@@ -257,16 +263,7 @@ pub(super) fn average_runs<F>(runs: usize, steps: usize, nees_of: F) -> Result<M
 where
     F: Fn(u64) -> Result<Vec<f64>> + Sync + Send,
 {
-    if runs == 0 || steps == 0 {
-        return Err(SlamError::invalid(
-            "runs",
-            "runs and steps must be >= 1".into(),
-        ));
-    }
-    let per_run: Vec<Vec<f64>> = (0..runs as u64)
-        .into_par_iter()
-        .map(&nees_of)
-        .collect::<Result<_>>()?;
+    let per_run = parallel_runs(0, runs, steps, nees_of)?;
     let mean_nees = (0..steps)
         .map(|k| per_run.iter().map(|r| r[k]).sum::<f64>() / runs as f64)
         .collect();
@@ -275,6 +272,38 @@ where
         band: nees_band(3, runs, 0.95)?,
         runs,
     })
+}
+
+/// Refuses `runs` runs of `steps` NEES values each before any is run, when either is
+/// 0 or their series would not fit the allocation limit (the error names `runs`, the
+/// value the caller set): `runs = 10^9` ran on for minutes (issue 38).
+pub fn check_runs(runs: usize, steps: usize) -> Result<()> {
+    if runs == 0 || steps == 0 {
+        return Err(SlamError::invalid(
+            "runs",
+            "runs and steps must be >= 1".into(),
+        ));
+    }
+    Ok(rperc_core::check_allocation(
+        "runs",
+        runs as u128,
+        steps as u128 * 8,
+    )?)
+}
+
+/// `nees_of(r)` for the runs `first..first + runs` in parallel, after [`check_runs`].
+/// The pool's threads work under the caller's interrupt token, so Ctrl-C stops every
+/// run at its next checkpoint (without it only the calling thread saw the signal).
+pub fn parallel_runs<F>(first: u64, runs: usize, steps: usize, nees_of: F) -> Result<Vec<Vec<f64>>>
+where
+    F: Fn(u64) -> Result<Vec<f64>> + Sync + Send,
+{
+    check_runs(runs, steps)?;
+    let token = rperc_core::interrupt::current();
+    (first..first + runs as u64)
+        .into_par_iter()
+        .map(|r| rperc_core::interrupt::run_with(token.clone(), || nees_of(r)))
+        .collect()
 }
 
 fn detections(
@@ -298,7 +327,12 @@ fn detections(
 }
 
 /// Run `run` of the world seeded by `seed` (stream `run` of `seed`).
-pub fn simulate(cfg: &SimConfig, seed: u64, run: u64) -> SimRun {
+///
+/// # Errors
+/// [`SlamError::Core`] with `Interrupted` when the caller's interrupt token is stopped
+/// (Ctrl-C from Python): a world of millions of steps or landmarks is a long loop.
+pub fn simulate(cfg: &SimConfig, seed: u64, run: u64) -> Result<SimRun> {
+    let mut meter = rperc_core::interrupt::Work::new();
     let mut rng = rng::stream(seed, run);
     let world = cfg.world();
     let mut robot = Circle::new(
@@ -310,6 +344,7 @@ pub fn simulate(cfg: &SimConfig, seed: u64, run: u64) -> SimRun {
     );
     let (mut events, mut truth) = (Vec::new(), Vec::new());
     for k in 0..cfg.steps {
+        meter.advance(1 + world.len() as u64)?;
         let (control, before) = robot.step(k, &mut rng);
         events.push(control);
         truth.push(before);
@@ -333,11 +368,11 @@ pub fn simulate(cfg: &SimConfig, seed: u64, run: u64) -> SimRun {
             truth.push(pose);
         }
     }
-    SimRun {
+    Ok(SimRun {
         events,
         truth,
         landmarks: world,
-    }
+    })
 }
 
 /// The robot-pose NEES `e^T P_rr^-1 e` after every event (`NaN` where `P_rr` is
@@ -364,7 +399,7 @@ pub fn robot_nees(result: &PlanarResult, truth: &[Pose2], landmarks: &[Point2<f6
 /// Run `run` of `seed` (as [`simulate`]) through `slam`: the robot NEES after each
 /// scan, one per control step. What one worker of a Monte Carlo computes.
 pub fn run_nees(sim: &SimConfig, slam: &PlanarConfig, seed: u64, run: u64) -> Result<Vec<f64>> {
-    let data = simulate(sim, seed, run);
+    let data = simulate(sim, seed, run)?;
     let mut engine = PlanarSlam::new(slam.clone())?;
     engine.run(&data.events)?;
     let result = engine.finish();

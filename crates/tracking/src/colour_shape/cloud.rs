@@ -23,6 +23,9 @@ pub fn measured_state(
     let b = contour_box(contour);
     let (w, h) = (frame.width(), frame.height());
     let roi = Roi::clipped(b.x, b.y, b.x + b.w + 1.0, b.y + b.h + 1.0, w, h);
+    if roi.width == 0 || roi.height == 0 {
+        return None; // off the frame: no pixel to measure
+    }
     let mut mask = GrayImage::new(roi.width.max(1) as u32, roi.height.max(1) as u32);
     fill_polygon(contour, roi.x0 as f64, roi.y0 as f64, &mut mask);
     let stride = (mask.iter().filter(|m| **m != 0).count()).div_ceil(4 * p.cloud_points);
@@ -67,7 +70,10 @@ pub fn target_colours(
         w,
         h,
     );
-    let mut mask = GrayImage::new(roi.width.max(1) as u32, roi.height.max(1) as u32);
+    if roi.width == 0 || roi.height == 0 {
+        return Err(no_pixel());
+    }
+    let mut mask = GrayImage::new(roi.width as u32, roi.height as u32);
     fill_polygon(contour, roi.x0 as f64, roi.y0 as f64, &mut mask);
     let n_bins: usize = p.bins.iter().product();
     let (mut inside, mut ring) = (vec![0u32; n_bins], vec![0u32; n_bins]);
@@ -84,10 +90,7 @@ pub fn target_colours(
         }
     }
     if pixels.is_empty() {
-        return Err(TrackingError::InvalidParameter {
-            name: "contour",
-            reason: "encloses no pixel of the frame".into(),
-        });
+        return Err(no_pixel());
     }
     let (n_in, n_ring) = (pixels.len() as u64, u64::from(ring.iter().sum::<u32>()));
     // inside / n_in > ring / n_ring, in integers.
@@ -105,4 +108,11 @@ pub fn target_colours(
         .step_by(stride)
         .map(|c| colour_coords(p.color_space, c))
         .collect()
+}
+
+fn no_pixel() -> TrackingError {
+    TrackingError::InvalidParameter {
+        name: "contour",
+        reason: "encloses no pixel of the frame".into(),
+    }
 }

@@ -167,16 +167,17 @@ impl ColorShapeParams {
         colour_coords(self.color_space, [0, 0, 0])?;
         crate::colour::check_bins(self.bins)?;
         self.dynamics.validate()?;
-        at_least("n_samples", self.n_samples, 1)?;
-        at_least("contour_points", self.contour_points, 8)?;
-        at_least("search", self.search, 1)?;
-        at_least("min_search", self.min_search, 1)?;
-        if self.search > 64 {
-            return Err(TrackingError::InvalidParameter {
-                name: "search",
-                reason: format!("must be <= 64, got {}", self.search),
-            });
-        }
+        // Every size and count a caller sets has an upper bound, checked before
+        // anything is allocated: contour_points = 10^9 aborted the process, and 10^9
+        // snake iterations or smoothing passes never returned (issue 38).
+        count_in("n_samples", self.n_samples, 1, MAX_SAMPLES)?;
+        count_in("contour_points", self.contour_points, 8, MAX_CONTOUR_POINTS)?;
+        count_in("search", self.search, 1, MAX_SEARCH)?;
+        count_in("min_search", self.min_search, 1, MAX_SEARCH)?;
+        count_in("deform", self.deform, 0, MAX_SEARCH)?;
+        count_in("deform_passes", self.deform_passes, 0, MAX_PASSES)?;
+        count_in("snake_iterations", self.snake_iterations, 1, MAX_PASSES)?;
+        count_in("cloud_points", self.cloud_points, 1, MAX_CLOUD_POINTS)?;
         ensure_non_negative("edge_tolerance", self.edge_tolerance)?;
         ensure_non_negative("stiffness", self.stiffness)?;
         ensure_non_negative("background_ring", self.background_ring)?;
@@ -185,8 +186,6 @@ impl ColorShapeParams {
         ensure_in_range("split_radius", self.split_radius, 0.0, 1.0)?;
         ensure_in_range("velocity_gain", self.velocity_gain, 0.0, 1.0)?;
         ensure_in_range("reacquire_area_ratio", self.reacquire_area_ratio, 1e-6, 1.0)?;
-        at_least("snake_iterations", self.snake_iterations, 1)?;
-        at_least("cloud_points", self.cloud_points, 1)?;
         ensure_positive("sigma", self.sigma)?;
         for m in self.mu {
             ensure_non_negative("mu", m)?;
@@ -221,13 +220,25 @@ impl ColorShapeParams {
     }
 }
 
-fn at_least(name: &'static str, value: usize, min: usize) -> Result<()> {
-    if value >= min {
+/// Most samples: each costs a segmentation per frame, so a million already takes
+/// minutes per frame.
+const MAX_SAMPLES: usize = 1_000_000;
+/// Most snake points: one per pixel of the outline of a target filling a 4K frame.
+const MAX_CONTOUR_POINTS: usize = 1 << 14;
+/// Widest edge search and deformation, pixels (the window margin follows them).
+const MAX_SEARCH: usize = 64;
+/// Most snake iterations and smoothing passes: the fit converges in a handful.
+const MAX_PASSES: usize = 1_000;
+/// Most reference colours in the cloud every sample warps.
+const MAX_CLOUD_POINTS: usize = 1 << 20;
+
+fn count_in(name: &'static str, value: usize, min: usize, max: usize) -> Result<()> {
+    if (min..=max).contains(&value) {
         Ok(())
     } else {
         Err(TrackingError::InvalidParameter {
             name,
-            reason: format!("must be >= {min}, got {value}"),
+            reason: format!("must be in {min}..={max}, got {value}"),
         })
     }
 }

@@ -120,7 +120,7 @@ impl ColorShapeTracker {
         params: ColorShapeParams,
     ) -> Result<Self> {
         params.validate()?;
-        check_contour(contour)?;
+        check_contour(contour, frame.width(), frame.height())?;
         let r0 = resample_closed(contour, params.contour_points);
         let cloud = super::cloud::target_colours(&frame, &r0, &params)?;
         let reference = ColourDistribution::from_points(&cloud, params.min_spread())?;
@@ -178,6 +178,8 @@ impl ColorShapeTracker {
         bbox: BoundingBox,
         params: ColorShapeParams,
     ) -> Result<Self> {
+        // Before the ellipse allocates `contour_points` points.
+        params.validate()?;
         bbox.check_inside(frame.width(), frame.height())?;
         let (cx, cy) = bbox.centre();
         // Pixel centres are at integers: the box [x, x + w) spans centres x .. x + w - 1.
@@ -487,14 +489,33 @@ fn distribution_of(s: &State) -> [f64; N_PARAMS] {
     std::array::from_fn(|i| s[i])
 }
 
-fn check_contour(contour: &[[f64; 2]]) -> Result<()> {
+/// A starting contour holds at least 3 finite points and lies inside the frame, by the
+/// rule every box obeys ([`BoundingBox::check_inside`]): the one finite-range check of
+/// a coordinate input. A contour outside the frame panicked on an empty window, and
+/// one of 1e300 came back as a box of 1e300 (issue 38).
+fn check_contour(contour: &[[f64; 2]], width: usize, height: usize) -> Result<()> {
     if contour.len() < 3 || contour.iter().flatten().any(|v| !v.is_finite()) {
         return Err(TrackingError::InvalidParameter {
             name: "contour",
             reason: format!("need >= 3 finite points, got {}", contour.len()),
         });
     }
-    Ok(())
+    let b = contour_box(contour);
+    // A thin contour still encloses pixels: only its position is checked here.
+    let outer = BoundingBox {
+        w: b.w.max(1.0),
+        h: b.h.max(1.0),
+        ..b
+    };
+    outer
+        .check_inside(width, height)
+        .map_err(|_| TrackingError::InvalidParameter {
+            name: "contour",
+            reason: format!(
+                "its box ({:?}, {:?}, {:?}, {:?}) is not inside the {width}x{height} frame",
+                b.x, b.y, b.w, b.h
+            ),
+        })
 }
 
 /// Mean of a contour's points.

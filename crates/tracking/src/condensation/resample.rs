@@ -43,7 +43,7 @@ rperc_core::named_enum! {
 /// ```
 pub fn effective_sample_size(weights: &[f64]) -> Result<f64> {
     let total = checked_total(weights)?;
-    Ok(ess_normalized(weights.iter().map(|w| w / total)))
+    Ok(ess_normalized(weights.iter().map(|&w| total.share(w))))
 }
 
 /// `1 / sum(w_i^2)` of weights that already sum to one.
@@ -105,23 +105,42 @@ impl Resampler {
     }
 }
 
-fn checked_total(weights: &[f64]) -> Result<f64> {
+/// The sum of the weights, kept as `max * sum(w_i / max)`: finite weights near the
+/// largest float (1e308 each) overflow a plain sum to infinity, and every `w_i / inf`
+/// is then 0, which gave all the particles to the last index.
+#[derive(Debug, Clone, Copy)]
+struct Total {
+    /// The largest weight (> 0).
+    max: f64,
+    /// `sum(w_i / max)`, in `[1, n]`: finite for any number of finite weights.
+    scaled: f64,
+}
+
+impl Total {
+    /// `w / sum(w_i)`, without forming the sum.
+    fn share(&self, w: f64) -> f64 {
+        (w / self.max) / self.scaled
+    }
+}
+
+fn checked_total(weights: &[f64]) -> Result<Total> {
     if weights.is_empty() {
         return Err(TrackingError::InvalidWeights {
             reason: "no weights".into(),
         });
     }
-    let mut total = 0.0;
+    let mut max = 0.0_f64;
     for (i, &w) in weights.iter().enumerate() {
         if !(w.is_finite() && w >= 0.0) {
             return Err(TrackingError::InvalidWeights {
                 reason: format!("weight {i} is {w}; weights must be finite and >= 0"),
             });
         }
-        total += w;
+        max = max.max(w);
     }
-    if total > 0.0 {
-        Ok(total)
+    if max > 0.0 {
+        let scaled = weights.iter().map(|w| w / max).sum();
+        Ok(Total { max, scaled })
     } else {
         Err(TrackingError::InvalidWeights {
             reason: "all weights are zero".into(),
@@ -133,19 +152,19 @@ fn checked_total(weights: &[f64]) -> Result<f64> {
 /// be non-decreasing) through the cumulative distribution of `weights`.
 fn walk_pointers(
     weights: &[f64],
-    total: f64,
+    total: Total,
     n: usize,
     mut pointer: impl FnMut(usize) -> f64,
     out: &mut Vec<usize>,
 ) {
     let last = weights.len() - 1;
     let mut i = 0;
-    let mut cumulative = weights[0] / total;
+    let mut cumulative = total.share(weights[0]);
     for k in 0..n {
         let u = pointer(k);
         while u >= cumulative && i < last {
             i += 1;
-            cumulative += weights[i] / total;
+            cumulative += total.share(weights[i]);
         }
         out.push(i);
     }
@@ -155,25 +174,25 @@ fn walk_pointers(
 /// (u_(k) = u_(k+1) * U^(1/k)), matched against the cumulative sum from the top.
 fn multinomial<R: Rng + ?Sized>(
     weights: &[f64],
-    total: f64,
+    total: Total,
     n: usize,
     rng: &mut R,
     out: &mut Vec<usize>,
 ) {
     let mut i = weights.len() - 1;
     // Lower end of the cumulative interval of particle i.
-    let mut lower = (total - weights[i]) / total;
+    let mut lower = 1.0 - total.share(weights[i]);
     let mut u = 1.0;
     for k in (1..=n).rev() {
         u *= rng.random::<f64>().powf(1.0 / k as f64);
         while u < lower && i > 0 {
             i -= 1;
-            lower -= weights[i] / total;
+            lower -= total.share(weights[i]);
         }
         // A zero-weight particle is never picked, even when rounding leaves `lower` a hair off.
         while weights[i] == 0.0 && i > 0 {
             i -= 1;
-            lower -= weights[i] / total;
+            lower -= total.share(weights[i]);
         }
         out.push(i);
     }
@@ -191,15 +210,15 @@ fn multinomial<R: Rng + ?Sized>(
 
 fn residual<R: Rng + ?Sized>(
     weights: &[f64],
-    total: f64,
+    total: Total,
     n: usize,
     rng: &mut R,
     out: &mut Vec<usize>,
 ) {
-    let scale = n as f64 / total;
+    let expected_copies = |w: f64| n as f64 * total.share(w);
     let mut residual_total = 0.0;
     for (i, &w) in weights.iter().enumerate() {
-        let expected = w * scale;
+        let expected = expected_copies(w);
         let copies = expected.floor();
         residual_total += expected - copies;
         out.extend(std::iter::repeat_n(i, copies as usize));
@@ -218,7 +237,7 @@ fn residual<R: Rng + ?Sized>(
     let start = out.len();
     // The residual weights are recomputed on the fly: no buffer needed.
     let residuals = |i: usize| {
-        let e = weights[i] * scale;
+        let e = expected_copies(weights[i]);
         e - e.floor()
     };
     let mut i = weights.len() - 1;

@@ -14,6 +14,7 @@ use rperc_core::rng::{normal, stream};
 use super::keyimages::{KeyImage, KeyImageParams, LearntFrame, select_key_images};
 
 use super::geometry::ImageScale;
+use super::keyimages::TrackedModel;
 use super::mosaic::{FrameReport, MosaicBuilder, MosaicModel, MosaicParams};
 use super::servo::{ServoParams, command, key_error};
 use crate::ceiling::{Ceiling, CeilingCamera, CeilingParams, OdometryNoise, RenderParams, render};
@@ -422,6 +423,9 @@ impl ReplayParams {
                 reason: "must be >= 1".into(),
             });
         }
+        // Every frame keeps its report (pose, covariance, tracked models): refused
+        // up front rather than growing towards an abort (issue 38).
+        rperc_core::check_allocation("max_frames", self.max_frames as u128, 1024)?;
         Ok(())
     }
 }
@@ -587,13 +591,19 @@ fn next_command(
     units_per_pixel: f64,
     servo: &ServoParams,
 ) -> Step {
+    // The one lost rule (issue 38): a lost frame (no model's image pose accepted by
+    // the localisation, `FrameReport::lost`) sees no key image. Its trackers may still
+    // follow something, but nothing vouches that it is the model: measured from them,
+    // replays started 100 m off, kidnapped, or in another world reported 'reached'
+    // with every frame lost.
+    let seen: &[TrackedModel] = if report.lost { &[] } else { &report.tracked };
     loop {
         let key = &keys[*k];
         let turn = report
             .pose
             .filter(|_| !report.lost)
             .map(|p| key.pose.theta - p.theta);
-        let Some(error) = key_error(&report.tracked, key, principal, turn) else {
+        let Some(error) = key_error(seen, key, principal, turn) else {
             return match report.pose {
                 Some(p) => {
                     let e = p.between(&key.pose);

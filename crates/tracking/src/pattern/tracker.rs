@@ -73,6 +73,8 @@ const COARSE_MIN_POINTS: usize = 64;
 /// More Gauss-Newton steps than this are refused: the search converges in a few, and
 /// a huge count (a typo) would only spend time where it has not.
 const MAX_NEWTON_STEPS: usize = 100;
+/// Most rounds of the coordinate refinement (see `refine_steps`).
+const MAX_REFINE_STEPS: usize = 64;
 
 /// How fast the typical score of `second_look` forgets a good frame (per frame).
 const TYPICAL_SCORE_DECAY: f64 = 0.95;
@@ -178,6 +180,17 @@ impl PatternTrackerParams {
                 reason: format!(
                     "must be at most {MAX_NEWTON_STEPS}, got {}",
                     self.newton_steps
+                ),
+            });
+        }
+        // The step halves each round: after 64 it is 2^-64 sigmas, so more rounds
+        // only spend time (10^9 of them never returned, issue 38).
+        if self.refine_steps > MAX_REFINE_STEPS {
+            return Err(TrackingError::InvalidParameter {
+                name: "refine_steps",
+                reason: format!(
+                    "must be at most {MAX_REFINE_STEPS}, got {}",
+                    self.refine_steps
                 ),
             });
         }

@@ -13,6 +13,7 @@ from __future__ import annotations
 import time
 from typing import Any
 
+from rperc._args import excerpt
 from rperc.bench.tasks import Task, parse_names
 
 VARIANT_PARTS = ("plain", "anchor", "external", "freeze")
@@ -30,7 +31,7 @@ def parse_variants(text: str) -> list[str]:
         if v.strip()
     ]
     if not out:
-        raise ValueError(f"--variants {text!r}: no variant")
+        raise ValueError(f"--variants {excerpt(text)}: no variant")
     return list(dict.fromkeys(out))
 
 
@@ -40,7 +41,7 @@ def parse_robots(text: str) -> list[int]:
 
     robots = parse_seeds(text)
     if not robots or robots[0] < 1 or robots[-1] > 5:
-        raise ValueError(f"--robots {text!r}: MR.CLAM robots are 1-5")
+        raise ValueError(f"--robots {excerpt(text)}: MR.CLAM robots are 1-5")
     return robots
 
 

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from rperc._args import excerpt
 from rperc.bench.tasks import Task
 
 TRACKERS = ("rperc", "ecc-euclidean", "ecc-affine", "match-template", "csrt")
@@ -41,7 +42,9 @@ def case_steps(name: str) -> float:
     try:
         return float(body)
     except ValueError:
-        raise ValueError(f"{name!r} is not a generated pattern case (steps<=Nsigma)") from None
+        raise ValueError(
+            f"{excerpt(name)} is not a generated pattern case (steps<=Nsigma)"
+        ) from None
 
 
 def parse_steps(text: str) -> list[float]:
@@ -49,9 +52,9 @@ def parse_steps(text: str) -> list[float]:
     try:
         steps = [float(s) for s in text.split(",") if s.strip()]
     except ValueError:
-        raise ValueError(f"--steps {text!r}: expected numbers such as 1,2,3") from None
+        raise ValueError(f"--steps {excerpt(text)}: expected numbers such as 1,2,3") from None
     if not steps or not all(0 < s <= 10 for s in steps):
-        raise ValueError(f"--steps {text!r}: each bound must be in (0, 10] sigma")
+        raise ValueError(f"--steps {excerpt(text)}: each bound must be in (0, 10] sigma")
     return list(dict.fromkeys(steps))
 
 
@@ -127,7 +130,9 @@ def run(task: Task) -> dict[str, Any]:
         seed=task.seed,
     )
     if task.method not in TRACKERS:
-        raise ValueError(f"unknown tracker {task.method!r}; expected one of {', '.join(TRACKERS)}")
+        raise ValueError(
+            f"unknown tracker {excerpt(task.method)}; expected one of {', '.join(TRACKERS)}"
+        )
     result = _tracker(task.method, task.kwargs, task.seed)(seq.frames, seq.region)
     truth = planar.truth_corners(seq)
     s = planar.score(task.dataset, result, truth)

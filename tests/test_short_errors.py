@@ -1,0 +1,35 @@
+"""Issue 38: an error names the parameter (or the file and line) and quotes at most
+about 80 characters of the input, however long the input is."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import pytest
+
+HUGE = 5_000_000
+
+
+def _cases() -> dict[str, Callable[[], Any]]:
+    from rperc.datasets import load_carmen
+    from rperc.linesimp import simplify
+    from rperc.tracking import ColorHistogramTracker
+
+    frame = np.zeros((20, 20, 3), np.uint8)
+    return {
+        "epsilon": lambda: simplify(np.zeros((3, 2)), "x" * HUGE),
+        "method": lambda: simplify(np.zeros((3, 2)), 1.0, method="m" * HUGE),
+        "channels": lambda: ColorHistogramTracker(frame, (1, 1, 5, 5), channels="c" * HUGE),
+        "on_error": lambda: load_carmen("/dev/null", on_error="o" * HUGE),  # type: ignore[arg-type]
+    }
+
+
+@pytest.mark.parametrize("name", ["epsilon", "method", "channels", "on_error"])
+def test_a_huge_argument_is_quoted_briefly_and_named(name):
+    with pytest.raises(ValueError) as info:
+        _cases()[name]()
+    text = str(info.value)
+    assert name in text and len(text) < 250, text[:300]
+    assert "more characters" in text

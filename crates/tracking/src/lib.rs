@@ -11,7 +11,7 @@ pub mod memory;
 pub mod metrics;
 pub mod otb;
 pub mod pattern;
-mod template;
+pub mod template;
 
 pub use colour::{
     AppearanceParams, ColorHistogramTracker, ColorSpace, ColorTrackerParams, MAX_BINS_PER_AXIS,

@@ -41,11 +41,35 @@ fn gradient(grey: &[f32], width: usize, height: usize, x: usize, y: usize) -> (f
     let gx = at((x + 1).min(width - 1), y) - at(x.saturating_sub(1), y);
     let gy = at(x, (y + 1).min(height - 1)) - at(x, y.saturating_sub(1));
     let magnitude = (gx * gx + gy * gy).sqrt();
-    let mut theta = gy.atan2(gx);
-    if theta < 0.0 {
-        theta += std::f32::consts::PI;
+    (magnitude, unsigned_angle(gx, gy))
+}
+
+/// The direction of `(gx, gy)` modulo pi, in [0, pi): a polynomial arctangent (error
+/// below 1e-5 rad, Abramowitz-Stegun style minimax on [0, 1]) instead of `atan2`, which
+/// was half the cost of a HOG map.
+#[inline]
+pub(crate) fn unsigned_angle(gx: f32, gy: f32) -> f32 {
+    use std::f32::consts::{FRAC_PI_2, PI};
+    let (ax, ay) = (gx.abs(), gy.abs());
+    if ax == 0.0 && ay == 0.0 {
+        return 0.0;
     }
-    (magnitude, theta)
+    let (num, den) = if ax >= ay { (ay, ax) } else { (ax, ay) };
+    let t = num / den;
+    let t2 = t * t;
+    let p = t
+        * (0.999_977_3
+            + t2 * (-0.332_623_5
+                + t2 * (0.193_543_5
+                    + t2 * (-0.116_432_9 + t2 * (0.052_653_3 + t2 * -0.011_721_2)))));
+    // Unfold the octant, then fold the full angle onto [0, pi).
+    let first_quadrant = if ax >= ay { p } else { FRAC_PI_2 - p };
+    let theta = if (gx >= 0.0) == (gy >= 0.0) {
+        first_quadrant
+    } else {
+        PI - first_quadrant
+    };
+    if theta >= PI { 0.0 } else { theta }
 }
 
 /// Splits a magnitude between the two orientation bins whose centres bracket `theta`
@@ -182,6 +206,21 @@ mod tests {
                 prop_assert!(plane.iter().all(|&v| (0.0..=2.0 * TRUNCATION + 1e-6).contains(&v)));
             }
             prop_assert!(map.planes[ORIENTATIONS].iter().all(|&v| (-0.5..=0.5).contains(&v)));
+        }
+    }
+
+    proptest! {
+        /// The polynomial arctangent agrees with `atan2` folded onto [0, pi).
+        #[test]
+        fn unsigned_angle_matches_atan2(gx in -10.0f32..10.0, gy in -10.0f32..10.0) {
+            prop_assume!(gx.abs() + gy.abs() > 1e-6);
+            let mut expected = f64::from(gy).atan2(f64::from(gx));
+            if expected < 0.0 {
+                expected += std::f64::consts::PI;
+            }
+            let got = f64::from(unsigned_angle(gx, gy));
+            let d = (got - expected).abs();
+            prop_assert!(d.min(std::f64::consts::PI - d) < 2e-5, "{got} vs {expected}");
         }
     }
 

@@ -9,34 +9,31 @@ use crate::frame::RgbFrame;
 
 impl ColorTemplateTracker {
     /// Learns the template, the colour histograms and the scale filter at the current
-    /// box, each at its own learning rate (`rate` is the template's; 1 on the first
-    /// frame replaces every model).
-    pub(super) fn learn(&mut self, frame: &RgbFrame<'_>, rate: f32) {
+    /// box, each at its own learning rate times `confidence` in [0, 1]; `None` is the
+    /// first frame, which replaces every model.
+    pub(super) fn learn(&mut self, frame: &RgbFrame<'_>, confidence: Option<f32>) {
+        let first = confidence.is_none();
+        let weight = confidence.unwrap_or(1.0);
+        if !first && weight <= 0.0 {
+            return; // nothing to learn: skip the samples
+        }
+        let rate = |r: f64| if first { 1.0 } else { r as f32 * weight };
         let (cx, cy) = self.centre;
         let window = self.window_at(cx, cy);
         let (pw, ph) = self.geometry.patch;
         let s = &mut self.scratch;
         patch::sample(frame, window, pw, ph, &mut s.patch);
         hog::features(&s.patch.grey, pw, ph, self.params.cell_size, &mut s.map);
-        self.filter.train(&s.map, rate);
+        self.filter.train(&s.map, rate(self.params.learning_rate));
         let (tw, th) = self.geometry.target;
         let shrink = self.params.inner_padding * (tw + th) / 2.0;
         let target = Rect::centred(pw, ph, tw, th);
         let object = Rect::centred(pw, ph, (tw - shrink).max(1.0), (th - shrink).max(1.0));
-        let first = rate >= 1.0;
-        let colour_rate = if first {
-            1.0
-        } else {
-            self.params.color_learning_rate as f32
-        };
+        let colour_rate = rate(self.params.color_learning_rate);
         self.colour
             .learn(&s.patch.rgb, pw, target, object, colour_rate);
         self.sample_scales(frame);
-        let scale_rate = if first {
-            1.0
-        } else {
-            self.params.scale_learning_rate as f32
-        };
+        let scale_rate = rate(self.params.scale_learning_rate);
         self.scale_filter
             .train(&self.scratch.scale_samples, scale_rate);
     }

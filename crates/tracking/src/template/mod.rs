@@ -13,6 +13,7 @@ mod locate;
 mod params;
 mod patch;
 mod scale;
+pub mod stages;
 mod tracker;
 
 pub use params::ColorTemplateParams;

@@ -20,7 +20,7 @@ pub struct ColorTemplateParams {
     /// axis, in 0.2..=4. Default 1.
     pub padding: f64,
     /// Learning rate of the translation filter (running average of its numerator and
-    /// denominator), in (0, 1]. Default 0.01.
+    /// denominator), in (0, 1]. Default 0.02.
     pub learning_rate: f64,
     /// Regulariser `lambda` of the correlation filters, > 0. Default 1e-3.
     pub lambda: f64,
@@ -37,7 +37,7 @@ pub struct ColorTemplateParams {
     /// mean side (its edges mix target and background), in [0, 0.45]. Default 0.2.
     pub inner_padding: f64,
     /// Weight of the colour response in the merged response map, in [0, 1]; 0 is the
-    /// template alone, 1 the colour alone. Default 0.3.
+    /// template alone, 1 the colour alone. Default 0.2.
     pub merge_factor: f64,
     /// Scales sampled by the scale filter (odd, 3..=65). Default 17.
     pub n_scales: usize,
@@ -56,7 +56,7 @@ pub struct ColorTemplateParams {
     pub max_scale: f64,
     /// The target is lost when the merged response's peak falls below this fraction of
     /// its running level over tracked frames, in [0, 1]; 0 never reports a loss.
-    /// Default 0.3.
+    /// Learning fades linearly from the level down to this threshold. Default 0.6.
     pub lost_ratio: f64,
     /// Re-detection: while lost, the search also covers windows centred
     /// `redetect_step` window sizes apart around the last position, in (0, 2].
@@ -65,6 +65,10 @@ pub struct ColorTemplateParams {
     /// Re-detection: the grid of windows reaches this many steps each way (1: 3 x 3),
     /// in 0..=4; 0 searches only the last window. Default 1.
     pub redetect_radius: usize,
+    /// While lost, keep the box where the target was last seen (`true`), or let it
+    /// follow the last window's peak without learning from it (`false`, the
+    /// default).
+    pub freeze_when_lost: bool,
 }
 
 impl Default for ColorTemplateParams {
@@ -73,14 +77,14 @@ impl Default for ColorTemplateParams {
             template_size: 96,
             cell_size: 4,
             padding: 1.0,
-            learning_rate: 0.01,
+            learning_rate: 0.02,
             lambda: 1e-3,
             output_sigma_factor: 1.0 / 16.0,
             color_space: ColorSpace::Rgb,
             bins: [32, 32, 32],
             color_learning_rate: 0.04,
             inner_padding: 0.2,
-            merge_factor: 0.3,
+            merge_factor: 0.2,
             n_scales: 17,
             scale_step: 1.03,
             scale_learning_rate: 0.025,
@@ -88,9 +92,10 @@ impl Default for ColorTemplateParams {
             scale_model_area: 512.0,
             min_scale: 0.1,
             max_scale: 10.0,
-            lost_ratio: 0.3,
+            lost_ratio: 0.6,
             redetect_step: 0.75,
             redetect_radius: 1,
+            freeze_when_lost: false,
         }
     }
 }

@@ -30,27 +30,18 @@ pub(crate) struct Window {
     pub(crate) height: f64,
 }
 
-/// Bilinear interpolation of one channel-interleaved RGB frame at `(x, y)`, pixel
-/// centres at integers, coordinates clamped to the frame so a window that overhangs
-/// the border repeats the edge (as OpenCV's `BORDER_REPLICATE`).
-fn bilinear(frame: &RgbFrame<'_>, x: f64, y: f64) -> [f32; 3] {
-    let (w, h) = (frame.width(), frame.height());
-    let x = x.clamp(0.0, (w - 1) as f64);
-    let y = y.clamp(0.0, (h - 1) as f64);
-    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
-    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
-    let (fx, fy) = ((x - x0 as f64) as f32, (y - y0 as f64) as f32);
-    let data = frame.data();
-    let px = |xx: usize, yy: usize, c: usize| f32::from(data[(yy * w + xx) * 3 + c]);
-    std::array::from_fn(|c| {
-        let top = px(x0, y0, c) * (1.0 - fx) + px(x1, y0, c) * fx;
-        let bottom = px(x0, y1, c) * (1.0 - fx) + px(x1, y1, c) * fx;
-        top * (1.0 - fy) + bottom * fy
-    })
+/// The two neighbouring pixel indices and the weight of the second for a coordinate
+/// along an axis of `n` pixels, clamped so a window that overhangs the border repeats
+/// the edge (OpenCV's `BORDER_REPLICATE`). Computed once per column and per row.
+fn taps(coordinate: f64, n: usize) -> (usize, usize, f32) {
+    let c = coordinate.clamp(0.0, (n - 1) as f64);
+    let i0 = c.floor() as usize;
+    (i0, (i0 + 1).min(n - 1), (c - i0 as f64) as f32)
 }
 
-/// Resamples `window` of `frame` to `width x height` pixels into `out`: output pixel
-/// `(i, j)` takes the frame at the centre of its cell in the window.
+/// Resamples `window` of `frame` to `width x height` pixels into `out` by bilinear
+/// interpolation: output pixel `(i, j)` takes the frame at the centre of its cell in the
+/// window (frame pixel centres at integers).
 pub(crate) fn sample(
     frame: &RgbFrame<'_>,
     window: Window,
@@ -62,17 +53,28 @@ pub(crate) fn sample(
     out.height = height;
     out.rgb.clear();
     out.grey.clear();
+    let (fw, fh) = (frame.width(), frame.height());
     let (sx, sy) = (window.width / width as f64, window.height / height as f64);
     let (x0, y0) = (
         window.cx - window.width / 2.0,
         window.cy - window.height / 2.0,
     );
+    let columns: Vec<(usize, usize, f32)> = (0..width)
+        .map(|i| taps(x0 + (i as f64 + 0.5) * sx - 0.5, fw))
+        .collect();
+    let data = frame.data();
     for j in 0..height {
-        // Frame pixel centres are at integers, so the window's left edge is at x - 0.5.
-        let y = y0 + (j as f64 + 0.5) * sy - 0.5;
-        for i in 0..width {
-            let x = x0 + (i as f64 + 0.5) * sx - 0.5;
-            let [r, g, b] = bilinear(frame, x, y);
+        let (r0, r1, fy) = taps(y0 + (j as f64 + 0.5) * sy - 0.5, fh);
+        let (top, bottom) = (
+            &data[r0 * fw * 3..(r0 + 1) * fw * 3],
+            &data[r1 * fw * 3..(r1 + 1) * fw * 3],
+        );
+        for &(c0, c1, fx) in &columns {
+            let mix = |row: &[u8], c: usize| {
+                f32::from(row[c0 * 3 + c]) * (1.0 - fx) + f32::from(row[c1 * 3 + c]) * fx
+            };
+            let [r, g, b]: [f32; 3] =
+                std::array::from_fn(|c| mix(top, c) * (1.0 - fy) + mix(bottom, c) * fy);
             out.rgb
                 .push([r.round() as u8, g.round() as u8, b.round() as u8]);
             out.grey.push((0.299 * r + 0.587 * g + 0.114 * b) / 255.0);

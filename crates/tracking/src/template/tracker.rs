@@ -13,9 +13,18 @@ use crate::colour::TrackResult;
 use crate::error::{Result, TrackingError};
 use crate::frame::{BoundingBox, RgbFrame};
 
-/// The running level of the peak follows tracked frames with this weight, slowly
-/// enough that one bad frame does not move it.
-const LEVEL_RATE: f64 = 0.1;
+/// The running level of the peak is the plain mean of the tracked frames' peaks for
+/// the first `1 / LEVEL_RATE` of them, then an average with this weight: slow enough
+/// that a peak sinking over a few tens of frames (a target sliding behind an
+/// occluder) still falls below it, instead of dragging it down.
+const LEVEL_RATE: f64 = 0.02;
+/// A re-detection window away from the last position is taken only when its peak
+/// reaches the full running level (not `lost_ratio` of it): far away, another object
+/// of the same kind is likelier than the target (Bolt2's runners, Jogging's joggers).
+/// Factor on the running level per lost frame (halves it in about 23 frames).
+const LOST_LEVEL_DECAY: f64 = 0.97;
+/// Tracked frames whose peaks set the level before a loss can be declared.
+const WARM_UP_FRAMES: usize = 5;
 
 /// Where one search window put the target.
 #[derive(Debug, Clone, Copy)]
@@ -53,7 +62,7 @@ pub(super) struct Scratch {
 ///         .flat_map(|k| {
 ///             let (x, y) = (k % w, k / w);
 ///             let inside = (x0..x0 + 16).contains(&x) && (22..38).contains(&y);
-///             if inside { [220, 40 + (x as u8 % 8) * 20, 30] } else { [60, 90, 60] }
+///             if inside { [220, 40 + ((x - x0) as u8 % 8) * 20, 30] } else { [60, 90, 60] }
 ///         })
 ///         .collect()
 /// };
@@ -76,6 +85,7 @@ pub struct ColorTemplateTracker {
     pub(super) scale_filter: ScaleFilter,
     pub(super) colour: ColourLikelihood,
     pub(super) peak_level: Option<f64>,
+    pub(super) tracked_frames: usize,
     pub(super) lost_frames: usize,
     pub(super) scratch: Scratch,
 }
@@ -105,11 +115,12 @@ impl ColorTemplateTracker {
             centre: bbox.centre(),
             scale: 1.0,
             peak_level: None,
+            tracked_frames: 0,
             lost_frames: 0,
             scratch: Scratch::default(),
             params,
         };
-        tracker.learn(&frame, 1.0);
+        tracker.learn(&frame, None);
         Ok(tracker)
     }
 
@@ -140,23 +151,50 @@ impl ColorTemplateTracker {
     /// [`TrackingError::FrameSizeChanged`] when the frame's size differs from the first.
     pub fn update(&mut self, frame: RgbFrame<'_>) -> Result<TrackResult> {
         self.check_size(&frame)?;
-        let best = self.search(&frame);
-        let level = *self.peak_level.get_or_insert(best.peak);
-        let lost = best.peak < self.params.lost_ratio * level;
+        let level = self.peak_level.unwrap_or(0.0);
+        let threshold = self.params.lost_ratio * level;
+        let best = self.search(&frame, threshold, level);
+        // The first frames only set the level: a loss needs one to compare with.
+        let lost = self.tracked_frames >= WARM_UP_FRAMES && best.peak < threshold;
         if lost {
             self.lost_frames += 1;
+            // The level sinks while the target stays lost, so that a target that came
+            // back changed (turned, lit differently) is taken up again and learned
+            // from, instead of being held to the level of its old appearance forever.
+            self.peak_level = Some(level * LOST_LEVEL_DECAY);
+            if !self.params.freeze_when_lost {
+                self.centre = self.clamp_centre(best.cx, best.cy);
+            }
         } else {
             self.lost_frames = 0;
             self.centre = self.clamp_centre(best.cx, best.cy);
             self.estimate_scale(&frame);
-            self.peak_level = Some((1.0 - LEVEL_RATE) * level + LEVEL_RATE * best.peak);
-            self.learn(&frame, self.params.learning_rate as f32);
+            self.tracked_frames += 1;
+            let rate = (1.0 / self.tracked_frames as f64).max(LEVEL_RATE);
+            self.peak_level = Some((1.0 - rate) * level + rate * best.peak);
+            let confidence = self.confidence(best.peak, level);
+            self.learn(&frame, Some(confidence as f32));
         }
         Ok(TrackResult {
             bbox: self.bbox(),
             score: best.peak.clamp(0.0, 1.0),
             lost,
         })
+    }
+
+    /// How much to learn from a frame, in [0, 1]: 1 at or above the running level,
+    /// falling linearly to 0 at the loss threshold, so that a target sliding behind an
+    /// occluder stops teaching the models before it is declared lost, instead of at one
+    /// threshold whose exact value decides the whole sequence.
+    fn confidence(&self, peak: f64, level: f64) -> f64 {
+        if self.tracked_frames <= WARM_UP_FRAMES || level <= 0.0 {
+            return 1.0;
+        }
+        let ratio = self.params.lost_ratio;
+        if ratio >= 1.0 {
+            return 1.0;
+        }
+        ((peak / level - ratio) / (1.0 - ratio)).clamp(0.0, 1.0)
     }
 
     fn check_size(&self, frame: &RgbFrame<'_>) -> Result<()> {
@@ -190,28 +228,32 @@ impl ColorTemplateTracker {
         }
     }
 
-    /// The best of the search windows: the last position's while tracked; a grid of
-    /// windows around it while lost (re-detection in a wider window).
-    fn search(&mut self, frame: &RgbFrame<'_>) -> Located {
+    /// The target in the window at the last position; while lost, when that window's
+    /// peak stays under `threshold`, the best of a grid of windows around it
+    /// (re-detection in a wider window); a distant window must reach the level.
+    fn search(&mut self, frame: &RgbFrame<'_>, threshold: f64, level: f64) -> Located {
         let (cx, cy) = self.centre;
-        let reach = if self.lost_frames > 0 {
-            self.params.redetect_radius as isize
-        } else {
-            0
-        };
+        let here = self.locate(frame, cx, cy);
+        if self.lost_frames == 0 || here.peak >= threshold {
+            return here;
+        }
+        let reach = self.params.redetect_radius as isize;
         let window = self.window_at(cx, cy);
         let step = self.params.redetect_step;
-        let mut best: Option<Located> = None;
+        let mut best = here;
         for j in -reach..=reach {
             for i in -reach..=reach {
+                if i == 0 && j == 0 {
+                    continue;
+                }
                 let x = cx + i as f64 * step * window.width;
                 let y = cy + j as f64 * step * window.height;
                 let found = self.locate(frame, x, y);
-                if best.is_none_or(|b| found.peak > b.peak) {
-                    best = Some(found);
+                if found.peak >= level && found.peak > best.peak {
+                    best = found;
                 }
             }
         }
-        best.unwrap_or(Located { peak: 0.0, cx, cy })
+        best
     }
 }

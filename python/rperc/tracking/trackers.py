@@ -406,11 +406,12 @@ class ColorTemplateTracker:
     ``scale_step``, ``scale_learning_rate``, ``scale_sigma``, ``scale_model_area``)
     re-sizes the box within ``min_scale..max_scale`` of the first. The target is
     ``lost`` when the merged response's peak falls under ``lost_ratio`` times its
-    running level; the box then stays where it was last seen, the models stop
-    learning (with ``freeze_when_lost=False`` the box follows the peak without
-    learning), and each frame searches a grid of windows ``redetect_step`` window
-    sizes apart, ``redetect_radius`` steps each way, until the peak is back (a
-    distant window needs the full running level).
+    running level (learning fades out on the way down from the level to there); the
+    models then stop learning, the box moves ``lost_motion`` of the way to the peak
+    (0 keeps it where the target was last seen, 1 follows the peak), and each frame
+    searches a grid of windows ``redetect_step`` window sizes apart,
+    ``redetect_radius`` steps each way, until the peak is back (a distant window needs
+    the full running level).
 
     ``seed`` is accepted for the trackers' common signature; nothing is random.
     Defaults were chosen by leave-one-sequence-out over the ten dev OTB sequences.
@@ -455,7 +456,7 @@ class ColorTemplateTracker:
         lost_ratio: float = _TEMPLATE["lost_ratio"],
         redetect_step: float = _TEMPLATE["redetect_step"],
         redetect_radius: int = _TEMPLATE["redetect_radius"],
-        freeze_when_lost: bool = _TEMPLATE["freeze_when_lost"],
+        lost_motion: float = _TEMPLATE["lost_motion"],
         channels: Channels = "rgb",
     ) -> None:
         config = _appearance(
@@ -479,7 +480,7 @@ class ColorTemplateTracker:
             lost_ratio=lost_ratio,
             redetect_step=redetect_step,
             redetect_radius=redetect_radius,
-            freeze_when_lost=freeze_when_lost,
+            lost_motion=lost_motion,
         )
         config["lambda"] = _plain(lambda_)
         seed = whole_number(seed, "seed", 0, limit=2**64)

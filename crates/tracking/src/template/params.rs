@@ -65,10 +65,11 @@ pub struct ColorTemplateParams {
     /// Re-detection: the grid of windows reaches this many steps each way (1: 3 x 3),
     /// in 0..=4; 0 searches only the last window. Default 1.
     pub redetect_radius: usize,
-    /// While lost, keep the box where the target was last seen (`true`), or let it
-    /// follow the last window's peak without learning from it (`false`, the
-    /// default).
-    pub freeze_when_lost: bool,
+    /// While lost, the box moves this fraction of the way to the last window's peak
+    /// (without learning from it), in [0, 1]: 0 keeps it where the target was last
+    /// seen (right behind an occluder), 1 follows the peak (right when the loss was
+    /// a false alarm). Default 1.
+    pub lost_motion: f64,
 }
 
 impl Default for ColorTemplateParams {
@@ -95,7 +96,7 @@ impl Default for ColorTemplateParams {
             lost_ratio: 0.6,
             redetect_step: 0.75,
             redetect_radius: 1,
-            freeze_when_lost: false,
+            lost_motion: 1.0,
         }
     }
 }
@@ -142,6 +143,7 @@ impl ColorTemplateParams {
         in_range("max_scale", self.max_scale, 1.0, 1e3)?;
         in_range("lost_ratio", self.lost_ratio, 0.0, 1.0)?;
         in_range("redetect_step", self.redetect_step, 1e-3, 2.0)?;
+        in_range("lost_motion", self.lost_motion, 0.0, 1.0)?;
         count_in("redetect_radius", self.redetect_radius, 0, 4)
     }
 }
@@ -199,6 +201,13 @@ mod tests {
                     ..Default::default()
                 },
                 "template_size",
+            ),
+            (
+                ColorTemplateParams {
+                    lost_motion: -0.1,
+                    ..Default::default()
+                },
+                "lost_motion",
             ),
         ];
         for (params, name) in cases {

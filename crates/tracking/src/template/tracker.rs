@@ -162,9 +162,13 @@ impl ColorTemplateTracker {
             // back changed (turned, lit differently) is taken up again and learned
             // from, instead of being held to the level of its old appearance forever.
             self.peak_level = Some(level * LOST_LEVEL_DECAY);
-            if !self.params.freeze_when_lost {
-                self.centre = self.clamp_centre(best.cx, best.cy);
-            }
+            let (m, (cx, cy)) = (self.params.lost_motion, self.centre);
+            let (x, y) = if m >= 1.0 {
+                (best.cx, best.cy)
+            } else {
+                (cx + m * (best.cx - cx), cy + m * (best.cy - cy))
+            };
+            self.centre = self.clamp_centre(x, y);
         } else {
             self.lost_frames = 0;
             self.centre = self.clamp_centre(best.cx, best.cy);

@@ -260,7 +260,7 @@ def brute_force_auc(pred: np.ndarray, truth: np.ndarray) -> float:
     return float(sum(success) / 21)
 
 
-@pytest.mark.parametrize("tracker", ["color", "color-pf", "color-shape"])
+@pytest.mark.parametrize("tracker", ["color-template", "color", "color-pf", "color-shape"])
 def test_track_scores_an_otb_folder_against_its_ground_truth(otb_folder, tmp_path, capsys, tracker):
     strip, js = tmp_path / "strip.png", tmp_path / "track.json"
     argv = ["track", str(otb_folder), "--tracker", tracker, "--strip", str(strip), "--frames", "3"]

@@ -10,6 +10,7 @@ __all__ = [
     "CeilingWorld",
     "ColorHistogramTracker",
     "ColorShapeTracker",
+    "ColorTemplateTracker",
     "Ekf",
     "NumericalError",
     "ParticleColorTracker",
@@ -20,6 +21,7 @@ __all__ = [
     "ceiling_drive",
     "check_allocation",
     "color_shape_defaults",
+    "color_template_defaults",
     "effective_sample_size",
     "extract_lines",
     "information_spectrum",
@@ -210,6 +212,25 @@ class ColorHistogramTracker:
     def search_radius(self) -> int: ...
     @property
     def lost_frames(self) -> int: ...
+
+@final
+class ColorTemplateTracker:
+    """Colour + correlation-filter template tracker (see rperc.tracking)."""
+
+    def __new__(
+        cls,
+        frame: npt.NDArray[np.uint8],
+        bbox: _Box | list[float] | _ArrayLike,
+        seed: int = 0,
+        config: dict[str, Any] | None = None,
+    ) -> ColorTemplateTracker: ...
+    def update(self, frame: npt.NDArray[np.uint8]) -> tuple[_Box, float, bool]: ...
+    @property
+    def scale(self) -> float: ...
+    @property
+    def lost_frames(self) -> int: ...
+
+def color_template_defaults() -> dict[str, Any]: ...
 
 @final
 class ParticleColorTracker:

@@ -18,6 +18,7 @@ mod parallel;
 mod pattern_py;
 mod planar_py;
 mod slam_py;
+mod template_py;
 mod tracking_py;
 
 use pyo3::prelude::*;
@@ -64,6 +65,8 @@ mod _rperc {
         PyEkf, information_spectrum, monobot_defaults, monobot_monte_carlo,
         monobot_observability_rank, monobot_simulate, monobot_summarize, nees_bounds,
     };
+    #[pymodule_export]
+    use crate::template_py::{PyColorTemplateTracker, color_template_defaults};
     #[pymodule_export]
     use crate::tracking_py::{
         PyColorHistogramTracker, PyParticleColorTracker, effective_sample_size, resample,

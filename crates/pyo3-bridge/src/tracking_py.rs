@@ -82,7 +82,7 @@ pub(crate) fn bbox(obj: &Bound<'_, PyAny>) -> Result<BoundingBox, Error> {
     Ok(BoundingBox { x, y, w, h })
 }
 
-type Answer = ((f64, f64, f64, f64), f64, bool);
+pub(crate) type Answer = ((f64, f64, f64, f64), f64, bool);
 
 fn answer(r: TrackResult) -> Answer {
     let [x, y, w, h] = r.bbox.to_array();
@@ -191,7 +191,7 @@ fn frame_arg<'py>(obj: &Bound<'py, PyAny>) -> PyResult<Frame<'py>> {
 }
 
 /// Runs one tracker step on a numpy frame with the GIL released.
-fn track<F>(py: Python<'_>, frame: &Bound<'_, PyAny>, step: F) -> PyResult<Answer>
+pub(crate) fn track<F>(py: Python<'_>, frame: &Bound<'_, PyAny>, step: F) -> PyResult<Answer>
 where
     F: FnOnce(RgbFrame<'_>) -> tracking::Result<TrackResult> + Send,
 {

@@ -11,6 +11,7 @@ pub mod memory;
 pub mod metrics;
 pub mod otb;
 pub mod pattern;
+pub mod template;
 
 pub use colour::{
     AppearanceParams, ColorHistogramTracker, ColorSpace, ColorTrackerParams, MAX_BINS_PER_AXIS,
@@ -30,3 +31,4 @@ pub use pattern::{
     PatternSequence, PatternTracker, PatternTrackerParams, Region, ScaleSpace, SequenceParams,
     generate_sequence,
 };
+pub use template::{ColorTemplateParams, ColorTemplateTracker};

@@ -39,7 +39,7 @@ from rperc.tracking import metrics
 TRACKERS = ("color", "color-pf")
 # The colour+shape tracker is offered by `rperc track` only: the tracking demo's scores
 # are of the two colour trackers.
-CLI_TRACKERS = (*TRACKERS, "color-shape")
+CLI_TRACKERS = ("color-template", *TRACKERS, "color-shape")
 STRIP_FRAMES = 6
 
 
@@ -72,7 +72,12 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         metavar="PATH",
         help="write the frames with the box drawn (.gif, .mp4)",
     )
-    p.add_argument("--tracker", choices=CLI_TRACKERS, default="color")
+    p.add_argument(
+        "--tracker",
+        choices=CLI_TRACKERS,
+        default="color-template",
+        help="default color-template (colour + correlation-filter template, issue 34)",
+    )
     p.add_argument("--seed", type=seed_type, default=0, help="seed of the particle filter")
     p.add_argument("--strip", type=Path, help="write a figure strip of annotated frames")
     p.add_argument(
@@ -122,14 +127,21 @@ def run_tracker(
     """Run tracker ``name`` from ``first_box`` over ``frames``, ``settings`` passed to
     its constructor as keywords (``rperc bench`` sweeps them). This is the one place
     that calls the trackers' Python API (construction and ``update``)."""
-    from rperc.tracking import ColorHistogramTracker, ColorShapeTracker, ParticleColorTracker
+    from rperc.tracking import (
+        ColorHistogramTracker,
+        ColorShapeTracker,
+        ColorTemplateTracker,
+        ParticleColorTracker,
+    )
 
     x, y, w, h = (float(v) for v in first_box)
     box = (x, y, w, h)
     kw = dict(settings or {})
     start = time.perf_counter()
-    if name == "color":
-        tracker: Any = ColorHistogramTracker(frames[0], box, **kw)
+    if name == "color-template":
+        tracker: Any = ColorTemplateTracker(frames[0], box, seed=seed, **kw)
+    elif name == "color":
+        tracker = ColorHistogramTracker(frames[0], box, **kw)
     elif name == "color-pf":
         tracker = ParticleColorTracker(frames[0], box, seed=seed, **kw)
     elif name == "color-shape":

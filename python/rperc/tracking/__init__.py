@@ -20,6 +20,9 @@ corner). The GIL is released while a frame is processed.
   over ``(x, y, theta, scale)`` with grey-level profiles normal to the pattern's
   contours, occlusion and scale space; :func:`pattern_sequence` generates the Fig. 8
   experiment's sequences with their ground truth.
+- :class:`ColorTemplateTracker`: the default of ``rperc track`` (issue 34): Staple's
+  merge of a correlation filter on HOG cells with the colour histograms' per-pixel
+  foreground probability, DSST scale estimation, a lost flag and re-detection.
 - :class:`ColorShapeTracker`: the colour+shape tracker of seed 000 section 3.3,
   CONDENSATION over the target's colour distribution weighted by an affine snake, with
   a contour per frame; :mod:`rperc.tracking.shape_sequences` generates the four
@@ -47,6 +50,7 @@ from rperc.tracking.trackers import (
     ColorHistogramTracker,
     ColorShapeResult,
     ColorShapeTracker,
+    ColorTemplateTracker,
     OpenCVTracker,
     ParticleColorTracker,
     TrackResult,
@@ -59,6 +63,7 @@ __all__ = [
     "ColorHistogramTracker",
     "ColorShapeResult",
     "ColorShapeTracker",
+    "ColorTemplateTracker",
     "OpenCVTracker",
     "ParticleColorTracker",
     "PatternPose",

@@ -23,10 +23,10 @@ import numpy as np
 from rperc.bench.tasks import Task
 
 #: rperc's trackers (the settings grid applies to them) and the OpenCV peers.
-RPERC_TRACKERS = ("color", "color-pf", "color-shape")
+RPERC_TRACKERS = ("color-template", "color", "color-pf", "color-shape")
 OPENCV_TRACKERS = ("csrt", "kcf", "mil", "meanshift", "camshift")
 TRACKERS = (*RPERC_TRACKERS, *OPENCV_TRACKERS)
-DEFAULT_TRACKERS = ("color", "color-pf", "csrt", "kcf")
+DEFAULT_TRACKERS = ("color-template", "color", "color-pf", "csrt", "kcf")
 
 #: What the table and the figure show first.
 SHOWN = ("auc", "precision_20px", "fps")
@@ -37,10 +37,20 @@ Box = tuple[float, float, float, float]
 
 def settings_taken() -> set[str]:
     """The keywords of rperc's tracker constructors: what a settings grid may set."""
-    from rperc.tracking import ColorHistogramTracker, ColorShapeTracker, ParticleColorTracker
+    from rperc.tracking import (
+        ColorHistogramTracker,
+        ColorShapeTracker,
+        ColorTemplateTracker,
+        ParticleColorTracker,
+    )
 
     names: set[str] = set()
-    for cls in (ColorHistogramTracker, ParticleColorTracker, ColorShapeTracker):
+    for cls in (
+        ColorTemplateTracker,
+        ColorHistogramTracker,
+        ParticleColorTracker,
+        ColorShapeTracker,
+    ):
         params = inspect.signature(cls.__init__).parameters
         names |= {n for n, p in params.items() if p.kind is p.KEYWORD_ONLY and n != "seed"}
     return names

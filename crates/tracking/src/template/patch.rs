@@ -1,0 +1,126 @@
+//! Image patches resampled from a frame to a fixed grid: the filters work on a
+//! normalised window whatever the target's size in the frame, which bounds the cost of a
+//! frame (Staple's "fixed area").
+
+use crate::frame::RgbFrame;
+
+/// A resampled RGB patch with its grey levels, `width x height` pixels.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Patch {
+    /// Pixels across.
+    pub(crate) width: usize,
+    /// Pixels down.
+    pub(crate) height: usize,
+    /// Colour per pixel, rounded to bytes (what the colour histograms count).
+    pub(crate) rgb: Vec<[u8; 3]>,
+    /// Luma per pixel in [0, 1] (what the gradients see).
+    pub(crate) grey: Vec<f32>,
+}
+
+/// A window of the frame: its centre in frame pixels and its size in frame pixels.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Window {
+    /// Centre, frame pixels (x).
+    pub(crate) cx: f64,
+    /// Centre, frame pixels (y).
+    pub(crate) cy: f64,
+    /// Width in frame pixels.
+    pub(crate) width: f64,
+    /// Height in frame pixels.
+    pub(crate) height: f64,
+}
+
+/// The two neighbouring pixel indices and the weight of the second for a coordinate
+/// along an axis of `n` pixels, clamped so a window that overhangs the border repeats
+/// the edge (OpenCV's `BORDER_REPLICATE`). Computed once per column and per row.
+fn taps(coordinate: f64, n: usize) -> (usize, usize, f32) {
+    let c = coordinate.clamp(0.0, (n - 1) as f64);
+    let i0 = c.floor() as usize;
+    (i0, (i0 + 1).min(n - 1), (c - i0 as f64) as f32)
+}
+
+/// Resamples `window` of `frame` to `width x height` pixels into `out` by bilinear
+/// interpolation: output pixel `(i, j)` takes the frame at the centre of its cell in the
+/// window (frame pixel centres at integers).
+pub(crate) fn sample(
+    frame: &RgbFrame<'_>,
+    window: Window,
+    width: usize,
+    height: usize,
+    out: &mut Patch,
+) {
+    out.width = width;
+    out.height = height;
+    out.rgb.clear();
+    out.grey.clear();
+    let (fw, fh) = (frame.width(), frame.height());
+    let (sx, sy) = (window.width / width as f64, window.height / height as f64);
+    let (x0, y0) = (
+        window.cx - window.width / 2.0,
+        window.cy - window.height / 2.0,
+    );
+    let columns: Vec<(usize, usize, f32)> = (0..width)
+        .map(|i| taps(x0 + (i as f64 + 0.5) * sx - 0.5, fw))
+        .collect();
+    let data = frame.data();
+    for j in 0..height {
+        let (r0, r1, fy) = taps(y0 + (j as f64 + 0.5) * sy - 0.5, fh);
+        let (top, bottom) = (
+            &data[r0 * fw * 3..(r0 + 1) * fw * 3],
+            &data[r1 * fw * 3..(r1 + 1) * fw * 3],
+        );
+        for &(c0, c1, fx) in &columns {
+            let mix = |row: &[u8], c: usize| {
+                f32::from(row[c0 * 3 + c]) * (1.0 - fx) + f32::from(row[c1 * 3 + c]) * fx
+            };
+            let [r, g, b]: [f32; 3] =
+                std::array::from_fn(|c| mix(top, c) * (1.0 - fy) + mix(bottom, c) * fy);
+            out.rgb
+                .push([r.round() as u8, g.round() as u8, b.round() as u8]);
+            out.grey.push((0.299 * r + 0.587 * g + 0.114 * b) / 255.0);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A window of the frame's own size at its centre reproduces the frame exactly.
+    #[test]
+    fn identity_window_copies_the_frame() {
+        let (w, h) = (7usize, 5usize);
+        let data: Vec<u8> = (0..w * h * 3).map(|k| (k * 37 % 251) as u8).collect();
+        let frame = RgbFrame::new(&data, w, h).unwrap();
+        let window = Window {
+            cx: w as f64 / 2.0,
+            cy: h as f64 / 2.0,
+            width: w as f64,
+            height: h as f64,
+        };
+        let mut patch = Patch::default();
+        sample(&frame, window, w, h, &mut patch);
+        for (k, px) in patch.rgb.iter().enumerate() {
+            assert_eq!(px, &[data[3 * k], data[3 * k + 1], data[3 * k + 2]]);
+        }
+    }
+
+    /// Half-size sampling of a horizontal ramp lands between pixel pairs: the mean of
+    /// each pair (the closed form of bilinear interpolation of a linear function).
+    #[test]
+    fn halving_a_ramp_averages_pixel_pairs() {
+        let (w, h) = (8usize, 2usize);
+        let data: Vec<u8> = (0..w * h).flat_map(|k| [(k % w) as u8 * 10; 3]).collect();
+        let frame = RgbFrame::new(&data, w, h).unwrap();
+        let window = Window {
+            cx: 4.0,
+            cy: 1.0,
+            width: 8.0,
+            height: 2.0,
+        };
+        let mut patch = Patch::default();
+        sample(&frame, window, 4, 1, &mut patch);
+        let got: Vec<u8> = patch.rgb.iter().map(|p| p[0]).collect();
+        assert_eq!(got, vec![5, 25, 45, 65]);
+    }
+}

@@ -54,6 +54,20 @@ def examples(ci: int) -> settings:
     )
 
 
+def config_fields(d: dict[str, Any], prefix: str = "") -> list[str]:
+    """Dotted paths of every leaf of a nested config dict (``"motion.speed_variance"``)."""
+    out: list[str] = []
+    for k, v in d.items():
+        out += config_fields(v, f"{prefix}{k}.") if isinstance(v, dict) else [f"{prefix}{k}"]
+    return out
+
+
+def nested_config(path: str, value: Any) -> dict[str, Any]:
+    """The nested dict that sets one dotted path to ``value``."""
+    head, _, rest = path.partition(".")
+    return {head: nested_config(rest, value) if rest else value}
+
+
 def describe(value: Any) -> str:
     """A reproducible description of an argument: arrays with dtype, shape, strides and
     every value (they are small), anything else by repr."""

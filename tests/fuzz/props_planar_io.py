@@ -21,7 +21,7 @@ from rperc.slam import PlanarSlam, planar
 from rperc.slam import wallslam as ws
 from rperc.slam.smoothing import smooth_walls
 
-from fuzz.harness import case, examples, outcome
+from fuzz.harness import case, config_fields, examples, nested_config, outcome
 from fuzz.strategies import EDGE_NUMBERS
 
 FIELD_VALUES = st.one_of(
@@ -30,19 +30,7 @@ FIELD_VALUES = st.one_of(
 )
 
 
-def _leaves(d: dict[str, Any], prefix: str = "") -> list[str]:
-    out: list[str] = []
-    for k, v in d.items():
-        out += _leaves(v, f"{prefix}{k}.") if isinstance(v, dict) else [f"{prefix}{k}"]
-    return out
-
-
-def _nested(path: str, value: Any) -> dict[str, Any]:
-    head, _, rest = path.partition(".")
-    return {head: _nested(rest, value) if rest else value}
-
-
-PLANAR_FIELDS = sorted(_leaves(planar.defaults()))
+PLANAR_FIELDS = sorted(config_fields(planar.defaults()))
 _CACHE: dict[str, Any] = {}
 
 
@@ -81,7 +69,7 @@ def _named(exc: BaseException, field: str) -> bool:
 @examples(80)
 @given(st.sampled_from(PLANAR_FIELDS), FIELD_VALUES)
 def prop_planar_slam_config_fields(field, value):
-    config = _nested(field, value)
+    config = nested_config(field, value)
     rec = _recording().recording
     case("PlanarSlam.run", config=config)
     ok, out = outcome(PlanarSlam(config).run, rec)

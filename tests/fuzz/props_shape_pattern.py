@@ -5,8 +5,6 @@ its own check: finite, a box inside the frame, a score in [0, 1]."""
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
@@ -14,7 +12,7 @@ from hypothesis import strategies as st
 from rperc import _rperc
 from rperc.tracking import ColorShapeTracker, PatternTracker
 
-from fuzz.harness import case, examples, outcome
+from fuzz.harness import case, config_fields, examples, nested_config, outcome
 from fuzz.strategies import EDGE_NUMBERS
 
 HEIGHT, WIDTH = 48, 64
@@ -31,20 +29,8 @@ def _target_frame() -> np.ndarray:
     return frame
 
 
-def _leaves(d: dict[str, Any], prefix: str = "") -> list[str]:
-    out: list[str] = []
-    for k, v in d.items():
-        out += _leaves(v, f"{prefix}{k}.") if isinstance(v, dict) else [f"{prefix}{k}"]
-    return out
-
-
-def _nested(path: str, value: Any) -> dict[str, Any]:
-    head, _, rest = path.partition(".")
-    return {head: _nested(rest, value) if rest else value}
-
-
-SHAPE_FIELDS = sorted(_leaves(_rperc.color_shape_defaults()))
-PATTERN_FIELDS = sorted(_leaves(_rperc.pattern_defaults()[0]))
+SHAPE_FIELDS = sorted(config_fields(_rperc.color_shape_defaults()))
+PATTERN_FIELDS = sorted(config_fields(_rperc.pattern_defaults()[0]))
 
 CONTOURS = st.one_of(
     st.lists(st.tuples(st.floats(-20, 90), st.floats(-20, 70)), min_size=0, max_size=7),
@@ -83,7 +69,7 @@ def prop_color_shape_contours(contour):
 @examples(80)
 @given(st.sampled_from(SHAPE_FIELDS), FIELD_VALUES)
 def prop_color_shape_config_fields(field, value):
-    config = _nested(field, value)
+    config = nested_config(field, value)
     case("ColorShapeTracker", box=(20, 14, 24, 20), config=config)
     ok, tracker = outcome(ColorShapeTracker, _target_frame(), (20, 14, 24, 20), config=config)
     if not ok:

@@ -30,6 +30,9 @@ const DEPTH: u32 = 4;
 /// bounds the hit grids (cells of a few centimetres) to some tens of megabytes.
 const MAX_REACH: f64 = 250.0;
 
+/// At most this many cells in a hit grid (16 MB).
+const MAX_HIT_CELLS: f64 = (1u64 << 24) as f64;
+
 /// A grid of the cells within `hit` of a submap point, for scoring poses, with an
 /// empty margin of `margin` cells on every side.
 pub(crate) struct HitGrid {
@@ -53,11 +56,21 @@ impl HitGrid {
             lo = lo.inf(p);
             hi = hi.sup(p);
         }
-        let margin = 2 * (reach / cell).ceil() as i64 + 1;
-        let pad = Vector2::repeat(hit + cell + margin as f64 * cell);
-        let (lo, hi) = (lo - pad, hi + pad);
-        let cols = ((hi.x - lo.x) / cell).ceil().max(1.0) as usize;
-        let rows = ((hi.y - lo.y) / cell).ceil().max(1.0) as usize;
+        // A grid that would need too many cells (a millimetre step over a 250 m
+        // submap) gets coarser ones: the search then steps by them, and memory stays
+        // bounded whatever the settings.
+        let mut cell = cell;
+        let (margin, lo, cols, rows) = loop {
+            let margin = 2 * (reach / cell).ceil() as i64 + 1;
+            let pad = Vector2::repeat(hit + cell + margin as f64 * cell);
+            let (lo, hi) = (lo - pad, hi + pad);
+            let cols = ((hi.x - lo.x) / cell).ceil().max(1.0);
+            let rows = ((hi.y - lo.y) / cell).ceil().max(1.0);
+            if cols * rows <= MAX_HIT_CELLS {
+                break (margin, lo, cols as usize, rows as usize);
+            }
+            cell *= 2.0;
+        };
         let mut grid = HitGrid {
             origin: lo,
             cell,
@@ -489,6 +502,17 @@ mod tests {
             })
             .count();
         hits as f64 / points.len() as f64
+    }
+
+    /// A millimetre cell over a 250 m submap would need 10^11 cells: the grid
+    /// coarsens instead, and a search on it still finds the truth's cell.
+    #[test]
+    fn a_tiny_cell_over_a_huge_submap_stays_bounded() {
+        let mut submap = room();
+        submap.push(Vector2::new(250.0, 250.0));
+        let grid = HitGrid::new(&submap, 0.15, 1e-3, 1.0);
+        assert!((grid.cols * grid.rows) as f64 <= MAX_HIT_CELLS);
+        assert!(grid.cell > 1e-3);
     }
 
     fn room() -> Vec<Vector2<f64>> {

@@ -16,9 +16,9 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any, Generic, Literal, Protocol, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -137,7 +137,40 @@ def _answer(native: tuple[Sequence[float], float, bool]) -> TrackResult:
     return TrackResult((b[0], b[1], b[2], b[3]), float(score), bool(lost))
 
 
-class ColorHistogramTracker:
+class _NativeBox(Protocol):
+    def update(self, frame: npt.NDArray[np.uint8]) -> tuple[Sequence[float], float, bool]: ...
+
+
+_Native = TypeVar("_Native", bound=_NativeBox)
+
+
+class _BoxTracker(Generic[_Native]):
+    """What the box trackers share: the frame rule, the first box and the update."""
+
+    _native: _Native
+    _channels: Channels
+    _last: TrackResult
+
+    def _start(
+        self,
+        frame: npt.ArrayLike,
+        box: Sequence[float] | npt.ArrayLike,
+        channels: str,
+        make: Callable[[np.ndarray, Box], _Native],
+    ) -> None:
+        self._channels = _channels(channels)
+        first = _frame(frame, self._channels)
+        start = _first_box(box, first)
+        self._native = make(first, start)
+        self._last = TrackResult(start, 1.0, False)
+
+    def update(self, frame: npt.ArrayLike) -> TrackResult:
+        """Track the target into the next frame."""
+        self._last = _answer(self._native.update(_frame(frame, self._channels)))
+        return self._last
+
+
+class ColorHistogramTracker(_BoxTracker[_rperc.ColorHistogramTracker]):
     """Birchfield's colour-histogram tracker (seed 000 section 3.2).
 
     An ellipse inscribed in the box models the target by a 3-D colour histogram
@@ -236,16 +269,12 @@ class ColorHistogramTracker:
                 parallel=parallel,
             ),
         }
-        self._channels = _channels(channels)
-        first = _frame(frame, self._channels)
-        start = _first_box(box, first)
-        self._native = _rperc.ColorHistogramTracker(first, start, config)
-        self._last = TrackResult(start, 1.0, False)
-
-    def update(self, frame: npt.ArrayLike) -> TrackResult:
-        """Find the target in the next frame."""
-        self._last = _answer(self._native.update(_frame(frame, self._channels)))
-        return self._last
+        self._start(
+            frame,
+            box,
+            channels,
+            lambda first, start: _rperc.ColorHistogramTracker(first, start, config),
+        )
 
     @property
     def scale(self) -> float:
@@ -267,7 +296,7 @@ class ColorHistogramTracker:
         return f"ColorHistogramTracker(last={self._last!r}, scale={self.scale:.3f})"
 
 
-class ParticleColorTracker:
+class ParticleColorTracker(_BoxTracker[_rperc.ParticleColorTracker]):
     """CONDENSATION over ``(x, y, scale)`` with the histogram-intersection likelihood
     (seed 000 section 3.3, seed 001 section 3.1): many hypotheses instead of one local
     search, for clutter and fast motion. Same appearance parameters as
@@ -345,16 +374,12 @@ class ParticleColorTracker:
             ),
         }
         seed = whole_number(seed, "seed", 0, limit=2**64)
-        self._channels = _channels(channels)
-        first = _frame(frame, self._channels)
-        start = _first_box(box, first)
-        self._native = _rperc.ParticleColorTracker(first, start, seed, config)
-        self._last = TrackResult(start, 1.0, False)
-
-    def update(self, frame: npt.ArrayLike) -> TrackResult:
-        """One CONDENSATION step on the next frame."""
-        self._last = _answer(self._native.update(_frame(frame, self._channels)))
-        return self._last
+        self._start(
+            frame,
+            box,
+            channels,
+            lambda first, start: _rperc.ParticleColorTracker(first, start, seed, config),
+        )
 
     @property
     def ess(self) -> float:
@@ -395,7 +420,7 @@ _TEMPLATE = _rperc.color_template_defaults()
 TemplateColorSpace = Literal["hsv", "opponent", "rg", "rgb"]
 
 
-class ColorTemplateTracker:
+class ColorTemplateTracker(_BoxTracker[_rperc.ColorTemplateTracker]):
     """The colour + template tracker (issue 34), after Staple (Bertinetto et al. 2016):
     a correlation filter on HOG + intensity cells (``learning_rate``, ``lambda_``,
     ``output_sigma_factor``, ``cell_size``) merged with the per-pixel foreground
@@ -484,16 +509,12 @@ class ColorTemplateTracker:
         )
         config["lambda"] = _plain(lambda_)
         seed = whole_number(seed, "seed", 0, limit=2**64)
-        self._channels = _channels(channels)
-        first = _frame(frame, self._channels)
-        start = _first_box(box, first)
-        self._native = _rperc.ColorTemplateTracker(first, start, seed, config)
-        self._last = TrackResult(start, 1.0, False)
-
-    def update(self, frame: npt.ArrayLike) -> TrackResult:
-        """Find the target in the next frame."""
-        self._last = _answer(self._native.update(_frame(frame, self._channels)))
-        return self._last
+        self._start(
+            frame,
+            box,
+            channels,
+            lambda first, start: _rperc.ColorTemplateTracker(first, start, seed, config),
+        )
 
     @property
     def scale(self) -> float:

@@ -47,7 +47,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import sys
 import time
 from collections.abc import Iterable
@@ -57,6 +56,7 @@ from typing import Any
 
 import numpy as np
 
+from rperc.datasets import data_dir
 from rperc.datasets.carmen import load_carmen
 from rperc.slam.wallslam import (
     SPEED_BIAS,
@@ -581,7 +581,7 @@ def table(rows: list[dict[str, Any]], variants: list[str]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    default = Path(os.environ.get("RPERC_DATA", "data")) / "carmen"
+    default = (data_dir() or Path("data")) / "carmen"
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--logs", nargs="+", default=[str(default)], help="log files or directories")
     ap.add_argument("--seeds", default="0-2", help="e.g. 0-2 or 0,3,5 (default 0-2)")

@@ -63,6 +63,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 import reference_planar_ekf as ref
 from _timing import best_time, fmt_seconds, print_table
 
+from rperc.datasets import data_dir
 from rperc.slam import PlanarSlam, evaluation
 from rperc.slam.planar import (
     PRESETS,
@@ -72,7 +73,7 @@ from rperc.slam.planar import (
     victoria_recording,
 )
 
-DATA = Path(os.environ.get("RPERC_DATA", Path(__file__).parents[1] / ".." / "shared" / "data"))
+DATA = data_dir() or Path("data")
 
 
 AGREEMENT: list[str] = []  # how closely rperc and the reference agree, per data set

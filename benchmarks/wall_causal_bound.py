@@ -26,7 +26,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import time
 from pathlib import Path
 from typing import Any
@@ -35,6 +34,7 @@ import numpy as np
 from reference_wall_smoother import wallslam_run
 
 from rperc import _rperc
+from rperc.datasets import data_dir
 from rperc.datasets.carmen import load_carmen
 from rperc.pose import to_frame, to_world
 from rperc.slam import wallslam as ws
@@ -193,7 +193,7 @@ def one_seed(prepared: ws.PreparedLog, seed: int, args: argparse.Namespace) -> d
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    data = Path(os.environ.get("RPERC_DATA", "../shared/data")) / "carmen"
+    data = (data_dir() or Path("data")) / "carmen"
     ap.add_argument("--logs", nargs="+", type=Path, default=[data / "intel.log", data / "aces.log"])
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--every", type=int, default=1, help="solve at every N-th scan")

@@ -21,13 +21,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from rperc.datasets import data_dir
 from rperc.datasets.carmen import load_carmen
 from rperc.slam import wallslam as ws
 
@@ -112,7 +112,7 @@ def plot(results: list[dict[str, Any]], path: Path) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    data = Path(os.environ.get("RPERC_DATA", "data")) / "carmen"
+    data = (data_dir() or Path("data")) / "carmen"
     ap.add_argument("--logs", nargs="+", default=[str(data / "intel.log"), str(data / "aces.log")])
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--json", type=Path)

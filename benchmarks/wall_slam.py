@@ -13,7 +13,6 @@ are timed too.
 from __future__ import annotations
 
 import argparse
-import os
 import time
 from pathlib import Path
 
@@ -23,6 +22,7 @@ from reference_wall_ekf import WallEkfSlam
 from reference_wall_ekf import run as run_reference
 
 from rperc import _rperc
+from rperc.datasets import data_dir
 from rperc.datasets.carmen import load_carmen
 from rperc.slam.wallslam import (
     SPEED_SIGMA,
@@ -87,7 +87,7 @@ def bench(path: Path) -> list[str]:
 
 
 def main() -> None:
-    data = Path(os.environ.get("RPERC_DATA", "data")) / "carmen"
+    data = (data_dir() or Path("data")) / "carmen"
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--logs", nargs="+", default=[str(data / "intel.log"), str(data / "aces.log")])
     args = ap.parse_args()

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import tempfile
 import time
 from pathlib import Path
@@ -22,6 +21,7 @@ from typing import Any
 import numpy as np
 import reference_wall_smoother as ref
 
+from rperc.datasets import data_dir
 from rperc.datasets.carmen import load_carmen
 from rperc.scansim import write_loop_log
 from rperc.slam import wallslam as ws
@@ -60,7 +60,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         if not args.logs:
             logs.append(("simulated loop", load_carmen(write_loop_log(Path(tmp) / "l.log")), 0.0))
-            data = Path(os.environ.get("RPERC_DATA", "data")) / "carmen"
+            data = (data_dir() or Path("data")) / "carmen"
             args.logs = [p for p in (data / "intel.log", data / "aces.log") if p.is_file()]
         logs += [(p.name, load_carmen(p), ws.STRAIGHTNESS) for p in args.logs]
         report = {}

@@ -26,12 +26,12 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from rperc.datasets import data_dir
 from rperc.datasets.carmen import load_carmen
 from rperc.linesimp import extract_lines
 from rperc.slam.wallslam import straightness_covariance
@@ -93,7 +93,7 @@ def calibrate(pairs: list[tuple[Any, int, Any, int]]) -> float:
 
 
 def main() -> None:
-    data = Path(os.environ.get("RPERC_DATA", "data")) / "carmen"
+    data = (data_dir() or Path("data")) / "carmen"
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--calibrate", type=Path, default=data / "aces.log")
     ap.add_argument("--report", type=Path, default=data / "intel.log")

@@ -5,15 +5,14 @@ the TUM file."""
 from __future__ import annotations
 
 import json
-import os
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from rperc.cli import main
+from rperc.datasets import data_dir
 
-DATA = Path(os.environ["RPERC_DATA"]) if os.environ.get("RPERC_DATA") else None
+DATA = data_dir()
 
 
 @pytest.mark.parametrize(

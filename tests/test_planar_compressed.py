@@ -6,17 +6,17 @@ The CLI takes the choice; bad settings are named."""
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from rperc.cli import main
+from rperc.datasets import data_dir
 from rperc.slam import PlanarSlam, SlamResult
 from rperc.slam.planar import PRESETS, mrclam_recording, mrclam_start, victoria_recording
 
-DATA = Path(os.environ["RPERC_DATA"]) if os.environ.get("RPERC_DATA") else None
+DATA = data_dir()
 PARK = None if DATA is None else DATA / "victoria_park"
 MRCLAM = None if DATA is None else DATA / "mrclam6"
 DECISIONS = ("accepted", "rejected", "new", "candidate", "frozen", "fixes_applied")

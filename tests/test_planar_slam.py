@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import importlib.util
 import math
-import os
 import pickle
 import sys
 from pathlib import Path
@@ -17,6 +16,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from rperc.datasets import data_dir
 from rperc.slam import PlanarSlam
 from rperc.slam.planar import defaults, mrclam_recording, victoria_recording
 
@@ -172,7 +172,7 @@ def test_detection_ids_must_be_integral():
         PlanarSlam().run_arrays(controls, det, detection_ids=ids.astype(str))
 
 
-DATA = os.environ.get("RPERC_DATA")
+DATA = data_dir()
 MRCLAM = Path(DATA) / "mrclam6" if DATA else None
 
 

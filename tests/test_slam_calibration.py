@@ -4,12 +4,12 @@ against the preset's stored constants (their provenance)."""
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from rperc.datasets import data_dir
 from rperc.datasets.mrclam import MrclamRun
 from rperc.slam.calibration import (
     calibrate_mrclam,
@@ -139,7 +139,7 @@ def test_window_cuts_every_series_and_bad_input_is_refused():
         calibrate_mrclam(mrclam_window(run, 0.0, 0.05))
 
 
-MRCLAM = Path(os.environ.get("RPERC_DATA", ROOT.parent / "shared" / "data")) / "mrclam6"
+MRCLAM = (data_dir() or ROOT / "absent") / "mrclam6"
 
 
 @pytest.mark.skipif(not MRCLAM.is_dir(), reason="MR.CLAM data not found (set RPERC_DATA)")

@@ -5,13 +5,13 @@ equation (every point at Mahalanobis radius sqrt(chi2_2(0.95)))."""
 from __future__ import annotations
 
 import math
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from rperc.cli import main
+from rperc.datasets import data_dir
 from rperc.slam import PlanarSlam
 from rperc.slam.planar import sim_slam_config, simulate
 from rperc.slam.rerun_log import RADIUS_95, ellipse_outlines
@@ -44,7 +44,7 @@ def test_a_run_is_saved_as_an_rrd_file(tmp_path):
     assert data[:4] == b"RRF2" and len(data) > 10_000  # rerun's file magic
 
 
-DATA = os.environ.get("RPERC_DATA")
+DATA = data_dir()
 
 
 @pytest.mark.skipif(

@@ -7,18 +7,17 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from rperc.cli import main
-from rperc.datasets import VictoriaPark
+from rperc.datasets import VictoriaPark, data_dir
 from rperc.slam import PlanarSlam
 from rperc.slam.planar import point_path
 
-DATA = Path(os.environ["RPERC_DATA"]) if os.environ.get("RPERC_DATA") else None
+DATA = data_dir()
 PARK = None if DATA is None else DATA / "victoria_park"
 needs_park = pytest.mark.skipif(
     PARK is None or not PARK.is_dir(), reason="RPERC_DATA/victoria_park is absent"

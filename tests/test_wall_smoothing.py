@@ -7,7 +7,6 @@ bad input."""
 from __future__ import annotations
 
 import math
-import os
 import pickle
 import sys
 from pathlib import Path
@@ -16,7 +15,7 @@ from types import ModuleType
 import numpy as np
 import pytest
 
-from rperc.datasets import TimestampRepairWarning
+from rperc.datasets import TimestampRepairWarning, data_dir
 from rperc.datasets.carmen import load_carmen
 from rperc.scansim import write_loop_log
 from rperc.slam import PlanarSlam
@@ -189,7 +188,7 @@ def test_smoothing_reaches_the_issue_goal_on_the_real_logs(log, repaired):
     """Issue 11's goal, ATE <= 0.3 m, by the smoothed path over 10 odometry seeds
     (the filter's own causal path misses it on ACES). Intel's four scan times that
     step back are repaired on reading (the run does not use scan times)."""
-    root = os.environ.get("RPERC_DATA")
+    root = data_dir()
     path = None if root is None else Path(root) / "carmen" / f"{log}.log"
     if path is None or not path.is_file():
         pytest.skip(f"RPERC_DATA/carmen/{log}.log is absent")

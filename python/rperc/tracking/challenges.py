@@ -27,13 +27,13 @@ Examples
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Literal
 
 import numpy as np
 
 from rperc._args import excerpt, whole_number
+from rperc.datasets._paths import data_dir
 from rperc.tracking.synthetic import SyntheticSequence
 
 __all__ = ["CHALLENGES", "Challenge", "challenge_sequence"]
@@ -48,7 +48,7 @@ NOISE = 4.0  # grey levels
 
 def _texture(rng: np.random.Generator, seed: int) -> np.ndarray:
     """A tinted, randomly cropped data image (H x W x 3 float), or blocky noise."""
-    path = Path(os.environ.get("RPERC_DATA", "")) / "images" / f"{TEXTURES[seed % 4]}.png"
+    path = (data_dir() or Path("absent")) / "images" / f"{TEXTURES[seed % 4]}.png"
     if path.is_file():
         from PIL import Image
 

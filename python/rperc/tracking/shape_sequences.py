@@ -27,7 +27,6 @@ Examples
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -35,6 +34,7 @@ from typing import Literal
 import numpy as np
 
 from rperc._args import excerpt, whole_number
+from rperc.datasets._paths import data_dir
 
 __all__ = ["EXPERIMENTS", "ShapeSequence", "shape_sequence"]
 
@@ -72,7 +72,7 @@ def _grid() -> tuple[np.ndarray, np.ndarray]:
 
 def _texture(rng: np.random.Generator, name: str) -> np.ndarray:
     """A colour texture (H x W x 3 float): a data image tinted, or seeded noise."""
-    root = Path(os.environ.get("RPERC_DATA", "")) / "images" / f"{name}.png"
+    root = (data_dir() or Path("absent")) / "images" / f"{name}.png"
     if root.is_file():
         from PIL import Image
 

@@ -591,7 +591,7 @@ def test_collapsed_rings_follow_the_documented_rule():
 
 def test_geometries_without_shapely_raise_a_clear_import_error(monkeypatch):
     monkeypatch.setitem(sys.modules, "shapely", None)
-    with pytest.raises(ImportError, match="pip install shapely"):
+    with pytest.raises(ImportError, match=r"pip install 'rperc\[geo\]'"):
         simplify({"type": "LineString", "coordinates": [[0, 0], [1, 1]]}, 0.1)
     # Arrays need no shapely.
     assert simplify(np.array([[0.0, 0.0], [1.0, 0.01], [2.0, 0.0]]), 0.1).shape == (2, 2)

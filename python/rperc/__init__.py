@@ -12,12 +12,16 @@ Subpackages:
 
 from __future__ import annotations
 
+import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from rperc._rperc import NumericalError, RpercError, __version__
 
 __all__ = ["NumericalError", "RpercError", "__version__"]
+
+#: The subpackages ``rperc.<name>`` reaches after a plain ``import rperc``.
+SUBPACKAGES = ("bench", "datasets", "linesimp", "navigation", "plot", "pose", "slam", "tracking")
 
 
 def __getattr__(name: str) -> Any:
@@ -27,4 +31,10 @@ def __getattr__(name: str) -> Any:
         from rperc import _rperc
 
         return getattr(_rperc, name)
+    if name in SUBPACKAGES:
+        return importlib.import_module(f"rperc.{name}")
     raise AttributeError(f"module 'rperc' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__, *SUBPACKAGES})

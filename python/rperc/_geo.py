@@ -19,14 +19,11 @@ from typing import Any
 
 import numpy as np
 
+from rperc._extras import require
+
 # shapely ships no type information; geometries are typed as ``Any``.
 Geometry = Any
 
-_INSTALL_HINT = (
-    "rperc reads and writes geometries (shapely objects, __geo_interface__, WKT, GeoJSON) "
-    "through shapely, which is not installed: pip install shapely "
-    "(or pip install 'rperc[geo]')"
-)
 
 _WKB_CODES = {
     "Point": 1,
@@ -41,10 +38,7 @@ _WKB_CODES = {
 
 def shapely_module() -> ModuleType:
     """The shapely module, or an ImportError that says how to install it."""
-    try:
-        return importlib.import_module("shapely")
-    except ImportError as exc:
-        raise ImportError(_INSTALL_HINT) from exc
+    return require("shapely", "shapely geometries, WKT and GeoJSON")
 
 
 def is_geometry(obj: object) -> bool:

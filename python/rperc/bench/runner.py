@@ -17,6 +17,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
+from rperc._extras import require
 from rperc._progress import progress, quiet
 from rperc.bench.tasks import Task
 
@@ -91,28 +92,24 @@ def _serial(tasks: Sequence[Task], desc: str) -> list[Row]:
 def _client(scheduler: str, workers: int | None) -> Iterator[Any]:
     """A Dask client: on a new LocalCluster of ``workers`` single-threaded processes,
     or connected to the scheduler at ``scheduler`` (``tcp://HOST:PORT``)."""
-    try:
-        from distributed import Client, LocalCluster
-    except ImportError:
-        raise ValueError(
-            f"--scheduler {scheduler} needs Dask distributed: pip install 'rperc[cluster]'"
-        ) from None
+    distributed = require("distributed", f"--scheduler {scheduler}")
+    client_type, cluster_type = distributed.Client, distributed.LocalCluster
     if scheduler == "local":
         # Processes, one thread each: the native code releases the GIL, but each
         # worker then times its runs on a core of its own.
         with (
-            LocalCluster(  # type: ignore[no-untyped-call]
+            cluster_type(
                 n_workers=workers or 2,
                 threads_per_worker=1,
                 processes=True,
                 dashboard_address=None,
                 silence_logs=logging.WARNING,
             ) as cluster,
-            Client(cluster) as client,  # type: ignore[no-untyped-call]
+            client_type(cluster) as client,
         ):
             yield client
         return
-    with Client(scheduler, timeout="30s") as client:  # type: ignore[no-untyped-call]
+    with client_type(scheduler, timeout="30s") as client:
         yield client
 
 

@@ -40,14 +40,17 @@ def user_errors() -> tuple[type[BaseException], ...]:
     own errors), sizes beyond the memory limit (MemoryError, raised before anything
     is allocated), unreadable or unwritable paths and corrupt images (OSError, which
     includes PIL's UnidentifiedImageError and truncated files). PIL reports some broken
-    PNGs as SyntaxError and oversized ones as DecompressionBombError. Anything else is
-    a bug and keeps its traceback."""
+    PNGs as SyntaxError and oversized ones as DecompressionBombError. A missing
+    optional dependency names its extra (MissingExtraError). Anything else is a bug
+    and keeps its traceback."""
     from PIL import Image
 
     from rperc import RpercError
+    from rperc._extras import MissingExtraError
 
     return (
         RpercError,
+        MissingExtraError,
         ValueError,
         TypeError,
         MemoryError,

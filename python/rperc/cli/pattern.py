@@ -14,6 +14,7 @@ import numpy as np
 
 from rperc._args import excerpt
 from rperc._atomic import write_atomically, write_text_atomically
+from rperc._extras import require
 from rperc._progress import progress
 from rperc.cli.demo import DemoResult
 from rperc.cli.outputs import (
@@ -185,10 +186,7 @@ def load_frames(source: Path) -> list[np.ndarray]:
         return frames
     if not source.exists():
         raise ValueError(f"{source} does not exist")
-    try:
-        import imageio.v3 as iio  # type: ignore[import-not-found,unused-ignore]
-    except ImportError as e:
-        raise ValueError(f"{source} is not a folder: reading a video needs imageio ({e})") from e
+    iio = require("imageio.v3", f"reading the video {source}")
     frames = [
         np.ascontiguousarray(np.asarray(f, dtype=np.uint8)[..., :3]) for f in iio.imiter(source)
     ]
@@ -243,10 +241,7 @@ def track_pattern_command(args: argparse.Namespace) -> int:
     if args.animation is not None:
         if args.animation.suffix.lower() not in (".gif", ".mp4"):
             raise ValueError(f"--animation {args.animation} must end in .gif or .mp4")
-        try:
-            import imageio.v3  # type: ignore[import-not-found,unused-ignore]  # noqa: F401
-        except ImportError as e:
-            raise ValueError(f"--animation needs imageio, which is not installed ({e})") from e
+        require("imageio.v3", "--animation")
     frames = load_frames(args.source)
     picks = strip_indices(len(frames), args.frames) if args.strip else None
     tracker = PatternTracker(frames[0], args.region, seed=args.seed)

@@ -23,6 +23,7 @@ import numpy as np
 
 from rperc._args import excerpt
 from rperc._atomic import write_atomically, write_text_atomically
+from rperc._extras import require
 from rperc._progress import progress
 from rperc.cli.demo import DemoResult
 from rperc.cli.outputs import (
@@ -281,10 +282,7 @@ def track_all(args: argparse.Namespace) -> int:
 
 def read_video(path: Path) -> tuple[list[np.ndarray], float]:
     """The frames of a video or animated GIF as RGB arrays, and its frame rate."""
-    try:
-        import imageio.v3 as iio
-    except ImportError:
-        raise ValueError(f"reading {path} needs imageio: pip install 'rperc[video]'") from None
+    iio = require("imageio.v3", f"reading {path}")
     frames = []
     # The file is closed (and ffmpeg's pipes with it) before the frames are tracked.
     with iio.imopen(path, "r") as video:
@@ -395,10 +393,7 @@ def draw_contour(frame: np.ndarray, contour: np.ndarray, colour: Sequence[int]) 
 def write_annotated(path: Path, frames: Sequence[np.ndarray], run: TrackerRun, fps: float) -> None:
     """The frames with the tracker's box drawn, and for color-shape its contour: red
     while tracking, yellow when lost."""
-    try:
-        import imageio.v3 as iio
-    except ImportError:
-        raise ValueError(f"writing {path} needs imageio: pip install 'rperc[video]'") from None
+    iio = require("imageio.v3", f"writing {path}")
     drawn_frames = []
     for k, (f, b, lost) in enumerate(zip(frames, run.boxes, run.lost, strict=True)):
         colour = LOST_COLOUR if lost else TRACKING_COLOUR

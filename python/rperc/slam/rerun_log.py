@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from rperc._extras import require
 from rperc.slam.evaluation import NeesResult
 from rperc.slam.planar import SlamResult
 
@@ -40,12 +41,7 @@ def ellipse_outlines(
 
 
 def _rerun() -> Any:
-    import importlib
-
-    try:
-        return importlib.import_module("rerun")
-    except ImportError as e:  # pragma: no cover - depends on the environment
-        raise ImportError("streaming to rerun needs the viz extra: pip install rperc[viz]") from e
+    return require("rerun", "streaming to rerun")
 
 
 def log_run(

@@ -20,7 +20,6 @@ estimate; and CSRT, position only.
 
 from __future__ import annotations
 
-import importlib
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -30,6 +29,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from rperc._extras import require
 from rperc.tracking.pattern import PatternSequence, PatternTracker, pattern_sequence
 
 #: Alignment-error thresholds of the success curve, pixels.
@@ -44,8 +44,8 @@ TEMPLATE_ANGLES = tuple(math.radians(d) for d in (-6, -3, 0, 3, 6))
 
 
 def _cv2() -> Any:
-    """OpenCV, an optional peer (installed with the ``test`` extra)."""
-    return importlib.import_module("cv2")
+    """OpenCV (the ``opencv`` extra): the clutter generator and the peers use it."""
+    return require("cv2", "the planar-pattern generator and its OpenCV peers")
 
 
 def region_offsets(region: Region) -> npt.NDArray[np.float64]:

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from rperc._args import excerpt
+from rperc._extras import require
 from rperc.bench.tasks import Task
 
 TRACKERS = ("rperc", "ecc-euclidean", "ecc-affine", "match-template", "csrt")
@@ -160,6 +161,5 @@ def run(task: Task) -> dict[str, Any]:
 
 
 def _cv2_version() -> str:
-    import cv2
-
+    cv2 = require("cv2", "the OpenCV peers")
     return str(cv2.__version__)

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from rperc._extras import require
 from rperc.bench.tasks import Task
 
 #: rperc's trackers (the settings grid applies to them) and the OpenCV peers.
@@ -108,12 +109,7 @@ def run(task: Task) -> dict[str, Any]:
 
 
 def _cv2() -> Any:
-    try:
-        import cv2
-    except ImportError:
-        raise ValueError(
-            "the OpenCV peers need OpenCV: pip install opencv-contrib-python-headless"
-        ) from None
+    cv2 = require("cv2", "the OpenCV peers")
     return cv2
 
 

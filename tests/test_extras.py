@@ -85,3 +85,12 @@ def test_reading_a_video_without_imageio_exits_2_naming_the_extra(without, capsy
 def test_import_rperc_reaches_every_subpackage(name):
     assert getattr(rperc, name) is importlib.import_module(f"rperc.{name}")
     assert name in dir(rperc)
+
+
+def test_a_cluster_run_without_dask_exits_2_naming_the_extra(without, capsys, data):
+    without("distributed", "dask")
+    corpus = str(data / "otb")
+    status = main(["bench", "track", "--corpus", corpus, "--scheduler", "local"])
+    err = capsys.readouterr().err
+    assert status == 2, err
+    assert "rperc[cluster]" in err

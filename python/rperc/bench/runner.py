@@ -116,8 +116,7 @@ def _client(scheduler: str, workers: int | None) -> Iterator[Any]:
 def _distributed(
     tasks: Sequence[Task], scheduler: str, workers: int | None, desc: str
 ) -> list[Row]:
-    from distributed import as_completed
-
+    as_completed = require("distributed", f"--scheduler {scheduler}").as_completed
     with _client(scheduler, workers) as client:
         # Keys name the task so that two benchmarks on one cluster never share results.
         stamp = f"{time.time_ns():x}"
@@ -127,7 +126,7 @@ def _distributed(
         place = {f.key: t.index for f, t in zip(futures, tasks, strict=True)}
         rows: list[Row | None] = [None] * len(tasks)
         try:
-            done = as_completed(futures)  # type: ignore[no-untyped-call]
+            done = as_completed(futures)
             for future in progress(done, desc=desc, total=len(tasks), unit="run"):
                 rows[place[future.key]] = _result(future, tasks[place[future.key]])
         except BaseException:

@@ -143,19 +143,29 @@ MRCLAM = (data_dir() or ROOT / "absent") / "mrclam6"
 
 
 @pytest.mark.skipif(not MRCLAM.is_dir(), reason="MR.CLAM data not found (set RPERC_DATA)")
-def test_the_mrclam_preset_is_the_calibration_of_robot1_first_half():
+@pytest.mark.parametrize("robot", [1, 2, 3])
+def test_each_robot_preset_is_the_calibration_of_its_first_half(robot):
+    """Provenance of every robot's constants: recomputed from the first half of that
+    robot's run (window rule, fit, then the gate-rate inflation over the preset's
+    factors). Robot 1's stays the old single preset, with its 8 s window and 2x / 4x."""
     from rperc.datasets import load_mrclam
-    from rperc.slam.planar import MRCLAM_CALIBRATION_SECONDS
+    from rperc.slam.planar import (
+        MRCLAM_CALIBRATION_SECONDS,
+        MRCLAM_INFLATION_FACTORS,
+        mrclam_preset,
+    )
 
-    run = load_mrclam(MRCLAM, robot=1)
+    run = load_mrclam(MRCLAM, robot=robot)
     half = mrclam_window(run, 0.0, MRCLAM_CALIBRATION_SECONDS)
     calibration = calibrate_mrclam(half)
-    assert calibration.window == 8.0
     fitted = calibration.config()
-    detection, control, _ = gate_inflation(half, fitted)
-    assert (detection, control) == (2.0, 4.0)
+    detection, control, _ = gate_inflation(half, fitted, factors=MRCLAM_INFLATION_FACTORS)
+    if robot == 1:
+        assert calibration.window == 8.0
+        assert (detection, control) == (2.0, 4.0)
+        assert mrclam_preset(1) is PRESETS["mrclam"]
     expected = inflated(fitted, detection, control)
-    preset = PRESETS["mrclam"]
+    preset = mrclam_preset(robot)
     assert preset["bias"]["range_is_depth"] is True
     for key in ("range_offset", "range_scale", "bearing_offset", "bearing_scale"):
         assert preset["bias"][key] == pytest.approx(expected["bias"][key], rel=1e-3, abs=1e-5)
@@ -167,6 +177,13 @@ def test_the_mrclam_preset_is_the_calibration_of_robot1_first_half():
     motion = preset["motion"]["unicycle"]
     for key, value in expected["motion"]["unicycle"].items():
         assert motion[key] == pytest.approx(value, rel=1e-3)
+
+
+def test_robots_without_a_calibration_of_their_own_get_robot1s():
+    from rperc.slam.planar import mrclam_preset
+
+    assert mrclam_preset(4) is mrclam_preset(1)
+    assert mrclam_preset(2) is not mrclam_preset(1)
 
 
 def test_gate_inflation_is_the_smallest_that_meets_the_gate_rate():

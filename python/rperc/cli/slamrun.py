@@ -129,14 +129,14 @@ def mrclam_run(
     preset, ``config`` on top): the result, its scores (``rperc slam mrclam``'s) and
     the reference. ``seed`` draws the external variant's fix noise."""
     from rperc.datasets import load_mrclam
-    from rperc.slam.planar import mrclam_start
+    from rperc.slam.planar import mrclam_preset, mrclam_start
 
     run = load_mrclam(directory, robot=robot)
     if span is not None:
         from rperc.slam.calibration import mrclam_window
 
         run = mrclam_window(run, *span)
-    cfg = {**PRESETS["mrclam"], **mrclam_start(run), **(config or {})}
+    cfg = {**mrclam_preset(robot), **mrclam_start(run), **(config or {})}
     cfg = variant_config(cfg, variants)
     # Fixes only for the external variant: even ignored, each would split a prediction.
     interval = fix_interval if "external" in variants else None

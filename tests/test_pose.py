@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from rperc.pose import to_frame, to_world
+from rperc.pose import to_frame, to_world, wrap_angle
 
 coords = st.floats(-1e3, 1e3)
 
@@ -26,3 +26,24 @@ def test_bad_pose_is_a_clear_error():
 
     with pytest.raises(ValueError, match=r"\(x, y, theta\)"):
         to_world([1.0, 2.0], [[0.0, 0.0]])
+
+
+@given(st.lists(st.floats(-1e6, 1e6), min_size=1, max_size=50))
+def test_wrap_angle_is_the_same_direction_in_range(angles):
+    """Oracle: the unit vector of the angle is unchanged (numpy's cos and sin), and the
+    result lies in (-pi, pi]."""
+    a = np.asarray(angles)
+    w = wrap_angle(a)
+    assert np.all((w > -np.pi) & (w <= np.pi))
+    np.testing.assert_allclose(np.cos(w), np.cos(a), atol=1e-9)
+    np.testing.assert_allclose(np.sin(w), np.sin(a), atol=1e-9)
+
+
+def test_wrap_angle_keeps_shape_and_convention():
+    a = np.array([[np.pi, -np.pi], [0.25, 7.0]])
+    w = wrap_angle(a)
+    assert w.shape == (2, 2)
+    assert w[0, 0] == np.pi and w[0, 1] == np.pi  # pi stays pi, -pi becomes pi
+    assert w[1, 0] == 0.25  # in range: returned exactly
+    assert np.isnan(wrap_angle([np.nan, np.inf])).all()
+    assert wrap_angle(3 * np.pi).shape == ()

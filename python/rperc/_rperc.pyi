@@ -61,6 +61,7 @@ __all__ = [
     "visual_memory_learn",
     "visual_memory_replay",
     "wall_straightness_covariance",
+    "wrap_angles",
 ]
 
 __version__: str
@@ -302,6 +303,7 @@ def otb_groundtruth(text: str, name: str) -> _Array: ...
 def pose_transform_points(
     pose: _ArrayLike, points: _ArrayLike, inverse: bool = False
 ) -> _Array: ...
+def wrap_angles(angles: _ArrayLike) -> _Array: ...
 
 @final
 class CeilingWorld:

@@ -38,6 +38,7 @@ import numpy.typing as npt
 from rperc import _geo, _rperc
 from rperc._args import excerpt, float_array, real_number, whole_number
 from rperc.pose import to_world as pose_to_world
+from rperc.pose import wrap_angle
 
 Method = Literal["auto", "hull", "dp", "vw"]
 Metric = Literal["line", "segment"]
@@ -425,8 +426,7 @@ def wall_to_world_jacobians(
     alpha_w = np.where(flip, alpha_w + np.pi, alpha_w)
     jac_wall[flip, 0, :] *= -1
     jac_pose[flip, 0, :] *= -1
-    alpha_w = (alpha_w + np.pi) % (2 * np.pi) - np.pi
-    alpha_w = np.where(alpha_w == -np.pi, np.pi, alpha_w)
+    alpha_w = wrap_angle(alpha_w)
     return rho_w, alpha_w, jac_wall, jac_pose
 
 

@@ -39,3 +39,19 @@ def to_frame(pose: npt.ArrayLike, points: npt.ArrayLike) -> np.ndarray:
     """World points ``(N, 2)`` expressed in the frame of ``pose``: ``R^T (p - (x, y))``."""
     pose_arr = np.asarray(pose, dtype=np.float64)
     return _rperc.pose_transform_points(pose_arr, _points(points), inverse=True)
+
+
+def wrap_angle(angle: npt.ArrayLike) -> np.ndarray:
+    """Angles (any shape) wrapped into (-pi, pi] by rperc-core's ``wrap_angle``, the
+    one wrap of the project (pi stays pi; an angle already in range is returned
+    exactly). A NaN or infinite angle has no direction and gives NaN.
+
+    >>> import numpy as np
+    >>> wrap_angle([3 * np.pi / 2, -np.pi, np.pi]).round(4)
+    array([-1.5708,  3.1416,  3.1416])
+    """
+    arr = np.asarray(angle)
+    if arr.dtype.kind not in "fiub":
+        raise TypeError(f"angle must hold real numbers, got dtype {arr.dtype}")
+    flat = np.ascontiguousarray(arr, dtype=np.float64).reshape(-1)
+    return _rperc.wrap_angles(flat).reshape(arr.shape)

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from rperc._atomic import write_text_atomically
+from rperc.pose import wrap_angle
 
 
 @dataclass(frozen=True)
@@ -158,8 +159,7 @@ def check_walls(
 
 
 def _wrap(angle: np.ndarray) -> np.ndarray:
-    wrapped = (angle + np.pi) % (2 * np.pi) - np.pi
-    return np.where(wrapped == -np.pi, np.pi, wrapped)
+    return wrap_angle(angle)
 
 
 def loop_walls() -> np.ndarray:
@@ -207,7 +207,8 @@ def loop_path(laps: float = 2.0, step: float = 0.25, radius: float = 1.0) -> np.
             centre = end + radius * np.array([-math.sin(heading), math.cos(heading)])
             th = heading + u_k / radius
             xy = centre + radius * np.array([math.sin(th), -math.cos(th)])
-        pose[k] = (*xy, math.atan2(math.sin(th), math.cos(th)))
+        pose[k] = (*xy, th)
+    pose[:, 2] = wrap_angle(pose[:, 2])
     return pose
 
 

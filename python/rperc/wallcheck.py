@@ -18,6 +18,7 @@ import numpy.typing as npt
 
 from rperc.datasets import LaserScans
 from rperc.linesimp import WallSegments, extract_lines
+from rperc.pose import wrap_angle
 
 CHI2_2DOF_95 = 5.991464547107979
 """The 95 % quantile of chi-square with 2 dof."""
@@ -65,7 +66,7 @@ class NeesSummary:
 
 
 def _wrap(a: np.ndarray | float) -> np.ndarray:
-    return np.asarray((np.asarray(a) + np.pi) % (2 * np.pi) - np.pi)
+    return wrap_angle(a)
 
 
 def line_difference(a: WallSegments, i: int, b: WallSegments, j: int) -> np.ndarray:

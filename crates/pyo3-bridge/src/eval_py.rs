@@ -106,6 +106,20 @@ pub fn otb_groundtruth<'py>(
         .into_pyarray(py))
 }
 
+/// Angles `(N,)` wrapped into (-pi, pi] by rperc-core's `wrap_angle` (NaN for a
+/// non-finite angle): the one wrap of the project.
+#[pyfunction]
+pub fn wrap_angles<'py>(
+    py: Python<'py>,
+    angles: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let mut a = float_vector(angles, "angles")?;
+    for v in a.iter_mut() {
+        *v = rperc_core::wrap_angle(*v);
+    }
+    Ok(a.into_pyarray(py))
+}
+
 /// Points `(N, 2)` in the frame of `pose = (x, y, theta)` moved to the world
 /// (`inverse = false`), or world points expressed in that frame (`inverse = true`).
 #[pyfunction]

@@ -38,6 +38,7 @@ from rperc._atomic import write_text_atomically
 from rperc.datasets._text import read_text
 from rperc.datasets.errors import DatasetFormatError
 from rperc.navigation.world import CeilingWorld
+from rperc.pose import wrap_angle
 
 __all__ = [
     "FORMAT",
@@ -350,7 +351,7 @@ class Evaluation:
 def _errors(estimate_world: np.ndarray, truth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     ok = np.isfinite(estimate_world).all(axis=1)
     d = estimate_world[ok] - truth[ok]
-    heading = np.angle(np.exp(1j * d[:, 2]))
+    heading = wrap_angle(d[:, 2])
     return np.hypot(d[:, 0], d[:, 1]), heading
 
 

@@ -33,6 +33,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from rperc.pose import wrap_angle
+
 __all__ = [
     "MrclamCalibration",
     "calibrate_mrclam",
@@ -109,7 +111,7 @@ def true_range_bearing(run: Any) -> tuple[FloatArray, FloatArray]:
     k = np.array([where[int(i)] for i in run.measurement_landmark], dtype=np.int64)
     dx = run.landmark_x[k] - x
     dy = run.landmark_y[k] - y
-    bearing = np.angle(np.exp(1j * (np.arctan2(dy, dx) - theta)))
+    bearing = wrap_angle(np.arctan2(dy, dx) - theta)
     return np.hypot(dx, dy), bearing
 
 

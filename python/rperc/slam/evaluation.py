@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from rperc import _rperc
+from rperc import _rperc, pose
 from rperc._args import excerpt
 from rperc.datasets.timestamps import check_increasing
 
@@ -57,8 +57,7 @@ def wrap_angle(angle: npt.ArrayLike) -> np.ndarray:
     a = arr.astype(np.float64)
     if not np.isfinite(a).all():
         raise ValueError("angle must be finite (an infinite angle has no direction)")
-    w = np.mod(a, 2.0 * math.pi)
-    return np.where(w > math.pi, w - 2.0 * math.pi, w)
+    return pose.wrap_angle(a)
 
 
 # ------------------------------------------------------------------ input checks

@@ -44,6 +44,7 @@ import numpy.typing as npt
 
 from rperc import _rperc
 from rperc._args import excerpt, real_number, whole_number
+from rperc.pose import wrap_angle
 from rperc.slam import evaluation
 
 __all__ = [
@@ -387,7 +388,7 @@ def mrclam_start(run: Any) -> dict[str, Any]:
     x = float(np.interp(t0, run.truth_t, run.truth_x))
     y = float(np.interp(t0, run.truth_t, run.truth_y))
     heading = np.unwrap(run.truth_theta)
-    theta = float(np.angle(np.exp(1j * np.interp(t0, run.truth_t, heading))))
+    theta = float(wrap_angle(np.interp(t0, run.truth_t, heading)))
     return {"initial_pose": [x, y, theta], "initial_pose_variance": [1e-6, 1e-6, 1e-6]}
 
 

@@ -45,6 +45,7 @@ import numpy.typing as npt
 
 from rperc import _rperc
 from rperc._args import excerpt, float_array, real_number, whole_number
+from rperc.pose import wrap_angle
 from rperc.slam.planar import PlanarSlam, SlamResult
 from rperc.slam.smoothing import SmoothedRun, smooth_walls
 
@@ -104,9 +105,9 @@ def increments(pose: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     rot1 = np.where(dist > 1e-6, np.arctan2(left, fwd), 0.0)
     # Backwards steps drive backwards rather than turning around.
     back = np.abs(rot1) > math.pi / 2
-    rot1 = np.where(back, np.angle(np.exp(1j * (rot1 + math.pi))), rot1)
+    rot1 = np.where(back, wrap_angle(rot1 + math.pi), rot1)
     trans = np.where(back, -dist, dist)
-    rot2 = np.angle(np.exp(1j * (np.diff(pose[:, 2]) - rot1)))
+    rot2 = wrap_angle(np.diff(pose[:, 2]) - rot1)
     dt = np.maximum(
         np.c_[TURN_LENGTH * np.abs(rot1), np.abs(trans), TURN_LENGTH * np.abs(rot2)], 1e-3
     )
@@ -223,7 +224,7 @@ def loop_pairs(ref: np.ndarray, radius: float = 1.0, min_path: float = 10.0) -> 
 def pose_nees(est: np.ndarray, cov: np.ndarray, ref: np.ndarray) -> np.ndarray:
     """The robot NEES at every scan but the first (whose covariance is the start's)."""
     err = est - ref
-    err[:, 2] = np.angle(np.exp(1j * err[:, 2]))
+    err[:, 2] = wrap_angle(err[:, 2])
     nees: np.ndarray = np.einsum("ni,nij,nj->n", err[1:], np.linalg.pinv(cov[1:]), err[1:])
     return nees
 
@@ -233,7 +234,7 @@ def score(est: np.ndarray, cov: np.ndarray, ref: np.ndarray, pairs: np.ndarray) 
     loop-closure error (the relative displacement of each pair against the
     reference's), final pose error and the robot NEES against the reference."""
     err = est - ref
-    err[:, 2] = np.angle(np.exp(1j * err[:, 2]))
+    err[:, 2] = wrap_angle(err[:, 2])
     pos = np.hypot(err[:, 0], err[:, 1])
     nees = pose_nees(est, cov, ref)
     if len(pairs):

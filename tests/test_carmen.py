@@ -341,3 +341,21 @@ def test_a_robotlaser1_without_a_real_geometry_is_refused(tmp_path, fov, res, ma
         load_carmen(path)
     path.write_text(ROBOTLASER.format(fov="3.0", res="1.5", max_range="20"))
     assert load_carmen(path).scans.angle_increment.tolist() == [1.5]
+
+
+@pytest.mark.parametrize(
+    ("lines", "kind"),
+    [
+        ("PARAM laser_front_laser_resolution 181 nohost 0\n" + "FLASER 3 1 2 3 0 0 0 0 0 0 1 h 1\n",
+         "FLASER"),
+        ("ROBOTLASER1 0 -1.5 6.2 3.2 80 0.01 0 3 1.0 2.0 3.0 0 "
+         "0 0 0 0 0 0 0 0 0 0 0 10 host 10\n", "ROBOTLASER1"),
+    ],
+)  # fmt: skip
+def test_beams_that_sweep_past_a_turn_are_refused_by_line(tmp_path, lines, kind):
+    """A resolution (from a PARAM or the line) that puts three beams 181 or 183
+    degrees apart sweeps them past 360: two would share a direction (fuzz found it)."""
+    path = tmp_path / "turn.log"
+    path.write_text(lines)
+    with pytest.raises(DatasetFormatError, match=rf"turn.log:{lines.count(chr(10))}: {kind}.*turn"):
+        load_carmen(path)

@@ -60,6 +60,7 @@ from rperc._args import excerpt
 from rperc.datasets._text import decode_lines
 from rperc.datasets.errors import DatasetFormatError
 from rperc.datasets.timestamps import TimeOrderError, TimestampRepairWarning, repair_increasing
+from rperc.pose import wrap_angle
 
 # FLASER max range is not in the line; SICK LMS scanners of those logs report 81.9 m
 # for "no return", which is beyond any indoor wall.
@@ -302,6 +303,7 @@ def _parse_flaser(
     ranges = _floats(path, lineno, tok[2 : 2 + n], "ranges")
     pose = _finite(path, lineno, _floats(path, lineno, tok[2 + n : 2 + n + 7], "poses"), "pose")
     start, step, max_range = _flaser_geometry(tok[0], n, params)
+    _within_a_turn(path, lineno, tok[0], n, step)
     rows.add(tok[0], ranges, (start, step, max_range, *pose), lineno)
 
 
@@ -319,8 +321,19 @@ def _laser_config(path: Path, lineno: int, tok: list[str]) -> tuple[int, int, li
     return n, m, config
 
 
+def _within_a_turn(path: Path, lineno: int, kind: str, n: int, step: float) -> None:
+    """The beams must fit in one turn: a resolution that sweeps them past 360 degrees
+    (from a PARAM or the line) would put two beams in one direction."""
+    if step * (n - 1) > 2 * math.pi + 1e-9:
+        deg = math.degrees(step)
+        raise DatasetFormatError(
+            path, lineno, f"{kind} with {n} beams {deg:g} degrees apart spans more than a turn"
+        )
+
+
 def _parse_robotlaser(path: Path, lineno: int, tok: list[str], rows: _ScanRows) -> None:
     n, m, (start, _fov, res, max_range) = _laser_config(path, lineno, tok)
+    _within_a_turn(path, lineno, tok[0], n, res)
     expected = 10 + n + m + 14
     if len(tok) != expected:
         raise DatasetFormatError(
@@ -338,6 +351,7 @@ def _parse_robotlaser(path: Path, lineno: int, tok: list[str], rows: _ScanRows) 
 
 def _parse_rawlaser(path: Path, lineno: int, tok: list[str], rows: _ScanRows) -> None:
     n, m, (start, _fov, res, max_range) = _laser_config(path, lineno, tok)
+    _within_a_turn(path, lineno, tok[0], n, res)
     expected = 10 + n + m + 3
     if len(tok) != expected:
         raise DatasetFormatError(
@@ -595,9 +609,9 @@ def _interpolate_odometry(odometry: Odometry, times: np.ndarray) -> np.ndarray:
     lo = hi - 1 if len(t) > 1 else hi
     span = t[hi] - t[lo]
     w = np.divide(q - t[lo], span, out=np.zeros_like(q), where=span > 0)
-    dth = np.angle(np.exp(1j * (pose[hi, 2] - pose[lo, 2])))
+    dth = wrap_angle(pose[hi, 2] - pose[lo, 2])
     xy = pose[lo, :2] + w[:, None] * (pose[hi, :2] - pose[lo, :2])
-    th = np.angle(np.exp(1j * (pose[lo, 2] + w * dth)))
+    th = wrap_angle(pose[lo, 2] + w * dth)
     out[inside] = np.c_[xy, th]
     return out
 

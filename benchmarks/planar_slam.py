@@ -1,5 +1,5 @@
 """Planar EKF-SLAM on whole recordings (issue 10): rperc against the numpy EKF-SLAM of
-``reference_planar_ekf.py`` (PythonRobotics style, the same models; the structured
+``tests/oracles/planar_ekf.py`` (PythonRobotics style, the same models; the structured
 O(n^2) form a careful numpy user writes), in the same run, with whole-run times,
 ratios and accuracies, and the cost growth with the number of landmarks.
 
@@ -60,7 +60,7 @@ os.environ.setdefault("RAYON_NUM_THREADS", os.environ["OPENBLAS_NUM_THREADS"])
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-import reference_planar_ekf as ref
+from _oracles import planar_ekf as ref
 from _timing import best_time, fmt_seconds, print_table
 
 from rperc.datasets import data_dir

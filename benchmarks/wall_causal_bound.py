@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from reference_wall_smoother import wallslam_run
+from _oracles import wall_smoother
 
 from rperc import _rperc
 from rperc.datasets import data_dir
@@ -168,7 +168,7 @@ def ate(est: np.ndarray, ref: np.ndarray) -> float:
 
 def one_seed(prepared: ws.PreparedLog, seed: int, args: argparse.Namespace) -> dict[str, float]:
     """Filter, causal optimum and full smoothing of one seed (and with the oracle)."""
-    _, controls, out = wallslam_run(prepared, seed)
+    _, controls, out = wall_smoother.wallslam_run(prepared, seed)
     filtered, _ = ws.at_scans(out, prepared.t)
     ref = prepared.reference
     row: dict[str, float] = {}

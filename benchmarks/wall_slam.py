@@ -2,7 +2,7 @@
 extract every scan's walls (with the straightness floor ``wallslam.STRAIGHTNESS``), run
 the plain EKF with wall landmarks from noisy odometry (``wall_fig7``'s, seed 0), in
 scans per second per stage; the SLAM stage against
-``reference_wall_ekf``, the same filter in numpy, in the same run, which must give
+``tests/oracles/wall_ekf``, the same filter in numpy, in the same run, which must give
 the same trajectory. The peer pairs by nearest neighbours, so that is the association
 timed against it; the SLAM and end-to-end rates with JCBB, ``wallslam``'s default,
 are timed too.
@@ -17,9 +17,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _oracles import wall_ekf
 from _timing import print_table
-from reference_wall_ekf import WallEkfSlam
-from reference_wall_ekf import run as run_reference
 
 from rperc import _rperc
 from rperc.datasets import data_dir
@@ -65,8 +64,10 @@ def bench(path: Path) -> list[str]:
     jcbb = {**config, "association": "jcbb"}
     t_jcbb, _ = seconds(lambda: _rperc.planar_slam_run(controls, empty, None, None, jcbb, walls))
     v = np.diag([SPEED_SIGMA**2, TURN_SIGMA**2])
-    peer = WallEkfSlam(ref[0], v, first_estimates=True, segment=True, shared_sd=STRAIGHTNESS)
-    t_numpy, est_np = seconds(lambda: run_reference(controls, walls, peer), repeat=1)
+    peer = wall_ekf.WallEkfSlam(
+        ref[0], v, first_estimates=True, segment=True, shared_sd=STRAIGHTNESS
+    )
+    t_numpy, est_np = seconds(lambda: wall_ekf.run(controls, walls, peer), repeat=1)
     rows = out["pose"][out["kind"] == 3]  # type: ignore[index]
     diff = float(np.max(np.abs(rows - est_np))) if rows.shape == est_np.shape else float("nan")
     n = len(ref)

@@ -1,5 +1,5 @@
 """Batch smoothing of a wall-SLAM run (``rperc.slam.smoothing``) against the
-numpy/scipy peer (``reference_wall_smoother.py``: the same problem, scipy's sparse
+numpy/scipy peer (``tests/oracles/wall_smoother.py``: the same problem, scipy's sparse
 finite differences and SuperLU), timed in the same run on the same filter output:
 seconds per smoothing, the ratio, and how far the two optima are apart.
 
@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import reference_wall_smoother as ref
+from _oracles import wall_smoother as ref
 
 from rperc.datasets import data_dir
 from rperc.datasets.carmen import load_carmen

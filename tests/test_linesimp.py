@@ -12,13 +12,12 @@ import numpy as np
 import pytest
 from hypothesis import example, given
 from hypothesis import strategies as st
+from oracles.linesimp import douglas_peucker, is_valid
 
 import rperc
 from rperc import _rperc
 from rperc.datasets import DatasetFormatError, read_polylines
 from rperc.linesimp import extract_lines, simplify, simplify_many
-
-from reference import douglas_peucker, is_valid
 
 shapely = pytest.importorskip("shapely")
 simplification = pytest.importorskip("simplification.cutil")

@@ -1,20 +1,19 @@
 """rperc.slam.PlanarSlam (issue 10) against an independent oracle: the numpy EKF-SLAM
-of benchmarks/reference_planar_ekf.py (dense matrices, the same models written again
+of tests/oracles/planar_ekf.py (dense matrices, the same models written again
 in numpy), driven through the same recording, must give the same path and map; and
 the Python layer's errors, serialisation and evaluation hooks.
 """
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import pickle
-import sys
 from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from oracles import planar_ekf, wall_ekf
 
 from rperc.datasets import data_dir
 from rperc.slam import PlanarSlam
@@ -23,18 +22,9 @@ from rperc.slam.planar import defaults, mrclam_recording, victoria_recording
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _reference():
-    spec = importlib.util.spec_from_file_location(
-        "reference_planar_ekf", ROOT / "benchmarks" / "reference_planar_ekf.py"
-    )
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["reference_planar_ekf"] = module
-    spec.loader.exec_module(module)
-    return module
 
 
-REF = _reference()
+REF = planar_ekf
 V = (0.05**2, 0.02**2)  # speed, turn-rate variances
 R = (0.05**2, 0.01**2)  # range, bearing variances
 
@@ -265,15 +255,6 @@ def test_bridge_runs_wall_landmarks_with_their_full_covariance() -> None:
         _rperc.planar_slam_run(np.zeros((0, 3)), np.zeros((0, 3)), None, None, None, walls[:, :9])
 
 
-def _wall_reference():
-    spec = importlib.util.spec_from_file_location(
-        "reference_wall_ekf", ROOT / "benchmarks" / "reference_wall_ekf.py"
-    )
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["reference_wall_ekf"] = module
-    spec.loader.exec_module(module)
-    return module
 
 
 def _room_recording(seed: int = 0, steps: int = 200) -> tuple[np.ndarray, np.ndarray]:
@@ -318,7 +299,7 @@ def _room_recording(seed: int = 0, steps: int = 200) -> tuple[np.ndarray, np.nda
     return np.array(controls), np.array(rows)
 
 
-WREF = _wall_reference()
+WREF = wall_ekf
 
 
 @pytest.mark.parametrize("form", ["line", "segment"])
@@ -327,7 +308,7 @@ def test_wall_landmarks_match_the_numpy_reference_filter(first_estimates: bool, 
     """The engine with wall landmarks (plain, nearest neighbour; linearised at the
     current or at the first estimates; the innovation at the sensor's foot or at the
     seen segment) against the same filter written out in numpy
-    (``benchmarks/reference_wall_ekf.py``): the same trajectory after every wall scan
+    (``tests/oracles/wall_ekf.py``): the same trajectory after every wall scan
     and the same walls, in a simulated room with two collinear walls that only
     segment overlap keeps apart."""
     from rperc import _rperc

@@ -1,4 +1,4 @@
-"""The numpy EKF-SLAM reference of benchmarks/reference_planar_ekf.py: its Jacobians
+"""The numpy EKF-SLAM reference of tests/oracles/planar_ekf.py: its Jacobians
 against central differences, its unicycle against a Runge-Kutta integration of the
 ODE and against closed-form arcs, its dense and structured forms against each other,
 its steps against rperc's Rust EKF core, and its consistency (Monte Carlo NEES against
@@ -6,35 +6,21 @@ scipy's chi-square band) on a small simulated world."""
 
 from __future__ import annotations
 
-import importlib.util
 import itertools
 import math
-import sys
 from collections.abc import Callable
 from pathlib import Path
-from types import ModuleType, SimpleNamespace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from oracles import planar_ekf as ref
 from scipy.stats import chi2
 
 from rperc.datasets import load_mrclam
 from rperc.slam import Ekf
-
-
-def load_reference() -> ModuleType:
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "reference_planar_ekf.py"
-    spec = importlib.util.spec_from_file_location("reference_planar_ekf", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses resolve annotations through it
-    spec.loader.exec_module(module)
-    return module
-
-
-ref = load_reference()
 
 
 def numeric_jacobian(f: Callable[[np.ndarray], np.ndarray], at: np.ndarray, eps: float = 1e-6):

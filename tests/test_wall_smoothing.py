@@ -1,5 +1,5 @@
 """Batch smoothing of wall SLAM (rperc.slam.smoothing): against the numpy/scipy peer
-(benchmarks/reference_wall_smoother.py: finite-difference Jacobians, SuperLU steps and
+(tests/oracles/wall_smoother.py: finite-difference Jacobians, SuperLU steps and
 a dense inverse), against the truth of a simulated loop (better than the filter at
 every seed, and consistent over seeds), the issue's ATE goal on the real logs, and
 bad input."""
@@ -14,6 +14,7 @@ from types import ModuleType
 
 import numpy as np
 import pytest
+from oracles import wall_smoother
 
 from rperc.datasets import TimestampRepairWarning, data_dir
 from rperc.datasets.carmen import load_carmen
@@ -38,11 +39,8 @@ def loop(loop_log: object) -> ws.PreparedLog:
 
 
 def _peer() -> ModuleType:
-    """The numpy/scipy peer, from benchmarks/."""
-    sys.path.insert(0, str(BENCH))
-    import reference_wall_smoother
-
-    return reference_wall_smoother
+    """The numpy/scipy peer, from tests/oracles."""
+    return wall_smoother
 
 
 def test_smoother_matches_the_scipy_peer(loop):

@@ -2,7 +2,7 @@
 (``crates/slam/src/planar/walls.rs``) in ``benchmarks/wall_slam.py``: the same filter
 written out in numpy, for the plain variant (no anchor, no freezing), term for term:
 
-- the unicycle of ``reference_planar_ekf`` (the sensor at the robot's origin);
+- the unicycle of ``oracles.planar_ekf`` (the sensor at the robot's origin);
 - each wall's line ``(rho, alpha)`` about its reference point ``o`` (the middle of
   the segment that first showed it), observed as
   ``rho_r = rho - (x - o_x) cos a - (y - o_y) sin a``, ``alpha_r = alpha - theta``,
@@ -36,7 +36,8 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from reference_planar_ekf import chi2_quantile_2dof, unicycle, wrap
+
+from .planar_ekf import chi2_quantile_2dof, unicycle, wrap
 
 
 def observe_wall(pose: np.ndarray, line: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -26,7 +26,7 @@ is what a careful numpy user writes instead: the prediction touches the robot ro
 columns only (O(n)), and the update uses the sparsity of ``H`` (O(n^2)). Both give the
 same numbers; the benchmark should quote rperc against the structured one.
 
-    from reference_planar_ekf import PlanarEkfSlam, unicycle
+    from oracles.planar_ekf import PlanarEkfSlam, unicycle
 """
 
 from __future__ import annotations

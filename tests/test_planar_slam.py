@@ -22,8 +22,6 @@ from rperc.slam.planar import defaults, mrclam_recording, victoria_recording
 ROOT = Path(__file__).resolve().parents[1]
 
 
-
-
 REF = planar_ekf
 V = (0.05**2, 0.02**2)  # speed, turn-rate variances
 R = (0.05**2, 0.01**2)  # range, bearing variances
@@ -253,8 +251,6 @@ def test_bridge_runs_wall_landmarks_with_their_full_covariance() -> None:
     assert out["kind"].tolist() == [3]
     with pytest.raises(ValueError, match="walls"):
         _rperc.planar_slam_run(np.zeros((0, 3)), np.zeros((0, 3)), None, None, None, walls[:, :9])
-
-
 
 
 def _room_recording(seed: int = 0, steps: int = 200) -> tuple[np.ndarray, np.ndarray]:

@@ -185,6 +185,41 @@ def test_world_jacobians_match_central_differences():
             np.testing.assert_allclose(diff(plus, minus), jp[0, :, i], atol=1e-6)
 
 
+def test_world_lines_hold_the_moved_points():
+    """Closed form: two points of each sensor-frame line, moved to the world by the
+    pose, lie on the returned world line (``rho_w >= 0``, ``alpha_w`` wrapped), for
+    many walls at once, including ones the move flips."""
+    from rperc.linesimp import wall_to_world_jacobians
+    from rperc.pose import to_world
+
+    rng = np.random.default_rng(7)
+    rho, alpha = rng.uniform(0.1, 8.0, 300), rng.uniform(-math.pi, math.pi, 300)
+    pose = np.array([3.0, -4.0, 2.5])
+    rho_w, alpha_w, _, _ = wall_to_world_jacobians(rho, alpha, pose)
+    assert np.all(rho_w >= 0) and np.all(np.abs(alpha_w) <= math.pi)
+    for t in (-2.0, 3.0):
+        normal, along = np.c_[np.cos(alpha), np.sin(alpha)], np.c_[-np.sin(alpha), np.cos(alpha)]
+        moved = to_world(pose, rho[:, None] * normal + t * along)
+        n_w = np.c_[np.cos(alpha_w), np.sin(alpha_w)]
+        np.testing.assert_allclose(np.sum(moved * n_w, axis=1), rho_w, atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("rho", "alpha", "pose", "match"),
+    [
+        ([1.0, np.nan], [0.0, 0.0], [0, 0, 0], "finite"),
+        ([1.0], [0.0, 1.0], [0, 0, 0], "same length"),
+        ([1.0], [0.0], [0, 0], "pose"),
+        ([1.0], [0.0], [0, np.inf, 0], "pose"),
+    ],
+)
+def test_world_lines_refuse_bad_input(rho, alpha, pose, match):
+    from rperc.linesimp import wall_to_world_jacobians
+
+    with pytest.raises(ValueError, match=match):
+        wall_to_world_jacobians(rho, alpha, pose)
+
+
 def world_wall_nees(runs: int, pose_cov: np.ndarray, use_cov: bool, seed: int) -> np.ndarray:
     """NEES of world walls computed from a noisy pose estimate (drawn from
     ``pose_cov``) against the true world walls, over ``runs`` random poses."""

@@ -61,6 +61,7 @@ __all__ = [
     "visual_memory_learn",
     "visual_memory_replay",
     "wall_straightness_covariance",
+    "walls_to_world",
     "wrap_angles",
 ]
 
@@ -304,6 +305,9 @@ def pose_transform_points(
     pose: _ArrayLike, points: _ArrayLike, inverse: bool = False
 ) -> _Array: ...
 def wrap_angles(angles: _ArrayLike) -> _Array: ...
+def walls_to_world(
+    rho: _ArrayLike, alpha: _ArrayLike, pose: _ArrayLike
+) -> tuple[_Array, _Array, _Array, _Array]: ...
 
 @final
 class CeilingWorld:

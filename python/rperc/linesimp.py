@@ -38,7 +38,6 @@ import numpy.typing as npt
 from rperc import _geo, _rperc
 from rperc._args import excerpt, float_array, real_number, whole_number
 from rperc.pose import to_world as pose_to_world
-from rperc.pose import wrap_angle
 
 Method = Literal["auto", "hull", "dp", "vw"]
 Metric = Literal["line", "segment"]
@@ -404,30 +403,12 @@ def wall_to_world_jacobians(
     ``d rho_w = d rho + cos(alpha_w) dx + sin(alpha_w) dy + m (d alpha + d theta)`` with
     ``m = -x sin(alpha_w) + y cos(alpha_w)``, and ``d alpha_w = d alpha + d theta``. When
     ``rho_w < 0`` the line is written ``(-rho_w, alpha_w + pi)``: the rho row changes
-    sign. ``alpha_w`` is wrapped to (-pi, pi].
+    sign. ``alpha_w`` is wrapped to (-pi, pi]. The model is rperc-slam's ``wall_to_world``,
+    the one the wall SLAM filter uses.
     """
-    rho = np.asarray(rho, dtype=np.float64)
-    alpha = np.asarray(alpha, dtype=np.float64)
-    x, y, th = _pose3(pose)
-    alpha_w = alpha + th
-    c, s = np.cos(alpha_w), np.sin(alpha_w)
-    rho_w = rho + x * c + y * s
-    lever = -x * s + y * c
-    k = len(rho)
-    jac_wall = np.zeros((k, 2, 2))
-    jac_wall[:, 0, 0] = 1.0
-    jac_wall[:, 0, 1] = lever
-    jac_wall[:, 1, 1] = 1.0
-    jac_pose = np.zeros((k, 2, 3))
-    jac_pose[:, 0, 0], jac_pose[:, 0, 1], jac_pose[:, 0, 2] = c, s, lever
-    jac_pose[:, 1, 2] = 1.0
-    flip = rho_w < 0
-    rho_w = np.where(flip, -rho_w, rho_w)
-    alpha_w = np.where(flip, alpha_w + np.pi, alpha_w)
-    jac_wall[flip, 0, :] *= -1
-    jac_pose[flip, 0, :] *= -1
-    alpha_w = wrap_angle(alpha_w)
-    return rho_w, alpha_w, jac_wall, jac_pose
+    rho_arr = np.ascontiguousarray(rho, dtype=np.float64).reshape(-1)
+    alpha_arr = np.ascontiguousarray(alpha, dtype=np.float64).reshape(-1)
+    return _rperc.walls_to_world(rho_arr, alpha_arr, np.array(_pose3(pose)))
 
 
 def _pose3(pose: npt.ArrayLike) -> tuple[float, float, float]:

@@ -1,13 +1,14 @@
 //! Bindings of the evaluation pieces Python must not re-derive: OTB ground truth, the
 //! OTB metrics, and SE(2) point transforms (rperc-core's `Pose2`).
 
-use nalgebra::Point2;
-use numpy::{IntoPyArray, PyArray1, PyArray2};
+use nalgebra::{Point2, Vector2};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayDyn};
 use pyo3::prelude::*;
 use rperc_core::Pose2;
+use slam::wall::wall_to_world;
 use tracking::BoundingBox;
 
-use crate::arrays::{float_vector, point_rows};
+use crate::arrays::{float_vector, point_rows, shaped};
 use crate::errors::Error;
 
 /// Boxes of an `(N, 4)` array named `name`.
@@ -118,6 +119,67 @@ pub fn wrap_angles<'py>(
         *v = rperc_core::wrap_angle(*v);
     }
     Ok(a.into_pyarray(py))
+}
+
+/// The world lines of sensor-frame walls `(rho, alpha)` (both `(K,)`) seen from
+/// `pose = (x, y, theta)`, by rperc-slam's `wall_to_world` (the one place of that
+/// model): `rho_w (K,)`, `alpha_w (K,)`, `d/d(rho, alpha) (K, 2, 2)` and
+/// `d/d pose (K, 2, 3)`.
+#[pyfunction]
+pub fn walls_to_world<'py>(
+    py: Python<'py>,
+    rho: &Bound<'py, PyAny>,
+    alpha: &Bound<'py, PyAny>,
+    pose: &Bound<'py, PyAny>,
+) -> PyResult<WorldWalls<'py>> {
+    let (rho, alpha) = (float_vector(rho, "rho")?, float_vector(alpha, "alpha")?);
+    if rho.len() != alpha.len() {
+        return Err(Error::Value(format!(
+            "rho and alpha must have the same length, got {} and {}",
+            rho.len(),
+            alpha.len()
+        ))
+        .into());
+    }
+    let robot = pose3(pose)?;
+    let k = rho.len();
+    let (mut rw, mut aw) = (Vec::with_capacity(k), Vec::with_capacity(k));
+    let (mut jw, mut jp) = (Vec::with_capacity(4 * k), Vec::with_capacity(6 * k));
+    for (r, a) in rho.iter().zip(&alpha) {
+        let j = wall_to_world(&robot, &Vector2::new(*r, *a))
+            .ok_or_else(|| Error::Value(format!("walls must be finite, got rho {r}, alpha {a}")))?;
+        rw.push(j.wall.x);
+        aw.push(j.wall.y);
+        // nalgebra is column-major; numpy wants the rows in order.
+        jw.extend(j.d_wall.transpose().iter());
+        jp.extend(j.d_pose.transpose().iter());
+    }
+    Ok((
+        rw.into_pyarray(py),
+        aw.into_pyarray(py),
+        shaped(py, jw, &[k, 2, 2])?,
+        shaped(py, jp, &[k, 2, 3])?,
+    ))
+}
+
+/// `(rho_w, alpha_w, d/d wall, d/d pose)` of [`walls_to_world`].
+type WorldWalls<'py> = (
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArrayDyn<f64>>,
+    Bound<'py, PyArrayDyn<f64>>,
+);
+
+/// A finite pose `(x, y, theta)`.
+fn pose3(pose: &Bound<'_, PyAny>) -> Result<Pose2, Error> {
+    let p = float_vector(pose, "pose")?;
+    match p[..] {
+        [x, y, theta] if p.iter().all(|v| v.is_finite()) => Ok(Pose2 { x, y, theta }),
+        _ => Err(Error::Value(format!(
+            "pose must be 3 finite numbers (x, y, theta), got {} values",
+            p.len()
+        ))),
+    }
 }
 
 /// Points `(N, 2)` in the frame of `pose = (x, y, theta)` moved to the world

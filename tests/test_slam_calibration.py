@@ -247,13 +247,13 @@ def test_held_out_half_robot_nees_sits_in_its_band() -> None:
     external variants (issue 10's target)."""
     from scipy.stats import chi2
 
-    from rperc.cli.slamrun import variant_config
     from rperc.datasets import load_mrclam
     from rperc.slam.planar import (
         MRCLAM_CALIBRATION_SECONDS,
         PlanarSlam,
         mrclam_recording,
         mrclam_start,
+        variant_config,
     )
 
     run = mrclam_window(load_mrclam(MRCLAM, robot=1), MRCLAM_CALIBRATION_SECONDS, 1e9)

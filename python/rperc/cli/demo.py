@@ -16,11 +16,12 @@ import functools
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from rperc.cli.outputs import (
+    DemoResult,
     add_json_option,
     check_output_file,
     count_at_least,
@@ -29,17 +30,6 @@ from rperc.cli.outputs import (
     write_json,
     wrote,
 )
-
-
-@dataclass(frozen=True)
-class DemoResult:
-    """What a demo found: ``summary`` is one line starting with the demo's name;
-    ``details`` are printed after it when the demo runs on its own."""
-
-    summary: str
-    figures: list[Path]
-    measured: dict[str, Any]
-    details: list[str] = field(default_factory=list)
 
 
 @dataclass(frozen=True)

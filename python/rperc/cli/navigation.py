@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from rperc.cli.demo import DemoResult
+from rperc.cli.outputs import DemoResult
 
 # The demo's world: a 12 x 8 m ceiling, a camera tilted by a few degrees and offset
 # from the robot's centre (eq. 1 corrects it), grey-level noise sigma 2, lighting

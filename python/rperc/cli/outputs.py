@@ -12,6 +12,7 @@ import os
 import sys
 import warnings
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -154,3 +155,14 @@ def write_json(path: Path | None, measured: Mapping[str, Any]) -> None:
         return
     write_text_atomically(path, json.dumps(_plain(measured), indent=2) + "\n")
     wrote(path)
+
+
+@dataclass(frozen=True)
+class DemoResult:
+    """What a demo found: ``summary`` is one line starting with the demo's name;
+    ``details`` are printed after it when the demo runs on its own."""
+
+    summary: str
+    figures: list[Path]
+    measured: dict[str, Any]
+    details: list[str] = field(default_factory=list)

@@ -16,8 +16,8 @@ from rperc._args import excerpt
 from rperc._atomic import write_atomically, write_text_atomically
 from rperc._extras import require
 from rperc._progress import progress
-from rperc.cli.demo import DemoResult
 from rperc.cli.outputs import (
+    DemoResult,
     add_json_option,
     check_output_file,
     count_at_least,

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from rperc._progress import progress
-from rperc.cli.demo import DemoResult
+from rperc.cli.outputs import DemoResult
 from rperc.slam import monobot
 
 MODELS: tuple[monobot.Model, ...] = ("relative", "anchor", "external")

@@ -12,8 +12,8 @@ from typing import Any
 
 import numpy as np
 
-from rperc.cli.demo import DemoResult
 from rperc.cli.outputs import (
+    DemoResult,
     add_json_option,
     check_output_file,
     positive_float,
@@ -22,17 +22,16 @@ from rperc.cli.outputs import (
     wrote,
 )
 from rperc.slam import PlanarSlam, SlamResult
-from rperc.slam.planar import PRESETS, mrclam_recording, victoria_recording
-
-VARIANTS = ("plain", "anchor", "external", "freeze")
+from rperc.slam.mrclam import mrclam_run
+from rperc.slam.planar import PRESETS, RECORDING_VARIANTS, variant_config, victoria_recording
 
 
 def _variants(text: str) -> tuple[str, ...]:
     names = tuple(v.strip() for v in text.split(",") if v.strip())
-    unknown = [v for v in names if v not in VARIANTS]
+    unknown = [v for v in names if v not in RECORDING_VARIANTS]
     if not names or unknown:
         raise argparse.ArgumentTypeError(
-            f"expected a comma-separated list of {', '.join(VARIANTS)}, got {text!r}"
+            f"expected a comma-separated list of {', '.join(RECORDING_VARIANTS)}, got {text!r}"
         )
     return names
 
@@ -90,14 +89,6 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     add_laser_command(kinds)
 
 
-def variant_config(base: dict[str, Any], variants: tuple[str, ...]) -> dict[str, Any]:
-    cfg = dict(base)
-    cfg["anchor"] = "anchor" in variants
-    cfg["external_fix"] = "external" in variants
-    cfg["freeze_after"] = 50 if "freeze" in variants else None
-    return cfg
-
-
 def _speed(args: argparse.Namespace) -> dict[str, Any]:
     """The speed settings from the command line (they leave the results unchanged)."""
     cfg: dict[str, Any] = {"compression": args.compression}
@@ -112,51 +103,6 @@ def _mrclam(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dict[
         fix_interval=args.fix_interval, fix_sigma=args.fix_sigma, span=args.span,
         config={**_speed(args), **args.config},
     )  # fmt: skip
-
-
-def mrclam_run(
-    directory: str | Path,
-    *,
-    robot: int,
-    variants: tuple[str, ...] = ("plain",),
-    seed: int = 0,
-    fix_interval: float = 1.0,
-    fix_sigma: float = 0.1,
-    span: tuple[float, float] | None = None,
-    config: dict[str, Any] | None = None,
-) -> tuple[SlamResult, dict[str, Any], dict[str, Any]]:
-    """One MR.CLAM robot through planar EKF-SLAM with ``variants`` (the ``mrclam``
-    preset, ``config`` on top): the result, its scores (``rperc slam mrclam``'s) and
-    the reference. ``seed`` draws the external variant's fix noise."""
-    from rperc.datasets import load_mrclam
-    from rperc.slam.planar import mrclam_preset, mrclam_start
-
-    run = load_mrclam(directory, robot=robot)
-    if span is not None:
-        from rperc.slam.calibration import mrclam_window
-
-        run = mrclam_window(run, *span)
-    cfg = {**mrclam_preset(robot), **mrclam_start(run), **(config or {})}
-    cfg = variant_config(cfg, variants)
-    # Fixes only for the external variant: even ignored, each would split a prediction.
-    interval = fix_interval if "external" in variants else None
-    ev = mrclam_recording(run, fix_interval=interval, fix_sigma=fix_sigma, seed=seed)
-    result = PlanarSlam(cfg).run(ev, progress=True)
-    truth = np.c_[run.truth_x, run.truth_y, run.truth_theta]
-    aligned = result.ate(run.truth_t, truth, align=True)
-    marks = np.c_[run.landmark_x, run.landmark_y]
-    nees = result.nees(run.truth_t, truth, reference_landmarks=(run.landmark_id, marks))
-    metrics = {
-        "ate_m": result.ate(run.truth_t, truth).rmse,
-        "ate_aligned_m": aligned.rmse,
-        "landmark_rmse_aligned_m": result.landmark_rmse(
-            run.landmark_id, marks, transform=aligned.transform
-        ).rmse,
-        "nees_mean": nees.mean,
-        "nees_in_band": float(np.mean(nees.inside)),
-    }
-    ref = {"truth": truth, "landmarks": marks, "label": "true path (Vicon)", "nees": nees}
-    return result, metrics, ref | {"transform": None}
 
 
 def _victoria(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dict[str, Any]]:

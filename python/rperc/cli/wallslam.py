@@ -10,8 +10,8 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from rperc.cli.demo import DemoResult
 from rperc.cli.outputs import (
+    DemoResult,
     add_json_option,
     check_output_file,
     count_at_least,
@@ -57,37 +57,6 @@ def add_walls_command(kinds: argparse._SubParsersAction) -> None:  # type: ignor
     w.set_defaults(run=walls_command)
 
 
-def measured(result: WallSlamResult) -> dict[str, Any]:
-    """Every metric, count and timing of a run, for ``--json``."""
-    return {
-        "log": result.log,
-        "anchor": bool(result.config.get("anchor")),
-        "freeze_after": result.config.get("freeze_after"),
-        "straightness_m": result.config.get("straightness"),
-        "association": result.config.get("association"),
-        **{f"{k}_m" if k in ("ate_rmse", "loop_error", "final_error") else k: v
-           for k, v in result.metrics.items()},
-        **result.counts,
-        "readings_used_share": result.counts["readings_used"]
-        / max(result.counts["readings_valid"], 1),
-        **{f"seconds_{k}": v for k, v in result.seconds.items()},
-        **_smoothed_metrics(result),
-    }  # fmt: skip
-
-
-def _smoothed_metrics(result: WallSlamResult) -> dict[str, Any]:
-    """The smoothed run's scores (``smoothed_``), its biases and iterations."""
-    if result.smoothing is None:
-        return {}
-    sm = result.smoothing
-    return {
-        **{f"smoothed_{k}_m" if k in ("ate_rmse", "loop_error", "final_error")
-           else f"smoothed_{k}": v for k, v in result.smoothed().metrics.items()},
-        "smoothed_speed_bias": sm.bias[0], "smoothed_turn_bias_rad_per_m": sm.bias[1],
-        "smoothed_iterations": sm.iterations,
-    }  # fmt: skip
-
-
 def walls_command(args: argparse.Namespace) -> int:
     for path, option, figure in (
         (args.tum, "--tum", False), (args.plot, "--plot", True), (args.json, "--json", False),
@@ -103,7 +72,7 @@ def walls_command(args: argparse.Namespace) -> int:
         show_progress=True, straightness=args.straightness, association=args.association,
         smooth=args.smooth,
     )  # fmt: skip
-    metrics = measured(result)
+    metrics = result.measured()
     print(" ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}"
                    for k, v in metrics.items()))  # fmt: skip
     if args.tum is not None:
@@ -156,7 +125,7 @@ def demo_wall_slam(out: Path, seed: int) -> DemoResult:
         "plain robot NEES "
         f"mean {plain.metrics['nees_mean']:.2f} (3 expected), {len(plain.wall_id)} walls"
     )
-    measured_runs: dict[str, Any] = {"seed": seed, **{n: measured(r) for n, r in runs.items()}}
+    measured_runs: dict[str, Any] = {"seed": seed, **{n: r.measured() for n, r in runs.items()}}
     paths = [path]
     intel = _intel_log()
     if intel is not None:
@@ -168,7 +137,7 @@ def demo_wall_slam(out: Path, seed: int) -> DemoResult:
         summary += "; intel.log (corrected path as reference): " + ", ".join(
             f"{n} {r.metrics['ate_rmse']:.3f} m" for n, r in real.items()
         )
-        measured_runs["intel"] = {n: measured(r) for n, r in real.items()}
+        measured_runs["intel"] = {n: r.measured() for n, r in real.items()}
     return DemoResult(summary, paths, measured_runs)
 
 

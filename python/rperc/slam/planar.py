@@ -33,7 +33,7 @@ is off where it would not be exact: with ``freeze_mode="consider"`` and with wal
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -42,15 +42,16 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+import rperc.slam.evaluation as evaluation
 from rperc import _rperc
 from rperc._args import excerpt, real_number, whole_number
 from rperc.pose import wrap_angle
-from rperc.slam import evaluation
 
 __all__ = [
     "MRCLAM_CALIBRATION_SECONDS",
     "MRCLAM_ROBOT_PRESETS",
     "PRESETS",
+    "RECORDING_VARIANTS",
     "VARIANTS",
     "PlanarMonteCarlo",
     "PlanarSlam",
@@ -548,6 +549,22 @@ class PlanarSlam:
             walls=None if walls is None else wall_map,
             wall_pairing=None if walls is None else pairing,
         )
+
+
+#: The seed's variants of a run on a recording (``rperc slam mrclam/victoria
+#: --variant``), combinable: the anchor (eqs 24-25), the external sensor (eqs 26-27)
+#: and landmark freezing.
+RECORDING_VARIANTS = ("plain", "anchor", "external", "freeze")
+
+
+def variant_config(base: Mapping[str, Any], variants: Sequence[str]) -> dict[str, Any]:
+    """``base`` with the filter settings of ``variants`` (names of
+    :data:`RECORDING_VARIANTS`; ``freeze`` freezes a landmark after 50 sightings)."""
+    cfg = dict(base)
+    cfg["anchor"] = "anchor" in variants
+    cfg["external_fix"] = "external" in variants
+    cfg["freeze_after"] = 50 if "freeze" in variants else None
+    return cfg
 
 
 # --- Monte Carlo consistency in the simulated world (Bailey et al. 2006) ----------

@@ -256,6 +256,10 @@ def score(est: np.ndarray, cov: np.ndarray, ref: np.ndarray, pairs: np.ndarray) 
     }
 
 
+#: The scores in metres, written with an ``_m`` suffix by ``measured()``.
+_METRES = ("ate_rmse", "loop_error", "final_error")
+
+
 @dataclass(frozen=True, repr=False)
 class WallSlamResult:
     """One wall-SLAM run over a log, at each of its ``S`` scans: the estimated pose
@@ -309,6 +313,35 @@ class WallSlamResult:
             f"ATE {m['ate_rmse']:.3f} m, loop {m['loop_error']:.3f} m, "
             f"NEES mean {m['nees_mean']:.2f}, seconds={sum(self.seconds.values()):.3f})"
         )
+
+    def measured(self) -> dict[str, Any]:
+        """Every metric, count and timing of the run, flat (``rperc slam walls --json``
+        and ``rperc bench laser`` write it)."""
+        return {
+            "log": self.log,
+            "anchor": bool(self.config.get("anchor")),
+            "freeze_after": self.config.get("freeze_after"),
+            "straightness_m": self.config.get("straightness"),
+            "association": self.config.get("association"),
+            **{f"{k}_m" if k in _METRES else k: v for k, v in self.metrics.items()},
+            **self.counts,
+            "readings_used_share": self.counts["readings_used"]
+            / max(self.counts["readings_valid"], 1),
+            **{f"seconds_{k}": v for k, v in self.seconds.items()},
+            **self._smoothed_measured(),
+        }  # fmt: skip
+
+    def _smoothed_measured(self) -> dict[str, Any]:
+        """The smoothed run's scores (``smoothed_``), its biases and iterations."""
+        sm = self.smoothing
+        if sm is None:
+            return {}
+        return {
+            **{f"smoothed_{k}_m" if k in _METRES else f"smoothed_{k}": v
+               for k, v in self.smoothed().metrics.items()},
+            "smoothed_speed_bias": sm.bias[0], "smoothed_turn_bias_rad_per_m": sm.bias[1],
+            "smoothed_iterations": sm.iterations,
+        }  # fmt: skip
 
     def to_tum(self, path: str | Path) -> Path:
         """Writes the estimated trajectory at the scans' timestamps in the TUM format

@@ -158,7 +158,6 @@ def run(task: Task) -> dict[str, Any]:
     walls`` (for ``smoothed``, of the smoothed path), or of ``rperc slam laser``."""
     if task.method in LASER_METHODS:
         return run_laser_task(task)
-    from rperc.cli.wallslam import measured
     from rperc.datasets import TimestampRepairWarning
     from rperc.datasets.carmen import load_carmen
     from rperc.slam.wallslam import STRAIGHTNESS, run_walls
@@ -172,7 +171,7 @@ def run(task: Task) -> dict[str, Any]:
     kw = {"straightness": STRAIGHTNESS} | walls_options(task.method, task.kwargs)
     result = run_walls(log, seed=task.seed, **kw)
     seconds = time.perf_counter() - start
-    m = measured(result.smoothed() if kw["smooth"] else result)
+    m = (result.smoothed() if kw["smooth"] else result).measured()
     return {
         "library": "rperc",
         "dataset": Path(task.dataset).name,

@@ -54,7 +54,7 @@ def settings_taken() -> set[str]:
 def run(task: Task) -> dict[str, Any]:
     """One robot (``dataset`` is ``robotN``) with one variant: ``rperc slam
     mrclam``'s scores."""
-    from rperc.cli.slamrun import mrclam_run
+    from rperc.slam.mrclam import mrclam_run
 
     robot = int(task.dataset.removeprefix("robot"))
     begin, end = task.number("span_start"), task.number("span_stop")

@@ -176,7 +176,7 @@ def test_unicycle_is_the_exact_arc_of_the_ode(v: float, omega: float, dt: float)
 
 
 def test_unicycle_quarter_turn_and_series_continuity() -> None:
-    # motion.rs's doc example: radius 1 m, a quarter turn from the origin to (1, 1).
+    # unicycle.rs's doc example: radius 1 m, a quarter turn from the origin to (1, 1).
     mean = ref.unicycle(np.zeros(3), 1.0, 1.0, math.pi / 2)[0]
     np.testing.assert_allclose(mean, [1.0, 1.0, math.pi / 2], atol=1e-12)
     for phi in (ref.SERIES_BELOW, -ref.SERIES_BELOW):

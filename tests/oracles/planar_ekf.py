@@ -5,9 +5,9 @@ grows with the map, one dense covariance, the models written out in numpy.
 It is the peer of rperc's planar SLAM in ``benchmarks/planar_slam.py`` and an oracle in
 the tests, so its models are the ones of the Rust ``slam`` crate, term for term:
 
-- the unicycle of ``crates/slam/src/motion.rs`` (exact arc integration with the same
+- the unicycle of ``crates/slam/src/motion/unicycle.rs`` (exact arc integration with the same
   series below ``|omega dt| < 1e-2``) and the Ackermann vehicle of
-  ``crates/slam/src/ackermann.rs`` (encoder speed at the rear left wheel, steering, a
+  ``crates/slam/src/motion/ackermann.rs`` (encoder speed at the rear left wheel, steering, a
   laser ahead and to the left of the rear axle);
 - range-bearing to point landmarks (``crates/slam/src/observation.rs``), bearings
   wrapped into (-pi, pi];
@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-SERIES_BELOW = 1e-2  # as motion.rs: closed forms lose digits to cancellation below
+SERIES_BELOW = 1e-2  # as unicycle.rs: closed forms lose digits to cancellation below
 
 
 def wrap(a: float) -> float:
@@ -703,7 +703,7 @@ def ackermann_filter(config: dict[str, Any]) -> PlanarEkfSlam:
     """The structured filter with the settings of a complete rperc ``PlanarSlam``
     config for the Ackermann vehicle (rperc's ``defaults()`` with the run's fields on
     top): start, noise, gate and association. The vehicle's fields it leaves out take
-    the defaults of ``crates/slam/src/ackermann.rs`` (those of :class:`Ackermann`,
+    the defaults of ``crates/slam/src/motion/ackermann.rs`` (those of :class:`Ackermann`,
     and the published 0.2 m^2/s^2 and 0.025 rad^2 control noise)."""
     variants = [k for k in ("anchor", "external_fix", "freeze_after") if config.get(k)]
     identity = {

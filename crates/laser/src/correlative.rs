@@ -12,8 +12,6 @@
 use nalgebra::{Matrix2, Vector2};
 use rperc_core::{Pose2, wrap_angle};
 
-use crate::loops::{LoopConfig, Window};
-
 /// At most this many of a scan's points score a pose: the score is a share, and
 /// more points only cost time.
 const SCORED_POINTS: usize = 60;
@@ -406,6 +404,39 @@ impl Search<'_> {
     }
 }
 
+/// Where a closure is searched for: an ellipse `d^T xy^-1 d <= 1` around the current
+/// estimate (world axes, m^2) and a heading window of +- `angle` rad.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Window {
+    /// The ellipse's matrix.
+    pub xy: Matrix2<f64>,
+    /// The heading half-window, rad.
+    pub angle: f64,
+}
+
+impl Window {
+    /// Whether an offset lies inside the ellipse (`inverse` is `xy`'s).
+    pub(crate) fn contains(&self, d: &Vector2<f64>, inverse: &Matrix2<f64>) -> bool {
+        (d.transpose() * inverse * d)[(0, 0)] <= 1.0 + 1e-9
+    }
+
+    /// The half-extent of the ellipse along x and y.
+    pub(crate) fn extent(&self) -> Vector2<f64> {
+        Vector2::new(self.xy[(0, 0)].sqrt(), self.xy[(1, 1)].sqrt())
+    }
+}
+
+/// The steps of a coarse-to-fine search (from [`crate::loops::LoopConfig`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct SearchSteps {
+    /// A point scores when a submap point lies within this, m.
+    pub hit_distance: f64,
+    /// The fine grid's translation step, m.
+    pub coarse_step: f64,
+    /// How many of the best coarse poses are searched again finely.
+    pub refine: usize,
+}
+
 /// Coarse to fine: the window searched on a coarse grid of poses against hits
 /// dilated to the coarse step, then the best few searched again on a fine grid
 /// around them.
@@ -414,7 +445,7 @@ pub(crate) fn coarse_search(
     submap: &[Vector2<f64>],
     centre: &Pose2,
     window: &Window,
-    cfg: &LoopConfig,
+    cfg: &SearchSteps,
 ) -> Vec<(f64, Pose2)> {
     let stride = points.len().div_ceil(SCORED_POINTS).max(1);
     let pts: Vec<Vector2<f64>> = points.iter().step_by(stride).copied().collect();

@@ -13,7 +13,8 @@
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use rperc_core::{Pose2, wrap_angle};
 
-use crate::correlative::coarse_search;
+pub use crate::correlative::Window;
+use crate::correlative::{SearchSteps, coarse_search};
 use crate::error::{LaserError, Result};
 use crate::grid::MapIndex;
 use crate::icp::{IcpConfig, Match, Prior, match_scan};
@@ -113,6 +114,15 @@ fn positive(name: &'static str, v: f64) -> Result<()> {
 }
 
 impl LoopConfig {
+    /// The correlative search's share of the settings.
+    pub(crate) fn search_steps(&self) -> SearchSteps {
+        SearchSteps {
+            hit_distance: self.hit_distance,
+            coarse_step: self.coarse_step,
+            refine: self.refine,
+        }
+    }
+
     /// Refuses bad values with the parameter's name.
     pub fn validate(&self) -> Result<()> {
         for (name, v) in [
@@ -193,28 +203,6 @@ impl LoopConfig {
     }
 }
 
-/// Where a closure is searched for: an ellipse `d^T xy^-1 d <= 1` around the current
-/// estimate (world axes, m^2) and a heading window of +- `angle` rad.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Window {
-    /// The ellipse's matrix.
-    pub xy: Matrix2<f64>,
-    /// The heading half-window, rad.
-    pub angle: f64,
-}
-
-impl Window {
-    /// Whether an offset lies inside the ellipse (`inverse` is `xy`'s).
-    pub(crate) fn contains(&self, d: &Vector2<f64>, inverse: &Matrix2<f64>) -> bool {
-        (d.transpose() * inverse * d)[(0, 0)] <= 1.0 + 1e-9
-    }
-
-    /// The half-extent of the ellipse along x and y.
-    pub(crate) fn extent(&self) -> Vector2<f64> {
-        Vector2::new(self.xy[(0, 0)].sqrt(), self.xy[(1, 1)].sqrt())
-    }
-}
-
 /// A verified match of a key scan against a submap: the scan's pose in the world and
 /// the scan's information about it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -260,7 +248,13 @@ pub fn close_loop(
     if lines.len() < icp.min_inliers || submap.is_empty() {
         return Ok(Err(Rejection::Inliers));
     }
-    let starts = coarse_search(&lines, submap.points(), estimate, window, cfg);
+    let starts = coarse_search(
+        &lines,
+        submap.points(),
+        estimate,
+        window,
+        &cfg.search_steps(),
+    );
     // A weak prior keeps ICP's normal equations regular where the scan sees nothing;
     // only the scan's own information goes into the closure.
     let weak = Matrix3::from_diagonal(&Vector3::new(1e-6, 1e-6, 1e-6));

@@ -1,11 +1,12 @@
 #![doc = include_str!("../README.md")]
 #![deny(missing_docs)]
 
-pub mod ackermann;
 mod ekf;
 mod error;
 pub mod monobot;
 pub mod motion;
+/// The Ackermann vehicle, also at [`motion::ackermann`].
+pub use motion::ackermann;
 mod observation;
 pub mod planar;
 pub mod wall;

@@ -15,9 +15,9 @@ mod observability;
 mod run;
 
 pub use model::{MeasurementModel, MonobotConfig, Noise, NoiseKind, USABLE_VARIANCE};
-pub use monte_carlo::{MonteCarloSummary, RunErrors, monte_carlo, summarize};
+pub use monte_carlo::{MonteCarloSummary, monte_carlo, summarize};
 pub use observability::{
     InformationSpectrum, information_spectrum, observability_matrix, observability_rank,
     one_landmark_fisher, rank, unobservable_directions,
 };
-pub use run::{MonobotRun, simulate, simulate_run};
+pub use run::{MonobotRun, RunErrors, simulate, simulate_run};

@@ -3,7 +3,7 @@
 use rayon::prelude::*;
 
 use super::model::{MeasurementModel, MonobotConfig};
-use super::run::{MonobotRun, simulate_run};
+use super::run::{MonobotRun, RunErrors, simulate_run};
 use crate::error::{Result, SlamError};
 
 /// `runs` independent runs on all cores. Run `i` draws from stream `i` of `seed`, so
@@ -30,22 +30,6 @@ pub fn monte_carlo(
             rperc_core::interrupt::run_with(token.clone(), || simulate_run(config, model, seed, i))
         })
         .collect()
-}
-
-/// The errors of one run that a Monte Carlo summary needs (`(steps + 1) x landmarks`
-/// row-major for the landmark errors).
-#[derive(Debug, Clone, PartialEq)]
-pub struct RunErrors {
-    /// Number of landmarks.
-    pub landmarks: usize,
-    /// NEES per step.
-    pub nees: Vec<f64>,
-    /// Robot error per step.
-    pub robot_error: Vec<f64>,
-    /// Landmark errors per step.
-    pub landmark_error: Vec<f64>,
-    /// Landmark errors right after initialisation.
-    pub first_observation_error: Vec<f64>,
 }
 
 /// Statistics over Monte Carlo runs, as the paper reports them.

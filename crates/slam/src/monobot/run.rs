@@ -6,7 +6,6 @@ use rperc_core::CoreError;
 use rperc_core::rng::{RngStream, normal, stream};
 
 use super::model::{MeasurementModel, MonobotConfig};
-use super::monte_carlo::RunErrors;
 use crate::ekf::{Ekf, INTERRUPTIBLE_ROWS, SparseJacobian, Update};
 use crate::error::{Result, SlamError};
 
@@ -315,4 +314,20 @@ impl<'a> Simulation<'a> {
 
 fn row_major(m: &DMatrix<f64>) -> impl Iterator<Item = f64> + '_ {
     (0..m.nrows()).flat_map(move |i| (0..m.ncols()).map(move |j| m[(i, j)]))
+}
+
+/// The errors of one run that a Monte Carlo summary needs (`(steps + 1) x landmarks`
+/// row-major for the landmark errors).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunErrors {
+    /// Number of landmarks.
+    pub landmarks: usize,
+    /// NEES per step.
+    pub nees: Vec<f64>,
+    /// Robot error per step.
+    pub robot_error: Vec<f64>,
+    /// Landmark errors per step.
+    pub landmark_error: Vec<f64>,
+    /// Landmark errors right after initialisation.
+    pub first_observation_error: Vec<f64>,
 }

@@ -248,7 +248,7 @@ mod control_bias_tests {
                 let noisy = Vector2::new(v * (1.0 - q[3]) + q[5], w - q[4] + q[6]);
                 motion.predict(&pose, noisy, dt).unwrap().mean
             };
-            let num = crate::motion::tests::numeric_jacobian(f, at, 1e-6);
+            let num = crate::motion::unicycle::tests::numeric_jacobian(f, at, 1e-6);
             let BiasedPrediction { fx, fb, fv, .. } =
                 predict_biased(&motion, &Pose2::new(x, y, th), Vector2::new(v, w), Vector2::new(s, b), dt)
                     .unwrap();

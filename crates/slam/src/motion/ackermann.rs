@@ -7,7 +7,7 @@
 //! `v_e = v_c (1 - tan(steer) H / L)` and the centre speed is
 //! `v_c = v_e / (1 - tan(steer) H / L)`. The rear axle centre of a bicycle-model car
 //! moves on an arc of radius `L / tan(steer)`: a unicycle with `v = v_c` and
-//! `omega = v_c tan(steer) / L`, integrated exactly by [`crate::motion::unicycle`].
+//! `omega = v_c tan(steer) / L`, integrated exactly by [`super::unicycle::unicycle`].
 //!
 //! The laser sits `a` forward and `b` left of the rear axle centre; trees are seen
 //! from there. Guivant & Nebot write the state as the laser's position with Euler
@@ -17,8 +17,8 @@
 
 use nalgebra::{Matrix2, Matrix2x3, Matrix3, Point2, Vector2};
 
+use super::unicycle::{Prediction, check_step, unicycle};
 use crate::error::{Result, SlamError};
-use crate::motion::{Prediction, check_step, unicycle};
 use crate::observation::{landmark_from_range_bearing, range_bearing};
 use rperc_core::Pose2;
 
@@ -161,7 +161,7 @@ impl Ackermann {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motion::tests::numeric_jacobian;
+    use crate::motion::unicycle::tests::numeric_jacobian;
     use nalgebra::Vector3;
     use proptest::prelude::*;
     use rperc_core::wrap_angle;

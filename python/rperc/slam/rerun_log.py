@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from rperc._args import whole_number
 from rperc._atomic import write_atomically
 from rperc._extras import require
 from rperc.slam.evaluation import NeesResult
@@ -58,6 +59,9 @@ def log_run(
     at up to ``frames`` times on the ``time`` timeline, the estimated path, the final
     map with 95 % ellipses, ``truth`` ((M, >= 2) positions) and ``landmarks`` ((L, 2))
     as static references, and ``nees`` with its band as scalars."""
+    # At least one frame: 0 divided the time steps by zero, and a fraction or NaN
+    # gave no frames (checked before rerun is imported).
+    frames = whole_number(frames, "frames", 1)
     rr = _rerun()
 
     def write(tmp: Path) -> None:

@@ -242,3 +242,14 @@ def test_bad_arguments_name_the_parameter(kwargs, message):
     frame[40:70, 50:90] = 200
     with pytest.raises((ValueError, TypeError), match=message):
         PatternTracker(frame, (45, 35, 50, 40), **kwargs)
+
+
+@pytest.mark.parametrize(("low", "high"), [(0.0, 60.0), (0.0, 0.0)])
+def test_zero_canny_thresholds_learn_and_track(low: float, high: float) -> None:
+    # A threshold of 0 made imageproc's hysteresis walk off the image (a panic). The
+    # check: on the unchanged first frame the pose stays at the region's centre.
+    tracker = PatternTracker(_first_frame(), BOX, canny_low=low, canny_high=high, seed=1)
+    pose = tracker.update(_first_frame())
+    x, y, w, h = BOX
+    assert not pose.lost
+    assert abs(pose.x - (x + (w - 1) / 2)) < 1.0 and abs(pose.y - (y + (h - 1) / 2)) < 1.0

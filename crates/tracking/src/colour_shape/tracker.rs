@@ -454,7 +454,7 @@ fn refine(
             .round()
             .clamp(0.0, 255.0) as u8])
     });
-    let image_edges = imageproc::edges::canny(&gray, p.canny[0], p.canny[1]);
+    let image_edges = crate::frame::canny_edges(&gray, p.canny[0], p.canny[1]);
     let masked = |x: i64, y: i64| grid.at(dilated, x, y) && on(&image_edges, roi, x, y);
     let fit = fit_snake(ctx.predicted, terms.fit.affine, &ctx.snake, masked, snake);
     if fit.on_edge >= p.refine_min_support {

@@ -267,7 +267,7 @@ fn region_edges(
     else {
         return vec![false; image.data.len()];
     };
-    let edges = imageproc::edges::canny(&buffer, config.canny_low, config.canny_high);
+    let edges = crate::frame::canny_edges(&buffer, config.canny_low, config.canny_high);
     let (x0, y0, w, h) = win;
     let iw = image.width;
     (0..image.data.len())

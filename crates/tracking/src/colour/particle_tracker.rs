@@ -9,7 +9,7 @@ use super::model::{AppearanceParams, ColourModel};
 use super::space::BinImage;
 use super::tracker::{TrackResult, pixel_centre};
 use crate::condensation::{FilterParams, Likelihood, LinearGaussian, ParticleFilter};
-use rperc_core::ensure_positive as positive;
+use rperc_core::{MAX_PARTICLES, ensure_positive as positive};
 
 use crate::error::{Result, TrackingError};
 use crate::frame::{BoundingBox, RgbFrame};
@@ -268,12 +268,8 @@ impl ParticleTrackerParams {
     /// Refuses bad values with the parameter's name; returns the number of bins.
     pub fn validate(&self) -> Result<usize> {
         let n_bins = self.appearance.validate()?;
-        if self.n_particles == 0 {
-            return Err(TrackingError::InvalidParameter {
-                name: "n_particles",
-                reason: "need at least one particle".into(),
-            });
-        }
+        // Refused before the frame is binned, not by the filter after it.
+        rperc_core::ensure_count("n_particles", self.n_particles, 1, MAX_PARTICLES, 1)?;
         rperc_core::ensure_in_range("mix_fraction", self.mix_fraction, 0.0, 0.99)?;
         rperc_core::ensure_in_range("velocity_gain", self.velocity_gain, 0.0, 100.0)?;
         if self.max_search_radius < self.search_radius || self.max_search_radius > 512 {

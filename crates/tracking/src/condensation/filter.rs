@@ -197,7 +197,7 @@ impl<const D: usize> ParticleFilter<D> {
     /// loss the set is re-drawn from `N(last estimate, covariance)`.
     ///
     /// # Errors
-    /// [`TrackingError::InvalidParameter`] for `n == 0`, a zero chunk size, a threshold
+    /// [`TrackingError::InvalidParameter`] for `n` outside `1..=MAX_PARTICLES`, a zero chunk size, a threshold
     /// outside (0, 1], non-finite values; [`TrackingError::NotPositiveDefinite`] when
     /// `covariance` is not symmetric positive definite.
     pub fn new(
@@ -208,15 +208,15 @@ impl<const D: usize> ParticleFilter<D> {
         params: FilterParams,
         seed: u64,
     ) -> Result<Self> {
-        if n == 0 {
-            return Err(TrackingError::InvalidParameter {
-                name: "n",
-                reason: "need at least one particle".into(),
-            });
-        }
         // Particles, their copy for resampling, weights, log-weights and ancestors.
         let per_particle = 2 * std::mem::size_of::<SVector<f64, D>>() + 3 * 8;
-        rperc_core::check_allocation("n_particles", n as u128, per_particle as u128)?;
+        rperc_core::ensure_count(
+            "n_particles",
+            n,
+            1,
+            rperc_core::MAX_PARTICLES,
+            per_particle as u128,
+        )?;
         if params.chunk_size == 0 {
             return Err(TrackingError::InvalidParameter {
                 name: "chunk_size",

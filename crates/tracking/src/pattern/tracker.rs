@@ -3,6 +3,7 @@
 //! `X_k = X_{k-1} + v` and the inter-correlation likelihood of eq. 6.
 
 use nalgebra::{SMatrix, SVector};
+use rperc_core::MAX_PARTICLES;
 use rperc_core::image::{GrayImage, GrayView, RgbView, luma};
 
 use super::model::{PatternConfig, PatternModel, Region};
@@ -161,12 +162,7 @@ impl Default for PatternTrackerParams {
 impl PatternTrackerParams {
     /// Refuses bad values with the parameter's name.
     pub fn validate(&self) -> Result<()> {
-        if self.n_particles == 0 {
-            return Err(TrackingError::InvalidParameter {
-                name: "n_particles",
-                reason: "need at least one particle".into(),
-            });
-        }
+        rperc_core::ensure_count("n_particles", self.n_particles, 1, MAX_PARTICLES, 1)?;
         if !self.sigma.iter().all(|s| s.is_finite() && *s > 0.0) {
             return Err(TrackingError::InvalidParameter {
                 name: "sigma",
@@ -305,6 +301,14 @@ impl PatternTracker {
                 reason: format!("must be finite with a scale > 0, got {state:?}"),
             });
         }
+        // A model read back from a mosaic carries its own config; each of its scale
+        // levels blurs up to a whole frame every update.
+        model.config.validate()?;
+        let frame_bytes = (width as u128)
+            .saturating_mul(height as u128)
+            .saturating_mul(4);
+        let levels = model.config.scale_levels.len() as u128;
+        rperc_core::check_allocation("scale_levels", levels, frame_bytes)?;
         let state = SVector::from(state);
         let sigma = SVector::from(params.sigma);
         let covariance = SMatrix::from_diagonal(&sigma.component_mul(&sigma));

@@ -153,11 +153,13 @@ fn local_search(
     predicted: (f64, f64),
     (a, b): (f64, f64),
     radius: usize,
-) -> (f64, f64) {
+) -> Result<(f64, f64)> {
     let step = (a.min(b) / 4.0).round().max(1.0) as usize;
     let r = (radius / step) as i64;
     let mut best = (f64::NEG_INFINITY, predicted);
     for j in -r..=r {
+        // Up to a thousand rows of a thousand ellipses each (radius 512, step 1).
+        rperc_core::interrupt::checkpoint()?;
         for i in -r..=r {
             let c = (
                 predicted.0 + (i * step as i64) as f64,
@@ -174,7 +176,7 @@ fn local_search(
             }
         }
     }
-    best.1
+    Ok(best.1)
 }
 
 impl HistogramLikelihood<'_> {
@@ -447,6 +449,7 @@ impl ParticleColorTracker {
         };
         let previous = self.last.bbox.centre();
         let n_mixed = (self.params.mix_fraction * self.params.n_particles as f64).round() as usize;
+        let before = self.filter.copy_if_interruptible();
         let report = if n_mixed > 0 {
             let scale = self.filter.mean()[2].clamp(self.params.min_scale, self.params.max_scale);
             let radius = self.window_radius();
@@ -457,7 +460,7 @@ impl ParticleColorTracker {
                 (previous.0 + self.velocity.0, previous.1 + self.velocity.1),
                 (self.base_a * scale, self.base_b * scale),
                 radius,
-            );
+            )?;
             let sp = 0.5 * self.params.position_noise * (self.base_a + self.base_b) / 2.0;
             let centre = Vector3::new(gx, gy, scale);
             let sigma = Vector3::new(sp, sp, self.params.scale_noise);
@@ -467,6 +470,14 @@ impl ParticleColorTracker {
             self.filter
                 .step_with_scratch(&likelihood, &mut self.scratch)
         };
+        if report.interrupted {
+            // Ctrl-C: the tracker stays as it was before this frame (the colour model,
+            // velocity and last box are only changed by `conclude`).
+            if let Some(before) = before {
+                self.filter = before;
+            }
+            return Err(rperc_core::CoreError::Interrupted.into());
+        }
         self.last = self.conclude(report.lost, previous);
         Ok(self.last)
     }

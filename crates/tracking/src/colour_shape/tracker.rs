@@ -223,7 +223,16 @@ impl ColorShapeTracker {
             },
         };
         let guesses = self.guesses();
+        let before = self.filter.copy_if_interruptible();
         let report = self.filter.step_mixtures(&ctx, &mut self.scratch, &guesses);
+        if report.interrupted {
+            // Ctrl-C: the samples go back to where they were; the contour, areas and
+            // velocity only change in `conclude`, and the rest is this frame's scratch.
+            if let Some(before) = before {
+                self.filter = before;
+            }
+            return Err(rperc_core::CoreError::Interrupted.into());
+        }
         let terms = if report.lost {
             None
         } else {

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from rperc._args import excerpt
-from rperc.datasets._table import Table, data_file, read_id_table, read_table
+from rperc.datasets._table import Table, data_file, non_negative, read_id_table, read_table
 from rperc.datasets.errors import DatasetFormatError
 
 ROBOT_SUBJECTS = range(1, 6)
@@ -114,16 +114,27 @@ def load_mrclam(
     if isinstance(robot, bool) or not isinstance(robot, int) or robot not in ROBOT_SUBJECTS:
         raise ValueError(f"robot must be 1..5, got {excerpt(robot)}")
     folder = Path(directory)
+    # Every file is found before any is parsed (a missing file is named first), and the
+    # shared tables are read before the robot's, whose barcodes they define.
+    files = {kind: data_file(folder, f"Robot{robot}_{kind}.dat")
+             for kind in ("Odometry", "Measurement", "Groundtruth")}  # fmt: skip
+    marks_file = data_file(folder, "Landmark_Groundtruth.dat")
+    codes = read_id_table(data_file(folder, "Barcodes.dat"), 2, id_columns={1: "barcode"})
+    marks = read_id_table(marks_file, 5)
+    # The landmark positions' standard deviations and a range have no negative values.
+    non_negative(marks, {3: "sx (standard deviation)", 4: "sy (standard deviation)"})
     timed = {
         kind: read_table(
-            data_file(folder, f"Robot{robot}_{kind}.dat"),
+            files[kind],
             cols,
             allow_time_backwards=allow_time_backwards,
+            id_columns=ids,
         )
-        for kind, cols in (("Odometry", 3), ("Measurement", 4), ("Groundtruth", 4))
-    }
-    marks = read_id_table(data_file(folder, "Landmark_Groundtruth.dat"), 5)
-    mapping = _barcode_to_subject(read_id_table(data_file(folder, "Barcodes.dat"), 2))
+        for kind, cols, ids in (("Odometry", 3, {}), ("Measurement", 4, {1: "barcode"}),
+                                ("Groundtruth", 4, {}))
+    }  # fmt: skip
+    non_negative(timed["Measurement"], {2: "range"})
+    mapping = _barcode_to_subject(codes)
     meas = timed["Measurement"]
     keep, subjects, robots, unknown = _measurements(meas, mapping)
     odo, truth = timed["Odometry"], timed["Groundtruth"]

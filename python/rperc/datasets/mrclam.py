@@ -101,6 +101,23 @@ def _measurements(
     return keep, subjects[keep], int(is_robot.sum()), tuple(unknown)
 
 
+def _robot_tables(files: dict[str, Path], allow_time_backwards: bool) -> dict[str, Table]:
+    """The robot's odometry, measurements (column 1 a barcode, column 2 a range that
+    cannot be negative) and ground truth."""
+    timed = {
+        kind: read_table(
+            files[kind],
+            cols,
+            allow_time_backwards=allow_time_backwards,
+            id_columns=ids,
+        )
+        for kind, cols, ids in (("Odometry", 3, {}), ("Measurement", 4, {1: "barcode"}),
+                                ("Groundtruth", 4, {}))
+    }  # fmt: skip
+    non_negative(timed["Measurement"], {2: "range"})
+    return timed
+
+
 def load_mrclam(
     directory: str | Path, robot: int = 1, *, allow_time_backwards: bool = False
 ) -> MrclamRun:
@@ -121,19 +138,9 @@ def load_mrclam(
     marks_file = data_file(folder, "Landmark_Groundtruth.dat")
     codes = read_id_table(data_file(folder, "Barcodes.dat"), 2, id_columns={1: "barcode"})
     marks = read_id_table(marks_file, 5)
-    # The landmark positions' standard deviations and a range have no negative values.
+    # The landmark positions' standard deviations have no negative values.
     non_negative(marks, {3: "sx (standard deviation)", 4: "sy (standard deviation)"})
-    timed = {
-        kind: read_table(
-            files[kind],
-            cols,
-            allow_time_backwards=allow_time_backwards,
-            id_columns=ids,
-        )
-        for kind, cols, ids in (("Odometry", 3, {}), ("Measurement", 4, {1: "barcode"}),
-                                ("Groundtruth", 4, {}))
-    }  # fmt: skip
-    non_negative(timed["Measurement"], {2: "range"})
+    timed = _robot_tables(files, allow_time_backwards)
     mapping = _barcode_to_subject(codes)
     meas = timed["Measurement"]
     keep, subjects, robots, unknown = _measurements(meas, mapping)

@@ -67,6 +67,9 @@ impl Default for ParticleTrackerParams {
     }
 }
 
+/// A mixture proposal's guess: centre, spread and how many particles it redraws.
+type MixtureGuess = (Vector3<f64>, Vector3<f64>, usize);
+
 /// Unit-circle directions where the perimeter gradient is sampled by the particle
 /// likelihood.
 const PERIMETER_POINTS: usize = 32;
@@ -433,6 +436,8 @@ impl ParticleColorTracker {
             };
             return Ok(self.last);
         }
+        let previous = self.last.bbox.centre();
+        let guess = self.mixture_guess(previous)?;
         let app = &self.params.appearance;
         let likelihood = HistogramLikelihood {
             image: &self.image,
@@ -447,28 +452,15 @@ impl ParticleColorTracker {
             gradient_ref: self.gradient_ref,
             directions: &self.directions,
         };
-        let previous = self.last.bbox.centre();
-        let n_mixed = (self.params.mix_fraction * self.params.n_particles as f64).round() as usize;
         let before = self.filter.copy_if_interruptible();
-        let report = if n_mixed > 0 {
-            let scale = self.filter.mean()[2].clamp(self.params.min_scale, self.params.max_scale);
-            let radius = self.window_radius();
-            let (gx, gy) = local_search(
-                &self.image,
-                &self.model.reference,
-                &mut self.counts,
-                (previous.0 + self.velocity.0, previous.1 + self.velocity.1),
-                (self.base_a * scale, self.base_b * scale),
-                radius,
-            )?;
-            let sp = 0.5 * self.params.position_noise * (self.base_a + self.base_b) / 2.0;
-            let centre = Vector3::new(gx, gy, scale);
-            let sigma = Vector3::new(sp, sp, self.params.scale_noise);
-            self.filter
-                .step_mixed(&likelihood, &mut self.scratch, centre, sigma, n_mixed)
-        } else {
-            self.filter
-                .step_with_scratch(&likelihood, &mut self.scratch)
+        let report = match guess {
+            Some((centre, sigma, n)) => {
+                self.filter
+                    .step_mixed(&likelihood, &mut self.scratch, centre, sigma, n)
+            }
+            None => self
+                .filter
+                .step_with_scratch(&likelihood, &mut self.scratch),
         };
         if report.interrupted {
             // Ctrl-C: the tracker stays as it was before this frame (the colour model,
@@ -480,6 +472,30 @@ impl ParticleColorTracker {
         }
         self.last = self.conclude(report.lost, previous);
         Ok(self.last)
+    }
+
+    /// The mixture proposal's guess `(centre, sigma, count)`: the best centre of a coarse
+    /// local search around the predicted one, or `None` when `mix_fraction` redraws no
+    /// particle.
+    fn mixture_guess(&mut self, previous: (f64, f64)) -> Result<Option<MixtureGuess>> {
+        let n_mixed = (self.params.mix_fraction * self.params.n_particles as f64).round() as usize;
+        if n_mixed == 0 {
+            return Ok(None);
+        }
+        let scale = self.filter.mean()[2].clamp(self.params.min_scale, self.params.max_scale);
+        let radius = self.window_radius();
+        let (gx, gy) = local_search(
+            &self.image,
+            &self.model.reference,
+            &mut self.counts,
+            (previous.0 + self.velocity.0, previous.1 + self.velocity.1),
+            (self.base_a * scale, self.base_b * scale),
+            radius,
+        )?;
+        let sp = 0.5 * self.params.position_noise * (self.base_a + self.base_b) / 2.0;
+        let centre = Vector3::new(gx, gy, scale);
+        let sigma = Vector3::new(sp, sp, self.params.scale_noise);
+        Ok(Some((centre, sigma, n_mixed)))
     }
 
     /// The frame's result from the filter's mean: the box, its eq. (28) score and

@@ -406,7 +406,7 @@ def test_mrclam_ids_are_exact_up_to_2_to_the_53(tmp_path):
     # One past it reads as 2^53 (another barcode), 1e20 overflowed int64: refused.
     for code in ("9007199254740993", "1e20", "-3", "106.5"):
         _mrclam_folder(tmp_path, barcode=code)
-        with pytest.raises(DatasetFormatError, match="barcode .* is not a whole number") as info:
+        with pytest.raises(DatasetFormatError, match=r"barcode .* is not a whole number") as info:
             load_mrclam(tmp_path)
         assert info.value.line == 3 and info.value.path.endswith("Robot1_Measurement.dat")
 

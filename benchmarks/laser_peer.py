@@ -56,6 +56,7 @@ from typing import Any
 
 import numpy as np
 
+from rperc._atomic import write_text_atomically
 from rperc.datasets import data_dir
 from rperc.datasets.carmen import load_carmen
 from rperc.slam.wallslam import (
@@ -621,7 +622,7 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     finally:
         if args.json is not None and rows:
-            args.json.write_text(json.dumps(rows, indent=1) + "\n")
+            write_text_atomically(args.json, json.dumps(rows, indent=1) + "\n")
     print(table(rows, variants))
     print(verdict(rows))
     return 0

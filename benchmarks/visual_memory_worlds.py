@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import io
 import json
 import math
 import multiprocessing
@@ -31,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from rperc._atomic import write_text_atomically
 from rperc.cli.navigation import CAMERA, RENDER, START, s_path
 from rperc.navigation import CeilingWorld, evaluate, learn
 from rperc.navigation.memory import Learning, ReplayResult, _pose, _se2, localization_nees
@@ -109,16 +111,9 @@ def one_world(
     rest = np.concatenate([t[head:] for t in used])
     if frames is not None:
         frames.mkdir(parents=True, exist_ok=True)
-        with open(frames / f"world{world_seed}.csv", "w", newline="") as fh:
-            out = csv.writer(fh)
-            out.writerow(["start", "frame", "err_cm", "err_deg", "nees", "lost", "tracked",
-                          "sx_cm", "sy_cm", "st_deg", "key"])  # fmt: skip
-            for s, (t, r) in enumerate(zip(tables, runs, strict=True)):
-                for k, row in enumerate(t):
-                    out.writerow([s, k, f"{100 * row[0]:.3f}", f"{math.degrees(row[1]):.3f}",
-                                  f"{row[2]:.3g}", int(row[3]), int(row[4]),
-                                  f"{100 * row[5]:.3f}", f"{100 * row[6]:.3f}",
-                                  f"{math.degrees(row[7]):.3f}", int(r.key_index[k])])  # fmt: skip
+        # Written whole through rperc's one atomic writer (issue 38): a reader of
+        # the folder never sees half a table.
+        write_text_atomically(frames / f"world{world_seed}.csv", _frames_csv(tables, runs))
     return {
         "world": world_seed,
         "role": role(world_seed),
@@ -130,6 +125,21 @@ def one_world(
         "steady_deg": math.degrees(rms(rest[:, 1])),
         "outcomes": [r.outcome for r in runs],
     }
+
+
+def _frames_csv(tables: list[np.ndarray], runs: list[ReplayResult]) -> str:
+    """The per-frame errors of every start as CSV text."""
+    fh = io.StringIO(newline="")
+    out = csv.writer(fh, lineterminator="\n")
+    out.writerow(["start", "frame", "err_cm", "err_deg", "nees", "lost", "tracked",
+                  "sx_cm", "sy_cm", "st_deg", "key"])  # fmt: skip
+    for s, (t, r) in enumerate(zip(tables, runs, strict=True)):
+        for k, row in enumerate(t):
+            out.writerow([s, k, f"{100 * row[0]:.3f}", f"{math.degrees(row[1]):.3f}",
+                          f"{row[2]:.3g}", int(row[3]), int(row[4]),
+                          f"{100 * row[5]:.3f}", f"{100 * row[6]:.3f}",
+                          f"{math.degrees(row[7]):.3f}", int(r.key_index[k])])  # fmt: skip
+    return fh.getvalue()
 
 
 def print_rows(rows: list[dict[str, Any]], head: int) -> None:
@@ -197,7 +207,7 @@ def main() -> None:
     print_rows(rows, args.head)
     print(f"{time.perf_counter() - t0:.0f} s")
     if args.json:
-        args.json.write_text(json.dumps(rows, indent=1))
+        write_text_atomically(args.json, json.dumps(rows, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -34,6 +34,7 @@ import numpy as np
 from _oracles import wall_smoother
 
 from rperc import _rperc
+from rperc._atomic import write_text_atomically
 from rperc.datasets import data_dir
 from rperc.datasets.carmen import load_carmen
 from rperc.pose import to_frame, to_world
@@ -214,7 +215,7 @@ def main() -> None:
         print(f"{path.name} mean over {args.seeds} seeds: "
               + "  ".join(f"{k} {v:.3f}" for k, v in mean.items()))  # fmt: skip
     if args.json:
-        args.json.write_text(json.dumps(report, indent=2))
+        write_text_atomically(args.json, json.dumps(report, indent=2) + "\n")
 
 
 if __name__ == "__main__":

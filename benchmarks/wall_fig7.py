@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from rperc._atomic import write_text_atomically
 from rperc.datasets import data_dir
 from rperc.datasets.carmen import load_carmen
 from rperc.slam import wallslam as ws
@@ -136,7 +137,7 @@ def main() -> None:
             print(f"  {name:30s} {cells}, {secs:.3f} s/run")
     if args.json:
         clean = [{k: v for k, v in r.items() if not k.startswith("_")} for r in results]
-        args.json.write_text(json.dumps(clean, indent=2))
+        write_text_atomically(args.json, json.dumps(clean, indent=2) + "\n")
     if args.plot:
         plot(results, args.plot)
 

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 from _oracles import wall_smoother as ref
 
+from rperc._atomic import write_text_atomically
 from rperc.datasets import data_dir
 from rperc.datasets.carmen import load_carmen
 from rperc.scansim import write_loop_log
@@ -76,7 +77,7 @@ def main() -> None:
                 f"{mean['filter_ate_m']:.3f} -> smoothed {mean['smoothed_ate_m']:.3f} m"
             )
     if args.json:
-        args.json.write_text(json.dumps(report, indent=2))
+        write_text_atomically(args.json, json.dumps(report, indent=2) + "\n")
 
 
 if __name__ == "__main__":

@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from rperc._atomic import write_text_atomically
 from rperc.datasets import data_dir
 from rperc.datasets.carmen import load_carmen
 from rperc.linesimp import extract_lines
@@ -116,7 +117,7 @@ def main() -> None:
     }  # fmt: skip
     print(json.dumps(result, indent=2))
     if args.json:
-        args.json.write_text(json.dumps(result, indent=2))
+        write_text_atomically(args.json, json.dumps(result, indent=2) + "\n")
 
 
 if __name__ == "__main__":

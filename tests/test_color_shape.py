@@ -133,3 +133,16 @@ def test_bad_arguments_name_the_parameter(kwargs, message):
     frame = np.zeros((40, 50, 3), np.uint8)
     with pytest.raises(ValueError, match=message):
         ColorShapeTracker(frame, (10, 8, 20, 20), **kwargs)
+
+
+@pytest.mark.parametrize("canny", [[0.0, 50.0], [0.0, 0.0]])
+def test_a_zero_canny_threshold_refines_instead_of_panicking(canny: list[float]) -> None:
+    # Issue 38: canny = [0, 50] panicked in the edge refinement (imageproc's hysteresis
+    # followed the zero-strength border off the image). The check: the red square
+    # standing still keeps its box.
+    frame = np.zeros((40, 50, 3), np.uint8)
+    frame[8:29, 10:31] = (200, 40, 40)
+    t = ColorShapeTracker(frame, contour=_SQUARE, seed=1, config={"canny": canny})
+    for _ in range(2):
+        x, y, w, h = t.update(frame).box
+    assert 8 <= x <= 12 and 6 <= y <= 10 and 16 <= w <= 24 and 16 <= h <= 24

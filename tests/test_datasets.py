@@ -381,3 +381,91 @@ def test_otb_ground_truth_errors_quote_a_huge_line_briefly(tmp_path, line):
     with pytest.raises(DatasetFormatError, match=r"groundtruth_rect\.txt:2: ") as info:
         read_boxes(path)
     assert len(str(info.value)) < 200 + len(str(path)) and "more characters" in str(info.value)
+
+
+def _mrclam_folder(folder, barcode: str = "107", sx: str = "0.1", odometry_v: str = "0.1"):
+    """A minimal MR.CLAM folder (robot 1, landmarks 6 and 7) with three values set."""
+    files = {
+        "Robot1_Odometry.dat": f"# t v w\n10 {odometry_v} 0\n11 0.2 0\n",
+        "Robot1_Measurement.dat": f"# t code r b\n10.5 106 1.5 0.2\n11.5 {barcode} 2.5 0.1\n",
+        "Robot1_Groundtruth.dat": "# t x y th\n10 1 2 0.5\n",
+        "Landmark_Groundtruth.dat": f"# id x y sx sy\n6 1 1 {sx} 0.1\n7 2 3 0.2 0.2\n",
+        "Barcodes.dat": "".join(f"{s} {100 + s}\n" for s in range(1, 8)),
+    }
+    for name, text in files.items():
+        (folder / name).write_text(text)
+    return folder
+
+
+def test_mrclam_ids_are_exact_up_to_2_to_the_53(tmp_path):
+    from rperc.datasets import load_mrclam
+
+    # 2^53 is the last integer float64 holds exactly: read as written.
+    run = load_mrclam(_mrclam_folder(tmp_path, barcode="9007199254740992"))
+    assert run.unknown_barcode_values == (2**53,)
+    # One past it reads as 2^53 (another barcode), 1e20 overflowed int64: refused.
+    for code in ("9007199254740993", "1e20", "-3", "106.5"):
+        _mrclam_folder(tmp_path, barcode=code)
+        with pytest.raises(DatasetFormatError, match=r"barcode .* is not a whole number") as info:
+            load_mrclam(tmp_path)
+        assert info.value.line == 3 and info.value.path.endswith("Robot1_Measurement.dat")
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "file", "message"),
+    [
+        ("sx", "-0.1", "Landmark_Groundtruth.dat", "sx .* must be >= 0"),
+        ("sx", "inf", "Landmark_Groundtruth.dat", "infinite"),
+        ("odometry_v", "-inf", "Robot1_Odometry.dat", "infinite"),
+    ],
+)
+def test_mrclam_refuses_meaningless_values(tmp_path, field, value, file, message):
+    from rperc.datasets import load_mrclam
+
+    _mrclam_folder(tmp_path, **{field: value})
+    with pytest.raises(DatasetFormatError, match=message) as info:
+        load_mrclam(tmp_path)
+    assert info.value.line == 2 and info.value.path.endswith(file)
+
+
+def test_otb_box_corners_beyond_the_coordinate_range_are_refused(tmp_path):
+    path = tmp_path / "groundtruth_rect.txt"
+    path.write_text("1 2 3 4\n1e300 2 3 4\n")
+    with pytest.raises(DatasetFormatError, match="within") as info:
+        read_boxes(path)
+    assert info.value.line == 2
+
+
+@pytest.mark.parametrize(
+    ("name", "text", "line"),
+    [
+        ("a.csv", "x,y\n0,0\nnan,1\n", 3),
+        ("a.wkt", "LINESTRING (0 0, 1 1)\nLINESTRING (0 0, nan 1)\n", 2),
+        ("a.geojson", '{"type": "LineString", "coordinates": [[0, 0], [NaN, 1]]}', 1),
+        ("a.wkt", "LINESTRING (0 0, 1 1)\nCIRCULARSTRING (0 0, 1 1, 2 0)\n", 2),
+        (
+            "a.geojson",
+            '{"type": "LineString", "coordinates": ' + "[" * 100_000 + "]" * 100_000 + "}",
+            1,
+        ),
+        ("a.geojson", '{"type": "LineString", "coordinates": ' + "[" * 200 + "]" * 200 + "}", 1),
+    ],
+    ids=[
+        "csv nan",
+        "wkt nan",
+        "geojson nan",
+        "circularstring",
+        "json 100000 deep",
+        "json 200 deep",
+    ],
+)
+def test_polyline_files_refuse_what_has_no_place(tmp_path, name, text, line):
+    # Issue 38: NaN vertices were read as points; CIRCULARSTRING escaped as shapely's
+    # NotImplementedError and deep GeoJSON as a RecursionError, neither naming the file.
+    if not name.endswith(".csv"):
+        pytest.importorskip("shapely")
+    path = tmp_path / name
+    path.write_text(text)
+    with pytest.raises(DatasetFormatError) as info:
+        read_polylines(path)
+    assert info.value.line == line and len(str(info.value)) < 400

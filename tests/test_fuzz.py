@@ -22,6 +22,7 @@ MODULES = [
     "props_cli",
     "props_shape_pattern",
     "props_planar_io",
+    "props_headers",
 ]
 BATCH_TIMEOUT = 3000.0 if LONG else 300.0
 

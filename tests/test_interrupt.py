@@ -21,6 +21,11 @@ pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
 ZIGZAG = (
     "import numpy as np\nk = np.arange(300_000.0)\npts = np.c_[k, np.where(k % 2 == 0, k, -k)]\n"
 )
+# A 320 x 240 frame of random texture with a red block: every tracker learns a target.
+_TEXTURED = (
+    "import numpy as np\nf = np.random.default_rng(0).integers(0, 256, (240, 320, 3), np.uint8)\n"
+    "f[40:200, 60:260] = (200, 40, 40)\nf[80:160, 100:220] = (40, 40, 200)\n"
+)
 CASES = {
     "dp on a zig-zag": ZIGZAG
     + "from rperc.linesimp import simplify\nprint('ready', flush=True)\n"
@@ -47,6 +52,22 @@ CASES = {
     # A 1 GB ceiling texture (80 x 80 m at 5 mm): seconds of tile levels to generate.
     "a huge ceiling world": "from rperc.navigation import CeilingWorld\n"
     + "print('ready', flush=True)\nCeilingWorld(ceiling={'size': [80.0, 80.0]})\n",
+    # Issue 38: the trackers' particle loops ran on the pool to their end (a million
+    # particles, each an ellipse histogram, a segmentation or a pattern match).
+    "a particle colour tracker update": _TEXTURED
+    + "from rperc.tracking import ParticleColorTracker\n"
+    + "t = ParticleColorTracker(f, (60, 40, 200, 160), n_particles=10**6)\n"
+    + "print('ready', flush=True)\nt.update(f)\n",
+    "a colour + shape tracker update": _TEXTURED
+    + "from rperc.tracking import ColorShapeTracker\n"
+    + "t = ColorShapeTracker(f, (60, 40, 200, 160), n_samples=500_000)\n"
+    + "print('ready', flush=True)\nt.update(f)\n",
+    "a pattern tracker update": _TEXTURED
+    + "from rperc.tracking import PatternTracker\ng = f.mean(axis=2).astype(np.uint8)\n"
+    # Particles all near the target (sigma tiny) are weighed in full, none cut short.
+    + "t = PatternTracker(g, (60, 40, 200, 160), n_particles=10**6, max_points=2000,\n"
+    + "                   point_spacing=1.0, sigma=(0.01, 0.01, 1e-4, 1e-4))\n"
+    + "print('ready', flush=True)\nt.update(g)\n",
 }
 
 # Far above the 20 ms poll interval (the child also needs time to unwind and exit on a
@@ -131,3 +152,49 @@ def test_ctrl_c_during_the_start_up_imports_prints_one_line(tmp_path):
             child.wait()
     assert stderr.strip() == "rperc: interrupted", stderr[-2000:]
     assert child.returncode == 130
+
+
+# Two twins of one particle tracker; the first update of one is interrupted 0.3 s in,
+# then both step on the same frame. The update runs for seconds (60,000 particles,
+# each a 120 x 120 ellipse's histogram).
+RESTORE = (
+    _TEXTURED
+    + """
+import os, signal, threading, time
+from rperc.tracking import ParticleColorTracker
+g = np.roll(f, 3, axis=1)
+a, b = (ParticleColorTracker(f, (60, 40, 120, 120), n_particles=60_000, seed=3) for _ in "ab")
+threading.Timer(0.3, os.kill, (os.getpid(), signal.SIGINT)).start()
+t0 = time.monotonic()
+try:
+    a.update(g)
+    print("completed")
+except KeyboardInterrupt:
+    print("interrupted", time.monotonic() - t0)
+t1 = time.monotonic()
+ra = a.update(g)
+full = time.monotonic() - t1
+rb = b.update(g)
+print(ra == rb, a.ess == b.ess, full)
+"""
+)
+
+
+def test_an_interrupted_tracker_update_leaves_the_tracker_as_it_was():
+    # Issue 38: Ctrl-C during an update must stop it and restore the particles, so the
+    # next update is the one an uninterrupted twin makes (the oracle: the twin).
+    out = subprocess.run(
+        [sys.executable, "-c", DEFAULT_SIGINT + RESTORE],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert out.returncode == 0, out.stderr[-2000:]
+    stopped, compared = out.stdout.strip().splitlines()
+    assert stopped.startswith("interrupted "), out.stdout
+    after = stopped.split()[1]
+    same_result, same_ess, full = compared.split()
+    # Stopped well before the work a full update does.
+    assert float(after) < 0.3 + 0.5 * float(full), out.stdout
+    assert (same_result, same_ess) == ("True", "True"), out.stdout

@@ -138,6 +138,10 @@ def test_bad_input_is_refused_by_name() -> None:
     # (the fuzz suite's find: the process aborted).
     with pytest.raises(ValueError, match="n_patterns"):
         CeilingWorld(ceiling={"size": [3.0, 2.0], "resolution": 0.02, "n_patterns": 2**31})
+    # Issue 38: 2^33 x 2^33 pixels wrapped the image size and aborted at the render.
+    for camera in ({"width": 2**33, "height": 2**33}, {"height": 2**40}):
+        with pytest.raises(ValueError, match=r"'(width|height)': must be in 16\.\.=32768"):
+            CeilingWorld(ceiling=SMALL, camera=camera).render(np.zeros(3))
     world = CeilingWorld(ceiling=SMALL)
     with pytest.raises(ValueError, match=r"\(n, 3\)"):
         world.render(np.zeros((2, 2)))

@@ -132,6 +132,13 @@ def test_the_same_seed_gives_the_same_track() -> None:
         ({"region": (60.5, 50, 64, 52)}, ValueError, "region"),
         ({"region": np.zeros((3, 3), bool)}, ValueError, "region"),
         ({"n_particles": 0}, ValueError, "n_particles"),
+        # Issue 38: sizes a caller sets are bounded before anything is allocated (10**13
+        # particles died in the allocator; a spacing of 1e-9 px asked for 10^9 model
+        # points per pixel of contour).
+        ({"n_particles": 10**13}, ValueError, "'n_particles': must be in 1..=1000000"),
+        ({"max_points": 10**13}, ValueError, "'max_points': must be in"),
+        ({"point_spacing": 1e-9}, ValueError, "'point_spacing'"),
+        ({"point_spacing": math.inf}, ValueError, "'point_spacing'"),
         ({"sigma": (5, 5, math.nan, 0.1)}, ValueError, "sigma"),
         ({"sigma": (5, 5, 0.1)}, ValueError, "sigma"),
         ({"refine_first_step": 0.0}, ValueError, "refine_first_step"),
@@ -242,3 +249,39 @@ def test_bad_arguments_name_the_parameter(kwargs, message):
     frame[40:70, 50:90] = 200
     with pytest.raises((ValueError, TypeError), match=message):
         PatternTracker(frame, (45, 35, 50, 40), **kwargs)
+
+
+@pytest.mark.parametrize(
+    "levels",
+    [[1.0 + k / 10 for k in range(100_000)], [1.0, 1e300], [1.0, math.inf]],
+    ids=["100000 levels", "scale 1e300", "scale inf"],
+)
+def test_the_scale_levels_are_bounded_up_front(levels: list[float]) -> None:
+    # Each level blurs its own copy of the frame with a kernel growing with its scale:
+    # a huge count or scale must be refused by name before anything is built.
+    from rperc import _rperc
+
+    with pytest.raises(ValueError, match="scale_levels"):
+        _rperc.PatternTracker(_first_frame(), BOX, 0, {"pattern": {"scale_levels": levels}})
+
+
+def test_sequence_frames_too_large_to_count_are_refused() -> None:
+    # width * height overflowed the native size (2^33 squared) and passed the check.
+    from rperc import _rperc
+
+    patch, bg = _patch().astype(np.float64), _background().astype(np.float64)
+    for size in (2**33, 2**40, 2**62):
+        config = {"width": size, "height": size, "n_frames": 1}
+        with pytest.raises(MemoryError, match="'n_frames'"):
+            _rperc.pattern_sequence(patch, bg, config)
+
+
+@pytest.mark.parametrize(("low", "high"), [(0.0, 60.0), (0.0, 0.0)])
+def test_zero_canny_thresholds_learn_and_track(low: float, high: float) -> None:
+    # A threshold of 0 made imageproc's hysteresis walk off the image (a panic). The
+    # check: on the unchanged first frame the pose stays at the region's centre.
+    tracker = PatternTracker(_first_frame(), BOX, canny_low=low, canny_high=high, seed=1)
+    pose = tracker.update(_first_frame())
+    x, y, w, h = BOX
+    assert not pose.lost
+    assert abs(pose.x - (x + (w - 1) / 2)) < 1.0 and abs(pose.y - (y + (h - 1) / 2)) < 1.0

@@ -135,6 +135,9 @@ def test_window_cuts_every_series_and_bad_input_is_refused():
         mrclam_window(run, 100.0, 200.0)
     with pytest.raises(ValueError, match="window"):
         calibrate_mrclam(run, window=0.0)
+    # Issue 38: a window of 1e-9 s asked for 10^10 window starts (a MemoryError at best).
+    with pytest.raises(ValueError, match="window must be at least the mean odometry step"):
+        calibrate_mrclam(run, window=1e-9)
     with pytest.raises(ValueError, match="at least 10"):
         calibrate_mrclam(mrclam_window(run, 0.0, 0.05))
 

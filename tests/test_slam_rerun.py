@@ -57,3 +57,15 @@ def test_cli_rerun_option_writes_the_file(tmp_path):
     assert main([*argv, "--rerun", str(out)]) == 0
     assert out.read_bytes()[:4] == b"RRF2"
     assert math.isfinite(out.stat().st_size)
+
+
+@pytest.mark.parametrize("frames", [0, -3, 2.5, float("nan")])
+def test_a_frame_count_below_one_is_refused_by_name(tmp_path, frames):
+    # 0 divided by zero; a fraction or NaN logged no robot at all.
+    from rperc.slam.rerun_log import log_run
+
+    world = {"steps": 20}
+    result = PlanarSlam(sim_slam_config(world)).run(simulate(world, seed=1).recording)
+    with pytest.raises(ValueError, match=r"^frames must be a positive integer"):
+        log_run(result, tmp_path / "run.rrd", frames=frames)
+    assert list(tmp_path.iterdir()) == []

@@ -67,6 +67,9 @@ def mrclam(draw: st.DrawFn) -> Fixture:
     barcodes = np.array([[s, 100 + s] for s in [1, 2, 3, 4, 5, *marks[:, 0]]], float)
     meas = draw(number_rows(draw(st.integers(1, 5)), 4, time=True))
     meas[:, 1] = 100 + marks[draw(st.integers(0, len(marks) - 1)), 0]
+    # Ranges and the landmarks' standard deviations are never negative (refused).
+    meas[:, 2] = np.abs(meas[:, 2])
+    marks[:, 3:] = np.abs(marks[:, 3:])
     tables = {
         "Robot1_Odometry.dat": draw(number_rows(draw(st.integers(1, 5)), 3, time=True)),
         "Robot1_Measurement.dat": meas,
@@ -106,6 +109,8 @@ def victoria_park(draw: st.DrawFn) -> Fixture:
         name: draw(number_rows(draw(st.integers(1, 5)), cols, time=True))
         for name, cols in (("measurements.dat", 4), ("inputs.dat", 3), ("gps.dat", 3))
     }
+    # Ranges and trunk diameters are never negative (refused).
+    tables["measurements.dat"][:, [1, 3]] = np.abs(tables["measurements.dat"][:, [1, 3]])
     files, data = {}, {}
     for name, rows in tables.items():
         lines = [line_of(r) for r in rows]

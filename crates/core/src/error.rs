@@ -261,6 +261,40 @@ pub fn ensure_in_range(name: &'static str, value: f64, lo: f64, hi: f64) -> Resu
     }
 }
 
+/// The most particles (samples) any of rperc's particle filters runs: each is weighed
+/// against the image every frame, so a million already takes seconds per frame, and a
+/// typo such as `n_particles=10**13` is refused at once by [`ensure_count`].
+pub const MAX_PARTICLES: usize = 1_000_000;
+
+/// The one check of a size or count a caller sets (particles, contour points, model
+/// points, scale levels): `Err(InvalidParameter)` naming `name` unless `min <= value
+/// <= max`, then `Err(TooLarge)` when `value` items of `bytes_each` bytes exceed
+/// [`max_allocation_bytes`]. Called before anything is allocated, so no size aborts
+/// the process or runs for minutes before failing.
+///
+/// # Examples
+/// ```
+/// use rperc_core::{MAX_PARTICLES, ensure_count};
+/// assert!(ensure_count("n_particles", 200, 1, MAX_PARTICLES, 64).is_ok());
+/// let err = ensure_count("n_particles", 10_000_000_000_000, 1, MAX_PARTICLES, 64);
+/// assert!(err.unwrap_err().to_string().contains("'n_particles'"));
+/// ```
+pub fn ensure_count(
+    name: &'static str,
+    value: usize,
+    min: usize,
+    max: usize,
+    bytes_each: u128,
+) -> Result<()> {
+    if !(min..=max).contains(&value) {
+        return Err(CoreError::InvalidParameter {
+            name,
+            reason: format!("must be in {min}..={max}, got {value}"),
+        });
+    }
+    check_allocation(name, value as u128, bytes_each)
+}
+
 /// How a caller should read an error: the one classification every rperc crate gives
 /// its errors, so that bindings map classes, not variants, to exceptions.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

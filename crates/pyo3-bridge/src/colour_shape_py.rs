@@ -4,7 +4,7 @@ use numpy::PyArray2;
 use pyo3::prelude::*;
 use tracking::{ColorShapeParams, ColorShapeResult};
 
-use crate::errors::{Error, detached, exclusive};
+use crate::errors::{Error, detached, detached_parallel, exclusive};
 use crate::tracking_py::{bbox, frame};
 
 /// `(contour (N x 2), (x, y, w, h), distribution (8), score, lost, ess)`.
@@ -87,7 +87,9 @@ impl PyColorShapeTracker {
         let tracker = &mut this.inner;
         let f = self::frame(frame)?;
         let view = f.view()?;
-        let r = detached(py, || Ok(tracker.update(view)?))?;
+        // The samples are weighed on the thread pool, whose threads cannot ask Python
+        // for signals: this thread polls for Ctrl-C while a worker steps.
+        let r = detached_parallel(py, || Ok(tracker.update(view)?))?;
         answer(py, r)
     }
 }

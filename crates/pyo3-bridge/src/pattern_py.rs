@@ -9,7 +9,7 @@ use pyo3::prelude::*;
 use rperc_core::image::{GrayImage, GrayView, RgbView};
 use tracking::{PatternFrame, PatternPose, PatternTrackerParams, Region, SequenceParams};
 
-use crate::errors::{Error, detached, exclusive};
+use crate::errors::{Error, detached, detached_parallel, exclusive};
 
 /// An `H x W` or `H x W x 3` uint8 frame: borrowed when C-contiguous, copied otherwise.
 struct Frame<'py> {
@@ -154,7 +154,9 @@ impl PyPatternTracker {
         let tracker = &mut this.inner;
         let f = self::frame(frame)?;
         let view = f.view()?;
-        Ok(answer(detached(py, || Ok(tracker.update(view)?))?))
+        // A large model's step runs on the thread pool, whose threads cannot ask
+        // Python for signals: this thread polls for Ctrl-C while a worker steps.
+        Ok(answer(detached_parallel(py, || Ok(tracker.update(view)?))?))
     }
 
     /// Number of points of the learnt model.

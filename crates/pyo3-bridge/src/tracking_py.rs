@@ -10,7 +10,7 @@ use tracking::{
     BoundingBox, ColorTrackerParams, ParticleTrackerParams, Resampler, RgbFrame, TrackResult,
 };
 
-use crate::errors::{Error, detached, exclusive, shared};
+use crate::errors::{Error, detached, detached_parallel, exclusive, shared};
 
 /// An H x W x 3 uint8 frame: borrowed when C-contiguous, copied otherwise.
 pub(crate) enum FrameBuffer<'py> {
@@ -176,7 +176,11 @@ impl PyParticleColorTracker {
     fn update(slf: &Bound<'_, Self>, py: Python<'_>, frame: &Bound<'_, PyAny>) -> PyResult<Answer> {
         let mut this = exclusive(slf)?;
         let tracker = &mut this.inner;
-        track(py, frame, |view| tracker.update(view))
+        let f = frame_arg(frame)?;
+        let view = f.view()?;
+        // The particles are weighed on the thread pool, whose threads cannot ask
+        // Python for signals: this thread polls for Ctrl-C while a worker steps.
+        Ok(answer(detached_parallel(py, || Ok(tracker.update(view)?))?))
     }
 
     /// Effective sample size of the particle set.

@@ -16,6 +16,26 @@ use crate::error::{Result, TrackingError};
 /// ```
 pub type RgbFrame<'a> = rperc_core::image::RgbView<'a>;
 
+/// The smallest Canny threshold [`canny_edges`] uses: an edge strength of 0 is no
+/// edge at all.
+const MIN_CANNY_THRESHOLD: f32 = f32::MIN_POSITIVE;
+
+/// Canny edges of `gray` with hysteresis thresholds `(low, high)`, `low <= high`, for
+/// any thresholds a config may hold. imageproc's hysteresis walks the neighbours of
+/// every pixel at least `low` strong without a bounds check, and the frame's border
+/// (never a local maximum) has strength 0: a threshold of 0 walked off the image and
+/// panicked (issue 38, the colour+shape tracker's `canny = [0, 50]`), so thresholds
+/// are raised to the smallest positive strength, which keeps every real edge. Images
+/// under 3 x 3 pixels have no interior, hence no edges.
+pub(crate) fn canny_edges(gray: &image::GrayImage, low: f32, high: f32) -> image::GrayImage {
+    let (w, h) = gray.dimensions();
+    let (low, high) = (low.max(MIN_CANNY_THRESHOLD), high.max(MIN_CANNY_THRESHOLD));
+    if w < 3 || h < 3 || low > high {
+        return image::GrayImage::new(w, h);
+    }
+    imageproc::edges::canny(gray, low, high)
+}
+
 /// Views an [`image::RgbImage`] as a frame.
 ///
 /// # Errors
@@ -88,5 +108,51 @@ impl BoundingBox {
 impl From<[f64; 4]> for BoundingBox {
     fn from([x, y, w, h]: [f64; 4]) -> Self {
         Self { x, y, w, h }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 40 x 30 grey image with a bright 12 x 10 rectangle at (14, 10).
+    fn square() -> image::GrayImage {
+        image::GrayImage::from_fn(40, 30, |x, y| {
+            let inside = (14..26).contains(&x) && (10..20).contains(&y);
+            image::Luma([if inside { 220 } else { 30 }])
+        })
+    }
+
+    #[test]
+    fn zero_thresholds_find_the_edges_instead_of_panicking() {
+        // imageproc's own canny panics here (it followed the zero-strength border).
+        for (low, high) in [(0.0, 50.0), (0.0, 0.0), (-5.0, 0.0)] {
+            let edges = canny_edges(&square(), low, high);
+            let on: Vec<(u32, u32)> = edges
+                .enumerate_pixels()
+                .filter(|p| p.2[0] > 0)
+                .map(|p| (p.0, p.1))
+                .collect();
+            assert!(!on.is_empty(), "({low}, {high}) found no edge");
+            // Every edge pixel is within the blur's reach (2 px) of the rectangle's
+            // outline, which no zero-strength pixel is.
+            let near_outline = |&(x, y): &(u32, u32)| {
+                let (x, y) = (f64::from(x) + 0.5, f64::from(y) + 0.5);
+                let dx = (x - 14.0).abs().min((x - 26.0).abs());
+                let dy = (y - 10.0).abs().min((y - 20.0).abs());
+                let in_x = (12.0..=28.0).contains(&x);
+                let in_y = (8.0..=22.0).contains(&y);
+                (dx <= 2.5 && in_y) || (dy <= 2.5 && in_x)
+            };
+            assert!(on.iter().all(near_outline), "({low}, {high}): {on:?}");
+        }
+    }
+
+    #[test]
+    fn tiny_images_have_no_edges() {
+        for (w, h) in [(0, 0), (1, 5), (2, 2), (5, 2)] {
+            let e = canny_edges(&image::GrayImage::new(w, h), 0.0, 0.0);
+            assert_eq!(e.dimensions(), (w, h));
+        }
     }
 }

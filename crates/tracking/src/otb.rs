@@ -60,6 +60,16 @@ pub fn parse_groundtruth(text: &str, name: &str) -> Result<Vec<BoundingBox>> {
                 rperc_core::excerpt(line)
             )));
         }
+        // Both corners within the coordinate range every rperc position has: a box at
+        // 1e300 passed as finite, and its IoU and centre error came out as NaN or 0.
+        let corners = [v[0], v[1], v[0] + v[2], v[1] + v[3]];
+        if corners.iter().any(|c| c.abs() > rperc_core::MAX_COORDINATE) {
+            return Err(bad(format!(
+                "box corners must be within +-{:e} pixels, got {}",
+                rperc_core::MAX_COORDINATE,
+                rperc_core::excerpt(line)
+            )));
+        }
         boxes.push(BoundingBox::new(v[0] - 1.0, v[1] - 1.0, v[2], v[3]));
     }
     Ok(boxes)
@@ -146,6 +156,20 @@ mod tests {
         assert!(matches!(err, TrackingError::Parse { line: 2, .. }));
         let err = parse_groundtruth("1 2 3 4 5\n", "g").unwrap_err();
         assert!(matches!(err, TrackingError::Parse { line: 1, .. }));
+    }
+
+    #[test]
+    fn corners_beyond_the_coordinate_range_are_refused() {
+        for bad in ["1e300 2 3 4", "1 -2e9 3 4", "9e8 1 2e8 4", "1 1 3 1e10"] {
+            let text = format!("1 2 3 4\n{bad}\n");
+            let err = parse_groundtruth(&text, "g").unwrap_err();
+            assert!(
+                matches!(err, TrackingError::Parse { line: 2, .. }),
+                "{bad}: {err}"
+            );
+        }
+        // The range's edge itself is a box.
+        assert!(parse_groundtruth("-1e9 0 2e9 1e9", "g").is_ok());
     }
 
     #[test]

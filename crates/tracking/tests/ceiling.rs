@@ -111,6 +111,17 @@ fn a_calibration_that_cannot_be_inverted_is_refused_by_name() {
     assert_eq!(name(tilted(1.2, 0.0, 0.0, [0.0; 3])), "mount"); // 69 deg: sees the walls
     assert_eq!(name(tilted(0.0, 0.0, 0.0, [0.0, 0.0, 2.4])), "mount"); // at the ceiling
     assert_eq!(name(CeilingCamera { width: 4, ..ok }), "width");
+    // Issue 38: 2^33 x 2^33 pixels wrapped the frame size in usize and aborted.
+    let huge = 1usize << 33;
+    assert_eq!(
+        name(CeilingCamera {
+            width: huge,
+            height: huge,
+            ..ok
+        }),
+        "width"
+    );
+    assert_eq!(name(CeilingCamera { height: huge, ..ok }), "height");
 }
 
 #[test]

@@ -203,3 +203,72 @@ fn bad_inputs_are_clear_errors() {
         })
     ));
 }
+
+/// A particle tracker on the synthetic head with `n` particles, after one frame.
+fn tracker_after_one_frame(n: usize, parallel: bool) -> ParticleColorTracker {
+    let (ra, rb) = (12.0, 16.0);
+    let (cx, cy, _) = truth(0);
+    let f0 = scene(cx, cy, ra, rb);
+    let bbox = BoundingBox::new(cx - ra, cy - rb, 2.0 * ra, 2.0 * rb);
+    let mut params = ParticleTrackerParams {
+        n_particles: n,
+        ..ParticleTrackerParams::default()
+    };
+    params.filter.parallel = parallel;
+    let mut t =
+        ParticleColorTracker::new(RgbFrame::new(&f0, W, H).unwrap(), bbox, params, 9).unwrap();
+    let (cx, cy, s) = truth(1);
+    t.update(RgbFrame::new(&scene(cx, cy, ra * s, rb * s), W, H).unwrap())
+        .unwrap();
+    t
+}
+
+fn bits(t: &ParticleColorTracker) -> Vec<u64> {
+    let f = t.filter();
+    f.particles()
+        .iter()
+        .flat_map(|p| p.iter().copied())
+        .chain(f.weights().iter().copied())
+        .chain(f.mean().iter().copied())
+        .map(f64::to_bits)
+        .collect()
+}
+
+#[test]
+fn an_interrupted_update_leaves_the_particles_as_they_were() {
+    use rperc_core::interrupt::{Interrupt, run_polled, run_with};
+    use std::sync::Arc;
+    // Enough particles that a step outlasts the first poll (20 ms) many times over.
+    let n = 40_000;
+    let (cx, cy, s) = truth(2);
+    let f2 = scene(cx, cy, 12.0 * s, 16.0 * s);
+    let frame = || RgbFrame::new(&f2, W, H).unwrap();
+    for parallel in [false, true] {
+        let mut t = tracker_after_one_frame(n, parallel);
+        let before = bits(&t);
+        let stopped = match parallel {
+            // The pool's threads see a token another thread stops (the bridge's poll).
+            true => {
+                let token = Arc::new(Interrupt::new());
+                let stopper = Arc::clone(&token);
+                let h = std::thread::spawn(move || {
+                    std::thread::sleep(std::time::Duration::from_millis(30));
+                    stopper.stop();
+                });
+                let r = run_with(Some(token), || t.update(frame()));
+                h.join().unwrap();
+                r
+            }
+            // The calling thread's poll reports a signal at its first chance.
+            false => run_polled(|| true, || t.update(frame())),
+        };
+        let err = stopped.unwrap_err();
+        assert_eq!(err.class(), rperc_core::ErrorClass::Interrupted, "{err}");
+        assert_eq!(bits(&t), before, "parallel {parallel}: the set changed");
+        // The oracle: a twin that was never interrupted steps to the same answer.
+        let mut twin = tracker_after_one_frame(n, parallel);
+        let (a, b) = (t.update(frame()).unwrap(), twin.update(frame()).unwrap());
+        assert_eq!(a, b, "parallel {parallel}");
+        assert_eq!(bits(&t), bits(&twin), "parallel {parallel}");
+    }
+}

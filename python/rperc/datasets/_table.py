@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from decimal import Decimal, InvalidOperation
 from pathlib import Path
 
 import numpy as np
@@ -89,34 +90,102 @@ def _check_time(path: Path, time: np.ndarray, line: np.ndarray, allow_backwards:
     return int(back.size)
 
 
-def read_table(path: str | Path, columns: int, *, allow_time_backwards: bool = False) -> Table:
+# The largest id a float64 column holds exactly: past it, 2^53 + 1 reads as 2^53 and
+# two ids of a file can become one.
+MAX_ID = 2**53
+
+
+def _check_ids(path: Path, tokens: list[str], values: np.ndarray, line: np.ndarray,
+               col: int, what: str) -> None:  # fmt: skip
+    """Column ``col`` holds ids (``what``: "barcode"...): whole numbers in
+    ``0..MAX_ID`` that the file states exactly (its text equals the float read:
+    ``9007199254740993`` does not)."""
+    columns = values.shape[1]
+    for k, ident in enumerate(values[:, col]):
+        token = tokens[k * columns + col]
+        whole = math.isfinite(ident) and ident == round(ident) and 0 <= ident <= MAX_ID
+        if not (whole and _states_exactly(token, ident)):
+            raise DatasetFormatError(
+                path, int(line[k]), f"{what} {excerpt(token)} is not a whole number in 0..2**53"
+            )
+
+
+def _states_exactly(token: str, value: float) -> bool:
+    """Whether the number written ``token`` is exactly the float ``value`` read from
+    it (float() accepts the underscores and digits Decimal does once the underscores
+    are gone)."""
+    try:
+        return Decimal(token.replace("_", "")) == Decimal(value)
+    except InvalidOperation:  # pragma: no cover - float() read it, so Decimal does
+        return False
+
+
+def _check_infinite(path: Path, values: np.ndarray, line: np.ndarray) -> None:
+    """No value of these tables is meaningful at infinity (NaN is kept and counted)."""
+    bad = np.argwhere(np.isinf(values))
+    if bad.size:
+        k, col = (int(i) for i in bad[0])
+        raise DatasetFormatError(
+            path, int(line[k]), f"column {col + 1} is infinite ({values[k, col]!r})"
+        )
+
+
+def non_negative(table: Table, names: dict[int, str]) -> None:
+    """Refuses a negative value in the columns ``names`` maps to what they hold (a
+    range, a diameter, a standard deviation); NaN passes, as everywhere."""
+    for col, name in names.items():
+        bad = np.flatnonzero(table.values[:, col] < 0)
+        if bad.size:
+            k = int(bad[0])
+            value = float(table.values[k, col])
+            raise DatasetFormatError(
+                table.path, int(table.line[k]), f"{name} must be >= 0, got {value!r}"
+            )
+
+
+def read_table(
+    path: str | Path,
+    columns: int,
+    *,
+    allow_time_backwards: bool = False,
+    id_columns: dict[int, str] | None = None,
+) -> Table:
     """Reads a table whose first column is a time in seconds.
 
     Raises :class:`DatasetFormatError` (file and line) for a line with the wrong number
-    of fields, a field that is not a number, a NaN time, an empty file, and (unless
-    ``allow_time_backwards``, which counts them instead) a time earlier than the
+    of fields, a field that is not a number, an infinite value, a NaN time, an empty
+    file, an ``id_columns`` value (column: what it holds) that is not a whole number
+    in ``0..2**53``, and
+    (unless ``allow_time_backwards``, which counts them instead) a time earlier than the
     previous record's. NaN values elsewhere are kept and counted in ``nan_rows``.
     """
     path = Path(path)
     tokens, numbers = _records(path, _open_lines(path), columns)
     values = _to_floats(path, tokens, numbers, columns)
     line = np.asarray(numbers, dtype=np.int64)
+    _check_infinite(path, values, line)
+    for col, what in (id_columns or {}).items():
+        _check_ids(path, tokens, values, line, col, what)
     backwards = _check_time(path, values[:, 0], line, allow_time_backwards)
     nan_rows = int(np.isnan(values).any(axis=1).sum())
     return Table(path, values, line, nan_rows, backwards)
 
 
-def read_id_table(path: str | Path, columns: int) -> Table:
+def read_id_table(
+    path: str | Path, columns: int, *, id_columns: dict[int, str] | None = None
+) -> Table:
     """A table whose first column is an integer id (no time order), e.g.
-    ``Barcodes.dat``; ids must be whole numbers and unique."""
+    ``Barcodes.dat``; ids (and the other ``id_columns``) must be whole numbers in
+    ``0..2**53``, and the first column's unique. Infinite values are refused."""
     path = Path(path)
     tokens, numbers = _records(path, _open_lines(path), columns)
     values = _to_floats(path, tokens, numbers, columns)
     line = np.asarray(numbers, dtype=np.int64)
+    _check_infinite(path, values, line)
+    for col, what in {0: "id", **(id_columns or {})}.items():
+        _check_ids(path, tokens, values, line, col, what)
     seen: dict[float, int] = {}
     for k, ident in enumerate(values[:, 0]):
-        if not (math.isfinite(ident) and ident == round(ident)):
-            raise DatasetFormatError(path, int(line[k]), f"id {ident!r} is not an integer")
         if ident in seen:
             raise DatasetFormatError(
                 path, int(line[k]), f"id {int(ident)} repeats line {seen[ident]}"

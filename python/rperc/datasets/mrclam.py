@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from rperc._args import excerpt
-from rperc.datasets._table import Table, data_file, read_id_table, read_table
+from rperc.datasets._table import Table, data_file, non_negative, read_id_table, read_table
 from rperc.datasets.errors import DatasetFormatError
 
 ROBOT_SUBJECTS = range(1, 6)
@@ -101,6 +101,23 @@ def _measurements(
     return keep, subjects[keep], int(is_robot.sum()), tuple(unknown)
 
 
+def _robot_tables(files: dict[str, Path], allow_time_backwards: bool) -> dict[str, Table]:
+    """The robot's odometry, measurements (column 1 a barcode, column 2 a range that
+    cannot be negative) and ground truth."""
+    timed = {
+        kind: read_table(
+            files[kind],
+            cols,
+            allow_time_backwards=allow_time_backwards,
+            id_columns=ids,
+        )
+        for kind, cols, ids in (("Odometry", 3, {}), ("Measurement", 4, {1: "barcode"}),
+                                ("Groundtruth", 4, {}))
+    }  # fmt: skip
+    non_negative(timed["Measurement"], {2: "range"})
+    return timed
+
+
 def load_mrclam(
     directory: str | Path, robot: int = 1, *, allow_time_backwards: bool = False
 ) -> MrclamRun:
@@ -114,16 +131,17 @@ def load_mrclam(
     if isinstance(robot, bool) or not isinstance(robot, int) or robot not in ROBOT_SUBJECTS:
         raise ValueError(f"robot must be 1..5, got {excerpt(robot)}")
     folder = Path(directory)
-    timed = {
-        kind: read_table(
-            data_file(folder, f"Robot{robot}_{kind}.dat"),
-            cols,
-            allow_time_backwards=allow_time_backwards,
-        )
-        for kind, cols in (("Odometry", 3), ("Measurement", 4), ("Groundtruth", 4))
-    }
-    marks = read_id_table(data_file(folder, "Landmark_Groundtruth.dat"), 5)
-    mapping = _barcode_to_subject(read_id_table(data_file(folder, "Barcodes.dat"), 2))
+    # Every file is found before any is parsed (a missing file is named first), and the
+    # shared tables are read before the robot's, whose barcodes they define.
+    files = {kind: data_file(folder, f"Robot{robot}_{kind}.dat")
+             for kind in ("Odometry", "Measurement", "Groundtruth")}  # fmt: skip
+    marks_file = data_file(folder, "Landmark_Groundtruth.dat")
+    codes = read_id_table(data_file(folder, "Barcodes.dat"), 2, id_columns={1: "barcode"})
+    marks = read_id_table(marks_file, 5)
+    # The landmark positions' standard deviations have no negative values.
+    non_negative(marks, {3: "sx (standard deviation)", 4: "sy (standard deviation)"})
+    timed = _robot_tables(files, allow_time_backwards)
+    mapping = _barcode_to_subject(codes)
     meas = timed["Measurement"]
     keep, subjects, robots, unknown = _measurements(meas, mapping)
     odo, truth = timed["Odometry"], timed["Groundtruth"]

@@ -14,7 +14,9 @@ numpy. Every malformed record raises :class:`DatasetFormatError` naming file and
 from __future__ import annotations
 
 import json
+import math
 import re
+import warnings
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
@@ -83,15 +85,54 @@ def _read_wkt(path: Path, text: str) -> list[tuple[int, _geo.Geometry]]:
         srid = _SRID.match(line)
         body = line[srid.end() :] if srid else line
         try:
-            geom = shapely.from_wkt(body)
+            with warnings.catch_warnings():
+                # NaN coordinates warn here; _finite refuses them below, by line.
+                warnings.simplefilter("ignore", RuntimeWarning)
+                geom = shapely.from_wkt(body)
         except (shapely.errors.ShapelyError, ValueError) as exc:
             raise DatasetFormatError(
                 path, lineno, f"bad WKT {excerpt(line.strip())}: {exc}"
             ) from None
+        except NotImplementedError:
+            # GEOS parses CIRCULARSTRING, COMPOUNDCURVE, CURVEPOLYGON and MULTICURVE,
+            # but shapely has no type for them: its NotImplementedError named no file.
+            raise DatasetFormatError(
+                path, lineno, f"curved geometries are not supported: {excerpt(line.strip())}"
+            ) from None
         if srid:
             geom = shapely.set_srid(geom, int(srid.group(1)))
-        out.append((lineno, geom))
+        out.append((lineno, _finite(path, lineno, geom)))
     return out
+
+
+def _finite(path: Path, lineno: int, geom: _geo.Geometry) -> _geo.Geometry:
+    """``geom``, after checking that its coordinates are finite: a NaN or infinite
+    vertex (WKT ``nan``, GeoJSON ``NaN``) gave polylines no length or area means."""
+    shapely = _geo.shapely_module()
+    coords = shapely.get_coordinates(geom, include_z=bool(shapely.has_z(geom)))
+    if not np.isfinite(coords).all():
+        raise DatasetFormatError(path, lineno, "coordinates must be finite, got NaN or infinity")
+    return geom
+
+
+# GeoJSON nests at most a few levels (a FeatureCollection of GeometryCollections of
+# MultiPolygons); deeper documents are refused before any recursive code sees them.
+_MAX_JSON_DEPTH = 64
+_TOO_DEEP = object()
+
+
+def _too_deep(doc: Any) -> bool:
+    """Whether ``doc`` nests lists and dicts deeper than :data:`_MAX_JSON_DEPTH`,
+    walked with a stack of its own (recursion is what fails on such documents)."""
+    stack = [(doc, 1)]
+    while stack:
+        item, depth = stack.pop()
+        children = item.values() if isinstance(item, dict) else item
+        if isinstance(item, (dict, list)):
+            if depth > _MAX_JSON_DEPTH:
+                return True
+            stack.extend((c, depth + 1) for c in children)
+    return False
 
 
 def _read_geojson(path: Path, text: str) -> list[tuple[int, _geo.Geometry]]:
@@ -100,6 +141,12 @@ def _read_geojson(path: Path, text: str) -> list[tuple[int, _geo.Geometry]]:
         doc = json.loads(text)
     except json.JSONDecodeError as exc:
         raise DatasetFormatError(path, exc.lineno, f"bad JSON: {exc.msg}") from None
+    except RecursionError:
+        # json's decoder recurses once per level: [[[...]]] 100,000 deep escaped as a
+        # bare RecursionError.
+        doc = _TOO_DEEP
+    if doc is _TOO_DEEP or _too_deep(doc):
+        raise DatasetFormatError(path, 1, f"JSON nested deeper than {_MAX_JSON_DEPTH} levels")
     if not isinstance(doc, dict):
         raise DatasetFormatError(path, 1, "GeoJSON must be an object")
     if doc.get("type") == "FeatureCollection":
@@ -122,11 +169,12 @@ def _read_geojson(path: Path, text: str) -> list[tuple[int, _geo.Geometry]]:
             out.append((lineno, shapely.GeometryCollection()))
             continue
         try:
-            out.append((lineno, shapely.from_geojson(json.dumps(geometry))))
+            geom = shapely.from_geojson(json.dumps(geometry))
         except (shapely.errors.ShapelyError, ValueError, TypeError) as exc:
             raise DatasetFormatError(
                 path, lineno, f"{where}: bad GeoJSON geometry: {exc}"
             ) from None
+        out.append((lineno, _finite(path, lineno, geom)))
     return out
 
 
@@ -202,6 +250,9 @@ def _read_csv(path: Path, text: str) -> list[tuple[int, np.ndarray]]:
             raise DatasetFormatError(
                 path, lineno, f"rows must have 2 or 3 values, got {len(values)}"
             )
+        if not all(map(math.isfinite, values)):
+            # float() reads "nan" and "inf": a point without a place.
+            raise DatasetFormatError(path, lineno, f"coordinates must be finite, got {values}")
         if not rows:
             first = lineno
         width = len(values)

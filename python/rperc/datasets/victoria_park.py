@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rperc.datasets._table import data_file, read_table
+from rperc.datasets._table import data_file, non_negative, read_table
 
 # Three times the top encoder speed of the run (6.6 m/s): a fix implying more is a glitch.
 GPS_MAX_SPEED = 20.0
@@ -97,6 +97,8 @@ def load_victoria_park(
         read_table(data_file(folder, name), cols, allow_time_backwards=allow_time_backwards)
         for name, cols in (("measurements.dat", 4), ("inputs.dat", 3), ("gps.dat", 3))
     )
+    # A range and a trunk's diameter have no negative values.
+    non_negative(meas, {1: "range", 3: "diameter"})
     laser = meas.column(2)
     return VictoriaPark(
         measurement_t=meas.column(0),

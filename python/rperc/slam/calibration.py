@@ -219,6 +219,12 @@ def calibrate_mrclam(run: Any, *, window: float | None = None) -> MrclamCalibrat
         window = correlation_window(run)
     if not window > 0:
         raise ValueError(f"window must be > 0, got {window}")
+    # One window per odometry step at most: a window of 1e-9 s asked numpy for 10^12
+    # window starts (issue 38's unbounded-spacing cause).
+    mean_step = (run.odometry_t[-1] - run.odometry_t[0]) / (len(run.odometry_t) - 1)
+    if window < mean_step:
+        raise ValueError(f"window must be at least the mean odometry step {mean_step:.3g} s, "
+                         f"got {window:.3g}")  # fmt: skip
     r, b = true_range_bearing(run)
     b_off, b_scale, b_res, b_in = _robust_line(b, run.measurement_bearing)
     depth = r * np.cos(b)

@@ -13,6 +13,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from rperc._args import whole_number
+from rperc._atomic import write_atomically
 from rperc._extras import require
 from rperc.slam.evaluation import NeesResult
 from rperc.slam.planar import SlamResult
@@ -57,9 +59,35 @@ def log_run(
     at up to ``frames`` times on the ``time`` timeline, the estimated path, the final
     map with 95 % ellipses, ``truth`` ((M, >= 2) positions) and ``landmarks`` ((L, 2))
     as static references, and ``nees`` with its band as scalars."""
+    # At least one frame: 0 divided the time steps by zero, and a fraction or NaN
+    # gave no frames (checked before rerun is imported).
+    frames = whole_number(frames, "frames", 1)
     rr = _rerun()
-    rec = rr.RecordingStream("rperc_slam")
-    rec.save(str(path))
+
+    def write(tmp: Path) -> None:
+        rec = rr.RecordingStream("rperc_slam")
+        rec.save(str(tmp))
+        _log(rr, rec, result, truth, landmarks, nees, frames)
+        # The file sink writes on rerun's own thread: only a disconnected stream has
+        # put its last bytes in the file, so only then may it be renamed into place.
+        rec.flush()
+        rec.disconnect()
+
+    # Through the one atomic writer: a reader (or a second run to the same path) sees
+    # the old file or the whole new one, never a half-written recording.
+    return write_atomically(path, write)
+
+
+def _log(
+    rr: Any,
+    rec: Any,
+    result: SlamResult,
+    truth: npt.ArrayLike | None,
+    landmarks: npt.ArrayLike | None,
+    nees: NeesResult | None,
+    frames: int,
+) -> None:
+    """Logs the run to ``rec`` (see :func:`log_run`)."""
     t, pose, _ = result.path()
     if truth is not None:
         xy = np.asarray(truth, dtype=np.float64)[:, :2]
@@ -86,5 +114,3 @@ def log_run(
             rec.set_time("time", duration=float(tk - t[0]))
             rec.log("nees/robot", rr.Scalars([float(value)]))
             rec.log("nees/band", rr.Scalars([nees.band[0], nees.band[1]]))
-    rec.flush()
-    return Path(path)

@@ -107,6 +107,10 @@ fn invalid(name: &'static str, reason: impl Into<String>) -> TrackingError {
     }
 }
 
+/// The widest and tallest camera image, pixels: far beyond any real camera, and its
+/// square still counts in a usize on every platform rperc builds for.
+const MAX_IMAGE_SIDE: usize = 1 << 15;
+
 impl CeilingCamera {
     /// Refuses a calibration that cannot be inverted or a ceiling the camera cannot see.
     pub fn validate(&self) -> Result<()> {
@@ -114,6 +118,12 @@ impl CeilingCamera {
         if self.width < 16 || self.height < 16 {
             return Err(invalid("width", "images must be at least 16x16"));
         }
+        // Bounded before any image is allocated: a 2^33 x 2^33 camera's pixel count
+        // wrapped in usize, passed the frames' allocation check and aborted (issue 38).
+        rperc_core::ensure_count("width", self.width, 16, MAX_IMAGE_SIDE, 1)?;
+        rperc_core::ensure_count("height", self.height, 16, MAX_IMAGE_SIDE, 1)?;
+        let pixels = self.width as u128 * self.height as u128;
+        rperc_core::check_allocation("width", pixels, 4)?;
         ensure_positive("fx", self.fx)?;
         ensure_positive("fy", self.fy)?;
         ensure_finite("cx", [self.cx, self.cy].iter())?;

@@ -9,7 +9,7 @@ use super::model::{AppearanceParams, ColourModel};
 use super::space::BinImage;
 use super::tracker::{TrackResult, pixel_centre};
 use crate::condensation::{FilterParams, Likelihood, LinearGaussian, ParticleFilter};
-use rperc_core::ensure_positive as positive;
+use rperc_core::{MAX_PARTICLES, ensure_positive as positive};
 
 use crate::error::{Result, TrackingError};
 use crate::frame::{BoundingBox, RgbFrame};
@@ -66,6 +66,9 @@ impl Default for ParticleTrackerParams {
         }
     }
 }
+
+/// A mixture proposal's guess: centre, spread and how many particles it redraws.
+type MixtureGuess = (Vector3<f64>, Vector3<f64>, usize);
 
 /// Unit-circle directions where the perimeter gradient is sampled by the particle
 /// likelihood.
@@ -153,11 +156,13 @@ fn local_search(
     predicted: (f64, f64),
     (a, b): (f64, f64),
     radius: usize,
-) -> (f64, f64) {
+) -> Result<(f64, f64)> {
     let step = (a.min(b) / 4.0).round().max(1.0) as usize;
     let r = (radius / step) as i64;
     let mut best = (f64::NEG_INFINITY, predicted);
     for j in -r..=r {
+        // Up to a thousand rows of a thousand ellipses each (radius 512, step 1).
+        rperc_core::interrupt::checkpoint()?;
         for i in -r..=r {
             let c = (
                 predicted.0 + (i * step as i64) as f64,
@@ -174,7 +179,7 @@ fn local_search(
             }
         }
     }
-    best.1
+    Ok(best.1)
 }
 
 impl HistogramLikelihood<'_> {
@@ -268,12 +273,8 @@ impl ParticleTrackerParams {
     /// Refuses bad values with the parameter's name; returns the number of bins.
     pub fn validate(&self) -> Result<usize> {
         let n_bins = self.appearance.validate()?;
-        if self.n_particles == 0 {
-            return Err(TrackingError::InvalidParameter {
-                name: "n_particles",
-                reason: "need at least one particle".into(),
-            });
-        }
+        // Refused before the frame is binned, not by the filter after it.
+        rperc_core::ensure_count("n_particles", self.n_particles, 1, MAX_PARTICLES, 1)?;
         rperc_core::ensure_in_range("mix_fraction", self.mix_fraction, 0.0, 0.99)?;
         rperc_core::ensure_in_range("velocity_gain", self.velocity_gain, 0.0, 100.0)?;
         if self.max_search_radius < self.search_radius || self.max_search_radius > 512 {
@@ -435,6 +436,8 @@ impl ParticleColorTracker {
             };
             return Ok(self.last);
         }
+        let previous = self.last.bbox.centre();
+        let guess = self.mixture_guess(previous)?;
         let app = &self.params.appearance;
         let likelihood = HistogramLikelihood {
             image: &self.image,
@@ -449,30 +452,50 @@ impl ParticleColorTracker {
             gradient_ref: self.gradient_ref,
             directions: &self.directions,
         };
-        let previous = self.last.bbox.centre();
-        let n_mixed = (self.params.mix_fraction * self.params.n_particles as f64).round() as usize;
-        let report = if n_mixed > 0 {
-            let scale = self.filter.mean()[2].clamp(self.params.min_scale, self.params.max_scale);
-            let radius = self.window_radius();
-            let (gx, gy) = local_search(
-                &self.image,
-                &self.model.reference,
-                &mut self.counts,
-                (previous.0 + self.velocity.0, previous.1 + self.velocity.1),
-                (self.base_a * scale, self.base_b * scale),
-                radius,
-            );
-            let sp = 0.5 * self.params.position_noise * (self.base_a + self.base_b) / 2.0;
-            let centre = Vector3::new(gx, gy, scale);
-            let sigma = Vector3::new(sp, sp, self.params.scale_noise);
-            self.filter
-                .step_mixed(&likelihood, &mut self.scratch, centre, sigma, n_mixed)
-        } else {
-            self.filter
-                .step_with_scratch(&likelihood, &mut self.scratch)
+        let before = self.filter.copy_if_interruptible();
+        let report = match guess {
+            Some((centre, sigma, n)) => {
+                self.filter
+                    .step_mixed(&likelihood, &mut self.scratch, centre, sigma, n)
+            }
+            None => self
+                .filter
+                .step_with_scratch(&likelihood, &mut self.scratch),
         };
+        if report.interrupted {
+            // Ctrl-C: the tracker stays as it was before this frame (the colour model,
+            // velocity and last box are only changed by `conclude`).
+            if let Some(before) = before {
+                self.filter = before;
+            }
+            return Err(rperc_core::CoreError::Interrupted.into());
+        }
         self.last = self.conclude(report.lost, previous);
         Ok(self.last)
+    }
+
+    /// The mixture proposal's guess `(centre, sigma, count)`: the best centre of a coarse
+    /// local search around the predicted one, or `None` when `mix_fraction` redraws no
+    /// particle.
+    fn mixture_guess(&mut self, previous: (f64, f64)) -> Result<Option<MixtureGuess>> {
+        let n_mixed = (self.params.mix_fraction * self.params.n_particles as f64).round() as usize;
+        if n_mixed == 0 {
+            return Ok(None);
+        }
+        let scale = self.filter.mean()[2].clamp(self.params.min_scale, self.params.max_scale);
+        let radius = self.window_radius();
+        let (gx, gy) = local_search(
+            &self.image,
+            &self.model.reference,
+            &mut self.counts,
+            (previous.0 + self.velocity.0, previous.1 + self.velocity.1),
+            (self.base_a * scale, self.base_b * scale),
+            radius,
+        )?;
+        let sp = 0.5 * self.params.position_noise * (self.base_a + self.base_b) / 2.0;
+        let centre = Vector3::new(gx, gy, scale);
+        let sigma = Vector3::new(sp, sp, self.params.scale_noise);
+        Ok(Some((centre, sigma, n_mixed)))
     }
 
     /// The frame's result from the filter's mean: the box, its eq. (28) score and

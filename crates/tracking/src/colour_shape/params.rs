@@ -1,6 +1,8 @@
 //! The typed configuration of the colour+shape tracker.
 
-use rperc_core::{ensure_in_range, ensure_non_negative, ensure_positive};
+use rperc_core::{
+    MAX_PARTICLES, ensure_count, ensure_in_range, ensure_non_negative, ensure_positive,
+};
 
 use super::state::{ColourDynamics, colour_coords};
 use crate::colour::ColorSpace;
@@ -170,7 +172,7 @@ impl ColorShapeParams {
         // Every size and count a caller sets has an upper bound, checked before
         // anything is allocated: contour_points = 10^9 aborted the process, and 10^9
         // snake iterations or smoothing passes never returned (issue 38).
-        count_in("n_samples", self.n_samples, 1, MAX_SAMPLES)?;
+        count_in("n_samples", self.n_samples, 1, MAX_PARTICLES)?;
         count_in("contour_points", self.contour_points, 8, MAX_CONTOUR_POINTS)?;
         count_in("search", self.search, 1, MAX_SEARCH)?;
         count_in("min_search", self.min_search, 1, MAX_SEARCH)?;
@@ -220,9 +222,6 @@ impl ColorShapeParams {
     }
 }
 
-/// Most samples: each costs a segmentation per frame, so a million already takes
-/// minutes per frame.
-const MAX_SAMPLES: usize = 1_000_000;
 /// Most snake points: one per pixel of the outline of a target filling a 4K frame.
 const MAX_CONTOUR_POINTS: usize = 1 << 14;
 /// Widest edge search and deformation, pixels (the window margin follows them).
@@ -232,15 +231,10 @@ const MAX_PASSES: usize = 1_000;
 /// Most reference colours in the cloud every sample warps.
 const MAX_CLOUD_POINTS: usize = 1 << 20;
 
+/// Through rperc-core's one size check (a snake point, a cloud colour: a few dozen
+/// bytes each), so every count is refused the same way.
 fn count_in(name: &'static str, value: usize, min: usize, max: usize) -> Result<()> {
-    if (min..=max).contains(&value) {
-        Ok(())
-    } else {
-        Err(TrackingError::InvalidParameter {
-            name,
-            reason: format!("must be in {min}..={max}, got {value}"),
-        })
-    }
+    Ok(ensure_count(name, value, min, max, 64)?)
 }
 
 #[cfg(test)]

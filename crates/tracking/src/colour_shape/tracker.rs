@@ -223,7 +223,16 @@ impl ColorShapeTracker {
             },
         };
         let guesses = self.guesses();
+        let before = self.filter.copy_if_interruptible();
         let report = self.filter.step_mixtures(&ctx, &mut self.scratch, &guesses);
+        if report.interrupted {
+            // Ctrl-C: the samples go back to where they were; the contour, areas and
+            // velocity only change in `conclude`, and the rest is this frame's scratch.
+            if let Some(before) = before {
+                self.filter = before;
+            }
+            return Err(rperc_core::CoreError::Interrupted.into());
+        }
         let terms = if report.lost {
             None
         } else {
@@ -454,7 +463,7 @@ fn refine(
             .round()
             .clamp(0.0, 255.0) as u8])
     });
-    let image_edges = imageproc::edges::canny(&gray, p.canny[0], p.canny[1]);
+    let image_edges = crate::frame::canny_edges(&gray, p.canny[0], p.canny[1]);
     let masked = |x: i64, y: i64| grid.at(dilated, x, y) && on(&image_edges, roi, x, y);
     let fit = fit_snake(ctx.predicted, terms.fit.affine, &ctx.snake, masked, snake);
     if fit.on_edge >= p.refine_min_support {

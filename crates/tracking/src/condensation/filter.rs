@@ -5,10 +5,17 @@ use nalgebra::{SMatrix, SVector};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
+use rperc_core::interrupt;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::mixture::{Guess, log_importance, merge_copies};
 use super::resample::{Resampler, ess_normalized};
 use crate::error::{Result, TrackingError};
+
+/// Particles weighed between two interrupt checks in a chunk: one likelihood can cost
+/// a segmentation (the colour+shape tracker), so a check per particle would already
+/// be cheap, and 16 keep the check invisible for the cheapest likelihoods too.
+const CHECK_PARTICLES: usize = 16;
 
 /// The measurement model: log-likelihood `ln p(z | s)` of a state, up to a constant.
 ///
@@ -146,6 +153,10 @@ pub struct StepReport {
     /// Every particle had zero likelihood: the set was re-initialised around the last
     /// estimate and the target is reported lost.
     pub lost: bool,
+    /// The step stopped at an interrupt checkpoint (Ctrl-C in Python, see
+    /// [`rperc_core::interrupt`]) before every particle was weighed: the set is left
+    /// partly weighed, and the caller restores the copy it took before the step.
+    pub interrupted: bool,
 }
 
 /// A CONDENSATION particle filter over a `D`-dimensional state.
@@ -197,7 +208,7 @@ impl<const D: usize> ParticleFilter<D> {
     /// loss the set is re-drawn from `N(last estimate, covariance)`.
     ///
     /// # Errors
-    /// [`TrackingError::InvalidParameter`] for `n == 0`, a zero chunk size, a threshold
+    /// [`TrackingError::InvalidParameter`] for `n` outside `1..=MAX_PARTICLES`, a zero chunk size, a threshold
     /// outside (0, 1], non-finite values; [`TrackingError::NotPositiveDefinite`] when
     /// `covariance` is not symmetric positive definite.
     pub fn new(
@@ -208,15 +219,15 @@ impl<const D: usize> ParticleFilter<D> {
         params: FilterParams,
         seed: u64,
     ) -> Result<Self> {
-        if n == 0 {
-            return Err(TrackingError::InvalidParameter {
-                name: "n",
-                reason: "need at least one particle".into(),
-            });
-        }
         // Particles, their copy for resampling, weights, log-weights and ancestors.
         let per_particle = 2 * std::mem::size_of::<SVector<f64, D>>() + 3 * 8;
-        rperc_core::check_allocation("n_particles", n as u128, per_particle as u128)?;
+        rperc_core::ensure_count(
+            "n_particles",
+            n,
+            1,
+            rperc_core::MAX_PARTICLES,
+            per_particle as u128,
+        )?;
         if params.chunk_size == 0 {
             return Err(TrackingError::InvalidParameter {
                 name: "chunk_size",
@@ -258,6 +269,13 @@ impl<const D: usize> ParticleFilter<D> {
         };
         pf.scatter_around(mean);
         Ok(pf)
+    }
+
+    /// A copy to put back when the coming step reports
+    /// [`interrupted`](StepReport::interrupted), taken only when this thread's call can
+    /// be interrupted (see [`rperc_core::interrupt`]): plain Rust use pays nothing.
+    pub fn copy_if_interruptible(&self) -> Option<Self> {
+        interrupt::current().map(|_| self.clone())
     }
 
     /// Replaces the covariance used to re-draw the set after a total loss.
@@ -416,7 +434,14 @@ impl<const D: usize> ParticleFilter<D> {
         scratch: &mut Vec<L::Scratch>,
         resampled: bool,
     ) -> StepReport {
-        self.weigh(likelihood, scratch);
+        if !self.weigh(likelihood, scratch) {
+            return StepReport {
+                ess: self.ess,
+                resampled,
+                lost: self.lost,
+                interrupted: true,
+            };
+        }
         let lost = !self.normalise();
         if lost {
             let centre = self.mean;
@@ -430,6 +455,7 @@ impl<const D: usize> ParticleFilter<D> {
             ess: self.ess,
             resampled,
             lost,
+            interrupted: false,
         }
     }
 
@@ -467,16 +493,35 @@ impl<const D: usize> ParticleFilter<D> {
         }
     }
 
-    /// Adds each particle's log-likelihood to its log-weight, in fixed chunks.
-    fn weigh<L: Likelihood<D>>(&mut self, likelihood: &L, scratch: &mut Vec<L::Scratch>) {
+    /// Adds each particle's log-likelihood to its log-weight, in fixed chunks; `false`
+    /// when an interrupt stopped it first. Every [`CHECK_PARTICLES`] particles each
+    /// chunk checks for one: on the calling thread through the checkpoint (which
+    /// polls for signals there), on the pool's threads through the call's token,
+    /// since a likelihood can cost milliseconds (a segmentation per sample) and a
+    /// million particles ran for minutes past a Ctrl-C (issue 38).
+    fn weigh<L: Likelihood<D>>(&mut self, likelihood: &L, scratch: &mut Vec<L::Scratch>) -> bool {
         let chunk = self.params.chunk_size;
         let n_chunks = self.particles.len().div_ceil(chunk);
         while scratch.len() < n_chunks {
             scratch.push(likelihood.new_scratch());
         }
+        let token = interrupt::current();
+        let stopped = AtomicBool::new(false);
+        let interrupted = || {
+            let hit = stopped.load(Ordering::Relaxed)
+                || interrupt::checkpoint().is_err()
+                || token.as_ref().is_some_and(|t| t.is_stopped());
+            if hit {
+                stopped.store(true, Ordering::Relaxed);
+            }
+            hit
+        };
         let weigh_chunk = |(particles, log_weights): (&[SVector<f64, D>], &mut [f64]),
                            scratch: &mut L::Scratch| {
-            for (p, lw) in particles.iter().zip(log_weights.iter_mut()) {
+            for (k, (p, lw)) in particles.iter().zip(log_weights.iter_mut()).enumerate() {
+                if k % CHECK_PARTICLES == 0 && interrupted() {
+                    return;
+                }
                 let ll = likelihood.log_likelihood(p, scratch);
                 // NaN and +inf are not likelihoods: zero weight.
                 *lw += if ll.is_nan() || ll == f64::INFINITY {
@@ -502,6 +547,7 @@ impl<const D: usize> ParticleFilter<D> {
                 weigh_chunk(pair, s);
             }
         }
+        !stopped.load(Ordering::Relaxed)
     }
 
     /// Log-sum-exp normalisation; `false` when no weight is positive and finite.

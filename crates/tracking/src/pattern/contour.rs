@@ -4,6 +4,8 @@
 use linesimp::{Method, Metric, Simplifier};
 use nalgebra::Point2;
 
+use crate::error::Result;
+
 /// The 8 neighbours, 4-connected ones first so that a chain prefers straight steps.
 const NEIGHBOURS: [(isize, isize); 8] = [
     (1, 0),
@@ -113,21 +115,37 @@ pub fn simplifier() -> Simplifier {
 
 /// Points every `spacing` pixels of arc length along `polyline`, the first at half a
 /// spacing from its start.
-pub fn sample_polyline(polyline: &[Point2<f64>], spacing: f64) -> Vec<Point2<f64>> {
-    let mut out = Vec::new();
-    let mut next = 0.5 * spacing;
+///
+/// # Errors
+/// [`TrackingError::InvalidParameter`] (as `point_spacing`) for a spacing that is not
+/// positive and finite, and `TooLarge` when the samples would exceed rperc's allocation
+/// limit: a spacing of 1e-9 px asked for 10^9 points per pixel of contour (issue 38).
+pub fn sample_polyline(polyline: &[Point2<f64>], spacing: f64) -> Result<Vec<Point2<f64>>> {
+    rperc_core::ensure_positive("point_spacing", spacing)?;
+    let total: f64 = polyline.windows(2).map(|s| (s[1] - s[0]).norm()).sum();
+    let count = if total >= 0.5 * spacing {
+        ((total - 0.5 * spacing) / spacing).floor() + 1.0
+    } else {
+        0.0
+    };
+    // A float count past u128 saturates, and is refused all the same.
+    rperc_core::check_allocation("point_spacing", count as u128, 16)?;
+    let mut out = Vec::with_capacity(count as usize);
     let mut travelled = 0.0;
     for seg in polyline.windows(2) {
         let d = seg[1] - seg[0];
         let len = d.norm();
-        while len > 0.0 && next <= travelled + len {
+        // The k-th sample's arc length from its index, not a running sum: adding a
+        // spacing far below the travelled length's resolution would never advance.
+        let mut next = (out.len() as f64 + 0.5) * spacing;
+        while len > 0.0 && next <= travelled + len && out.len() < count as usize {
             let t = (next - travelled) / len;
             out.push(seg[0] + d * t);
-            next += spacing;
+            next = (out.len() as f64 + 0.5) * spacing;
         }
         travelled += len;
     }
-    out
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -165,7 +183,7 @@ mod tests {
             Point2::new(10.0, 0.0),
             Point2::new(10.0, 10.0),
         ];
-        let pts = sample_polyline(&line, 4.0);
+        let pts = sample_polyline(&line, 4.0).unwrap();
         let xs: Vec<(f64, f64)> = pts.iter().map(|p| (p.x, p.y)).collect();
         assert_eq!(
             xs,

@@ -130,6 +130,16 @@ impl Default for PatternConfig {
     }
 }
 
+/// The most model points kept: each is weighed for every particle on every frame.
+const MAX_MODEL_POINTS: usize = 1 << 16;
+/// The most scale levels: each blurs its own copy of the frame's window.
+const MAX_SCALE_LEVELS: usize = 64;
+/// The largest scale level: its blur kernel (`blur_sigma` times the scale) spans
+/// thousands of taps there already; a scale of 1e300 asked for an endless kernel.
+const MAX_SCALE: f64 = 100.0;
+/// The closest spacing of model points along a contour, pixels.
+const MIN_POINT_SPACING: f64 = 0.1;
+
 fn invalid(name: &'static str, reason: impl Into<String>) -> TrackingError {
     TrackingError::InvalidParameter {
         name,
@@ -141,7 +151,9 @@ impl PatternConfig {
     /// Checks every parameter; errors name the offending one.
     pub fn validate(&self) -> Result<()> {
         use rperc_core::{ensure_in_range, ensure_positive};
-        ensure_positive("point_spacing", self.point_spacing)?;
+        // Points closer than a tenth of a pixel sample the same grey levels, and each
+        // costs a profile: 1e-9 px asked for 10^9 points per pixel of contour (issue 38).
+        ensure_in_range("point_spacing", self.point_spacing, MIN_POINT_SPACING, 1e6)?;
         ensure_positive("delta", self.delta)?;
         ensure_positive("sigma", self.sigma)?;
         ensure_positive("occlusion_threshold", self.occlusion_threshold)?;
@@ -165,10 +177,11 @@ impl PatternConfig {
         if self.fit_lags == 0 || self.fit_lags >= self.n_samples {
             return Err(invalid("fit_lags", "must be in 1..n_samples"));
         }
-        if self.max_points == 0 {
-            return Err(invalid("max_points", "must be >= 1"));
-        }
+        // Model sizes are bounded before anything is learnt: each model point keeps a
+        // vector of n_samples, and each scale level a blurred copy of the frame.
+        rperc_core::ensure_count("max_points", self.max_points, 1, MAX_MODEL_POINTS, 1)?;
         let levels = &self.scale_levels;
+        rperc_core::ensure_count("scale_levels", levels.len(), 1, MAX_SCALE_LEVELS, 1)?;
         if levels.is_empty()
             || levels[0] != 1.0
             || levels
@@ -176,6 +189,12 @@ impl PatternConfig {
                 .any(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater))
         {
             return Err(invalid("scale_levels", "must start at 1.0 and increase"));
+        }
+        if levels.last().is_some_and(|&s| s > MAX_SCALE) {
+            return Err(invalid(
+                "scale_levels",
+                format!("the largest scale must be at most {MAX_SCALE}"),
+            ));
         }
         Ok(())
     }
@@ -267,7 +286,7 @@ fn region_edges(
     else {
         return vec![false; image.data.len()];
     };
-    let edges = imageproc::edges::canny(&buffer, config.canny_low, config.canny_high);
+    let edges = crate::frame::canny_edges(&buffer, config.canny_low, config.canny_high);
     let (x0, y0, w, h) = win;
     let iw = image.width;
     (0..image.data.len())
@@ -348,7 +367,7 @@ impl PatternModel {
         let (mut scratch, mut blurred) = (GrayImage::default(), GrayImage::default());
         image.gaussian_blur(config.blur_sigma, &mut scratch, &mut blurred)?;
         let edges = region_edges(image, &region, win, config);
-        let candidates = contour_samples(&edges, image.width, image.height, config);
+        let candidates = contour_samples(&edges, image.width, image.height, config)?;
         let centre = [
             win.0 as f64 + 0.5 * (win.2 as f64 - 1.0),
             win.1 as f64 + 0.5 * (win.3 as f64 - 1.0),
@@ -396,18 +415,16 @@ fn contour_samples(
     width: usize,
     height: usize,
     config: &PatternConfig,
-) -> Vec<Point2<f64>> {
+) -> Result<Vec<Point2<f64>>> {
     let mut dp = simplifier();
-    trace_contours(edges, width, height)
-        .iter()
-        .filter(|c| c.len() >= config.min_contour_pixels)
-        .flat_map(|c| {
-            sample_polyline(
-                &approximate(&mut dp, c, config.approximation_epsilon),
-                config.point_spacing,
-            )
-        })
-        .collect()
+    let mut out = Vec::new();
+    for c in trace_contours(edges, width, height) {
+        if c.len() >= config.min_contour_pixels {
+            let approximated = approximate(&mut dp, &c, config.approximation_epsilon);
+            out.extend(sample_polyline(&approximated, config.point_spacing)?);
+        }
+    }
+    Ok(out)
 }
 
 /// A model point at `p`, or `None` if its profile is textureless or leaves the image.

@@ -97,11 +97,10 @@ impl SequenceParams {
         if self.width < 8 || self.height < 8 {
             return Err(invalid("width", "frames must be at least 8x8"));
         }
-        rperc_core::check_allocation(
-            "n_frames",
-            self.n_frames as u128,
-            (self.width * self.height) as u128,
-        )?;
+        // In u128 and saturating: width * height in usize wrapped (or panicked) for
+        // 2^32 x 2^32 frames and passed the check (issue 38).
+        let frame_bytes = (self.width as u128).saturating_mul(self.height as u128);
+        rperc_core::check_allocation("n_frames", self.n_frames as u128, frame_bytes)?;
         if !self.sigma.iter().all(|s| s.is_finite() && *s >= 0.0) {
             return Err(invalid("sigma", "must be 4 finite values >= 0"));
         }

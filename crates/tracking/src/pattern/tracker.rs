@@ -3,6 +3,7 @@
 //! `X_k = X_{k-1} + v` and the inter-correlation likelihood of eq. 6.
 
 use nalgebra::{SMatrix, SVector};
+use rperc_core::MAX_PARTICLES;
 use rperc_core::image::{GrayImage, GrayView, RgbView, luma};
 
 use super::model::{PatternConfig, PatternModel, Region};
@@ -161,12 +162,7 @@ impl Default for PatternTrackerParams {
 impl PatternTrackerParams {
     /// Refuses bad values with the parameter's name.
     pub fn validate(&self) -> Result<()> {
-        if self.n_particles == 0 {
-            return Err(TrackingError::InvalidParameter {
-                name: "n_particles",
-                reason: "need at least one particle".into(),
-            });
-        }
+        rperc_core::ensure_count("n_particles", self.n_particles, 1, MAX_PARTICLES, 1)?;
         if !self.sigma.iter().all(|s| s.is_finite() && *s > 0.0) {
             return Err(TrackingError::InvalidParameter {
                 name: "sigma",
@@ -305,6 +301,14 @@ impl PatternTracker {
                 reason: format!("must be finite with a scale > 0, got {state:?}"),
             });
         }
+        // A model read back from a mosaic carries its own config; each of its scale
+        // levels blurs up to a whole frame every update.
+        model.config.validate()?;
+        let frame_bytes = (width as u128)
+            .saturating_mul(height as u128)
+            .saturating_mul(4);
+        let levels = model.config.scale_levels.len() as u128;
+        rperc_core::check_allocation("scale_levels", levels, frame_bytes)?;
         let state = SVector::from(state);
         let sigma = SVector::from(params.sigma);
         let covariance = SMatrix::from_diagonal(&sigma.component_mul(&sigma));
@@ -382,14 +386,25 @@ impl PatternTracker {
     /// # Errors
     /// [`TrackingError::FrameSizeChanged`] if `frame` differs in size from the first.
     pub fn update(&mut self, frame: PatternFrame<'_>) -> Result<PatternPose> {
-        if self.parallel {
+        let before = self.filter.copy_if_interruptible();
+        let out = if self.parallel {
             // The whole step on a rayon worker: its blur and weighing fork and join a
             // few times per frame, cheap from a worker but a thread hand-over each
-            // from any other thread (the numbers are the same).
-            rayon::scope(|_| self.step(frame))
+            // from any other thread (the numbers are the same). The worker takes this
+            // call's interrupt token along, so its checkpoints still see Ctrl-C.
+            let token = rperc_core::interrupt::current();
+            rayon::scope(|_| rperc_core::interrupt::run_with(token, || self.step(frame)))
         } else {
             self.step(frame)
+        };
+        if let (Err(e), Some(before)) = (&out, before)
+            && e.class() == rperc_core::ErrorClass::Interrupted
+        {
+            // Ctrl-C: the particles go back to where they were before this frame (the
+            // last pose and typical score only change once a step has finished).
+            self.filter = before;
         }
+        out
     }
 
     /// [`Self::update`] on the calling thread.
@@ -405,7 +420,7 @@ impl PatternTracker {
         }
         let resampled = self.filter.predict();
         self.build_space(frame)?;
-        let report = self.weigh(resampled);
+        let report = self.weigh(resampled)?;
         let (mut estimate, mut observation) = self.refine(report.lost);
         let mut lost_filter = report.lost;
         if !report.lost && self.score(&observation) < self.params.second_look * self.typical_score {
@@ -468,7 +483,7 @@ impl PatternTracker {
         self.filter
             .redraw(half, SVector::from(self.last.state), sigma);
         self.build_space(frame)?;
-        let report = self.weigh(resampled);
+        let report = self.weigh(resampled)?;
         let (second, at_second) = self.refine(report.lost);
         if !report.lost && at_second.log_likelihood > at_first.log_likelihood {
             return Ok((second, at_second, false));
@@ -505,7 +520,7 @@ impl PatternTracker {
     /// Weighs the predicted particles (eq. 6), those far below the best cut short;
     /// every chunk compares its particles from the start with the last estimate's
     /// likelihood on this frame.
-    fn weigh(&mut self, resampled: bool) -> StepReport {
+    fn weigh(&mut self, resampled: bool) -> Result<StepReport> {
         let likelihood = PatternLikelihood::with_table(&self.model, &self.space, &self.table);
         if self.scratch.is_empty() {
             self.scratch.push(PatternScratch::default());
@@ -517,8 +532,13 @@ impl PatternTracker {
         let likelihood = likelihood
             .with_early_exit(NEGLIGIBLE_LOG_WEIGHT)
             .with_reference(reference);
-        self.filter
-            .correct_with_scratch(&likelihood, &mut self.scratch, resampled)
+        let report = self
+            .filter
+            .correct_with_scratch(&likelihood, &mut self.scratch, resampled);
+        match report.interrupted {
+            true => Err(rperc_core::CoreError::Interrupted.into()),
+            false => Ok(report),
+        }
     }
 
     /// The weighted mean refined by the search of [`Self::update`], and its

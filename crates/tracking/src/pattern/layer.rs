@@ -19,14 +19,20 @@ use rperc_core::image::GrayImage;
 use super::correlation::{autocorrelation_curvature, autocorrelation_slope, remove_mean};
 use super::model::{ModelPoint, PatternConfig, PatternModel, sample_vector};
 use super::observation::{PatternLikelihood, PatternScratch, PointTable, ScaleSpace};
-use super::tracker::{
-    NEGLIGIBLE_LOG_WEIGHT, NEWTON_TOLERANCE, Newton, PatternFrame, PatternTracker,
-};
+use super::tracker::{NEWTON_TOLERANCE, Newton, PatternFrame, PatternTracker};
 use crate::error::Result;
 
 /// A coarse model needs this many points to locate anything; with fewer (a region
 /// with hardly any texture at the coarse level) the tracker goes without the layer.
 const MIN_COARSE_POINTS: usize = 8;
+
+/// The coarse layer stops weighing a state once its log-likelihood, extrapolated
+/// from part of its points, falls this far below the best one met before it (see
+/// [`PatternLikelihood::with_early_exit`]): it only ranks states, and one that far
+/// below (a factor `e^-10`) is not among those kept. 10 rather than the filter's 30
+/// ran the default 24-29 % faster at the same accuracy (seeds 0-9, process time);
+/// 5 gained nothing more.
+const COARSE_MARGIN: f64 = 10.0;
 
 /// Most Gauss-Newton steps of [`CoarseLayer::refine`] per state.
 const COARSE_NEWTON_STEPS: usize = 6;
@@ -160,7 +166,7 @@ impl CoarseLayer {
         let likelihood = PatternLikelihood::with_table(&self.model, &self.space, &self.table);
         let reference = likelihood.observe(&last, &mut self.scratch).log_likelihood;
         let likelihood = likelihood
-            .with_early_exit(NEGLIGIBLE_LOG_WEIGHT)
+            .with_early_exit(COARSE_MARGIN)
             .with_reference(reference);
         use crate::condensation::Likelihood;
         self.scored.clear();

@@ -234,6 +234,47 @@ def test_a_real_patch_over_real_clutter_is_tracked(data) -> None:  # type: ignor
 
 
 @pytest.mark.parametrize(
+    ("seed", "gain", "occlusion"), [(11, 0.0, 0.0), (12, 0.2, 0.0), (13, 0.0, 0.3)]
+)
+def test_full_three_sigma_steps_keep_the_goals(data, seed, gain, occlusion) -> None:  # type: ignore[no-untyped-def]
+    """Issue 35: steps up to 3 sigma in all four parameters at once (the seed's 200
+    particles strayed by more than 5 px on most such sequences), plain, with a gain of
+    1 +- 0.2 per frame, and with up to 30 % of the patch hidden. The goals: RMS within
+    1.5 px, 1.5 degrees and 3 % of the generator's truth, never lost. Seeds 11-13 were
+    not used to choose a default (seeds 0-9 were)."""
+    images = data / "images"
+    camera = cv2.imread(str(images / "camera.png"), cv2.IMREAD_GRAYSCALE)
+    grass = cv2.imread(str(images / "grass.png"), cv2.IMREAD_GRAYSCALE)
+    if camera is None or grass is None:
+        pytest.skip("images/camera.png or images/grass.png missing")
+    seq = pattern_sequence(
+        camera[60:160, 200:300],
+        grass,
+        n_frames=40,
+        size=(640, 480),
+        max_step_sigmas=3.0,
+        other_step_sigmas=3.0,
+        gain=(1 - gain, 1 + gain),
+        max_occlusion=occlusion,
+        seed=seed,
+    )
+    tracker = PatternTracker(seq.frames[0], seq.region, seed=seed)
+    errors = []
+    for frame, truth in zip(seq.frames[1:], seq.truth[1:], strict=True):
+        pose = tracker.update(frame)
+        assert not pose.lost
+        errors.append(
+            (
+                math.hypot(pose.x - truth[0], pose.y - truth[1]),
+                math.degrees(pose.theta - truth[2]),
+                pose.scale / truth[3] - 1,
+            )
+        )
+    rms = np.sqrt(np.mean(np.square(errors), axis=0))
+    assert rms[0] <= 1.5 and rms[1] <= 1.5 and rms[2] <= 0.03, rms
+
+
+@pytest.mark.parametrize(
     ("kwargs", "message"),
     [
         ({"seed": None}, r"^seed must be a non-negative integer below 2\*\*64, got None"),

@@ -426,3 +426,75 @@ fn steps_near_three_sigma_are_caught() {
     }
     assert!(misses.iter().all(|&m| m == 0), "{misses:?}");
 }
+
+/// The shared data folder (`RPERC_DATA`, else `../shared/data` beside the
+/// repository), if present.
+fn data_dir() -> Option<std::path::PathBuf> {
+    let dir = match std::env::var_os("RPERC_DATA") {
+        Some(d) => std::path::PathBuf::from(d),
+        None => std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"),
+    };
+    dir.is_dir().then_some(dir)
+}
+
+/// A grey image of the data folder's `images/`, columns `x0..x0 + w` and rows `y0..y0
+/// + h` of it (the whole image for `None`).
+fn data_image(dir: &std::path::Path, name: &str, crop: Option<[u32; 4]>) -> GrayImage {
+    let img = image::open(dir.join("images").join(name))
+        .unwrap()
+        .to_luma8();
+    let [x0, y0, w, h] = crop.unwrap_or([0, 0, img.width(), img.height()]);
+    let mut out = GrayImage::zeros(w as usize, h as usize);
+    for y in 0..h {
+        for x in 0..w {
+            out.data[(y * w + x) as usize] = f32::from(img.get_pixel(x0 + x, y0 + y)[0]);
+        }
+    }
+    out
+}
+
+/// Issue 35: steps drawn up to 3 sigma in all four parameters at once (not one at a
+/// time), with noise and a moving background: a 100 x 100 patch of the photograph
+/// `camera.png` over `grass.png`, 640 x 480, as `rperc bench pattern` draws them.
+/// The seed's 200 particles strayed by more than 5 px on most such sequences; with
+/// the coarse layer the track keeps the issue's goals (RMS within 1.5 px, 1.5
+/// degrees and 3 %, never lost) against the generator's truth. Seed 17 was never used
+/// to choose a default (they were chosen on seeds 0-9).
+#[test]
+fn full_three_sigma_steps_in_every_parameter_stay_within_the_goals() {
+    let Some(dir) = data_dir() else {
+        eprintln!("skipped: shared data not found (set RPERC_DATA)");
+        return;
+    };
+    let patch = data_image(&dir, "camera.png", Some([200, 60, 100, 100]));
+    let bg = data_image(&dir, "grass.png", None);
+    let params = SequenceParams {
+        n_frames: 40,
+        width: 640,
+        height: 480,
+        max_step_sigmas: 3.0,
+        other_step_sigmas: 3.0,
+        seed: 17,
+        ..SequenceParams::default()
+    };
+    let seq = generate_sequence(&patch, &bg, &params).unwrap();
+    let view = |k: usize| tracker_input(&seq, &params, k).0;
+    let region = tracker_input(&seq, &params, 0).1;
+    let mut tracker =
+        PatternTracker::new(view(0), region, PatternTrackerParams::default(), 4).unwrap();
+    let mut sq = [0.0; 3];
+    for k in 1..params.n_frames {
+        let pose = tracker.update(view(k)).unwrap();
+        assert!(!pose.lost, "frame {k} lost");
+        let (e, t) = (pose.state, seq.truth[k]);
+        sq[0] += (e[0] - t[0]).powi(2) + (e[1] - t[1]).powi(2);
+        sq[1] += (e[2] - t[2]).to_degrees().powi(2);
+        sq[2] += (e[3] / t[3] - 1.0).powi(2);
+    }
+    let [pos, ang, scale] = sq.map(|s| (s / (params.n_frames - 1) as f64).sqrt());
+    println!("RMS: {pos:.3} px, {ang:.3} deg, {:.2} %", 100.0 * scale);
+    assert!(
+        pos <= 1.5 && ang <= 1.5 && scale <= 0.03,
+        "{pos} px, {ang} deg, {scale}"
+    );
+}

@@ -185,6 +185,7 @@ def mrclam(
 def pattern(
     *,
     steps: Sequence[float] = (1.0, 2.0, 3.0),
+    conditions: Sequence[str] = ("plain",),
     trackers: Sequence[str] = _pattern.DEFAULT_TRACKERS,
     seeds: Iterable[int] = range(10),
     frames: int = 40,
@@ -194,10 +195,13 @@ def pattern(
     workers: int | None = None,
 ) -> BenchResult:
     """The pattern tracker and its peers on generated sequences whose four
-    parameters step up to each of ``steps`` sigma at once; ``images`` is a data
+    parameters step up to each of ``steps`` sigma at once, under each of
+    ``conditions`` ("plain"; "gain": a gain of 1 +- 0.2 per frame; "occlusion": up to
+    30 % of the patch hidden); ``images`` is a data
     folder holding ``images/`` (the data folder by default, generated images
     without one). See :mod:`rperc.bench.suites.pattern`."""
     bounds = _pattern.parse_steps(",".join(str(s) for s in steps))
+    chosen = _pattern.parse_conditions(",".join(conditions))
     names = [t for t in trackers if t in _pattern.TRACKERS]
     if not trackers or len(names) != len(trackers):
         raise ValueError(f"trackers: expected some of {', '.join(_pattern.TRACKERS)}")
@@ -211,7 +215,7 @@ def pattern(
     options: dict[str, Setting] = {"frames": frames, "images": str(images)}
     tasks = make_tasks(
         "pattern",
-        [_pattern.case_name(s) for s in bounds],
+        [_pattern.case_name(s, c) for c in chosen for s in bounds],
         names,
         _seeds(seeds),
         combos,

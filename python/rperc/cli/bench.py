@@ -119,6 +119,11 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     pa = kinds.add_parser("pattern", help="the pattern tracker and OpenCV's on generated steps")
     pa.add_argument("--steps", default="1,2,3", help="step bounds in sigma, e.g. 1,2,3")
     pa.add_argument(
+        "--conditions",
+        default="plain",
+        help="comma-separated: plain, gain (1 +- 0.2 per frame), occlusion (up to 30 %%)",
+    )
+    pa.add_argument(
         "--trackers",
         default=",".join(pattern.DEFAULT_TRACKERS),
         help=f"comma-separated: {', '.join(pattern.TRACKERS)}",
@@ -166,10 +171,11 @@ def _plan(args: argparse.Namespace, grid: Any) -> Any:
             span=tuple(args.span) if args.span else None,
             **common,
         )
-    from rperc.bench.suites.pattern import TRACKERS, parse_steps
+    from rperc.bench.suites.pattern import TRACKERS, parse_conditions, parse_steps
 
     return bench.pattern(
         steps=parse_steps(args.steps),
+        conditions=parse_conditions(args.conditions),
         trackers=_names(args.trackers, TRACKERS, "--trackers"),
         frames=args.frames,
         **common,

@@ -143,6 +143,12 @@ class PatternTracker:
     processed on the thread pool only when particles times model points reaches
     ``parallel_min_work`` (default 100 000): below it, handing a frame to the pool
     and back costs more than two cores save.
+    The coarse layer screens ``coarse_particles`` predicted states (the random walk
+    widened by ``coarse_spread``) on a level ``coarse_factor`` times coarser, on at
+    most ``coarse_points`` model points; the best ``coarse_refined`` are moved to their
+    coarse peak by Gauss-Newton and the best ``coarse_kept`` become the particles
+    weighed on the frame (``n_particles`` only without the layer): its wider basin
+    finds steps of 3 sigma that the particles alone miss. 0 turns it off.
 
     Examples
     --------
@@ -185,6 +191,12 @@ class PatternTracker:
         chunk_size: int = _FILTER["chunk_size"],
         parallel: bool = _FILTER["parallel"],
         parallel_min_work: int = _TRACKER["parallel_min_work"],
+        coarse_particles: int = _TRACKER["coarse_particles"],
+        coarse_factor: int = _TRACKER["coarse_factor"],
+        coarse_points: int = _TRACKER["coarse_points"],
+        coarse_kept: int = _TRACKER["coarse_kept"],
+        coarse_spread: float = _TRACKER["coarse_spread"],
+        coarse_refined: int = _TRACKER["coarse_refined"],
     ) -> None:
         sig = float_array(sigma, "sigma").reshape(-1)
         if sig.shape != (4,):
@@ -211,6 +223,12 @@ class PatternTracker:
             "refine_fine_rounds": refine_fine_rounds,
             "newton_steps": newton_steps,
             "parallel_min_work": parallel_min_work,
+            "coarse_particles": coarse_particles,
+            "coarse_factor": coarse_factor,
+            "coarse_points": coarse_points,
+            "coarse_kept": coarse_kept,
+            "coarse_spread": coarse_spread,
+            "coarse_refined": coarse_refined,
             "second_look": second_look,
             "lost_occluded_fraction": lost_occluded_fraction,
             "pattern": pattern,

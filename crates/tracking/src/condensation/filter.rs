@@ -405,6 +405,64 @@ impl<const D: usize> ParticleFilter<D> {
         self.draw_guesses(&[(centre, sigma, count)]);
     }
 
+    /// Draws `count` states from the set's prior predictive into `out` (cleared):
+    /// `count` ancestors resampled by weight with the set's resampler, each propagated
+    /// by `s = A s' + spread B w`. The set itself is left as it is (only the random
+    /// stream moves): a layered filter screens these many states with a cheap
+    /// likelihood and keeps some with [`set_particles`](Self::set_particles), where a
+    /// set that large would cost its full likelihood on every one. `spread > 1` widens
+    /// the proposal beyond the dynamics. Nothing is drawn for a non-finite or negative
+    /// `spread`, or weights that cannot be resampled (after a total loss, say).
+    pub fn sample_predictive(&mut self, count: usize, spread: f64, out: &mut Vec<SVector<f64, D>>) {
+        out.clear();
+        if !(spread.is_finite() && spread >= 0.0) {
+            return;
+        }
+        let mut ancestors = std::mem::take(&mut self.ancestors);
+        let drawn =
+            self.params
+                .resampler
+                .resample(&self.weights, count, &mut self.rng, &mut ancestors);
+        if drawn.is_ok() {
+            let LinearGaussian { a, b } = self.dynamics;
+            let b = b * spread;
+            for &i in &ancestors {
+                out.push(a * self.particles[i] + b * standard_normal(&mut self.rng));
+            }
+        }
+        self.ancestors = ancestors;
+    }
+
+    /// Replaces the states of the set by `states` (as many as it holds), with equal
+    /// weights: the states a first layer kept (see
+    /// [`sample_predictive`](Self::sample_predictive)), weighed next by
+    /// [`correct_with_scratch`](Self::correct_with_scratch).
+    ///
+    /// # Errors
+    /// [`TrackingError::InvalidParameter`] when the count differs or a state is not
+    /// finite; the set is then left as it was.
+    pub fn set_particles(&mut self, states: &[SVector<f64, D>]) -> Result<()> {
+        if states.len() != self.particles.len() {
+            return Err(TrackingError::InvalidParameter {
+                name: "states",
+                reason: format!(
+                    "{} states for a set of {} particles",
+                    states.len(),
+                    self.particles.len()
+                ),
+            });
+        }
+        if !states.iter().all(|s| s.iter().all(|v| v.is_finite())) {
+            return Err(TrackingError::InvalidParameter {
+                name: "states",
+                reason: "must be finite".into(),
+            });
+        }
+        self.particles.copy_from_slice(states);
+        self.set_uniform_weights();
+        Ok(())
+    }
+
     /// Redraws particles around the guesses, spread evenly through the set and
     /// interleaved, never more than the whole set.
     fn draw_guesses(&mut self, guesses: &[Guess<D>]) {

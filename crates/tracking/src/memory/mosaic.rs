@@ -71,6 +71,9 @@ impl Default for MosaicParams {
                 // the tracker's Gauss-Newton stage has not been tried on them.
                 refine_fine_rounds: 2,
                 newton_steps: 0,
+                // Nor has the coarse layer (made for steps of 3 sigma; these models
+                // move by less than one).
+                coarse_particles: 0,
                 ..PatternTrackerParams::default()
             },
             proposals: ProposalParams::default(),

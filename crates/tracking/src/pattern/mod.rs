@@ -5,6 +5,7 @@
 
 pub mod contour;
 pub mod correlation;
+mod layer;
 mod model;
 mod observation;
 mod sequence;

@@ -32,20 +32,48 @@ PRIMARY = ("position_rms_px", "px")
 SIGMA = (5.0, 5.0, math.radians(3.0), 0.1)
 
 
-def case_name(steps: float) -> str:
-    """A generated case's name: its step bound in sigmas."""
-    return f"steps<={steps:g}sigma"
+#: What a case adds to the steps (issue 35's three cases): nothing; a gain drawn per
+#: frame in ``1 +- 0.2``; a band of clutter hiding up to 30 % of the patch.
+CONDITIONS = {"plain": "", "gain": " gain 0.2", "occlusion": " occlusion 0.3"}
+GAIN = 0.2
+OCCLUSION = 0.3
+
+
+def case_name(steps: float, condition: str = "plain") -> str:
+    """A generated case's name: its step bound in sigmas and its condition."""
+    if condition not in CONDITIONS:
+        raise ValueError(f"condition {excerpt(condition)}: expected one of {', '.join(CONDITIONS)}")
+    return f"steps<={steps:g}sigma{CONDITIONS[condition]}"
+
+
+def case_condition(name: str) -> tuple[float, str]:
+    """The step bound and condition of a case named by :func:`case_name`."""
+    condition = next(
+        (c for c, suffix in CONDITIONS.items() if suffix and name.endswith(suffix)), "plain"
+    )
+    body = name.removesuffix(CONDITIONS[condition])
+    body = body.removeprefix("steps<=").removesuffix("sigma")
+    try:
+        return float(body), condition
+    except ValueError:
+        raise ValueError(
+            f"{excerpt(name)} is not a generated pattern case (steps<=Nsigma[ gain 0.2|"
+            " occlusion 0.3])"
+        ) from None
 
 
 def case_steps(name: str) -> float:
     """The step bound of a case named by :func:`case_name`."""
-    body = name.removeprefix("steps<=").removesuffix("sigma")
-    try:
-        return float(body)
-    except ValueError:
-        raise ValueError(
-            f"{excerpt(name)} is not a generated pattern case (steps<=Nsigma)"
-        ) from None
+    return case_condition(name)[0]
+
+
+def parse_conditions(text: str) -> list[str]:
+    """Comma-separated conditions of :data:`CONDITIONS`."""
+    names = [c.strip() for c in text.split(",") if c.strip()]
+    bad = [c for c in names if c not in CONDITIONS]
+    if not names or bad:
+        raise ValueError(f"--conditions {excerpt(text)}: expected some of {', '.join(CONDITIONS)}")
+    return list(dict.fromkeys(names))
 
 
 def parse_steps(text: str) -> list[float]:
@@ -119,8 +147,9 @@ def run(task: Task) -> dict[str, Any]:
     """One tracker on one generated case."""
     from rperc.tracking import pattern_sequence, planar
 
-    steps = case_steps(task.dataset)
+    steps, condition = case_condition(task.dataset)
     patch, background, source = images(task.text("images"))
+    gain = GAIN if condition == "gain" else 0.0
     seq = pattern_sequence(
         patch,
         background,
@@ -128,6 +157,8 @@ def run(task: Task) -> dict[str, Any]:
         size=(640, 480),
         max_step_sigmas=steps,
         other_step_sigmas=steps,
+        gain=(1.0 - gain, 1.0 + gain),
+        max_occlusion=OCCLUSION if condition == "occlusion" else 0.0,
         seed=task.seed,
     )
     if task.method not in TRACKERS:

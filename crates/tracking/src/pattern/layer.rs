@@ -17,9 +17,10 @@ use nalgebra::SVector;
 use rperc_core::image::GrayImage;
 
 use super::correlation::{autocorrelation_curvature, autocorrelation_slope, remove_mean};
+use super::frame::PatternFrame;
 use super::model::{ModelPoint, PatternConfig, PatternModel, sample_vector};
 use super::observation::{PatternLikelihood, PatternScratch, PointTable, ScaleSpace};
-use super::tracker::{NEWTON_TOLERANCE, Newton, PatternFrame, PatternTracker};
+use super::search::{NEWTON_TOLERANCE, Newton, frame_window};
 use crate::error::Result;
 
 /// A coarse model needs this many points to locate anything; with fewer (a region
@@ -239,8 +240,7 @@ impl CoarseLayer {
         let config = &self.model.config;
         let profile = 0.5 * config.n_samples as f64 * config.delta;
         let offsets = &self.offsets;
-        let window =
-            |cell: [f64; 2]| PatternTracker::window(offsets, profile, size, (lo, hi), cell);
+        let window = |cell: [f64; 2]| frame_window(offsets, profile, size, (lo, hi), cell);
         let needed = Some(&self.scales[..]);
         self.space
             .build_windows_for(size, crop, &self.model, window, [lo[3], hi[3]], needed)

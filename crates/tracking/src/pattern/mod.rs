@@ -5,12 +5,15 @@
 
 pub mod contour;
 pub mod correlation;
+mod frame;
 mod layer;
 mod model;
 mod observation;
+mod search;
 mod sequence;
 mod tracker;
 
+pub use frame::PatternFrame;
 pub use model::{
     DeviationModel, MIN_REGION_SIDE, ModelPoint, PatternConfig, PatternModel, Region, sample_vector,
 };
@@ -19,4 +22,4 @@ pub use observation::{
     place,
 };
 pub use sequence::{PatternSequence, SequenceParams, generate_sequence};
-pub use tracker::{PatternFrame, PatternPose, PatternTracker, PatternTrackerParams, corners_of};
+pub use tracker::{PatternPose, PatternTracker, PatternTrackerParams, corners_of};

@@ -20,6 +20,7 @@ __all__ = [
     "ceiling_defaults",
     "ceiling_drive",
     "check_allocation",
+    "color_segment",
     "color_shape_defaults",
     "color_template_defaults",
     "effective_sample_size",
@@ -265,6 +266,13 @@ class ColorShapeTracker:
     ) -> tuple[npt.NDArray[np.float64], _Box, list[float], float, bool, float]: ...
 
 def color_shape_defaults() -> dict[str, Any]: ...
+def color_segment(
+    frame: npt.NDArray[np.uint8],
+    colours: npt.NDArray[np.float64],
+    color_space: str,
+    bins: tuple[int, int, int],
+    radius: int,
+) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint8]]: ...
 
 _Corners: TypeAlias = tuple[
     tuple[float, float], tuple[float, float], tuple[float, float], tuple[float, float]

@@ -99,3 +99,49 @@ impl PyColorShapeTracker {
 pub fn color_shape_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
     crate::config::defaults::<ColorShapeParams>(py)
 }
+
+/// The raw and the cleaned segmentation, (H, W) uint8 each.
+type Masks<'py> = (Bound<'py, PyArray2<u8>>, Bound<'py, PyArray2<u8>>);
+
+/// The seed's segmentation of `frame` by the histogram of `colours` ((N, 3) floats in
+/// the colour space's `[0, 1)` coordinates): `(raw, cleaned)`, two (H, W) uint8 masks
+/// (0 or 255), the second after the opening and closing of half-side `radius`.
+#[pyfunction]
+#[pyo3(signature = (frame, colours, color_space, bins, radius))]
+pub fn color_segment<'py>(
+    py: Python<'py>,
+    frame: &Bound<'py, PyAny>,
+    colours: numpy::PyReadonlyArray2<'py, f64>,
+    color_space: &str,
+    bins: [usize; 3],
+    radius: u8,
+) -> PyResult<Masks<'py>> {
+    let space = match color_space {
+        "rgb" => tracking::ColorSpace::Rgb,
+        "opponent" => tracking::ColorSpace::Opponent,
+        _ => return Err(Error::Value("color_space must be 'rgb' or 'opponent'".into()).into()),
+    };
+    let c = colours.as_array();
+    if c.ncols() != 3 {
+        return Err(Error::Value(format!(
+            "colours must have shape (N, 3), got {:?}",
+            c.shape()
+        ))
+        .into());
+    }
+    let cloud: Vec<[f64; 3]> = c.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect();
+    let f = self::frame(frame)?;
+    let view = f.view()?;
+    let (raw, cleaned) = detached(py, || {
+        Ok(tracking::colour_segment(
+            &view, &cloud, space, bins, radius,
+        )?)
+    })?;
+    let shape = (raw.height() as usize, raw.width() as usize);
+    let to_array = |data: Vec<u8>| {
+        numpy::ndarray::Array2::from_shape_vec(shape, data)
+            .map(|a| numpy::IntoPyArray::into_pyarray(a, py))
+            .map_err(|e| Error::Value(format!("internal shape error: {e}")))
+    };
+    Ok((to_array(raw.into_raw())?, to_array(cleaned.into_raw())?))
+}

@@ -29,7 +29,7 @@ mod _rperc {
     #[pymodule_export]
     use crate::ceiling_py::{PyCeilingWorld, ceiling_defaults, ceiling_drive};
     #[pymodule_export]
-    use crate::colour_shape_py::{PyColorShapeTracker, color_shape_defaults};
+    use crate::colour_shape_py::{PyColorShapeTracker, color_segment, color_shape_defaults};
     #[pymodule_export]
     use crate::errors::NumericalError;
     #[pymodule_export]

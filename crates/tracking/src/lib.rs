@@ -19,6 +19,7 @@ pub use colour::{
 };
 pub use colour_shape::{
     ColorShapeParams, ColorShapeResult, ColorShapeTracker, ColourDistribution, ColourDynamics,
+    colour_segment,
 };
 pub use condensation::{
     FilterParams, Guess, Likelihood, LinearGaussian, ParticleFilter, ResamplePolicy, Resampler,

@@ -569,7 +569,8 @@ class ColorShapeTracker:
     contour is refined on the image edges masked by its blob's dilated boundary and may
     relax ``deform`` pixels off the affine fit. A tenth of the samples are drawn around the
     colours measured inside the last contour and the first frame's. When lost, the window
-    widens every frame and samples look for a blob of the target's usual area.
+    widens every frame and samples look for the blob most like the target in area and
+    principal spreads.
 
     Start from a ``contour`` (an (N, 2) polygon) or a ``box`` (its inscribed ellipse).
     ``color_space`` is ``"rgb"`` or ``"opponent"`` (B-G, G-R, R+G+B); ``config`` may hold
@@ -618,6 +619,34 @@ class ColorShapeTracker:
 
     def __repr__(self) -> str:
         return f"ColorShapeTracker(last={self._last!r})"
+
+
+def color_segment(
+    frame: npt.ArrayLike,
+    colours: npt.ArrayLike,
+    *,
+    color_space: Literal["rgb", "opponent"] = "opponent",
+    bins: Sequence[int] = (16, 16, 16),
+    morphology_radius: int = 1,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The colour+shape tracker's segmentation of a whole ``frame`` (H x W x 3 uint8 RGB)
+    by the histogram of ``colours`` (seed 000 section 3.3): an (N, 3) cloud in the colour
+    space's coordinates in ``[0, 1)`` (RGB: ``v / 256``; opponent: ``((B - G + 255) / 511,
+    (G - R + 255) / 511, (R + G + B) / 766)``), binned ``bins`` per axis (colours outside
+    ``[0, 1)`` left out); a pixel is in when its bin holds a colour. Returns the raw
+    segmentation and the one cleaned by an opening then a closing with the square of
+    half-side ``morphology_radius``, both (H, W) bool."""
+    cloud = np.asarray(colours, dtype=np.float64)
+    if cloud.ndim != 2 or cloud.shape[1] != 3:
+        raise ValueError(f"colours must have shape (N, 3), got {cloud.shape}")
+    b = [whole_number(v, "bins", 1, limit=64) for v in bins]
+    if len(b) != 3:
+        raise ValueError(f"bins must hold 3 counts, got {len(b)}")
+    radius = whole_number(morphology_radius, "morphology_radius", 0, limit=255)
+    raw, cleaned = _rperc.color_segment(
+        _frame(frame), np.ascontiguousarray(cloud), color_space, (b[0], b[1], b[2]), radius
+    )
+    return raw != 0, cleaned != 0
 
 
 TrackerName = Literal["color-template", "color", "color-pf", "color-shape"]

@@ -12,5 +12,6 @@ mod state;
 mod tracker;
 
 pub use params::ColorShapeParams;
+pub use segment::colour_segment;
 pub use state::{ColourDistribution, ColourDynamics};
 pub use tracker::{ColorShapeResult, ColorShapeTracker};

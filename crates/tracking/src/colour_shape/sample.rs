@@ -6,8 +6,8 @@ use image::GrayImage;
 
 use super::params::ColorShapeParams;
 use super::segment::{
-    Blob, FloodScratch, FrameSides, Grid, LineMasks, Roi, best_component, boundary, clean,
-    euler_number_in, reconstruct, segment, split_at_necks,
+    Blob, FloodScratch, FrameSides, Grid, LineMasks, Roi, ShapeMemory, boundary, clean,
+    euler_number_in, reacquire, reconstruct, segment, split_at_necks,
 };
 use super::snake::{Affine, SnakeFit, SnakeParams, SnakeScratch, fit_snake, polygon_area};
 use super::state::{ColourDistribution, ColourWarp, STATE_DIM, State, fill_lut};
@@ -48,7 +48,7 @@ pub struct SampleScratch {
     pub(crate) blob: GrayImage,
     pub(crate) edges: GrayImage,
     flood: FloodScratch,
-    stats: Vec<[f64; 3]>,
+    stats: Vec<[f64; 6]>,
     padded: Vec<u8>,
     split: [GrayImage; 2],
     pub(crate) snake: SnakeScratch,
@@ -85,6 +85,8 @@ pub struct FrameContext<'a> {
     pub predicted: &'a [[f64; 2]],
     pub predicted_centroid: [f64; 2],
     pub predicted_area: f64,
+    /// The target's usual principal spreads, frame pixels (re-acquisition's shape).
+    pub spreads: [f64; 2],
     pub snake: SnakeParams,
     pub search: BlobSearch,
     /// The structuring element of the clean-up.
@@ -129,32 +131,36 @@ impl FrameContext<'_> {
     }
 
     fn blob(&self, s: &mut SampleScratch) -> Blob {
+        let stride = self.grid.stride as f64;
+        let cells = self.predicted_area / stride.powi(2);
+        // The split's opening: a fraction of the target's disc-equivalent radius, cells.
+        let radius = (self.params.split_radius * (cells / std::f64::consts::PI).sqrt())
+            .round()
+            .clamp(1.0, 255.0) as u8;
         match self.search {
             BlobSearch::Track => {
                 let blob = reconstruct(&s.seg, self.prior, self.region, &mut s.blob, &mut s.flood);
-                let cells = self.predicted_area / (self.grid.stride as f64).powi(2);
                 if blob.area as f64 > self.params.split_ratio * cells {
-                    let radius = self.params.split_radius * (cells / std::f64::consts::PI).sqrt();
-                    split_at_necks(
-                        &mut s.blob,
-                        self.prior,
-                        radius.round().clamp(1.0, 255.0) as u8,
-                        &mut s.split,
-                        &mut s.flood,
-                    )
-                    .unwrap_or(blob)
+                    split_at_necks(&mut s.blob, self.prior, radius, &mut s.split, &mut s.flood)
+                        .unwrap_or(blob)
                 } else {
                     blob
                 }
             }
             BlobSearch::Reacquire => {
-                let near = self.grid.to_grid(self.predicted_centroid);
-                best_component(
+                let target = ShapeMemory {
+                    area: cells,
+                    spreads: self.spreads.map(|s| s / stride),
+                    near: self.grid.to_grid(self.predicted_centroid),
+                };
+                let min_ratio = self.params.reacquire_area_ratio;
+                reacquire(
                     &s.seg,
-                    self.predicted_area / (self.grid.stride as f64).powi(2),
-                    near,
-                    self.params.reacquire_area_ratio,
+                    &target,
+                    min_ratio,
+                    radius,
                     &mut s.blob,
+                    &mut s.split,
                     &mut s.stats,
                 )
             }

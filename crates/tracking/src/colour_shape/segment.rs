@@ -7,6 +7,7 @@ use imageproc::distance_transform::Norm;
 use imageproc::morphology::{Mask, dilate_mut, grayscale_dilate, grayscale_erode, open_mut};
 use imageproc::region_labelling::{Connectivity, connected_components};
 
+use super::snake::covariance_spreads;
 use crate::colour::ColorSpace;
 use crate::frame::RgbFrame;
 
@@ -146,6 +147,59 @@ pub fn segment(bins: &[u16], lut: &[u8], grid: Grid, seg: &mut GrayImage) {
     }
 }
 
+/// The seed's segmentation of a whole frame by the histogram of a colour cloud
+/// (section 3.3, "measure and weight"): `H(r, g, b)` counts the `colours` (coordinates
+/// in `[0, 1)^3` of `space`, as [`colour_coords`](super::state::colour_coords) gives
+/// them; others are left out) per bin, and a pixel is 255 in the raw segmentation when
+/// its bin's count is > 0. Also returns it cleaned by the opening and closing of
+/// half-side `radius` that every sample applies. The path each sample takes, on every
+/// pixel, exposed so that it can be checked against an independent implementation.
+///
+/// # Errors
+/// [`TrackingError::InvalidParameter`](crate::TrackingError) for a colour space other
+/// than RGB and opponent, bad bins or a non-finite colour.
+pub fn colour_segment(
+    frame: &RgbFrame<'_>,
+    colours: &[[f64; 3]],
+    space: ColorSpace,
+    bins: [usize; 3],
+    radius: u8,
+) -> crate::Result<(GrayImage, GrayImage)> {
+    super::state::colour_coords(space, [0, 0, 0])?;
+    crate::colour::check_bins(bins)?;
+    if colours.iter().flatten().any(|c| !c.is_finite()) {
+        return Err(crate::TrackingError::InvalidParameter {
+            name: "colours",
+            reason: "must be finite".into(),
+        });
+    }
+    let nb = bins.map(|b| b as f64);
+    let mut lut = vec![0u8; bins.iter().product()];
+    for c in colours
+        .iter()
+        .filter(|c| c.iter().all(|v| (0.0..1.0).contains(v)))
+    {
+        let i = [0, 1, 2].map(|k| ((c[k] * nb[k]) as usize).min(bins[k] - 1));
+        lut[(i[0] * bins[1] + i[1]) * bins[2] + i[2]] = 1;
+    }
+    let roi = Roi::clipped(
+        0.0,
+        0.0,
+        frame.width() as f64,
+        frame.height() as f64,
+        frame.width(),
+        frame.height(),
+    );
+    let grid = Grid::over(roi, 1);
+    let mut window = Vec::new();
+    bin_window(frame, grid, space, bins, &mut window);
+    let mut raw = GrayImage::new(1, 1);
+    segment(&window, &lut, grid, &mut raw);
+    let mut cleaned = raw.clone();
+    clean(&mut cleaned, &LineMasks::new(radius));
+    Ok((raw, cleaned))
+}
+
 /// Makes `img` a grid-sized image, reallocating only when the size changes.
 pub fn resize(img: &mut GrayImage, grid: Grid) {
     if img.dimensions() != (grid.width as u32, grid.height as u32) {
@@ -272,9 +326,14 @@ pub fn split_at_necks(
         return None;
     }
     dilate_mut(core, Norm::LInf, radius);
-    let w = blob.width() as usize;
+    Some(intersect(blob, core))
+}
+
+/// Clears the pixels of `mask` that `keep` leaves out, and sums what is left.
+pub fn intersect(mask: &mut GrayImage, keep: &GrayImage) -> Blob {
+    let w = mask.width() as usize;
     let mut acc = BlobSums::default();
-    for (i, (b, &c)) in blob.iter_mut().zip(core.iter()).enumerate() {
+    for (i, (b, &c)) in mask.iter_mut().zip(keep.iter()).enumerate() {
         if *b != 0 && c == 0 {
             *b = 0;
         }
@@ -282,7 +341,29 @@ pub fn split_at_necks(
             acc.add(i % w, i / w);
         }
     }
-    Some(acc.blob())
+    acc.blob()
+}
+
+/// The target blob when re-acquiring: [`best_component`] of `seg` opened by `radius`
+/// (so a same-coloured bar or ring the target touches is no part of the component
+/// compared with the target's shape), grown back by `radius` within `seg`.
+pub fn reacquire(
+    seg: &GrayImage,
+    target: &ShapeMemory,
+    min_ratio: f64,
+    radius: u8,
+    blob: &mut GrayImage,
+    scratch: &mut [GrayImage; 2],
+    stats: &mut Vec<[f64; 6]>,
+) -> Blob {
+    let opened = &mut scratch[0];
+    opened.clone_from(seg);
+    open_mut(opened, Norm::LInf, radius);
+    if best_component(opened, target, min_ratio, blob, stats).area == 0 {
+        return Blob::default();
+    }
+    dilate_mut(blob, Norm::LInf, radius);
+    intersect(blob, seg)
 }
 
 /// Running pixel count, coordinate sums and bounds of a blob.
@@ -337,36 +418,68 @@ const NEIGHBOURS_8: [(isize, isize); 8] = [
     (1, 1),
 ];
 
+/// What a lost target looks like, in grid cells: its area and principal spreads (see
+/// [`polygon_spreads`](super::snake::polygon_spreads)), and where it was last.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShapeMemory {
+    /// Area, cells.
+    pub area: f64,
+    /// Principal spreads, largest first, cells.
+    pub spreads: [f64; 2],
+    /// Last centroid, grid coordinates (breaks ties).
+    pub near: [f64; 2],
+}
+
+impl ShapeMemory {
+    /// Likeness of a component with `n` cells, coordinate sums `sx, sy` and
+    /// second-moment sums `sxx, syy, sxy` to the target: the product of the area ratio
+    /// and the two spreads' ratios (smaller over larger, 1 when alike). Area alone
+    /// took a same-coloured bar of the target's area (a tenth as wide, ten times as
+    /// long) for the target; its spreads differ by 3-4x.
+    fn likeness(&self, [n, sx, sy, sxx, syy, sxy]: [f64; 6]) -> (f64, f64) {
+        let ratio = |a: f64, b: f64| a.min(b) / a.max(b).max(1e-9);
+        let (mx, my) = (sx / n, sy / n);
+        let spreads = covariance_spreads(sxx / n - mx * mx, syy / n - my * my, sxy / n - mx * my);
+        let like = ratio(n, self.area)
+            * ratio(spreads[0], self.spreads[0])
+            * ratio(spreads[1], self.spreads[1]);
+        (like, ratio(n, self.area))
+    }
+}
+
 /// The target blob when re-acquiring a lost target: of the 8-connected components of
-/// `seg` (imageproc's labelling), the one whose area is closest in ratio to `area`
-/// (ties: nearest to `near`), if that ratio is at least `min_ratio`. Writes it into
-/// `blob` (0/255).
+/// `seg` (imageproc's labelling) whose area is within `min_ratio` of the target's, the
+/// one most like it in area and principal spreads (ties: nearest to its last place).
+/// Writes it into `blob` (0/255).
 pub fn best_component(
     seg: &GrayImage,
-    area: f64,
-    near: [f64; 2],
+    target: &ShapeMemory,
     min_ratio: f64,
     blob: &mut GrayImage,
-    stats: &mut Vec<[f64; 3]>,
+    stats: &mut Vec<[f64; 6]>,
 ) -> Blob {
     let labels = connected_components(seg, Connectivity::Eight, Luma([0u8]));
     let n_labels = labels.iter().copied().max().unwrap_or(0) as usize;
     stats.clear();
-    stats.resize(n_labels + 1, [0.0; 3]);
+    stats.resize(n_labels + 1, [0.0; 6]);
     for (x, y, l) in labels.enumerate_pixels() {
+        let (x, y) = (f64::from(x), f64::from(y));
         let s = &mut stats[l[0] as usize];
-        s[0] += 1.0;
-        s[1] += f64::from(x);
-        s[2] += f64::from(y);
+        for (acc, v) in s.iter_mut().zip([1.0, x, y, x * x, y * y, x * y]) {
+            *acc += v;
+        }
     }
-    let score = |s: &[f64; 3]| {
-        let ratio = s[0].min(area) / s[0].max(area).max(1e-9);
-        let d = (s[1] / s[0] - near[0]).hypot(s[2] / s[0] - near[1]);
-        (ratio, -d)
+    let score = |s: &[f64; 6]| {
+        let (like, area) = target.likeness(*s);
+        let d = (s[1] / s[0] - target.near[0]).hypot(s[2] / s[0] - target.near[1]);
+        (like, -d, area)
     };
     let best = (1..=n_labels)
-        .filter(|&l| stats[l][0] > 0.0 && score(&stats[l]).0 >= min_ratio)
-        .max_by(|&a, &b| score(&stats[a]).partial_cmp(&score(&stats[b])).unwrap());
+        .filter(|&l| stats[l][0] > 0.0 && score(&stats[l]).2 >= min_ratio)
+        .max_by(|&a, &b| {
+            let (sa, sb) = (score(&stats[a]), score(&stats[b]));
+            (sa.0, sa.1).partial_cmp(&(sb.0, sb.1)).unwrap()
+        });
     if blob.dimensions() != seg.dimensions() {
         *blob = GrayImage::new(seg.width(), seg.height());
     }
@@ -700,11 +813,39 @@ mod tests {
             Luma([if on { 255 } else { 0 }])
         });
         let (mut blob, mut stats) = (GrayImage::new(1, 1), Vec::new());
-        let b = best_component(&seg, 55.0, [0.0, 0.0], 0.5, &mut blob, &mut stats);
+        let like = |area| ShapeMemory {
+            area,
+            spreads: [3.0, 2.0],
+            near: [0.0, 0.0],
+        };
+        let b = best_component(&seg, &like(55.0), 0.5, &mut blob, &mut stats);
         assert_eq!(b.area, 60);
         assert_eq!(b.centroid, [14.5, 4.5]);
-        let b = best_component(&seg, 1000.0, [0.0, 0.0], 0.5, &mut blob, &mut stats);
+        let b = best_component(&seg, &like(1000.0), 0.5, &mut blob, &mut stats);
         assert_eq!(b.area, 0);
+    }
+
+    #[test]
+    fn reacquisition_prefers_the_target_shape_to_a_bar_of_its_area() {
+        // A 3 x 40 bar (120 cells) and an 11 x 11 square (121 cells), the bar nearer;
+        // the target remembered as a square of 120 cells. Closed-form spreads of a
+        // solid w x h rectangle: w / sqrt(12), h / sqrt(12).
+        let bar = |x: u32, y: u32| (2..5).contains(&x) && (5..45).contains(&y);
+        let square = |x: u32, y: u32| (30..41).contains(&x) && (20..31).contains(&y);
+        let seg = GrayImage::from_fn(50, 50, |x, y| {
+            Luma([if bar(x, y) || square(x, y) { 255 } else { 0 }])
+        });
+        let side = 120f64.sqrt() / 12f64.sqrt();
+        let target = ShapeMemory {
+            area: 120.0,
+            spreads: [side, side],
+            near: [3.0, 25.0],
+        };
+        let (mut blob, mut stats) = (GrayImage::new(1, 1), Vec::new());
+        let b = best_component(&seg, &target, 0.5, &mut blob, &mut stats);
+        assert_eq!(b.area, 121);
+        assert_eq!(blob.get_pixel(35, 25)[0], 255);
+        assert_eq!(blob.get_pixel(3, 25)[0], 0);
     }
 
     #[test]

@@ -11,7 +11,7 @@ use super::sample::{BlobSearch, FrameContext, SampleScratch, SampleTerms, on};
 use super::segment::{FrameSides, Grid, LineMasks, Roi, bin_window, resize};
 use super::snake::{
     Contour, SnakeParams, SnakeScratch, ellipse_contour, fill_polygon, fit_snake, polygon_area,
-    relax, resample_closed,
+    polygon_spreads, pull_radially, relax, resample_closed,
 };
 use super::state::{ColourDistribution, N_PARAMS, STATE_DIM, State};
 use crate::condensation::{Guess, ParticleFilter};
@@ -47,9 +47,10 @@ pub struct ColorShapeResult {
 /// how few holes the blob has. The best sample's blob then masks the image edges to which
 /// the final contour is fitted, and the contour may relax a few pixels off the affine fit.
 ///
-/// While lost (a low score, or a contour whose area is far from the usual one) the
-/// contour stays, the window widens each frame and each sample takes the blob of the
-/// usual area anywhere in it.
+/// While lost (a low score, a contour whose area is far from the usual one, or one that
+/// overlaps the best blob too little) the contour stays, the window widens each frame
+/// and each sample takes the blob most like the target in area and principal spreads
+/// anywhere in it, fitting the snake from the last well-scored shape.
 ///
 /// # Examples
 /// A red square moving right on a grey background:
@@ -91,6 +92,12 @@ pub struct ColorShapeTracker {
     /// The target's usual area: an average of the accepted contours' areas over about
     /// the last `1 / USUAL_AREA_RATE` frames.
     usual_area: f64,
+    /// The target's usual principal spreads, averaged like the area: what
+    /// re-acquisition looks for besides the area.
+    usual_spreads: [f64; 2],
+    /// The last contour accepted with a score of at least `GOOD_SHAPE_SCORE`: the shape
+    /// re-acquisition starts its snakes from.
+    good_shape: Contour,
     lost_frames: usize,
     /// The colour distribution inside the last accepted contour: a fraction of the
     /// next frame's samples is drawn around it.
@@ -136,6 +143,8 @@ impl ColorShapeTracker {
             params.seed,
         )?;
         let area = polygon_area(&r0);
+        let usual_spreads = polygon_spreads(&r0);
+        let good_shape = r0.clone();
         let measured = reference.to_state();
         let last = ColorShapeResult {
             bbox: contour_box(&r0),
@@ -155,6 +164,8 @@ impl ColorShapeTracker {
             velocity: [0.0; 2],
             areas: [area, area],
             usual_area: area,
+            usual_spreads,
+            good_shape,
             lost_frames: 0,
             measured,
             bins: Vec::new(),
@@ -214,6 +225,7 @@ impl ColorShapeTracker {
             predicted: &predicted,
             predicted_centroid: contour_centroid(&predicted),
             predicted_area: self.predicted_area(),
+            spreads: self.usual_spreads,
             snake: snake_params(p),
             morphology: &self.morphology,
             search: if self.lost_frames > 0 {
@@ -250,6 +262,11 @@ impl ColorShapeTracker {
             )),
             _ => None,
         };
+        let min_overlap = p.min_blob_overlap;
+        let refined = refined.filter(|r| {
+            let blob = &self.scratch[0].blob;
+            blob_overlap(r, ctx.grid, blob, &mut self.dilated) >= min_overlap
+        });
         Ok(self.conclude(&frame, refined, score, report.ess))
     }
 
@@ -257,10 +274,25 @@ impl ColorShapeTracker {
     /// sampling grid; bins the window and fills the prediction's masks.
     fn prepare(&mut self, frame: &RgbFrame<'_>) -> (Contour, Roi, Grid) {
         let v = self.velocity;
-        let predicted: Contour = self
-            .contour
+        // While lost, the snake starts from the last well-scored shape placed where the
+        // target was: the contour kept at the loss is often the spoilt one that lost it.
+        let shift = if self.lost_frames > 0 {
+            let (a, b) = (
+                contour_centroid(&self.contour),
+                contour_centroid(&self.good_shape),
+            );
+            [a[0] - b[0] + v[0], a[1] - b[1] + v[1]]
+        } else {
+            v
+        };
+        let base = if self.lost_frames > 0 {
+            &self.good_shape
+        } else {
+            &self.contour
+        };
+        let predicted: Contour = base
             .iter()
-            .map(|q| [q[0] + v[0], q[1] + v[1]])
+            .map(|q| [q[0] + shift[0], q[1] + shift[1]])
             .collect();
         let roi = self.window(&predicted);
         let grid = Grid::over(roi, self.stride());
@@ -325,6 +357,9 @@ impl ColorShapeTracker {
                 if let Some(m) = measured_state(frame, &r, &self.reference, p) {
                     self.measured = m;
                 }
+                if score >= GOOD_SHAPE_SCORE {
+                    self.good_shape.clone_from(&r);
+                }
                 self.accept(r);
             }
             None => self.lost_frames += 1,
@@ -368,6 +403,10 @@ impl ColorShapeTracker {
             self.areas = [area, self.areas[0]];
         }
         self.usual_area += USUAL_AREA_RATE * (area - self.usual_area);
+        let spreads = polygon_spreads(&refined);
+        for (u, s) in self.usual_spreads.iter_mut().zip(spreads) {
+            *u += USUAL_AREA_RATE * (s - *u);
+        }
         self.contour = refined;
         self.lost_frames = 0;
     }
@@ -466,12 +505,83 @@ fn refine(
     let image_edges = crate::frame::canny_edges(&gray, p.canny[0], p.canny[1]);
     let masked = |x: i64, y: i64| grid.at(dilated, x, y) && on(&image_edges, roi, x, y);
     let fit = fit_snake(ctx.predicted, terms.fit.affine, &ctx.snake, masked, snake);
-    if fit.on_edge >= p.refine_min_support {
+    let contour = if fit.on_edge >= p.refine_min_support {
         let affine = snake.contour().to_vec();
         relax(&affine, p.deform, p.deform_passes, masked, snake)
     } else {
         let sample = best.snake.contour().to_vec();
         relax(&sample, p.deform, p.deform_passes, sample_edges, snake)
+    };
+    if p.pull_inside {
+        pull_off_distractors(&contour, grid, best, p.deform_passes)
+    } else {
+        contour
+    }
+}
+
+/// The refined contour with its points on a touching distractor pulled back.
+fn pull_off_distractors(
+    contour: &[[f64; 2]],
+    grid: Grid,
+    best: &SampleScratch,
+    passes: usize,
+) -> Contour {
+    // The image-edge relaxation lets a few points follow a touching distractor's edges
+    // a little further each frame, and the affine snake carries such a spike on to the
+    // next frame; the segmentation has already told the distractor apart. So a point
+    // more than a cell outside the blob but on the distractor (within a cell of the
+    // segmentation) moves towards the blob's centroid to within a cell of it: a thread
+    // of points has normals that miss the blob, a ray to the centre does not. With a
+    // same-coloured object in the window every point that far out is pulled (a thread
+    // towards it crosses the background); with none, points off the segmentation stay
+    // (a rectangle notched by a highlight shrank when they were pulled too).
+    let s = grid.stride as i64;
+    let near = |m: &GrayImage, x: i64, y: i64| {
+        (-1..=1).any(|dy| (-1..=1).any(|dx| grid.at(m, x + dx * s, y + dy * s)))
+    };
+    let inside = |x, y| near(&best.blob, x, y);
+    let distractor = best
+        .seg
+        .iter()
+        .zip(best.blob.iter())
+        .any(|(&g, &b)| g != 0 && b == 0);
+    let stay = |x, y| inside(x, y) || (!distractor && !near(&best.seg, x, y));
+    let centre = grid.to_frame(blob_centroid(&best.blob));
+    pull_radially(contour, centre, passes, stay, inside)
+}
+
+/// Mean cell of a grid mask, grid coordinates.
+fn blob_centroid(blob: &GrayImage) -> [f64; 2] {
+    let (mut n, mut sx, mut sy) = (0.0, 0.0, 0.0);
+    for (x, y, v) in blob.enumerate_pixels() {
+        if v[0] != 0 {
+            (n, sx, sy) = (n + 1.0, sx + f64::from(x), sy + f64::from(y));
+        }
+    }
+    if n > 0.0 {
+        [sx / n, sy / n]
+    } else {
+        [0.0, 0.0]
+    }
+}
+
+/// Intersection over union of the contour `r_t`, filled on the grid, and the best
+/// sample's blob: the two disagree when the snake kept a stretched or drifted shape from
+/// earlier frames while the segmentation found the target elsewhere, so a low overlap
+/// means lost, whatever the snake's own score. `mask` is reused.
+fn blob_overlap(contour: &[[f64; 2]], grid: Grid, blob: &GrayImage, mask: &mut GrayImage) -> f64 {
+    resize(mask, grid);
+    let on_grid: Contour = contour.iter().map(|&p| grid.to_grid(p)).collect();
+    fill_polygon(&on_grid, 0.0, 0.0, mask);
+    let (mut both, mut either) = (0usize, 0usize);
+    for (&a, &b) in mask.as_raw().iter().zip(blob.as_raw()) {
+        both += usize::from(a != 0 && b != 0);
+        either += usize::from(a != 0 || b != 0);
+    }
+    if either == 0 {
+        0.0
+    } else {
+        both as f64 / either as f64
     }
 }
 
@@ -485,6 +595,9 @@ fn snake_params(p: &ColorShapeParams) -> SnakeParams {
         stiffness: p.stiffness,
     }
 }
+
+/// A contour accepted with at least this score is remembered as the target's shape.
+const GOOD_SHAPE_SCORE: f64 = 0.5;
 
 /// Rate of the exponential average that gives the target's usual area.
 const USUAL_AREA_RATE: f64 = 0.05;

@@ -299,6 +299,19 @@ impl Gaussian {
     }
 }
 
+/// Square roots of the eigenvalues of the 2 x 2 covariance `[[xx, xy], [xy, yy]]`,
+/// largest first, each >= 0: the spreads along the principal axes (in closed form;
+/// a slightly negative eigenvalue from rounding gives 0).
+///
+/// ```
+/// let [major, minor] = rperc_core::gaussian::covariance_spreads(4.0, 1.0, 0.0);
+/// assert_eq!([major, minor], [2.0, 1.0]);
+/// ```
+pub fn covariance_spreads(xx: f64, yy: f64, xy: f64) -> [f64; 2] {
+    let (mean, half) = ((xx + yy) / 2.0, ((xx - yy) / 2.0).hypot(xy));
+    [(mean + half).max(0.0).sqrt(), (mean - half).max(0.0).sqrt()]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -408,5 +421,24 @@ mod tests {
         // An SPD matrix comes back unchanged.
         let pd = DMatrix::from_row_slice(2, 2, &[2.0, 0.5, 0.5, 1.0]);
         assert!((repair_covariance("P", &pd, 0.0).unwrap() - &pd).amax() < 1e-12);
+    }
+
+    #[test]
+    fn covariance_spreads_match_the_symmetric_eigen_solver() {
+        let mut state = 7u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 4.0 - 2.0
+        };
+        for _ in 0..200 {
+            let (a, b) = (next(), next());
+            let (xx, yy, xy) = (a * a + b * b, next().powi(2), a * next());
+            let eig = DMatrix::from_row_slice(2, 2, &[xx, xy, xy, yy]).symmetric_eigenvalues();
+            let (hi, lo) = (eig.max().max(0.0).sqrt(), eig.min().max(0.0).sqrt());
+            let [major, minor] = covariance_spreads(xx, yy, xy);
+            assert!((major - hi).abs() < 1e-9 && (minor - lo).abs() < 1e-9);
+        }
     }
 }

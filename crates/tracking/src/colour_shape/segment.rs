@@ -6,8 +6,8 @@ use image::{GrayImage, Luma};
 use imageproc::distance_transform::Norm;
 use imageproc::morphology::{Mask, dilate_mut, grayscale_dilate, grayscale_erode, open_mut};
 use imageproc::region_labelling::{Connectivity, connected_components};
+use rperc_core::gaussian::covariance_spreads;
 
-use super::snake::covariance_spreads;
 use crate::colour::ColorSpace;
 use crate::frame::RgbFrame;
 

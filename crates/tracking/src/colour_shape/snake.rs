@@ -4,6 +4,7 @@
 //! `r_{t-1}` to those edge points by least squares.
 
 use nalgebra::{Matrix2, Vector2};
+pub use rperc_core::gaussian::covariance_spreads;
 
 /// A closed contour, points in frame pixel coordinates (pixel centres at integers).
 pub type Contour = Vec<[f64; 2]>;
@@ -397,12 +398,6 @@ pub fn polygon_spreads(poly: &[[f64; 2]]) -> [f64; 2] {
     }
     let (cx, cy) = (mx / a, my / a);
     covariance_spreads(ixx / a - cx * cx, iyy / a - cy * cy, ixy / a - cx * cy)
-}
-
-/// Square roots of the eigenvalues of `[[xx, xy], [xy, yy]]`, largest first, each >= 0.
-pub fn covariance_spreads(xx: f64, yy: f64, xy: f64) -> [f64; 2] {
-    let (mean, half) = ((xx + yy) / 2.0, ((xx - yy) / 2.0).hypot(xy));
-    [(mean + half).max(0.0).sqrt(), (mean - half).max(0.0).sqrt()]
 }
 
 /// Rasterises a closed polygon into a 0/255 mask of the window with top-left `(x0, y0)`

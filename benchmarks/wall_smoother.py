@@ -5,7 +5,7 @@ seconds per smoothing, the ratio, and how far the two optima are apart.
 
     python benchmarks/wall_smoother.py [--logs intel.log aces.log] [--seeds 3] [--json out.json]
 
-Without ``--logs``, the simulated corridor loop of ``rperc demo wall_slam`` (and the
+Without ``--logs``, the simulated corridor loop of ``rperc demo wall-slam`` (and the
 Intel and ACES logs when ``RPERC_DATA`` holds them).
 """
 

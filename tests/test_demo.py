@@ -267,14 +267,14 @@ def test_slam_demo_numbers_are_recomputed_from_the_truth(demo_all):
 def test_color_shape_contour_iou_is_recomputed_against_the_generator(demo_all):
     from rperc.tracking.shape_sequences import shape_sequence
 
-    line = demo_all["summary"]["color_shape"]
+    line = demo_all["summary"]["color-shape"]
     (frames, seed, printed) = grab(
         rf"\({NUMBER} frames, seed {NUMBER}\) against its truth masks: color-shape contour "
         rf"IoU {NUMBER}",
         line,
     )
     seq = shape_sequence("rectangle", frames=int(frames), seed=int(seed))
-    contours = demo_all["measured"]["color_shape"]["contours"]
+    contours = demo_all["measured"]["color-shape"]["contours"]
     assert len(contours) == len(seq)
     # Oracle: shapely's area of each contour against the truth rectangle (pixel j spans
     # [j, j + 1), so a pixel-centre contour is shifted by half a pixel).
@@ -330,7 +330,7 @@ def test_pattern_fig8_errors_are_recomputed_against_the_generator(demo_all):
 
 
 def test_wall_slam_demo_numbers_are_recomputed_from_the_truth(demo_all):
-    """The wall_slam line: each run's ATE and loop error recomputed against the
+    """The wall-slam line: each run's ATE and loop error recomputed against the
     simulator's true path (scansim.loop_path, not the log's rounded poses) by brute
     force: the RMS position error over the scans, and for every scan the nearest
     earlier scan within 1 m after more than 10 m of path, searched here in a loop."""
@@ -339,7 +339,7 @@ def test_wall_slam_demo_numbers_are_recomputed_from_the_truth(demo_all):
     from rperc.scansim import loop_path, write_loop_log
     from rperc.slam.wallslam import run_walls
 
-    line = demo_all["summary"]["wall_slam"]
+    line = demo_all["summary"]["wall-slam"]
     ates = grab(r"ATE " + r" / ".join([NUMBER] * 4) + " m", line)
     loops = grab(r"loop error " + r" / ".join([NUMBER] * 4) + " m", line)
     truth = loop_path()
@@ -377,3 +377,17 @@ def test_visual_memory_demo_scores_its_own_replays(demo_all):
         assert np.isfinite(m[key])
     assert (demo_all["out"] / "visual_memory.png").stat().st_size > 10_000
     assert (demo_all["out"] / "replay_strip.png").is_file()
+
+
+@pytest.mark.parametrize(
+    ("old", "new"), [("wall_slam", "wall-slam"), ("color_shape", "color-shape")]
+)
+def test_deprecated_demo_names_still_parse_to_the_kebab_case_demo(old, new):
+    """Demo names are kebab-case like every other command; the old spellings stay for
+    one release and reach the same demo."""
+    from rperc.cli import build_parser
+
+    parser = build_parser()
+    assert parser.parse_args(["demo", old]).demo_entry.name == new
+    assert parser.parse_args(["demo", new]).demo_entry.name == new
+    assert all("_" not in d.name for d in demo_module.registry())

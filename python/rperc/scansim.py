@@ -218,7 +218,7 @@ def write_loop_log(
     """A CARMEN FLASER log of :func:`loop_path` in :func:`loop_walls`: 180 beams over
     180 degrees (1 degree apart, from -90), ray cast with Gaussian range noise
     ``sigma_range`` (m), the true pose in both pose fields (as the corrected logs
-    carry it), 0.5 s apart. The data of ``rperc demo wall_slam``."""
+    carry it), 0.5 s apart. The data of ``rperc demo wall-slam``."""
     rng = np.random.default_rng(seed)
     walls = loop_walls()
     angles = -math.pi / 2 + math.pi / 180 * np.arange(180)

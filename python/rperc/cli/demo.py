@@ -49,6 +49,8 @@ class Demo:
     help: str
     run: Callable[..., DemoResult]
     options: tuple[Option, ...] = ()
+    #: Older spellings, still accepted for one release with a note on stderr.
+    deprecated: tuple[str, ...] = ()
 
     def defaults(self) -> dict[str, Any]:
         return {o.dest: o.default for o in self.options}
@@ -76,9 +78,10 @@ def registry() -> tuple[Demo, ...]:
             (Option("--runs", "runs", count_at_least(2), 20, "Monte Carlo runs (default 20)"),),
         ),
         Demo(
-            "wall_slam",
+            "wall-slam",
             "wall-landmark SLAM on a simulated corridor loop: Fig. 7's maps side by side",
             wallslam.demo_wall_slam,
+            deprecated=("wall_slam",),
         ),
         Demo(
             "tracking",
@@ -88,10 +91,11 @@ def registry() -> tuple[Demo, ...]:
             (Option("--frames", "frames", count_at_least(2, 1000), 150, "frames (default 150)"),),
         ),
         Demo(
-            "color_shape",
+            "color-shape",
             "colour+shape tracker vs colour alone: the four experiments of Fig. 13, colour path",
             track.demo_color_shape,
             (Option("--frames", "frames", count_at_least(2, 1000), 60, "frames (default 60)"),),
+            deprecated=("color_shape",),
         ),
         Demo(
             "pattern",
@@ -119,7 +123,7 @@ def add_demos(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg
     demo = sub.add_parser("demo", help="run the demos on data rperc generates itself")
     demos = demo.add_subparsers(dest="demo", required=True, metavar="DEMO")
     for d in registry():
-        p = demos.add_parser(d.name, help=d.help)
+        p = demos.add_parser(d.name, help=d.help, aliases=list(d.deprecated))
         _common_options(p)
         for o in d.options:
             p.add_argument(o.flag, dest=o.dest, type=o.type, default=o.default, help=o.help)
@@ -140,6 +144,10 @@ def _run(d: Demo, out: Path, seed: int, options: dict[str, Any]) -> tuple[DemoRe
 
 def _run_one(args: argparse.Namespace) -> int:
     d: Demo = args.demo_entry
+    if args.demo != d.name:
+        print(
+            f"rperc demo {args.demo}: deprecated name, use 'rperc demo {d.name}'", file=sys.stderr
+        )
     out = prepare_output_folder(args.out, "--out")  # first: --json may point into it
     check_output_file(args.json, "--json")
     result, seconds = _run(d, out, args.seed, {o.dest: getattr(args, o.dest) for o in d.options})

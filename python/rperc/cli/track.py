@@ -471,7 +471,7 @@ def demo_color_shape(out: Path, seed: int, frames: int = 60) -> DemoResult:
             figures.append(save(_colour_path_figure(run, seed), out / "color_shape_path.png"))
     # The rectangle first: the line the demo's tests read.
     lines.sort(key=lambda line: not line.startswith("rectangle"))
-    summary = "color_shape: " + "; ".join(lines)
+    summary = "color-shape: " + "; ".join(lines)
     measured = {
         "contour_iou": rectangle["contour_iou"],
         "box_iou": rectangle["box_iou"],

@@ -1,6 +1,6 @@
 """``rperc slam walls LOG``: wall-landmark EKF-SLAM on a CARMEN log from odometry
 made from its corrected path with seeded noise (the seed's Fig. 7 experiment, see
-:mod:`rperc.slam.wallslam`), and ``rperc demo wall_slam`` on a simulated loop."""
+:mod:`rperc.slam.wallslam`), and ``rperc demo wall-slam`` on a simulated loop."""
 
 from __future__ import annotations
 
@@ -120,7 +120,7 @@ def demo_wall_slam(out: Path, seed: int) -> DemoResult:
     loops = " / ".join(f"{r.metrics['loop_error']:.3f}" for r in runs.values())
     plain = runs["plain"]
     summary = (
-        f"wall_slam: simulated corridor loop, {len(plain.pose)} scans, ATE {ates} m, "
+        f"wall-slam: simulated corridor loop, {len(plain.pose)} scans, ATE {ates} m, "
         f"loop error {loops} m (odometry / plain / anchored+freeze50 / plain smoothed), "
         "plain robot NEES "
         f"mean {plain.metrics['nees_mean']:.2f} (3 expected), {len(plain.wall_id)} walls"

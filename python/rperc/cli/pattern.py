@@ -25,20 +25,9 @@ from rperc.cli.outputs import (
     write_json,
     wrote,
 )
+from rperc.tracking.synthetic import demo_images
 
 COMPONENTS = ("dX (px)", "dY (px)", "dtheta (deg)", "ds (%)")
-
-
-def demo_images(seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """A patch with rectangles and a disc, and blocky clutter (generated, no data)."""
-    rng = np.random.default_rng(seed)
-    patch = np.full((100, 100), 60.0)
-    patch[10:45, 15:60] = 200
-    patch[55:90, 40:85] = 140
-    yy, xx = np.mgrid[0:100, 0:100]
-    patch[(xx - 30) ** 2 + (yy - 70) ** 2 < 225] = 230
-    background = rng.uniform(40, 200, (32, 32)).repeat(16, 0).repeat(16, 1)
-    return patch, background
 
 
 def fig8_errors(estimates: np.ndarray, truth: np.ndarray) -> dict[str, float]:

@@ -13,9 +13,7 @@
 from __future__ import annotations
 
 import argparse
-import time
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -36,11 +34,8 @@ from rperc.cli.outputs import (
 )
 from rperc.datasets import load_otb
 from rperc.tracking import metrics
+from rperc.tracking.runs import CLI_TRACKERS, TRACKERS, TrackerRun, run_tracker, scores
 
-TRACKERS = ("color", "color-pf")
-# The colour+shape tracker is offered by `rperc track` only: the tracking demo's scores
-# are of the two colour trackers.
-CLI_TRACKERS = ("color-template", *TRACKERS, "color-shape")
 STRIP_FRAMES = 6
 
 
@@ -88,19 +83,6 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     p.set_defaults(run=track_command)
 
 
-@dataclass(frozen=True)
-class TrackerRun:
-    """A tracker over a whole sequence: one box per frame (frame 0 holds the initial
-    box), whether the tracker flagged the target lost, and the seconds it took."""
-
-    name: str
-    boxes: np.ndarray  # (N, 4)
-    lost: np.ndarray  # (N,) bool
-    seconds: float
-    contours: tuple[np.ndarray, ...] | None = None  # (M, 2) per frame, color-shape only
-    scores: np.ndarray | None = None  # (N,) the tracker's score (1 for the first frame)
-
-
 def box_type(text: str) -> tuple[float, float, float, float]:
     """An argparse type: ``x,y,w,h`` as four finite numbers with ``w, h > 0``."""
     parts = text.split(",")
@@ -116,80 +98,6 @@ def box_type(text: str) -> tuple[float, float, float, float]:
     if w <= 0 or h <= 0:
         raise argparse.ArgumentTypeError(f"w and h must be > 0, got {excerpt(text)}")
     return (x, y, w, h)
-
-
-def run_tracker(
-    name: str,
-    frames: Sequence[np.ndarray] | np.ndarray,
-    first_box: Sequence[float],
-    seed: int,
-    settings: Mapping[str, Any] | None = None,
-) -> TrackerRun:
-    """Run tracker ``name`` from ``first_box`` over ``frames``, ``settings`` passed to
-    its constructor as keywords (``rperc bench`` sweeps them). This is the one place
-    that calls the trackers' Python API (construction and ``update``)."""
-    from rperc.tracking import (
-        ColorHistogramTracker,
-        ColorShapeTracker,
-        ColorTemplateTracker,
-        ParticleColorTracker,
-    )
-
-    x, y, w, h = (float(v) for v in first_box)
-    box = (x, y, w, h)
-    kw = dict(settings or {})
-    start = time.perf_counter()
-    if name == "color-template":
-        tracker: Any = ColorTemplateTracker(frames[0], box, seed=seed, **kw)
-    elif name == "color":
-        tracker = ColorHistogramTracker(frames[0], box, **kw)
-    elif name == "color-pf":
-        tracker = ParticleColorTracker(frames[0], box, seed=seed, **kw)
-    elif name == "color-shape":
-        tracker = ColorShapeTracker(frames[0], box, seed=seed, **kw)
-    else:
-        raise ValueError(
-            f"unknown tracker {excerpt(name)}; expected one of {', '.join(CLI_TRACKERS)}"
-        )
-    boxes: list[tuple[float, ...]] = [box]
-    scores = [1.0]
-    lost = [False]
-    corners = np.array([[x, y], [x + w - 1, y], [x + w - 1, y + h - 1], [x, y + h - 1]])
-    contours: list[np.ndarray] = [corners]
-    for frame in progress(frames[1:], desc=f"tracking ({name})", unit="frame"):
-        r = tracker.update(frame)
-        boxes.append(tuple(r.box))
-        scores.append(float(r.score))
-        lost.append(bool(r.lost))
-        contours.append(getattr(r, "contour", corners))
-    seconds = time.perf_counter() - start
-    shapes = tuple(contours) if name == "color-shape" else None
-    return TrackerRun(
-        name,
-        np.asarray(boxes, dtype=np.float64),
-        np.asarray(lost),
-        seconds,
-        shapes,
-        np.asarray(scores, dtype=np.float64),
-    )
-
-
-def scores(run: TrackerRun, truth: np.ndarray) -> dict[str, Any]:
-    """The OTB scores of ``run`` against ``truth`` (every frame, the first included)."""
-    overlaps = metrics.iou(run.boxes, truth)
-    return {
-        "tracker": run.name,
-        "frames": len(truth),
-        "auc": metrics.auc(overlaps),
-        "precision_20px": metrics.precision(run.boxes, truth),
-        "mean_iou": float(overlaps.mean()),
-        "lost_frames": int(run.lost.sum()),
-        "fps": len(truth) / run.seconds if run.seconds > 0 else float("inf"),
-        "boxes": run.boxes,
-        "scores": run.scores,
-        "lost": run.lost,
-        "iou": overlaps,
-    }
 
 
 def strip_indices(n_frames: int, count: int) -> np.ndarray:

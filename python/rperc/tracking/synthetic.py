@@ -163,3 +163,16 @@ def synthetic_sequence(
         out[k] = np.clip(np.rint(lit), 0, 255).astype(np.uint8)
     boxes = np.stack([cx - w / 2, cy - h / 2, w, h], axis=1)
     return SyntheticSequence(f"synthetic-{seed}", out, boxes, background, gain, seed)
+
+
+def demo_images(seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """A grey pattern patch (100 x 100: rectangles and a disc) and a blocky clutter
+    background (512 x 512) for the pattern tracker's generated sequences (no data)."""
+    rng = np.random.default_rng(seed)
+    patch = np.full((100, 100), 60.0)
+    patch[10:45, 15:60] = 200
+    patch[55:90, 40:85] = 140
+    yy, xx = np.mgrid[0:100, 0:100]
+    patch[(xx - 30) ** 2 + (yy - 70) ** 2 < 225] = 230
+    background = rng.uniform(40, 200, (32, 32)).repeat(16, 0).repeat(16, 1)
+    return patch, background

@@ -23,6 +23,7 @@ import numpy as np
 from rperc._args import excerpt
 from rperc._extras import require
 from rperc.bench.tasks import Task
+from rperc.pose import wrap_angle
 
 TRACKERS = ("rperc", "ecc-euclidean", "ecc-affine", "match-template", "csrt")
 DEFAULT_TRACKERS = ("rperc", "ecc-affine")
@@ -111,7 +112,7 @@ def images(root: str) -> tuple[np.ndarray, np.ndarray, str]:
             camera = np.asarray(cam.convert("L"), dtype=np.float64)
             background = np.asarray(grass.convert("L"), dtype=np.float64)
         return camera[60:160, 200:300], background, "camera.png over grass.png"
-    from rperc.cli.pattern import demo_images
+    from rperc.tracking.synthetic import demo_images
 
     patch, background = demo_images(0)
     return patch, background, "generated"
@@ -171,7 +172,7 @@ def run(task: Task) -> dict[str, Any]:
     est = corner_pose(result.corners, seq.region[2])
     ref = corner_pose(truth, seq.region[2])
     err = est - ref
-    err[:, 2] = np.angle(np.exp(1j * err[:, 2]))
+    err[:, 2] = wrap_angle(err[:, 2])
     rms = np.sqrt(np.nanmean(err**2, axis=0))
     return {
         "library": "rperc" if task.method == "rperc" else "OpenCV " + _cv2_version(),

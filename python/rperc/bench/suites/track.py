@@ -83,8 +83,8 @@ def sequence_folders(corpora: Sequence[Path], names: Sequence[str] | None) -> li
 
 def run(task: Task) -> dict[str, Any]:
     """One tracker over one sequence: its scores (the columns of ``rperc track``)."""
-    from rperc.cli.track import TrackerRun, run_tracker, scores
     from rperc.datasets import load_otb
+    from rperc.tracking.runs import TrackerRun, run_tracker, scores
 
     seq = load_otb(task.dataset)
     frames = [seq.frame(k) for k in range(len(seq))]

@@ -67,6 +67,18 @@ impl BoundingBox {
         Self { x, y, w, h }
     }
 
+    /// The smallest box holding every point `[x, y]` (a contour's box).
+    pub fn enclosing(points: &[[f64; 2]]) -> Self {
+        let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
+        for p in points {
+            x0 = x0.min(p[0]);
+            y0 = y0.min(p[1]);
+            x1 = x1.max(p[0]);
+            y1 = y1.max(p[1]);
+        }
+        Self::new(x0, y0, (x1 - x0).max(0.0), (y1 - y0).max(0.0))
+    }
+
     /// Its centre `(x + w/2, y + h/2)`.
     pub fn centre(&self) -> (f64, f64) {
         (self.x + self.w / 2.0, self.y + self.h / 2.0)

@@ -7,9 +7,8 @@ use super::params::ColorShapeParams;
 use super::segment::Roi;
 use super::snake::fill_polygon;
 use super::state::{ColourDistribution, State, colour_coords};
-use super::tracker::contour_box;
 use crate::error::{Result, TrackingError};
-use crate::frame::RgbFrame;
+use crate::frame::{BoundingBox, RgbFrame};
 
 /// The colour distribution `C_t` the refined contour `r_t` encloses: the measured
 /// counterpart of the filter's state, relative to `reference`. `None` when the
@@ -20,7 +19,7 @@ pub fn measured_state(
     reference: &ColourDistribution,
     p: &ColorShapeParams,
 ) -> Option<State> {
-    let b = contour_box(contour);
+    let b = BoundingBox::enclosing(contour);
     let (w, h) = (frame.width(), frame.height());
     let roi = Roi::clipped(b.x, b.y, b.x + b.w + 1.0, b.y + b.h + 1.0, w, h);
     if roi.width == 0 || roi.height == 0 {
@@ -59,7 +58,7 @@ pub fn target_colours(
     contour: &[[f64; 2]],
     p: &ColorShapeParams,
 ) -> Result<Vec<[f64; 3]>> {
-    let b = contour_box(contour);
+    let b = BoundingBox::enclosing(contour);
     let (gx, gy) = (p.background_ring * b.w, p.background_ring * b.h);
     let (w, h) = (frame.width(), frame.height());
     let roi = Roi::clipped(

@@ -147,7 +147,7 @@ impl ColorShapeTracker {
         let good_shape = r0.clone();
         let measured = reference.to_state();
         let last = ColorShapeResult {
-            bbox: contour_box(&r0),
+            bbox: BoundingBox::enclosing(&r0),
             contour: r0.clone(),
             distribution: distribution_of(&reference.to_state()),
             score: 1.0,
@@ -365,7 +365,7 @@ impl ColorShapeTracker {
             None => self.lost_frames += 1,
         }
         self.last = ColorShapeResult {
-            bbox: contour_box(&self.contour),
+            bbox: BoundingBox::enclosing(&self.contour),
             contour: self.contour.clone(),
             distribution: distribution_of(&self.filter.mean()),
             score,
@@ -415,7 +415,7 @@ impl ColorShapeTracker {
     /// `roi_margin` of its size plus the edge search, and while lost by a further
     /// `(2^k - 1) / 2` of its size after `k` lost frames, clipped to the frame.
     fn window(&self, predicted: &[[f64; 2]]) -> Roi {
-        let b = contour_box(predicted);
+        let b = BoundingBox::enclosing(predicted);
         let lost = self.lost_frames.min(12) as i32;
         let grow = self.params.roi_margin + 0.5 * (2f64.powi(lost) - 1.0);
         let mx = grow * b.w + self.params.search as f64;
@@ -622,7 +622,7 @@ fn check_contour(contour: &[[f64; 2]], width: usize, height: usize) -> Result<()
             reason: format!("need >= 3 finite points, got {}", contour.len()),
         });
     }
-    let b = contour_box(contour);
+    let b = BoundingBox::enclosing(contour);
     // A thin contour still encloses pixels: only its position is checked here.
     let outer = BoundingBox {
         w: b.w.max(1.0),
@@ -645,16 +645,4 @@ pub(crate) fn contour_centroid(c: &[[f64; 2]]) -> [f64; 2] {
     let n = c.len().max(1) as f64;
     let (sx, sy) = c.iter().fold((0.0, 0.0), |(a, b), p| (a + p[0], b + p[1]));
     [sx / n, sy / n]
-}
-
-/// Bounding box of a contour.
-pub(crate) fn contour_box(c: &[[f64; 2]]) -> BoundingBox {
-    let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
-    for p in c {
-        x0 = x0.min(p[0]);
-        y0 = y0.min(p[1]);
-        x1 = x1.max(p[0]);
-        y1 = y1.max(p[1]);
-    }
-    BoundingBox::new(x0, y0, (x1 - x0).max(0.0), (y1 - y0).max(0.0))
 }

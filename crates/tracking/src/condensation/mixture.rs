@@ -5,7 +5,7 @@
 
 use nalgebra::SVector;
 
-use super::filter::LinearGaussian;
+use super::dynamics::LinearGaussian;
 
 /// A guess: `count` particles drawn from `N(centre, diag(sigma^2))`.
 pub type Guess<const D: usize> = (SVector<f64, D>, SVector<f64, D>, usize);

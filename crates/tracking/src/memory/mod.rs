@@ -20,10 +20,12 @@ pub use keyimages::{
     KeyImage, KeyImageParams, LearntFrame, TrackedModel, check_chain, select_key_images, separation,
 };
 pub use localiser::{LocaliserParams, ModelSighting, PoseFilter, observe};
-pub use mosaic::{FrameReport, MosaicBuilder, MosaicModel, MosaicParams, rotation_lever};
+pub use mosaic::{
+    FrameReport, MosaicBuilder, MosaicCovariance, MosaicModel, MosaicParams, rotation_lever,
+};
 pub use run::{
-    LearnParams, Learning, MosaicCovariance, Replay, ReplayOutcome, ReplayParams, Scene,
-    VisualMemory, World, learn, replay,
+    LearnParams, Learning, Replay, ReplayOutcome, ReplayParams, Scene, VisualMemory, World, learn,
+    replay,
 };
 pub use salient::{ProposalParams, propose_regions};
 pub use servo::{ServoParams, command, key_error};

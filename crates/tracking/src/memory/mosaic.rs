@@ -290,14 +290,14 @@ impl MosaicBuilder {
 
     /// The mapped models' joint covariance (while mapping, every model after model
     /// 0), to store with the mosaic.
-    pub fn map_covariance(&self) -> Option<super::run::MosaicCovariance> {
+    pub fn map_covariance(&self) -> Option<MosaicCovariance> {
         let (ids, matrix) = self.filter.as_ref()?.map();
         if ids.is_empty() {
             return None;
         }
         let m = matrix.nrows();
         let rows = (0..m).flat_map(|r| (0..m).map(move |c| (r, c)));
-        Some(super::run::MosaicCovariance {
+        Some(MosaicCovariance {
             ids,
             matrix: rows.map(|(r, c)| matrix[(r, c)]).collect(),
         })
@@ -1031,4 +1031,47 @@ fn bounds(corners: &[[f64; 2]; 4]) -> [f64; 4] {
         y1 = y1.max(c[1]);
     }
     [x0, y0, x1 - x0, y1 - y0]
+}
+
+/// The joint covariance of some of a mosaic's models.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct MosaicCovariance {
+    /// The models, in the covariance's order.
+    pub ids: Vec<usize>,
+    /// The `3m x 3m` covariance over their `(x, y, theta)`, row-major.
+    pub matrix: Vec<f64>,
+}
+
+impl MosaicCovariance {
+    /// The matrix, refused unless it is `3m x 3m` for distinct models of a mosaic of
+    /// `n_models`, finite and symmetric.
+    pub fn matrix(&self, n_models: usize) -> Result<nalgebra::DMatrix<f64>> {
+        let invalid = |reason: String| TrackingError::InvalidParameter {
+            name: "mosaic_covariance",
+            reason,
+        };
+        let m = 3 * self.ids.len();
+        let mut seen = std::collections::BTreeSet::new();
+        if self
+            .ids
+            .iter()
+            .any(|&id| id >= n_models || !seen.insert(id))
+        {
+            return Err(invalid(format!(
+                "ids {:?} are not distinct models of the mosaic",
+                self.ids
+            )));
+        }
+        if self.matrix.len() != m * m || !self.matrix.iter().all(|v| v.is_finite()) {
+            return Err(invalid(format!(
+                "needs {m}x{m} finite values, got {}",
+                self.matrix.len()
+            )));
+        }
+        let c = nalgebra::DMatrix::from_row_slice(m, m, &self.matrix);
+        if rperc_core::asymmetry(&c) > rperc_core::gaussian::COVARIANCE_RTOL * 1e3 {
+            return Err(invalid("the matrix is not symmetric".into()));
+        }
+        Ok(c)
+    }
 }

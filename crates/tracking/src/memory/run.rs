@@ -15,7 +15,7 @@ use super::keyimages::{KeyImage, KeyImageParams, LearntFrame, select_key_images}
 
 use super::geometry::ImageScale;
 use super::keyimages::TrackedModel;
-use super::mosaic::{FrameReport, MosaicBuilder, MosaicModel, MosaicParams};
+use super::mosaic::{FrameReport, MosaicBuilder, MosaicCovariance, MosaicModel, MosaicParams};
 use super::servo::{ServoParams, command, key_error};
 use crate::ceiling::{Ceiling, CeilingCamera, CeilingParams, OdometryNoise, RenderParams, render};
 use crate::error::{Result, TrackingError};
@@ -94,49 +94,6 @@ pub struct VisualMemory {
     /// models then count as independent.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mosaic_covariance: Option<MosaicCovariance>,
-}
-
-/// The joint covariance of some of a mosaic's models.
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct MosaicCovariance {
-    /// The models, in the covariance's order.
-    pub ids: Vec<usize>,
-    /// The `3m x 3m` covariance over their `(x, y, theta)`, row-major.
-    pub matrix: Vec<f64>,
-}
-
-impl MosaicCovariance {
-    /// The matrix, refused unless it is `3m x 3m` for distinct models of a mosaic of
-    /// `n_models`, finite and symmetric.
-    pub fn matrix(&self, n_models: usize) -> Result<nalgebra::DMatrix<f64>> {
-        let invalid = |reason: String| TrackingError::InvalidParameter {
-            name: "mosaic_covariance",
-            reason,
-        };
-        let m = 3 * self.ids.len();
-        let mut seen = std::collections::BTreeSet::new();
-        if self
-            .ids
-            .iter()
-            .any(|&id| id >= n_models || !seen.insert(id))
-        {
-            return Err(invalid(format!(
-                "ids {:?} are not distinct models of the mosaic",
-                self.ids
-            )));
-        }
-        if self.matrix.len() != m * m || !self.matrix.iter().all(|v| v.is_finite()) {
-            return Err(invalid(format!(
-                "needs {m}x{m} finite values, got {}",
-                self.matrix.len()
-            )));
-        }
-        let c = nalgebra::DMatrix::from_row_slice(m, m, &self.matrix);
-        if rperc_core::asymmetry(&c) > rperc_core::gaussian::COVARIANCE_RTOL * 1e3 {
-            return Err(invalid("the matrix is not symmetric".into()));
-        }
-        Ok(c)
-    }
 }
 
 impl VisualMemory {

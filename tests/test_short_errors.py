@@ -33,3 +33,14 @@ def test_a_huge_argument_is_quoted_briefly_and_named(name):
     text = str(info.value)
     assert name in text and len(text) < 250, text[:300]
     assert "more characters" in text
+
+
+@pytest.mark.parametrize("value", [2**63, -(2**63) - 1, 10**30])
+def test_an_integer_beyond_64_bits_names_its_field_and_the_range(value):
+    """A config integer outside a signed 64-bit integer is refused by its field with
+    the range it must lie in (it said "64 bits does not fit a 64-bit integer")."""
+    from rperc import _rperc
+
+    patch = np.zeros((10, 10), np.uint8)
+    with pytest.raises(ValueError, match=r"pattern_sequence\.width: .* out of range .*2\^63 - 1"):
+        _rperc.pattern_sequence(patch, patch, {"width": value})

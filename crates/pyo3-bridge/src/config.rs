@@ -63,7 +63,8 @@ fn plain<'py>(obj: &Bound<'py, PyAny>, path: &str) -> Result<Bound<'py, PyAny>> 
     if obj.is_instance_of::<PyInt>() && obj.extract::<i64>().is_err() {
         let bits: u64 = obj.call_method0("bit_length")?.extract()?;
         return Err(Error::Value(format!(
-            "{}: an integer of {bits} bits does not fit a 64-bit integer",
+            "{}: an integer of {bits} bits is out of range (a signed 64-bit integer: \
+             -2^63 to 2^63 - 1)",
             clip(path, QUOTE_LIMIT)
         )));
     }

@@ -44,3 +44,23 @@ def test_an_integer_beyond_64_bits_names_its_field_and_the_range(value):
     patch = np.zeros((10, 10), np.uint8)
     with pytest.raises(ValueError, match=r"pattern_sequence\.width: .* out of range .*2\^63 - 1"):
         _rperc.pattern_sequence(patch, patch, {"width": value})
+
+
+def test_a_bound_that_is_not_a_power_of_two_is_stated_as_the_largest_value():
+    """``whole_number``'s message states the bound it checks: 10^6 particles is the
+    most any filter takes (rperc-core's MAX_PARTICLES, which the colour+shape tracker
+    accepts), and one more is refused with that number, not a wrong power of two."""
+    from rperc import _rperc
+    from rperc._args import whole_number
+    from rperc.tracking import ColorShapeTracker
+
+    assert _rperc.MAX_PARTICLES == 10**6
+    limit = _rperc.MAX_PARTICLES + 1
+    assert whole_number(10**6, "n_samples", 1, limit=limit) == 10**6
+    with pytest.raises(ValueError, match=r"n_samples must be a positive integer at most 1000000"):
+        whole_number(10**6 + 1, "n_samples", 1, limit=limit)
+    with pytest.raises(ValueError, match=r"seed must be a non-negative integer below 2\*\*64"):
+        whole_number(-1, "seed", 0, limit=2**64)
+    frame = np.zeros((40, 40, 3), np.uint8)
+    with pytest.raises(ValueError, match=r"n_samples .* at most 1000000"):
+        ColorShapeTracker(frame, (10, 10, 10, 10), n_samples=10**6 + 1)

@@ -41,9 +41,12 @@ def whole_number(value: object, name: str, minimum: int, limit: int = 2**63) -> 
         what = {0: "a non-negative integer", 1: "a positive integer"}.get(
             minimum, f"an integer >= {minimum}"
         )
-        raise ValueError(
-            f"{name} must be {what} below 2**{limit.bit_length() - 1}, got {excerpt(value)}"
-        )
+        # A power of two reads best as one; any other bound as the largest value allowed.
+        bound = (
+            f"below 2**{limit.bit_length() - 1}" if limit & (limit - 1) == 0
+            else f"at most {limit - 1}"
+        )  # fmt: skip
+        raise ValueError(f"{name} must be {what} {bound}, got {excerpt(value)}")
     return number
 
 

@@ -7,6 +7,7 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = [
+    "MAX_PARTICLES",
     "CeilingWorld",
     "ColorHistogramTracker",
     "ColorShapeTracker",
@@ -67,6 +68,7 @@ __all__ = [
 ]
 
 __version__: str
+MAX_PARTICLES: int
 
 class RpercError(Exception): ...
 class NumericalError(RpercError): ...

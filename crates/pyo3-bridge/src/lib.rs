@@ -78,6 +78,8 @@ mod _rperc {
     #[pymodule_init]
     fn init(m: &Bound<'_, PyModule>) -> PyResult<()> {
         m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+        // The most particles any filter takes (rperc-core's bound), for Python's checks.
+        m.add("MAX_PARTICLES", rperc_core::MAX_PARTICLES)?;
         crate::arrays::load_numpy_api(m.py())
     }
 }

@@ -596,7 +596,7 @@ class ColorShapeTracker:
         cfg: dict[str, Any] = {k: _plain(v) for k, v in (config or {}).items()}
         cfg.update(
             color_space=color_space,
-            n_samples=whole_number(n_samples, "n_samples", 1, limit=1_000_000),
+            n_samples=whole_number(n_samples, "n_samples", 1, limit=_rperc.MAX_PARTICLES + 1),
             sigma=real_number(sigma, "sigma"),
             seed=whole_number(seed, "seed", 0, limit=2**64),
         )

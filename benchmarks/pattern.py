@@ -35,6 +35,7 @@ from _timing import print_table
 
 from rperc.datasets import data_dir
 from rperc.tracking import PatternSequence, PatternTracker, pattern_sequence, planar
+from rperc.tracking.synthetic import demo_images
 
 try:
     import cv2
@@ -52,13 +53,7 @@ def images() -> tuple[np.ndarray, np.ndarray, str]:
         grass = cv2.imread(str(root / "images" / "grass.png"), cv2.IMREAD_GRAYSCALE)
         if camera is not None and grass is not None:
             return camera[60:160, 200:300], grass, "camera.png over grass.png"
-    rng = np.random.default_rng(0)
-    patch = np.full((100, 100), 60.0)
-    patch[10:45, 15:60] = 200
-    patch[55:90, 40:85] = 140
-    yy, xx = np.mgrid[0:100, 0:100]
-    patch[(xx - 30) ** 2 + (yy - 70) ** 2 < 225] = 230
-    bg = rng.uniform(40, 200, (32, 32)).repeat(16, 0).repeat(16, 1)
+    patch, bg = demo_images(0)
     return patch, bg, "synthetic patch and block clutter"
 
 

@@ -26,6 +26,12 @@ def test_bad_pose_is_a_clear_error():
 
     with pytest.raises(ValueError, match=r"\(x, y, theta\)"):
         to_world([1.0, 2.0], [[0.0, 0.0]])
+    # A pose with no position or heading moves no point: refused, not NaN rows.
+    for bad in ([np.nan, 0.0, 0.0], [0.0, 0.0, np.inf]):
+        with pytest.raises(ValueError, match=r"finite numbers \(x, y, theta\)"):
+            to_world(bad, [[1.0, 0.0]])
+        with pytest.raises(ValueError, match=r"finite numbers \(x, y, theta\)"):
+            to_frame(bad, [[1.0, 0.0]])
 
 
 @given(st.lists(st.floats(-1e6, 1e6), min_size=1, max_size=50))

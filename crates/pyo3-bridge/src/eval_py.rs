@@ -192,15 +192,7 @@ pub fn pose_transform_points<'py>(
     points: &Bound<'py, PyAny>,
     inverse: bool,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    let p = float_vector(pose, "pose")?;
-    let [x, y, theta] = p[..] else {
-        return Err(Error::Value(format!(
-            "pose must be (x, y, theta), got {} values",
-            p.len()
-        ))
-        .into());
-    };
-    let pose = Pose2 { x, y, theta };
+    let pose = pose3(pose)?;
     let rows = point_rows(points, "points")?;
     let pts = rows.as_points();
     let moved: Vec<f64> = pts

@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from rperc.pose import to_frame, to_world, wrap_angle
+from rperc.pose import point_path, to_frame, to_world, wrap_angle
 
 coords = st.floats(-1e3, 1e3)
 
@@ -32,6 +32,34 @@ def test_bad_pose_is_a_clear_error():
             to_world(bad, [[1.0, 0.0]])
         with pytest.raises(ValueError, match=r"finite numbers \(x, y, theta\)"):
             to_frame(bad, [[1.0, 0.0]])
+
+
+@given(
+    st.lists(st.tuples(coords, coords, st.floats(-10, 10)), max_size=20),
+    st.tuples(st.floats(-10, 10), st.floats(-10, 10)),
+)
+def test_point_path_is_each_pose_moving_the_offset(poses, offset):
+    """Oracle: the closed form of one pose at a time (written here, numpy)."""
+    p = np.asarray(poses, dtype=float).reshape(-1, 3)
+    c, s = np.cos(p[:, 2]), np.sin(p[:, 2])
+    fx, fy = offset
+    expected = np.c_[p[:, 0] + c * fx - s * fy, p[:, 1] + s * fx + c * fy]
+    np.testing.assert_allclose(point_path(p, offset), expected, atol=1e-9)
+
+
+def test_point_path_refuses_bad_poses_and_offsets():
+    import pytest
+
+    with pytest.raises(ValueError, match=r"\(N, 3\)"):
+        point_path(np.zeros((2, 2)), (1.0, 0.0))
+    with pytest.raises(TypeError, match="real numbers"):
+        point_path(np.array([["a", "b", "c"]]), (1.0, 0.0))
+    with pytest.raises(ValueError, match="row 1"):
+        point_path([[0.0, 0.0, 0.0], [np.nan, 0.0, 0.0]], (1.0, 0.0))
+    for bad in ((1.0,), (1.0, np.inf), (1.0, 2.0, 3.0)):
+        with pytest.raises(ValueError, match="offset"):
+            point_path([[0.0, 0.0, 0.0]], bad)
+    assert point_path(np.zeros((0, 3)), (1.0, 0.0)).shape == (0, 2)
 
 
 @given(st.lists(st.floats(-1e6, 1e6), min_size=1, max_size=50))

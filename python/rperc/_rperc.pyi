@@ -51,6 +51,7 @@ __all__ = [
     "planar_simulate",
     "planar_slam_run",
     "planar_smooth_walls",
+    "pose_path_point",
     "pose_transform_points",
     "resample",
     "scan_params_defaults",
@@ -314,6 +315,7 @@ def otb_groundtruth(text: str, name: str) -> _Array: ...
 def pose_transform_points(
     pose: _ArrayLike, points: _ArrayLike, inverse: bool = False
 ) -> _Array: ...
+def pose_path_point(poses: _ArrayLike, offset: _ArrayLike) -> _Array: ...
 def wrap_angles(angles: _ArrayLike) -> _Array: ...
 def walls_to_world(
     rho: _ArrayLike, alpha: _ArrayLike, pose: _ArrayLike

@@ -41,6 +41,25 @@ def to_frame(pose: npt.ArrayLike, points: npt.ArrayLike) -> np.ndarray:
     return _rperc.pose_transform_points(pose_arr, _points(points), inverse=True)
 
 
+def point_path(poses: npt.ArrayLike, offset: npt.ArrayLike) -> np.ndarray:
+    """The world path ``(N, 2)`` of one point of the robot, ``offset`` = (forward, left)
+    metres in its frame, over its poses ``(N, 3)``: ``R(theta_k) offset + (x_k, y_k)``
+    (a GPS antenna or a laser on a lever arm). NaN or infinite poses are an error.
+
+    >>> import numpy as np
+    >>> point_path([[0.0, 0.0, 0.0], [1.0, 2.0, np.pi / 2]], (1.0, 0.5)).round(12)
+    array([[1. , 0.5],
+           [0.5, 3. ]])
+    """
+    arr = np.asarray(poses)
+    if arr.dtype.kind not in "fiub":
+        raise TypeError(f"poses must be real numbers, got dtype {arr.dtype}")
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise ValueError(f"poses must have shape (N, 3), got {arr.shape}")
+    pts = np.ascontiguousarray(arr, dtype=np.float64)
+    return _rperc.pose_path_point(pts, np.asarray(offset, dtype=np.float64))
+
+
 def wrap_angle(angle: npt.ArrayLike) -> np.ndarray:
     """Angles (any shape) wrapped into (-pi, pi] by rperc-core's ``wrap_angle``, the
     one wrap of the project (pi stays pi; an angle already in range is returned

@@ -162,6 +162,43 @@ pub fn walls_to_world<'py>(
     ))
 }
 
+/// The world path `(N, 2)` of one point `offset` of the robot (its frame: forward,
+/// left) over the poses `(N, 3)`: `R(theta_k) offset + (x_k, y_k)` for each pose, by
+/// rperc-core's `Pose2` (a GPS antenna or laser on a lever arm).
+#[pyfunction]
+pub fn pose_path_point<'py>(
+    py: Python<'py>,
+    poses: &Bound<'py, PyAny>,
+    offset: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let rows = crate::planar_py::rows::<3>(Some(poses), "poses")?;
+    let offset = match float_vector(offset, "offset")?[..] {
+        [fx, fy] if fx.is_finite() && fy.is_finite() => Point2::new(fx, fy),
+        ref o => {
+            return Err(Error::Value(format!(
+                "offset must be 2 finite numbers (forward, left), got {o:?}"
+            ))
+            .into());
+        }
+    };
+    let mut path = Vec::with_capacity(2 * rows.len());
+    for (k, &[x, y, theta]) in rows.iter().enumerate() {
+        if !(x.is_finite() && y.is_finite() && theta.is_finite()) {
+            return Err(Error::Value(format!(
+                "poses must be finite, row {k} is ({x}, {y}, {theta})"
+            ))
+            .into());
+        }
+        let q = Pose2 { x, y, theta }.transform_point(&offset);
+        path.extend([q.x, q.y]);
+    }
+    Ok(
+        numpy::ndarray::Array2::from_shape_vec((rows.len(), 2), path)
+            .map_err(|e| Error::Value(e.to_string()))?
+            .into_pyarray(py),
+    )
+}
+
 /// `(rho_w, alpha_w, d/d wall, d/d pose)` of [`walls_to_world`].
 type WorldWalls<'py> = (
     Bound<'py, PyArray1<f64>>,

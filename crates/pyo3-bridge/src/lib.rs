@@ -39,7 +39,7 @@ mod _rperc {
     #[pymodule_export]
     use crate::eval_py::{
         otb_center_error, otb_groundtruth, otb_iou, otb_precision, otb_success_curve,
-        pose_transform_points, walls_to_world, wrap_angles,
+        pose_path_point, pose_transform_points, walls_to_world, wrap_angles,
     };
     #[pymodule_export]
     use crate::laser_py::{laser_defaults, laser_run, laser_scan_points};

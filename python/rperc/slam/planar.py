@@ -45,6 +45,7 @@ import numpy.typing as npt
 import rperc.slam.evaluation as evaluation
 from rperc import _rperc
 from rperc._args import excerpt, real_number, whole_number
+from rperc.pose import point_path as _point_path
 from rperc.pose import wrap_angle
 
 __all__ = [
@@ -359,14 +360,9 @@ class SlamResult:
 
 def point_path(pose: npt.ArrayLike, offset: tuple[float, float]) -> np.ndarray:
     """The path ``(N, 2)`` of the point ``offset`` (m, forward and left) of the robot
-    whose poses ``(N, 3)`` are given: ``t + R(theta) offset``."""
-    p = np.asarray(pose, dtype=np.float64)
-    if p.ndim != 2 or p.shape[1] != 3:
-        raise ValueError(f"pose must have shape (N, 3), got {p.shape}")
-    c, s = np.cos(p[:, 2]), np.sin(p[:, 2])
-    fx, fy = float(offset[0]), float(offset[1])
-    out: np.ndarray = np.c_[p[:, 0] + c * fx - s * fy, p[:, 1] + s * fx + c * fy]
-    return out
+    whose poses ``(N, 3)`` are given: ``t + R(theta) offset``
+    (:func:`rperc.pose.point_path`)."""
+    return _point_path(pose, offset)
 
 
 @dataclass(frozen=True)

@@ -149,3 +149,37 @@ def test_bad_variant_and_defaults() -> None:
         load_and_run("unused.log", variant="teleport")
     d = defaults()
     assert set(d) >= {"scan", "icp", "local_map", "loops", "motion"}
+
+
+def test_the_native_result_is_typed_frozen_and_read_only(loop_log: Path) -> None:
+    """The seam's result: named fields whose shapes agree with the log, arrays that
+    cannot be written, no attribute that can be set, and rejection counts that add up
+    to the total (each closure is rejected for one reason)."""
+    from rperc import _rperc
+    from rperc.datasets.carmen import load_carmen
+    from rperc.slam.wallslam import increments
+
+    sc = load_carmen(loop_log).scans
+    controls, t = increments(np.asarray(sc.pose))
+    controls = np.r_[controls, [[t[-1], 0.0, 0.0]]]
+    f64 = np.float64
+    run = _rperc.laser_run(
+        np.asarray(sc.ranges, dtype=f64), np.asarray(sc.num_beams, dtype=np.int64),
+        np.asarray(sc.angle_min, dtype=f64), np.asarray(sc.angle_increment, dtype=f64),
+        np.asarray(sc.max_range, dtype=f64), controls, t,
+        {"initial_pose": np.asarray(sc.pose)[0].tolist()},
+    )  # fmt: skip
+    s = len(t)
+    assert isinstance(run, _rperc.LaserRun)
+    assert run.pose.shape == run.causal_pose.shape == (s, 3)
+    assert run.covariance.shape == (s, 3, 3)
+    assert run.matched.shape == run.inliers.shape == run.rms.shape == (s,)
+    assert run.closures.dtype == np.int64 and run.closures.shape == (len(run.closure_chi2), 2)
+    assert set(run.closures.ravel()) <= set(run.keys.tolist())
+    assert sum(run.rejected) == run.closures_rejected
+    assert len(run.rejection_reasons) == len(run.rejected) == 5
+    with pytest.raises(ValueError, match="read-only"):
+        run.pose[0, 0] = 1.0
+    with pytest.raises(AttributeError):
+        run.pose = np.zeros((s, 3))  # type: ignore[misc]
+    assert f"{s} scans" in repr(run)

@@ -1,7 +1,7 @@
 """Type stubs of the native extension. Use the documented wrappers in :mod:`rperc`."""
 
 from collections.abc import Callable, Mapping
-from typing import Any, TypeAlias, TypedDict, final
+from typing import Any, TypeAlias, final
 
 import numpy as np
 import numpy.typing as npt
@@ -13,6 +13,7 @@ __all__ = [
     "ColorShapeTracker",
     "ColorTemplateTracker",
     "Ekf",
+    "LaserRun",
     "NumericalError",
     "ParticleColorTracker",
     "PatternTracker",
@@ -380,23 +381,39 @@ def visual_memory_replay(
 def visual_memory_defaults() -> tuple[dict[str, Any], dict[str, Any]]: ...
 def visual_memory_check(memory: str) -> None: ...
 
-class _LaserRunOutput(TypedDict):
-    """What :func:`laser_run` returns: every scan's final pose ``(S, 3)`` and
+@final
+class LaserRun:
+    """What :func:`laser_run` returns, frozen: every scan's final pose ``(S, 3)`` and
     covariance ``(S, 3, 3)``, the online path, the front end's match statistics, the
-    key scans and the loop closures."""
+    key scans, the accepted loop closures ``(K, 2)`` (scan indices) with their
+    chi-square in the final graph, and the rejected closures by reason. Its arrays
+    are read-only."""
 
-    pose: npt.NDArray[np.float64]
-    covariance: npt.NDArray[np.float64]
-    causal_pose: npt.NDArray[np.float64]
-    matched: npt.NDArray[np.bool_]
-    inliers: npt.NDArray[np.int64]
-    rms: npt.NDArray[np.float64]
-    keys: npt.NDArray[np.int64]
-    closures: npt.NDArray[np.float64]
-    closure_chi2: npt.NDArray[np.float64]
-    closures_rejected: int
-    closure_attempts: int
-    rejections: dict[str, int]
+    rejection_reasons: tuple[str, str, str, str, str]
+    @property
+    def pose(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def covariance(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def causal_pose(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def matched(self) -> npt.NDArray[np.bool_]: ...
+    @property
+    def inliers(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def rms(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def keys(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def closures(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def closure_chi2(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def closure_attempts(self) -> int: ...
+    @property
+    def closures_rejected(self) -> int: ...
+    @property
+    def rejected(self) -> tuple[int, int, int, int, int]: ...
 
 def laser_defaults() -> dict[str, Any]: ...
 def laser_run(
@@ -408,7 +425,7 @@ def laser_run(
     controls: npt.NDArray[np.float64],
     times: npt.NDArray[np.float64],
     config: Mapping[str, Any] | None = None,
-) -> _LaserRunOutput: ...
+) -> LaserRun: ...
 def laser_scan_points(
     ranges: _ArrayLike,
     angle_min: float,

@@ -1,8 +1,9 @@
 //! Laser SLAM (`laser` crate): a log's scans and odometry in, every scan's pose out.
 
-use numpy::IntoPyArray;
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayDyn};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::type_object::PyTypeCheck;
+use pyo3::types::PyTuple;
 
 use crate::arrays::{float_vector, shaped, tensor};
 use crate::errors::{Error, Result, detached};
@@ -19,11 +20,121 @@ fn poses(v: &[rperc_core::Pose2]) -> Vec<f64> {
     v.iter().flat_map(|p| [p.x, p.y, p.theta]).collect()
 }
 
+/// What [`laser_run`] returns, frozen: every scan's final pose `(S, 3)` and
+/// covariance `(S, 3, 3)`, the online (causal) path, the front end's match statistics,
+/// the key scans, the accepted loop closures `(K, 2)` (key scan pairs, as scan
+/// indices) with their chi-square in the final graph, and the closures rejected by
+/// reason. Its arrays are read-only.
+#[pyclass(name = "LaserRun", module = "rperc._rperc", frozen)]
+pub struct PyLaserRun {
+    #[pyo3(get)]
+    pose: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    covariance: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    causal_pose: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    matched: Py<PyArray1<bool>>,
+    #[pyo3(get)]
+    inliers: Py<PyArray1<i64>>,
+    #[pyo3(get)]
+    rms: Py<PyArray1<f64>>,
+    #[pyo3(get)]
+    keys: Py<PyArray1<i64>>,
+    #[pyo3(get)]
+    closures: Py<PyArray2<i64>>,
+    #[pyo3(get)]
+    closure_chi2: Py<PyArray1<f64>>,
+    #[pyo3(get)]
+    closure_attempts: usize,
+    #[pyo3(get)]
+    closures_rejected: usize,
+    /// Rejected closures by reason, in [`REJECTION_REASONS`]' order.
+    rejections: [usize; 5],
+    /// Scans, key scans and accepted closures (for the repr).
+    counts: [usize; 3],
+}
+
+/// Why a closure was rejected, in the order of `LaserRun::rejections`.
+const REJECTION_REASONS: [&str; 5] = [
+    "inliers",
+    "residual",
+    "degenerate",
+    "unconfirmed",
+    "disagreeing",
+];
+
+#[pymethods]
+impl PyLaserRun {
+    /// The reasons a closure can be rejected, in the order of `rejected`.
+    #[classattr]
+    fn rejection_reasons(py: Python<'_>) -> PyResult<Bound<'_, PyTuple>> {
+        PyTuple::new(py, REJECTION_REASONS)
+    }
+
+    /// How many closures were rejected for each of `rejection_reasons`.
+    #[getter]
+    fn rejected<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        PyTuple::new(py, self.rejections)
+    }
+
+    fn __repr__(&self) -> String {
+        let [scans, keys, closures] = self.counts;
+        format!(
+            "LaserRun({scans} scans, {keys} key scans, {closures} closures accepted, {} rejected \
+             of {} attempts)",
+            self.closures_rejected, self.closure_attempts
+        )
+    }
+}
+
+/// `array` made read-only (a frozen result's arrays are not to be written).
+fn read_only<'py, T: PyTypeCheck>(array: Bound<'py, T>) -> PyResult<Py<T>> {
+    array
+        .as_any()
+        .getattr("flags")?
+        .setattr("writeable", false)?;
+    Ok(array.unbind())
+}
+
+impl PyLaserRun {
+    fn new(py: Python<'_>, out: laser::LaserRun, s: usize) -> PyResult<Self> {
+        let cov: Vec<f64> = out
+            .covariance
+            .iter()
+            .flat_map(|c| c.transpose().iter().copied().collect::<Vec<_>>())
+            .collect();
+        let closures: Vec<i64> = out
+            .closures
+            .iter()
+            .flat_map(|&(a, b)| [a as i64, b as i64])
+            .collect();
+        let closures = numpy::ndarray::Array2::from_shape_vec((out.closures.len(), 2), closures)
+            .map_err(|e| Error::Value(format!("internal shape error: {e}")))?;
+        let ints = |v: &[usize]| v.iter().map(|&k| k as i64).collect::<Vec<i64>>();
+        let counts = [s, out.keys.len(), out.closures.len()];
+        Ok(Self {
+            counts,
+            pose: read_only(shaped(py, poses(&out.pose), &[s, 3])?)?,
+            covariance: read_only(shaped(py, cov, &[s, 3, 3])?)?,
+            causal_pose: read_only(shaped(py, poses(&out.causal_pose), &[s, 3])?)?,
+            matched: read_only(out.matched.into_pyarray(py))?,
+            inliers: read_only(ints(&out.inliers).into_pyarray(py))?,
+            rms: read_only(out.rms.into_pyarray(py))?,
+            keys: read_only(ints(&out.keys).into_pyarray(py))?,
+            closures: read_only(closures.into_pyarray(py))?,
+            closure_chi2: read_only(out.closure_chi2.into_pyarray(py))?,
+            closure_attempts: out.closure_attempts,
+            closures_rejected: out.closures_rejected,
+            rejections: out.rejections,
+        })
+    }
+}
+
 /// Runs laser SLAM (GIL released): `ranges` `(S, n)` (NaN-padded), `counts` (int64,
 /// readings per scan), per-scan `angle_min`, `angle_increment`, `max_range`,
-/// odometry `controls` rows `(t, v, omega)` and the scans' `times`. Returns a dict of
-/// arrays: `pose`, `covariance`, `causal_pose`, `matched`, `keys`, `closures`,
-/// `closure_chi2` and the closure counts.
+/// odometry `controls` rows `(t, v, omega)` and the scans' `times`. Returns a
+/// [`PyLaserRun`].
 #[pyfunction]
 #[pyo3(signature = (ranges, counts, angle_min, angle_increment, max_range, controls, times, config = None))]
 #[allow(clippy::too_many_arguments)]
@@ -37,7 +148,7 @@ pub fn laser_run<'py>(
     controls: &Bound<'py, PyAny>,
     times: &Bound<'py, PyAny>,
     config: Option<&Bound<'py, PyAny>>,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<PyLaserRun> {
     let config: LaserConfig = crate::config::from_python(config, "laser")?;
     config.validate().map_err(Error::from)?;
     let (shape, ranges) = tensor(ranges, "ranges", 2)?;
@@ -64,43 +175,7 @@ pub fn laser_run<'py>(
         };
         Ok(laser::run(&log, &controls, &times, &config)?)
     })?;
-    let d = PyDict::new(py);
-    d.set_item("pose", shaped(py, poses(&out.pose), &[s, 3])?)?;
-    let cov: Vec<f64> = out
-        .covariance
-        .iter()
-        .flat_map(|c| c.transpose().iter().copied().collect::<Vec<_>>())
-        .collect();
-    d.set_item("covariance", shaped(py, cov, &[s, 3, 3])?)?;
-    d.set_item("causal_pose", shaped(py, poses(&out.causal_pose), &[s, 3])?)?;
-    d.set_item("matched", out.matched.into_pyarray(py))?;
-    let inliers: Vec<i64> = out.inliers.iter().map(|&k| k as i64).collect();
-    d.set_item("inliers", inliers.into_pyarray(py))?;
-    d.set_item("rms", out.rms.into_pyarray(py))?;
-    let keys: Vec<i64> = out.keys.iter().map(|&k| k as i64).collect();
-    d.set_item("keys", keys.into_pyarray(py))?;
-    let closures: Vec<f64> = out
-        .closures
-        .iter()
-        .flat_map(|&(a, b)| [a as f64, b as f64])
-        .collect();
-    d.set_item("closures", shaped(py, closures, &[out.closures.len(), 2])?)?;
-    d.set_item("closure_chi2", out.closure_chi2.into_pyarray(py))?;
-    d.set_item("closures_rejected", out.closures_rejected)?;
-    d.set_item("closure_attempts", out.closure_attempts)?;
-    let reasons = [
-        "inliers",
-        "residual",
-        "degenerate",
-        "unconfirmed",
-        "disagreeing",
-    ];
-    let why = PyDict::new(py);
-    for (name, count) in reasons.iter().zip(out.rejections) {
-        why.set_item(name, count)?;
-    }
-    d.set_item("rejections", why)?;
-    Ok(d)
+    PyLaserRun::new(py, out, s)
 }
 
 /// One scan's points (laser frame) and their normals (NaN where a point is on no

@@ -42,7 +42,7 @@ mod _rperc {
         pose_path_point, pose_transform_points, walls_to_world, wrap_angles,
     };
     #[pymodule_export]
-    use crate::laser_py::{laser_defaults, laser_run, laser_scan_points};
+    use crate::laser_py::{PyLaserRun, laser_defaults, laser_run, laser_scan_points};
     #[pymodule_export]
     use crate::linesimp_py::{
         extract_lines, scan_params_defaults, simplify_indices, simplify_many_indices,

@@ -113,13 +113,13 @@ class LaserResult:
         )
 
 
-def _scores(result: dict[str, Any], ref: np.ndarray) -> dict[str, float]:
+def _scores(result: _rperc.LaserRun, ref: np.ndarray) -> dict[str, float]:
     """ATE of the final and the causal path, loop and final errors and the robot NEES
     against the reference (the wall-SLAM experiment's scores)."""
     from rperc.slam.wallslam import loop_pairs, score
 
-    final = score(result["pose"], result["covariance"], ref, loop_pairs(ref))
-    causal = np.sqrt(np.mean(np.sum((result["causal_pose"][:, :2] - ref[:, :2]) ** 2, axis=1)))
+    final = score(result.pose, result.covariance, ref, loop_pairs(ref))
+    causal = np.sqrt(np.mean(np.sum((result.causal_pose[:, :2] - ref[:, :2]) ** 2, axis=1)))
     return {
         "ate_rmse_m": final["ate_rmse"],
         "ate_rmse_causal_m": float(causal),
@@ -172,27 +172,28 @@ def run_laser(
         settings,
     )
     slam_s = time.perf_counter() - t0
+    rejected = zip(out.rejection_reasons, out.rejected, strict=True)
     counts = {
         "scans": len(ref),
-        "key_scans": len(out["keys"]),
-        "scans_matched": int(np.count_nonzero(out["matched"])),
-        "loop_closures_accepted": len(out["closures"]),
-        "loop_closures_rejected": int(out["closures_rejected"]),
-        "loop_closure_attempts": int(out["closure_attempts"]),
-        **{f"loop_closures_rejected_{k}": int(v) for k, v in out["rejections"].items()},
+        "key_scans": len(out.keys),
+        "scans_matched": int(np.count_nonzero(out.matched)),
+        "loop_closures_accepted": len(out.closures),
+        "loop_closures_rejected": out.closures_rejected,
+        "loop_closure_attempts": out.closure_attempts,
+        **{f"loop_closures_rejected_{why}": n for why, n in rejected},
     }
     return LaserResult(
         log=Path(log.path).name,
         variant=variant,
         seed=seed,
         timestamp=np.asarray(sc.timestamp, dtype=np.float64),
-        pose=out["pose"],
-        covariance=out["covariance"],
-        causal_pose=out["causal_pose"],
+        pose=out.pose,
+        covariance=out.covariance,
+        causal_pose=out.causal_pose,
         reference=ref,
-        closures=out["closures"].astype(np.int64),
-        matched=out["matched"],
-        metrics=_scores(dict(out), ref),
+        closures=out.closures,
+        matched=out.matched,
+        metrics=_scores(out, ref),
         counts=counts,
         seconds={"read": read_seconds, "prepare": prepare_s, "slam": slam_s},
     )

@@ -68,7 +68,7 @@ def bench(path: Path) -> list[str]:
         ref[0], v, first_estimates=True, segment=True, shared_sd=STRAIGHTNESS
     )
     t_numpy, est_np = seconds(lambda: wall_ekf.run(controls, walls, peer), repeat=1)
-    rows = out["pose"][out["kind"] == 3]  # type: ignore[index]
+    rows = out.pose[out.kind == 3]  # type: ignore[attr-defined]
     diff = float(np.max(np.abs(rows - est_np))) if rows.shape == est_np.shape else float("nan")
     n = len(ref)
     total = t_read + t_extract + t_slam

@@ -242,15 +242,35 @@ def test_bridge_runs_wall_landmarks_with_their_full_covariance() -> None:
         {"initial_pose_variance": [0.04, 0.09, 0.01]},
         walls,
     )
-    np.testing.assert_allclose(out["wall_line"], [[3.0, 0.0]], atol=1e-12)
+    np.testing.assert_allclose(out.wall_line, [[3.0, 0.0]], atol=1e-12)
     np.testing.assert_allclose(
-        out["wall_covariance"][0], [[0.04 + 1e-4, 0.0], [0.0, 0.01 + 4e-4]], atol=1e-12
+        out.wall_covariance[0], [[0.04 + 1e-4, 0.0], [0.0, 0.01 + 4e-4]], atol=1e-12
     )
-    np.testing.assert_allclose(out["wall_ends"][0], [[3.0, -1.0], [3.0, 1.0]], atol=1e-12)
-    assert out["statistics"]["walls_new"] == 1
-    assert out["kind"].tolist() == [3]
+    np.testing.assert_allclose(out.wall_ends[0], [[3.0, -1.0], [3.0, 1.0]], atol=1e-12)
+    assert dict(zip(out.statistics.names, out.statistics.values, strict=True))["walls_new"] == 1
+    assert out.kind.tolist() == [3]
     with pytest.raises(ValueError, match="walls"):
         _rperc.planar_slam_run(np.zeros((0, 3)), np.zeros((0, 3)), None, None, None, walls[:, :9])
+
+
+def test_the_native_result_is_typed_frozen_and_read_only() -> None:
+    """The seam's result: a frozen PlanarRun with read-only arrays, statistics by
+    name (the typed result's dict is built from them, not from hand-written keys)."""
+    from rperc import _rperc
+
+    walls = np.array([[0.0, 3.0, 0.0, 1e-4, 0.0, 4e-4, 3.0, -1.0, 3.0, 1.0]])
+    out = _rperc.planar_slam_run(np.zeros((0, 3)), np.zeros((0, 3)), None, None, None, walls)
+    assert isinstance(out, _rperc.PlanarRun)
+    assert isinstance(out.statistics, _rperc.PlanarStatistics)
+    assert len(out.statistics.names) == len(out.statistics.values) == len(set(out.statistics.names))
+    with pytest.raises(ValueError, match="read-only"):
+        out.pose[0, 0] = 1.0
+    with pytest.raises(AttributeError):
+        out.anchor = (0.0, 0.0)  # type: ignore[misc]
+    assert out.anchor is None and out.anchor_time is None
+    assert "1 walls" in repr(out) and "walls_new=1" in repr(out.statistics)
+    typed = PlanarSlam().run_arrays(np.zeros((0, 3)), np.zeros((0, 3)), walls=walls)
+    assert typed.statistics == dict(zip(out.statistics.names, out.statistics.values, strict=True))
 
 
 def _room_recording(seed: int = 0, steps: int = 200) -> tuple[np.ndarray, np.ndarray]:
@@ -324,9 +344,9 @@ def test_wall_landmarks_match_the_numpy_reference_filter(first_estimates: bool, 
         segment=form == "segment",
     )  # fmt: skip
     poses = WREF.run(controls, walls, ref)
-    np.testing.assert_allclose(out["pose"][out["kind"] == 3], poses, atol=1e-9)
-    assert len(out["wall_id"]) == len(ref.extents) == 6
-    np.testing.assert_allclose(out["wall_line"], ref.world_lines(), atol=1e-9)
+    np.testing.assert_allclose(out.pose[out.kind == 3], poses, atol=1e-9)
+    assert len(out.wall_id) == len(ref.extents) == 6
+    np.testing.assert_allclose(out.wall_line, ref.world_lines(), atol=1e-9)
 
 
 def test_shared_straightness_matches_the_numpy_reference_filter() -> None:
@@ -351,8 +371,8 @@ def test_shared_straightness_matches_the_numpy_reference_filter() -> None:
         )
         ref = WREF.WallEkfSlam(start, v, first_estimates=True, segment=True, shared_sd=shared)
         poses = WREF.run(controls, walls, ref)
-        np.testing.assert_allclose(out["pose"][out["kind"] == 3], poses, atol=1e-9)
-        np.testing.assert_allclose(out["wall_line"], ref.world_lines(), atol=1e-9)
+        np.testing.assert_allclose(out.pose[out.kind == 3], poses, atol=1e-9)
+        np.testing.assert_allclose(out.wall_line, ref.world_lines(), atol=1e-9)
         runs[shared] = poses
     assert np.max(np.abs(runs[0.0] - runs[0.05])) > 1e-4
 

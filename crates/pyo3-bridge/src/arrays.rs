@@ -187,6 +187,15 @@ pub fn shaped<'py>(
         .map_err(|e| Error::Value(format!("internal shape error: {e}")))
 }
 
+/// `array` made read-only and owned: a frozen result's arrays are not to be written.
+pub fn read_only<T: pyo3::type_object::PyTypeCheck>(array: Bound<'_, T>) -> PyResult<Py<T>> {
+    array
+        .as_any()
+        .getattr("flags")?
+        .setattr("writeable", false)?;
+    Ok(array.unbind())
+}
+
 /// Loads numpy's C API at import. The numpy crate loads it lazily, on the first array,
 /// by running Python code, and panics if that code raises; a Ctrl-C that arrived
 /// during native work is raised by exactly that code, so a long run interrupted just

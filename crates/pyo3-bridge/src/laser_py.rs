@@ -2,10 +2,9 @@
 
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayDyn};
 use pyo3::prelude::*;
-use pyo3::type_object::PyTypeCheck;
 use pyo3::types::PyTuple;
 
-use crate::arrays::{float_vector, shaped, tensor};
+use crate::arrays::{float_vector, read_only, shaped, tensor};
 use crate::errors::{Error, Result, detached};
 use crate::planar_py::{int_rows, rows};
 use laser::{LaserConfig, ScanLog};
@@ -86,15 +85,6 @@ impl PyLaserRun {
             self.closures_rejected, self.closure_attempts
         )
     }
-}
-
-/// `array` made read-only (a frozen result's arrays are not to be written).
-fn read_only<'py, T: PyTypeCheck>(array: Bound<'py, T>) -> PyResult<Py<T>> {
-    array
-        .as_any()
-        .getattr("flags")?
-        .setattr("writeable", false)?;
-    Ok(array.unbind())
 }
 
 impl PyLaserRun {

@@ -2,16 +2,16 @@
 //! numpy arrays, with the GIL released, and returns the trajectory and the map as
 //! arrays moved into numpy.
 
-use numpy::{IntoPyArray, PyReadonlyArray1};
+use numpy::{IntoPyArray, PyArray1, PyArrayDyn, PyReadonlyArray1};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyDict, PyTuple};
 use slam::planar::sim::{SimConfig, check_runs, parallel_runs, run_nees};
 use slam::planar::{
     Event, EventArrays, PlanarConfig, PlanarResult, PlanarSlam, Statistics, WallEstimate,
 };
 use std::sync::Mutex;
 
-use crate::arrays::{float_vector, point_rows, shaped, tensor};
+use crate::arrays::{float_vector, point_rows, read_only, shaped, tensor};
 use crate::errors::{Error, Result, detached, detached_parallel};
 
 /// The default planar SLAM configuration as a dict.
@@ -51,7 +51,7 @@ fn ids(obj: Option<&Bound<'_, PyAny>>, detections: usize) -> Result<Option<Vec<i
 /// `detections` rows `(t, range, bearing)` (equal times form one scan), optional
 /// `detection_ids` (int64), `fixes` rows `(t, x, y, var_x, cov_xy, var_y)`, `walls`
 /// rows `(t, rho, alpha, var_rho, cov, var_alpha, x0, y0, x1, y1)` (sensor frame,
-/// equal times form one scan). Returns a dict of arrays: the robot after every event
+/// equal times form one scan). Returns a [`PyPlanarRun`]: the robot after every event
 /// and the final maps. `progress(done, total)`, when given, is called with the rows
 /// consumed about every 1 % (with the GIL); an exception it raises stops the run and
 /// is raised again.
@@ -67,7 +67,7 @@ pub fn planar_slam_run<'py>(
     config: Option<&Bound<'py, PyAny>>,
     walls: Option<&Bound<'py, PyAny>>,
     progress: Option<Py<PyAny>>,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<PyPlanarRun> {
     let config: PlanarConfig = crate::config::from_python(config, "planar")?;
     config.validate().map_err(Error::from)?;
     let controls = rows::<3>(Some(controls), "controls")?;
@@ -99,77 +99,214 @@ pub fn planar_slam_run<'py>(
     if let Some(e) = raised.lock().unwrap_or_else(|p| p.into_inner()).take() {
         return Err(e);
     }
-    result_dict(py, result?)
+    PyPlanarRun::new(py, result?)
 }
 
-/// The run's arrays, each moved into numpy.
-fn result_dict(py: Python<'_>, r: PlanarResult) -> PyResult<Bound<'_, PyDict>> {
-    let d = PyDict::new(py);
-    let tr = r.trajectory;
-    let n = tr.t.len();
-    d.set_item("t", tr.t.into_pyarray(py))?;
-    let kind: Vec<u8> = tr.kind.iter().map(|&k| k as u8).collect();
-    d.set_item("kind", kind.into_pyarray(py))?;
-    d.set_item("pose", shaped(py, tr.pose.concat(), &[n, 3])?)?;
-    d.set_item(
-        "covariance",
-        shaped(py, tr.covariance.concat(), &[n, 3, 3])?,
-    )?;
-    d.set_item("seconds", tr.seconds.into_pyarray(py))?;
-    let lm = &r.landmarks;
-    let k = lm.len();
-    let id: Vec<u64> = lm.iter().map(|l| l.id).collect();
-    d.set_item("landmark_id", id.into_pyarray(py))?;
-    let mean: Vec<f64> = lm.iter().flat_map(|l| l.mean).collect();
-    d.set_item("landmark_mean", shaped(py, mean, &[k, 2])?)?;
-    let cov: Vec<f64> = lm.iter().flat_map(|l| l.covariance).collect();
-    d.set_item("landmark_covariance", shaped(py, cov, &[k, 2, 2])?)?;
-    let revisions: Vec<u32> = lm.iter().map(|l| l.revisions).collect();
-    d.set_item("landmark_revisions", revisions.into_pyarray(py))?;
-    let frozen: Vec<bool> = lm.iter().map(|l| l.frozen).collect();
-    d.set_item("landmark_frozen", frozen.into_pyarray(py))?;
-    let anchor: Vec<bool> = lm.iter().map(|l| l.anchor).collect();
-    d.set_item("landmark_anchor", anchor.into_pyarray(py))?;
-    wall_items(py, &d, &r.walls)?;
-    // -1: a detection left out (ids are admission counters, far below i64::MAX).
-    let pairing: Vec<i64> = r
-        .wall_pairing
-        .iter()
-        .map(|p| p.map_or(-1, |id| id as i64))
-        .collect();
-    d.set_item("wall_pairing", pairing.into_pyarray(py))?;
-    d.set_item("statistics", statistics(py, &r.statistics)?)?;
-    d.set_item("anchor", r.anchor.map(|a| a.to_vec()))?;
-    d.set_item("anchor_time", r.anchor_time)?;
-    Ok(d)
+/// What [`planar_slam_run`] returns, frozen: the robot after every event (`t`,
+/// `kind` 0 control, 1 scan, 2 fix, `pose`, `covariance` of the pose, `seconds` each
+/// event took), the point map (`landmark_*`), the wall map (`wall_*`, empty without
+/// walls) with each wall detection's pairing (-1: left out), the association counts
+/// and the anchor. Its arrays are read-only.
+#[pyclass(name = "PlanarRun", module = "rperc._rperc", frozen)]
+pub struct PyPlanarRun {
+    #[pyo3(get)]
+    t: Py<PyArray1<f64>>,
+    #[pyo3(get)]
+    kind: Py<PyArray1<u8>>,
+    #[pyo3(get)]
+    pose: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    covariance: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    seconds: Py<PyArray1<f64>>,
+    #[pyo3(get)]
+    landmark_id: Py<PyArray1<u64>>,
+    #[pyo3(get)]
+    landmark_mean: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    landmark_covariance: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    landmark_revisions: Py<PyArray1<u32>>,
+    #[pyo3(get)]
+    landmark_frozen: Py<PyArray1<bool>>,
+    #[pyo3(get)]
+    landmark_anchor: Py<PyArray1<bool>>,
+    #[pyo3(get)]
+    wall_id: Py<PyArray1<u64>>,
+    #[pyo3(get)]
+    wall_line: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    wall_covariance: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    wall_ends: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    wall_revisions: Py<PyArray1<u32>>,
+    #[pyo3(get)]
+    wall_frozen: Py<PyArray1<bool>>,
+    #[pyo3(get)]
+    wall_anchor: Py<PyArray1<bool>>,
+    #[pyo3(get)]
+    wall_pairing: Py<PyArray1<i64>>,
+    #[pyo3(get)]
+    statistics: Py<PyPlanarStatistics>,
+    #[pyo3(get)]
+    anchor: Option<(f64, f64)>,
+    #[pyo3(get)]
+    anchor_time: Option<f64>,
 }
 
-/// The wall map's arrays (`wall_*`), each moved into numpy.
-fn wall_items(py: Python<'_>, d: &Bound<'_, PyDict>, walls: &[WallEstimate]) -> PyResult<()> {
-    let k = walls.len();
-    let id: Vec<u64> = walls.iter().map(|w| w.id).collect();
-    d.set_item("wall_id", id.into_pyarray(py))?;
-    let line: Vec<f64> = walls.iter().flat_map(|w| w.line).collect();
-    d.set_item("wall_line", shaped(py, line, &[k, 2])?)?;
-    let cov: Vec<f64> = walls.iter().flat_map(|w| w.covariance).collect();
-    d.set_item("wall_covariance", shaped(py, cov, &[k, 2, 2])?)?;
-    let ends: Vec<f64> = walls
-        .iter()
-        .flat_map(|w| [w.start, w.end].concat())
-        .collect();
-    d.set_item("wall_ends", shaped(py, ends, &[k, 2, 2])?)?;
-    let revisions: Vec<u32> = walls.iter().map(|w| w.revisions).collect();
-    d.set_item("wall_revisions", revisions.into_pyarray(py))?;
-    let frozen: Vec<bool> = walls.iter().map(|w| w.frozen).collect();
-    d.set_item("wall_frozen", frozen.into_pyarray(py))?;
-    let anchor: Vec<bool> = walls.iter().map(|w| w.anchor).collect();
-    d.set_item("wall_anchor", anchor.into_pyarray(py))?;
-    Ok(())
+#[pymethods]
+impl PyPlanarRun {
+    fn __repr__(&self, py: Python<'_>) -> String {
+        let s = self.statistics.get();
+        format!(
+            "PlanarRun({} events, {} landmarks, {} walls; {} sightings accepted, {} rejected)",
+            self.kind.bind(py).as_any().len().unwrap_or(0),
+            self.landmark_id.bind(py).as_any().len().unwrap_or(0),
+            self.wall_id.bind(py).as_any().len().unwrap_or(0),
+            s.counts.accepted,
+            s.counts.rejected
+        )
+    }
 }
 
-fn statistics<'py>(py: Python<'py>, s: &Statistics) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    for (name, value) in [
+/// A float array of `shape` from `data`, read-only.
+fn frozen_array(py: Python<'_>, data: Vec<f64>, shape: &[usize]) -> PyResult<Py<PyArrayDyn<f64>>> {
+    read_only(shaped(py, data, shape)?)
+}
+
+impl PyPlanarRun {
+    fn new(py: Python<'_>, r: PlanarResult) -> PyResult<Self> {
+        let tr = r.trajectory;
+        let n = tr.t.len();
+        let kind: Vec<u8> = tr.kind.iter().map(|&k| k as u8).collect();
+        let lm = &r.landmarks;
+        let k = lm.len();
+        let walls = WallArrays::new(py, &r.walls)?;
+        // -1: a detection left out (ids are admission counters, far below i64::MAX).
+        let pairing: Vec<i64> = r
+            .wall_pairing
+            .iter()
+            .map(|p| p.map_or(-1, |id| id as i64))
+            .collect();
+        Ok(Self {
+            t: read_only(tr.t.into_pyarray(py))?,
+            kind: read_only(kind.into_pyarray(py))?,
+            pose: frozen_array(py, tr.pose.concat(), &[n, 3])?,
+            covariance: frozen_array(py, tr.covariance.concat(), &[n, 3, 3])?,
+            seconds: read_only(tr.seconds.into_pyarray(py))?,
+            landmark_id: read_only(lm.iter().map(|l| l.id).collect::<Vec<_>>().into_pyarray(py))?,
+            landmark_mean: frozen_array(py, lm.iter().flat_map(|l| l.mean).collect(), &[k, 2])?,
+            landmark_covariance: frozen_array(
+                py,
+                lm.iter().flat_map(|l| l.covariance).collect(),
+                &[k, 2, 2],
+            )?,
+            landmark_revisions: read_only(
+                lm.iter()
+                    .map(|l| l.revisions)
+                    .collect::<Vec<_>>()
+                    .into_pyarray(py),
+            )?,
+            landmark_frozen: read_only(
+                lm.iter()
+                    .map(|l| l.frozen)
+                    .collect::<Vec<_>>()
+                    .into_pyarray(py),
+            )?,
+            landmark_anchor: read_only(
+                lm.iter()
+                    .map(|l| l.anchor)
+                    .collect::<Vec<_>>()
+                    .into_pyarray(py),
+            )?,
+            wall_id: walls.id,
+            wall_line: walls.line,
+            wall_covariance: walls.covariance,
+            wall_ends: walls.ends,
+            wall_revisions: walls.revisions,
+            wall_frozen: walls.frozen,
+            wall_anchor: walls.anchor,
+            wall_pairing: read_only(pairing.into_pyarray(py))?,
+            statistics: Py::new(
+                py,
+                PyPlanarStatistics {
+                    counts: r.statistics,
+                },
+            )?,
+            anchor: r.anchor.map(|a| (a[0], a[1])),
+            anchor_time: r.anchor_time,
+        })
+    }
+}
+
+/// The wall map's arrays, read-only.
+struct WallArrays {
+    id: Py<PyArray1<u64>>,
+    line: Py<PyArrayDyn<f64>>,
+    covariance: Py<PyArrayDyn<f64>>,
+    ends: Py<PyArrayDyn<f64>>,
+    revisions: Py<PyArray1<u32>>,
+    frozen: Py<PyArray1<bool>>,
+    anchor: Py<PyArray1<bool>>,
+}
+
+impl WallArrays {
+    fn new(py: Python<'_>, walls: &[WallEstimate]) -> PyResult<Self> {
+        let k = walls.len();
+        let ends: Vec<f64> = walls
+            .iter()
+            .flat_map(|w| [w.start, w.end].concat())
+            .collect();
+        Ok(Self {
+            id: read_only(
+                walls
+                    .iter()
+                    .map(|w| w.id)
+                    .collect::<Vec<_>>()
+                    .into_pyarray(py),
+            )?,
+            line: frozen_array(py, walls.iter().flat_map(|w| w.line).collect(), &[k, 2])?,
+            covariance: frozen_array(
+                py,
+                walls.iter().flat_map(|w| w.covariance).collect(),
+                &[k, 2, 2],
+            )?,
+            ends: frozen_array(py, ends, &[k, 2, 2])?,
+            revisions: read_only(
+                walls
+                    .iter()
+                    .map(|w| w.revisions)
+                    .collect::<Vec<_>>()
+                    .into_pyarray(py),
+            )?,
+            frozen: read_only(
+                walls
+                    .iter()
+                    .map(|w| w.frozen)
+                    .collect::<Vec<_>>()
+                    .into_pyarray(py),
+            )?,
+            anchor: read_only(
+                walls
+                    .iter()
+                    .map(|w| w.anchor)
+                    .collect::<Vec<_>>()
+                    .into_pyarray(py),
+            )?,
+        })
+    }
+}
+
+/// The association counts of a planar run, frozen, by name (`names` lists them).
+#[pyclass(name = "PlanarStatistics", module = "rperc._rperc", frozen)]
+pub struct PyPlanarStatistics {
+    counts: Statistics,
+}
+
+/// Every count of [`Statistics`] with its name, in one order.
+fn statistics_items(s: &Statistics) -> [(&'static str, u64); 15] {
+    [
         ("accepted", s.accepted),
         ("rejected", s.rejected),
         ("new", s.new),
@@ -185,10 +322,30 @@ fn statistics<'py>(py: Python<'py>, s: &Statistics) -> PyResult<Bound<'py, PyDic
         ("walls_vague", s.walls_vague),
         ("compressions", s.compressions),
         ("activations", s.activations),
-    ] {
-        d.set_item(name, value)?;
+    ]
+}
+
+#[pymethods]
+impl PyPlanarStatistics {
+    /// The counts' names, in the order of `values`.
+    #[classattr]
+    fn names(py: Python<'_>) -> PyResult<Bound<'_, PyTuple>> {
+        PyTuple::new(py, statistics_items(&Statistics::default()).map(|(n, _)| n))
     }
-    Ok(d)
+
+    /// The counts, in the order of `names`.
+    #[getter]
+    fn values<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        PyTuple::new(py, statistics_items(&self.counts).map(|(_, v)| v))
+    }
+
+    fn __repr__(&self) -> String {
+        let items: Vec<String> = statistics_items(&self.counts)
+            .iter()
+            .map(|(n, v)| format!("{n}={v}"))
+            .collect();
+        format!("PlanarStatistics({})", items.join(", "))
+    }
 }
 
 /// The default simulated world (`slam::planar::sim::SimConfig`) as a dict.

@@ -530,21 +530,27 @@ class PlanarSlam:
                 out = _rperc.planar_slam_run(*arrays, progress=report)
         else:
             out = _rperc.planar_slam_run(*arrays)
-        fields = ("id", "line", "covariance", "ends", "revisions", "frozen", "anchor")
-        wall_map = WallMap(**{f: out.pop(f"wall_{f}") for f in fields})
-        anchor = out.pop("anchor")
-        anchor_time = out.pop("anchor_time")
-        stats = {k: int(v) for k, v in out.pop("statistics").items()}
-        pairing = out.pop("wall_pairing")
-        return SlamResult(
-            **out,
-            statistics=stats,
-            anchor=None if anchor is None else (float(anchor[0]), float(anchor[1])),
-            config=dict(self.config),
-            anchor_time=None if anchor_time is None else float(anchor_time),
-            walls=None if walls is None else wall_map,
-            wall_pairing=None if walls is None else pairing,
-        )
+        return _slam_result(out, dict(self.config), with_walls=walls is not None)
+
+
+def _slam_result(out: _rperc.PlanarRun, config: dict[str, Any], with_walls: bool) -> SlamResult:
+    """The typed result of a native run (its arrays are read-only)."""
+    wall_map = WallMap(
+        id=out.wall_id, line=out.wall_line, covariance=out.wall_covariance,
+        ends=out.wall_ends, revisions=out.wall_revisions, frozen=out.wall_frozen,
+        anchor=out.wall_anchor,
+    )  # fmt: skip
+    stats = dict(zip(out.statistics.names, out.statistics.values, strict=True))
+    return SlamResult(
+        t=out.t, kind=out.kind, pose=out.pose, covariance=out.covariance, seconds=out.seconds,
+        landmark_id=out.landmark_id, landmark_mean=out.landmark_mean,
+        landmark_covariance=out.landmark_covariance,
+        landmark_revisions=out.landmark_revisions, landmark_frozen=out.landmark_frozen,
+        landmark_anchor=out.landmark_anchor, statistics=stats, anchor=out.anchor,
+        config=config, anchor_time=out.anchor_time,
+        walls=wall_map if with_walls else None,
+        wall_pairing=out.wall_pairing if with_walls else None,
+    )  # fmt: skip
 
 
 #: The seed's variants of a run on a recording (``rperc slam mrclam/victoria

@@ -115,7 +115,7 @@ def smooth_upto(
     k: int, controls: np.ndarray, prepared: ws.PreparedLog, pairing: np.ndarray,
     walls: tuple[np.ndarray, np.ndarray], start: np.ndarray, config: dict[str, Any],
     tolerance: float = 1e-9,
-) -> dict[str, Any]:  # fmt: skip
+) -> _rperc.SmoothedWalls:  # fmt: skip
     """The smoother over the data up to scan ``k`` (the controls until its time, the
     sightings at or before it), from the poses ``start`` (``k + 1`` rows); ``walls``
     are every group's ids and starting lines, of which those seen so far are used.
@@ -126,7 +126,7 @@ def smooth_upto(
     ids, lines = walls
     keep = np.isin(ids, pair[pair >= 0])
     c = np.r_[controls[controls[:, 0] < t[k]], [[t[k], 0.0, 0.0]]]
-    out: dict[str, Any] = _rperc.planar_smooth_walls(
+    out = _rperc.planar_smooth_walls(
         c, np.ascontiguousarray(t[: k + 1]), np.ascontiguousarray(start),
         np.ascontiguousarray(rows[seen]), np.ascontiguousarray(pair, dtype=np.int64),
         np.ascontiguousarray(ids[keep], dtype=np.int64), np.ascontiguousarray(lines[keep]), config,
@@ -157,7 +157,7 @@ def causal_path(
         for j in range(len(prev), k + 1):  # the filter's steps, from the last optimum
             start[j] = _step(start[j - 1], filtered[j - 1], filtered[j])
         prev = smooth_upto(int(k), controls, prepared, pairing, walls, start, config,
-                           tolerance)["pose"]  # fmt: skip
+                           tolerance).pose  # fmt: skip
         poses.append(prev[-1])
     return np.r_[0, scans], np.array(poses)
 
@@ -185,8 +185,8 @@ def one_seed(prepared: ws.PreparedLog, seed: int, args: argparse.Namespace) -> d
         row[f"{name}_causal_s"] = time.perf_counter() - t0
         row[f"{name}_causal_ate_m"] = ate(causal, ref[scans])
         full = smooth_upto(len(ref) - 1, controls, prepared, pairing, walls, filtered, out.config)
-        row[f"{name}_smoothed_ate_m"] = ate(full["pose"], ref)
-        nees = ws.pose_nees(full["pose"], full["covariance"], ref)
+        row[f"{name}_smoothed_ate_m"] = ate(full.pose, ref)
+        nees = ws.pose_nees(full.pose, full.covariance, ref)
         row[f"{name}_smoothed_nees"] = float(np.mean(nees))
     row["ekf_ate_m"] = ate(filtered[scans], ref[scans])
     return row

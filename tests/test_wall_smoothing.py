@@ -56,6 +56,10 @@ def test_smoother_matches_the_scipy_peer(loop):
                                atol=1e-6)  # fmt: skip
     np.testing.assert_allclose(sm.covariance, peer["covariance"], rtol=1e-3, atol=1e-10)
     np.testing.assert_allclose(sm.bias, peer["bias"], atol=1e-6)
+    # The native result behind it is frozen, its arrays read-only.
+    assert isinstance(sm.bias, tuple) and isinstance(sm.iterations, int)
+    with pytest.raises(ValueError, match="read-only"):
+        sm.pose[0, 0] = 0.0
     assert sm.cost == pytest.approx(peer["cost"], rel=1e-6)
     assert isinstance(sm, SmoothedRun) and "poses" in repr(sm)
     again = pickle.loads(pickle.dumps(sm))
@@ -141,13 +145,13 @@ def test_causal_optimum_is_the_batch_over_the_past(loop):
         bias_sd=(ws.SPEED_BIAS, ws.TURN_BIAS), start=loop.reference[0], start_var=np.zeros(3),
         shared_sd=loop.straightness,
     ))  # fmt: skip
-    np.testing.assert_allclose(ours["pose"][:, :2], theirs["pose"][:, :2], atol=1e-5)
+    np.testing.assert_allclose(ours.pose[:, :2], theirs["pose"][:, :2], atol=1e-5)
     # From the same start as smooth_walls (the filter's poses, which also place the
     # stretches the shared floor counts), the last scan's solve is the full smoothing.
     last = cb.smooth_upto(len(t) - 1, controls, loop, out.wall_pairing, walls, filtered,
                           out.config)  # fmt: skip
     full = smooth_walls(out, controls, loop.rows, t)
-    np.testing.assert_allclose(last["pose"][:, :2], full.pose[:, :2], atol=1e-9)
+    np.testing.assert_allclose(last.pose[:, :2], full.pose[:, :2], atol=1e-9)
     scans, causal = cb.causal_path(controls, loop, out.wall_pairing, walls, filtered, out.config,
                                    every=60)  # fmt: skip
     assert scans[0] == 0 and scans[-1] == len(t) - 1 and np.all(np.diff(scans) > 0)

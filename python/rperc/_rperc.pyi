@@ -20,6 +20,7 @@ __all__ = [
     "PlanarRun",
     "PlanarStatistics",
     "RpercError",
+    "SmoothedWalls",
     "__version__",
     "ceiling_defaults",
     "ceiling_drive",
@@ -240,6 +241,32 @@ def planar_slam_run(
 def wall_straightness_covariance(
     rho: _ArrayLike, alpha: _ArrayLike, start: _ArrayLike, end: _ArrayLike, sigma: float
 ) -> _Array: ...
+
+@final
+class SmoothedWalls:
+    """What :func:`planar_smooth_walls` returns, frozen, arrays read-only."""
+
+    @property
+    def pose(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def covariance(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def wall_id(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def wall_line(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def wall_covariance(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def wall_ends(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def bias(self) -> tuple[float, float]: ...
+    @property
+    def iterations(self) -> int: ...
+    @property
+    def cost(self) -> float: ...
+    @property
+    def residuals(self) -> int: ...
+
 def planar_smooth_walls(
     controls: npt.NDArray[np.float64],
     times: npt.NDArray[np.float64],
@@ -250,7 +277,7 @@ def planar_smooth_walls(
     map_line: npt.NDArray[np.float64],
     config: dict[str, Any] | None = None,
     options: dict[str, Any] | None = None,
-) -> dict[str, Any]: ...
+) -> SmoothedWalls: ...
 def monobot_summarize(
     nees: _ArrayLike,
     robot_error: _ArrayLike,

@@ -529,7 +529,7 @@ pub(crate) fn int_rows(obj: &Bound<'_, PyAny>, name: &str, n: usize) -> Result<V
 /// Smooths a wall-SLAM run ([`slam::planar::smooth::smooth_walls`], GIL released):
 /// the filter's `controls` and `walls` rows and `config`, the scan `times` with the
 /// filter's `poses` there `(S, 3)`, `pairing` (int64 per wall row, -1: unused) and
-/// its final map `map_id` (int64) with `map_line` `(W, 2)`. Returns a dict of arrays.
+/// its final map `map_id` (int64) with `map_line` `(W, 2)`. Returns a [`PySmoothedWalls`].
 #[pyfunction]
 #[pyo3(signature = (controls, times, poses, walls, pairing, map_id, map_line, config = None, options = None))]
 #[allow(clippy::too_many_arguments)]
@@ -544,7 +544,7 @@ pub fn planar_smooth_walls<'py>(
     map_line: &Bound<'py, PyAny>,
     config: Option<&Bound<'py, PyAny>>,
     options: Option<&Bound<'py, PyAny>>,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<PySmoothedWalls> {
     use slam::planar::smooth::{SmootherConfig, WallRun, smooth_walls};
     let config: PlanarConfig = crate::config::from_python(config, "planar")?;
     let options: SmootherConfig = crate::config::from_python(options, "smoother")?;
@@ -577,24 +577,72 @@ pub fn planar_smooth_walls<'py>(
         };
         Ok(smooth_walls(&run, &options)?)
     })?;
-    let d = PyDict::new(py);
-    let (s, w) = (out.pose.len(), out.walls.len());
-    d.set_item("pose", shaped(py, out.pose.concat(), &[s, 3])?)?;
-    d.set_item(
-        "covariance",
-        shaped(py, out.covariance.concat(), &[s, 3, 3])?,
-    )?;
-    let ids: Vec<i64> = out.walls.iter().map(|w| w.id as i64).collect();
-    d.set_item("wall_id", ids.into_pyarray(py))?;
-    let lines: Vec<f64> = out.walls.iter().flat_map(|w| w.line).collect();
-    d.set_item("wall_line", shaped(py, lines, &[w, 2])?)?;
-    let cov: Vec<f64> = out.walls.iter().flat_map(|w| w.covariance).collect();
-    d.set_item("wall_covariance", shaped(py, cov, &[w, 2, 2])?)?;
-    let ends: Vec<f64> = out.walls.iter().flat_map(|w| w.ends.concat()).collect();
-    d.set_item("wall_ends", shaped(py, ends, &[w, 2, 2])?)?;
-    d.set_item("bias", out.bias.to_vec())?;
-    d.set_item("iterations", out.iterations)?;
-    d.set_item("cost", out.cost)?;
-    d.set_item("residuals", out.residuals)?;
-    Ok(d)
+    PySmoothedWalls::new(py, out)
+}
+
+/// What [`planar_smooth_walls`] returns, frozen, arrays read-only: every scan's
+/// smoothed pose `(S, 3)` and marginal covariance `(S, 3, 3)`, the wall map (`wall_id`,
+/// `wall_line` `(W, 2)`, `wall_covariance` `(W, 2, 2)`, `wall_ends` `(W, 2, 2)`), the
+/// odometry bias `(s, b)` (zeros without bias states), and the Levenberg-Marquardt
+/// iterations, final cost and residual count.
+#[pyclass(name = "SmoothedWalls", module = "rperc._rperc", frozen)]
+pub struct PySmoothedWalls {
+    #[pyo3(get)]
+    pose: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    covariance: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    wall_id: Py<PyArray1<i64>>,
+    #[pyo3(get)]
+    wall_line: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    wall_covariance: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    wall_ends: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    bias: (f64, f64),
+    #[pyo3(get)]
+    iterations: usize,
+    #[pyo3(get)]
+    cost: f64,
+    #[pyo3(get)]
+    residuals: usize,
+}
+
+#[pymethods]
+impl PySmoothedWalls {
+    fn __repr__(&self) -> String {
+        format!(
+            "SmoothedWalls(cost {:.6e} over {} residuals after {} iterations)",
+            self.cost, self.residuals, self.iterations
+        )
+    }
+}
+
+impl PySmoothedWalls {
+    fn new(py: Python<'_>, out: slam::planar::smooth::SmoothedRun) -> PyResult<Self> {
+        let (s, w) = (out.pose.len(), out.walls.len());
+        let walls = &out.walls;
+        let ids: Vec<i64> = walls.iter().map(|w| w.id as i64).collect();
+        Ok(Self {
+            pose: frozen_array(py, out.pose.concat(), &[s, 3])?,
+            covariance: frozen_array(py, out.covariance.concat(), &[s, 3, 3])?,
+            wall_id: read_only(ids.into_pyarray(py))?,
+            wall_line: frozen_array(py, walls.iter().flat_map(|w| w.line).collect(), &[w, 2])?,
+            wall_covariance: frozen_array(
+                py,
+                walls.iter().flat_map(|w| w.covariance).collect(),
+                &[w, 2, 2],
+            )?,
+            wall_ends: frozen_array(
+                py,
+                walls.iter().flat_map(|w| w.ends.concat()).collect(),
+                &[w, 2, 2],
+            )?,
+            bias: (out.bias[0], out.bias[1]),
+            iterations: out.iterations,
+            cost: out.cost,
+            residuals: out.residuals,
+        })
+    }
 }

@@ -174,3 +174,26 @@ def test_a_monobot_monte_carlo_beyond_memory_is_refused_naming_runs():
 
     with pytest.raises(MemoryError, match=r"^'runs' = 1000000000 would need "):
         monobot.monte_carlo(runs=10**9, steps=10)
+
+
+def test_monobot_native_results_are_typed_frozen_and_read_only():
+    """The seam's monobot results: named read-only arrays whose shapes follow the
+    config, and a summary whose runs and band are numbers, not dict entries."""
+    from rperc import _rperc
+
+    run = _rperc.monobot_simulate("relative", 3, 0, {"landmarks": 2, "steps": 5})
+    assert isinstance(run, _rperc.MonobotRun)
+    assert run.truth.shape == run.estimate.shape == (6, 3)
+    assert run.gain.shape[:2] == (5, 3) and run.nees.shape == (6,)
+    with pytest.raises(ValueError, match="read-only"):
+        run.truth[0, 0] = 1.0
+    errors = _rperc.monobot_monte_carlo("relative", 4, 3, {"landmarks": 2, "steps": 5})
+    assert errors.landmark_error.shape == (4, 6, 2)
+    s = _rperc.monobot_summarize(
+        errors.nees, errors.robot_error, errors.landmark_error, errors.first_observation_error
+    )
+    assert isinstance(s, _rperc.MonobotSummary) and s.runs == 4
+    lo, hi = s.nees_band
+    assert lo < hi and s.final_landmark_error.shape == (4, 2)
+    with pytest.raises(AttributeError):
+        s.runs = 5  # type: ignore[misc]

@@ -196,6 +196,15 @@ pub fn read_only<T: pyo3::type_object::PyTypeCheck>(array: Bound<'_, T>) -> PyRe
     Ok(array.unbind())
 }
 
+/// A float array of `shape` from the row-major `data`, read-only.
+pub fn frozen_array(
+    py: Python<'_>,
+    data: Vec<f64>,
+    shape: &[usize],
+) -> PyResult<Py<PyArrayDyn<f64>>> {
+    read_only(shaped(py, data, shape)?)
+}
+
 /// Loads numpy's C API at import. The numpy crate loads it lazily, on the first array,
 /// by running Python code, and panics if that code raises; a Ctrl-C that arrived
 /// during native work is raised by exactly that code, so a long run interrupted just

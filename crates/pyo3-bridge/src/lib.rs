@@ -62,8 +62,9 @@ mod _rperc {
     };
     #[pymodule_export]
     use crate::slam_py::{
-        PyEkf, information_spectrum, monobot_defaults, monobot_monte_carlo,
-        monobot_observability_rank, monobot_simulate, monobot_summarize, nees_bounds,
+        PyEkf, PyMonobotErrors, PyMonobotRun, PyMonobotSummary, information_spectrum,
+        monobot_defaults, monobot_monte_carlo, monobot_observability_rank, monobot_simulate,
+        monobot_summarize, nees_bounds,
     };
     #[pymodule_export]
     use crate::template_py::{PyColorTemplateTracker, color_template_defaults};

@@ -11,7 +11,7 @@ use slam::planar::{
 };
 use std::sync::Mutex;
 
-use crate::arrays::{float_vector, point_rows, read_only, shaped, tensor};
+use crate::arrays::{float_vector, frozen_array, point_rows, read_only, shaped, tensor};
 use crate::errors::{Error, Result, detached, detached_parallel};
 
 /// The default planar SLAM configuration as a dict.
@@ -168,11 +168,6 @@ impl PyPlanarRun {
             s.counts.rejected
         )
     }
-}
-
-/// A float array of `shape` from `data`, read-only.
-fn frozen_array(py: Python<'_>, data: Vec<f64>, shape: &[usize]) -> PyResult<Py<PyArrayDyn<f64>>> {
-    read_only(shaped(py, data, shape)?)
 }
 
 impl PyPlanarRun {

@@ -3,10 +3,9 @@
 use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayDyn};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
 use slam::monobot::{self, MeasurementModel, MonobotConfig, RunErrors};
 
-use crate::arrays::{float_vector, matrix, shaped, tensor, to_numpy};
+use crate::arrays::{float_vector, frozen_array, matrix, read_only, tensor, to_numpy};
 use crate::errors::{Error, detached, detached_parallel, exclusive, shared};
 
 fn vector(obj: &Bound<'_, PyAny>, name: &str) -> Result<DVector<f64>, Error> {
@@ -238,7 +237,63 @@ pub fn monobot_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
     crate::config::defaults::<MonobotConfig>(py)
 }
 
-/// Run `run` of the experiment seeded with `seed`, as a dict of arrays (GIL released).
+/// One monobot run, frozen, arrays read-only: the true and estimated states `(k+1,
+/// d)` with the estimate's standard deviations, the measurements and innovations
+/// with their covariances, the Kalman gains, the predicted covariances, the NEES,
+/// the total Fisher information (eq. 14) and its first entry over time, and each
+/// landmark's first-observation error.
+#[pyclass(name = "MonobotRun", module = "rperc._rperc", frozen)]
+pub struct PyMonobotRun {
+    #[pyo3(get)]
+    truth: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    estimate: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    std: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    initial_measurement: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    measurement: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    innovation: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    innovation_cov: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    gain: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    predicted_cov: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    nees: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    fisher: Py<PyArray2<f64>>,
+    #[pyo3(get)]
+    fisher_00: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    first_observation_error: Py<PyArrayDyn<f64>>,
+}
+
+impl PyMonobotRun {
+    fn new(py: Python<'_>, run: monobot::MonobotRun) -> PyResult<Self> {
+        let (d, p, k) = (run.dim, run.obs_dim, run.steps);
+        Ok(Self {
+            truth: frozen_array(py, run.truth, &[k + 1, d])?,
+            estimate: frozen_array(py, run.estimate, &[k + 1, d])?,
+            std: frozen_array(py, run.std, &[k + 1, d])?,
+            initial_measurement: frozen_array(py, run.initial_measurement, &[d - 1])?,
+            measurement: frozen_array(py, run.measurement, &[k, p])?,
+            innovation: frozen_array(py, run.innovation, &[k, p])?,
+            innovation_cov: frozen_array(py, run.innovation_cov, &[k, p, p])?,
+            gain: frozen_array(py, run.gain, &[k, d, p])?,
+            predicted_cov: frozen_array(py, run.predicted_cov, &[k, d, d])?,
+            nees: frozen_array(py, run.nees, &[k + 1])?,
+            fisher: read_only(to_numpy(py, &run.fisher))?,
+            fisher_00: frozen_array(py, run.fisher_00, &[k])?,
+            first_observation_error: frozen_array(py, run.first_observation_error, &[d - 1])?,
+        })
+    }
+}
+
+/// Run `run` of the experiment seeded with `seed` (GIL released).
 #[pyfunction]
 #[pyo3(signature = (model, seed, run = 0, config = None))]
 pub fn monobot_simulate<'py>(
@@ -247,47 +302,30 @@ pub fn monobot_simulate<'py>(
     seed: u64,
     run: usize,
     config: Option<&Bound<'py, PyAny>>,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<PyMonobotRun> {
     let model = parse_model(model)?;
     let cfg = monobot_config(config)?;
     let run = detached(py, || Ok(monobot::simulate_run(&cfg, model, seed, run)?))?;
-    let (d, p, k) = (run.dim, run.obs_dim, run.steps);
-    let out = PyDict::new(py);
-    out.set_item("truth", shaped(py, run.truth, &[k + 1, d])?)?;
-    out.set_item("estimate", shaped(py, run.estimate, &[k + 1, d])?)?;
-    out.set_item("std", shaped(py, run.std, &[k + 1, d])?)?;
-    out.set_item(
-        "initial_measurement",
-        shaped(py, run.initial_measurement, &[d - 1])?,
-    )?;
-    out.set_item("measurement", shaped(py, run.measurement, &[k, p])?)?;
-    out.set_item("innovation", shaped(py, run.innovation, &[k, p])?)?;
-    out.set_item(
-        "innovation_cov",
-        shaped(py, run.innovation_cov, &[k, p, p])?,
-    )?;
-    out.set_item("gain", shaped(py, run.gain, &[k, d, p])?)?;
-    out.set_item("predicted_cov", shaped(py, run.predicted_cov, &[k, d, d])?)?;
-    out.set_item("nees", shaped(py, run.nees, &[k + 1])?)?;
-    out.set_item("fisher", to_numpy(py, &run.fisher))?;
-    out.set_item("fisher_00", shaped(py, run.fisher_00, &[k])?)?;
-    out.set_item(
-        "first_observation_error",
-        shaped(py, run.first_observation_error, &[d - 1])?,
-    )?;
-    Ok(out)
+    PyMonobotRun::new(py, run)
 }
 
-type Stacked<'py> = (
-    Bound<'py, PyArrayDyn<f64>>,
-    Bound<'py, PyArrayDyn<f64>>,
-    Bound<'py, PyArrayDyn<f64>>,
-    Bound<'py, PyArrayDyn<f64>>,
-);
+/// The errors of Monte Carlo runs, stacked, frozen, arrays read-only: NEES `(runs,
+/// steps+1)`, robot error `(runs, steps+1)`, landmark errors `(runs, steps+1, n)` and
+/// first-observation errors `(runs, n)`.
+#[pyclass(name = "MonobotErrors", module = "rperc._rperc", frozen)]
+pub struct PyMonobotErrors {
+    #[pyo3(get)]
+    nees: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    robot_error: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    landmark_error: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    first_observation_error: Py<PyArrayDyn<f64>>,
+}
 
-/// The errors of `runs` Monte Carlo runs on all cores (GIL released): NEES
-/// (runs, steps+1), robot error (runs, steps+1), landmark errors (runs, steps+1, n)
-/// and first-observation errors (runs, n). Run `i` draws from stream `i` of `seed`.
+/// The errors of `runs` Monte Carlo runs on all cores (GIL released), stacked. Run
+/// `i` draws from stream `i` of `seed`.
 #[pyfunction]
 #[pyo3(signature = (model, runs, seed, config = None))]
 pub fn monobot_monte_carlo<'py>(
@@ -296,7 +334,7 @@ pub fn monobot_monte_carlo<'py>(
     runs: usize,
     seed: u64,
     config: Option<&Bound<'py, PyAny>>,
-) -> PyResult<Stacked<'py>> {
+) -> PyResult<PyMonobotErrors> {
     let model = parse_model(model)?;
     let cfg = monobot_config(config)?;
     let landmarks = cfg.landmarks;
@@ -318,15 +356,76 @@ pub fn monobot_monte_carlo<'py>(
         lm.extend(e.landmark_error);
         first.extend(e.first_observation_error);
     }
-    Ok((
-        shaped(py, nees, &[runs, len])?,
-        shaped(py, robot, &[runs, len])?,
-        shaped(py, lm, &[runs, len, n])?,
-        shaped(py, first, &[runs, n])?,
-    ))
+    Ok(PyMonobotErrors {
+        nees: frozen_array(py, nees, &[runs, len])?,
+        robot_error: frozen_array(py, robot, &[runs, len])?,
+        landmark_error: frozen_array(py, lm, &[runs, len, n])?,
+        first_observation_error: frozen_array(py, first, &[runs, n])?,
+    })
 }
 
-/// Summary statistics of stacked run errors (the arrays monobot_monte_carlo returns).
+/// Summary statistics of Monte Carlo runs, frozen, arrays read-only: the
+/// run-averaged NEES and its band, the landmark and robot errors' mean and spread
+/// over time, each run's final and first-observation landmark errors, and the
+/// sensitivity (slope) and correlation of the final on the first.
+#[pyclass(name = "MonobotSummary", module = "rperc._rperc", frozen)]
+pub struct PyMonobotSummary {
+    #[pyo3(get)]
+    runs: usize,
+    #[pyo3(get)]
+    nees: Py<PyArray1<f64>>,
+    #[pyo3(get)]
+    nees_band: (f64, f64),
+    #[pyo3(get)]
+    nees_in_band: f64,
+    #[pyo3(get)]
+    landmark_error_mean: Py<PyArray1<f64>>,
+    #[pyo3(get)]
+    landmark_error_std: Py<PyArray1<f64>>,
+    #[pyo3(get)]
+    robot_error_mean: Py<PyArray1<f64>>,
+    #[pyo3(get)]
+    robot_error_std: Py<PyArray1<f64>>,
+    #[pyo3(get)]
+    final_landmark_error: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    first_observation_error: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    sensitivity: f64,
+    #[pyo3(get)]
+    correlation: f64,
+}
+
+/// The stacked run errors as `RunErrors`, checked for consistent shapes.
+fn run_errors(
+    nees: &Bound<'_, PyAny>,
+    robot_error: &Bound<'_, PyAny>,
+    landmark_error: &Bound<'_, PyAny>,
+    first_observation_error: &Bound<'_, PyAny>,
+) -> Result<Vec<RunErrors>, Error> {
+    let nees = matrix(nees, "nees")?;
+    let robot = matrix(robot_error, "robot_error")?;
+    let first = matrix(first_observation_error, "first_observation_error")?;
+    let (runs, len) = nees.shape();
+    let n = first.ncols();
+    let (lm_shape, lm) = tensor(landmark_error, "landmark_error", 3)?;
+    if robot.shape() != (runs, len) || first.nrows() != runs || lm_shape != [runs, len, n] {
+        return Err(Error::Value(
+            "run error arrays have inconsistent shapes".into(),
+        ));
+    }
+    Ok((0..runs)
+        .map(|i| RunErrors {
+            landmarks: n,
+            nees: nees.row(i).iter().copied().collect(),
+            robot_error: robot.row(i).iter().copied().collect(),
+            landmark_error: lm[i * len * n..(i + 1) * len * n].to_vec(),
+            first_observation_error: first.row(i).iter().copied().collect(),
+        })
+        .collect())
+}
+
+/// Summary statistics of stacked run errors (the arrays of a `MonobotErrors`).
 #[pyfunction]
 #[pyo3(signature = (nees, robot_error, landmark_error, first_observation_error, confidence = 0.95))]
 pub fn monobot_summarize<'py>(
@@ -336,49 +435,25 @@ pub fn monobot_summarize<'py>(
     landmark_error: &Bound<'py, PyAny>,
     first_observation_error: &Bound<'py, PyAny>,
     confidence: f64,
-) -> PyResult<Bound<'py, PyDict>> {
-    let nees = matrix(nees, "nees")?;
-    let robot = matrix(robot_error, "robot_error")?;
-    let first = matrix(first_observation_error, "first_observation_error")?;
-    let (runs, len) = nees.shape();
-    let n = first.ncols();
-    let (lm_shape, lm) = tensor(landmark_error, "landmark_error", 3)?;
-    if robot.shape() != (runs, len) || first.nrows() != runs || lm_shape != [runs, len, n] {
-        return Err(Error::Value("run error arrays have inconsistent shapes".into()).into());
-    }
-    let per_run: Vec<RunErrors> = (0..runs)
-        .map(|i| RunErrors {
-            landmarks: n,
-            nees: nees.row(i).iter().copied().collect(),
-            robot_error: robot.row(i).iter().copied().collect(),
-            landmark_error: lm[i * len * n..(i + 1) * len * n].to_vec(),
-            first_observation_error: first.row(i).iter().copied().collect(),
-        })
-        .collect();
+) -> PyResult<PyMonobotSummary> {
+    let per_run = run_errors(nees, robot_error, landmark_error, first_observation_error)?;
+    let n = per_run.first().map_or(0, |r| r.landmarks);
     let s = monobot::summarize(&per_run, confidence).map_err(Error::from)?;
-    let out = PyDict::new(py);
-    out.set_item("runs", s.runs)?;
-    out.set_item("nees", s.nees.into_pyarray(py))?;
-    out.set_item("nees_band", s.nees_band)?;
-    out.set_item("nees_in_band", s.nees_in_band)?;
-    out.set_item(
-        "landmark_error_mean",
-        s.landmark_error_mean.into_pyarray(py),
-    )?;
-    out.set_item("landmark_error_std", s.landmark_error_std.into_pyarray(py))?;
-    out.set_item("robot_error_mean", s.robot_error_mean.into_pyarray(py))?;
-    out.set_item("robot_error_std", s.robot_error_std.into_pyarray(py))?;
-    out.set_item(
-        "final_landmark_error",
-        shaped(py, s.final_landmark_error, &[runs, n])?,
-    )?;
-    out.set_item(
-        "first_observation_error",
-        shaped(py, s.first_observation_error, &[runs, n])?,
-    )?;
-    out.set_item("sensitivity", s.sensitivity)?;
-    out.set_item("correlation", s.correlation)?;
-    Ok(out)
+    let runs = s.runs;
+    Ok(PyMonobotSummary {
+        runs,
+        nees: read_only(s.nees.into_pyarray(py))?,
+        nees_band: s.nees_band,
+        nees_in_band: s.nees_in_band,
+        landmark_error_mean: read_only(s.landmark_error_mean.into_pyarray(py))?,
+        landmark_error_std: read_only(s.landmark_error_std.into_pyarray(py))?,
+        robot_error_mean: read_only(s.robot_error_mean.into_pyarray(py))?,
+        robot_error_std: read_only(s.robot_error_std.into_pyarray(py))?,
+        final_landmark_error: frozen_array(py, s.final_landmark_error, &[runs, n])?,
+        first_observation_error: frozen_array(py, s.first_observation_error, &[runs, n])?,
+        sensitivity: s.sensitivity,
+        correlation: s.correlation,
+    })
 }
 
 /// Rank of the monobot's observability matrix.

@@ -189,8 +189,14 @@ def simulate(
             "reference_noise": reference_noise,
         },
     )
-    arrays = _rperc.monobot_simulate(model, _seed(seed), 0, cfg.kwargs())
-    return MonobotResult(model=model, config=cfg, seed=seed, **arrays)
+    r = _rperc.monobot_simulate(model, _seed(seed), 0, cfg.kwargs())
+    return MonobotResult(
+        model=model, config=cfg, seed=seed, truth=r.truth, estimate=r.estimate, std=r.std,
+        initial_measurement=r.initial_measurement, measurement=r.measurement,
+        innovation=r.innovation, innovation_cov=r.innovation_cov, gain=r.gain,
+        predicted_cov=r.predicted_cov, nees=r.nees, fisher=r.fisher, fisher_00=r.fisher_00,
+        first_observation_error=r.first_observation_error,
+    )  # fmt: skip
 
 
 def _seed(seed: int) -> int:
@@ -260,8 +266,8 @@ def _run_errors(model: str, seed: int, run: int, config: dict[str, Any]) -> tupl
     """Run ``run``'s errors; a top-level function so process pools and Dask can pickle
     it. The run draws from stream ``run`` of ``seed``, as the native Monte Carlo does."""
     r = _rperc.monobot_simulate(model, seed, run, config)
-    err = r["estimate"] - r["truth"]
-    return r["nees"], err[:, 0], err[:, 1:], r["first_observation_error"]
+    err = r.estimate - r.truth
+    return r.nees, err[:, 0], err[:, 1:], r.first_observation_error
 
 
 def monte_carlo(
@@ -297,7 +303,9 @@ def monte_carlo(
         if progress:
             batch = _progress(batch, desc=f"monobot {model}, {runs} runs (rayon)", unit="batch")
         for n in batch:
-            nees, robot, lm, first = _rperc.monobot_monte_carlo(model, n, seed, cfg.kwargs())
+            e = _rperc.monobot_monte_carlo(model, n, seed, cfg.kwargs())
+            nees, robot, first = e.nees, e.robot_error, e.first_observation_error
+            lm = e.landmark_error
     else:
         _rperc.monobot_simulate(model, seed, 0, {**cfg.kwargs(), "steps": 1})  # validate early
         kwargs = cfg.kwargs()
@@ -305,8 +313,13 @@ def monte_carlo(
         done = _progress(futures, desc=f"monobot {model}", unit="run") if progress else futures
         results = [f.result() for f in done]
         nees, robot, lm, first = (np.stack(parts) for parts in zip(*results, strict=True))
-    summary = _rperc.monobot_summarize(nees, robot, lm, first, confidence)
-    summary.pop("runs")
+    s = _rperc.monobot_summarize(nees, robot, lm, first, confidence)
     return MonteCarloResult(
-        model=model, config=cfg, runs=int(runs), run_nees=np.asarray(nees), **summary
-    )
+        model=model, config=cfg, runs=s.runs, run_nees=np.asarray(nees), nees=s.nees,
+        nees_band=s.nees_band, nees_in_band=s.nees_in_band,
+        landmark_error_mean=s.landmark_error_mean, landmark_error_std=s.landmark_error_std,
+        robot_error_mean=s.robot_error_mean, robot_error_std=s.robot_error_std,
+        final_landmark_error=s.final_landmark_error,
+        first_observation_error=s.first_observation_error, sensitivity=s.sensitivity,
+        correlation=s.correlation,
+    )  # fmt: skip

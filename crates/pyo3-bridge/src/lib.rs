@@ -56,9 +56,9 @@ mod _rperc {
     use crate::pattern_py::{PyPatternTracker, pattern_defaults, pattern_sequence};
     #[pymodule_export]
     use crate::planar_py::{
-        PyPlanarRun, PyPlanarStatistics, PySmoothedWalls, planar_defaults, planar_sim_check,
-        planar_sim_defaults, planar_sim_nees, planar_sim_slam_config, planar_simulate,
-        planar_slam_run, planar_smooth_walls, wall_straightness_covariance,
+        PyPlanarRun, PyPlanarStatistics, PySimulatedWorld, PySmoothedWalls, planar_defaults,
+        planar_sim_check, planar_sim_defaults, planar_sim_nees, planar_sim_slam_config,
+        planar_simulate, planar_slam_run, planar_smooth_walls, wall_straightness_covariance,
     };
     #[pymodule_export]
     use crate::slam_py::{

@@ -4,7 +4,7 @@
 
 use numpy::{IntoPyArray, PyArray1, PyArrayDyn, PyReadonlyArray1};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyTuple};
+use pyo3::types::PyTuple;
 use slam::planar::sim::{SimConfig, check_runs, parallel_runs, run_nees};
 use slam::planar::{
     Event, EventArrays, PlanarConfig, PlanarResult, PlanarSlam, Statistics, WallEstimate,
@@ -419,7 +419,7 @@ pub fn planar_simulate<'py>(
     sim: Option<&Bound<'py, PyAny>>,
     seed: u64,
     run: u64,
-) -> PyResult<Bound<'py, PyDict>> {
+) -> PyResult<PySimulatedWorld> {
     let sim = sim_config(sim)?;
     let data = detached(py, || Ok(slam::planar::sim::simulate(&sim, seed, run)?))?;
     let (mut controls, mut detections, mut ids, mut fixes, mut truth) = (
@@ -447,22 +447,36 @@ pub fn planar_simulate<'py>(
             Event::Walls { .. } => {}
         }
     }
-    let d = PyDict::new(py);
     let rows = |v: &Vec<f64>, k: usize| v.len() / k;
-    d.set_item(
-        "controls",
-        shaped(py, controls.clone(), &[rows(&controls, 3), 3])?,
-    )?;
-    d.set_item(
-        "detections",
-        shaped(py, detections.clone(), &[rows(&detections, 3), 3])?,
-    )?;
-    d.set_item("detection_ids", ids.into_pyarray(py))?;
-    d.set_item("fixes", shaped(py, fixes.clone(), &[rows(&fixes, 6), 6])?)?;
-    d.set_item("truth", shaped(py, truth.clone(), &[rows(&truth, 4), 4])?)?;
     let marks: Vec<f64> = data.landmarks.iter().flat_map(|p| [p.x, p.y]).collect();
-    d.set_item("landmarks", shaped(py, marks, &[data.landmarks.len(), 2])?)?;
-    Ok(d)
+    Ok(PySimulatedWorld {
+        controls: frozen_array(py, controls.clone(), &[rows(&controls, 3), 3])?,
+        detections: frozen_array(py, detections.clone(), &[rows(&detections, 3), 3])?,
+        detection_ids: read_only(ids.into_pyarray(py))?,
+        fixes: frozen_array(py, fixes.clone(), &[rows(&fixes, 6), 6])?,
+        truth: frozen_array(py, truth.clone(), &[rows(&truth, 4), 4])?,
+        landmarks: frozen_array(py, marks, &[data.landmarks.len(), 2])?,
+    })
+}
+
+/// One simulated recording ([`planar_simulate`]), frozen, arrays read-only: the
+/// columnar `controls` `(t, v, omega)`, `detections` `(t, range, bearing)` with their
+/// `detection_ids`, `fixes` `(t, x, y, var_x, cov_xy, var_y)`, the true pose after
+/// every event `truth` `(t, x, y, theta)` and the true `landmarks` `(n, 2)`.
+#[pyclass(name = "SimulatedWorld", module = "rperc._rperc", frozen)]
+pub struct PySimulatedWorld {
+    #[pyo3(get)]
+    controls: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    detections: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    detection_ids: Py<PyArray1<i64>>,
+    #[pyo3(get)]
+    fixes: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    truth: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    landmarks: Py<PyArrayDyn<f64>>,
 }
 
 /// [`slam::wall::straightness_covariance`] of each sensor-frame wall `(rho[k],

@@ -611,10 +611,10 @@ def simulate(
     stream the Monte Carlo's run ``run`` uses)."""
     seed = whole_number(seed, "seed", 0, limit=2**64)
     run = whole_number(run, "run", 0, limit=2**64)
-    d = _rperc.planar_simulate(dict(config or {}), seed, run)
-    fixes = d["fixes"] if len(d["fixes"]) else None
-    rec = Recording(d["controls"], d["detections"], d["detection_ids"], fixes)
-    return SimulatedRun(recording=rec, truth=d["truth"], landmarks=d["landmarks"])
+    w = _rperc.planar_simulate(dict(config or {}), seed, run)
+    fixes = w.fixes if len(w.fixes) else None
+    rec = Recording(w.controls, w.detections, w.detection_ids, fixes)
+    return SimulatedRun(recording=rec, truth=w.truth, landmarks=w.landmarks)
 
 
 def sim_slam_config(sim: Mapping[str, Any] | None = None, **overrides: Any) -> dict[str, Any]:

@@ -142,6 +142,9 @@ def test_result_repr_and_world_frame():
     scan = ray_cast(walls, POSE, ANGLES)
     found = extract_lines(scan.ranges, scan.angles, max_range=scan.max_range)
     assert f"{len(found)} walls" in repr(found)
+    # The native result behind it is frozen: its arrays cannot be written.
+    with pytest.raises(ValueError, match="read-only"):
+        found.rho[0] = 0.0
     world = found.to_world(POSE)
     # Every world endpoint lies on some true wall line.
     for p in np.r_[world.start, world.end]:

@@ -23,6 +23,7 @@ __all__ = [
     "PlanarRun",
     "PlanarStatistics",
     "RpercError",
+    "ScanWalls",
     "SimulatedWorld",
     "SmoothedWalls",
     "__version__",
@@ -105,19 +106,31 @@ def simplify_topology_indices(
     metric: str = "line",
     tie: str = "first",
 ) -> list[npt.NDArray[np.intp]]: ...
+
+@final
+class ScanWalls:
+    """The walls of one scan (:func:`extract_lines`), frozen, arrays read-only."""
+
+    @property
+    def rho(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def alpha(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def cov(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def start(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def end(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def flat_indices(self) -> npt.NDArray[np.intp]: ...
+    @property
+    def offsets(self) -> npt.NDArray[np.intp]: ...
+
 def extract_lines(
     ranges: npt.NDArray[np.floating],
     angles: npt.NDArray[np.floating],
     params: dict[str, Any] | None = None,
-) -> tuple[
-    npt.NDArray[np.float64],
-    npt.NDArray[np.float64],
-    npt.NDArray[np.float64],
-    npt.NDArray[np.float64],
-    npt.NDArray[np.float64],
-    npt.NDArray[np.intp],
-    npt.NDArray[np.intp],
-]: ...
+) -> ScanWalls: ...
 def scan_params_defaults() -> dict[str, Any]: ...
 
 _Array: TypeAlias = npt.NDArray[np.float64]

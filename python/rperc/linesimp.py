@@ -520,8 +520,11 @@ def extract_lines(
         "min_length": real_number(min_length, "min_length"),
         "model_error": _flag(model_error, "model_error"),
     }
-    rho, alpha, cov, start, end, flat, offsets = _rperc.extract_lines(r, a, params)
-    return WallSegments(rho, alpha, cov, start, end, flat, offsets)
+    w = _rperc.extract_lines(r, a, params)
+    return WallSegments(
+        rho=w.rho, alpha=w.alpha, cov=w.cov, start=w.start, end=w.end,
+        flat_indices=w.flat_indices, offsets=w.offsets,
+    )  # fmt: skip
 
 
 def _flag(value: bool, name: str) -> bool:

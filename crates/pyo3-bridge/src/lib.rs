@@ -45,7 +45,7 @@ mod _rperc {
     use crate::laser_py::{PyLaserRun, laser_defaults, laser_run, laser_scan_points};
     #[pymodule_export]
     use crate::linesimp_py::{
-        extract_lines, scan_params_defaults, simplify_indices, simplify_many_indices,
+        PyScanWalls, extract_lines, scan_params_defaults, simplify_indices, simplify_many_indices,
         simplify_topology_indices,
     };
     #[pymodule_export]

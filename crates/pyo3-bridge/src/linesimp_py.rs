@@ -1,10 +1,10 @@
 //! Bindings of the `linesimp` crate: Douglas-Peucker simplification.
 
 use linesimp::{Component, Method, Metric, Simplifier, Tie};
-use numpy::{IntoPyArray, PyArray1};
+use numpy::{IntoPyArray, PyArray1, PyArrayDyn};
 use pyo3::prelude::*;
 
-use crate::arrays::point_rows;
+use crate::arrays::{frozen_array, point_rows, read_only};
 use crate::errors::{Error, detached, detached_parallel};
 
 /// The configured simplifier for the option names Python passes.
@@ -137,17 +137,27 @@ pub fn simplify_topology_indices<'py>(
         .collect())
 }
 
-/// The arrays of a scan's walls: rho (K), alpha (K), cov (K, 2, 2), start (K, 2),
-/// end (K, 2), the fitted readings' indices back to back (M) and their offsets (K + 1).
-type WallArrays<'py> = (
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, numpy::PyArray3<f64>>,
-    Bound<'py, numpy::PyArray2<f64>>,
-    Bound<'py, numpy::PyArray2<f64>>,
-    Bound<'py, PyArray1<isize>>,
-    Bound<'py, PyArray1<isize>>,
-);
+/// The walls of one scan ([`extract_lines`]), frozen, arrays read-only: `rho` (K),
+/// `alpha` (K), `cov` (K, 2, 2) of `(rho, alpha)`, the end points `start` and `end`
+/// (K, 2), and the fitted readings' indices back to back, `flat_indices` (M), with
+/// wall `k`'s at `flat_indices[offsets[k]:offsets[k + 1]]` (`offsets` K + 1).
+#[pyclass(name = "ScanWalls", module = "rperc._rperc", frozen)]
+pub struct PyScanWalls {
+    #[pyo3(get)]
+    rho: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    alpha: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    cov: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    start: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    end: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    flat_indices: Py<PyArray1<isize>>,
+    #[pyo3(get)]
+    offsets: Py<PyArray1<isize>>,
+}
 
 /// Walls of one laser scan (GIL released); `params` holds `ScanParams` fields.
 #[pyfunction]
@@ -157,7 +167,7 @@ pub fn extract_lines<'py>(
     ranges: &Bound<'py, PyAny>,
     angles: &Bound<'py, PyAny>,
     params: Option<&Bound<'py, PyAny>>,
-) -> PyResult<WallArrays<'py>> {
+) -> PyResult<PyScanWalls> {
     let ranges = crate::arrays::float_vector(ranges, "ranges")?;
     let angles = crate::arrays::float_vector(angles, "angles")?;
     let params: linesimp::ScanParams = crate::config::from_python(params, "extract_lines")?;
@@ -184,22 +194,15 @@ pub fn extract_lines<'py>(
         offsets.push(indices.len() as isize);
     }
     let [start, end] = ends;
-    let shape_err = |e: numpy::ndarray::ShapeError| Error::Value(e.to_string());
-    Ok((
-        rho.into_pyarray(py),
-        alpha.into_pyarray(py),
-        numpy::ndarray::Array3::from_shape_vec((k, 2, 2), cov)
-            .map_err(shape_err)?
-            .into_pyarray(py),
-        numpy::ndarray::Array2::from_shape_vec((k, 2), start)
-            .map_err(shape_err)?
-            .into_pyarray(py),
-        numpy::ndarray::Array2::from_shape_vec((k, 2), end)
-            .map_err(shape_err)?
-            .into_pyarray(py),
-        indices.into_pyarray(py),
-        offsets.into_pyarray(py),
-    ))
+    Ok(PyScanWalls {
+        rho: frozen_array(py, rho, &[k])?,
+        alpha: frozen_array(py, alpha, &[k])?,
+        cov: frozen_array(py, cov, &[k, 2, 2])?,
+        start: frozen_array(py, start, &[k, 2])?,
+        end: frozen_array(py, end, &[k, 2])?,
+        flat_indices: read_only(indices.into_pyarray(py))?,
+        offsets: read_only(offsets.into_pyarray(py))?,
+    })
 }
 
 /// The default wall-extraction parameters as a dict.

@@ -64,7 +64,10 @@ def test_range_bearing_update_matches_numpy_joseph():
     S = H @ P @ H.T + R
     K = P @ H.T @ np.linalg.inv(S)
     IKH = np.eye(d) - K @ H
-    nis = ekf.update_range_bearing(j, z, R).nis
+    up = ekf.update_range_bearing(j, z, R)
+    nis = up.nis
+    with pytest.raises(ValueError, match="read-only"):  # the native result is frozen
+        up.gain[0, 0] = 0.0
     expected = x + K @ nu
     expected[2] = np.angle(np.exp(1j * expected[2]))  # the heading is wrapped (issue 10)
     np.testing.assert_allclose(ekf.state, expected, atol=1e-9)

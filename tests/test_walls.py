@@ -166,7 +166,9 @@ def test_world_jacobians_match_central_differences():
         rho = rng.uniform(0.2, 8.0, size=1)
         alpha = rng.uniform(-math.pi, math.pi, size=1)
         pose = np.r_[rng.uniform(-10, 10, size=2), rng.uniform(-math.pi, math.pi)]
-        r0, _, jw, jp = wall_to_world_jacobians(rho, alpha, pose)
+        world = wall_to_world_jacobians(rho, alpha, pose)
+        r0, _, jw, jp = world
+        assert world.d_wall is jw and world.d_pose is jp  # named, and still a tuple
         if r0[0] < 1e-3:
             continue  # at rho_w = 0 the flip makes the transform non-differentiable
 

@@ -13,7 +13,10 @@ __all__ = [
     "ColorShapeTracker",
     "ColorTemplateTracker",
     "Ekf",
+    "InformationSpectrum",
+    "KalmanUpdate",
     "LaserRun",
+    "LaserScanPoints",
     "MonobotErrors",
     "MonobotRun",
     "MonobotSummary",
@@ -26,6 +29,7 @@ __all__ = [
     "ScanWalls",
     "SimulatedWorld",
     "SmoothedWalls",
+    "WorldWalls",
     "__version__",
     "ceiling_defaults",
     "ceiling_drive",
@@ -137,6 +141,52 @@ _Array: TypeAlias = npt.NDArray[np.float64]
 _ArrayLike: TypeAlias = npt.NDArray[np.floating]
 
 @final
+class KalmanUpdate:
+    """What one EKF update did, frozen, arrays read-only."""
+
+    @property
+    def innovation(self) -> _Array: ...
+    @property
+    def innovation_cov(self) -> _Array: ...
+    @property
+    def gain(self) -> _Array: ...
+    @property
+    def nis(self) -> float: ...
+
+@final
+class InformationSpectrum:
+    """Eigenvalues (ascending), eigenvectors (columns) and rank, frozen."""
+
+    @property
+    def eigenvalues(self) -> _Array: ...
+    @property
+    def eigenvectors(self) -> _Array: ...
+    @property
+    def rank(self) -> int: ...
+
+@final
+class WorldWalls:
+    """Walls moved to the world with their Jacobians, frozen, arrays read-only."""
+
+    @property
+    def rho(self) -> _Array: ...
+    @property
+    def alpha(self) -> _Array: ...
+    @property
+    def d_wall(self) -> _Array: ...
+    @property
+    def d_pose(self) -> _Array: ...
+
+@final
+class LaserScanPoints:
+    """One scan's points and normals (NaN off lines), frozen, arrays read-only."""
+
+    @property
+    def points(self) -> _Array: ...
+    @property
+    def normals(self) -> _Array: ...
+
+@final
 class Ekf:
     """Extended Kalman filter: robot block plus landmark blocks, full covariance."""
 
@@ -160,10 +210,8 @@ class Ekf:
     ) -> None: ...
     def update(
         self, innovation: _ArrayLike, blocks: list[tuple[int, int, _ArrayLike]], r: _ArrayLike
-    ) -> tuple[_Array, _Array, float]: ...
-    def update_range_bearing(
-        self, j: int, z: _ArrayLike, r: _ArrayLike
-    ) -> tuple[_Array, _Array, _Array, float]: ...
+    ) -> KalmanUpdate: ...
+    def update_range_bearing(self, j: int, z: _ArrayLike, r: _ArrayLike) -> KalmanUpdate: ...
     def add_landmark(
         self, mean: _ArrayLike, g_robot: _ArrayLike, g_z: _ArrayLike, r: _ArrayLike
     ) -> int: ...
@@ -394,7 +442,7 @@ def monobot_summarize(
     confidence: float = 0.95,
 ) -> MonobotSummary: ...
 def monobot_observability_rank(model: str, landmarks: int) -> int: ...
-def information_spectrum(j: _ArrayLike, tol: float) -> tuple[_Array, _Array, int]: ...
+def information_spectrum(j: _ArrayLike, tol: float) -> InformationSpectrum: ...
 def nees_bounds(dof: int, runs: int, confidence: float) -> tuple[float, float]: ...
 
 _Box: TypeAlias = tuple[float, float, float, float]
@@ -515,9 +563,7 @@ def pose_transform_points(
 ) -> _Array: ...
 def pose_path_point(poses: _ArrayLike, offset: _ArrayLike) -> _Array: ...
 def wrap_angles(angles: _ArrayLike) -> _Array: ...
-def walls_to_world(
-    rho: _ArrayLike, alpha: _ArrayLike, pose: _ArrayLike
-) -> tuple[_Array, _Array, _Array, _Array]: ...
+def walls_to_world(rho: _ArrayLike, alpha: _ArrayLike, pose: _ArrayLike) -> WorldWalls: ...
 
 @final
 class CeilingWorld:
@@ -629,4 +675,4 @@ def laser_scan_points(
     angle_increment: float,
     max_range: float,
     config: Mapping[str, Any] | None = None,
-) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+) -> LaserScanPoints: ...

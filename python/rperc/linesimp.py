@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Literal, overload
+from typing import Any, Literal, NamedTuple, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -392,9 +392,20 @@ class WallSegments:
         return "\n".join(lines)
 
 
+class WorldLines(NamedTuple):
+    """Lines moved to the world frame with their Jacobians (a tuple, by name too):
+    ``rho`` and ``alpha`` (K,), ``d_wall`` (K, 2, 2) with respect to the sensor-frame
+    ``(rho, alpha)`` and ``d_pose`` (K, 2, 3) with respect to the pose."""
+
+    rho: np.ndarray
+    alpha: np.ndarray
+    d_wall: np.ndarray
+    d_pose: np.ndarray
+
+
 def wall_to_world_jacobians(
     rho: npt.ArrayLike, alpha: npt.ArrayLike, pose: npt.ArrayLike
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+) -> WorldLines:
     """World lines of sensor-frame lines ``(rho, alpha)`` seen from ``pose = (x, y,
     theta)``, and the Jacobians of ``(rho_w, alpha_w)`` with respect to ``(rho, alpha)``
     ((K, 2, 2)) and to the pose ((K, 2, 3)).
@@ -408,7 +419,8 @@ def wall_to_world_jacobians(
     """
     rho_arr = np.ascontiguousarray(rho, dtype=np.float64).reshape(-1)
     alpha_arr = np.ascontiguousarray(alpha, dtype=np.float64).reshape(-1)
-    return _rperc.walls_to_world(rho_arr, alpha_arr, np.array(_pose3(pose)))
+    w = _rperc.walls_to_world(rho_arr, alpha_arr, np.array(_pose3(pose)))
+    return WorldLines(w.rho, w.alpha, w.d_wall, w.d_pose)
 
 
 def _pose3(pose: npt.ArrayLike) -> tuple[float, float, float]:

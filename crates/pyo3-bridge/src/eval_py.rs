@@ -8,7 +8,7 @@ use rperc_core::Pose2;
 use slam::wall::wall_to_world;
 use tracking::BoundingBox;
 
-use crate::arrays::{float_vector, point_rows, shaped};
+use crate::arrays::{float_vector, frozen_array, point_rows};
 use crate::errors::Error;
 
 /// Boxes of an `(N, 4)` array named `name`.
@@ -131,7 +131,7 @@ pub fn walls_to_world<'py>(
     rho: &Bound<'py, PyAny>,
     alpha: &Bound<'py, PyAny>,
     pose: &Bound<'py, PyAny>,
-) -> PyResult<WorldWalls<'py>> {
+) -> PyResult<PyWorldWalls> {
     let (rho, alpha) = (float_vector(rho, "rho")?, float_vector(alpha, "alpha")?);
     if rho.len() != alpha.len() {
         return Err(Error::Value(format!(
@@ -154,12 +154,12 @@ pub fn walls_to_world<'py>(
         jw.extend(j.d_wall.transpose().iter());
         jp.extend(j.d_pose.transpose().iter());
     }
-    Ok((
-        rw.into_pyarray(py),
-        aw.into_pyarray(py),
-        shaped(py, jw, &[k, 2, 2])?,
-        shaped(py, jp, &[k, 2, 3])?,
-    ))
+    Ok(PyWorldWalls {
+        rho: frozen_array(py, rw, &[k])?,
+        alpha: frozen_array(py, aw, &[k])?,
+        d_wall: frozen_array(py, jw, &[k, 2, 2])?,
+        d_pose: frozen_array(py, jp, &[k, 2, 3])?,
+    })
 }
 
 /// The world path `(N, 2)` of one point `offset` of the robot (its frame: forward,
@@ -199,13 +199,19 @@ pub fn pose_path_point<'py>(
     )
 }
 
-/// `(rho_w, alpha_w, d/d wall, d/d pose)` of [`walls_to_world`].
-type WorldWalls<'py> = (
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, PyArrayDyn<f64>>,
-    Bound<'py, PyArrayDyn<f64>>,
-);
+/// Walls moved to the world by [`walls_to_world`], frozen, arrays read-only: `rho`
+/// and `alpha` (K) and the Jacobians `d_wall` (K, 2, 2) and `d_pose` (K, 2, 3).
+#[pyclass(name = "WorldWalls", module = "rperc._rperc", frozen)]
+pub struct PyWorldWalls {
+    #[pyo3(get)]
+    rho: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    alpha: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    d_wall: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    d_pose: Py<PyArrayDyn<f64>>,
+}
 
 /// A finite pose `(x, y, theta)`.
 fn pose3(pose: &Bound<'_, PyAny>) -> Result<Pose2, Error> {

@@ -4,7 +4,7 @@ use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayDyn};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 
-use crate::arrays::{float_vector, read_only, shaped, tensor};
+use crate::arrays::{float_vector, frozen_array, read_only, shaped, tensor};
 use crate::errors::{Error, Result, detached};
 use crate::planar_py::{int_rows, rows};
 use laser::{LaserConfig, ScanLog};
@@ -168,6 +168,17 @@ pub fn laser_run<'py>(
     PyLaserRun::new(py, out, s)
 }
 
+/// One scan's points ([`laser_scan_points`]), frozen, arrays read-only: the kept
+/// `points` (n, 2) in the laser frame and their unit `normals` (n, 2), NaN where a
+/// point is on no line.
+#[pyclass(name = "LaserScanPoints", module = "rperc._rperc", frozen)]
+pub struct PyLaserScanPoints {
+    #[pyo3(get)]
+    points: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    normals: Py<PyArrayDyn<f64>>,
+}
+
 /// One scan's points (laser frame) and their normals (NaN where a point is on no
 /// line), with the `scan` part of a laser SLAM config.
 #[pyfunction]
@@ -179,7 +190,7 @@ pub fn laser_scan_points<'py>(
     angle_increment: f64,
     max_range: f64,
     config: Option<&Bound<'py, PyAny>>,
-) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+) -> PyResult<PyLaserScanPoints> {
     let config: laser::ScanConfig = crate::config::from_python(config, "scan")?;
     config.validate().map_err(Error::from)?;
     let ranges = float_vector(ranges, "ranges")?;
@@ -197,8 +208,8 @@ pub fn laser_scan_points<'py>(
         .iter()
         .flat_map(|v| v.map_or([f64::NAN; 2], |v| [v.x, v.y]))
         .collect();
-    Ok((
-        shaped(py, pts, &[n, 2])?.into_any(),
-        shaped(py, nrm, &[n, 2])?.into_any(),
-    ))
+    Ok(PyLaserScanPoints {
+        points: frozen_array(py, pts, &[n, 2])?,
+        normals: frozen_array(py, nrm, &[n, 2])?,
+    })
 }

@@ -38,11 +38,13 @@ mod _rperc {
     use crate::errors::check_allocation;
     #[pymodule_export]
     use crate::eval_py::{
-        otb_center_error, otb_groundtruth, otb_iou, otb_precision, otb_success_curve,
+        PyWorldWalls, otb_center_error, otb_groundtruth, otb_iou, otb_precision, otb_success_curve,
         pose_path_point, pose_transform_points, walls_to_world, wrap_angles,
     };
     #[pymodule_export]
-    use crate::laser_py::{PyLaserRun, laser_defaults, laser_run, laser_scan_points};
+    use crate::laser_py::{
+        PyLaserRun, PyLaserScanPoints, laser_defaults, laser_run, laser_scan_points,
+    };
     #[pymodule_export]
     use crate::linesimp_py::{
         PyScanWalls, extract_lines, scan_params_defaults, simplify_indices, simplify_many_indices,
@@ -62,9 +64,9 @@ mod _rperc {
     };
     #[pymodule_export]
     use crate::slam_py::{
-        PyEkf, PyMonobotErrors, PyMonobotRun, PyMonobotSummary, information_spectrum,
-        monobot_defaults, monobot_monte_carlo, monobot_observability_rank, monobot_simulate,
-        monobot_summarize, nees_bounds,
+        PyEkf, PyInformationSpectrum, PyKalmanUpdate, PyMonobotErrors, PyMonobotRun,
+        PyMonobotSummary, information_spectrum, monobot_defaults, monobot_monte_carlo,
+        monobot_observability_rank, monobot_simulate, monobot_summarize, nees_bounds,
     };
     #[pymodule_export]
     use crate::template_py::{PyColorTemplateTracker, color_template_defaults};

@@ -12,17 +12,44 @@ fn vector(obj: &Bound<'_, PyAny>, name: &str) -> Result<DVector<f64>, Error> {
     Ok(DVector::from_vec(float_vector(obj, name)?))
 }
 
-/// `(S, K, nis)` of one update.
-type UpdateArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>, f64);
-/// `(innovation, S, K, nis)` of a range-bearing update.
-type RangeBearingUpdate<'py> = (
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, PyArray2<f64>>,
-    Bound<'py, PyArray2<f64>>,
-    f64,
-);
-/// Eigenvalues, eigenvectors and rank.
-type Spectrum<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray2<f64>>, usize);
+/// What one measurement update did, frozen, arrays read-only: the `innovation` it
+/// used, its covariance `innovation_cov` (`S`, eq. 8), the `gain` (`K`, eq. 7) and
+/// the `nis`.
+#[pyclass(name = "KalmanUpdate", module = "rperc._rperc", frozen)]
+pub struct PyKalmanUpdate {
+    #[pyo3(get)]
+    innovation: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    innovation_cov: Py<PyArray2<f64>>,
+    #[pyo3(get)]
+    gain: Py<PyArray2<f64>>,
+    #[pyo3(get)]
+    nis: f64,
+}
+
+impl PyKalmanUpdate {
+    fn new(py: Python<'_>, up: &slam::Update) -> PyResult<Self> {
+        let nu = up.innovation.as_slice().to_vec();
+        Ok(Self {
+            innovation: frozen_array(py, nu, &[up.innovation.len()])?,
+            innovation_cov: read_only(to_numpy(py, &up.innovation_cov))?,
+            gain: read_only(to_numpy(py, &up.gain))?,
+            nis: up.nis,
+        })
+    }
+}
+
+/// The eigen-decomposition of a Fisher information matrix, frozen, arrays
+/// read-only: `eigenvalues` ascending, `eigenvectors` as columns, and the `rank`.
+#[pyclass(name = "InformationSpectrum", module = "rperc._rperc", frozen)]
+pub struct PyInformationSpectrum {
+    #[pyo3(get)]
+    eigenvalues: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    eigenvectors: Py<PyArray2<f64>>,
+    #[pyo3(get)]
+    rank: usize,
+}
 
 /// An extended Kalman filter over a robot block and landmark blocks.
 #[pyclass(name = "Ekf", module = "rperc._rperc")]
@@ -111,14 +138,14 @@ impl PyEkf {
     }
 
     /// Update with `innovation`, a sparse `H` given as `[(row, col, block), ...]`,
-    /// and noise `R`. Returns `(S, K, nis)`.
+    /// and noise `R`.
     fn update<'py>(
         slf: &Bound<'_, Self>,
         py: Python<'py>,
         innovation: &Bound<'py, PyAny>,
         blocks: Vec<(usize, usize, Bound<'py, PyAny>)>,
         r: &Bound<'py, PyAny>,
-    ) -> PyResult<UpdateArrays<'py>> {
+    ) -> PyResult<PyKalmanUpdate> {
         let mut this = exclusive(slf)?;
         let nu = vector(innovation, "innovation")?;
         let r = matrix(r, "R")?;
@@ -132,22 +159,18 @@ impl PyEkf {
         }
         let ekf = &mut this.inner;
         let up = detached(py, || Ok(ekf.update(&nu, &h, &r)?))?;
-        Ok((
-            to_numpy(py, &up.innovation_cov),
-            to_numpy(py, &up.gain),
-            up.nis,
-        ))
+        PyKalmanUpdate::new(py, &up)
     }
 
-    /// Range-bearing update of landmark `j` (planar robot, point landmarks); returns
-    /// `(innovation, S, K, nis)`.
+    /// Range-bearing update of landmark `j` (planar robot, point landmarks); the
+    /// bearing innovation is wrapped.
     fn update_range_bearing<'py>(
         slf: &Bound<'_, Self>,
         py: Python<'py>,
         j: usize,
         z: &Bound<'py, PyAny>,
         r: &Bound<'py, PyAny>,
-    ) -> PyResult<RangeBearingUpdate<'py>> {
+    ) -> PyResult<PyKalmanUpdate> {
         let mut this = exclusive(slf)?;
         let (z, r) = (vector(z, "z")?, matrix(r, "R")?);
         if z.len() != 2 || r.shape() != (2, 2) {
@@ -159,12 +182,7 @@ impl PyEkf {
         );
         let ekf = &mut this.inner;
         let up = detached(py, || Ok(ekf.update_range_bearing(j, &z, &r)?))?;
-        Ok((
-            up.innovation.as_slice().to_vec().into_pyarray(py),
-            to_numpy(py, &up.innovation_cov),
-            to_numpy(py, &up.gain),
-            up.nis,
-        ))
+        PyKalmanUpdate::new(py, &up)
     }
 
     /// Adds a landmark from the inverse observation model; returns its index.
@@ -468,14 +486,15 @@ pub fn information_spectrum<'py>(
     py: Python<'py>,
     j: &Bound<'py, PyAny>,
     tol: f64,
-) -> PyResult<Spectrum<'py>> {
+) -> PyResult<PyInformationSpectrum> {
     let j: DMatrix<f64> = matrix(j, "J")?;
     let spec = monobot::information_spectrum(&j, tol).map_err(Error::from)?;
-    Ok((
-        spec.eigenvalues.as_slice().to_vec().into_pyarray(py),
-        to_numpy(py, &spec.eigenvectors),
-        spec.rank,
-    ))
+    let values = spec.eigenvalues.as_slice().to_vec();
+    Ok(PyInformationSpectrum {
+        eigenvalues: frozen_array(py, values.clone(), &[values.len()])?,
+        eigenvectors: read_only(to_numpy(py, &spec.eigenvectors))?,
+        rank: spec.rank,
+    })
 }
 
 /// The band of the run-averaged NEES.

@@ -8,6 +8,7 @@ from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
 from rperc.plot.wallslam import REFERENCE, reference_limits
+from rperc.pose import to_world
 from rperc.slam.laser import LaserResult
 
 #: Every how many scans the map draws a scan's points.
@@ -22,19 +23,13 @@ def scan_cloud(log: object, pose: np.ndarray, stride: int = SCAN_STRIDE) -> np.n
     clouds = []
     for k in range(0, len(pose), stride):
         n = int(sc.num_beams[k])
-        pts, _ = _rperc.laser_scan_points(
+        found = _rperc.laser_scan_points(
             sc.ranges[k, :n],
             float(sc.angle_min[k]),
             float(sc.angle_increment[k]),
             float(sc.max_range[k]),
         )
-        c, s = np.cos(pose[k, 2]), np.sin(pose[k, 2])
-        clouds.append(
-            np.c_[
-                pose[k, 0] + c * pts[:, 0] - s * pts[:, 1],
-                pose[k, 1] + s * pts[:, 0] + c * pts[:, 1],
-            ]
-        )
+        clouds.append(to_world(pose[k], found.points))
     return np.concatenate(clouds) if clouds else np.zeros((0, 2))
 
 

@@ -51,6 +51,10 @@ class EkfUpdate:
         return f"EkfUpdate(m={len(self.innovation)}, nis={self.nis:.3f})"
 
 
+def _typed(up: _rperc.KalmanUpdate) -> EkfUpdate:
+    return EkfUpdate(up.innovation, up.innovation_cov, up.gain, up.nis)
+
+
 def _restore(state: np.ndarray, covariance: np.ndarray, robot_dim: int, landmark_dim: int) -> Ekf:
     return Ekf(state, covariance, robot_dim, landmark_dim)
 
@@ -143,17 +147,13 @@ class Ekf:
         ``[(row, col, block), ...]`` (each block's entries placed at ``H[row:, col:]``)."""
         nu = _vector(innovation, "innovation")
         h = [(int(r), int(c), _matrix(b, f"blocks[{k}]")) for k, (r, c, b) in enumerate(blocks)]
-        s, gain, nis = self._native.update(nu, h, _matrix(R, "R"))
-        return EkfUpdate(nu, s, gain, nis)
+        return _typed(self._native.update(nu, h, _matrix(R, "R")))
 
     def update_range_bearing(self, j: int, z: npt.ArrayLike, R: npt.ArrayLike) -> EkfUpdate:
         """Update with a range-bearing observation ``z = (range, bearing)`` of point
         landmark ``j`` (planar robot ``(x, y, theta)``); the bearing innovation is
         wrapped into (-pi, pi]."""
-        nu, s, gain, nis = self._native.update_range_bearing(
-            int(j), _vector(z, "z"), _matrix(R, "R")
-        )
-        return EkfUpdate(nu, s, gain, nis)
+        return _typed(self._native.update_range_bearing(int(j), _vector(z, "z"), _matrix(R, "R")))
 
     def add_landmark(
         self,

@@ -222,8 +222,8 @@ def unobservable_directions(J: npt.ArrayLike, tol: float = 1e-9) -> np.ndarray:
     if arr.dtype.kind not in "fiu":
         raise TypeError(f"J must be a real matrix, got dtype {arr.dtype}")
     arr = arr.astype(np.float64)
-    _, vectors, rank = _rperc.information_spectrum(arr, float(tol))
-    return vectors[:, : arr.shape[0] - rank]
+    spectrum = _rperc.information_spectrum(arr, float(tol))
+    return spectrum.eigenvectors[:, : arr.shape[0] - spectrum.rank]
 
 
 def nees_bounds(dof: int, runs: int, confidence: float = 0.95) -> tuple[float, float]:

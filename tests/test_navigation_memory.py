@@ -380,3 +380,19 @@ def test_a_binary_file_is_refused_as_a_memory_from_its_first_bytes(tmp_path):
     with pytest.raises(ValueError, match=r"not a visual-memory file: .*not a text file"):
         VisualMemory.load(path)
     assert time.monotonic() - started < 2.0
+
+
+def test_native_memory_results_are_named_and_read_only(learnt):
+    """The seam's visual-memory results are frozen classes with named fields (they
+    were positional tuples): the frames' arrays cannot be written, and the lost
+    flags and tracked counts arrive as booleans and integers."""
+    from rperc import _rperc
+
+    _, learning = learnt
+    f = learning.frames
+    assert f.lost.dtype == np.bool_ and f.tracked.dtype == np.int64
+    with pytest.raises(ValueError, match="read-only"):
+        f.pose[0, 0] = 0.0
+    for name in ("MemoryFrames", "MemoryLearning", "MemoryReplay"):
+        with pytest.raises(TypeError):
+            getattr(_rperc, name)()  # made only by the native side

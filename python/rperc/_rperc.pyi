@@ -17,6 +17,9 @@ __all__ = [
     "KalmanUpdate",
     "LaserRun",
     "LaserScanPoints",
+    "MemoryFrames",
+    "MemoryLearning",
+    "MemoryReplay",
     "MonobotErrors",
     "MonobotRun",
     "MonobotSummary",
@@ -597,14 +600,42 @@ def ceiling_drive(
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
 def ceiling_defaults() -> tuple[dict[str, Any], dict[str, Any], dict[str, Any], dict[str, Any]]: ...
 
-_Frames: TypeAlias = tuple[
-    npt.NDArray[np.float64],
-    npt.NDArray[np.float64],
-    npt.NDArray[np.float64],
-    npt.NDArray[np.float64],
-    npt.NDArray[np.float64],
-    npt.NDArray[np.float64],
-]
+@final
+class MemoryFrames:
+    """Per-frame arrays of a visual-memory run, frozen, read-only."""
+
+    @property
+    def truth(self) -> _Array: ...
+    @property
+    def pose(self) -> _Array: ...
+    @property
+    def lost(self) -> npt.NDArray[np.bool_]: ...
+    @property
+    def tracked(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def seconds(self) -> _Array: ...
+    @property
+    def covariance(self) -> _Array: ...
+
+@final
+class MemoryLearning:
+    """A learning run: the memory (JSON) and its frames, frozen."""
+
+    @property
+    def memory(self) -> str: ...
+    @property
+    def frames(self) -> MemoryFrames: ...
+
+@final
+class MemoryReplay:
+    """A replay: its outcome, the key image followed at each frame and the frames."""
+
+    @property
+    def outcome(self) -> str: ...
+    @property
+    def key_index(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def frames(self) -> MemoryFrames: ...
 
 def visual_memory_learn(
     world: CeilingWorld,
@@ -613,14 +644,14 @@ def visual_memory_learn(
     dt: float,
     config: dict[str, Any] | None = None,
     seed: int = 0,
-) -> tuple[str, _Frames]: ...
+) -> MemoryLearning: ...
 def visual_memory_replay(
     world: CeilingWorld,
     memory: str,
     start: npt.NDArray[np.float64],
     config: dict[str, Any] | None = None,
     seed: int = 0,
-) -> tuple[str, npt.NDArray[np.float64], _Frames]: ...
+) -> MemoryReplay: ...
 def visual_memory_defaults() -> tuple[dict[str, Any], dict[str, Any]]: ...
 def visual_memory_check(memory: str) -> None: ...
 

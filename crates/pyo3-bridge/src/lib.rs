@@ -52,7 +52,8 @@ mod _rperc {
     };
     #[pymodule_export]
     use crate::memory_py::{
-        visual_memory_check, visual_memory_defaults, visual_memory_learn, visual_memory_replay,
+        PyMemoryFrames, PyMemoryLearning, PyMemoryReplay, visual_memory_check,
+        visual_memory_defaults, visual_memory_learn, visual_memory_replay,
     };
     #[pymodule_export]
     use crate::pattern_py::{PyPatternTracker, pattern_defaults, pattern_sequence};

@@ -1,26 +1,56 @@
 //! The visual memory (second seed, section 2): learning and replay runs in a ceiling
 //! world, the memory exchanged as JSON. Conversion only.
 
+use numpy::{IntoPyArray, PyArray1, PyArrayDyn};
 use pyo3::prelude::*;
 use rperc_core::Pose2;
 use tracking::memory::{FrameReport, LearnParams, ReplayParams, VisualMemory, World};
 
-use crate::arrays::shaped;
+use crate::arrays::{frozen_array, read_only};
 use crate::ceiling_py::{PyCeilingWorld, one_pose, pairs, pose_rows};
 use crate::errors::{Error, detached};
 
-type Array<'py> = Bound<'py, numpy::PyArrayDyn<f64>>;
+/// Per-frame arrays of a run, frozen, read-only: `truth` (n, 3) and `pose` (n, 3,
+/// NaN where unknown), `lost` (n,), the models `tracked` (n,), the robot's processing
+/// `seconds` (n,) and the `covariance` (n, 3, 3) of `pose` (NaN where unknown).
+#[pyclass(name = "MemoryFrames", module = "rperc._rperc", frozen)]
+pub struct PyMemoryFrames {
+    #[pyo3(get)]
+    truth: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    pose: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    lost: Py<PyArray1<bool>>,
+    #[pyo3(get)]
+    tracked: Py<PyArray1<i64>>,
+    #[pyo3(get)]
+    seconds: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    covariance: Py<PyArrayDyn<f64>>,
+}
 
-/// Per-frame arrays of a run: `(truth (n, 3), pose (n, 3) NaN where unknown, lost (n,)
-/// as 0/1, tracked models (n,), seconds (n,))`.
-type Frames<'py> = (
-    Array<'py>,
-    Array<'py>,
-    Array<'py>,
-    Array<'py>,
-    Array<'py>,
-    Array<'py>,
-);
+/// A learning run ([`visual_memory_learn`]), frozen: the `memory` (JSON) and its
+/// `frames`.
+#[pyclass(name = "MemoryLearning", module = "rperc._rperc", frozen)]
+pub struct PyMemoryLearning {
+    #[pyo3(get)]
+    memory: String,
+    #[pyo3(get)]
+    frames: Py<PyMemoryFrames>,
+}
+
+/// A replay ([`visual_memory_replay`]), frozen: its `outcome` (`reached`, `lost` or
+/// `timed_out`), the key image followed at each frame `key_index` (n,) and the
+/// `frames`.
+#[pyclass(name = "MemoryReplay", module = "rperc._rperc", frozen)]
+pub struct PyMemoryReplay {
+    #[pyo3(get)]
+    outcome: String,
+    #[pyo3(get)]
+    key_index: Py<PyArray1<i64>>,
+    #[pyo3(get)]
+    frames: Py<PyMemoryFrames>,
+}
 
 fn world(w: &PyCeilingWorld) -> World<'_> {
     World {
@@ -30,39 +60,36 @@ fn world(w: &PyCeilingWorld) -> World<'_> {
     }
 }
 
-fn frames<'py>(
-    py: Python<'py>,
+fn frames(
+    py: Python<'_>,
     truth: &[Pose2],
     reports: &[FrameReport],
     seconds: Vec<f64>,
-) -> PyResult<Frames<'py>> {
+) -> PyResult<Py<PyMemoryFrames>> {
     let n = truth.len();
     let pose: Vec<f64> = reports
         .iter()
         .flat_map(|r| r.pose.map_or([f64::NAN; 3], |p| [p.x, p.y, p.theta]))
         .collect();
-    let lost = reports
-        .iter()
-        .map(|r| f64::from(u8::from(r.lost)))
-        .collect();
-    let tracked = reports.iter().map(|r| r.tracked.len() as f64).collect();
+    let lost: Vec<bool> = reports.iter().map(|r| r.lost).collect();
+    let tracked: Vec<i64> = reports.iter().map(|r| r.tracked.len() as i64).collect();
     let covariance: Vec<f64> = reports
         .iter()
         .flat_map(|r| r.covariance.map_or([[f64::NAN; 3]; 3], |c| c))
         .flatten()
         .collect();
-    Ok((
-        shaped(py, pose_rows(truth), &[n, 3])?,
-        shaped(py, pose, &[n, 3])?,
-        shaped(py, lost, &[n])?,
-        shaped(py, tracked, &[n])?,
-        shaped(py, seconds, &[n])?,
-        shaped(py, covariance, &[n, 3, 3])?,
-    ))
+    let frames = PyMemoryFrames {
+        truth: frozen_array(py, pose_rows(truth), &[n, 3])?,
+        pose: frozen_array(py, pose, &[n, 3])?,
+        lost: read_only(lost.into_pyarray(py))?,
+        tracked: read_only(tracked.into_pyarray(py))?,
+        seconds: frozen_array(py, seconds, &[n])?,
+        covariance: frozen_array(py, covariance, &[n, 3, 3])?,
+    };
+    Py::new(py, frames)
 }
 
-/// Learns the path driven by `commands` (n, 2) from `start` (3,): `(memory JSON,
-/// frames)` (GIL released).
+/// Learns the path driven by `commands` (n, 2) from `start` (3,) (GIL released).
 #[pyfunction]
 #[pyo3(signature = (world, start, commands, dt, config = None, seed = 0))]
 pub fn visual_memory_learn<'py>(
@@ -73,7 +100,7 @@ pub fn visual_memory_learn<'py>(
     dt: f64,
     config: Option<&Bound<'py, PyAny>>,
     seed: u64,
-) -> PyResult<(String, Frames<'py>)> {
+) -> PyResult<PyMemoryLearning> {
     let params: LearnParams = crate::config::from_python(config, "learn")?;
     let start = one_pose(start, "start")?;
     let commands = pairs(commands, "commands")?;
@@ -89,14 +116,13 @@ pub fn visual_memory_learn<'py>(
         )?)
     })?;
     let json = serde_json::to_string(&learnt.memory).map_err(|e| Error::Value(e.to_string()))?;
-    Ok((
-        json,
-        frames(py, &learnt.truth, &learnt.reports, learnt.seconds)?,
-    ))
+    Ok(PyMemoryLearning {
+        memory: json,
+        frames: frames(py, &learnt.truth, &learnt.reports, learnt.seconds)?,
+    })
 }
 
-/// Replays the memory (JSON) from the true pose `start`: `(outcome, key index (n,),
-/// frames)` (GIL released).
+/// Replays the memory (JSON) from the true pose `start` (GIL released).
 #[pyfunction]
 #[pyo3(signature = (world, memory, start, config = None, seed = 0))]
 pub fn visual_memory_replay<'py>(
@@ -106,7 +132,7 @@ pub fn visual_memory_replay<'py>(
     start: &Bound<'py, PyAny>,
     config: Option<&Bound<'py, PyAny>>,
     seed: u64,
-) -> PyResult<(String, Array<'py>, Frames<'py>)> {
+) -> PyResult<PyMemoryReplay> {
     let params: ReplayParams = crate::config::from_python(config, "replay")?;
     let memory: VisualMemory = serde_json::from_str(memory)
         .map_err(|e| Error::Value(format!("memory: not a visual memory: {e}")))?;
@@ -125,13 +151,12 @@ pub fn visual_memory_replay<'py>(
         .ok()
         .and_then(|v| v.as_str().map(str::to_owned))
         .unwrap_or_default();
-    let n = run.truth.len();
-    let keys = run.key_index.iter().map(|&k| k as f64).collect();
-    Ok((
+    let keys: Vec<i64> = run.key_index.iter().map(|&k| k as i64).collect();
+    Ok(PyMemoryReplay {
         outcome,
-        shaped(py, keys, &[n])?,
-        frames(py, &run.truth, &run.reports, run.seconds)?,
-    ))
+        key_index: read_only(keys.into_pyarray(py))?,
+        frames: frames(py, &run.truth, &run.reports, run.seconds)?,
+    })
 }
 
 /// Checks that a visual memory (JSON) reads as the native side reads it: that schema

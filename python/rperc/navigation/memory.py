@@ -201,9 +201,9 @@ class Frames:
         return len(self.seconds) / total if total > 0 else math.inf
 
 
-def _frames(native: tuple[np.ndarray, ...]) -> Frames:
-    truth, pose, lost, tracked, seconds, covariance = native
-    return Frames(truth, pose, lost.astype(bool), tracked.astype(np.int64), seconds, covariance)
+def _frames(native: _rperc.MemoryFrames) -> Frames:
+    f = native
+    return Frames(f.truth, f.pose, f.lost, f.tracked, f.seconds, f.covariance)
 
 
 def _se2(p: npt.ArrayLike) -> np.ndarray:
@@ -264,7 +264,7 @@ def learn(
     ``odometry``, and ``covariance_scale``, >= 1, which multiplies the stored mosaic
     covariance: the mapping filter counts a tracker's successive, correlated states as
     independent)."""
-    memory_json, frames = _rperc.visual_memory_learn(
+    learnt = _rperc.visual_memory_learn(
         world._native,
         float_array(start, "start").reshape(-1),
         np.ascontiguousarray(float_array(commands, "commands")),
@@ -272,8 +272,8 @@ def learn(
         dict(config or {}),
         whole_number(seed, "seed", 0, 2**64),
     )
-    memory = VisualMemory(memory_json)
-    f = _frames(frames)
+    memory = VisualMemory(learnt.memory)
+    f = _frames(learnt.frames)
     c = world.camera
     scale = float(c["ceiling_height"]) / float(c["fx"])
     principal = (float(c["cx"]), float(c["cy"]))
@@ -311,14 +311,14 @@ def replay(
 ) -> ReplayResult:
     """Replays ``memory`` from the true pose ``start`` (the robot believes it is at the
     first key image). ``config``: the fields of ``defaults()["replay"]``."""
-    outcome, keys, frames = _rperc.visual_memory_replay(
+    run = _rperc.visual_memory_replay(
         world._native,
         memory.to_json(),
         float_array(start, "start").reshape(-1),
         dict(config or {}),
         whole_number(seed, "seed", 0, 2**64),
     )
-    return ReplayResult(outcome, keys.astype(np.int64), _frames(frames))
+    return ReplayResult(run.outcome, run.key_index, _frames(run.frames))
 
 
 @dataclass(frozen=True)

@@ -205,7 +205,7 @@ def test_every_axis_has_a_label_with_its_unit_and_every_figure_a_legend():
                 assert re.search(r"\[.+\]", label), f"{name}: axis label {label!r} has no unit"
         legends = [
             t.get_text()
-            for legend in (ax.get_legend() for ax in fig.axes)
+            for legend in [*(ax.get_legend() for ax in fig.axes), *fig.legends]
             if legend
             for t in [legend.get_title(), *legend.get_texts()]
         ]
@@ -223,3 +223,21 @@ def test_strip_title_carries_each_trackers_score():
     title = fig.get_suptitle()
     assert "color-pf" in title and f"AUC {auc:.3f}" in title
     assert f"mean IoU {np.mean(ious):.2f}" in title
+
+
+def test_the_tracking_strip_draws_every_box_visibly_and_lists_only_drawn_lines():
+    frames = [np.zeros((20, 20, 3), np.uint8)] * 2
+    truth = np.array([[2.0, 2, 10, 10], [3, 3, 10, 10], [4, 4, 10, 10]])
+    tracks = {"color": truth.copy(), "color-pf": truth.copy()}  # all boxes on the truth
+    fig = strip_figure(frames, [0, 2], truth, tracks, title="t")
+    panel = fig.axes[0]
+    styles = {(p.get_linewidth(), p.get_linestyle()) for p in panel.patches}
+    # Boxes that coincide stay apart by width or dash, the truth widest underneath.
+    assert len(styles) == len(panel.patches) == 3
+    assert max(panel.patches, key=lambda p: p.get_linewidth()).get_zorder() == min(
+        p.get_zorder() for p in panel.patches
+    )
+    iou = fig.axes[-1]
+    drawn = {line.get_label() for line in iou.lines}
+    listed = {t.get_text() for t in iou.get_legend().get_texts()}
+    assert listed <= drawn

@@ -20,8 +20,11 @@ $(STAMP): pyproject.toml
 
 install: $(STAMP) develop
 
+# Rebuilds the extension in place. pip has installed rperc (editable) and every
+# dependency already; letting maturin install them again would print a line of pip's
+# "Ignoring ...: markers 'extra == ...' don't match" per optional dependency.
 develop: $(STAMP)
-	. $(BIN)/activate && maturin develop --release --quiet
+	. $(BIN)/activate && maturin develop --release --quiet --skip-install
 
 test: install test-rust test-python
 

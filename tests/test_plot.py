@@ -241,3 +241,29 @@ def test_the_tracking_strip_draws_every_box_visibly_and_lists_only_drawn_lines()
     drawn = {line.get_label() for line in iou.lines}
     listed = {t.get_text() for t in iou.get_legend().get_texts()}
     assert listed <= drawn
+
+
+def test_a_slam_map_shows_its_sparse_edge_landmarks_and_cuts_only_far_strays():
+    # Victoria Park's trees thin out at the map's edges: those few landmarks sit past
+    # the bulk's percentiles, and the map cut them. A diverged estimate far out may be
+    # cut, and the title says so.
+    from types import SimpleNamespace
+
+    from rperc.plot.slam import map_figure
+
+    rng = np.random.default_rng(0)
+    path = np.c_[rng.uniform(0, 100, (1000, 2)), np.zeros(1000)]
+    dense = rng.uniform(0, 100, (300, 2))
+    edges = np.array([[-30.0, 50], [130, 50], [50, -30], [50, 130]]).repeat(4, axis=0)
+    edges += rng.normal(0, 1, edges.shape)
+    stray = np.array([[5000.0, 5000.0]])
+    marks = np.concatenate([dense, edges, stray])
+    run = SimpleNamespace(
+        pose=path, landmark_mean=marks, landmark_covariance=np.tile(np.eye(2), (len(marks), 1, 1))
+    )
+    ax = map_figure([("plain", run)], title="t").axes[0]
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    shown = marks[:-1]
+    assert (shown[:, 0] > x0).all() and (shown[:, 0] < x1).all()
+    assert (shown[:, 1] > y0).all() and (shown[:, 1] < y1).all()
+    assert x1 < 1000 and "1 stray" in ax.get_title()

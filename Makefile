@@ -7,8 +7,9 @@ STAMP := $(VENV)/.installed
 
 .PHONY: demo install develop test test-rust test-python lint fmt bench bench-json docs check clean
 
+# The JSON keeps each demo's measured figures and printed line for the docs.
 demo: install
-	$(BIN)/rperc demo all --out out/demo
+	$(BIN)/rperc demo all --out out/demo --json out/demo/demo.json
 
 # The Python environment: rperc with its test extras, every dependency read from
 # pyproject.toml (one list, there), then maturin for fast rebuilds of the extension.

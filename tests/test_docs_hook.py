@@ -62,3 +62,12 @@ def test_figures_link_to_the_demo_output_or_ask_for_make_demo(hook, tmp_path, mo
     page = hook.on_page_markdown(text, page=_page("guide/p.md"))
     assert "![Lines](../figures/lines.png)" in page
     assert "`walls.png` is not in" in page and "make demo" in page
+
+
+def test_a_demo_line_is_quoted_from_the_demo_json_or_asked_for(hook, tmp_path, monkeypatch):
+    monkeypatch.setenv("RPERC_DEMO_DIR", str(tmp_path))
+    text = "<!-- demo: lines -->"
+    assert "after `make demo`" in hook.on_page_markdown(text, page=_page("p.md"))
+    # The shape `rperc demo all --json` writes (tests/test_demo.py checks it there).
+    (tmp_path / "demo.json").write_text(json.dumps({"summaries": {"lines": "lines: 58 kept"}}))
+    assert "> lines: 58 kept" in hook.on_page_markdown(text, page=_page("p.md"))

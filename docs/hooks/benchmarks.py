@@ -106,7 +106,21 @@ def figure(name: str, caption: str, page_src: str) -> str:
     return f"![{caption}]({up}figures/{name})\n\n*{caption}*"
 
 
+# ``<!-- demo: NAME -->`` quotes the line ``rperc demo NAME`` printed in the last
+# ``make demo`` (its ``demo.json``), so the page's numbers are the run's own.
+DEMO_LINE = re.compile(r"^<!-- demo: ([\w-]+) -->$", re.M)
+
+
+def demo_line(name: str) -> str:
+    path = demo_dir() / "demo.json"
+    lines = json.loads(path.read_text()).get("summaries", {}) if path.is_file() else {}
+    if name not in lines:
+        return f"*`rperc demo {name}` prints its measured error here after `make demo`.*"
+    return f"`rperc demo {name}` printed:\n\n> {lines[name]}"
+
+
 def on_page_markdown(markdown: str, page: Any, **_: Any) -> str:
     markdown = MARKER.sub(lambda m: table(m.group(1)), markdown)
+    markdown = DEMO_LINE.sub(lambda m: demo_line(m.group(1)), markdown)
     src = page.file.src_uri
     return FIGURE.sub(lambda m: figure(m.group(1), m.group(2), src), markdown)

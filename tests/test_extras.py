@@ -118,3 +118,11 @@ def test_demo_all_on_a_bare_install_runs_the_rest_and_names_each_missing_extra(
     assert out == "plain: ran\n"  # the demo after the one that could not run still ran
     (line,) = [e for e in err.splitlines() if "needy" in e]
     assert "rperc[opencv]" in line and "Traceback" not in err
+
+
+def test_a_bench_of_an_opencv_peer_without_opencv_exits_2_naming_the_extra(without, capsys, data):
+    without("cv2")
+    status = main(["bench", "track", "--corpus", str(data / "otb" / "Girl"), "--trackers", "csrt"])
+    err = capsys.readouterr().err
+    assert status == 2, err
+    assert "rperc[opencv]" in err and "Traceback" not in err

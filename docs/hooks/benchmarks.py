@@ -39,7 +39,10 @@ def _cell(stat: Any) -> str:
 
 def _command(argv: list[str]) -> str:
     # Absolute data paths differ per machine: show them under $RPERC_DATA.
-    data = os.environ.get("RPERC_DATA", "")
+    from rperc.datasets import data_dir
+
+    root = data_dir()
+    data = str(root) if root is not None else ""
     words = [w.replace(data, "$RPERC_DATA") if data else w for w in argv]
     return "rperc " + " ".join(words)
 

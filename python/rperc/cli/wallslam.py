@@ -1,5 +1,5 @@
 """``rperc slam walls LOG``: wall-landmark EKF-SLAM on a CARMEN log from odometry
-made from its corrected path with seeded noise (the seed's Fig. 7 experiment, see
+made from its corrected path with seeded noise (paper [000]'s Fig. 7 experiment, see
 :mod:`rperc.slam.wallslam`), and ``rperc demo wall-slam`` on a simulated loop."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Figures of the visual memory (seed 001, Fig. 9): key images with their tracked
+"""Figures of the visual memory (paper [001], Fig. 9): key images with their tracked
 models, the mosaic against the true patterns, and the learnt path against the replays
 and the truth."""
 

@@ -149,7 +149,7 @@ def variants_figure(
     title: str = "",
     dt: float = 1.0,
 ) -> Figure:
-    """The seed's variants side by side: one map per ``(name, result, score)`` with
+    """Paper [000]'s variants side by side: one map per ``(name, result, score)`` with
     the true path and landmarks, and below them the run-averaged robot NEES of each
     variant (one value per step of ``dt`` seconds) against its band."""
     fig = Figure(figsize=(5.0 * len(runs), 9.0))

@@ -1,4 +1,4 @@
-"""The seed's Fig. 7 a/b: wall-SLAM maps side by side, each with its wall segments,
+"""Paper [000]'s Fig. 7 a/b: wall-SLAM maps side by side, each with its wall segments,
 the estimated path and the reference path in grey."""
 
 from __future__ import annotations

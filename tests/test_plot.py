@@ -267,3 +267,22 @@ def test_a_slam_map_shows_its_sparse_edge_landmarks_and_cuts_only_far_strays():
     assert (shown[:, 0] > x0).all() and (shown[:, 0] < x1).all()
     assert (shown[:, 1] > y0).all() and (shown[:, 1] < y1).all()
     assert x1 < 1000 and "1 stray" in ax.get_title()
+
+
+def test_wall_maps_draw_the_true_walls_under_the_estimated_ones():
+    from types import SimpleNamespace
+
+    from rperc.plot.wallslam import wall_maps_figure
+    from rperc.scansim import loop_walls
+
+    truth = loop_walls()
+    path = np.c_[np.linspace(2, 14, 50), np.full(50, 2.0), np.zeros(50)]
+    res = SimpleNamespace(
+        reference=path, pose=path, wall_ends=truth + 0.01,
+        metrics={"ate_rmse": 0.0, "loop_error": 0.0},
+    )  # fmt: skip
+    (ax,) = wall_maps_figure([("plain", res)], true_walls=truth).axes
+    true_layer = next(c for c in ax.collections if np.allclose(c.get_segments(), truth))
+    estimate = next(c for c in ax.collections if c is not true_layer)
+    assert true_layer.get_zorder() < estimate.get_zorder()
+    assert "walls (truth)" in [t.get_text() for t in ax.get_legend().get_texts()]

@@ -5,23 +5,27 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo install develop test test-rust test-python lint fmt bench check clean
+.PHONY: demo install develop test test-rust test-python lint fmt bench bench-json docs check clean
 
+# The JSON keeps each demo's measured figures and printed line for the docs.
 demo: install
-	$(BIN)/rperc demo all --out out/demo
+	$(BIN)/rperc demo all --out out/demo --json out/demo/demo.json
 
 # The Python environment: rperc with its test extras, every dependency read from
 # pyproject.toml (one list, there), then maturin for fast rebuilds of the extension.
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[test,geo,viz]" "maturin>=1.9.4,<2"
+	$(BIN)/python -m pip install --quiet -e ".[test,geo,viz,docs]" "maturin>=1.9.4,<2"
 	touch $(STAMP)
 
 install: $(STAMP) develop
 
+# Rebuilds the extension in place. pip has installed rperc (editable) and every
+# dependency already; letting maturin install them again would print a line of pip's
+# "Ignoring ...: markers 'extra == ...' don't match" per optional dependency.
 develop: $(STAMP)
-	. $(BIN)/activate && maturin develop --release --quiet
+	. $(BIN)/activate && maturin develop --release --quiet --skip-install
 
 test: install test-rust test-python
 
@@ -35,20 +39,37 @@ test-python:
 lint: $(STAMP)
 	cargo fmt --all -- --check
 	cargo clippy --workspace --all-targets -- -D warnings
-	$(BIN)/ruff check python tests benchmarks
+	$(BIN)/ruff check python tests benchmarks docs/hooks
 	. $(BIN)/activate && python -m mypy.stubtest rperc._rperc
 	. $(BIN)/activate && python -m mypy --strict python/rperc
 
 fmt:
 	cargo fmt --all
-	$(BIN)/ruff check --fix python tests benchmarks
-	$(BIN)/ruff format python tests benchmarks
+	$(BIN)/ruff check --fix python tests benchmarks docs/hooks
+	$(BIN)/ruff format python tests benchmarks docs/hooks
 
 bench: install
 	cargo bench --workspace
 	. $(BIN)/activate && for b in benchmarks/*.py; do python $$b; done
 
-check: install lint test
+# The short benchmark suites whose JSON summaries the docs' benchmarks page renders
+# (docs/hooks/benchmarks.py); with no data folder the page says so instead.
+BENCH := out/bench
+bench-json: install
+	mkdir -p $(BENCH)
+	. $(BIN)/activate && D=$$(python -c "from rperc.datasets import data_dir; print(data_dir() or '')") \
+	&& if [ -z "$$D" ]; then echo "bench-json: no data folder (RPERC_DATA), nothing measured"; exit 0; fi \
+	&& rperc bench laser --logs $$D/carmen --seeds 0-1 --variants odometry,plain,laser --json $(BENCH)/laser.json \
+	&& rperc bench mrclam --robots 1-3 --variants plain,anchor,external --json $(BENCH)/mrclam.json \
+	&& rperc bench track --corpus $$D/otb/Girl --trackers color-template,color,csrt,kcf --json $(BENCH)/track.json \
+	&& rperc bench pattern --steps 3 --seeds 10-12 --trackers rperc,ecc-affine --json $(BENCH)/pattern.json
+
+# The documentation site, warnings as errors; figures from out/demo when `make demo`
+# has drawn them, benchmark tables from out/bench.
+docs: bench-json
+	. $(BIN)/activate && NO_MKDOCS_2_WARNING=1 mkdocs build --strict
+
+check: install lint test docs
 
 clean:
 	rm -rf $(VENV) target out

@@ -578,3 +578,23 @@ def test_track_video_and_all_mistakes_are_one_line_errors(tmp_path, capsys, argv
     assert main(args) == 2
     err = capsys.readouterr().err
     assert needle in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_the_simplification_plot_is_a_map_with_labelled_axes(tmp_path, monkeypatch):
+    # A coastline drawn with unequal axes is another coastline; unlabelled axes hide
+    # what the numbers are.
+    import rperc.plot
+
+    figures = []
+    real_save = rperc.plot.save
+    monkeypatch.setattr(
+        rperc.plot, "save", lambda fig, path: figures.append(fig) or real_save(fig, path)
+    )
+    src = tmp_path / "wide.wkt"
+    pts = np.c_[np.linspace(0, 40, 200), np.sin(np.linspace(0, 9, 200))]
+    src.write_text(shapely.to_wkt(shapely.LineString(pts)) + "\n")
+    argv = ["lines", "simplify", str(src), "--epsilon", "0.2", "--plot", str(tmp_path / "p.png")]
+    assert main([*argv, "-o", str(tmp_path / "o.wkt")]) == 0
+    (ax,) = figures[0].axes
+    assert ax.get_aspect() == 1.0
+    assert ax.get_xlabel() and ax.get_ylabel()

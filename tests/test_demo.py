@@ -56,6 +56,9 @@ def test_one_summary_line_and_one_figure_per_capability(demo_all):
     for name in ("lines", "walls", "tracking", "monobot_fig3_fisher", "monobot_monte_carlo"):
         assert (demo_all["out"] / f"{name}.png").stat().st_size > 10_000
     assert "wrote" not in "\n".join(demo_all["lines"])  # notes go to stderr
+    # The JSON keeps the printed lines for the docs' papers page.
+    summaries = json.loads((demo_all["out"] / "all.json").read_text())["summaries"]
+    assert list(summaries) == names and list(summaries.values()) == demo_all["lines"]
     for path in re.findall(r"wrote (.+)", demo_all["stderr"]):
         assert Path(path).is_file()
 

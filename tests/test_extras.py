@@ -94,3 +94,35 @@ def test_a_cluster_run_without_dask_exits_2_naming_the_extra(without, capsys, da
     err = capsys.readouterr().err
     assert status == 2, err
     assert "rperc[cluster]" in err
+
+
+def test_demo_all_on_a_bare_install_runs_the_rest_and_names_each_missing_extra(
+    without, capsys, tmp_path, monkeypatch
+):
+    from rperc.cli import demo as demo_module
+    from rperc.cli.outputs import DemoResult
+
+    def needs_opencv(out: Path, seed: int) -> DemoResult:
+        require("cv2", "the needy demo")
+        raise AssertionError("cv2 was hidden")
+
+    def plain(out: Path, seed: int) -> DemoResult:
+        return DemoResult("plain: ran", [], {})
+
+    entries = (demo_module.Demo("needy", "x", needs_opencv), demo_module.Demo("plain", "y", plain))
+    monkeypatch.setattr(demo_module, "registry", lambda: entries)
+    without("cv2")
+    status = main(["demo", "all", "--out", str(tmp_path)])
+    out, err = capsys.readouterr()
+    assert status == 2
+    assert out == "plain: ran\n"  # the demo after the one that could not run still ran
+    (line,) = [e for e in err.splitlines() if "needy" in e]
+    assert "rperc[opencv]" in line and "Traceback" not in err
+
+
+def test_a_bench_of_an_opencv_peer_without_opencv_exits_2_naming_the_extra(without, capsys, data):
+    without("cv2")
+    status = main(["bench", "track", "--corpus", str(data / "otb" / "Girl"), "--trackers", "csrt"])
+    err = capsys.readouterr().err
+    assert status == 2, err
+    assert "rperc[opencv]" in err and "Traceback" not in err

@@ -396,3 +396,29 @@ def test_native_memory_results_are_named_and_read_only(learnt):
     for name in ("MemoryFrames", "MemoryLearning", "MemoryReplay"):
         with pytest.raises(TypeError):
             getattr(_rperc, name)()  # made only by the native side
+
+
+def test_replay_marks_put_truth_and_estimate_on_the_models_in_view(learnt) -> None:
+    """The replay strip's marks: the true model frames land in the image where the
+    models are tracked, and the estimate's marks sit on them to within the
+    localisation error (a few pixels), but move off when the estimate is moved."""
+    from dataclasses import replace
+
+    from rperc.plot.navigation import replay_marks
+
+    world, learning = learnt
+    run = replay(world, learning.memory, [2.55, 2.45, 0.25])
+    gaps = []
+    for k in range(0, len(run.frames.truth), 10):
+        truth, est = replay_marks(world, learning, run, k)
+        h, w = world.render(run.frames.truth[k : k + 1])[0].shape
+        inside = (truth[:, 0] >= 0) & (truth[:, 0] < w) & (truth[:, 1] >= 0) & (truth[:, 1] < h)
+        assert inside.sum() >= run.frames.tracked[k], (k, truth)
+        if len(est):
+            gaps.append(np.hypot(*(truth[inside] - est[inside]).T).max())
+    assert gaps and np.median(gaps) < 3.0, gaps
+    # A robot that believes itself 20 cm to the side sees its marks tens of pixels off.
+    offset = np.array([0.2 / learning.unit, 0.0, 0.0])
+    shifted = replace(run.frames, pose=run.frames.pose + offset)
+    truth, est = replay_marks(world, learning, replace(run, frames=shifted), 0)
+    assert np.hypot(*(truth - est).T).min() > 10.0

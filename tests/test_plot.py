@@ -205,7 +205,7 @@ def test_every_axis_has_a_label_with_its_unit_and_every_figure_a_legend():
                 assert re.search(r"\[.+\]", label), f"{name}: axis label {label!r} has no unit"
         legends = [
             t.get_text()
-            for legend in (ax.get_legend() for ax in fig.axes)
+            for legend in [*(ax.get_legend() for ax in fig.axes), *fig.legends]
             if legend
             for t in [legend.get_title(), *legend.get_texts()]
         ]
@@ -223,3 +223,66 @@ def test_strip_title_carries_each_trackers_score():
     title = fig.get_suptitle()
     assert "color-pf" in title and f"AUC {auc:.3f}" in title
     assert f"mean IoU {np.mean(ious):.2f}" in title
+
+
+def test_the_tracking_strip_draws_every_box_visibly_and_lists_only_drawn_lines():
+    frames = [np.zeros((20, 20, 3), np.uint8)] * 2
+    truth = np.array([[2.0, 2, 10, 10], [3, 3, 10, 10], [4, 4, 10, 10]])
+    tracks = {"color": truth.copy(), "color-pf": truth.copy()}  # all boxes on the truth
+    fig = strip_figure(frames, [0, 2], truth, tracks, title="t")
+    panel = fig.axes[0]
+    styles = {(p.get_linewidth(), p.get_linestyle()) for p in panel.patches}
+    # Boxes that coincide stay apart by width or dash, the truth widest underneath.
+    assert len(styles) == len(panel.patches) == 3
+    assert max(panel.patches, key=lambda p: p.get_linewidth()).get_zorder() == min(
+        p.get_zorder() for p in panel.patches
+    )
+    iou = fig.axes[-1]
+    drawn = {line.get_label() for line in iou.lines}
+    listed = {t.get_text() for t in iou.get_legend().get_texts()}
+    assert listed <= drawn
+
+
+def test_a_slam_map_shows_its_sparse_edge_landmarks_and_cuts_only_far_strays():
+    # Victoria Park's trees thin out at the map's edges: those few landmarks sit past
+    # the bulk's percentiles, and the map cut them. A diverged estimate far out may be
+    # cut, and the title says so.
+    from types import SimpleNamespace
+
+    from rperc.plot.slam import map_figure
+
+    rng = np.random.default_rng(0)
+    path = np.c_[rng.uniform(0, 100, (1000, 2)), np.zeros(1000)]
+    dense = rng.uniform(0, 100, (300, 2))
+    edges = np.array([[-30.0, 50], [130, 50], [50, -30], [50, 130]]).repeat(4, axis=0)
+    edges += rng.normal(0, 1, edges.shape)
+    stray = np.array([[5000.0, 5000.0]])
+    marks = np.concatenate([dense, edges, stray])
+    run = SimpleNamespace(
+        pose=path, landmark_mean=marks, landmark_covariance=np.tile(np.eye(2), (len(marks), 1, 1))
+    )
+    ax = map_figure([("plain", run)], title="t").axes[0]
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    shown = marks[:-1]
+    assert (shown[:, 0] > x0).all() and (shown[:, 0] < x1).all()
+    assert (shown[:, 1] > y0).all() and (shown[:, 1] < y1).all()
+    assert x1 < 1000 and "1 stray" in ax.get_title()
+
+
+def test_wall_maps_draw_the_true_walls_under_the_estimated_ones():
+    from types import SimpleNamespace
+
+    from rperc.plot.wallslam import wall_maps_figure
+    from rperc.scansim import loop_walls
+
+    truth = loop_walls()
+    path = np.c_[np.linspace(2, 14, 50), np.full(50, 2.0), np.zeros(50)]
+    res = SimpleNamespace(
+        reference=path, pose=path, wall_ends=truth + 0.01,
+        metrics={"ate_rmse": 0.0, "loop_error": 0.0},
+    )  # fmt: skip
+    (ax,) = wall_maps_figure([("plain", res)], true_walls=truth).axes
+    true_layer = next(c for c in ax.collections if np.allclose(c.get_segments(), truth))
+    estimate = next(c for c in ax.collections if c is not true_layer)
+    assert true_layer.get_zorder() < estimate.get_zorder()
+    assert "walls (truth)" in [t.get_text() for t in ax.get_legend().get_texts()]

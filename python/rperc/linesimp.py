@@ -1,6 +1,6 @@
 """Line simplification and wall extraction from 2-D laser scans.
 
-Douglas-Peucker (section 2.1 of the seed paper, Tables 1 and 2), with Hershberger &
+Douglas-Peucker (section 2.1 of paper [000], Tables 1 and 2), with Hershberger &
 Snoeyink's (1992) path hulls; Visvalingam & Whyatt's (1993) effective-area elimination;
 topology-preserving Douglas-Peucker with the rules of GEOS's
 TopologyPreservingSimplifier; shapely geometries in and out.
@@ -142,7 +142,7 @@ def simplify(
         ``"auto"`` (default): Douglas-Peucker, with path hulls for ``metric="line"`` and
         the plain algorithm for ``metric="segment"``. ``"hull"``: Hershberger-Snoeyink
         path hulls, O(n log n) worst case, line metric only. ``"dp"``: the plain
-        algorithm of the seed's Table 1, on an explicit stack (no recursion limit),
+        algorithm of paper [000]'s Table 1, on an explicit stack (no recursion limit),
         O(n^2) worst case. ``"vw"``: Visvalingam-Whyatt, O(n log n): the vertex whose
         triangle with its two current neighbours has the smallest area goes first,
         while that area is ``<= epsilon`` (ties: the smallest index first); the same
@@ -460,7 +460,7 @@ def extract_lines(
 ) -> WallSegments:
     """Extract walls (line segments) from one 2-D laser scan.
 
-    The pipeline of the seed's section 2.1 (Fig. 1b): drop invalid readings, split at
+    The pipeline of paper [000]'s section 2.1 (Fig. 1b): drop invalid readings, split at
     range discontinuities (Borges & Aldon's adaptive breakpoint detector), split each
     run by iterative end-point fit (Douglas-Peucker with path hulls), fit each piece
     by total least squares in Hessian form, propagate the range and bearing noise to a

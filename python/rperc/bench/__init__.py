@@ -154,7 +154,7 @@ def mrclam(
     workers: int | None = None,
 ) -> BenchResult:
     """MR.CLAM robots (the data folder's ``mrclam6/`` by default) through planar
-    EKF-SLAM with the seed's variants. See :mod:`rperc.bench.suites.mrclam`."""
+    EKF-SLAM with paper [000]'s variants. See :mod:`rperc.bench.suites.mrclam`."""
     folder = Path(directory) if directory is not None else _data("mrclam6")
     if not folder.is_dir():
         raise ValueError(f"MR.CLAM folder {folder} does not exist")

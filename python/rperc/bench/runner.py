@@ -17,7 +17,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
-from rperc._extras import require
+from rperc._extras import MissingExtraError, require
 from rperc._progress import progress, quiet
 from rperc.bench.tasks import Task
 
@@ -78,6 +78,11 @@ def run_task(task: Task) -> Row:
     try:
         with quiet():
             measured: Row = _suite(task.suite).run(task)
+    except MissingExtraError:
+        # Not this run's failure but the install's: every run of the method would
+        # fail alike, so the command names the extra (exit 2) instead of a table of
+        # error rows.
+        raise
     except Exception as exc:
         logger.debug("bench task %d failed", task.index, exc_info=True)
         return row | {"seconds": time.perf_counter() - start, "error": _short(exc)}

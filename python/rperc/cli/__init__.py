@@ -134,6 +134,9 @@ def _run(argv: Sequence[str] | None) -> int:
     expected = user_errors()
     parser = build_parser()
     args = parser.parse_args(argv)
+    # What was asked, for outputs that record their command (rperc bench --json):
+    # main(argv) is called from Python too, where sys.argv is the caller's.
+    args.argv = list(sys.argv[1:] if argv is None else argv)
     with _progress_on_stderr():
         try:
             return int(args.run(args) or 0)

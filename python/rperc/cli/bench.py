@@ -213,7 +213,7 @@ def bench_command(args: argparse.Namespace) -> int:
     if args.json is not None:
         about = {
             "suite": args.suite,
-            "argv": sys.argv[1:],
+            "argv": args.argv,
             "seeds": args.seeds,
             "scheduler": args.scheduler,
             "runs": len(result.rows),

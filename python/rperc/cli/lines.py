@@ -189,8 +189,10 @@ def _summary(args: argparse.Namespace, rows: list[dict[str, object]]) -> dict[st
 def _plot_simplification(args: argparse.Namespace, inputs: list[Any], results: list[Any]) -> None:
     """Every line and ring before and after, drawn as one polyline each way (NaN rows
     separate the parts)."""
+    from matplotlib.figure import Figure
+
     from rperc import _geo
-    from rperc.plot import plt, save
+    from rperc.plot import robust_limits, save, set_limits
     from rperc.plot.lines import draw_polyline
 
     def joined(geoms: list[Any]) -> tuple[np.ndarray, int]:
@@ -201,8 +203,16 @@ def _plot_simplification(args: argparse.Namespace, inputs: list[Any], results: l
         return np.vstack(gaps)[:-1], sum(len(p) for p in parts)
 
     (before, n_in), (after, n_out) = joined(inputs), joined(results)
-    fig, ax = plt.subplots(figsize=(7, 7))
+    fig = Figure(figsize=(7, 7), layout="constrained")
+    ax = fig.add_subplot()
     draw_polyline(ax, before, after, args.epsilon)
+    # A map: one unit is as long across as up (a coastline's shape otherwise
+    # stretches), in the file's own coordinates, whose unit the file does not state.
+    if len(before):
+        set_limits(ax, robust_limits(before, include=before))
+    ax.set_xlabel("x [units of the input]")
+    ax.set_ylabel("y [units of the input]")
+    ax.grid(alpha=0.3)
     # The legend counts points, not the NaN separators.
     lines = ax.get_lines()[-2:]
     lines[0].set_label(f"input ({n_in})")

@@ -1,4 +1,4 @@
-"""``rperc demo visual-memory``: seed 001's section 4.2 (Fig. 9) in a ceiling world
+"""``rperc demo visual-memory``: paper [001]'s section 4.2 (Fig. 9) in a ceiling world
 with ground truth: learn a path A -> B (mosaic and key images), replay it by visual
 servoing from perturbed starts, and score the mosaic, the localisation and the replays
 against the truth."""

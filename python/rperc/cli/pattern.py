@@ -1,4 +1,4 @@
-"""``rperc track-pattern SOURCE --region x,y,w,h`` (the seed 001 pattern tracker on a
+"""``rperc track-pattern SOURCE --region x,y,w,h`` (the paper [001] pattern tracker on a
 video or a folder of images) and ``rperc demo pattern`` (its Fig. 8, section 4.1, on a
 generated sequence, and the planar-tracking harness table against OpenCV's peers)."""
 
@@ -130,7 +130,7 @@ IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".pp
 def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = sub.add_parser(
         "track-pattern",
-        help="track a planar pattern (seed 001) through a video or a folder of images",
+        help="track a planar pattern (paper [001]) through a video or a folder of images",
     )
     p.add_argument("source", type=Path, help="a folder of images (sorted by name) or a video")
     p.add_argument("--region", type=region_type, required=True, help="x,y,w,h in frame 0 (px)")
@@ -250,7 +250,9 @@ def track_pattern_command(args: argparse.Namespace) -> int:
     if picks is not None:
         from rperc.plot import save
 
-        title = f"{args.source.name}: pattern tracker (seed 001), {len(frames)} frames, lost {lost}"
+        title = (
+            f"{args.source.name}: pattern tracker (paper [001]), {len(frames)} frames, lost {lost}"
+        )
         wrote(save(_quad_strip(frames, picks, quads, poses, title), args.strip))
     if args.animation is not None:
         import imageio.v3 as iio  # type: ignore[import-not-found,unused-ignore]

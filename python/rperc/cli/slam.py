@@ -1,4 +1,4 @@
-"""``rperc demo monobot``: the seed paper's Figures 3 to 6 and its Monte Carlo study."""
+"""``rperc demo monobot``: paper [000]'s Figures 3 to 6 and its Monte Carlo study."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """``rperc slam mrclam DIR`` and ``rperc slam victoria DIR``: planar EKF-SLAM on a
 recording, scored against its ground truth (MR.CLAM: Vicon path and surveyed
-landmarks; Victoria Park: GPS), with the seed's variants combinable."""
+landmarks; Victoria Park: GPS), with paper [000]'s variants combinable."""
 
 from __future__ import annotations
 

@@ -72,7 +72,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         "--tracker",
         choices=CLI_TRACKERS,
         default="color-template",
-        help="default color-template (colour + correlation-filter template, issue 34)",
+        help="default color-template (colour + correlation-filter template)",
     )
     p.add_argument("--seed", type=seed_type, default=0, help="seed of the particle filter")
     p.add_argument("--strip", type=Path, help="write a figure strip of annotated frames")
@@ -352,7 +352,7 @@ def demo_tracking(out: Path, seed: int, frames: int = 150) -> DemoResult:
 
 
 def demo_color_shape(out: Path, seed: int, frames: int = 60) -> DemoResult:
-    """The colour+shape tracker against colour alone on the four experiments of seed 000
+    """The colour+shape tracker against colour alone on the four experiments of paper [000]
     section 3.4 (Fig. 13), each scored on the generator's truth masks (contour) and
     their boxes: circles changing colour (RGB), a rectangle under changing light with a
     moving specular highlight, a deforming blob, and a blob among same-coloured
@@ -461,7 +461,7 @@ def _colour_path_figure(run: dict[str, Any], seed: int) -> Any:
         if j == 0:
             ax.legend(fontsize=7)
     fig.suptitle(
-        f"colour path of the tracked circle (seed 000 Fig. 13), seed {seed}, "
+        f"colour path of the tracked circle (paper [000], Fig. 13), seed {seed}, "
         f"{len(seq)} frames; centroid error mean {err.mean():.3f}, max {err.max():.3f}"
     )
     return fig

@@ -1,5 +1,5 @@
 """``rperc slam walls LOG``: wall-landmark EKF-SLAM on a CARMEN log from odometry
-made from its corrected path with seeded noise (the seed's Fig. 7 experiment, see
+made from its corrected path with seeded noise (paper [000]'s Fig. 7 experiment, see
 :mod:`rperc.slam.wallslam`), and ``rperc demo wall-slam`` on a simulated loop."""
 
 from __future__ import annotations
@@ -111,11 +111,13 @@ def demo_wall_slam(out: Path, seed: int) -> DemoResult:
     and, when the data folder holds it, the same on the Intel log against its
     corrected path (``wall_slam_fig7_intel.png``)."""
     from rperc.datasets.carmen import load_carmen
-    from rperc.scansim import write_loop_log
+    from rperc.scansim import loop_walls, write_loop_log
 
     with tempfile.TemporaryDirectory() as tmp:
         log = load_carmen(write_loop_log(Path(tmp) / "loop.log", seed=seed))
-    runs, path = _fig7(log, seed, 0.0, out / "wall_slam_fig7.png", "simulated corridor loop")
+    runs, path = _fig7(
+        log, seed, 0.0, out / "wall_slam_fig7.png", "simulated corridor loop", loop_walls()
+    )
     ates = " / ".join(f"{r.metrics['ate_rmse']:.3f}" for r in runs.values())
     loops = " / ".join(f"{r.metrics['loop_error']:.3f}" for r in runs.values())
     plain = runs["plain"]
@@ -151,9 +153,15 @@ def _intel_log() -> Path | None:
 
 
 def _fig7(
-    log: Any, seed: int, straightness: float, path: Path, what: str
+    log: Any,
+    seed: int,
+    straightness: float,
+    path: Path,
+    what: str,
+    true_walls: Any = None,
 ) -> tuple[dict[str, WallSlamResult], Path]:
-    """The three Fig. 7 runs over one log and their figure."""
+    """The three Fig. 7 runs over one log and their figure (with the true walls when
+    the world is simulated)."""
     from rperc.plot import save
     from rperc.plot.wallslam import wall_maps_figure
     from rperc.slam.wallslam import prepare, run_prepared
@@ -173,7 +181,7 @@ def _fig7(
     )
     fig = wall_maps_figure(
         list(runs.items()), title=title, reference_label=reference,
-        sightings=(prepared.rows, prepared.t),
+        sightings=(prepared.rows, prepared.t), true_walls=true_walls,
     )  # fmt: skip
     return runs, save(fig, path)
 

@@ -1,4 +1,4 @@
-"""Visual memory on a ceiling (seed 001, Ait Aider et al., section 2), typed.
+"""Visual memory on a ceiling (paper [001], Ait Aider et al., section 2), typed.
 
 A robot with an upward-looking camera builds a mosaic of the 2-D patterns on the
 ceiling, localises itself against it (eq. 2), stores a path as key images and replays

@@ -1,4 +1,4 @@
-"""The monobot figures of the seed paper: Fig. 3 (Fisher information), Figs. 4 to 6
+"""The monobot figures of paper [000]: Fig. 3 (Fisher information), Figs. 4 to 6
 (one run per measurement model) and the Monte Carlo study.
 
 Positions and errors are in metres (the monobot moves along a line); the Fisher

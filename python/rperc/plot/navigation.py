@@ -1,4 +1,4 @@
-"""Figures of the visual memory (seed 001, Fig. 9): key images with their tracked
+"""Figures of the visual memory (paper [001], Fig. 9): key images with their tracked
 models, the mosaic against the true patterns, and the learnt path against the replays
 and the truth."""
 
@@ -134,29 +134,82 @@ def visual_memory_figure(world: Any, learning: Any, evaluation: Any, runs: list[
     return fig
 
 
+def _world_to_image(world: Any, pose: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """World points ``(n, 2+)`` in the real camera's pixels with the robot at ``pose``."""
+    out: np.ndarray = world.project(pose, np.ascontiguousarray(points[:, :2]))
+    return out
+
+
+def replay_marks(world: Any, learning: Any, run: Any, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Frame ``k`` of a replay: where the models truly are in its image (the true
+    pattern frames seen from the true pose), and where the robot's estimate puts them
+    (the mosaic's models seen from the estimated pose, eq. 2); ``(0, 2)`` when the
+    robot has no estimate. The two agree when the localisation does."""
+    truth = _world_to_image(world, run.frames.truth[k], _true_model_frames(learning))
+    est_robot = learning.to_world(run.frames.pose[k])[0]
+    if not np.isfinite(est_robot).all():
+        return truth, np.empty((0, 2))
+    models = learning.to_world(learning.memory.model_poses)
+    return truth, _world_to_image(world, est_robot, models)
+
+
+def _position_error_cm(learning: Any, run: Any, k: int) -> float:
+    est = learning.to_world(run.frames.pose[k])[0]
+    return float(100 * np.hypot(*(est[:2] - run.frames.truth[k, :2])))
+
+
 def replay_strip(world: Any, learning: Any, run: Any, out: Path, frames: int = 8) -> list[Path]:
-    """Eight frames of one replay side by side with the tracked models drawn
-    (``replay_strip.png``), and the whole replay as ``replay.gif`` when imageio is
-    installed."""
+    """Eight frames of one replay side by side, each with the models' true image
+    positions (circles) and where the robot's estimate puts them (crosses), titled with
+    the position error (``replay_strip.png``); and the whole replay so marked as
+    ``replay.gif`` when imageio is installed."""
     truth = run.frames.truth
     picks = np.unique(np.linspace(0, len(truth) - 1, frames).round().astype(int))
     images = world.render(truth[picks])
-    fig = Figure(figsize=(2.2 * len(picks), 2.2), layout="constrained")
+    fig = Figure(figsize=(2.2 * len(picks), 2.5), layout="constrained")
     for n, (k, img) in enumerate(zip(picks, images, strict=True)):
         ax = fig.add_subplot(1, len(picks), n + 1)
         ax.imshow(img, cmap="gray", vmin=0, vmax=255)
-        ax.set_title(f"frame {k}, key {run.key_index[k]}, {run.frames.tracked[k]} models",
-                     fontsize=7)  # fmt: skip
+        true_px, est_px = replay_marks(world, learning, run, int(k))
+        ax.plot(true_px[:, 0], true_px[:, 1], "o", mfc="none", mec="lime", ms=9, mew=1.5,
+                label="models, truth")  # fmt: skip
+        ax.plot(est_px[:, 0], est_px[:, 1], "+", color="red", ms=9, mew=1.5,
+                label="models, estimate (eq. 2)")  # fmt: skip
+        ax.set_xlim(-0.5, img.shape[1] - 0.5)
+        ax.set_ylim(img.shape[0] - 0.5, -0.5)
+        error = _position_error_cm(learning, run, int(k))
+        ax.set_title(f"frame {k}, key {run.key_index[k]}, {run.frames.tracked[k]} tracked\n"
+                     f"position error {error:.1f} cm", fontsize=7)  # fmt: skip
         ax.set_xticks([])
         ax.set_yticks([])
+    handles, labels = fig.axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=2, fontsize=7)
     written = [save(fig, out / "replay_strip.png")]
     try:
         import imageio.v3 as iio
     except ImportError:
         return written
     step = max(1, len(truth) // 60)
-    clip = world.render(truth[::step])
+    shown = world.render(truth[::step])
+    ks = range(0, len(truth), step)
+    clip = [_marked(world, learning, run, k, f) for k, f in zip(ks, shown, strict=True)]
     path = out / "replay.gif"
-    write_atomically(path, lambda tmp: iio.imwrite(tmp, clip, duration=100, loop=0))
+    write_atomically(path, lambda tmp: iio.imwrite(tmp, np.stack(clip), duration=100, loop=0))
     written.append(path)
     return written
+
+
+def _marked(world: Any, learning: Any, run: Any, k: int, frame: np.ndarray) -> np.ndarray:
+    """An animation frame in colour: a green ring where each model truly is, a red
+    cross where the robot's estimate puts it."""
+    rgb = np.repeat(frame[:, :, None], 3, axis=2)
+    h, w = frame.shape
+    true_px, est_px = replay_marks(world, learning, run, k)
+    ring = [(dx, dy) for dx in range(-6, 7) for dy in range(-6, 7) if 25 <= dx * dx + dy * dy <= 36]
+    cross = [(d, 0) for d in range(-6, 7)] + [(0, d) for d in range(-6, 7)]
+    for points, offsets, colour in ((true_px, ring, (0, 255, 0)), (est_px, cross, (255, 0, 0))):
+        for x, y in np.rint(points).astype(int):
+            for dx, dy in offsets:
+                if 0 <= x + dx < w and 0 <= y + dy < h:
+                    rgb[y + dy, x + dx] = colour
+    return rgb

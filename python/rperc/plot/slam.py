@@ -12,7 +12,7 @@ from matplotlib.axes import Axes
 from matplotlib.collections import EllipseCollection
 from matplotlib.figure import Figure
 
-from rperc.plot import robust_limits, set_limits
+from rperc.plot import Limits, outside, robust_limits, set_limits
 from rperc.slam.evaluation import Se2Transform
 from rperc.slam.planar import SlamResult
 
@@ -94,12 +94,30 @@ def draw_map(
         _ellipses(ax, marks, rot @ r.landmark_covariance @ rot.T, colour)
     # The truth (path and landmarks) is always in view; stray estimates may be cut.
     kept = [np.asarray(a, dtype=np.float64)[:, :2] for a in (truth, landmarks) if a is not None]
-    include = np.concatenate(kept) if kept else None
-    set_limits(ax, robust_limits(np.concatenate(shown), include=include, percentiles=(0.5, 99.5)))
+    everything = np.concatenate(shown)
+    truths = np.concatenate(kept) if kept else None
+    bulk = robust_limits(everything, include=truths, percentiles=(0.5, 99.5))
+    # The map's edge landmarks lie just past the bulk's percentiles (Victoria Park's
+    # were cut): all within half the bulk's size stay in view, far strays do not.
+    near = everything[_within(everything, bulk, reach=0.5)]
+    limits = robust_limits(near, include=np.concatenate([near, *kept]))
+    set_limits(ax, limits)
+    cut = outside(everything, limits)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    ax.set_title(title, fontsize=9)
+    ax.set_title(title + (f" ({cut} stray estimates beyond the frame)" if cut else ""), fontsize=9)
     ax.legend(fontsize=7, loc="best")
+
+
+def _within(points: np.ndarray, limits: Limits, *, reach: float) -> np.ndarray:
+    """Which finite ``points`` lie within ``limits`` grown by ``reach`` times their
+    larger side on every edge."""
+    (x0, x1), (y0, y1) = limits
+    pad = reach * max(x1 - x0, y1 - y0)
+    x, y = points[:, 0], points[:, 1]
+    ok = np.isfinite(points).all(axis=1)
+    inside: np.ndarray = ok & (x >= x0 - pad) & (x <= x1 + pad) & (y >= y0 - pad) & (y <= y1 + pad)
+    return inside
 
 
 def nees_figure(
@@ -131,7 +149,7 @@ def variants_figure(
     title: str = "",
     dt: float = 1.0,
 ) -> Figure:
-    """The seed's variants side by side: one map per ``(name, result, score)`` with
+    """Paper [000]'s variants side by side: one map per ``(name, result, score)`` with
     the true path and landmarks, and below them the run-averaged robot NEES of each
     variant (one value per step of ``dt`` seconds) against its band."""
     fig = Figure(figsize=(5.0 * len(runs), 9.0))

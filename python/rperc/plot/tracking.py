@@ -4,6 +4,7 @@ and every tracker's overlap (IoU) with the truth over the whole sequence."""
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -23,6 +24,14 @@ def score_line(name: str, boxes: np.ndarray, truth: np.ndarray) -> str:
         f"{name}: AUC {metrics.auc(overlaps):.3f}, "
         f"precision@20px {metrics.precision(boxes, truth):.3f}, mean IoU {overlaps.mean():.2f}"
     )
+
+
+def _dash(i: int) -> str:
+    return ("--", ":", "-.")[i % 3]
+
+
+def _box(b: np.ndarray, colour: Any, **style: Any) -> Rectangle:
+    return Rectangle((b[0], b[1]), b[2], b[3], fill=False, color=colour, **style)
 
 
 def strip_figure(
@@ -52,9 +61,11 @@ def strip_figure(
     for j, (frame, k) in enumerate(zip(frames, indices, strict=True)):
         ax = fig.add_subplot(grid[0, j])
         ax.imshow(frame)
-        drawn = [(truth[k], TRUTH_COLOUR)] + [(tracks[n][k], colours[n]) for n in tracks]
-        for b, colour in drawn:
-            ax.add_patch(Rectangle((b[0], b[1]), b[2], b[3], fill=False, color=colour, lw=1.5))
+        # The truth wide and underneath, each tracker thinner in its own dash on top:
+        # boxes that agree would otherwise hide one another.
+        ax.add_patch(_box(truth[k], TRUTH_COLOUR, lw=3.0, ls="-", zorder=2))
+        for i, n in enumerate(tracks):
+            ax.add_patch(_box(tracks[n][k], colours[n], lw=1.2, ls=_dash(i), zorder=3 + i))
         for n, polys in (contours or {}).items():
             ax.add_patch(
                 Polygon(polys[k], closed=True, fill=False, color=colours[n], lw=1, ls="--")
@@ -65,22 +76,26 @@ def strip_figure(
         ax.set_yticks([])
     ax = fig.add_subplot(grid[1, :])
     for name, boxes in tracks.items():
-        ax.plot(np.arange(1, len(truth) + 1), metrics.iou(boxes, truth), color=colours[name], lw=1)
+        iou = metrics.iou(boxes, truth)
+        ax.plot(np.arange(1, len(truth) + 1), iou, color=colours[name], lw=1, label=f"{name} IoU")
     for k in indices:
         ax.axvline(k + 1, color="0.8", lw=0.6, zorder=0)
     ax.set_xlabel("frame [index, 1-based]")
     ax.set_ylabel("IoU with the truth [0-1]")
     ax.set_ylim(-0.02, 1.02)
     ax.grid(alpha=0.3)
-    handles = [Line2D([], [], color=TRUTH_COLOUR, lw=2, label=f"{truth_label} (box)")]
-    handles += [
-        Line2D([], [], color=colours[n], lw=2, label=f"tracker {n} (box, IoU)") for n in tracks
+    # The IoU panel's legend lists its own lines only; the boxes get the figure's.
+    ax.legend(loc="lower left", fontsize=8, ncol=len(tracks))
+    legend = [Line2D([], [], color=TRUTH_COLOUR, lw=3, label=f"{truth_label} box")]
+    legend += [
+        Line2D([], [], color=colours[n], lw=1.2, ls=_dash(i), label=f"tracker {n} box")
+        for i, n in enumerate(tracks)
     ]
-    handles += [
-        Line2D([], [], color=colours[n], lw=1, ls="--", label=f"tracker {n} (contour)")
+    legend += [
+        Line2D([], [], color=colours[n], lw=1, ls="--", label=f"tracker {n} contour")
         for n in contours or {}
     ]
-    ax.legend(handles=handles, loc="lower left", fontsize=8, ncol=len(handles))
+    fig.legend(handles=legend, loc="outside lower center", fontsize=8, ncol=len(legend))
     scores = "\n".join(score_line(n, b, truth) for n, b in tracks.items())
     fig.suptitle(f"{title}\n{scores}", fontsize=9)
     return fig

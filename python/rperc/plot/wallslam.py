@@ -1,4 +1,4 @@
-"""The seed's Fig. 7 a/b: wall-SLAM maps side by side, each with its wall segments,
+"""Paper [000]'s Fig. 7 a/b: wall-SLAM maps side by side, each with its wall segments,
 the estimated path and the reference path in grey."""
 
 from __future__ import annotations
@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+import numpy.typing as npt
 from matplotlib.axes import Axes
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
@@ -13,6 +14,7 @@ from matplotlib.figure import Figure
 from rperc.slam.wallslam import WallSlamResult
 
 REFERENCE = "0.6"
+TRUE_WALL = "#9be39b"
 
 
 def sighted_walls(rows: np.ndarray, t: np.ndarray, pose: np.ndarray) -> np.ndarray:
@@ -42,9 +44,16 @@ def _panel(
     res: WallSlamResult,
     sightings: tuple[np.ndarray, np.ndarray] | None,
     label: str,
+    true_walls: np.ndarray | None = None,
 ) -> None:
     ref = res.reference
     ax.plot(ref[:, 0], ref[:, 1], color=REFERENCE, lw=3, label=label)
+    if true_walls is not None:
+        # Wide and pale underneath, so the estimated walls drawn on them stay visible.
+        ax.add_collection(
+            LineCollection(list(true_walls), colors=TRUE_WALL, linewidths=4, zorder=1)
+        )
+        ax.plot([], [], color=TRUE_WALL, lw=4, label="walls (truth)")
     ends = np.asarray(res.wall_ends).reshape(-1, 2, 2)
     if len(ends):
         ax.add_collection(LineCollection(list(ends), colors="k", linewidths=1.2))
@@ -80,17 +89,20 @@ def wall_maps_figure(
     title: str = "",
     reference_label: str = "reference path",
     sightings: tuple[np.ndarray, np.ndarray] | None = None,
+    true_walls: npt.ArrayLike | None = None,
 ) -> Figure:
     """One panel per ``(name, result)``: the map's wall segments (black), the
     estimated path (red) and the reference path (grey), all panels framed alike by
     the reference path; each panel's title gives its ATE and loop error. A run with
     no wall map (odometry alone) shows, given ``sightings`` (wall rows and scan
     times, ``wallslam.PreparedLog.rows`` and ``.t``), every sighting placed with its
-    path: the map odometry draws."""
+    path: the map odometry draws. ``true_walls`` (``(n, 2, 2)`` end points), when
+    known, are drawn under every panel."""
     fig = Figure(figsize=(5.2 * len(runs), 5.0), layout="constrained")
     axes = fig.subplots(1, len(runs), squeeze=False)[0]
     for ax, (name, res) in zip(axes, runs, strict=True):
-        _panel(ax, name, res, sightings, reference_label)
+        truth = None if true_walls is None else np.asarray(true_walls, float).reshape(-1, 2, 2)
+        _panel(ax, name, res, sightings, reference_label, truth)
     if title:
         fig.suptitle(title)
     return fig

@@ -1,4 +1,4 @@
-"""EKF-SLAM (seed paper section 2.2): the filter core and the monobot study.
+"""EKF-SLAM (paper [000], section 2.2): the filter core and the monobot study.
 
 - :class:`Ekf`: robot block plus landmark blocks, O(n) prediction and an O(n^2)
   Joseph-form update that exploits the sparse observation Jacobian;
@@ -10,7 +10,7 @@
   with known, nearest-neighbour or JCBB association, the anchor (eqs. 24-25), the
   external sensor (eqs. 26-27) and landmark freezing; walls as a second landmark
   kind (:class:`WallMap`);
-- :mod:`rperc.slam.wallslam`: wall SLAM on a laser log, the seed's Fig. 7 experiment.
+- :mod:`rperc.slam.wallslam`: wall SLAM on a laser log, paper [000]'s Fig. 7 experiment.
 """
 
 from rperc._rperc import nees_bounds

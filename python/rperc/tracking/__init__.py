@@ -12,18 +12,18 @@ corner). The GIL is released while a frame is processed.
 
 - :class:`ColorHistogramTracker`: Birchfield-style local search over position and
   scale with elliptical colour histograms updated incrementally, histogram
-  intersection (seed eq. 28), model adaptation (eq. 29), a bimodal model and an
+  intersection (paper [000], eq. 28), model adaptation (eq. 29), a bimodal model and an
   optional perimeter-gradient term.
 - :class:`ParticleColorTracker`: the CONDENSATION variant over ``(x, y, scale)`` with
   the same histogram likelihood, for clutter and fast motion.
-- :class:`PatternTracker`: the 2-D pattern tracker of seed 001 (section 3): CONDENSATION
+- :class:`PatternTracker`: the 2-D pattern tracker of paper [001] (section 3): CONDENSATION
   over ``(x, y, theta, scale)`` with grey-level profiles normal to the pattern's
   contours, occlusion and scale space; :func:`pattern_sequence` generates the Fig. 8
   experiment's sequences with their ground truth.
-- :class:`ColorTemplateTracker`: the default of ``rperc track`` (issue 34): Staple's
+- :class:`ColorTemplateTracker`: the default of ``rperc track``: Staple's
   merge of a correlation filter on HOG cells with the colour histograms' per-pixel
   foreground probability, DSST scale estimation, a lost flag and re-detection.
-- :class:`ColorShapeTracker`: the colour+shape tracker of seed 000 section 3.3,
+- :class:`ColorShapeTracker`: the colour+shape tracker of paper [000], section 3.3,
   CONDENSATION over the target's colour distribution weighted by an affine snake, with
   a contour per frame; :mod:`rperc.tracking.shape_sequences` generates the four
   experiments of section 3.4 with truth masks.

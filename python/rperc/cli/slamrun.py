@@ -24,6 +24,7 @@ from rperc.cli.outputs import (
 from rperc.slam import PlanarSlam, SlamResult
 from rperc.slam.mrclam import mrclam_run
 from rperc.slam.planar import PRESETS, RECORDING_VARIANTS, variant_config, victoria_recording
+from rperc.slam.wallslam import ASSOCIATIONS
 
 
 def _variants(text: str) -> tuple[str, ...]:
@@ -57,7 +58,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     )  # fmt: skip
     v = kinds.add_parser("victoria", help="Victoria Park: trees, no ids, GPS")
     v.add_argument("directory", type=Path, help="Victoria Park folder")
-    v.add_argument("--association", choices=("nn", "jcbb"), default="jcbb")
+    v.add_argument(
+        "--association", choices=ASSOCIATIONS, default=PRESETS["victoria"]["association"]
+    )
     v.add_argument("--gps-sigma", type=positive_float, default=2.0, help="external variant (m)")
     for q in (m, v):
         q.add_argument(

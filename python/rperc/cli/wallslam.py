@@ -21,7 +21,13 @@ from rperc.cli.outputs import (
     write_json,
     wrote,
 )
-from rperc.slam.wallslam import STRAIGHTNESS, WallSlamResult, run_walls
+from rperc.slam.wallslam import (
+    ASSOCIATION,
+    ASSOCIATIONS,
+    STRAIGHTNESS,
+    WallSlamResult,
+    run_walls,
+)
 
 
 def add_walls_command(kinds: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -38,8 +44,9 @@ def add_walls_command(kinds: argparse._SubParsersAction) -> None:  # type: ignor
         "calibrated on ACES by benchmarks/wall_straightness.py; 0 turns it off)",
     )  # fmt: skip
     w.add_argument(
-        "--association", choices=("nn", "jcbb"), default="jcbb",
-        help="data association: joint compatibility (the default) or nearest neighbours",
+        "--association", choices=ASSOCIATIONS, default=ASSOCIATION,
+        help=f"data association: nearest neighbours or joint compatibility (default "
+        f"{ASSOCIATION})",
     )  # fmt: skip
     w.add_argument("--seed", type=seed_type, default=0, help="the odometry noise draw")
     w.add_argument(

@@ -149,7 +149,7 @@ PRESETS: dict[str, dict[str, Any]] = {
         "motion": {"ackermann": {}},
         "range_variance": 1.0,
         "bearing_variance": float(np.radians(3.0) ** 2),
-        "association": "jcbb",
+        "association": "jcbb",  # trees have no ids; see rperc.slam.wallslam.ASSOCIATIONS
         "candidate_sightings": 3,
         # The GPS is compared at the laser (external variant, eqs. 26-27).
         "fix_lever_arm": [3.78, 0.50],

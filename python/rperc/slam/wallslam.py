@@ -50,6 +50,8 @@ from rperc.slam.planar import PlanarSlam, SlamResult
 from rperc.slam.smoothing import SmoothedRun, smooth_walls
 
 __all__ = [
+    "ASSOCIATION",
+    "ASSOCIATIONS",
     "METHODS",
     "NEES_BAND",
     "SPEED_BIAS",
@@ -83,6 +85,16 @@ TURN_LENGTH = 0.5  # effective metres per radian turned
 #: within the 95 % quantile.
 STRAIGHTNESS = 0.0231
 NEES_BAND = (0.2158, 9.3484)  # chi-square, 3 dof, two-sided 95 %
+#: The data associations a run without ids can use (the engine's ``association``):
+#: nearest neighbours or joint compatibility.
+ASSOCIATIONS = ("nn", "jcbb")
+#: Wall SLAM's association. Joint compatibility: a stretch of a wall that steps off
+#: its line (a recess, a cabinet) is tested with the scan's other walls, which pin
+#: the robot. In the simulated corridor with stepped sections
+#: (``benchmarks/wall_corridor.py --door 0.3 --recess 0.1``, 12 seeds) the robot's
+#: share in band is 62 % with nearest neighbours, 86 % with JCBB; with straight
+#: sections 92 and 90 %.
+ASSOCIATION = "jcbb"
 
 #: The runs of the Fig. 7 experiment, as overrides of the filter config.
 METHODS: dict[str, dict[str, Any]] = {
@@ -406,14 +418,15 @@ def run_walls(
     use_walls: bool = True,
     show_progress: bool = False,
     straightness: float = 0.0,
-    association: str = "jcbb",
+    association: str = ASSOCIATION,
     smooth: bool = False,
 ) -> WallSlamResult:
     """Wall SLAM over a :class:`rperc.datasets.CarmenLog` from odometry drawn with
     ``seed`` (see the module docs); ``use_walls=False`` is odometry alone;
     ``straightness`` (m) adds :func:`straightness_covariance` to every sighting (0,
     the default, suits simulated straight walls; :data:`STRAIGHTNESS` real logs);
-    ``association`` is the engine's (``"jcbb"``, the default, or ``"nn"``);
+    ``association`` is the engine's (one of :data:`ASSOCIATIONS`, default
+    :data:`ASSOCIATION`);
     ``smooth=True`` also smooths the run (:meth:`WallSlamResult.smoothed`)."""
     prepared = prepare(log, straightness=straightness, show_progress=show_progress)
     overrides: dict[str, Any] = {"association": association, "anchor": anchor}
@@ -442,12 +455,7 @@ def run_prepared(
         "motion": {
             "unicycle": {"speed_variance": SPEED_SIGMA**2, "turn_rate_variance": TURN_SIGMA**2}
         },
-        # Joint compatibility: a stretch of a wall that steps off its line (a recess,
-        # a cabinet) is tested with the scan's other walls, which pin the robot. In
-        # the simulated corridor with stepped sections (`benchmarks/wall_corridor.py
-        # --door 0.3 --recess 0.1`, 12 seeds) the robot's share in band is 62 % with
-        # nearest neighbours, 86 % with JCBB; with straight sections 92 and 90 %.
-        "association": "jcbb",
+        "association": ASSOCIATION,
         "initial_pose": ref[0].tolist(),
         # The biases are unknown constants of the stated size: estimated as states.
         "control_bias_sd": [SPEED_BIAS, TURN_BIAS],

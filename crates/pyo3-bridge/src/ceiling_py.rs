@@ -1,12 +1,12 @@
 //! The ceiling world of the visual memory (second seed, section 2): conversion only.
 
+use navigation::ceiling::{
+    Ceiling, CeilingCamera, CeilingParams, OdometryNoise, RenderParams, RenderTruth,
+};
 use numpy::IntoPyArray;
 use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 use rperc_core::Pose2;
-use tracking::ceiling::{
-    Ceiling, CeilingCamera, CeilingParams, OdometryNoise, RenderParams, RenderTruth,
-};
 
 use crate::arrays::shaped;
 use crate::errors::{Error, detached, detached_parallel};
@@ -118,7 +118,7 @@ impl PyCeilingWorld {
     ) -> PyResult<Rendered<'py>> {
         let poses = self::poses(poses, "poses")?;
         let (frames, truths) = detached_parallel(py, || {
-            Ok(tracking::ceiling::render_sequence(
+            Ok(navigation::ceiling::render_sequence(
                 &self.ceiling,
                 &self.camera,
                 &poses,
@@ -259,7 +259,7 @@ pub fn ceiling_drive<'py>(
     let start = one_pose(start, "start")?;
     let commands = pairs(commands, "commands")?;
     let run = detached(py, || {
-        Ok(tracking::ceiling::drive(start, &commands, dt, &noise)?)
+        Ok(navigation::ceiling::drive(start, &commands, dt, &noise)?)
     })?;
     let n = commands.len();
     Ok((

@@ -51,6 +51,9 @@ pub enum Error {
     /// From the laser SLAM crate.
     #[error(transparent)]
     Laser(#[from] laser::LaserError),
+    /// From the navigation crate (visual memory, ceiling world).
+    #[error(transparent)]
+    Navigation(#[from] navigation::NavigationError),
     /// A Python exception raised while reading the arguments; re-raised as it is.
     #[error("{0}")]
     Python(#[from] PyErr),
@@ -67,6 +70,7 @@ impl Error {
             Error::Slam(e) => Some(e.class()),
             Error::Tracking(e) => Some(e.class()),
             Error::Laser(e) => Some(e.class()),
+            Error::Navigation(e) => Some(e.class()),
             Error::Value(_) => Some(ErrorClass::InvalidInput),
             Error::Type(_) | Error::Panic(_) | Error::Python(_) => None,
         }
@@ -263,6 +267,22 @@ mod tests {
                         reason: "r".into(),
                     }),
                     py.get_type::<PyOSError>(),
+                ),
+                (
+                    Error::Navigation(navigation::NavigationError::Tracking(
+                        tracking::TrackingError::Io {
+                            path: "f".into(),
+                            reason: "r".into(),
+                        },
+                    )),
+                    py.get_type::<PyOSError>(),
+                ),
+                (
+                    Error::Navigation(navigation::NavigationError::InvalidParameter {
+                        name: "p",
+                        reason: "r".into(),
+                    }),
+                    py.get_type::<PyValueError>(),
                 ),
                 (
                     Error::Core(rperc_core::CoreError::NonFinite("x")),

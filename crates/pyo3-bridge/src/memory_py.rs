@@ -1,10 +1,10 @@
 //! The visual memory (second seed, section 2): learning and replay runs in a ceiling
 //! world, the memory exchanged as JSON. Conversion only.
 
+use navigation::memory::{FrameReport, LearnParams, ReplayParams, VisualMemory, World};
 use numpy::{IntoPyArray, PyArray1, PyArrayDyn};
 use pyo3::prelude::*;
 use rperc_core::Pose2;
-use tracking::memory::{FrameReport, LearnParams, ReplayParams, VisualMemory, World};
 
 use crate::arrays::{frozen_array, read_only};
 use crate::ceiling_py::{PyCeilingWorld, one_pose, pairs, pose_rows};
@@ -106,7 +106,7 @@ pub fn visual_memory_learn<'py>(
     let commands = pairs(commands, "commands")?;
     let w = &*world;
     let learnt = detached(py, || {
-        Ok(tracking::memory::learn(
+        Ok(navigation::memory::learn(
             self::world(w),
             start,
             &commands,
@@ -139,7 +139,7 @@ pub fn visual_memory_replay<'py>(
     let start = one_pose(start, "start")?;
     let w = &*world;
     let run = detached(py, || {
-        Ok(tracking::memory::replay(
+        Ok(navigation::memory::replay(
             self::world(w),
             &memory,
             start,

@@ -1,13 +1,11 @@
 #![doc = include_str!("../README.md")]
 #![deny(missing_docs)]
 
-pub mod ceiling;
 mod colour;
 mod colour_shape;
 mod condensation;
 mod error;
 mod frame;
-pub mod memory;
 pub mod metrics;
 pub mod otb;
 pub mod pattern;

@@ -2,10 +2,10 @@
 //! tracker states made from the true poses through the camera's own projection, then
 //! the robot and the models recovered in the mosaic frame of model 0.
 
+use navigation::ceiling::CeilingCamera;
+use navigation::memory::{ImageScale, fuse, new_model_in_mosaic, robot_in_mosaic};
 use proptest::prelude::*;
 use rperc_core::Pose2;
-use tracking::ceiling::CeilingCamera;
-use tracking::memory::{ImageScale, fuse, new_model_in_mosaic, robot_in_mosaic};
 
 /// A model created at robot pose `created`, centred on the ceiling point `origin`:
 /// its world frame (the image axes at creation are the robot's axes).
@@ -141,8 +141,8 @@ fn fusion_is_a_weighted_mean_with_a_circular_heading() {
 /// pattern's centre.
 #[test]
 fn proposals_find_the_patterns_in_view_and_only_them() {
-    use tracking::ceiling::{Ceiling, CeilingParams, PatternKind, RenderParams, render};
-    use tracking::memory::{ProposalParams, propose_regions};
+    use navigation::ceiling::{Ceiling, CeilingParams, PatternKind, RenderParams, render};
+    use navigation::memory::{ProposalParams, propose_regions};
     let ceiling = Ceiling::generate(&CeilingParams {
         seed: 11,
         ..Default::default()
@@ -221,12 +221,12 @@ fn proposals_find_the_patterns_in_view_and_only_them() {
 }
 
 mod keys_and_servo {
-    use rperc_core::Pose2;
-    use tracking::ceiling::CeilingCamera;
-    use tracking::memory::{
+    use navigation::ceiling::CeilingCamera;
+    use navigation::memory::{
         KeyImage, KeyImageParams, LearntFrame, ServoParams, TrackedModel, check_chain, command,
         key_error, select_key_images, separation,
     };
+    use rperc_core::Pose2;
 
     use super::{model_frame, state};
 
@@ -397,7 +397,7 @@ proptest! {
         points in prop::collection::vec(prop::array::uniform2(-3.0f64..3.0), 2..8),
         noise in prop::collection::vec(prop::array::uniform2(-0.01f64..0.01), 8),
     ) {
-        use tracking::memory::fit_pose;
+        use navigation::memory::fit_pose;
         let truth = Pose2::new(t[0], t[1], t[2]);
         let spread = points.iter().any(|p| (p[0] - points[0][0]).hypot(p[1] - points[0][1]) > 0.5);
         prop_assume!(spread);

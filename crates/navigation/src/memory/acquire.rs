@@ -20,7 +20,7 @@ use rperc_core::image::GrayImage;
 
 use super::geometry::ImageScale;
 use crate::error::Result;
-use crate::pattern::{PatternLikelihood, PatternModel, PatternScratch, ScaleSpace};
+use tracking::pattern::{PatternLikelihood, PatternModel, PatternScratch, ScaleSpace};
 
 /// Grid step, ideal-image pixels of the models' displacement: within the basin of
 /// eq. 6's likelihood.

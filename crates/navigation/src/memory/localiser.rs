@@ -26,7 +26,7 @@ use nalgebra::{DMatrix, DVector, Matrix3, MatrixXx3, Vector3};
 use rperc_core::{Pose2, wrap_angle};
 
 use super::geometry::ImageScale;
-use crate::error::{Result, TrackingError};
+use crate::error::{NavigationError, Result};
 
 /// How the pose filter weighs the odometry and the trackers.
 #[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
@@ -125,7 +125,7 @@ impl LocaliserParams {
         rperc_core::ensure_in_range("search_sigmas", self.search_sigmas, 0.0, 10.0)?;
         rperc_core::ensure_in_range("gate_probability", self.gate_probability, 0.5, 1.0)?;
         if self.gate_probability >= 1.0 {
-            return Err(TrackingError::InvalidParameter {
+            return Err(NavigationError::InvalidParameter {
                 name: "gate_probability",
                 reason: "must be below 1 (a gate of 1 refuses nothing)".into(),
             });

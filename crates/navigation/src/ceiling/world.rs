@@ -6,7 +6,7 @@ use rand::Rng;
 use rperc_core::image::GrayImage;
 use rperc_core::rng::stream;
 
-use crate::error::{Result, TrackingError};
+use crate::error::{NavigationError, Result};
 
 /// The kinds of ceiling pattern, each drawn procedurally.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
@@ -93,7 +93,7 @@ impl PatternKind {
 }
 
 impl std::str::FromStr for PatternKind {
-    type Err = TrackingError;
+    type Err = NavigationError;
 
     /// `"light"`, `"vent"`, `"sign"` or `"detector"`.
     fn from_str(s: &str) -> Result<Self> {
@@ -150,8 +150,8 @@ impl Default for CeilingParams {
     }
 }
 
-fn invalid(name: &'static str, reason: impl Into<String>) -> TrackingError {
-    TrackingError::InvalidParameter {
+fn invalid(name: &'static str, reason: impl Into<String>) -> NavigationError {
+    NavigationError::InvalidParameter {
         name,
         reason: reason.into(),
     }
@@ -207,7 +207,7 @@ impl Ceiling {
     ///
     /// # Examples
     /// ```
-    /// use tracking::ceiling::{Ceiling, CeilingParams};
+    /// use navigation::ceiling::{Ceiling, CeilingParams};
     ///
     /// let params = CeilingParams { size: [4.0, 3.0], resolution: 0.01, n_patterns: 4,
     ///                              min_spacing: 0.5, ..Default::default() };

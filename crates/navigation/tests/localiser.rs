@@ -5,9 +5,9 @@
 //! gate against a planted outlier.
 
 use nalgebra::{Matrix3, Vector3};
+use navigation::memory::{ImageScale, LocaliserParams, ModelSighting, PoseFilter, observe};
 use rperc_core::rng::{normal, stream};
 use rperc_core::{Pose2, chi2_quantile, nees_band, wrap_angle};
-use tracking::memory::{ImageScale, LocaliserParams, ModelSighting, PoseFilter, observe};
 
 const SCALE: ImageScale = ImageScale {
     metres_per_pixel: 0.01,

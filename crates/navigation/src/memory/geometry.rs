@@ -30,7 +30,7 @@ impl ImageScale {
     ///
     /// # Examples
     /// ```
-    /// use tracking::memory::ImageScale;
+    /// use navigation::memory::ImageScale;
     ///
     /// let scale = ImageScale { metres_per_pixel: 0.01, principal: [160.0, 120.0] };
     /// let t = scale.camera_to_model([260.0, 120.0, 0.5, 1.0]);
@@ -160,7 +160,7 @@ pub fn fit_pose(pairs: &[([f64; 2], [f64; 2], f64)]) -> Option<Pose2> {
 ///
 /// # Examples
 /// ```
-/// use tracking::memory::spread;
+/// use navigation::memory::spread;
 ///
 /// assert_eq!(spread(&[[0.0, 0.0], [3.0, 4.0], [1.0, 1.0]]), 5.0);
 /// assert_eq!(spread(&[[2.0, 2.0]]), 0.0);

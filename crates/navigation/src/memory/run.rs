@@ -18,7 +18,7 @@ use super::keyimages::TrackedModel;
 use super::mosaic::{FrameReport, MosaicBuilder, MosaicCovariance, MosaicModel, MosaicParams};
 use super::servo::{ServoParams, command, key_error};
 use crate::ceiling::{Ceiling, CeilingCamera, CeilingParams, OdometryNoise, RenderParams, render};
-use crate::error::{Result, TrackingError};
+use crate::error::{NavigationError, Result};
 
 /// The world a run happens in.
 #[derive(Debug, Clone, Copy)]
@@ -101,7 +101,7 @@ impl VisualMemory {
     /// memory paired with another mosaic), an empty mosaic or chain, or models learnt
     /// on images of another size than `camera`'s.
     pub fn validate(&self, camera: &CeilingCamera) -> Result<()> {
-        let invalid = |name, reason: String| TrackingError::InvalidParameter { name, reason };
+        let invalid = |name, reason: String| NavigationError::InvalidParameter { name, reason };
         if self.models.is_empty() {
             return Err(invalid("mosaic", "the mosaic is empty".into()));
         }
@@ -160,7 +160,7 @@ impl VisualMemory {
 /// size, points outside their window or whose vectors are not of the configured
 /// length, or a configuration its own checks refuse.
 fn check_model(m: &MosaicModel) -> Result<()> {
-    let invalid = |reason: String| TrackingError::InvalidParameter {
+    let invalid = |reason: String| NavigationError::InvalidParameter {
         name: "models",
         reason: format!("model {}: {reason}", m.id),
     };
@@ -189,7 +189,7 @@ fn check_model(m: &MosaicModel) -> Result<()> {
         )));
     }
     let n = model.config.n_samples;
-    let point_ok = |p: &crate::pattern::ModelPoint| {
+    let point_ok = |p: &tracking::pattern::ModelPoint| {
         p.x.abs() <= 1.0
             && p.y.abs() <= 1.0
             && p.phi.is_finite()
@@ -375,7 +375,7 @@ impl ReplayParams {
         rperc_core::ensure_positive("dt", self.dt)?;
         rperc_core::ensure_positive("metres_per_pixel", self.metres_per_pixel)?;
         if self.max_frames == 0 {
-            return Err(TrackingError::InvalidParameter {
+            return Err(NavigationError::InvalidParameter {
                 name: "max_frames",
                 reason: "must be >= 1".into(),
             });
@@ -485,7 +485,7 @@ fn replay_localiser(
     let first = memory
         .key_images
         .first()
-        .ok_or_else(|| TrackingError::InvalidParameter {
+        .ok_or_else(|| NavigationError::InvalidParameter {
             name: "key_images",
             reason: "the memory holds no key image".into(),
         })?;

@@ -13,8 +13,8 @@ use super::keyimages::TrackedModel;
 use super::localiser::{LocaliserParams, ModelSighting, PoseFilter};
 use super::salient::{ProposalParams, propose_regions};
 use crate::ceiling::{CeilingCamera, correct_image};
-use crate::error::{Result, TrackingError};
-use crate::pattern::{
+use crate::error::{NavigationError, Result};
+use tracking::pattern::{
     PatternFrame, PatternModel, PatternTracker, PatternTrackerParams, Region, corners_of,
 };
 
@@ -104,7 +104,7 @@ impl MosaicParams {
         self.tracker.validate()?;
         self.proposals.validate()?;
         if self.max_tracked == 0 || self.min_tracked > self.max_tracked {
-            return Err(TrackingError::InvalidParameter {
+            return Err(NavigationError::InvalidParameter {
                 name: "max_tracked",
                 reason: format!(
                     "need 1 <= min_tracked <= max_tracked, got {} and {}",
@@ -260,7 +260,7 @@ impl MosaicBuilder {
         seed: u64,
     ) -> Result<Self> {
         if models.is_empty() {
-            return Err(TrackingError::InvalidParameter {
+            return Err(NavigationError::InvalidParameter {
                 name: "mosaic",
                 reason: "an empty mosaic cannot localise anything".into(),
             });
@@ -355,7 +355,7 @@ impl MosaicBuilder {
     /// carry every tracker off the image and poison the pose filter).
     pub fn process(&mut self, frame: GrayView<'_>, odometry: Option<Pose2>) -> Result<FrameReport> {
         if let Some(d) = odometry.filter(|d| ![d.x, d.y, d.theta].iter().all(|v| v.is_finite())) {
-            return Err(TrackingError::InvalidParameter {
+            return Err(NavigationError::InvalidParameter {
                 name: "odometry",
                 reason: format!("must be finite, got ({}, {}, {})", d.x, d.y, d.theta),
             });
@@ -917,8 +917,8 @@ impl MosaicBuilder {
             ) {
                 Ok(t) => t,
                 // A region without usable contours is simply not a model.
-                Err(TrackingError::InvalidParameter { name: "region", .. }) => continue,
-                Err(e) => return Err(e),
+                Err(tracking::TrackingError::InvalidParameter { name: "region", .. }) => continue,
+                Err(e) => return Err(e.into()),
             };
             self.place(id, tracker);
             report.created.push(id);
@@ -1046,7 +1046,7 @@ impl MosaicCovariance {
     /// The matrix, refused unless it is `3m x 3m` for distinct models of a mosaic of
     /// `n_models`, finite and symmetric.
     pub fn matrix(&self, n_models: usize) -> Result<nalgebra::DMatrix<f64>> {
-        let invalid = |reason: String| TrackingError::InvalidParameter {
+        let invalid = |reason: String| NavigationError::InvalidParameter {
             name: "mosaic_covariance",
             reason,
         };

@@ -11,7 +11,7 @@ use image::{GrayImage as Mask, Luma};
 use imageproc::region_labelling::{Connectivity, connected_components};
 use rperc_core::image::GrayImage;
 
-use crate::error::{Result, TrackingError};
+use crate::error::{NavigationError, Result};
 
 /// How regions are proposed.
 #[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
@@ -53,7 +53,7 @@ impl ProposalParams {
         ensure_positive("contrast", self.contrast)?;
         ensure_in_range("max_area_fraction", self.max_area_fraction, 0.0, 1.0)?;
         if self.min_area == 0 {
-            return Err(TrackingError::InvalidParameter {
+            return Err(NavigationError::InvalidParameter {
                 name: "min_area",
                 reason: "must be >= 1".into(),
             });

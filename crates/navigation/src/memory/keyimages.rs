@@ -6,7 +6,7 @@
 
 use rperc_core::{Pose2, angle_diff};
 
-use crate::error::{Result, TrackingError};
+use crate::error::{NavigationError, Result};
 
 /// One tracked model in one frame.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -213,6 +213,6 @@ pub fn check_chain(keys: &[KeyImage], params: &KeyImageParams) -> Result<()> {
     Ok(())
 }
 
-fn invalid(name: &'static str, reason: String) -> TrackingError {
-    TrackingError::InvalidParameter { name, reason }
+fn invalid(name: &'static str, reason: String) -> NavigationError {
+    NavigationError::InvalidParameter { name, reason }
 }

@@ -3,13 +3,13 @@
 //! 2 cm and 0.5 degrees RMS of their true frames), localises the robot along the way by eq. 2, picks a valid key-image
 //! chain, and a replay from a perturbed start servoes to B within 5 cm.
 
-use rperc_core::Pose2;
-use rperc_core::image::GrayView;
-use tracking::ceiling::{CeilingCamera, CeilingParams, RenderParams, render};
-use tracking::memory::{
+use navigation::ceiling::{CeilingCamera, CeilingParams, RenderParams, render};
+use navigation::memory::{
     KeyImageParams, LearnParams, MosaicBuilder, MosaicParams, ReplayOutcome, ReplayParams, Scene,
     check_chain, learn, replay,
 };
+use rperc_core::Pose2;
+use rperc_core::image::GrayView;
 
 /// The default camera and renderer over the ceiling of `seed`.
 fn scene(seed: u64) -> Scene {
@@ -35,7 +35,7 @@ fn learn_then_replay_against_the_truth() {
     // The mosaic frame in the world: model 0's true frame (the robot's true pose at
     // its creation, times its image pose there).
     let frame_of =
-        |m: &tracking::memory::MosaicModel| learnt.model_in_world(m.id, &scene.camera).unwrap();
+        |m: &navigation::memory::MosaicModel| learnt.model_in_world(m.id, &scene.camera).unwrap();
     let w_t_m = frame_of(&memory.models[0]);
     // Every model within its own claimed covariance (99.9 % ellipsoid), and the
     // mosaic within the 2 cm and 0.5 degrees RMS.
@@ -88,7 +88,7 @@ fn learn_then_replay_against_the_truth() {
 
 #[test]
 fn an_empty_mosaic_or_memory_is_refused() {
-    use tracking::memory::VisualMemory;
+    use navigation::memory::VisualMemory;
     let camera = CeilingCamera::default();
     let err = MosaicBuilder::localiser(
         camera,
@@ -131,7 +131,7 @@ fn see(
     index: u64,
     odometry: Option<Pose2>,
     frame: &mut Vec<u8>,
-) -> tracking::memory::FrameReport {
+) -> navigation::memory::FrameReport {
     render(
         &scene.ceiling,
         &scene.camera,
@@ -147,10 +147,10 @@ fn see(
 
 /// The first frame after `from` whose report has `id` in `pick`'s list.
 fn first_after(
-    reports: &[tracking::memory::FrameReport],
+    reports: &[navigation::memory::FrameReport],
     from: usize,
     id: usize,
-    pick: fn(&tracking::memory::FrameReport) -> &Vec<usize>,
+    pick: fn(&navigation::memory::FrameReport) -> &Vec<usize>,
 ) -> Option<usize> {
     (from + 1..reports.len()).find(|&k| pick(&reports[k]).contains(&id))
 }
@@ -225,7 +225,7 @@ fn the_search_finds_the_robot_a_start_perturbation_away() {
     // 6 cm and 3.4 degrees away (beyond a tracker's random walk at the models), the
     // search over three standard deviations of a 0.058 m / 0.058 rad guess must come
     // back within a centimetre and 0.3 degrees of the true pose in the mosaic.
-    use tracking::memory::{ImageScale, search_pose};
+    use navigation::memory::{ImageScale, search_pose};
     let scene = scene(5);
     let start = Pose2::new(3.0, 3.0, 0.0);
     let learnt = learn(
@@ -253,7 +253,7 @@ fn the_search_finds_the_robot_a_start_perturbation_away() {
     let mut raw = rperc_core::image::GrayImage::default();
     raw.set_from_gray(&GrayView::new(&frame, camera.width, camera.height).unwrap());
     let mut ideal = rperc_core::image::GrayImage::default();
-    tracking::ceiling::correct_image(camera, &raw, 0.0, &mut ideal).unwrap();
+    navigation::ceiling::correct_image(camera, &raw, 0.0, &mut ideal).unwrap();
     let scale = ImageScale {
         metres_per_pixel: camera.metres_per_pixel(),
         principal: [camera.cx, camera.cy],
@@ -297,8 +297,8 @@ fn the_search_finds_the_robot_a_start_perturbation_away() {
 /// pixel's worth) of its true frame.
 #[test]
 fn a_lone_refused_model_does_not_move_the_mosaic() {
-    use tracking::ceiling::{CameraMount, drive};
-    use tracking::memory::ImageScale;
+    use navigation::ceiling::{CameraMount, drive};
+    use navigation::memory::ImageScale;
     let camera = CeilingCamera {
         mount: CameraMount {
             roll: 0.03,
@@ -335,7 +335,7 @@ fn a_lone_refused_model_does_not_move_the_mosaic() {
         metres_per_pixel: pixel,
         principal: [scene.camera.cx, scene.camera.cy],
     };
-    let in_world = |m: &tracking::memory::MosaicModel| {
+    let in_world = |m: &navigation::memory::MosaicModel| {
         let centre = [m.model.centre[0], m.model.centre[1], 0.0, 1.0];
         run.truth[m.created].compose(&scale.camera_to_model(centre))
     };

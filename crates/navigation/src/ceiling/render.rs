@@ -82,7 +82,7 @@ pub struct RenderTruth {
 /// # Examples
 /// ```
 /// use rperc_core::Pose2;
-/// use tracking::ceiling::{Ceiling, CeilingCamera, CeilingParams, RenderParams, render};
+/// use navigation::ceiling::{Ceiling, CeilingCamera, CeilingParams, RenderParams, render};
 ///
 /// let ceiling = Ceiling::generate(&CeilingParams { size: [4.0, 3.0], resolution: 0.01,
 ///                                                  n_patterns: 2, min_spacing: 0.5,

@@ -17,7 +17,7 @@
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use rperc_core::Pose2;
 
-use crate::error::{Result, TrackingError};
+use crate::error::{NavigationError, Result};
 
 /// Where the camera sits on the robot: the camera frame in the robot frame,
 /// `X_R = R_m X_C + offset`, with `R_m = Rz(yaw) Ry(pitch) Rx(roll)` (radians).
@@ -54,7 +54,7 @@ impl CameraMount {
 /// # Examples
 /// ```
 /// use rperc_core::Pose2;
-/// use tracking::ceiling::CeilingCamera;
+/// use navigation::ceiling::CeilingCamera;
 ///
 /// let camera = CeilingCamera::default();
 /// // The ceiling point straight above the ideal camera is the principal point.
@@ -100,8 +100,8 @@ impl Default for CeilingCamera {
     }
 }
 
-fn invalid(name: &'static str, reason: impl Into<String>) -> TrackingError {
-    TrackingError::InvalidParameter {
+fn invalid(name: &'static str, reason: impl Into<String>) -> NavigationError {
+    NavigationError::InvalidParameter {
         name,
         reason: reason.into(),
     }
@@ -246,7 +246,7 @@ pub fn correct_image(
 ) -> Result<()> {
     camera.validate()?;
     if (frame.width, frame.height) != (camera.width, camera.height) {
-        return Err(TrackingError::FrameSizeChanged {
+        return Err(NavigationError::FrameSizeChanged {
             expected_width: camera.width,
             expected_height: camera.height,
             width: frame.width,

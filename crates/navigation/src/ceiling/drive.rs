@@ -5,7 +5,7 @@
 use rperc_core::Pose2;
 use rperc_core::rng::{normal, stream};
 
-use crate::error::{Result, TrackingError};
+use crate::error::{NavigationError, Result};
 
 /// How the odometry errs.
 #[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
@@ -51,7 +51,7 @@ pub struct Drive {
 /// # Examples
 /// ```
 /// use rperc_core::Pose2;
-/// use tracking::ceiling::{OdometryNoise, drive};
+/// use navigation::ceiling::{OdometryNoise, drive};
 ///
 /// let commands = vec![[0.5, 0.0]; 10];       // 5 m/s... no: 0.5 m/s for 10 x 0.2 s
 /// let run = drive(Pose2::identity(), &commands, 0.2, &OdometryNoise::default()).unwrap();
@@ -68,7 +68,7 @@ pub fn drive(start: Pose2, commands: &[[f64; 2]], dt: f64, noise: &OdometryNoise
     ensure_non_negative("speed_sigma", noise.speed_sigma)?;
     ensure_non_negative("turn_sigma", noise.turn_sigma)?;
     if commands.is_empty() {
-        return Err(TrackingError::InvalidParameter {
+        return Err(NavigationError::InvalidParameter {
             name: "commands",
             reason: "needs at least one (v, omega) command".into(),
         });
@@ -89,7 +89,7 @@ pub fn drive(start: Pose2, commands: &[[f64; 2]], dt: f64, noise: &OdometryNoise
         odometry = odometry.advance(mv, mw, dt);
         let finite = |p: &Pose2| p.x.is_finite() && p.y.is_finite() && p.theta.is_finite();
         if !(finite(&truth) && finite(&odometry)) {
-            return Err(TrackingError::InvalidParameter {
+            return Err(NavigationError::InvalidParameter {
                 name: "commands",
                 reason: format!(
                     "the pose overflows at command {} (v * dt or omega * dt too large)",

@@ -8,13 +8,13 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{DMatrix, Matrix3};
-use rperc_core::Pose2;
-use rperc_core::image::GrayView;
-use tracking::ceiling::{Ceiling, CeilingCamera, CeilingParams, RenderParams, render};
-use tracking::memory::{
+use navigation::ceiling::{Ceiling, CeilingCamera, CeilingParams, RenderParams, render};
+use navigation::memory::{
     ImageScale, LearnParams, LocaliserParams, ModelSighting, MosaicBuilder, MosaicParams,
     PoseFilter, World, learn, observe, search_pose,
 };
+use rperc_core::Pose2;
+use rperc_core::image::GrayView;
 
 fn bench_memory(c: &mut Criterion) {
     let ceiling = Ceiling::generate(&CeilingParams::default()).unwrap();
@@ -148,7 +148,7 @@ fn bench_search(c: &mut Criterion) {
     let mut image = rperc_core::image::GrayImage::default();
     image.set_from_gray(&GrayView::new(&frame, camera.width, camera.height).unwrap());
     let mut ideal = rperc_core::image::GrayImage::default();
-    tracking::ceiling::correct_image(&camera, &image, 0.0, &mut ideal).unwrap();
+    navigation::ceiling::correct_image(&camera, &image, 0.0, &mut ideal).unwrap();
     let candidates: Vec<_> = learnt
         .memory
         .models

@@ -3,9 +3,9 @@
 //!
 //! cargo run --release -p tracking --example visual_memory
 
+use navigation::ceiling::{CeilingCamera, CeilingParams, RenderParams};
+use navigation::memory::{LearnParams, ReplayParams, Scene, learn, replay};
 use rperc_core::Pose2;
-use tracking::ceiling::{CeilingCamera, CeilingParams, RenderParams};
-use tracking::memory::{LearnParams, ReplayParams, Scene, learn, replay};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let scene = Scene::new(

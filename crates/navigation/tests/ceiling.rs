@@ -2,13 +2,13 @@
 //! 3-D pinhole projection, the renderer against the ceiling seen through that
 //! projection, the drive against closed-form arcs, the layout against brute force.
 
-use proptest::prelude::*;
-use rperc_core::Pose2;
-use tracking::TrackingError;
-use tracking::ceiling::{
+use navigation::NavigationError;
+use navigation::ceiling::{
     CameraMount, Ceiling, CeilingCamera, CeilingParams, OdometryNoise, PatternKind, RenderParams,
     apply_homography, drive, render,
 };
+use proptest::prelude::*;
+use rperc_core::Pose2;
 
 fn tilted(roll: f64, pitch: f64, yaw: f64, offset: [f64; 3]) -> CeilingCamera {
     CeilingCamera {
@@ -94,8 +94,8 @@ fn the_ideal_image_is_a_mirrored_plan_view_at_scale_f_over_z() {
 #[test]
 fn a_calibration_that_cannot_be_inverted_is_refused_by_name() {
     let name = |camera: CeilingCamera| match camera.validate() {
-        Err(TrackingError::InvalidParameter { name, .. }) => name,
-        Err(TrackingError::Core(rperc_core::CoreError::InvalidParameter { name, .. })) => name,
+        Err(NavigationError::InvalidParameter { name, .. }) => name,
+        Err(NavigationError::Core(rperc_core::CoreError::InvalidParameter { name, .. })) => name,
         other => panic!("expected a named refusal, got {other:?}"),
     };
     let ok = CeilingCamera::default();
@@ -157,7 +157,7 @@ fn patterns_are_placed_apart_inside_the_ceiling_and_reproducibly() {
         ..params
     };
     match Ceiling::generate(&crowded) {
-        Err(TrackingError::InvalidParameter { name, .. }) => assert_eq!(name, "n_patterns"),
+        Err(NavigationError::InvalidParameter { name, .. }) => assert_eq!(name, "n_patterns"),
         other => panic!("expected n_patterns refused, got {other:?}"),
     }
 }
@@ -336,7 +336,7 @@ fn a_sequence_renders_each_frame_as_it_renders_alone() {
         .map(|k| Pose2::new(2.0 + 0.2 * k as f64, 2.0, 0.1 * k as f64))
         .collect();
     let (frames, truths) =
-        tracking::ceiling::render_sequence(&ceiling, &camera, &poses, &params, 10).unwrap();
+        navigation::ceiling::render_sequence(&ceiling, &camera, &poses, &params, 10).unwrap();
     let size = camera.width * camera.height;
     let mut one = Vec::new();
     for (k, pose) in poses.iter().enumerate() {
@@ -398,7 +398,7 @@ fn the_corrected_image_is_the_ideal_cameras_image() {
         height: real.height,
     };
     let mut corrected = rperc_core::image::GrayImage::default();
-    tracking::ceiling::correct_image(&real, &frame, -1.0, &mut corrected).unwrap();
+    navigation::ceiling::correct_image(&real, &frame, -1.0, &mut corrected).unwrap();
     let mut diffs: Vec<f64> = corrected
         .data
         .iter()
@@ -417,5 +417,5 @@ fn the_corrected_image_is_the_ideal_cameras_image() {
     // Resampling twice blurs edges a little; the geometry must be right everywhere.
     assert!(median < 2.0 && mean < 5.0, "median {median}, mean {mean}");
     let wrong = rperc_core::image::GrayImage::zeros(10, 10);
-    assert!(tracking::ceiling::correct_image(&real, &wrong, 0.0, &mut corrected).is_err());
+    assert!(navigation::ceiling::correct_image(&real, &wrong, 0.0, &mut corrected).is_err());
 }

@@ -23,6 +23,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass
@@ -93,10 +94,20 @@ class VisualMemory:
         return np.array(rows, dtype=np.float64).reshape(-1, 3)
 
     @property
-    def model_centres(self) -> np.ndarray:
-        """``(n, 2)`` centres of the models' windows in the image they were learnt in."""
+    def model_centers(self) -> np.ndarray:
+        """``(n, 2)`` centers of the models' windows in the image they were learnt in."""
         rows = [m["model"]["centre"] for m in self._data["models"]]
         return np.array(rows, dtype=np.float64).reshape(-1, 2)
+
+    @property
+    def model_centres(self) -> np.ndarray:
+        """Deprecated spelling of :attr:`model_centers` (API names spell as OpenCV)."""
+        warnings.warn(
+            "VisualMemory.model_centres is deprecated; use model_centers",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return self.model_centers
 
     @property
     def model_created(self) -> np.ndarray:
@@ -280,7 +291,7 @@ def learn(
     metric = bool(dict(dict(config or {}).get("mosaic") or {}).get("metric", True))
     unit = 1.0 if metric else scale
     learning = Learning(memory, f, np.zeros(3), scale, principal, unit)
-    c_t_0 = learning.camera_to_model(memory.model_centres[0])
+    c_t_0 = learning.camera_to_model(memory.model_centers[0])
     w_t_m = _pose(_se2(f.truth[memory.model_created[0]]) @ _se2(c_t_0))
     return Learning(memory, f, w_t_m, scale, principal, unit)
 
@@ -509,7 +520,7 @@ def _mosaic_errors(learning: Learning) -> tuple[np.ndarray, np.ndarray]:
     true = np.array(
         [
             _pose(to_mosaic @ _se2(truth[k]) @ _se2(learning.camera_to_model(centre)))
-            for k, centre in zip(memory.model_created, memory.model_centres, strict=True)
+            for k, centre in zip(memory.model_created, memory.model_centers, strict=True)
         ]
     ).reshape(-1, 3)
     return _errors(memory.model_poses * [learning.unit, learning.unit, 1.0], true)

@@ -88,7 +88,7 @@ def _true_model_frames(learning: Any) -> np.ndarray:
     truth = learning.frames.truth
     rows = [
         _pose(_se2(truth[k]) @ _se2(learning.camera_to_model(c)))
-        for k, c in zip(learning.memory.model_created, learning.memory.model_centres, strict=True)
+        for k, c in zip(learning.memory.model_created, learning.memory.model_centers, strict=True)
     ]
     return np.array(rows).reshape(-1, 3)
 

@@ -17,7 +17,7 @@ from rperc.slam.evaluation import Se2Transform
 from rperc.slam.planar import SlamResult
 
 TRUTH = "0.45"
-COLOURS = ("tab:red", "tab:blue", "tab:green", "tab:purple", "tab:orange")
+COLORS = ("tab:red", "tab:blue", "tab:green", "tab:purple", "tab:orange")
 # A 2-D Gaussian's 95 % region is the ellipse at this Mahalanobis radius (chi2, 2 dof).
 SIGMA2_RADIUS = math.sqrt(-2.0 * math.log(0.05))
 
@@ -73,7 +73,7 @@ def draw_map(
     title: str = "",
     truth_label: str = "true path",
     transform: Se2Transform | None = None,
-    colours: Sequence[str] = COLOURS,
+    colours: Sequence[str] = COLORS,
 ) -> None:
     """:func:`map_figure`'s drawing, into ``ax``."""
     rot = np.eye(2) if transform is None else transform.rotation
@@ -129,7 +129,7 @@ def nees_figure(
     """Robot-pose NEES against time for each ``(name, t, nees)``, with the band."""
     fig = Figure(figsize=(8, 3.8))
     ax = fig.add_subplot()
-    for (name, t, nees), colour in zip(series, COLOURS, strict=False):
+    for (name, t, nees), colour in zip(series, COLORS, strict=False):
         ax.semilogy(np.asarray(t), np.asarray(nees), color=colour, lw=0.6, label=name)
     ax.axhspan(band[0], band[1], color="0.85", zorder=0, label="95 % band (3 dof)")
     ax.set_xlabel("time (s)")
@@ -154,11 +154,11 @@ def variants_figure(
     variant (one value per step of ``dt`` seconds) against its band."""
     fig = Figure(figsize=(5.0 * len(runs), 9.0))
     grid = fig.add_gridspec(2, len(runs), height_ratios=(2.2, 1.0))
-    for k, ((name, result, score), colour) in enumerate(zip(runs, COLOURS, strict=False)):
+    for k, ((name, result, score), colour) in enumerate(zip(runs, COLORS, strict=False)):
         draw_map(fig.add_subplot(grid[0, k]), [(name, result)], truth, landmarks,
                  title=f"{name}: {score}", colours=(colour,))  # fmt: skip
     ax = fig.add_subplot(grid[1, :])
-    for (name, series), colour in zip(nees, COLOURS, strict=False):
+    for (name, series), colour in zip(nees, COLORS, strict=False):
         values = np.asarray(series, dtype=np.float64)
         ax.semilogy(dt * np.arange(1, len(values) + 1), values, color=colour, lw=0.8, label=name)
     ax.axhspan(band[0], band[1], color="0.85", zorder=0, label="95 % band of the mean (3 dof)")

@@ -13,8 +13,8 @@ from matplotlib.patches import Polygon, Rectangle
 
 from rperc.tracking import metrics
 
-TRUTH_COLOUR = "lime"
-TRACKER_COLOURS = ("red", "deepskyblue", "yellow", "magenta")
+TRUTH_COLOR = "lime"
+TRACKER_COLORS = ("red", "deepskyblue", "yellow", "magenta")
 
 
 def score_line(name: str, boxes: np.ndarray, truth: np.ndarray) -> str:
@@ -55,7 +55,7 @@ def strip_figure(
     """
     if len(frames) != len(indices):
         raise ValueError(f"{len(frames)} frames for {len(indices)} indices")
-    colours = dict(zip(tracks, TRACKER_COLOURS, strict=False))
+    colours = dict(zip(tracks, TRACKER_COLORS, strict=False))
     fig = Figure(figsize=(2.4 * max(len(frames), 3), 5.2), layout="constrained")
     grid = fig.add_gridspec(2, len(frames), height_ratios=[1.3, 1])
     for j, (frame, k) in enumerate(zip(frames, indices, strict=True)):
@@ -63,7 +63,7 @@ def strip_figure(
         ax.imshow(frame)
         # The truth wide and underneath, each tracker thinner in its own dash on top:
         # boxes that agree would otherwise hide one another.
-        ax.add_patch(_box(truth[k], TRUTH_COLOUR, lw=3.0, ls="-", zorder=2))
+        ax.add_patch(_box(truth[k], TRUTH_COLOR, lw=3.0, ls="-", zorder=2))
         for i, n in enumerate(tracks):
             ax.add_patch(_box(tracks[n][k], colours[n], lw=1.2, ls=_dash(i), zorder=3 + i))
         for n, polys in (contours or {}).items():
@@ -86,7 +86,7 @@ def strip_figure(
     ax.grid(alpha=0.3)
     # The IoU panel's legend lists its own lines only; the boxes get the figure's.
     ax.legend(loc="lower left", fontsize=8, ncol=len(tracks))
-    legend = [Line2D([], [], color=TRUTH_COLOUR, lw=3, label=f"{truth_label} box")]
+    legend = [Line2D([], [], color=TRUTH_COLOR, lw=3, label=f"{truth_label} box")]
     legend += [
         Line2D([], [], color=colours[n], lw=1.2, ls=_dash(i), label=f"tracker {n} box")
         for i, n in enumerate(tracks)

@@ -274,7 +274,7 @@ def track_pattern_command(args: argparse.Namespace) -> int:
                     "score": p.score,
                     "occluded_fraction": p.occluded_fraction,
                     "lost": p.lost,
-                    "corners": p.corners,
+                    "corners": p.corners.tolist(),
                 }
                 for p in poses
             ],

@@ -5,6 +5,9 @@ Metrics, per frame after the first:
 
 - the alignment error: the RMS distance of the four corners of the tracked region
   from their true positions, ``sqrt(mean_i |c_i - c*_i|^2)`` (pixels);
+- the corner error: their mean distance, ``mean_i |c_i - c*_i|`` (pixels), issue 35's
+  reading of POT-210's alignment error; :func:`pot_score` gives its mean and the
+  precision at 5 and 15 px over the frames a sequence flags visible;
 - precision at ``t`` pixels: the fraction of frames whose alignment error is at most
   ``t`` (reported at 5 and 15 px); the success curve is the precision at every
   threshold of :data:`ALIGNMENT_THRESHOLDS`, its area the mean over them;
@@ -92,6 +95,42 @@ def centre_error(estimated: npt.ArrayLike, truth: npt.ArrayLike) -> npt.NDArray[
     est, tru = _corners(estimated, "estimated"), _corners(truth, "truth")
     err = np.hypot(*(est.mean(axis=1) - tru.mean(axis=1)).T)
     return np.where(np.isfinite(err), err, np.inf)
+
+
+def corner_error(estimated: npt.ArrayLike, truth: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """Per frame, the mean distance of the four corners from the truth (pixels);
+    ``inf`` where an estimate is not finite (a failure)."""
+    est, tru = _corners(estimated, "estimated"), _corners(truth, "truth")
+    if est.shape != tru.shape:
+        raise ValueError(f"estimated {est.shape} and truth {tru.shape} differ in shape")
+    err = np.mean(np.hypot(*np.moveaxis(est - tru, 2, 0)), axis=1)
+    return np.where(np.isfinite(err), err, np.inf)
+
+
+@dataclass(frozen=True)
+class PotScore:
+    """POT-210's numbers for one run: ``frames`` scored (the visible ones), the mean
+    corner error over them (px, ``inf`` if any failed) and the fraction of them within
+    5 and 15 px."""
+
+    frames: int
+    mean_corner_error_px: float
+    precision_at_5: float
+    precision_at_15: float
+
+
+def pot_score(estimated: npt.ArrayLike, truth: npt.ArrayLike, visible: npt.ArrayLike) -> PotScore:
+    """Scores corners ``(n, 4, 2)`` against the truth on the frames ``visible`` (a
+    boolean mask ``(n,)``, ``gt_flag == 0``) selects; occluded and out-of-view frames
+    count for nothing, as in POT-210."""
+    err = corner_error(estimated, truth)
+    keep = np.asarray(visible)
+    if keep.dtype != np.bool_ or keep.shape != err.shape:
+        raise ValueError(f"visible must be a boolean mask of shape {err.shape}, got {keep.shape}")
+    if not keep.any():
+        raise ValueError("no visible frame to score")
+    e = err[keep]
+    return PotScore(int(keep.sum()), float(np.mean(e)), precision_at(e, 5.0), precision_at(e, 15.0))
 
 
 def precision_at(errors: npt.ArrayLike, threshold: float) -> float:

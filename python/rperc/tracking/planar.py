@@ -241,39 +241,60 @@ def run_pattern(frames: np.ndarray, region: Region, seed: int = 1, **params: Any
 
 
 def ecc_corners(warp: npt.ArrayLike, region: Region) -> npt.NDArray[np.float64]:
-    """Corners of the template (the region, on its pixel edges) mapped by a 2 x 3 ECC
-    warp from template to frame coordinates."""
+    """Corners of the template (the region, on its pixel edges) mapped by an ECC warp
+    from template to frame coordinates: 2 x 3 (affine) or 3 x 3 (a homography, with
+    the perspective division)."""
     _, _, w, h = region
     edges = np.array(
         [[-0.5, -0.5, 1], [w - 0.5, -0.5, 1], [w - 0.5, h - 0.5, 1], [-0.5, h - 0.5, 1]]
     )
-    return edges @ np.asarray(warp, dtype=np.float64).T
+    m = np.asarray(warp, dtype=np.float64)
+    mapped = edges @ m.T
+    if m.shape == (3, 3):
+        return mapped[:, :2] / mapped[:, 2:]
+    return mapped
+
+
+def _ecc_level(warp: np.ndarray, factor: float) -> np.ndarray:
+    """The warp between template and frame both scaled by ``factor``: ``S W S^-1``
+    with ``S = diag(factor, factor, 1)`` (the translation scales by ``factor``, a
+    homography's perspective row by its inverse)."""
+    out = warp.copy()
+    out[:2, 2] *= factor
+    if out.shape == (3, 3):
+        out[2, :2] /= factor
+    return out
 
 
 def run_ecc(
     frames: np.ndarray, region: Region, motion: str = "affine", levels: int = 3
 ) -> PlanarRun:
-    """``cv2.findTransformECC`` (``motion`` "euclidean" or "affine") on the region's
-    template, warm-started from the last warp and initialised coarse to fine over a
-    ``levels``-level pyramid (translation halved per level). An exception at the finest
-    level, or a non-finite warp, counts as a failure; the frame keeps the coarser (or
-    last) warp."""
+    """``cv2.findTransformECC`` (``motion`` "euclidean", "affine" or "homography") on
+    the region's template, warm-started from the last warp and initialised coarse to
+    fine over a ``levels``-level pyramid. An exception at the finest level, or a
+    non-finite warp, counts as a failure; the frame keeps the coarser (or last) warp."""
     cv2 = _cv2()
 
-    kind = {"euclidean": cv2.MOTION_EUCLIDEAN, "affine": cv2.MOTION_AFFINE}[motion]
+    kinds = {
+        "euclidean": cv2.MOTION_EUCLIDEAN,
+        "affine": cv2.MOTION_AFFINE,
+        "homography": cv2.MOTION_HOMOGRAPHY,
+    }
+    kind = kinds[motion]
     x, y, w, h = region
     templates = [frames[0][y : y + h, x : x + w].astype(np.float32)]
     for _ in range(levels - 1):
         templates.append(cv2.pyrDown(templates[-1]))
     criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 50, 1e-4)
-    state = {"warp": np.array([[1, 0, x], [0, 1, y]], np.float32)}
+    rows = 3 if motion == "homography" else 2
+    state = {"warp": np.eye(3, dtype=np.float32)[:rows]}
+    state["warp"][:2, 2] = (x, y)
 
     def step(frame: np.ndarray) -> tuple[np.ndarray, bool]:
         pyramid = [frame.astype(np.float32)]
         for _ in range(levels - 1):
             pyramid.append(cv2.pyrDown(pyramid[-1]))
-        warp = state["warp"].copy()
-        warp[:, 2] /= 2 ** (levels - 1)
+        warp = _ecc_level(state["warp"], 0.5 ** (levels - 1))
         failed = False
         for level in reversed(range(levels)):
             try:
@@ -283,7 +304,7 @@ def run_ecc(
             except cv2.error:
                 failed = level == 0
             if level > 0:
-                warp[:, 2] *= 2
+                warp = _ecc_level(warp, 2.0)
         if not np.all(np.isfinite(warp)):
             failed, warp = True, state["warp"]
         state["warp"] = warp

@@ -5,6 +5,13 @@ of particles.
 
     python benchmarks/pattern.py [--frames 40] [--size 640 480] [--particles 50 100 200 500 1000]
         [--points 25 50 100 200] [--sizes 320x240 640x480 1280x960] [--repeats 5]
+        [--part all|peers|sweeps] [--seeds 3]
+
+``--part peers`` runs only the peer table (issue 35): rperc, ECC affine and homography
+started from the previous frame, and ORB + RANSAC against the first frame, on
+generated full-step sequences (3 sigma in every parameter at once) at 640 x 480 and
+1280 x 720, and on the real POT-210 video ``planar/V25_2`` with its precision at 5 and
+15 px; fps and ratios to ECC affine from the same run.
 
 Speed is reported against the number of particles, the number of model points and the
 frame size, each with ECC (affine) timed on the same frames in the same run and the
@@ -33,7 +40,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 from _timing import print_table
 
-from rperc.datasets import data_dir
+from rperc.datasets import data_dir, load_planar_truth
 from rperc.tracking import PatternSequence, PatternTracker, pattern_sequence, planar
 from rperc.tracking.synthetic import demo_images
 
@@ -158,6 +165,157 @@ def accuracy_rows(name: str, seq: PatternSequence, est: np.ndarray) -> list[list
     return rows
 
 
+def run_orb(
+    frames: np.ndarray, region: tuple[int, int, int, int], n_features: int = 1000
+) -> planar.PlanarRun:
+    """ORB + RANSAC homography against the first frame, as a user writes it with
+    OpenCV: ORB keypoints of the region in frame 0 matched to each frame's (brute
+    force, Hamming, Lowe's ratio 0.75), ``findHomography`` with RANSAC (3 px). A frame
+    with fewer than 4 matches or no homography is a failure and keeps the last
+    corners."""
+    x, y, w, h = region
+    orb = cv2.ORB_create(nfeatures=n_features)
+    mask = np.zeros(frames[0].shape[:2], np.uint8)
+    mask[y : y + h, x : x + w] = 255
+    kp0, des0 = orb.detectAndCompute(frames[0], mask)
+    matcher = cv2.BFMatcher(cv2.NORM_HAMMING)
+    edges = np.array(
+        [
+            [
+                [x - 0.5, y - 0.5],
+                [x + w - 0.5, y - 0.5],
+                [x + w - 0.5, y + h - 0.5],
+                [x - 0.5, y + h - 0.5],
+            ]
+        ]
+    )
+    last = edges[0].copy()
+    corners, failures = [], 0
+    t0 = time.perf_counter()
+    for frame in frames[1:]:
+        kp, des = orb.detectAndCompute(frame, None)
+        pairs = matcher.knnMatch(des0, des, k=2) if des is not None and des0 is not None else []
+        good = [p[0] for p in pairs if len(p) == 2 and p[0].distance < 0.75 * p[1].distance]
+        hom = None
+        if len(good) >= 4:
+            src = np.float32([kp0[m.queryIdx].pt for m in good])
+            dst = np.float32([kp[m.trainIdx].pt for m in good])
+            hom, _ = cv2.findHomography(src, dst, cv2.RANSAC, 3.0)
+        if hom is None:
+            failures += 1
+        else:
+            last = cv2.perspectiveTransform(edges, hom)[0]
+        corners.append(last.copy())
+    seconds = (time.perf_counter() - t0) / (len(frames) - 1)
+    return planar.PlanarRun("ORB + RANSAC", np.array(corners), failures, seconds)
+
+
+PEERS = {
+    "rperc similarity": lambda f, r: planar.run_pattern(f, r, seed=1),
+    "ECC affine": lambda f, r: planar.run_ecc(f, r, "affine"),
+    "ECC homography": lambda f, r: planar.run_ecc(f, r, "homography"),
+    "ORB + RANSAC": run_orb,
+}
+
+
+def peer_runs(
+    frames: np.ndarray, region: tuple[int, int, int, int], repeats: int
+) -> dict[str, list[planar.PlanarRun]]:
+    """Every peer on the same frames, alternated ``repeats`` times so that the
+    machine's load falls on all of them alike."""
+    runs: dict[str, list[planar.PlanarRun]] = {k: [] for k in PEERS}
+    for _ in range(repeats):
+        for name, run in PEERS.items():
+            runs[name].append(run(frames, region))
+    return runs
+
+
+def peer_rows(
+    label: str, runs: dict[str, list[planar.PlanarRun]], truth: np.ndarray, visible: np.ndarray
+) -> list[list[str]]:
+    """One row per peer: POT-210's numbers (of the first run: every run gives the same
+    corners), failures, the median fps and its ratio to ECC affine's."""
+    fps = {k: float(np.median([r.fps for r in v])) for k, v in runs.items()}
+    rows = []
+    for name, rs in runs.items():
+        s = planar.pot_score(rs[0].corners, truth, visible)
+        rows.append(
+            [
+                label,
+                name,
+                str(s.frames),
+                f"{s.mean_corner_error_px:.2f}",
+                f"{s.precision_at_5:.2f}",
+                f"{s.precision_at_15:.2f}",
+                str(rs[0].failures),
+                f"{fps[name]:.0f}",
+                f"{fps[name] / fps['ECC affine']:.2f}",
+            ]
+        )
+    return rows
+
+
+PEER_HEADER = [
+    "sequence",
+    "method",
+    "frames",
+    "mean corner px",
+    "p@5",
+    "p@15",
+    "failures",
+    "fps",
+    "x ECC affine",
+]
+
+
+def v25_2(repeats: int) -> list[list[str]]:
+    """The peers on POT-210's V25_2 (grey, 1280 x 720), the region the box whose
+    edges halve the first frame's true corners; scored on the visible frames."""
+    root = data_dir()
+    folder = None if root is None else root / "planar" / "V25_2"
+    if folder is None or not folder.is_dir():
+        print("# planar/V25_2 not found in RPERC_DATA: skipped")
+        return []
+    truth = load_planar_truth(folder)
+    files = sorted(folder.glob("*.jpg"))
+    frames = np.stack([cv2.imread(str(f), cv2.IMREAD_GRAYSCALE) for f in files])
+    q = truth.corners[0]
+    left, right = (q[0, 0] + q[3, 0]) / 2, (q[1, 0] + q[2, 0]) / 2
+    top, bottom = (q[0, 1] + q[1, 1]) / 2, (q[2, 1] + q[3, 1]) / 2
+    x, y = round(left + 0.5), round(top + 0.5)
+    region = (x, y, round(right + 0.5) - x, round(bottom + 0.5) - y)
+    print(f"# V25_2: {len(frames)} frames, region {region}")
+    runs = peer_runs(frames, region, repeats)
+    return peer_rows("V25_2 (real)", runs, truth.corners[1:], truth.visible[1:])
+
+
+def peers(patch: np.ndarray, bg: np.ndarray, args: argparse.Namespace) -> None:
+    """The issue 35 peer table: generated full-step sequences at 640 x 480 and
+    1280 x 720 (``args.seeds`` seeds each), then V25_2."""
+    rows: list[list[str]] = []
+    for size in ((640, 480), (1280, 720)):
+        for seed in range(10, 10 + args.seeds):
+            seq = pattern_sequence(
+                patch,
+                bg,
+                n_frames=args.frames,
+                size=size,
+                seed=seed,
+                max_step_sigmas=3.0,
+                other_step_sigmas=3.0,
+            )
+            truth = planar.truth_corners(seq)
+            runs = peer_runs(seq.frames, seq.region, args.repeats)
+            label = f"{size[0]}x{size[1]} full step, seed {seed}"
+            rows += peer_rows(label, runs, truth, np.ones(len(truth), bool))
+    rows += v25_2(args.repeats)
+    print_table(
+        f"peers in the same run (fps: median of {args.repeats} alternated runs)",
+        PEER_HEADER,
+        rows,
+    )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -168,12 +326,21 @@ def main() -> None:
     ap.add_argument("--points", type=int, nargs="+", default=[25, 50, 100, 200])
     ap.add_argument("--sizes", nargs="+", default=["320x240", "640x480", "1280x960"])
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--part", choices=("all", "peers", "sweeps"), default="all")
+    ap.add_argument("--seeds", type=int, default=3, help="generated seeds of the peer table")
     args = ap.parse_args()
     patch, bg, source = images()
     print(
         f"# {source}, {args.size[0]}x{args.size[1]}, {args.frames} frames,"
         " sigma = 5 px, 5 px, 3 deg, 0.1"
     )
+    if args.part != "sweeps":
+        if cv2 is None:
+            print("# OpenCV is not installed: no peer table")
+        else:
+            peers(patch, bg, args)
+    if args.part == "peers":
+        return
     kinds = {
         "steps <= 4 sigma": {"max_step_sigmas": 4.0},
         "3 sigma, 30 % occlusion, gain/offset": {

@@ -420,6 +420,40 @@ def test_track_pattern_follows_a_generated_sequence(pattern_folder, tmp_path, ca
     assert strip.stat().st_size > 10_000
 
 
+def test_track_pattern_scores_against_a_pot_truth(pattern_folder, tmp_path, capsys):
+    from rperc.tracking.planar import similarity_corners
+
+    folder, seq = pattern_folder
+    truth = similarity_corners(seq.truth, seq.region)
+    gt = tmp_path / "gt"
+    gt.mkdir()
+    np.savetxt(gt / "gt_corners.txt", truth.reshape(len(truth), 8), fmt="%.4f")
+    flags = [0] * len(truth)
+    flags[3] = 1  # an occluded frame: not scored
+    (gt / "gt_flag.txt").write_text("".join(f"{f}\n" for f in flags))
+    out = tmp_path / "poses.json"
+    region = ",".join(str(v) for v in seq.region)
+    argv = ["track-pattern", str(folder), "--region", region, "--truth", str(gt)]
+    assert main([*argv, "--json", str(out)]) == 0
+    assert "against the truth (6 visible frames)" in capsys.readouterr().out
+    doc = json.loads(out.read_text())
+    est = np.array([p["corners"] for p in doc["poses"]])
+    # Brute force over the frames after the first that are flagged visible.
+    errs = [
+        sum(math.dist(est[k][i], truth[k][i]) for i in range(4)) / 4
+        for k in range(1, len(truth))
+        if flags[k] == 0
+    ]
+    assert doc["scored_frames"] == len(errs) == 6
+    assert doc["mean_corner_error_px"] == pytest.approx(sum(errs) / 6, abs=1e-3)
+    assert doc["precision_at_5"] == sum(e <= 5 for e in errs) / 6
+    assert doc["precision_at_15"] == sum(e <= 15 for e in errs) / 6
+    assert doc["fps"] > 0
+    (gt / "gt_flag.txt").write_text("0\n")
+    assert main(argv) == 2
+    assert "1 flags for 8 frames" in one_error_line(capsys)
+
+
 @pytest.mark.parametrize(
     ("extra", "needle"),
     [

@@ -89,6 +89,33 @@ def test_corners_and_pose_follow_opencv_get_rotation_matrix_2d() -> None:
     assert math.hypot(pose.x - centre[0], pose.y - centre[1]) < 1.0
 
 
+def test_corners_are_the_closed_form_similarity_of_the_pose() -> None:
+    """Every answer's corners are ``centre + s R(theta) (+-w/2, +-h/2)``, ``R = [[c, s],
+    [-s, c]]`` (theta counter-clockwise on screen), written out here by hand; a mask
+    region's corners are its bounding box's."""
+    first = _first_frame()
+    x, y, w, h = BOX
+    mask = np.zeros((H, W), bool)
+    mask[y : y + h, x : x + w] = True
+    for region in (BOX, mask):
+        tracker = PatternTracker(first, region, seed=4)
+        poses = [tracker.initial] + [
+            tracker.update(_warp(first, _opencv_pose(math.radians(4 * k), 1 + 0.03 * k, (k, -k))))
+            for k in range(1, 4)
+        ]
+        for pose in poses:
+            c, s = math.cos(pose.theta), math.sin(pose.theta)
+            expected = [
+                (pose.x + pose.scale * (c * dx + s * dy), pose.y + pose.scale * (-s * dx + c * dy))
+                for dx, dy in ((-w / 2, -h / 2), (w / 2, -h / 2), (w / 2, h / 2), (-w / 2, h / 2))
+            ]
+            assert pose.corners.shape == (4, 2) and pose.corners.dtype == np.float64
+            np.testing.assert_allclose(pose.corners, expected, rtol=0, atol=1e-9)
+            with pytest.raises(ValueError, match="read-only"):
+                pose.corners[0, 0] = 0.0
+        assert poses[0].corners[0].tolist() == [x - 0.5, y - 0.5]
+
+
 def test_rgb_and_mask_regions_track_like_grey_and_box() -> None:
     first = _first_frame()
     mask = np.zeros((H, W), bool)
@@ -111,7 +138,7 @@ def test_an_all_black_frame_is_lost_with_the_pose_kept() -> None:
     black = tracker.update(np.zeros_like(first))
     assert isinstance(black, PatternPose) and black.lost and not good.lost
     assert (black.x, black.y, black.theta, black.scale) == (good.x, good.y, good.theta, good.scale)
-    assert black.corners == good.corners
+    np.testing.assert_array_equal(black.corners, good.corners)
 
 
 def test_the_same_seed_gives_the_same_track() -> None:

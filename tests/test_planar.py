@@ -108,6 +108,31 @@ def test_ecc_corners_are_the_warped_region_edges():
     )
 
 
+def test_ecc_homography_corners_and_pyramid_levels_follow_opencv():
+    hom = np.array([[1.05, -0.1, 30.0], [0.08, 0.95, 12.0], [2e-4, -1e-4, 1.0]])
+    _, _, w, h = REGION
+    edges = np.array([[-0.5, -0.5], [w - 0.5, -0.5], [w - 0.5, h - 0.5], [-0.5, h - 0.5]])
+    np.testing.assert_allclose(
+        planar.ecc_corners(hom, REGION), cv2.perspectiveTransform(edges[None], hom)[0]
+    )
+    # A level scaled by f maps f p to f H(p), for a homography and an affine warp.
+    pts = np.array([[[3.0, 4.0], [50.0, -7.0], [120.0, 80.0]]])
+    for warp, f in ((hom, 0.25), (hom[:2], 0.5)):
+        level = planar._ecc_level(warp, f)
+        full = np.vstack([warp, [0, 0, 1]]) if warp.shape == (2, 3) else warp
+        at_level = np.vstack([level, [0, 0, 1]]) if level.shape == (2, 3) else level
+        np.testing.assert_allclose(
+            cv2.perspectiveTransform(pts * f, at_level), f * cv2.perspectiveTransform(pts, full)
+        )
+
+
+def test_ecc_homography_follows_small_steps():
+    seq, _, _ = scene(max_step_sigmas=0.5)
+    run = planar.run_ecc(seq.frames, seq.region, "homography")
+    s = planar.score("small", run, planar.truth_corners(seq))
+    assert s.precision_5 == 1.0 and run.failures == 0
+
+
 def scene(n_frames: int = 8, **kw):
     rng = np.random.default_rng(0)
     patch = np.full((36, 50), 70.0)

@@ -526,8 +526,8 @@ def color_segment(
     radius: int,
 ) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint8]]: ...
 
-_Corners: TypeAlias = tuple[
-    tuple[float, float], tuple[float, float], tuple[float, float], tuple[float, float]
+_PatternAnswer: TypeAlias = tuple[
+    float, float, float, float, float, float, bool, npt.NDArray[np.float64]
 ]
 
 @final
@@ -541,9 +541,9 @@ class PatternTracker:
         seed: int = 0,
         config: dict[str, Any] | None = None,
     ) -> PatternTracker: ...
-    def update(
-        self, frame: npt.NDArray[np.uint8]
-    ) -> tuple[float, float, float, float, float, float, bool, _Corners]: ...
+    def update(self, frame: npt.NDArray[np.uint8]) -> _PatternAnswer: ...
+    @property
+    def last(self) -> _PatternAnswer: ...
     @property
     def n_points(self) -> int: ...
 

@@ -103,11 +103,22 @@ fn region(obj: &Bound<'_, PyAny>, width: usize, height: usize) -> Result<Region,
     }
 }
 
-/// `(x, y, theta, scale, score, occluded_fraction, lost, corners)`.
-type Answer = (f64, f64, f64, f64, f64, f64, bool, [[f64; 2]; 4]);
+/// `(x, y, theta, scale, score, occluded_fraction, lost, corners)`, the corners a
+/// `(4, 2)` float64 array (top-left, top-right, bottom-right, bottom-left).
+type Answer<'py> = (
+    f64,
+    f64,
+    f64,
+    f64,
+    f64,
+    f64,
+    bool,
+    Bound<'py, numpy::PyArray2<f64>>,
+);
 
-fn answer(p: PatternPose) -> Answer {
+fn answer(py: Python<'_>, p: PatternPose) -> Answer<'_> {
     let [x, y, theta, s] = p.state;
+    let corners = numpy::ndarray::Array2::from_shape_fn((4, 2), |(i, j)| p.corners[i][j]);
     (
         x,
         y,
@@ -116,7 +127,7 @@ fn answer(p: PatternPose) -> Answer {
         p.score,
         p.occluded_fraction,
         p.lost,
-        p.corners,
+        corners.into_pyarray(py),
     )
 }
 
@@ -149,14 +160,27 @@ impl PyPatternTracker {
     }
 
     /// One step on the next frame (GIL released).
-    fn update(slf: &Bound<'_, Self>, py: Python<'_>, frame: &Bound<'_, PyAny>) -> PyResult<Answer> {
+    fn update<'py>(
+        slf: &Bound<'py, Self>,
+        py: Python<'py>,
+        frame: &Bound<'py, PyAny>,
+    ) -> PyResult<Answer<'py>> {
         let mut this = exclusive(slf)?;
         let tracker = &mut this.inner;
         let f = self::frame(frame)?;
         let view = f.view()?;
         // A large model's step runs on the thread pool, whose threads cannot ask
         // Python for signals: this thread polls for Ctrl-C while a worker steps.
-        Ok(answer(detached_parallel(py, || Ok(tracker.update(view)?))?))
+        let pose = detached_parallel(py, || Ok(tracker.update(view)?))?;
+        Ok(answer(py, pose))
+    }
+
+    /// The last answer: the initial pose (score 1) before the first update, its
+    /// corners those of the region as the tracker placed them.
+    #[getter]
+    fn last<'py>(slf: &Bound<'py, Self>, py: Python<'py>) -> PyResult<Answer<'py>> {
+        let pose = crate::errors::shared(slf)?.inner.last();
+        Ok(answer(py, pose))
     }
 
     /// Number of points of the learnt model.

@@ -144,6 +144,12 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         type=Path,
         help="write every frame with the pattern drawn (.gif/.mp4, imageio)",
     )
+    p.add_argument(
+        "--truth",
+        type=Path,
+        help="a POT-210 folder with gt_corners.txt (and gt_flag.txt) to score against;"
+        " default: SOURCE itself when it holds gt_corners.txt",
+    )
     add_json_option(p)
     p.set_defaults(run=track_pattern_command)
 
@@ -220,6 +226,37 @@ def _draw_quad(frame: np.ndarray, quad: np.ndarray) -> np.ndarray:
     return np.asarray(im)
 
 
+def load_truth(truth_folder: Path | None, source: Path) -> Any:
+    """The POT-210 ground truth of ``--truth``, else of SOURCE when it holds
+    ``gt_corners.txt``, else None; read before tracking so a bad file fails at once."""
+    from rperc.datasets import load_planar_truth
+
+    folder = truth_folder
+    if folder is None and source.is_dir() and (source / "gt_corners.txt").is_file():
+        folder = source
+    return None if folder is None else load_planar_truth(folder)
+
+
+def pot_metrics(truth: Any, quads: np.ndarray) -> dict[str, Any]:
+    """POT-210's numbers for the tracked corners ``(n, 4, 2)`` against ``truth``
+    (frame 0 is the given region, not scored); nothing without a truth."""
+    from rperc.tracking.planar import pot_score
+
+    if truth is None:
+        return {}
+    if len(truth.corners) != len(quads):
+        raise ValueError(
+            f"the ground truth has {len(truth.corners)} frames, the source {len(quads)}"
+        )
+    s = pot_score(quads[1:], truth.corners[1:], truth.visible[1:])
+    return {
+        "scored_frames": s.frames,
+        "mean_corner_error_px": s.mean_corner_error_px,
+        "precision_at_5": s.precision_at_5,
+        "precision_at_15": s.precision_at_15,
+    }
+
+
 def track_pattern_command(args: argparse.Namespace) -> int:
     from rperc.cli.track import strip_indices
     from rperc.tracking import PatternTracker
@@ -232,6 +269,11 @@ def track_pattern_command(args: argparse.Namespace) -> int:
             raise ValueError(f"--animation {args.animation} must end in .gif or .mp4")
         require("imageio.v3", "--animation")
     frames = load_frames(args.source)
+    truth = load_truth(args.truth, args.source)
+    if truth is not None and len(truth.corners) != len(frames):
+        raise ValueError(
+            f"the ground truth has {len(truth.corners)} frames, the source {len(frames)}"
+        )
     picks = strip_indices(len(frames), args.frames) if args.strip else None
     tracker = PatternTracker(frames[0], args.region, seed=args.seed)
     start = time.perf_counter()
@@ -243,10 +285,17 @@ def track_pattern_command(args: argparse.Namespace) -> int:
     lost = sum(p.lost for p in poses)
     fps = (len(frames) - 1) / seconds if seconds > 0 else math.inf
     score = float(np.mean([p.score for p in poses[1:]]))
+    metrics = pot_metrics(truth, quads)
     print(
         f"{args.source.name}: {len(frames)} frames, {tracker.n_points} model points, "
         f"lost in {lost} frames, mean score {score:.3f}, {fps:.0f} fps"
     )
+    if metrics:
+        print(
+            f"against the truth ({metrics['scored_frames']} visible frames): mean corner "
+            f"error {metrics['mean_corner_error_px']:.2f} px, precision at 5 px "
+            f"{metrics['precision_at_5']:.2f}, at 15 px {metrics['precision_at_15']:.2f}"
+        )
     if picks is not None:
         from rperc.plot import save
 
@@ -267,6 +316,7 @@ def track_pattern_command(args: argparse.Namespace) -> int:
             "frames": len(frames),
             "fps": fps,
             "lost_frames": int(lost),
+            **metrics,
             "poses": [
                 {
                     "x": p.x,
@@ -276,7 +326,7 @@ def track_pattern_command(args: argparse.Namespace) -> int:
                     "score": p.score,
                     "occluded_fraction": p.occluded_fraction,
                     "lost": p.lost,
-                    "corners": p.corners,
+                    "corners": p.corners.tolist(),
                 }
                 for p in poses
             ],

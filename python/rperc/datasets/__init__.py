@@ -15,6 +15,7 @@ from rperc.datasets.polylines import (
     write_geometries,
     write_polyline,
 )
+from rperc.datasets.pot import PlanarTruth, load_planar_truth
 from rperc.datasets.timestamps import (
     TimeOrderError,
     TimestampRepairWarning,
@@ -31,6 +32,7 @@ __all__ = [
     "MrclamRun",
     "Odometry",
     "OtbSequence",
+    "PlanarTruth",
     "SkippedLine",
     "TimeOrderError",
     "TimestampRepairWarning",
@@ -41,6 +43,7 @@ __all__ = [
     "load_carmen",
     "load_mrclam",
     "load_otb",
+    "load_planar_truth",
     "load_victoria_park",
     "read_boxes",
     "read_geometries",

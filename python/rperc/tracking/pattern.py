@@ -35,10 +35,8 @@ _FILTER = _TRACKER["filter"]
 #: deviation (section 3.3): the seed's straight line, or a parabola (the default).
 DeviationName = Literal["line", "parabola"]
 
-Corners = tuple[tuple[float, float], tuple[float, float], tuple[float, float], tuple[float, float]]
 
-
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class PatternPose:
     """One answer of :class:`PatternTracker`.
 
@@ -46,9 +44,11 @@ class PatternPose:
     ``scale``: relative to the initial region; ``score``: the per-point geometric mean
     of the eq. 6 likelihood at the estimate, in (0, 1]; ``occluded_fraction``: the
     fraction of model points occluded there; ``lost``: the pose is the last one held
-    (too many points occluded, e.g. an all-black frame); ``corners``: the initial
-    region's outer corners (top-left, top-right, bottom-right, bottom-left) moved by
-    the pose.
+    (too many points occluded, e.g. an all-black frame); ``corners``: a read-only
+    ``(4, 2)`` float64 array of the initial region's outer corners (top-left,
+    top-right, bottom-right, bottom-left, on the pixel edges) moved by the pose,
+    computed by the native tracker. Two poses are equal when every field is,
+    the corners element by element.
     """
 
     x: float
@@ -58,16 +58,28 @@ class PatternPose:
     score: float
     occluded_fraction: float
     lost: bool
-    corners: Corners
+    corners: npt.NDArray[np.float64]
+
+    # The generated __eq__ would ask an array of comparisons for one truth value.
+    __hash__ = None  # type: ignore[assignment]
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, PatternPose):
+            return NotImplemented
+        scalars = ("x", "y", "theta", "scale", "score", "occluded_fraction", "lost")
+        return all(getattr(self, f) == getattr(other, f) for f in scalars) and bool(
+            np.array_equal(self.corners, other.corners)
+        )
 
     def corners_array(self) -> npt.NDArray[np.float64]:
-        """The corners as a ``(4, 2)`` float array (for ``cv2.polylines`` after a cast)."""
-        return np.asarray(self.corners, dtype=np.float64)
+        """A writable copy of the corners (for ``cv2.polylines`` after a cast)."""
+        return np.array(self.corners, dtype=np.float64)
 
 
 def _pose(native: tuple[Any, ...]) -> PatternPose:
     x, y, theta, scale, score, occluded, lost, corners = native
-    c = tuple((float(p[0]), float(p[1])) for p in corners)
+    # Frozen: a pose handed out (and the track's last) cannot be changed in place.
+    corners.flags.writeable = False
     return PatternPose(
         float(x),
         float(y),
@@ -76,7 +88,7 @@ def _pose(native: tuple[Any, ...]) -> PatternPose:
         float(score),
         float(occluded),
         bool(lost),
-        (c[0], c[1], c[2], c[3]),
+        corners,
     )
 
 
@@ -241,10 +253,9 @@ class PatternTracker:
         }
         native = _rperc.PatternTracker(_frame(frame), _region(region), _seed(seed), _config(config))
         self._native = native
-        x0, y0, x1, y1 = _initial_box(region)
-        cx, cy = 0.5 * (x0 + x1 - 1), 0.5 * (y0 + y1 - 1)
-        h = ((x0 - 0.5, y0 - 0.5), (x1 - 0.5, y0 - 0.5), (x1 - 0.5, y1 - 0.5), (x0 - 0.5, y1 - 0.5))
-        self.initial = PatternPose(cx, cy, 0.0, 1.0, 1.0, 0.0, False, h)
+        # The native tracker's own initial pose: its corners come from the one place
+        # that maps a pose to corners, not from a second formula here.
+        self.initial = _pose(native.last)
         self._last = self.initial
 
     def update(self, frame: npt.ArrayLike) -> PatternPose:
@@ -269,16 +280,6 @@ class PatternTracker:
             f"PatternTracker(x={p.x:.1f}, y={p.y:.1f}, theta={p.theta:.3f}, "
             f"scale={p.scale:.3f}, {state}, {self.n_points} points)"
         )
-
-
-def _initial_box(region: Sequence[int] | npt.ArrayLike) -> tuple[int, int, int, int]:
-    """``(x0, y0, x1, y1)`` (exclusive ends) of a box or a mask's bounding box."""
-    r = _region(region)
-    if isinstance(r, np.ndarray):
-        ys, xs = np.nonzero(r)
-        return int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1
-    x, y, w, h = r
-    return x, y, x + w, y + h
 
 
 @dataclass(frozen=True)

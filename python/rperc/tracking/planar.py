@@ -5,6 +5,9 @@ Metrics, per frame after the first:
 
 - the alignment error: the RMS distance of the four corners of the tracked region
   from their true positions, ``sqrt(mean_i |c_i - c*_i|^2)`` (pixels);
+- the corner error: their mean distance, ``mean_i |c_i - c*_i|`` (pixels), issue 35's
+  reading of POT-210's alignment error; :func:`pot_score` gives its mean and the
+  precision at 5 and 15 px over the frames a sequence flags visible;
 - precision at ``t`` pixels: the fraction of frames whose alignment error is at most
   ``t`` (reported at 5 and 15 px); the success curve is the precision at every
   threshold of :data:`ALIGNMENT_THRESHOLDS`, its area the mean over them;
@@ -92,6 +95,42 @@ def centre_error(estimated: npt.ArrayLike, truth: npt.ArrayLike) -> npt.NDArray[
     est, tru = _corners(estimated, "estimated"), _corners(truth, "truth")
     err = np.hypot(*(est.mean(axis=1) - tru.mean(axis=1)).T)
     return np.where(np.isfinite(err), err, np.inf)
+
+
+def corner_error(estimated: npt.ArrayLike, truth: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """Per frame, the mean distance of the four corners from the truth (pixels);
+    ``inf`` where an estimate is not finite (a failure)."""
+    est, tru = _corners(estimated, "estimated"), _corners(truth, "truth")
+    if est.shape != tru.shape:
+        raise ValueError(f"estimated {est.shape} and truth {tru.shape} differ in shape")
+    err = np.mean(np.hypot(*np.moveaxis(est - tru, 2, 0)), axis=1)
+    return np.where(np.isfinite(err), err, np.inf)
+
+
+@dataclass(frozen=True)
+class PotScore:
+    """POT-210's numbers for one run: ``frames`` scored (the visible ones), the mean
+    corner error over them (px, ``inf`` if any failed) and the fraction of them within
+    5 and 15 px."""
+
+    frames: int
+    mean_corner_error_px: float
+    precision_at_5: float
+    precision_at_15: float
+
+
+def pot_score(estimated: npt.ArrayLike, truth: npt.ArrayLike, visible: npt.ArrayLike) -> PotScore:
+    """Scores corners ``(n, 4, 2)`` against the truth on the frames ``visible`` (a
+    boolean mask ``(n,)``, ``gt_flag == 0``) selects; occluded and out-of-view frames
+    count for nothing, as in POT-210."""
+    err = corner_error(estimated, truth)
+    keep = np.asarray(visible)
+    if keep.dtype != np.bool_ or keep.shape != err.shape:
+        raise ValueError(f"visible must be a boolean mask of shape {err.shape}, got {keep.shape}")
+    if not keep.any():
+        raise ValueError("no visible frame to score")
+    e = err[keep]
+    return PotScore(int(keep.sum()), float(np.mean(e)), precision_at(e, 5.0), precision_at(e, 15.0))
 
 
 def precision_at(errors: npt.ArrayLike, threshold: float) -> float:
@@ -202,39 +241,60 @@ def run_pattern(frames: np.ndarray, region: Region, seed: int = 1, **params: Any
 
 
 def ecc_corners(warp: npt.ArrayLike, region: Region) -> npt.NDArray[np.float64]:
-    """Corners of the template (the region, on its pixel edges) mapped by a 2 x 3 ECC
-    warp from template to frame coordinates."""
+    """Corners of the template (the region, on its pixel edges) mapped by an ECC warp
+    from template to frame coordinates: 2 x 3 (affine) or 3 x 3 (a homography, with
+    the perspective division)."""
     _, _, w, h = region
     edges = np.array(
         [[-0.5, -0.5, 1], [w - 0.5, -0.5, 1], [w - 0.5, h - 0.5, 1], [-0.5, h - 0.5, 1]]
     )
-    return edges @ np.asarray(warp, dtype=np.float64).T
+    m = np.asarray(warp, dtype=np.float64)
+    mapped = edges @ m.T
+    if m.shape == (3, 3):
+        return mapped[:, :2] / mapped[:, 2:]
+    return mapped
+
+
+def _ecc_level(warp: np.ndarray, factor: float) -> np.ndarray:
+    """The warp between template and frame both scaled by ``factor``: ``S W S^-1``
+    with ``S = diag(factor, factor, 1)`` (the translation scales by ``factor``, a
+    homography's perspective row by its inverse)."""
+    out = warp.copy()
+    out[:2, 2] *= factor
+    if out.shape == (3, 3):
+        out[2, :2] /= factor
+    return out
 
 
 def run_ecc(
     frames: np.ndarray, region: Region, motion: str = "affine", levels: int = 3
 ) -> PlanarRun:
-    """``cv2.findTransformECC`` (``motion`` "euclidean" or "affine") on the region's
-    template, warm-started from the last warp and initialised coarse to fine over a
-    ``levels``-level pyramid (translation halved per level). An exception at the finest
-    level, or a non-finite warp, counts as a failure; the frame keeps the coarser (or
-    last) warp."""
+    """``cv2.findTransformECC`` (``motion`` "euclidean", "affine" or "homography") on
+    the region's template, warm-started from the last warp and initialised coarse to
+    fine over a ``levels``-level pyramid. An exception at the finest level, or a
+    non-finite warp, counts as a failure; the frame keeps the coarser (or last) warp."""
     cv2 = _cv2()
 
-    kind = {"euclidean": cv2.MOTION_EUCLIDEAN, "affine": cv2.MOTION_AFFINE}[motion]
+    kinds = {
+        "euclidean": cv2.MOTION_EUCLIDEAN,
+        "affine": cv2.MOTION_AFFINE,
+        "homography": cv2.MOTION_HOMOGRAPHY,
+    }
+    kind = kinds[motion]
     x, y, w, h = region
     templates = [frames[0][y : y + h, x : x + w].astype(np.float32)]
     for _ in range(levels - 1):
         templates.append(cv2.pyrDown(templates[-1]))
     criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 50, 1e-4)
-    state = {"warp": np.array([[1, 0, x], [0, 1, y]], np.float32)}
+    rows = 3 if motion == "homography" else 2
+    state = {"warp": np.eye(3, dtype=np.float32)[:rows]}
+    state["warp"][:2, 2] = (x, y)
 
     def step(frame: np.ndarray) -> tuple[np.ndarray, bool]:
         pyramid = [frame.astype(np.float32)]
         for _ in range(levels - 1):
             pyramid.append(cv2.pyrDown(pyramid[-1]))
-        warp = state["warp"].copy()
-        warp[:, 2] /= 2 ** (levels - 1)
+        warp = _ecc_level(state["warp"], 0.5 ** (levels - 1))
         failed = False
         for level in reversed(range(levels)):
             try:
@@ -244,7 +304,7 @@ def run_ecc(
             except cv2.error:
                 failed = level == 0
             if level > 0:
-                warp[:, 2] *= 2
+                warp = _ecc_level(warp, 2.0)
         if not np.all(np.isfinite(warp)):
             failed, warp = True, state["warp"]
         state["warp"] = warp

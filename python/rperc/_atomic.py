@@ -1,4 +1,4 @@
-"""Every file rperc writes appears whole (issue 38): it is written under a new name
+"""Every file rperc writes appears whole: it is written under a new name
 beside its path (the same folder, so the same file system), flushed to disk, then
 renamed over the path. A reader sees the old file or the new one, never half of one,
 and of several processes writing one path the last to finish wins whole (four

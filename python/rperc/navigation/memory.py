@@ -1,4 +1,4 @@
-"""The visual memory of seed 001, section 2.3-2.4: learn a path A -> B in a ceiling
+"""The visual memory of paper [001], section 2.3-2.4: learn a path A -> B in a ceiling
 world (the mosaic and the key images), replay it by visual servoing, and score both
 against the world's truth.
 

@@ -1,4 +1,4 @@
-"""The EKF-SLAM core of the seed paper (section 2.2, eqs. 1-9), typed.
+"""The EKF-SLAM core of paper [000] (section 2.2, eqs. 1-9), typed.
 
 A state ``[x_robot, l_1, ..., l_n]`` of a robot block and landmark blocks with a full
 covariance ``P``: an O(n) prediction (eq. 5) and an O(n^2) Joseph-form update (eqs.
@@ -61,7 +61,7 @@ def _restore(state: np.ndarray, covariance: np.ndarray, robot_dim: int, landmark
 
 class Ekf:
     """Extended Kalman filter over a robot block of ``robot_dim`` entries followed by
-    landmark blocks of ``landmark_dim`` entries each (seed 000 eqs. 3-9).
+    landmark blocks of ``landmark_dim`` entries each (paper [000], eqs. 3-9).
 
     ``state`` and ``covariance`` accept any array-like (lists included). The
     covariance must be symmetric positive semi-definite; noise covariances ``V`` and

@@ -1,4 +1,4 @@
-"""The monobot study of the seed paper (section 2.2, eqs. 14 to 23, Figs. 3 to 6).
+"""The monobot study of paper [000] (section 2.2, eqs. 14 to 23, Figs. 3 to 6).
 
 A 1-D robot ``x_{k+1} = x_k + u_k + v_k`` among static landmarks, observed with one
 of three measurement models:
@@ -173,7 +173,7 @@ def simulate(
     measurement_noise: NoiseSpec | None = None,
     reference_noise: NoiseSpec | None = None,
 ) -> MonobotResult:
-    """Simulate one monobot run and its EKF-SLAM estimate (seed 000 Figs. 4-6).
+    """Simulate one monobot run and its EKF-SLAM estimate (paper [000], Figs. 4-6).
 
     ``config`` is the experiment (default: the paper's run, see
     :class:`MonobotConfig`); the other keywords replace its fields.

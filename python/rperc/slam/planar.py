@@ -3,7 +3,7 @@
 :class:`PlanarSlam` runs a whole recording in one native call (GIL released): a robot
 ``(x, y, theta)`` among point landmarks seen by range and bearing, with the EKF of
 eqs. (1)-(9), known, nearest-neighbour or JCBB association, a candidate list for new
-landmarks, and the seed's variants, each a config field that combines with the
+landmarks, and paper [000]'s variants, each a config field that combines with the
 others:
 
 - ``anchor=True``: the first landmark becomes the global reference (eqs. 24-25);
@@ -553,7 +553,7 @@ def _slam_result(out: _rperc.PlanarRun, config: dict[str, Any], with_walls: bool
     )  # fmt: skip
 
 
-#: The seed's variants of a run on a recording (``rperc slam mrclam/victoria
+#: Paper [000]'s variants of a run on a recording (``rperc slam mrclam/victoria
 #: --variant``), combinable: the anchor (eqs 24-25), the external sensor (eqs 26-27)
 #: and landmark freezing.
 RECORDING_VARIANTS = ("plain", "anchor", "external", "freeze")
@@ -571,7 +571,7 @@ def variant_config(base: Mapping[str, Any], variants: Sequence[str]) -> dict[str
 
 # --- Monte Carlo consistency in the simulated world (Bailey et al. 2006) ----------
 
-#: The seed's variants a consistency study compares, as filter-config overrides.
+#: Paper [000]'s variants a consistency study compares, as filter-config overrides.
 #: ``external`` also needs fixes in the world: :func:`consistency` adds them.
 VARIANTS: dict[str, dict[str, Any]] = {
     "plain": {},
@@ -707,7 +707,7 @@ def consistency(
     seed: int = 0,
     executor: Executor | None = None,
 ) -> dict[str, PlanarMonteCarlo]:
-    """:func:`monte_carlo` of each of the seed's variants in the same world and
+    """:func:`monte_carlo` of each of paper [000]'s variants in the same world and
     seeds; the external one sees an xy fix every ``fix_every`` steps."""
     out = {}
     for name in variants:

@@ -22,7 +22,7 @@ walls come from :func:`rperc.linesimp.extract_lines` with its defaults and the l
 sensor range. A real log's sightings carry the straightness floor
 (:data:`STRAIGHTNESS`), and the filter is told that repeated sightings of one stretch
 of a wall share it (``wall_shared_sd``). The walls are landmarks of the one planar EKF engine
-(:class:`rperc.slam.PlanarSlam`'s), with the seed's anchor (eqs. 24-25) and freezing
+(:class:`rperc.slam.PlanarSlam`'s), with paper [000]'s anchor (eqs. 24-25) and freezing
 after N revisions (the text under Fig. 7) as options.
 
 >>> import numpy as np

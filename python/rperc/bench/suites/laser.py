@@ -12,8 +12,8 @@ Methods:
 and wall SLAM's variants, combinable with ``+`` (``anchor+freeze``):
 
 - ``plain``: wall-landmark EKF-SLAM (``rperc slam walls``);
-- ``anchor``: the first wall is the anchor (seed 000 eqs 24-25);
-- ``freeze``: walls revised more than 50 times leave the state (the seed's setting);
+- ``anchor``: the first wall is the anchor (paper [000], eqs 24-25);
+- ``freeze``: walls revised more than 50 times leave the state (paper [000]'s setting);
 - ``smoothed``: the run smoothed in batch; its scores replace the filter's;
 - ``odometry``: dead reckoning alone, the baseline.
 
@@ -48,7 +48,7 @@ SHOWN = (
     "scans_per_second",
 )
 PRIMARY = ("ate_rmse_m", "m")
-#: The freezing threshold of the ``freeze`` variant (seed 000 uses 50 revisions).
+#: The freezing threshold of the ``freeze`` variant (paper [000] uses 50 revisions).
 FREEZE_AFTER = 50
 LOG_SUFFIXES = (".log", ".log.gz", ".gz")
 

@@ -1,4 +1,4 @@
-"""``rperc bench mrclam``: MR.CLAM robots through planar EKF-SLAM with the seed's
+"""``rperc bench mrclam``: MR.CLAM robots through planar EKF-SLAM with paper [000]'s
 variants, exactly as ``rperc slam mrclam`` runs them. One row per robot, variant and
 seed (the seed draws the external variant's fix noise; the other variants use the
 recording as it is): ATE against Vicon (raw and aligned), the landmark error after

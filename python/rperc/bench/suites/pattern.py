@@ -1,6 +1,6 @@
-"""``rperc bench pattern``: the seed 001 pattern tracker and OpenCV's peers on
-generated sequences (a patch moving over clutter, seed 001 section 4.1), every
-parameter stepping uniformly up to ``steps`` sigma of the seed's evolution model at
+"""``rperc bench pattern``: the pattern tracker of paper [001] and OpenCV's peers on
+generated sequences (a patch moving over clutter, paper [001] section 4.1), every
+parameter stepping uniformly up to ``steps`` sigma of paper [001]'s evolution model at
 once. One row per case, tracker and seed (the seed draws the sequence and the
 tracker's particles): RMS errors of the position (px), angle (degrees) and scale (%),
 the alignment error of the four corners (median, precision at 5 and 15 px), POT-210's
@@ -29,11 +29,11 @@ TRACKERS = ("rperc", "ecc-euclidean", "ecc-affine", "match-template", "csrt")
 DEFAULT_TRACKERS = ("rperc", "ecc-affine")
 SHOWN = ("position_rms_px", "angle_rms_deg", "scale_rms_pct", "precision_5px", "failures", "fps")
 PRIMARY = ("position_rms_px", "px")
-#: The seed's evolution model (section 4.1): 5 px, 5 px, 3 degrees, 0.1 scale.
+#: Paper [001]'s evolution model (section 4.1): 5 px, 5 px, 3 degrees, 0.1 scale.
 SIGMA = (5.0, 5.0, math.radians(3.0), 0.1)
 
 
-#: What a case adds to the steps (issue 35's three cases): nothing; a gain drawn per
+#: What a case adds to the steps (the three cases the harness runs): nothing; a gain drawn per
 #: frame in ``1 +- 0.2``; a band of clutter hiding up to 30 % of the patch.
 CONDITIONS = {"plain": "", "gain": " gain 0.2", "occlusion": " occlusion 0.3"}
 GAIN = 0.2

@@ -32,9 +32,10 @@ test: install test-rust test-python
 test-rust:
 	. $(BIN)/activate && cargo test --workspace
 
-# pytest exits 5 when it collects nothing; that is a failure here, not a pass.
+# pytest exits 5 when it collects nothing; that is a failure here, not a pass. The
+# tests run on every core (pytest-xdist); each is independent of the others' order.
 test-python:
-	. $(BIN)/activate && python -m pytest
+	. $(BIN)/activate && python -m pytest -n auto
 
 lint: $(STAMP)
 	cargo fmt --all -- --check

@@ -17,10 +17,13 @@ import rperc
 BRITISH = ("colour", "centre")
 
 #: Deprecated aliases kept for old code; each warns and names the new spelling.
-DEPRECATED = {"rperc.navigation.memory.VisualMemory.model_centres": "model_centers"}
+DEPRECATED = {
+    "rperc.navigation.memory.VisualMemory.model_centres": "model_centers",
+    "rperc.tracking.planar.centre_error": "center_error",
+}
 
 #: Names not yet renamed. This list may only shrink.
-NOT_YET_RENAMED = {"rperc.tracking.planar.centre_error"}
+NOT_YET_RENAMED: set[str] = set()
 
 
 def _public_names() -> set[str]:

@@ -63,7 +63,9 @@ def test_alignment_and_centre_errors_match_brute_force():
     got = planar.alignment_error(est, truth)
     np.testing.assert_allclose(got, brute_alignment(est, truth), rtol=1e-12)
     assert got[5] == math.inf and got[7] == math.inf
-    centre = planar.centre_error(est, truth)
+    centre = planar.center_error(est, truth)
+    with pytest.warns(DeprecationWarning, match="center_error"):
+        np.testing.assert_array_equal(planar.centre_error(est, truth), centre)
     for k in range(30):
         ex = sum(est[k, i, 0] for i in range(4)) / 4 - sum(truth[k, i, 0] for i in range(4)) / 4
         ey = sum(est[k, i, 1] for i in range(4)) / 4 - sum(truth[k, i, 1] for i in range(4)) / 4

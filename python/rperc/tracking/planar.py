@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -89,12 +90,18 @@ def alignment_error(estimated: npt.ArrayLike, truth: npt.ArrayLike) -> npt.NDArr
     return np.where(np.isfinite(err), err, np.inf)
 
 
-def centre_error(estimated: npt.ArrayLike, truth: npt.ArrayLike) -> npt.NDArray[np.float64]:
+def center_error(estimated: npt.ArrayLike, truth: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """Per frame, the distance between the corners' centroids (pixels), ``inf`` where
     not finite."""
     est, tru = _corners(estimated, "estimated"), _corners(truth, "truth")
     err = np.hypot(*(est.mean(axis=1) - tru.mean(axis=1)).T)
     return np.where(np.isfinite(err), err, np.inf)
+
+
+def centre_error(estimated: npt.ArrayLike, truth: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """Deprecated spelling of :func:`center_error` (API names spell as OpenCV)."""
+    warnings.warn("centre_error is deprecated; use center_error", DeprecationWarning, stacklevel=2)
+    return center_error(estimated, truth)
 
 
 def corner_error(estimated: npt.ArrayLike, truth: npt.ArrayLike) -> npt.NDArray[np.float64]:
@@ -200,7 +207,7 @@ def score(
     if keep.shape != (len(tru),) or not keep.any():
         raise ValueError("select must be a boolean mask over the frames selecting some")
     align = alignment_error(run.corners, tru)[keep]
-    centre = centre_error(run.corners, tru)[keep]
+    centre = center_error(run.corners, tru)[keep]
     nan = math.nan
     return PlanarScore(
         case,

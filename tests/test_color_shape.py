@@ -111,6 +111,26 @@ def test_a_contour_inside_the_frame_still_starts_the_tracker() -> None:
     assert 8 <= x <= 12 and 6 <= y <= 10 and 16 <= w <= 24 and 16 <= h <= 24
 
 
+def test_a_target_leaving_the_frame_gets_the_box_of_its_part_in_view() -> None:
+    # Issue 38: the snake carried contour points past the frame's edge and the box
+    # with them (2.3 px outside in a long fuzz run); the box is the part in view.
+    width, height = 50, 40
+    boxes = []
+    for step in range(12):
+        frame = np.full((height, width, 3), 90, np.uint8)
+        x0 = 24 + 3 * step
+        frame[10:30, x0 : x0 + 20] = (200, 40, 40)
+        if step == 0:
+            tracker = ColorShapeTracker(frame, (x0, 10, 20, 20), seed=3)
+            continue
+        x, y, w, h = tracker.update(frame).box
+        assert 0 <= x and 0 <= y and x + w <= width and y + h <= height, (step, x, y, w, h)
+        boxes.append((x0, x, w))
+    # While the square is half out, the box still ends at the frame's right edge.
+    x0, x, w = boxes[3]
+    assert x + w == pytest.approx(width, abs=1.5) and x == pytest.approx(x0, abs=2.5)
+
+
 @pytest.mark.parametrize(
     "field", ["contour_points", "snake_iterations", "deform_passes", "deform", "cloud_points"]
 )

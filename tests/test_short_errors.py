@@ -64,3 +64,12 @@ def test_a_bound_that_is_not_a_power_of_two_is_stated_as_the_largest_value():
     frame = np.zeros((40, 40, 3), np.uint8)
     with pytest.raises(ValueError, match=r"n_samples .* at most 1000000"):
         ColorShapeTracker(frame, (10, 10, 10, 10), n_samples=10**6 + 1)
+
+
+def test_an_empty_matrix_of_a_huge_width_is_refused_at_once() -> None:
+    # Found by the fuzz suite in an opt-level-2 build: a (0, 2**40) J (no bytes) was
+    # copied column by column, 2**40 empty columns, before its shape was checked.
+    from rperc.slam.monobot import unobservable_directions
+
+    with pytest.raises(ValueError, match="square"):
+        unobservable_directions(np.empty((0, 2**40)), tol=1.0)

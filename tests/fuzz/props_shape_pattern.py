@@ -50,8 +50,8 @@ def _check_shape_answer(tracker: ColorShapeTracker) -> None:
         return
     x, y, w, h = got.box
     assert np.isfinite(got.contour).all() and np.isfinite(got.box).all(), got
-    # The box may reach a pixel past the frame (a contour hugging its edge).
-    assert -2 <= x and -2 <= y and x + w <= WIDTH + 2 and y + h <= HEIGHT + 2, got.box
+    # The box is the part of the contour in view, whatever the contour does.
+    assert 0 <= x and 0 <= y and x + w <= WIDTH and y + h <= HEIGHT, got.box
     assert 0.0 <= got.score <= 1.0, got
 
 

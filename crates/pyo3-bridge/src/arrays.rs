@@ -154,6 +154,11 @@ pub fn matrix(obj: &Bound<'_, PyAny>, name: &str) -> Result<DMatrix<f64>> {
         .view()
         .into_dimensionality::<Ix2>()
         .map_err(|e| Error::Value(e.to_string()))?;
+    if v.is_empty() {
+        // A (0, 2^40) array holds nothing, but filling it column by column would
+        // still walk 2^40 empty columns: a hang outside release builds.
+        return Ok(DMatrix::zeros(v.nrows(), v.ncols()));
+    }
     Ok(DMatrix::from_fn(v.nrows(), v.ncols(), |i, j| v[(i, j)]))
 }
 

@@ -79,6 +79,18 @@ impl BoundingBox {
         Self::new(x0, y0, (x1 - x0).max(0.0), (y1 - y0).max(0.0))
     }
 
+    /// The part of the box inside a `width x height` frame (corners clamped to
+    /// `[0, width] x [0, height]`); a box wholly outside becomes an empty box on the
+    /// nearest edge.
+    pub fn clipped_to(&self, width: usize, height: usize) -> Self {
+        let (w, h) = (width as f64, height as f64);
+        let x0 = self.x.clamp(0.0, w);
+        let y0 = self.y.clamp(0.0, h);
+        let x1 = (self.x + self.w).clamp(0.0, w);
+        let y1 = (self.y + self.h).clamp(0.0, h);
+        Self::new(x0, y0, (x1 - x0).max(0.0), (y1 - y0).max(0.0))
+    }
+
     /// Its centre `(x + w/2, y + h/2)`.
     pub fn centre(&self) -> (f64, f64) {
         (self.x + self.w / 2.0, self.y + self.h / 2.0)
@@ -165,6 +177,38 @@ mod tests {
         for (w, h) in [(0, 0), (1, 5), (2, 2), (5, 2)] {
             let e = canny_edges(&image::GrayImage::new(w, h), 0.0, 0.0);
             assert_eq!(e.dimensions(), (w, h));
+        }
+    }
+
+    /// Clipping against brute force: on integer boxes the clipped box covers exactly the
+    /// unit cells of the frame that the box covers.
+    #[test]
+    fn clipped_box_covers_the_frame_cells_the_box_covers() {
+        let (width, height) = (7usize, 5usize);
+        for x in -9..9 {
+            for w in 0..12 {
+                for (y, h) in [(-3, 4), (1, 2), (3, 6), (6, 2), (-8, 3)] {
+                    let b = BoundingBox::new(x as f64, y as f64, w as f64, h as f64);
+                    let c = b.clipped_to(width, height);
+                    let inside = |cx: f64, cy: f64, r: &BoundingBox| {
+                        cx > r.x && cx < r.x + r.w && cy > r.y && cy < r.y + r.h
+                    };
+                    for cy in 0..height {
+                        for cx in 0..width {
+                            let (px, py) = (cx as f64 + 0.5, cy as f64 + 0.5);
+                            assert_eq!(inside(px, py, &b), inside(px, py, &c), "{b:?} {c:?}");
+                        }
+                    }
+                    assert!(
+                        c.x >= 0.0 && c.y >= 0.0 && c.w >= 0.0 && c.h >= 0.0,
+                        "{c:?}"
+                    );
+                    assert!(
+                        c.x + c.w <= width as f64 && c.y + c.h <= height as f64,
+                        "{c:?}"
+                    );
+                }
+            }
         }
     }
 }

@@ -23,7 +23,8 @@ use crate::frame::{BoundingBox, RgbFrame};
 pub struct ColorShapeResult {
     /// The refined contour `r_t`, frame pixel coordinates (pixel centres at integers).
     pub contour: Contour,
-    /// The contour's bounding box.
+    /// The contour's bounding box, clipped to the frame (`[0, width] x [0, height]`):
+    /// the part of the target in view.
     pub bbox: BoundingBox,
     /// The estimated colour distribution `[m (3), lambda (3), theta, phi]`.
     pub distribution: [f64; N_PARAMS],
@@ -147,7 +148,7 @@ impl ColorShapeTracker {
         let good_shape = r0.clone();
         let measured = reference.to_state();
         let last = ColorShapeResult {
-            bbox: BoundingBox::enclosing(&r0),
+            bbox: BoundingBox::enclosing(&r0).clipped_to(frame.width(), frame.height()),
             contour: r0.clone(),
             distribution: distribution_of(&reference.to_state()),
             score: 1.0,
@@ -365,7 +366,9 @@ impl ColorShapeTracker {
             None => self.lost_frames += 1,
         }
         self.last = ColorShapeResult {
-            bbox: BoundingBox::enclosing(&self.contour),
+            // The contour may run past the frame where the snake's affine shape carries
+            // points beyond the edges it saw; the box reports only what is in view.
+            bbox: BoundingBox::enclosing(&self.contour).clipped_to(self.width, self.height),
             contour: self.contour.clone(),
             distribution: distribution_of(&self.filter.mean()),
             score,

@@ -72,7 +72,7 @@ def prop_planar_slam_config_fields(field, value):
     config = nested_config(field, value)
     rec = _recording().recording
     case("PlanarSlam.run", config=config)
-    ok, out = outcome(PlanarSlam(config).run, rec)
+    ok, out = outcome(lambda: PlanarSlam(config).run(rec))
     if not ok:
         assert _named(out, field), f"{field}={value!r}: {out}"
         return

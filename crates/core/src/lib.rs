@@ -26,4 +26,5 @@ pub use gaussian::{
 pub use pose::Pose2;
 /// Re-exported for [`named_enum!`].
 #[doc(hidden)]
+pub use schemars;
 pub use serde;

@@ -58,7 +58,16 @@ pub fn arc_functions(phi: f64) -> (f64, f64, f64, f64) {
 /// let back = robot.inverse_transform_point(&ahead);
 /// assert!((back - Point2::new(1.0, 0.0)).norm() < 1e-12);
 /// ```
-#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Default,
+    serde::Serialize,
+    serde::Deserialize,
+    schemars::JsonSchema,
+)]
 pub struct Pose2 {
     /// Position x.
     pub x: f64,

@@ -25,12 +25,16 @@ use crate::error::{LineSimpError, Result};
 use crate::{Method, Metric, Simplifier};
 
 /// Parameters of [`LineExtractor`]. Lengths in metres, angles in radians.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
+)]
 #[serde(default, deny_unknown_fields)]
 pub struct ScanParams {
     /// Readings at or below this are invalid (0 is "no return" on most scanners).
     pub min_range: f64,
     /// Readings at or beyond this are invalid (no return). Default: infinite.
+    // JSON has no infinity (serde_json writes null): the schema spells it as text.
+    #[schemars(extend("default" = "inf"))]
     pub max_range: f64,
     /// Standard deviation of the range noise (default 0.01 m).
     pub sigma_range: f64,

@@ -122,3 +122,100 @@ pub fn defaults<'py, T: serde::Serialize + Default>(
 ) -> PyResult<Bound<'py, PyAny>> {
     serde_pyobject::to_pyobject(py, &T::default()).map_err(PyErr::from)
 }
+
+/// The configs the Python layer generates its classes from, by name.
+const SCHEMA_NAMES: &[&str] = &["monobot", "planar", "planar_sim", "scan_params", "smoother"];
+
+/// Calls the generic function `$f::<T>($args)` with `T` the config named `$name`: the
+/// one place a config's name is tied to its Rust type.
+macro_rules! with_config {
+    ($name:expr, $f:ident($($arg:expr),*)) => {
+        match $name {
+            "monobot" => $f::<slam::monobot::MonobotConfig>($($arg),*),
+            "planar" => $f::<slam::PlanarConfig>($($arg),*),
+            "planar_sim" => $f::<slam::planar::sim::SimConfig>($($arg),*),
+            "scan_params" => $f::<linesimp::ScanParams>($($arg),*),
+            "smoother" => $f::<slam::planar::smooth::SmootherConfig>($($arg),*),
+            _ => Err(unknown_config($name)),
+        }
+    };
+}
+
+/// A config's own check (`validate()`), for the generic functions below.
+trait Validated {
+    fn check(&self) -> Result<()>;
+}
+
+macro_rules! validated {
+    ($($t:ty),+) => {
+        $(impl Validated for $t {
+            fn check(&self) -> Result<()> {
+                Ok(self.validate()?)
+            }
+        })+
+    };
+}
+
+validated!(
+    slam::monobot::MonobotConfig,
+    slam::PlanarConfig,
+    slam::planar::sim::SimConfig,
+    linesimp::ScanParams,
+    slam::planar::smooth::SmootherConfig
+);
+
+fn unknown_config(name: &str) -> Error {
+    Error::Value(format!(
+        "unknown config '{}'; expected one of {}",
+        clip(name, QUOTE_LIMIT),
+        SCHEMA_NAMES.join(", ")
+    ))
+}
+
+fn json<T: serde::Serialize>(value: &T, name: &str) -> Result<String> {
+    serde_json::to_string(value).map_err(|e| Error::Value(format!("config '{name}': {e}")))
+}
+
+fn schema_of<T: schemars::JsonSchema>(name: &str) -> Result<String> {
+    json(&schemars::schema_for!(T), name)
+}
+
+fn defaults_of<'py, T: serde::Serialize + Default>(py: Python<'py>) -> Result<Bound<'py, PyAny>> {
+    Ok(defaults::<T>(py)?)
+}
+
+fn check_of<T: DeserializeOwned + Default + Validated>(
+    config: &Bound<'_, PyAny>,
+    name: &str,
+) -> Result<()> {
+    from_python::<T>(Some(config), name)?.check()
+}
+
+/// The JSON Schema (draft 2020-12) of the config `name`: every field's name, type,
+/// default and doc comment, as the Rust struct declares them. The Python layer's
+/// config classes (`rperc.config`) are generated from it, and a test checks that they
+/// still match, so a config is defined once, here.
+#[pyfunction]
+pub fn config_schema(name: &str) -> Result<String> {
+    with_config!(name, schema_of(name))
+}
+
+/// The default config `name` as a dict (serde's serialisation of `Default`, which
+/// keeps infinities): a second path to the defaults, independent of the schema.
+#[pyfunction]
+pub fn config_defaults<'py>(py: Python<'py>, name: &str) -> Result<Bound<'py, PyAny>> {
+    with_config!(name, defaults_of(py))
+}
+
+/// Reads `config` (a dict) as the config `name` and runs its `validate()`: the one
+/// check of a config, which the Python config classes call when they are made.
+#[pyfunction]
+pub fn config_check(name: &str, config: &Bound<'_, PyAny>) -> Result<()> {
+    with_config!(name, check_of(config, name))
+}
+
+/// The names `config_schema` knows.
+#[pyfunction]
+pub fn config_names() -> Vec<&'static str> {
+    SCHEMA_NAMES.to_vec()
+}

@@ -31,6 +31,8 @@ mod _rperc {
     #[pymodule_export]
     use crate::colour_shape_py::{PyColorShapeTracker, color_segment, color_shape_defaults};
     #[pymodule_export]
+    use crate::config::{config_check, config_defaults, config_names, config_schema};
+    #[pymodule_export]
     use crate::errors::NumericalError;
     #[pymodule_export]
     use crate::errors::RpercError;

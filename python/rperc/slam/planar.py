@@ -37,7 +37,7 @@ from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -45,8 +45,12 @@ import numpy.typing as npt
 import rperc.slam.evaluation as evaluation
 from rperc import _rperc
 from rperc._args import excerpt, real_number, whole_number
+from rperc.config import PlanarConfig, PlanarConfigOverrides
 from rperc.pose import point_path as _point_path
 from rperc.pose import wrap_angle
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
 
 __all__ = [
     "MRCLAM_CALIBRATION_SECONDS",
@@ -472,13 +476,19 @@ class _RowProgress:
 class PlanarSlam:
     """Planar EKF-SLAM with point landmarks (see the module docs).
 
-    ``config`` is a dict of fields (see :func:`defaults`); keyword arguments override
-    it. Unknown or mistyped fields raise ``TypeError`` naming the field; bad values
-    ``ValueError``.
+    ``config`` is a :class:`rperc.config.PlanarConfig` (or a dict of its fields, as
+    :meth:`~rperc.config.PlanarConfig.to_dict` writes them); keyword arguments override
+    its fields. Unknown or mistyped fields raise ``TypeError`` naming the field, bad
+    values ``ValueError``, here, when the filter is made.
     """
 
-    def __init__(self, config: Mapping[str, Any] | None = None, **overrides: Any) -> None:
-        self.config: dict[str, Any] = {**(config or {}), **overrides}
+    def __init__(
+        self,
+        config: PlanarConfig | Mapping[str, Any] | None = None,
+        **overrides: Unpack[PlanarConfigOverrides],
+    ) -> None:
+        base = config.to_dict() if isinstance(config, PlanarConfig) else dict(config or {})
+        self.config: PlanarConfig = PlanarConfig.from_dict({**base, **overrides})
 
     def __repr__(self) -> str:
         return f"PlanarSlam({self.config!r})"
@@ -519,7 +529,7 @@ class PlanarSlam:
             _rows(detections, 3, "detections"),
             ids,
             None if fixes is None else _rows(fixes, 6, "fixes"),
-            self.config or None,
+            self.config.to_dict(),
             None if walls is None else _rows(walls, 10, "walls"),
         )
         if progress:
@@ -530,7 +540,7 @@ class PlanarSlam:
                 out = _rperc.planar_slam_run(*arrays, progress=report)
         else:
             out = _rperc.planar_slam_run(*arrays)
-        return _slam_result(out, dict(self.config), with_walls=walls is not None)
+        return _slam_result(out, self.config.to_dict(), with_walls=walls is not None)
 
 
 def _slam_result(out: _rperc.PlanarRun, config: dict[str, Any], with_walls: bool) -> SlamResult:

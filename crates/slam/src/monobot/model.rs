@@ -67,7 +67,9 @@ rperc_core::named_enum! {
 /// A noise model: constant variance, or a standard deviation proportional to a
 /// length (the motion command for the plant, the distance for a sensor). In configs it
 /// is the pair `(kind, value)`, e.g. `("constant", 1.0)`.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
+)]
 #[serde(from = "(NoiseKind, f64)", into = "(NoiseKind, f64)")]
 pub enum Noise {
     /// This variance at every step.
@@ -136,7 +138,9 @@ fn usable_variance(name: &'static str, variance: f64) -> Result<()> {
 }
 
 /// The monobot experiment. Defaults are the paper's run (Figs. 4 to 6).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
+)]
 #[serde(default, deny_unknown_fields)]
 pub struct MonobotConfig {
     /// Number of landmarks (>= 1), all at `landmark_position`.

@@ -23,7 +23,9 @@ use crate::observation::{landmark_from_range_bearing, range_bearing};
 use rperc_core::Pose2;
 
 /// The Ackermann vehicle: controls `(encoder speed [m/s], steering angle [rad])`.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
+)]
 #[serde(default, deny_unknown_fields)]
 pub struct Ackermann {
     /// Distance between the axles `L`, m (> 0; Victoria Park: 2.83).

@@ -19,7 +19,9 @@ use crate::error::Result;
 
 /// Which vehicle moves the robot, with its parameters; spelled in configs as
 /// `{"unicycle": {...}}` or `{"ackermann": {...}}`.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum MotionModel {
     /// Speed and turn rate (MR.CLAM).

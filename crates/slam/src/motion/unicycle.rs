@@ -87,7 +87,9 @@ pub(crate) fn check_step(pose: &Pose2, control: [f64; 2], dt: f64) -> Result<()>
 }
 
 /// The unicycle of MR.CLAM: controls `(v [m/s], omega [rad/s])`, white noise on each.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
+)]
 #[serde(default, deny_unknown_fields)]
 pub struct Unicycle {
     /// Variance of the speed command noise, m^2/s^2 (>= 0).

@@ -20,8 +20,13 @@ use crate::error::ensure_finite;
 use crate::error::{Result, SlamError};
 use crate::motion::MotionModel;
 
-/// The sensors' biases (see the [module docs](self)).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
+/// The sensors' biases, removed from every input: bearing `b_measured = bearing_offset
+/// + bearing_scale * b`; range `r_measured = range_offset + range_scale * q` (`q` the
+/// range, or the depth `r cos(b)` when `range_is_depth`); controls `u_measured = u /
+/// control_scale`. The identity (the default) changes nothing.
+#[derive(
+    Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
+)]
 #[serde(default, deny_unknown_fields)]
 pub struct SensorBias {
     /// Range offset, m.

@@ -79,7 +79,7 @@ rperc_core::named_enum! {
 
 /// Settings of [`super::PlanarSlam`]. The seed's variants (anchor, external sensor,
 /// freezing) are fields and combine freely.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct PlanarConfig {
     /// The vehicle, with its control noise (eqs. 1, 5). The sensor sits at the robot's

@@ -18,7 +18,7 @@ use crate::wall::observe_wall;
 
 /// The simulated room and its noise (the filter built by
 /// [`RoomConfig::slam_config`] uses the same variances).
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct RoomConfig {
     /// Wall segments `(x0, y0, x1, y1)`, m.

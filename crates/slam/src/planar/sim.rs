@@ -13,7 +13,7 @@ use crate::motion::{MotionModel, unicycle};
 
 /// The simulated world and its noise (the truth uses the same variances as the
 /// filter's [`PlanarConfig`] built by [`SimConfig::slam_config`]).
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct SimConfig {
     /// Radius of the circle the robot drives, m.

@@ -47,7 +47,9 @@ pub const START_SD_FLOOR: f64 = 1e-4;
 pub const LINK_SD_FLOOR: f64 = 1e-3;
 
 /// How the smoother iterates.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
+)]
 #[serde(default, deny_unknown_fields)]
 pub struct SmootherConfig {
     /// At most this many Levenberg-Marquardt iterations (>= 1).

@@ -1,0 +1,482 @@
+"""The typed configs of rperc, generated from the Rust structs that define them
+(``python -m rperc._codegen``; do not edit by hand).
+
+Each is a frozen dataclass: ``replace(**changes)`` gives a changed copy,
+``to_dict()``/``from_dict()`` convert to and from plain dicts (JSON), and the owning
+Rust crate checks every value when one is made. Each ``...Overrides`` is the
+``TypedDict`` of the config's fields, for typed keyword arguments."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import ClassVar, Literal, TypedDict
+
+from rperc._config_base import Config
+
+__all__ = [
+    "Ackermann",
+    "AckermannOverrides",
+    "MonobotConfig",
+    "MonobotConfigOverrides",
+    "MotionModel",
+    "PlanarConfig",
+    "PlanarConfigOverrides",
+    "ScanParams",
+    "ScanParamsOverrides",
+    "SensorBias",
+    "SensorBiasOverrides",
+    "SimConfig",
+    "SimConfigOverrides",
+    "SmootherConfig",
+    "SmootherConfigOverrides",
+    "Unicycle",
+    "UnicycleOverrides",
+]
+
+
+@dataclass(frozen=True, kw_only=True)
+class MonobotConfig(Config):
+    """The monobot experiment. Defaults are the paper's run (Figs. 4 to 6).
+
+    Attributes:
+        landmarks: Number of landmarks (>= 1), all at `landmark_position`.
+        steps: Iterations after the first observation (paper: 100).
+        start: Start and end of the sinusoidal trajectory (paper: -1 m).
+        amplitude: How far the robot moves out and back: `x(t) = start + amplitude (1 -
+            cos(2 pi t / steps)) / 2` (default 1 m).
+        landmark_position: Where the landmarks are (paper: 1 m).
+        initial_variance: Initial robot variance `P_r,0|0`, > 0 (default 1e-6 m^2: the
+            paper's robot starts at a known -1 m; exactly 0 would leave `P` singular and the
+            NEES undefined).
+        plant_noise: Plant noise `V` (paper: proportional to the motion command; default 10
+            %).
+        measurement_noise: Landmark measurement noise `W` (paper: proportional to the
+            distance; default 5 %). Distances are nominal: planned robot position to
+            `landmark_position`.
+        reference_noise: Noise of the reference observation `z_0` (anchor or external
+            sensor), as a function of the robot's nominal distance to the origin (default 5
+            %).
+        noise_floor: Standard deviation added to proportional models, so that a robot at
+            rest or next to a landmark still has some noise (default 1 mm).
+    """
+
+    _native: ClassVar[str] = "monobot"
+    landmarks: int = 1
+    steps: int = 100
+    start: float = -1.0
+    amplitude: float = 1.0
+    landmark_position: float = 1.0
+    initial_variance: float = 1e-06
+    plant_noise: tuple[Literal["constant", "proportional"], float] = ("proportional", 0.1)
+    measurement_noise: tuple[Literal["constant", "proportional"], float] = ("proportional", 0.05)
+    reference_noise: tuple[Literal["constant", "proportional"], float] = ("proportional", 0.05)
+    noise_floor: float = 0.001
+
+
+class MonobotConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`MonobotConfig`, for keyword arguments."""
+
+    landmarks: int
+    steps: int
+    start: float
+    amplitude: float
+    landmark_position: float
+    initial_variance: float
+    plant_noise: tuple[Literal["constant", "proportional"], float]
+    measurement_noise: tuple[Literal["constant", "proportional"], float]
+    reference_noise: tuple[Literal["constant", "proportional"], float]
+    noise_floor: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class MotionModel(Config):
+    """Which vehicle moves the robot, with its parameters; spelled in configs as `{"unicycle":
+    {...}}` or `{"ackermann": {...}}`."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class Unicycle(MotionModel):
+    """Speed and turn rate (MR.CLAM).
+
+    Attributes:
+        speed_variance: Variance of the speed command noise, m^2/s^2 (>= 0).
+        turn_rate_variance: Variance of the turn-rate command noise, rad^2/s^2 (>= 0).
+    """
+
+    _tag: ClassVar[str] = "unicycle"
+    speed_variance: float = 0.01
+    turn_rate_variance: float = 0.01
+
+
+class UnicycleOverrides(TypedDict, total=False):
+    """The fields of :class:`Unicycle`, for keyword arguments."""
+
+    speed_variance: float
+    turn_rate_variance: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class Ackermann(MotionModel):
+    """Rear-wheel encoder speed and steering angle (Victoria Park).
+
+    Attributes:
+        wheel_base: Distance between the axles `L`, m (> 0; Victoria Park: 2.83).
+        encoder_offset: Lateral offset `H` of the speed encoder (rear left wheel) from the
+            rear axle centre, m (>= 0, < `wheel_base`; Victoria Park: 0.76).
+        laser_forward: Laser position `a` ahead of the rear axle, m (Victoria Park: 3.78).
+        laser_left: Laser position `b` left of the rear axle centre, m (Victoria Park:
+            0.50).
+        speed_variance: Variance of the encoder speed noise, m^2/s^2 (>= 0; published: 0.2).
+        steering_variance: Variance of the steering angle noise, rad^2 (>= 0; published:
+            0.025).
+    """
+
+    _tag: ClassVar[str] = "ackermann"
+    wheel_base: float = 2.83
+    encoder_offset: float = 0.76
+    laser_forward: float = 3.78
+    laser_left: float = 0.5
+    speed_variance: float = 0.2
+    steering_variance: float = 0.025
+
+
+class AckermannOverrides(TypedDict, total=False):
+    """The fields of :class:`Ackermann`, for keyword arguments."""
+
+    wheel_base: float
+    encoder_offset: float
+    laser_forward: float
+    laser_left: float
+    speed_variance: float
+    steering_variance: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class SensorBias(Config):
+    """The sensors' biases, removed from every input: bearing `b_measured = bearing_offset +
+    bearing_scale * b`; range `r_measured = range_offset + range_scale * q` (`q` the range,
+    or the depth `r cos(b)` when `range_is_depth`); controls `u_measured = u /
+    control_scale`. The identity (the default) changes nothing.
+
+    Attributes:
+        range_offset: Range offset, m.
+        range_scale: Range scale (> 0).
+        range_is_depth: The sensor reports the depth `r cos(b)` instead of the range `r`.
+        bearing_offset: Bearing offset, rad.
+        bearing_scale: Bearing scale (> 0).
+        control_scale: Factors applied to the two controls (> 0): the true control is the
+            measured one times this.
+    """
+
+    range_offset: float = 0.0
+    range_scale: float = 1.0
+    range_is_depth: bool = False
+    bearing_offset: float = 0.0
+    bearing_scale: float = 1.0
+    control_scale: tuple[float, float] = (1.0, 1.0)
+
+
+class SensorBiasOverrides(TypedDict, total=False):
+    """The fields of :class:`SensorBias`, for keyword arguments."""
+
+    range_offset: float
+    range_scale: float
+    range_is_depth: bool
+    bearing_offset: float
+    bearing_scale: float
+    control_scale: tuple[float, float]
+
+
+@dataclass(frozen=True, kw_only=True)
+class PlanarConfig(Config):
+    """Settings of [`super::PlanarSlam`]. The seed's variants (anchor, external sensor,
+    freezing) are fields and combine freely.
+
+    Attributes:
+        motion: The vehicle, with its control noise (eqs. 1, 5). The sensor sits at the
+            robot's origin for the unicycle and at the laser mount for the Ackermann
+            vehicle.
+        range_variance: Range noise variance of a detection, m^2 (> 0).
+        bearing_variance: Bearing noise variance of a detection, rad^2 (> 0).
+        association: Pairing method.
+        gate_confidence: Confidence of the chi-square gates (individual, joint, fix), in (0,
+            1).
+        candidate_sightings: Consistent sightings a new landmark needs before it enters the
+            map (>= 1).
+        candidate_window: A candidate not seen again within this many seconds is dropped (>
+            0).
+        jcbb_max_nodes: Joint-compatibility tests JCBB may make per scan before it settles
+            for the best hypothesis found so far (>= 1).
+        wall_overlap_gap: A seen wall segment and a map wall's extent, both on the wall's
+            line, may be this far apart and still be paired, m (>= 0): collinear walls
+            separated by more (two sides of a doorway) stay two walls.
+        wall_admission_confidence: A wall detection outside the gate of every overlapping
+            wall is new only when it is also outside this wider chi-square gate of each (in
+            (0, 1), at least `gate_confidence`); in between it is refused. Set on the
+            simulated room (`room::RoomConfig`), where at 0.9999 about one run in ten still
+            duplicated a wall after an unlucky sighting (NIS 20).
+        wall_max_angle_sd: A wall detection whose angle's standard deviation exceeds this is
+            not used, rad (> 0): a line landmark's observation is curved in its angle, so a
+            short wall seen with a loose angle (a door jamb 0.4 m long: about 6 degrees)
+            biases every linearised update the same way and the filter turns overconfident.
+            Set on a simulated 40 m corridor loop with door jambs, never on a laser log
+            (`benchmarks/wall_corridor.py`, 6 seeds, robot NEES mean / median / share in
+            band with every wall used: 0.4 m jambs of 6 degrees 44.2 / 23.6 / 25 %, 0.8 m
+            10.7 / 4.6 / 82 %, 1.2 m 8.9 / 3.7 / 88 %, no jambs 7.6 / 2.4 / 96 %; with this
+            2-degree limit 7.9 / 2.5 / 91 % with 0.4 m jambs).
+        wall_shared_sd: The straightness error a detection shares with earlier detections of
+            the same part of its wall, m (>= 0; 0: none): a wall's own bends stay where they
+            are, so sightings of one stretch of it repeat their error instead of averaging
+            it away. A detection paired with a wall gets
+            [`crate::wall::straightness_covariance`] of this `sigma` times `sqrt(n)` added
+            to its noise, `n` the wall's earlier paired detections covering more than half
+            of the same stretch (the shorter one's), among its latest
+            [`super::WALL_PARTS_KEPT`]. Its own covariance should already hold the floor
+            once (`rperc.slam.wallslam` adds it to every sighting). `sqrt(n)` lies between
+            independent sightings (no growth) and one error shared by all (`n`). In a
+            simulated corridor whose walls have bends of their own (2 cm sd,
+            `benchmarks/wall_corridor.py --bend 0.02`, 12 seeds) the robot's share of scans
+            in band goes from 78 to 89 %. Chosen on ACES with the floor
+            `wallslam.STRAIGHTNESS`, Intel held out (`benchmarks/wall_fig7.py`): on ACES, 10
+            seeds, the robot NEES mean went from 4.7 to 3.5 with `sqrt(n)`, 14.6 with `n`.
+            The detection that admits a wall is not counted: counted, two ACES seeds of ten
+            ended with NEES 145-149.
+        wall_innovation: Where a wall detection is compared with the map's wall (`segment`,
+            the default, or seed 000's `line`).
+        anchor: Eqs. (24)-(25): the first landmark becomes the global reference (a point, or
+            a wall: then the robot's distance to it and heading are taken relative to it).
+        external_fix: Eqs. (26)-(27): apply the xy fixes of an external sensor (otherwise
+            they are counted and ignored).
+        fix_lever_arm: Where the external sensor's point sits on the robot, m (forward, left
+            of the pose's origin): a fix measures `t + R(theta) lever_arm` (Victoria Park's
+            GPS is compared at the laser, 3.78 m ahead and 0.5 m left of the rear axle).
+        freeze_after: Landmarks revised more than this many times leave the state (text
+            under Fig. 7, where it is 50); `None` never freezes.
+        freeze_mode: How a landmark is frozen.
+        initial_pose: Start pose `(x, y, theta)`.
+        initial_pose_variance: Variances of the start pose (>= 0; zero: a known start).
+        compression: Whether to run the compressed EKF (a speed choice: the results are the
+            same).
+        active_radius: The compressed filter's active area when it is made: the landmarks
+            within this distance of the sensor, m (> 0); any other landmark a scan may be
+            paired with joins it when seen. The area is made afresh (one global update) when
+            the work it costs over a fresh one has paid for a global update. A speed setting
+            only: timed on Victoria Park from 1 to 50 m (0.68 to 0.97 s), the results
+            identical.
+        compression_min_landmarks: The compressed filter is used once the state holds at
+            least this many landmarks (>= 1): below, a full update costs less than the
+            compressed one's bookkeeping (Victoria Park's first 300 scans, 74 landmarks: 20
+            ms full, 26 ms compressed; MR.CLAM's 15: 36 ms against 60 ms). A speed setting
+            only.
+        bias: Systematic sensor and odometry errors, removed from every detection and
+            control before use (identity by default; MR.CLAM's are calibrated offline).
+            `range_variance` and `bearing_variance` are the noise left after it.
+        control_bias_sd: Unknown constant odometry biases estimated in the state, with these
+            prior standard deviations: a relative error `s` of the first control and an
+            offset `b` of the second, so that the true controls are `(u0 (1 - s), u1 - b)`
+            (speed read long by `s`, turn rate off by `b` rad/s). `None`: no bias states
+            (the robot block is `(x, y, theta)`); otherwise it is `(x, y, theta, s, b)`.
+        first_estimates: First-estimates Jacobians (Huang, Mourikis & Roumeliotis 2008): a
+            wall's observation is linearised at the wall's first estimate (the one it
+            entered the map with), not its current one, and the robot's prediction at the
+            pose it was first estimated at (its prediction, before the last update moved
+            it). Then the linearised system keeps the translation and rotation of the whole
+            map unobservable, as the nonlinear one is; linearised at changing estimates it
+            gains information about them from nowhere, which makes the filter overconfident
+            (tested: with it, the robot's absolute heading and position variances never fall
+            below the start's). Point landmarks are still linearised at their current
+            estimates.
+    """
+
+    _native: ClassVar[str] = "planar"
+    motion: MotionModel = field(default_factory=Unicycle)
+    range_variance: float = 0.01
+    bearing_variance: float = 0.001
+    association: Literal["known", "nn", "jcbb"] = "known"
+    gate_confidence: float = 0.99
+    candidate_sightings: int = 1
+    candidate_window: float = 10.0
+    jcbb_max_nodes: int = 20000
+    wall_overlap_gap: float = 0.5
+    wall_admission_confidence: float = 0.999999
+    wall_max_angle_sd: float = 0.03490658503988659
+    wall_shared_sd: float = 0.0
+    wall_innovation: Literal["line", "segment"] = "segment"
+    anchor: bool = False
+    external_fix: bool = False
+    fix_lever_arm: tuple[float, float] = (0.0, 0.0)
+    freeze_after: int | None = None
+    freeze_mode: Literal["marginalise", "consider"] = "marginalise"
+    initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    initial_pose_variance: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    compression: Literal["auto", "off"] = "auto"
+    active_radius: float = 5.0
+    compression_min_landmarks: int = 100
+    bias: SensorBias = field(default_factory=SensorBias)
+    control_bias_sd: tuple[float, float] | None = None
+    first_estimates: bool = False
+
+
+class PlanarConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`PlanarConfig`, for keyword arguments."""
+
+    motion: MotionModel
+    range_variance: float
+    bearing_variance: float
+    association: Literal["known", "nn", "jcbb"]
+    gate_confidence: float
+    candidate_sightings: int
+    candidate_window: float
+    jcbb_max_nodes: int
+    wall_overlap_gap: float
+    wall_admission_confidence: float
+    wall_max_angle_sd: float
+    wall_shared_sd: float
+    wall_innovation: Literal["line", "segment"]
+    anchor: bool
+    external_fix: bool
+    fix_lever_arm: tuple[float, float]
+    freeze_after: int | None
+    freeze_mode: Literal["marginalise", "consider"]
+    initial_pose: tuple[float, float, float]
+    initial_pose_variance: tuple[float, float, float]
+    compression: Literal["auto", "off"]
+    active_radius: float
+    compression_min_landmarks: int
+    bias: SensorBias
+    control_bias_sd: tuple[float, float] | None
+    first_estimates: bool
+
+
+@dataclass(frozen=True, kw_only=True)
+class SimConfig(Config):
+    """The simulated world and its noise (the truth uses the same variances as the filter's
+    [`PlanarConfig`] built by [`SimConfig::slam_config`]).
+
+    Attributes:
+        radius: Radius of the circle the robot drives, m.
+        speed: Forward speed, m/s.
+        dt: Time between controls (and scans), s.
+        steps: Number of control steps.
+        landmarks: Landmarks on two rings, `radius - ring_gap` and `radius + ring_gap`.
+        ring_gap: Half the distance between the landmark rings, m.
+        max_range: Sensor range, m.
+        speed_variance: Speed noise variance per step, m^2/s^2.
+        turn_rate_variance: Turn-rate noise variance per step, rad^2/s^2.
+        range_variance: Range noise variance, m^2.
+        bearing_variance: Bearing noise variance, rad^2.
+        initial_pose_variance: Start pose variances (the true start is drawn from them).
+        fix_every: An external xy fix every this many steps (`None`: no fixes).
+        fix_variance: Variance of each fix coordinate, m^2.
+    """
+
+    _native: ClassVar[str] = "planar_sim"
+    radius: float = 10.0
+    speed: float = 1.0
+    dt: float = 0.1
+    steps: int = 600
+    landmarks: int = 24
+    ring_gap: float = 3.0
+    max_range: float = 6.0
+    speed_variance: float = 0.01
+    turn_rate_variance: float = 0.001
+    range_variance: float = 0.01
+    bearing_variance: float = 0.0001
+    initial_pose_variance: tuple[float, float, float] = (0.0001, 0.0001, 1e-05)
+    fix_every: int | None = None
+    fix_variance: float = 0.01
+
+
+class SimConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`SimConfig`, for keyword arguments."""
+
+    radius: float
+    speed: float
+    dt: float
+    steps: int
+    landmarks: int
+    ring_gap: float
+    max_range: float
+    speed_variance: float
+    turn_rate_variance: float
+    range_variance: float
+    bearing_variance: float
+    initial_pose_variance: tuple[float, float, float]
+    fix_every: int | None
+    fix_variance: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class ScanParams(Config):
+    """Parameters of [`LineExtractor`]. Lengths in metres, angles in radians.
+
+    Attributes:
+        min_range: Readings at or below this are invalid (0 is "no return" on most
+            scanners).
+        max_range: Readings at or beyond this are invalid (no return). Default: infinite.
+        sigma_range: Standard deviation of the range noise (default 0.01 m).
+        sigma_bearing: Standard deviation of the bearing noise (default 0: bearings are
+            exact).
+        breakpoint_lambda: Smallest incidence angle between a beam and a wall that still
+            counts as one surface, lambda of the adaptive breakpoint detector (default 10
+            degrees).
+        split_epsilon: Iterative end-point fit splits where a point is farther than this
+            from the chord (default 0.05 m).
+        merge_confidence: Neighbouring lines merge when the Mahalanobis distance of their
+            difference is below the chi-square (2 dof) quantile of this confidence (default
+            0.99).
+        min_points: Fewest points a wall may have (default 6; at least 2).
+        min_length: Shortest wall kept (default 0.3 m).
+        model_error: Inflate a line's covariance when its fit residuals show more scatter,
+            or more correlation from point to point, than the range and bearing noise
+            explain (default true; see `LineExtractor::model_error_factor`).
+    """
+
+    _native: ClassVar[str] = "scan_params"
+    min_range: float = 0.0
+    max_range: float = float("inf")
+    sigma_range: float = 0.01
+    sigma_bearing: float = 0.0
+    breakpoint_lambda: float = 0.17453292519943295
+    split_epsilon: float = 0.05
+    merge_confidence: float = 0.99
+    min_points: int = 6
+    min_length: float = 0.3
+    model_error: bool = True
+
+
+class ScanParamsOverrides(TypedDict, total=False):
+    """The fields of :class:`ScanParams`, for keyword arguments."""
+
+    min_range: float
+    max_range: float
+    sigma_range: float
+    sigma_bearing: float
+    breakpoint_lambda: float
+    split_epsilon: float
+    merge_confidence: float
+    min_points: int
+    min_length: float
+    model_error: bool
+
+
+@dataclass(frozen=True, kw_only=True)
+class SmootherConfig(Config):
+    """How the smoother iterates.
+
+    Attributes:
+        max_iterations: At most this many Levenberg-Marquardt iterations (>= 1).
+        tolerance: Converged when an accepted step lowers the cost by less than this
+            fraction.
+    """
+
+    _native: ClassVar[str] = "smoother"
+    max_iterations: int = 100
+    tolerance: float = 1e-09
+
+
+class SmootherConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`SmootherConfig`, for keyword arguments."""
+
+    max_iterations: int
+    tolerance: float

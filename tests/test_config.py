@@ -101,3 +101,19 @@ def test_repr_and_help_show_the_defaults() -> None:
     default = _rperc.config_defaults("planar_sim")
     assert f"radius={default['radius']!r}" in text
     assert "Radius of the circle the robot drives" in (SimConfig.__doc__ or "")
+
+
+def test_functions_take_a_config_or_a_dict_of_its_fields_alike() -> None:
+    import numpy as np
+
+    from rperc.slam.planar import monte_carlo, sim_slam_config, simulate
+
+    typed = simulate(SimConfig(steps=40, landmarks=8), seed=3)
+    plain = simulate({"steps": 40, "landmarks": 8}, seed=3)
+    np.testing.assert_array_equal(typed.truth, plain.truth)
+    matched = sim_slam_config(SimConfig(range_variance=0.04), anchor=True)
+    assert matched["range_variance"] == 0.04 and matched["anchor"] is True
+    mc = monte_carlo(SimConfig(steps=30), slam=PlanarConfig.from_dict(matched), runs=2)
+    assert mc.runs == 2 and mc.sim["steps"] == 30 and mc.slam["anchor"] is True
+    with pytest.raises(ValueError, match="radius"):
+        simulate(SimConfig(radius=-1.0))

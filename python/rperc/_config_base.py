@@ -55,6 +55,19 @@ class Config:
         return cls(**built)
 
 
+def as_config(
+    cls: type[C], config: C | Mapping[str, Any] | None, overrides: Mapping[str, Any] | None = None
+) -> C:
+    """``config`` (an instance of ``cls``, a dict of its fields, or ``None`` for the
+    defaults) with ``overrides`` on top, as ``cls``: every function that takes a config
+    takes both spellings, checked once, here."""
+    if isinstance(config, Config):
+        base = config.to_dict()
+    else:
+        base = dict(config or {})
+    return cls.from_dict({**base, **(overrides or {})})
+
+
 def _plain(value: object) -> object:
     if isinstance(value, Config):
         body = value.to_dict()

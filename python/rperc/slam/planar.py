@@ -45,7 +45,8 @@ import numpy.typing as npt
 import rperc.slam.evaluation as evaluation
 from rperc import _rperc
 from rperc._args import excerpt, real_number, whole_number
-from rperc.config import PlanarConfig, PlanarConfigOverrides
+from rperc._config_base import as_config
+from rperc.config import PlanarConfig, PlanarConfigOverrides, SimConfig
 from rperc.pose import point_path as _point_path
 from rperc.pose import wrap_angle
 
@@ -487,8 +488,7 @@ class PlanarSlam:
         config: PlanarConfig | Mapping[str, Any] | None = None,
         **overrides: Unpack[PlanarConfigOverrides],
     ) -> None:
-        base = config.to_dict() if isinstance(config, PlanarConfig) else dict(config or {})
-        self.config: PlanarConfig = PlanarConfig.from_dict({**base, **overrides})
+        self.config: PlanarConfig = as_config(PlanarConfig, config, overrides)
 
     def __repr__(self) -> str:
         return f"PlanarSlam({self.config!r})"
@@ -615,22 +615,27 @@ class SimulatedRun:
 
 
 def simulate(
-    config: Mapping[str, Any] | None = None, *, seed: int = 0, run: int = 0
+    config: SimConfig | Mapping[str, Any] | None = None, *, seed: int = 0, run: int = 0
 ) -> SimulatedRun:
-    """Run ``run`` of the simulated world ``config`` seeded by ``seed`` (the same
-    stream the Monte Carlo's run ``run`` uses)."""
+    """Run ``run`` of the simulated world ``config`` (a :class:`rperc.config.SimConfig`
+    or a dict of its fields) seeded by ``seed`` (the same stream the Monte Carlo's run
+    ``run`` uses)."""
     seed = whole_number(seed, "seed", 0, limit=2**64)
     run = whole_number(run, "run", 0, limit=2**64)
-    w = _rperc.planar_simulate(dict(config or {}), seed, run)
+    w = _rperc.planar_simulate(as_config(SimConfig, config).to_dict(), seed, run)
     fixes = w.fixes if len(w.fixes) else None
     rec = Recording(w.controls, w.detections, w.detection_ids, fixes)
     return SimulatedRun(recording=rec, truth=w.truth, landmarks=w.landmarks)
 
 
-def sim_slam_config(sim: Mapping[str, Any] | None = None, **overrides: Any) -> dict[str, Any]:
+def sim_slam_config(
+    sim: SimConfig | Mapping[str, Any] | None = None, **overrides: Unpack[PlanarConfigOverrides]
+) -> dict[str, Any]:
     """The filter config that matches the world ``sim`` (same noise, same start), with
-    ``overrides`` (e.g. ``anchor=True``) on top."""
-    return {**_rperc.planar_sim_slam_config(dict(sim or {})), **overrides}
+    ``overrides`` (e.g. ``anchor=True``) on top, as a dict of
+    :class:`rperc.config.PlanarConfig`'s fields."""
+    matched = _rperc.planar_sim_slam_config(as_config(SimConfig, sim).to_dict())
+    return as_config(PlanarConfig, matched, overrides).to_dict()
 
 
 @dataclass(frozen=True, repr=False)
@@ -671,9 +676,9 @@ def _sim_run_nees(sim: dict[str, Any], slam: dict[str, Any], seed: int, run: int
 
 
 def monte_carlo(
-    config: Mapping[str, Any] | None = None,
+    config: SimConfig | Mapping[str, Any] | None = None,
     *,
-    slam: Mapping[str, Any] | None = None,
+    slam: PlanarConfig | Mapping[str, Any] | None = None,
     runs: int = 50,
     seed: int = 0,
     executor: Executor | None = None,
@@ -688,8 +693,8 @@ def monte_carlo(
     ``client.get_executor()``) each run is submitted to it. Run ``i`` is seeded from
     ``(seed, i)`` either way, so both give identical results.
     """
-    sim = dict(config or {})
-    filt = dict(slam) if slam is not None else sim_slam_config(sim)
+    sim = as_config(SimConfig, config).to_dict()
+    filt = as_config(PlanarConfig, slam).to_dict() if slam is not None else sim_slam_config(sim)
     runs = whole_number(runs, "runs", 1)
     seed = whole_number(seed, "seed", 0, limit=2**64)
     _rperc.planar_sim_check(sim, filt, runs)  # refused before any run starts
@@ -709,7 +714,7 @@ def monte_carlo(
 
 
 def consistency(
-    config: Mapping[str, Any] | None = None,
+    config: SimConfig | Mapping[str, Any] | None = None,
     *,
     variants: tuple[str, ...] = ("plain", "anchor", "external"),
     fix_every: int = 10,
@@ -723,7 +728,7 @@ def consistency(
     for name in variants:
         if name not in VARIANTS:
             raise ValueError(f"unknown variant {excerpt(name)}; expected one of {list(VARIANTS)}")
-        sim = dict(config or {})
+        sim = as_config(SimConfig, config).to_dict()
         if name == "external":
             sim["fix_every"] = fix_every
         slam = sim_slam_config(sim, **VARIANTS[name])

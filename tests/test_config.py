@@ -85,6 +85,11 @@ def test_a_tagged_union_reads_and_writes_serde_spelling() -> None:
     }
     with pytest.raises(ValueError, match="unicycle"):
         PlanarConfig.from_dict({"motion": {"bicycle": {}}})
+    # The same struct as a field of its own is untagged (the laser pipeline's vehicle).
+    from rperc.config import LaserConfig
+
+    laser = LaserConfig.from_dict({"motion": {"speed_variance": 0.5}})
+    assert isinstance(laser.motion, Unicycle) and laser.to_dict()["motion"]["speed_variance"] == 0.5
 
 
 def test_planar_slam_takes_a_config_and_typed_overrides() -> None:

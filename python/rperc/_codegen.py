@@ -18,6 +18,8 @@ from rperc import _rperc
 
 #: The Python class of each native config, by the name ``config_schema`` takes.
 CLASS_NAMES = {
+    "laser": "LaserConfig",
+    "laser_scan": "ScanConfig",
     "monobot": "MonobotConfig",
     "planar": "PlanarConfig",
     "planar_sim": "SimConfig",
@@ -60,9 +62,17 @@ class Module:
 def generate() -> str:
     """The source of :mod:`rperc.config`."""
     module = Module()
-    for native, cls in CLASS_NAMES.items():
-        schema = json.loads(_rperc.config_schema(native))
-        module.schemas.update(schema.get("$defs", {}))
+    schemas = {cls: json.loads(_rperc.config_schema(n)) for n, cls in CLASS_NAMES.items()}
+    for schema in schemas.values():
+        for name, part in schema.get("$defs", {}).items():
+            if module.schemas.setdefault(name, part) != part:
+                raise ValueError(f"two Rust types are both called {name}: rename one")
+    # Unions first: a variant's class must subclass its union even where another
+    # config uses the same struct on its own.
+    for name, part in module.schemas.items():
+        if "oneOf" in part:
+            _union(module, name, part)
+    for (native, cls), schema in zip(CLASS_NAMES.items(), schemas.values(), strict=True):
         module.schemas[cls] = schema
         _struct(module, cls, schema, native=native)
     exports = "".join(f'    "{n}",\n' for n in sorted(module.names))
@@ -182,6 +192,7 @@ def _union(module: Module, name: str, schema: dict[str, Any]) -> None:
     module.blocks.append(
         f"@dataclass(frozen=True, kw_only=True)\nclass {name}(Config):\n"
         + textwrap.indent(f'"""{doc}"""', "    ")
+        + "\n\n    _union: ClassVar[bool] = True"
     )
     module.names.append(name)
     for variant in schema["oneOf"]:

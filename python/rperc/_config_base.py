@@ -6,8 +6,9 @@ construction, made by the Rust crate that owns the config (its serde reader and
 from __future__ import annotations
 
 import dataclasses
+import sys
 from collections.abc import Mapping
-from typing import Any, ClassVar, TypeVar, cast
+from typing import Any, ClassVar, TypeVar
 
 from rperc import _rperc
 from rperc._args import excerpt
@@ -22,9 +23,11 @@ class Config:
     #: The name the native layer knows this config by; empty for nested parts, which
     #: are checked as part of the config that holds them.
     _native: ClassVar[str] = ""
-    #: For a variant of a tagged union (a vehicle model): its tag, so that
-    #: ``to_dict()`` writes ``{tag: {...}}`` as serde spells it.
+    #: For a variant of a tagged union (a vehicle model): its tag, so that a field
+    #: declared as the union is written ``{tag: {...}}``, as serde spells it.
     _tag: ClassVar[str] = ""
+    #: True for the base class of a tagged union.
+    _union: ClassVar[bool] = False
 
     def __post_init__(self) -> None:
         if self._native:
@@ -36,7 +39,10 @@ class Config:
 
     def to_dict(self) -> dict[str, Any]:
         """The fields as plain Python values, nested parts as dicts (JSON-ready)."""
-        return {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self)}
+        return {
+            f.name: _plain(getattr(self, f.name), _union_of(type(self), f))
+            for f in dataclasses.fields(self)
+        }
 
     @classmethod
     def from_dict(cls: type[C], values: Mapping[str, object]) -> C:
@@ -49,7 +55,7 @@ class Config:
                 _rperc.config_check(cls._native, dict(values))
             raise TypeError(f"{cls.__name__}: unknown field {excerpt(unknown[0])}")
         built = {
-            k: _build(known[k].default_factory, v) if isinstance(v, Mapping) else _tuples(v)
+            k: _build(cls, known[k], v) if isinstance(v, Mapping) else _tuples(v)
             for k, v in values.items()
         }
         return cls(**built)
@@ -68,10 +74,21 @@ def as_config(
     return cls.from_dict({**base, **(overrides or {})})
 
 
-def _plain(value: object) -> object:
+def _union_of(owner: type[Config], f: dataclasses.Field[Any]) -> type[Config] | None:
+    """The tagged union a field is declared as (serde's externally tagged enum, such as
+    ``MotionModel``), or None. A variant's class (``Unicycle``) may also be a field's
+    type on its own, untagged: the declaration decides, not the value."""
+    declared = vars(sys.modules[owner.__module__]).get(str(f.type))
+    # `_union` is read off the class itself: its variants inherit it.
+    if isinstance(declared, type) and issubclass(declared, Config) and vars(declared).get("_union"):
+        return declared
+    return None
+
+
+def _plain(value: object, union: type[Config] | None = None) -> object:
     if isinstance(value, Config):
         body = value.to_dict()
-        return {value._tag: body} if value._tag else body
+        return {value._tag: body} if union is not None else body
     if isinstance(value, tuple):
         return [_plain(v) for v in value]
     return value
@@ -84,26 +101,21 @@ def _tuples(value: object) -> object:
     return value
 
 
-def _build(factory: object, values: Mapping[str, object]) -> object:
+def _build(owner: type[Config], f: dataclasses.Field[Any], values: Mapping[str, object]) -> object:
     """A nested part from its dict: the field's default says which class it is; a
     tagged union's dict ``{tag: {...}}`` picks the variant by its tag."""
-    default = factory() if callable(factory) else None
-    if not isinstance(default, Config):
-        return dict(values)
-    if default._tag:
-        [(tag, body)] = values.items() if len(values) == 1 else [(None, None)]
-        for variant in _variants(type(default)):
-            if variant._tag == tag and isinstance(body, Mapping):
-                return variant.from_dict(body)
-        raise ValueError(f"expected one of {{{', '.join(_tags(type(default)))}: {{...}}}}")
-    return type(default).from_dict(values)
-
-
-def _variants(cls: type[Config]) -> list[type[Config]]:
-    """The variants of the tagged union that ``cls`` (a variant) belongs to."""
-    union = cast("type[Config]", cls.__mro__[1])
-    return [c for c in union.__subclasses__() if c._tag]
-
-
-def _tags(cls: type[Config]) -> list[str]:
-    return [c._tag for c in _variants(cls)]
+    union = _union_of(owner, f)
+    if union is not None:
+        variants = {c._tag: c for c in union.__subclasses__()}
+        if len(values) == 1:
+            [(tag, body)] = values.items()
+            if tag in variants and isinstance(body, Mapping):
+                return variants[str(tag)].from_dict(body)
+        raise ValueError(
+            f"{owner.__name__}: {f.name}: expected one of "
+            + ", ".join(f"{{{t!r}: {{...}}}}" for t in variants)
+        )
+    default = f.default_factory() if callable(f.default_factory) else None
+    if isinstance(default, Config):
+        return type(default).from_dict(values)
+    return dict(values)

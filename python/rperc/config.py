@@ -16,11 +16,21 @@ from rperc._config_base import Config
 __all__ = [
     "Ackermann",
     "AckermannOverrides",
+    "IcpConfig",
+    "IcpConfigOverrides",
+    "LaserConfig",
+    "LaserConfigOverrides",
+    "LocalMapConfig",
+    "LocalMapConfigOverrides",
+    "LoopConfig",
+    "LoopConfigOverrides",
     "MonobotConfig",
     "MonobotConfigOverrides",
     "MotionModel",
     "PlanarConfig",
     "PlanarConfigOverrides",
+    "ScanConfig",
+    "ScanConfigOverrides",
     "ScanParams",
     "ScanParamsOverrides",
     "SensorBias",
@@ -35,63 +45,11 @@ __all__ = [
 
 
 @dataclass(frozen=True, kw_only=True)
-class MonobotConfig(Config):
-    """The monobot experiment. Defaults are the paper's run (Figs. 4 to 6).
-
-    Attributes:
-        landmarks: Number of landmarks (>= 1), all at `landmark_position`.
-        steps: Iterations after the first observation (paper: 100).
-        start: Start and end of the sinusoidal trajectory (paper: -1 m).
-        amplitude: How far the robot moves out and back: `x(t) = start + amplitude (1 -
-            cos(2 pi t / steps)) / 2` (default 1 m).
-        landmark_position: Where the landmarks are (paper: 1 m).
-        initial_variance: Initial robot variance `P_r,0|0`, > 0 (default 1e-6 m^2: the
-            paper's robot starts at a known -1 m; exactly 0 would leave `P` singular and the
-            NEES undefined).
-        plant_noise: Plant noise `V` (paper: proportional to the motion command; default 10
-            %).
-        measurement_noise: Landmark measurement noise `W` (paper: proportional to the
-            distance; default 5 %). Distances are nominal: planned robot position to
-            `landmark_position`.
-        reference_noise: Noise of the reference observation `z_0` (anchor or external
-            sensor), as a function of the robot's nominal distance to the origin (default 5
-            %).
-        noise_floor: Standard deviation added to proportional models, so that a robot at
-            rest or next to a landmark still has some noise (default 1 mm).
-    """
-
-    _native: ClassVar[str] = "monobot"
-    landmarks: int = 1
-    steps: int = 100
-    start: float = -1.0
-    amplitude: float = 1.0
-    landmark_position: float = 1.0
-    initial_variance: float = 1e-06
-    plant_noise: tuple[Literal["constant", "proportional"], float] = ("proportional", 0.1)
-    measurement_noise: tuple[Literal["constant", "proportional"], float] = ("proportional", 0.05)
-    reference_noise: tuple[Literal["constant", "proportional"], float] = ("proportional", 0.05)
-    noise_floor: float = 0.001
-
-
-class MonobotConfigOverrides(TypedDict, total=False):
-    """The fields of :class:`MonobotConfig`, for keyword arguments."""
-
-    landmarks: int
-    steps: int
-    start: float
-    amplitude: float
-    landmark_position: float
-    initial_variance: float
-    plant_noise: tuple[Literal["constant", "proportional"], float]
-    measurement_noise: tuple[Literal["constant", "proportional"], float]
-    reference_noise: tuple[Literal["constant", "proportional"], float]
-    noise_floor: float
-
-
-@dataclass(frozen=True, kw_only=True)
 class MotionModel(Config):
     """Which vehicle moves the robot, with its parameters; spelled in configs as `{"unicycle":
     {...}}` or `{"ackermann": {...}}`."""
+
+    _union: ClassVar[bool] = True
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -149,6 +107,302 @@ class AckermannOverrides(TypedDict, total=False):
     laser_left: float
     speed_variance: float
     steering_variance: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class ScanConfig(Config):
+    """How a scan becomes points.
+
+    Attributes:
+        min_range: Readings shorter than this are the robot itself or noise, m (>= 0).
+        max_range_margin: Readings within this of the scan's maximum range are no-returns, m
+            (>= 0).
+        point_spacing: Kept points are at least this far apart along the scan, m (> 0): a
+            near wall gives many readings per centimetre and would outweigh everything else.
+        normal_radius: A point's normal is fitted to the readings within this distance of it
+            that are contiguous along the scan, m (> 0); at least three beam spacings at the
+            point's range.
+        normal_min_points: A normal needs at least this many readings (>= 3).
+        max_flatness: The fit's smaller spread over its larger one must stay under this for
+            the readings to count as a line (in (0, 1)): corners and clutter get no normal.
+        max_gap: Two successive readings further apart than this are not contiguous, m (>
+            0); at least three beam spacings at their range.
+    """
+
+    min_range: float = 0.05
+    max_range_margin: float = 0.01
+    point_spacing: float = 0.05
+    normal_radius: float = 0.2
+    normal_min_points: int = 4
+    max_flatness: float = 0.05
+    max_gap: float = 0.3
+
+
+class ScanConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`ScanConfig`, for keyword arguments."""
+
+    min_range: float
+    max_range_margin: float
+    point_spacing: float
+    normal_radius: float
+    normal_min_points: int
+    max_flatness: float
+    max_gap: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class IcpConfig(Config):
+    """Settings of [`match_scan`].
+
+    Attributes:
+        iterations: Gauss-Newton iterations at most (>= 1).
+        max_distance: A point pairs with a map point at most this far away, m (> 0).
+        sigma: Standard deviation of a point's distance to its line, m (> 0): range noise
+            and the map's own thickness.
+        huber: Residuals beyond this many `sigma` are down-weighted (Huber), (> 0).
+        covariance_scale: The scan's covariance is inflated by this factor (>= 1) for the
+            correlation of its residuals.
+        min_inliers: A match with fewer paired points is refused (>= 3).
+        tolerance: Iterations stop when a step moves less than this, m or rad (> 0).
+        max_normal_angle: A point pairs only with a map point whose normal is within this
+            angle of its own, rad (in (0, pi]): near a corner the nearest map point often
+            lies on the other wall, and its line would pull the pose askew.
+    """
+
+    iterations: int = 20
+    max_distance: float = 0.3
+    sigma: float = 0.03
+    huber: float = 2.0
+    covariance_scale: float = 3.0
+    min_inliers: int = 10
+    tolerance: float = 1e-05
+    max_normal_angle: float = 0.5235987755982988
+
+
+class IcpConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`IcpConfig`, for keyword arguments."""
+
+    iterations: int
+    max_distance: float
+    sigma: float
+    huber: float
+    covariance_scale: float
+    min_inliers: int
+    tolerance: float
+    max_normal_angle: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class LocalMapConfig(Config):
+    """Settings of the local map.
+
+    Attributes:
+        key_distance: A scan becomes a key scan when the robot has moved this far from the
+            last one, m (> 0).
+        key_angle: ... or turned this much, rad (> 0).
+        key_scans: The local map holds the points of this many latest key scans (>= 1).
+        cell: Cell of the map's grid, m (> 0; at least ICP's pairing distance).
+    """
+
+    key_distance: float = 0.3
+    key_angle: float = 0.17453292519943295
+    key_scans: int = 20
+    cell: float = 0.3
+
+
+class LocalMapConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`LocalMapConfig`, for keyword arguments."""
+
+    key_distance: float
+    key_angle: float
+    key_scans: int
+    cell: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class LoopConfig(Config):
+    """Settings of the loop-closure search.
+
+    Attributes:
+        enabled: Whether to look for closures at all.
+        min_path: A place is a candidate only after this much path since it, m (> 0).
+        sigmas: The search window spans this many standard deviations of the current key
+            scan's pose relative to the place (from the chain of the graph), (> 0).
+        overlap: A place is a candidate when it may lie within this of the current key scan,
+            m (> 0), the window's reach included: the scans of two poses this far apart
+            still overlap.
+        radius: The window's radius is at least this, m (> 0), ...
+        max_radius: ... and at most this along any axis, m (>= radius).
+        angle: The heading window is at least this, rad (> 0), ...
+        max_angle: ... and at most this, rad (in [angle, pi]).
+        submap_keys: Key scans on each side of the candidate that make its submap (>= 0).
+        every_keys: A closure is tried at every this many key scans (>= 1), and at the next
+            one while a closure waits for its confirmation.
+        cooldown_keys: After a confirmed pair of closures, no closure is tried for this many
+            key scans (>= 0): the place is closed, and each attempt costs a correlative
+            search.
+        coarse_step: Coarse search step in x and y, m (> 0).
+        hit_distance: A point scores when within this of the submap, m (> 0).
+        refine: Best coarse poses refined by ICP (>= 1).
+        min_inlier_share: A closure pairs at least this share of the scan's points (in (0,
+            1]).
+        max_rms: ... with at most this RMS distance to their lines, m (> 0).
+        min_information: ... and at least this information in its weakest direction (the
+            smallest eigenvalue of the scan's information in m and rad units, > 0).
+        agree_distance: Two closures confirm each other when their corrections agree within
+            this, m (> 0), ...
+        agree_angle: ... and this, rad (> 0).
+        max_chi2: After each optimisation the closure with the largest squared error (by its
+            own information) is removed while that error exceeds this (> 0): a closure that
+            disagrees with the chain and the other closures is a wrong one.
+    """
+
+    enabled: bool = True
+    min_path: float = 8.0
+    sigmas: float = 3.0
+    overlap: float = 2.0
+    radius: float = 0.5
+    max_radius: float = 30.0
+    angle: float = 0.08726646259971647
+    max_angle: float = 0.5235987755982988
+    submap_keys: int = 6
+    every_keys: int = 3
+    cooldown_keys: int = 10
+    coarse_step: float = 0.15
+    hit_distance: float = 0.15
+    refine: int = 4
+    min_inlier_share: float = 0.5
+    max_rms: float = 0.06
+    min_information: float = 1000.0
+    agree_distance: float = 0.2
+    agree_angle: float = 0.03490658503988659
+    max_chi2: float = 50.0
+
+
+class LoopConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`LoopConfig`, for keyword arguments."""
+
+    enabled: bool
+    min_path: float
+    sigmas: float
+    overlap: float
+    radius: float
+    max_radius: float
+    angle: float
+    max_angle: float
+    submap_keys: int
+    every_keys: int
+    cooldown_keys: int
+    coarse_step: float
+    hit_distance: float
+    refine: int
+    min_inlier_share: float
+    max_rms: float
+    min_information: float
+    agree_distance: float
+    agree_angle: float
+    max_chi2: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class LaserConfig(Config):
+    """Every setting of a run.
+
+    Attributes:
+        scan: Scans to points.
+        icp: Scan matching.
+        local_map: The front end's local map.
+        loops: Loop closures.
+        motion: The odometry's control noise (the same model as the EKF's motion).
+        initial_pose: The first scan's pose.
+        graph_iterations: Gauss-Newton iterations of the pose graph at most (>= 1).
+        graph_tolerance: ... stopped when a step moves no pose more than this, m or rad (>
+            0).
+        chain_inflation: The front end's motion covariances are multiplied by this in the
+            pose graph's chain (>= 1): consecutive matches against one local map share its
+            errors, so the chain drifts more than independent steps would. Calibrated on
+            intel, aces, freiburg-101 and edmonton (seeds 0-2) for a robot NEES mean of 3
+            over them: 4.55 at 1, 3.1 at 1.5, 2.6 at 2, 1.8 at 3.
+    """
+
+    _native: ClassVar[str] = "laser"
+    scan: ScanConfig = field(default_factory=ScanConfig)
+    icp: IcpConfig = field(default_factory=IcpConfig)
+    local_map: LocalMapConfig = field(default_factory=LocalMapConfig)
+    loops: LoopConfig = field(default_factory=LoopConfig)
+    motion: Unicycle = field(default_factory=Unicycle)
+    initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    graph_iterations: int = 10
+    graph_tolerance: float = 1e-05
+    chain_inflation: float = 1.5
+
+
+class LaserConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`LaserConfig`, for keyword arguments."""
+
+    scan: ScanConfig
+    icp: IcpConfig
+    local_map: LocalMapConfig
+    loops: LoopConfig
+    motion: Unicycle
+    initial_pose: tuple[float, float, float]
+    graph_iterations: int
+    graph_tolerance: float
+    chain_inflation: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class MonobotConfig(Config):
+    """The monobot experiment. Defaults are the paper's run (Figs. 4 to 6).
+
+    Attributes:
+        landmarks: Number of landmarks (>= 1), all at `landmark_position`.
+        steps: Iterations after the first observation (paper: 100).
+        start: Start and end of the sinusoidal trajectory (paper: -1 m).
+        amplitude: How far the robot moves out and back: `x(t) = start + amplitude (1 -
+            cos(2 pi t / steps)) / 2` (default 1 m).
+        landmark_position: Where the landmarks are (paper: 1 m).
+        initial_variance: Initial robot variance `P_r,0|0`, > 0 (default 1e-6 m^2: the
+            paper's robot starts at a known -1 m; exactly 0 would leave `P` singular and the
+            NEES undefined).
+        plant_noise: Plant noise `V` (paper: proportional to the motion command; default 10
+            %).
+        measurement_noise: Landmark measurement noise `W` (paper: proportional to the
+            distance; default 5 %). Distances are nominal: planned robot position to
+            `landmark_position`.
+        reference_noise: Noise of the reference observation `z_0` (anchor or external
+            sensor), as a function of the robot's nominal distance to the origin (default 5
+            %).
+        noise_floor: Standard deviation added to proportional models, so that a robot at
+            rest or next to a landmark still has some noise (default 1 mm).
+    """
+
+    _native: ClassVar[str] = "monobot"
+    landmarks: int = 1
+    steps: int = 100
+    start: float = -1.0
+    amplitude: float = 1.0
+    landmark_position: float = 1.0
+    initial_variance: float = 1e-06
+    plant_noise: tuple[Literal["constant", "proportional"], float] = ("proportional", 0.1)
+    measurement_noise: tuple[Literal["constant", "proportional"], float] = ("proportional", 0.05)
+    reference_noise: tuple[Literal["constant", "proportional"], float] = ("proportional", 0.05)
+    noise_floor: float = 0.001
+
+
+class MonobotConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`MonobotConfig`, for keyword arguments."""
+
+    landmarks: int
+    steps: int
+    start: float
+    amplitude: float
+    landmark_position: float
+    initial_variance: float
+    plant_noise: tuple[Literal["constant", "proportional"], float]
+    measurement_noise: tuple[Literal["constant", "proportional"], float]
+    reference_noise: tuple[Literal["constant", "proportional"], float]
+    noise_floor: float
 
 
 @dataclass(frozen=True, kw_only=True)

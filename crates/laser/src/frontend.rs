@@ -15,7 +15,9 @@ use crate::odometry::Step;
 use crate::scan::ScanPoints;
 
 /// Settings of the local map.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
+)]
 #[serde(default, deny_unknown_fields)]
 pub struct LocalMapConfig {
     /// A scan becomes a key scan when the robot has moved this far from the last

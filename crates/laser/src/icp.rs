@@ -21,7 +21,9 @@ use crate::grid::MapIndex;
 use crate::scan::ScanPoints;
 
 /// Settings of [`match_scan`].
-#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
+)]
 #[serde(default, deny_unknown_fields)]
 pub struct IcpConfig {
     /// Gauss-Newton iterations at most (>= 1).

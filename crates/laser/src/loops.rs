@@ -21,7 +21,9 @@ use crate::icp::{IcpConfig, Match, Prior, match_scan};
 use crate::scan::ScanPoints;
 
 /// Settings of the loop-closure search.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
+)]
 #[serde(default, deny_unknown_fields)]
 pub struct LoopConfig {
     /// Whether to look for closures at all.

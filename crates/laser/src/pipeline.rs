@@ -21,7 +21,9 @@ use crate::odometry::{Step, steps};
 use crate::scan::{Beams, ScanConfig, ScanPoints, check_beams, scan_points};
 
 /// Every setting of a run.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
+)]
 #[serde(default, deny_unknown_fields)]
 pub struct LaserConfig {
     /// Scans to points.

@@ -7,7 +7,9 @@ use nalgebra::{Matrix2, SymmetricEigen, Vector2};
 use crate::error::{LaserError, Result};
 
 /// How a scan becomes points.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
+)]
 #[serde(default, deny_unknown_fields)]
 pub struct ScanConfig {
     /// Readings shorter than this are the robot itself or noise, m (>= 0).

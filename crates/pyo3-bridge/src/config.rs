@@ -124,13 +124,23 @@ pub fn defaults<'py, T: serde::Serialize + Default>(
 }
 
 /// The configs the Python layer generates its classes from, by name.
-const SCHEMA_NAMES: &[&str] = &["monobot", "planar", "planar_sim", "scan_params", "smoother"];
+const SCHEMA_NAMES: &[&str] = &[
+    "laser",
+    "laser_scan",
+    "monobot",
+    "planar",
+    "planar_sim",
+    "scan_params",
+    "smoother",
+];
 
 /// Calls the generic function `$f::<T>($args)` with `T` the config named `$name`: the
 /// one place a config's name is tied to its Rust type.
 macro_rules! with_config {
     ($name:expr, $f:ident($($arg:expr),*)) => {
         match $name {
+            "laser" => $f::<laser::LaserConfig>($($arg),*),
+            "laser_scan" => $f::<laser::ScanConfig>($($arg),*),
             "monobot" => $f::<slam::monobot::MonobotConfig>($($arg),*),
             "planar" => $f::<slam::PlanarConfig>($($arg),*),
             "planar_sim" => $f::<slam::planar::sim::SimConfig>($($arg),*),
@@ -157,6 +167,8 @@ macro_rules! validated {
 }
 
 validated!(
+    laser::LaserConfig,
+    laser::ScanConfig,
     slam::monobot::MonobotConfig,
     slam::PlanarConfig,
     slam::planar::sim::SimConfig,

@@ -407,9 +407,9 @@ class MonobotConfigOverrides(TypedDict, total=False):
 
 @dataclass(frozen=True, kw_only=True)
 class SensorBias(Config):
-    """The sensors' biases, removed from every input: bearing `b_measured = bearing_offset +
-    bearing_scale * b`; range `r_measured = range_offset + range_scale * q` (`q` the range,
-    or the depth `r cos(b)` when `range_is_depth`); controls `u_measured = u /
+    """The sensors' biases, removed from every input. Bearing: `b_measured = bearing_offset +
+    bearing_scale * b`. Range: `r_measured = range_offset + range_scale * q`, `q` the range,
+    or the depth `r cos(b)` when `range_is_depth`. Controls: `u_measured = u /
     control_scale`. The identity (the default) changes nothing.
 
     Attributes:

@@ -20,10 +20,11 @@ use crate::error::ensure_finite;
 use crate::error::{Result, SlamError};
 use crate::motion::MotionModel;
 
-/// The sensors' biases, removed from every input: bearing `b_measured = bearing_offset
-/// + bearing_scale * b`; range `r_measured = range_offset + range_scale * q` (`q` the
-/// range, or the depth `r cos(b)` when `range_is_depth`); controls `u_measured = u /
-/// control_scale`. The identity (the default) changes nothing.
+/// The sensors' biases, removed from every input. Bearing:
+/// `b_measured = bearing_offset + bearing_scale * b`. Range:
+/// `r_measured = range_offset + range_scale * q`, `q` the range, or the depth
+/// `r cos(b)` when `range_is_depth`. Controls: `u_measured = u / control_scale`. The
+/// identity (the default) changes nothing.
 #[derive(
     Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
 )]

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from rperc import _rperc
+from rperc._atomic import write_text_atomically
 
 #: The Python class of each native config, by the name ``config_schema`` takes.
 CLASS_NAMES = {
@@ -249,8 +250,7 @@ def _literal(value: object) -> str:
 
 
 def main() -> None:
-    target = Path(__file__).with_name("config.py")
-    target.write_text(generate())
+    target = write_text_atomically(Path(__file__).with_name("config.py"), generate())
     print(f"wrote {target}")
 
 

@@ -26,6 +26,14 @@ use crate::error::{Result, SlamError, ensure_finite};
 mod compressed;
 pub use compressed::{Compressed, Passive};
 
+/// A fixed-size block as the dynamic matrix a [`SparseJacobian`] block or a noise
+/// covariance is given as.
+pub(crate) fn dyn_mat<const R: usize, const C: usize>(
+    m: &nalgebra::SMatrix<f64, R, C>,
+) -> DMatrix<f64> {
+    DMatrix::from_column_slice(R, C, m.as_slice())
+}
+
 /// One dense block of a sparse observation Jacobian `H`: rows `row..row + h.nrows()`
 /// and columns `col..col + h.ncols()` of `H` equal `h`; everything else is zero.
 #[derive(Debug, Clone, PartialEq)]

@@ -17,8 +17,9 @@ use std::borrow::Cow;
 use nalgebra::{DMatrix, DVector, Vector2};
 
 use super::engine::PlanarSlam;
+use super::local::Local;
 use super::{Association, Compression, FreezeMode};
-use crate::ekf::{Compressed, Ekf, SparseJacobian, Update};
+use crate::ekf::{Ekf, SparseJacobian, Update};
 use crate::error::Result;
 
 /// Multiply-adds of an update of `rows` rows of a compressed filter of `d` states
@@ -33,14 +34,6 @@ fn update_work(rows: usize, d: f64, a: f64) -> f64 {
 /// `P_BA0 psi` (`n_b a^2`) and `P_AB` (`d a n_b`).
 fn global_work(n_b: f64, d: f64, a: f64) -> f64 {
     n_b * n_b * a / 2.0 + n_b * a * a + d * a * n_b
-}
-
-/// A compressed filter's auxiliary state and the work an area made afresh would
-/// have saved since this one was made.
-#[derive(Debug, Clone)]
-pub(super) struct Local {
-    aux: Compressed,
-    regret: f64,
 }
 
 impl PlanarSlam {

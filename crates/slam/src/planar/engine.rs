@@ -9,12 +9,12 @@ use rperc_core::{Definiteness, Pose2, check_covariance, chi2_gate};
 
 use super::associate::{self, FixedPoint, Pairing, Scene, Target};
 use super::observe::{anchor_frame, anchor_observation, cartesian, fix_observation, landmark_from};
-use super::walls::{Extent, FixedWall};
+use super::wall_map::{Extent, FixedWall};
 use super::{
     Association, Detection, Event, EventArrays, EventKind, FreezeMode, LandmarkEstimate,
     PlanarConfig, PlanarResult, Statistics, Trajectory, WallDetection,
 };
-use crate::ekf::{Ekf, Gated, SparseJacobian};
+use crate::ekf::{Ekf, Gated, SparseJacobian, dyn_mat};
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::motion::MotionModel;
 
@@ -69,7 +69,7 @@ pub struct PlanarSlam {
     /// robot and the active landmarks.
     pub(super) ekf: Ekf,
     /// The compressed EKF's auxiliary state (Guivant & Nebot 2001), while compressed.
-    pub(super) cekf: Option<super::compress::Local>,
+    pub(super) cekf: Option<super::local::Local>,
     /// The detection noise `W` (eq. 8).
     w: Matrix2<f64>,
     pub(super) mount: Pose2,
@@ -121,12 +121,6 @@ fn sensor_mount(motion: &MotionModel) -> Pose2 {
         MotionModel::Unicycle(_) => Pose2::identity(),
         MotionModel::Ackermann(a) => Pose2::new(a.laser_forward, a.laser_left, 0.0),
     }
-}
-
-pub(super) fn dyn_mat<const R: usize, const C: usize>(
-    m: &nalgebra::SMatrix<f64, R, C>,
-) -> DMatrix<f64> {
-    DMatrix::from_column_slice(R, C, m.as_slice())
 }
 
 impl PlanarSlam {

@@ -22,10 +22,12 @@ mod bias;
 mod compress;
 mod config;
 mod engine;
+mod local;
 mod observe;
 pub mod room;
 pub mod sim;
 pub mod smooth;
+mod wall_map;
 mod walls;
 
 pub use bias::SensorBias;

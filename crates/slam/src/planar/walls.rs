@@ -25,30 +25,14 @@ use nalgebra::{DVector, Matrix2, Matrix2x3, Matrix3, Matrix3x2, Point2, Vector2}
 use rperc_core::{Definiteness, Pose2, check_covariance, chi2_gate, wrap_angle};
 
 use super::associate::{self, Pairing, Scene, Target};
-use super::engine::dyn_mat;
+use super::wall_map::{Extent, FixedWall, along, covering, gap};
 use super::{Association, PlanarSlam, WallDetection, WallEstimate, WallInnovation};
+use crate::ekf::dyn_mat;
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::wall::{
     WallJacobians, observe_wall, segment_innovation, segment_middle, straightness_covariance,
     wall_innovation, wall_to_world,
 };
-
-/// A wall the filter no longer estimates (frozen, or a wall anchor with a zero
-/// covariance): observed as known, its covariance added to the noise.
-#[derive(Debug, Clone, PartialEq)]
-pub(crate) struct FixedWall {
-    pub line: Vector2<f64>,
-    pub cov: Matrix2<f64>,
-}
-
-/// A wall's seen extent, two points on its line, and its reference point, the
-/// origin its state `(rho, alpha)` is measured from; all in the internal frame.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct Extent {
-    pub start: Point2<f64>,
-    pub end: Point2<f64>,
-    pub origin: Point2<f64>,
-}
 
 /// The sensor as seen from a wall's reference point: the pose moved by `-origin`,
 /// so that [`observe_wall`] and [`wall_to_world`] work about that point (their
@@ -96,38 +80,6 @@ fn checked(i: usize, d: &WallDetection) -> Result<Seen> {
         local: [Point2::from(d.start), Point2::from(d.end)],
         mid: None,
     })
-}
-
-/// The foot of `p` on `line` and its coordinate along the line.
-fn along(line: &Vector2<f64>, p: &Point2<f64>) -> (Point2<f64>, f64) {
-    let (s, c) = line.y.sin_cos();
-    let n = Vector2::new(c, s);
-    (p - n * (n.dot(&p.coords) - line.x), -s * p.x + c * p.y)
-}
-
-/// The shortest extent on `line` (frame form) covering the feet of `points`, with
-/// reference point `origin`.
-fn covering(line: &Vector2<f64>, points: &[Point2<f64>], origin: Point2<f64>) -> Extent {
-    let feet: Vec<(Point2<f64>, f64)> = points.iter().map(|p| along(line, p)).collect();
-    let lo = feet.iter().min_by(|a, b| a.1.total_cmp(&b.1));
-    let hi = feet.iter().max_by(|a, b| a.1.total_cmp(&b.1));
-    let (lo, hi) = (
-        lo.map_or(Point2::origin(), |f| f.0),
-        hi.map_or(Point2::origin(), |f| f.0),
-    );
-    Extent {
-        start: lo,
-        end: hi,
-        origin,
-    }
-}
-
-/// The gap between an extent and a segment, both projected on `line` (negative when
-/// they overlap).
-fn gap(line: &Vector2<f64>, a: &Extent, b: &[Point2<f64>; 2]) -> f64 {
-    let t = |p: &Point2<f64>| along(line, p).1;
-    let (a0, a1, b0, b1) = (t(&a.start), t(&a.end), t(&b[0]), t(&b[1]));
-    a0.min(a1).max(b0.min(b1)) - a0.max(a1).min(b0.max(b1))
 }
 
 /// A map wall a detection may be paired with: a state wall, or a fixed one with its
@@ -595,31 +547,5 @@ impl PlanarSlam {
             frozen: frozen && !anchor,
             anchor,
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn extents_cover_and_gaps_measure_along_the_line() {
-        // The line y = 2 (rho 2, alpha pi/2): along-coordinate is -x.
-        let line = Vector2::new(2.0, PI / 2.0);
-        let e = covering(
-            &line,
-            &[
-                Point2::new(1.0, 2.1),
-                Point2::new(-1.0, 1.9),
-                Point2::new(0.0, 2.0),
-            ],
-            Point2::origin(),
-        );
-        assert!((e.start - Point2::new(1.0, 2.0)).norm() < 1e-12);
-        assert!((e.end - Point2::new(-1.0, 2.0)).norm() < 1e-12);
-        let seg = [Point2::new(3.0, 2.0), Point2::new(4.0, 2.0)];
-        assert!((gap(&line, &e, &seg) - 2.0).abs() < 1e-12);
-        let seg = [Point2::new(0.5, 2.0), Point2::new(4.0, 2.0)];
-        assert!((gap(&line, &e, &seg) + 0.5).abs() < 1e-12);
     }
 }

@@ -47,10 +47,8 @@ __all__ = [
     "effective_sample_size",
     "extract_lines",
     "information_spectrum",
-    "laser_defaults",
     "laser_run",
     "laser_scan_points",
-    "monobot_defaults",
     "monobot_monte_carlo",
     "monobot_observability_rank",
     "monobot_simulate",
@@ -63,9 +61,7 @@ __all__ = [
     "otb_success_curve",
     "pattern_defaults",
     "pattern_sequence",
-    "planar_defaults",
     "planar_sim_check",
-    "planar_sim_defaults",
     "planar_sim_nees",
     "planar_sim_slam_config",
     "planar_simulate",
@@ -74,7 +70,6 @@ __all__ = [
     "pose_path_point",
     "pose_transform_points",
     "resample",
-    "scan_params_defaults",
     "simplify_indices",
     "simplify_many_indices",
     "simplify_topology_indices",
@@ -142,7 +137,6 @@ def extract_lines(
     angles: npt.NDArray[np.floating],
     params: dict[str, Any] | None = None,
 ) -> ScanWalls: ...
-def scan_params_defaults() -> dict[str, Any]: ...
 
 _Array: TypeAlias = npt.NDArray[np.float64]
 _ArrayLike: TypeAlias = npt.NDArray[np.floating]
@@ -303,13 +297,10 @@ def monobot_simulate(
 def monobot_monte_carlo(
     model: str, runs: int, seed: int, config: dict[str, Any] | None = None
 ) -> MonobotErrors: ...
-def monobot_defaults() -> dict[str, Any]: ...
-def planar_defaults() -> dict[str, Any]: ...
 def config_schema(name: str) -> str: ...
 def config_defaults(name: str) -> dict[str, object]: ...
 def config_check(name: str, config: Mapping[str, object]) -> None: ...
 def config_names() -> list[str]: ...
-def planar_sim_defaults() -> dict[str, Any]: ...
 
 @final
 class SimulatedWorld:
@@ -697,7 +688,6 @@ class LaserRun:
     @property
     def rejected(self) -> tuple[int, int, int, int, int]: ...
 
-def laser_defaults() -> dict[str, Any]: ...
 def laser_run(
     ranges: npt.NDArray[np.float64],
     counts: npt.NDArray[np.int64],

@@ -9,12 +9,6 @@ use crate::errors::{Error, Result, detached};
 use crate::planar_py::{int_rows, rows};
 use laser::{LaserConfig, ScanLog};
 
-/// The default laser SLAM settings as a dict (nested by part).
-#[pyfunction]
-pub fn laser_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
-    Ok(serde_pyobject::to_pyobject(py, &LaserConfig::default())?)
-}
-
 fn poses(v: &[rperc_core::Pose2]) -> Vec<f64> {
     v.iter().flat_map(|p| [p.x, p.y, p.theta]).collect()
 }

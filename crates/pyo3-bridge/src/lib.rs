@@ -44,12 +44,10 @@ mod _rperc {
         pose_path_point, pose_transform_points, walls_to_world, wrap_angles,
     };
     #[pymodule_export]
-    use crate::laser_py::{
-        PyLaserRun, PyLaserScanPoints, laser_defaults, laser_run, laser_scan_points,
-    };
+    use crate::laser_py::{PyLaserRun, PyLaserScanPoints, laser_run, laser_scan_points};
     #[pymodule_export]
     use crate::linesimp_py::{
-        PyScanWalls, extract_lines, scan_params_defaults, simplify_indices, simplify_many_indices,
+        PyScanWalls, extract_lines, simplify_indices, simplify_many_indices,
         simplify_topology_indices,
     };
     #[pymodule_export]
@@ -61,15 +59,15 @@ mod _rperc {
     use crate::pattern_py::{PyPatternTracker, pattern_defaults, pattern_sequence};
     #[pymodule_export]
     use crate::planar_py::{
-        PyPlanarRun, PyPlanarStatistics, PySimulatedWorld, PySmoothedWalls, planar_defaults,
-        planar_sim_check, planar_sim_defaults, planar_sim_nees, planar_sim_slam_config,
-        planar_simulate, planar_slam_run, planar_smooth_walls, wall_straightness_covariance,
+        PyPlanarRun, PyPlanarStatistics, PySimulatedWorld, PySmoothedWalls, planar_sim_check,
+        planar_sim_nees, planar_sim_slam_config, planar_simulate, planar_slam_run,
+        planar_smooth_walls, wall_straightness_covariance,
     };
     #[pymodule_export]
     use crate::slam_py::{
         PyEkf, PyInformationSpectrum, PyKalmanUpdate, PyMonobotErrors, PyMonobotRun,
-        PyMonobotSummary, information_spectrum, monobot_defaults, monobot_monte_carlo,
-        monobot_observability_rank, monobot_simulate, monobot_summarize, nees_bounds,
+        PyMonobotSummary, information_spectrum, monobot_monte_carlo, monobot_observability_rank,
+        monobot_simulate, monobot_summarize, nees_bounds,
     };
     #[pymodule_export]
     use crate::template_py::{PyColorTemplateTracker, color_template_defaults};

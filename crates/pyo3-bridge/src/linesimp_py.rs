@@ -204,9 +204,3 @@ pub fn extract_lines<'py>(
         offsets: read_only(offsets.into_pyarray(py))?,
     })
 }
-
-/// The default wall-extraction parameters as a dict.
-#[pyfunction]
-pub fn scan_params_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
-    crate::config::defaults::<linesimp::ScanParams>(py)
-}

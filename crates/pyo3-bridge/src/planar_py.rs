@@ -14,12 +14,6 @@ use std::sync::Mutex;
 use crate::arrays::{float_vector, frozen_array, point_rows, read_only, shaped, tensor};
 use crate::errors::{Error, Result, detached, detached_parallel};
 
-/// The default planar SLAM configuration as a dict.
-#[pyfunction]
-pub fn planar_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
-    crate::config::defaults::<PlanarConfig>(py)
-}
-
 /// Reads an `(N, K)` float array named `name` as rows; `None` is no rows.
 pub(crate) fn rows<const K: usize>(
     obj: Option<&Bound<'_, PyAny>>,
@@ -341,12 +335,6 @@ impl PyPlanarStatistics {
             .collect();
         format!("PlanarStatistics({})", items.join(", "))
     }
-}
-
-/// The default simulated world (`slam::planar::sim::SimConfig`) as a dict.
-#[pyfunction]
-pub fn planar_sim_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
-    crate::config::defaults::<SimConfig>(py)
 }
 
 fn sim_config(obj: Option<&Bound<'_, PyAny>>) -> Result<SimConfig> {

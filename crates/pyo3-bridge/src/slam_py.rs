@@ -249,12 +249,6 @@ fn monobot_config(config: Option<&Bound<'_, PyAny>>) -> Result<MonobotConfig, Er
     Ok(config)
 }
 
-/// The default monobot configuration as a dict.
-#[pyfunction]
-pub fn monobot_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
-    crate::config::defaults::<MonobotConfig>(py)
-}
-
 /// One monobot run, frozen, arrays read-only: the true and estimated states `(k+1,
 /// d)` with the estimate's standard deviations, the measurements and innovations
 /// with their covariances, the Kalman gains, the predicted covariances, the NEES,

@@ -35,6 +35,7 @@ import numpy as np
 
 from rperc import _rperc
 from rperc._args import whole_number
+from rperc.config import LaserConfig
 
 #: The pipelines ``run_laser`` offers: the full one, scan matching without loop
 #: closures, and the simulated odometry alone (the baseline).
@@ -49,7 +50,7 @@ VARIANTS: dict[str, dict[str, Any]] = {
 def defaults() -> dict[str, Any]:
     """The pipeline's default settings, nested by part (scan, icp, local_map, loops,
     ...): what a ``config`` mapping overrides."""
-    return dict(_rperc.laser_defaults())
+    return LaserConfig().to_dict()
 
 
 def _merge(base: dict[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:

@@ -49,7 +49,7 @@ __all__ = [
 
 
 # The Rust config is the one source of the defaults.
-_DEFAULTS = _rperc.monobot_defaults()
+_DEFAULTS: dict[str, Any] = _rperc.config_defaults("monobot")
 
 
 def _noise(spec: Any) -> NoiseSpec:

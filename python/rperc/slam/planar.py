@@ -164,7 +164,7 @@ PRESETS: dict[str, dict[str, Any]] = {
 
 def defaults() -> dict[str, Any]:
     """The default configuration (from the Rust crate, the one place it lives)."""
-    return dict(_rperc.planar_defaults())
+    return PlanarConfig().to_dict()
 
 
 def _rows(a: npt.ArrayLike, k: int, name: str) -> npt.NDArray[np.float64]:
@@ -593,7 +593,7 @@ VARIANTS: dict[str, dict[str, Any]] = {
 def sim_defaults() -> dict[str, Any]:
     """The default simulated world (from the Rust crate): a robot driving laps of a
     circle among landmarks on two rings, with the noise levels the filter assumes."""
-    return dict(_rperc.planar_sim_defaults())
+    return SimConfig().to_dict()
 
 
 @dataclass(frozen=True)

@@ -135,7 +135,7 @@ class ScanWalls:
 def extract_lines(
     ranges: npt.NDArray[np.floating],
     angles: npt.NDArray[np.floating],
-    params: dict[str, Any] | None = None,
+    params: Mapping[str, object] | None = None,
 ) -> ScanWalls: ...
 
 _Array: TypeAlias = npt.NDArray[np.float64]
@@ -292,10 +292,10 @@ class MonobotSummary:
     def correlation(self) -> float: ...
 
 def monobot_simulate(
-    model: str, seed: int, run: int = 0, config: dict[str, Any] | None = None
+    model: str, seed: int, run: int = 0, config: Mapping[str, object] | None = None
 ) -> MonobotRun: ...
 def monobot_monte_carlo(
-    model: str, runs: int, seed: int, config: dict[str, Any] | None = None
+    model: str, runs: int, seed: int, config: Mapping[str, object] | None = None
 ) -> MonobotErrors: ...
 def config_schema(name: str) -> str: ...
 def config_defaults(name: str) -> dict[str, object]: ...
@@ -319,13 +319,13 @@ class SimulatedWorld:
     @property
     def landmarks(self) -> _Array: ...
 
-def planar_simulate(sim: dict[str, Any] | None, seed: int, run: int = 0) -> SimulatedWorld: ...
-def planar_sim_slam_config(sim: dict[str, Any] | None = None) -> dict[str, Any]: ...
+def planar_simulate(sim: Mapping[str, object] | None, seed: int, run: int = 0) -> SimulatedWorld: ...
+def planar_sim_slam_config(sim: Mapping[str, object] | None = None) -> dict[str, object]: ...
 def planar_sim_check(
-    sim: dict[str, Any] | None, slam: dict[str, Any] | None, runs: int
+    sim: Mapping[str, object] | None, slam: Mapping[str, object] | None, runs: int
 ) -> None: ...
 def planar_sim_nees(
-    sim: dict[str, Any] | None, slam: dict[str, Any] | None, seed: int, first: int, runs: int
+    sim: Mapping[str, object] | None, slam: Mapping[str, object] | None, seed: int, first: int, runs: int
 ) -> _Array: ...
 
 @final
@@ -392,7 +392,7 @@ def planar_slam_run(
     detections: npt.NDArray[np.float64],
     detection_ids: npt.NDArray[np.int64] | None = None,
     fixes: npt.NDArray[np.float64] | None = None,
-    config: dict[str, Any] | None = None,
+    config: Mapping[str, object] | None = None,
     walls: npt.NDArray[np.float64] | None = None,
     progress: Callable[[int, int], object] | None = None,
 ) -> PlanarRun: ...
@@ -433,8 +433,8 @@ def planar_smooth_walls(
     pairing: npt.NDArray[np.int64],
     map_id: npt.NDArray[np.int64],
     map_line: npt.NDArray[np.float64],
-    config: dict[str, Any] | None = None,
-    options: dict[str, Any] | None = None,
+    config: Mapping[str, object] | None = None,
+    options: Mapping[str, object] | None = None,
 ) -> SmoothedWalls: ...
 def monobot_summarize(
     nees: _ArrayLike,
@@ -571,9 +571,9 @@ def walls_to_world(rho: _ArrayLike, alpha: _ArrayLike, pose: _ArrayLike) -> Worl
 class CeilingWorld:
     def __new__(
         cls,
-        ceiling: dict[str, Any] | None = None,
-        camera: dict[str, Any] | None = None,
-        render: dict[str, Any] | None = None,
+        ceiling: Mapping[str, object] | None = None,
+        camera: Mapping[str, object] | None = None,
+        render: Mapping[str, object] | None = None,
     ) -> CeilingWorld: ...
     def render(
         self, poses: npt.NDArray[np.float64], first_frame: int = 0
@@ -595,7 +595,7 @@ def ceiling_drive(
     start: npt.NDArray[np.float64],
     commands: npt.NDArray[np.float64],
     dt: float,
-    noise: dict[str, Any] | None = None,
+    noise: Mapping[str, object] | None = None,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
 def ceiling_defaults() -> tuple[dict[str, Any], dict[str, Any], dict[str, Any], dict[str, Any]]: ...
 
@@ -641,14 +641,14 @@ def visual_memory_learn(
     start: npt.NDArray[np.float64],
     commands: npt.NDArray[np.float64],
     dt: float,
-    config: dict[str, Any] | None = None,
+    config: Mapping[str, object] | None = None,
     seed: int = 0,
 ) -> MemoryLearning: ...
 def visual_memory_replay(
     world: CeilingWorld,
     memory: str,
     start: npt.NDArray[np.float64],
-    config: dict[str, Any] | None = None,
+    config: Mapping[str, object] | None = None,
     seed: int = 0,
 ) -> MemoryReplay: ...
 def visual_memory_defaults() -> tuple[dict[str, Any], dict[str, Any]]: ...

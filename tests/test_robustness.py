@@ -190,7 +190,8 @@ FUZZ_REPRODUCERS = [
     ),
     ("extract_lines(np.ones(5), np.arange(5.0), min_range=None)", ValueError, "min_range"),
     ("extract_lines(np.ones(5), np.arange(5.0), sigma_range=1e300)", ValueError, "sigma_range"),
-    ("monobot.simulate(landmarks=float('nan'))", ValueError, "landmarks must be"),
+    # A float where the Rust config holds a count: serde's type error, naming it.
+    ("monobot.simulate(landmarks=float('nan'))", TypeError, "landmarks: Invalid type"),
     ("monobot.observability_rank(landmarks=-1)", ValueError, "landmarks must be"),
     ("monobot.observability_rank(landmarks=2**64)", ValueError, "landmarks must be"),
     ("monobot.simulate(landmarks=2, steps=2**31)", MemoryError, "'landmarks and steps'"),

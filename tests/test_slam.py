@@ -160,7 +160,6 @@ def test_dask_executor_path():
     [
         ({"landmarks": 0}, ValueError, "landmarks"),
         ({"plant_noise": ("proportional", -0.1)}, ValueError, "plant_noise"),
-        ({"config": monobot.MonobotConfig(start=float("nan"))}, ValueError, "start"),
         ({"measurement_noise": ("gaussian", 1.0)}, ValueError, "measurement_noise"),
         ({"model": "magic"}, ValueError, "model"),
         ({"bogus": 1}, TypeError, "bogus"),
@@ -169,6 +168,15 @@ def test_dask_executor_path():
 def test_bad_monobot_input(kwargs, exc, message):
     with pytest.raises(exc, match=message):
         monobot.simulate(**kwargs)
+
+
+def test_a_bad_monobot_config_is_refused_when_made_and_the_old_constructor_warns():
+    # The config class is generated from the Rust struct, which checks it (issue 36).
+    with pytest.raises(ValueError, match="start"):
+        monobot.MonobotConfig(start=float("nan"))
+    with pytest.warns(DeprecationWarning, match="monobot.unit_noise"):
+        old = monobot.MonobotConfig.unit_noise(3)  # type: ignore[attr-defined]
+    assert old == monobot.unit_noise(3) and old.plant_noise == ("constant", 1.0)
 
 
 def test_a_monobot_monte_carlo_beyond_memory_is_refused_naming_runs():

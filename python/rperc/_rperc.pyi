@@ -319,13 +319,19 @@ class SimulatedWorld:
     @property
     def landmarks(self) -> _Array: ...
 
-def planar_simulate(sim: Mapping[str, object] | None, seed: int, run: int = 0) -> SimulatedWorld: ...
+def planar_simulate(
+    sim: Mapping[str, object] | None, seed: int, run: int = 0
+) -> SimulatedWorld: ...
 def planar_sim_slam_config(sim: Mapping[str, object] | None = None) -> dict[str, object]: ...
 def planar_sim_check(
     sim: Mapping[str, object] | None, slam: Mapping[str, object] | None, runs: int
 ) -> None: ...
 def planar_sim_nees(
-    sim: Mapping[str, object] | None, slam: Mapping[str, object] | None, seed: int, first: int, runs: int
+    sim: Mapping[str, object] | None,
+    slam: Mapping[str, object] | None,
+    seed: int,
+    first: int,
+    runs: int,
 ) -> _Array: ...
 
 @final

@@ -20,7 +20,7 @@ def _fisher_figure(out: Path, seed: int, details: list[str]) -> Path:
     from rperc.plot.monobot import fisher_figure
 
     fig3 = [
-        monobot.simulate(model="relative", seed=seed, config=monobot.MonobotConfig.unit_noise(n))
+        monobot.simulate(model="relative", seed=seed, config=monobot.unit_noise(n))
         for n in progress(FIG3_LANDMARKS, desc="monobot Fig. 3", unit="run")
     ]
     details.append("Fig. 3, J[0,0] after 100 iterations (P0 = V = W = 1):")

@@ -21,17 +21,20 @@ Examples
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterable
 from concurrent.futures import Executor
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
-from rperc._args import excerpt, whole_number
+from rperc._args import whole_number
+from rperc._config_base import as_config
 from rperc._progress import progress as _progress
+from rperc.config import MonobotConfig
 
 Model = Literal["relative", "anchor", "external"]
 NoiseSpec = tuple[Literal["constant", "proportional"], float]
@@ -48,76 +51,37 @@ __all__ = [
 ]
 
 
-# The Rust config is the one source of the defaults.
-_DEFAULTS: dict[str, Any] = _rperc.config_defaults("monobot")
+def unit_noise(landmarks: int, steps: int = 100) -> MonobotConfig:
+    """Fig. 3's setting: ``P0 = V = W = 1``."""
+    return MonobotConfig(
+        landmarks=landmarks,
+        steps=steps,
+        initial_variance=1.0,
+        plant_noise=("constant", 1.0),
+        measurement_noise=("constant", 1.0),
+        reference_noise=("constant", 1.0),
+    )
 
 
-def _noise(spec: Any) -> NoiseSpec:
-    kind, value = spec
-    return (kind, float(value))
+def _unit_noise_deprecated(landmarks: int, steps: int = 100) -> MonobotConfig:
+    warnings.warn(
+        "MonobotConfig.unit_noise is deprecated; use rperc.slam.monobot.unit_noise",
+        DeprecationWarning,
+        stacklevel=2,
+    )
+    return unit_noise(landmarks, steps)
 
 
-_PLANT_NOISE = _noise(_DEFAULTS["plant_noise"])
-_MEASUREMENT_NOISE = _noise(_DEFAULTS["measurement_noise"])
-_REFERENCE_NOISE = _noise(_DEFAULTS["reference_noise"])
-
-
-@dataclass(frozen=True)
-class MonobotConfig:
-    """The experiment; the defaults are the paper's run (Figs. 4 to 6).
-
-    - ``landmarks``: how many, all at ``landmark_position`` (m);
-    - ``steps``: iterations after the first observation (the paper: 100);
-    - the robot follows ``start + amplitude (1 - cos(2 pi k / steps)) / 2`` (m) and
-      starts with variance ``initial_variance`` (m^2, > 0);
-    - noise models are ``("constant", variance)`` or ``("proportional", k)``, the latter
-      a standard deviation ``k * length + noise_floor`` (m): the motion command for the
-      plant (eq. 19), the nominal distance for the landmark sensor and for the reference
-      observation of the anchor (eq. 20) or external sensor (eq. 23)."""
-
-    landmarks: int = _DEFAULTS["landmarks"]
-    steps: int = _DEFAULTS["steps"]
-    start: float = _DEFAULTS["start"]
-    amplitude: float = _DEFAULTS["amplitude"]
-    landmark_position: float = _DEFAULTS["landmark_position"]
-    initial_variance: float = _DEFAULTS["initial_variance"]
-    plant_noise: NoiseSpec = _PLANT_NOISE
-    measurement_noise: NoiseSpec = _MEASUREMENT_NOISE
-    reference_noise: NoiseSpec = _REFERENCE_NOISE
-    noise_floor: float = _DEFAULTS["noise_floor"]
-
-    @staticmethod
-    def unit_noise(landmarks: int, steps: int = 100) -> MonobotConfig:
-        """Fig. 3's setting: ``P0 = V = W = 1``."""
-        return MonobotConfig(
-            landmarks=landmarks,
-            steps=steps,
-            initial_variance=1.0,
-            plant_noise=("constant", 1.0),
-            measurement_noise=("constant", 1.0),
-            reference_noise=("constant", 1.0),
-        )
-
-    def kwargs(self) -> dict[str, Any]:
-        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+# The config class is generated from the Rust struct (rperc.config); the old static
+# constructor stays for one release.
+setattr(MonobotConfig, "unit_noise", staticmethod(_unit_noise_deprecated))  # noqa: B010
 
 
 def _config(config: MonobotConfig | None, overrides: dict[str, Any]) -> MonobotConfig:
-    """``config`` (default: the paper's run) with the given fields replaced, checked."""
-    base = config if config is not None else MonobotConfig()
-    cfg = replace(base, **{k: v for k, v in overrides.items() if v is not None})
-    for name in ("landmarks", "steps"):
-        whole_number(getattr(cfg, name), name, 1)
-    for name in ("plant_noise", "measurement_noise", "reference_noise"):
-        spec = getattr(cfg, name)
-        if not isinstance(spec, (tuple, list)) or len(spec) != 2 or spec[0] not in _NOISE_KINDS:
-            raise ValueError(
-                f"{name} must be ('constant', variance) or ('proportional', k), got {excerpt(spec)}"
-            )
-    return cfg
-
-
-_NOISE_KINDS = ("constant", "proportional")
+    """``config`` (default: the paper's run) with the given fields replaced; the Rust
+    crate checks it (rperc.config)."""
+    given = {k: v for k, v in overrides.items() if v is not None}
+    return as_config(MonobotConfig, config, given)
 
 
 @dataclass(frozen=True, repr=False)
@@ -189,7 +153,7 @@ def simulate(
             "reference_noise": reference_noise,
         },
     )
-    r = _rperc.monobot_simulate(model, _seed(seed), 0, cfg.kwargs())
+    r = _rperc.monobot_simulate(model, _seed(seed), 0, cfg.to_dict())
     return MonobotResult(
         model=model, config=cfg, seed=seed, truth=r.truth, estimate=r.estimate, std=r.std,
         initial_measurement=r.initial_measurement, measurement=r.measurement,
@@ -303,12 +267,12 @@ def monte_carlo(
         if progress:
             batch = _progress(batch, desc=f"monobot {model}, {runs} runs (rayon)", unit="batch")
         for n in batch:
-            e = _rperc.monobot_monte_carlo(model, n, seed, cfg.kwargs())
+            e = _rperc.monobot_monte_carlo(model, n, seed, cfg.to_dict())
             nees, robot, first = e.nees, e.robot_error, e.first_observation_error
             lm = e.landmark_error
     else:
-        _rperc.monobot_simulate(model, seed, 0, {**cfg.kwargs(), "steps": 1})  # validate early
-        kwargs = cfg.kwargs()
+        _rperc.monobot_simulate(model, seed, 0, {**cfg.to_dict(), "steps": 1})  # validate early
+        kwargs = cfg.to_dict()
         futures = [executor.submit(_run_errors, model, seed, i, kwargs) for i in range(runs)]
         done = _progress(futures, desc=f"monobot {model}", unit="run") if progress else futures
         results = [f.result() for f in done]

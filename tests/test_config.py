@@ -122,3 +122,18 @@ def test_functions_take_a_config_or_a_dict_of_its_fields_alike() -> None:
     assert mc.runs == 2 and mc.sim["steps"] == 30 and mc.slam["anchor"] is True
     with pytest.raises(ValueError, match="radius"):
         simulate(SimConfig(radius=-1.0))
+
+
+def test_the_remembered_native_dict_equals_a_fresh_check_and_still_refuses() -> None:
+    from rperc._config_base import as_config, native_config
+    from rperc.config import ScanParams
+
+    for config, over in [(None, {}), (None, {"min_points": 3}), ({"min_length": 0.5}, {})]:
+        fresh = as_config(ScanParams, config, over).to_dict()
+        assert native_config(ScanParams, config, over) == fresh
+        assert native_config(ScanParams, config, over) == fresh  # from the cache
+    for _ in range(2):  # errors are not remembered as answers
+        with pytest.raises(ValueError, match="split_epsilon"):
+            native_config(ScanParams, None, {"split_epsilon": -1.0})
+    got = native_config(PlanarConfig, {"fix_lever_arm": [1.0, 2.0]}, {})  # unhashable
+    assert got["fix_lever_arm"] == [1.0, 2.0]

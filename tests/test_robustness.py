@@ -183,12 +183,13 @@ def test_negative_counts_name_the_parameter():
 # Reproducers the fuzz suite (tests/fuzz) found; each used to give a message naming
 # nothing, a caught Rust panic, or a silently wrong answer.
 FUZZ_REPRODUCERS = [
+    # Wrong types for the Rust config's fields: serde's TypeError, naming the field.
     (
         "extract_lines(np.ones(5), np.arange(5.0), min_points=float('nan'))",
-        ValueError,
-        "min_points must be",
+        TypeError,
+        "min_points: Invalid type",
     ),
-    ("extract_lines(np.ones(5), np.arange(5.0), min_range=None)", ValueError, "min_range"),
+    ("extract_lines(np.ones(5), np.arange(5.0), min_range=None)", TypeError, "min_range"),
     ("extract_lines(np.ones(5), np.arange(5.0), sigma_range=1e300)", ValueError, "sigma_range"),
     # A float where the Rust config holds a count: serde's type error, naming it.
     ("monobot.simulate(landmarks=float('nan'))", TypeError, "landmarks: Invalid type"),

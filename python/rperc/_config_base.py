@@ -6,9 +6,10 @@ construction, made by the Rust crate that owns the config (its serde reader and
 from __future__ import annotations
 
 import dataclasses
+import functools
 import sys
-from collections.abc import Mapping
-from typing import Any, ClassVar, TypeVar
+from collections.abc import Hashable, Mapping
+from typing import Any, ClassVar, TypeVar, cast
 
 from rperc import _rperc
 from rperc._args import excerpt
@@ -72,6 +73,28 @@ def as_config(
     else:
         base = dict(config or {})
     return cls.from_dict({**base, **(overrides or {})})
+
+
+def native_config(
+    cls: type[C], config: C | Mapping[str, Any] | None, overrides: Mapping[str, Any]
+) -> dict[str, Any]:
+    """``as_config(cls, config, overrides).to_dict()``, the dict the native layer reads,
+    remembered for hashable inputs: on a hot path (one call per laser scan) a setting
+    is checked once, not at every call (the check costs as much as a small scan)."""
+    given = config if config is None or isinstance(config, Config) else tuple(config.items())
+    changes = tuple(overrides.items())
+    try:
+        hash((given, changes))
+    except TypeError:  # a list or dict among the values
+        return as_config(cls, config, overrides).to_dict()
+    return dict(_remembered(cast("Hashable", cls), given, changes))
+
+
+@functools.lru_cache(maxsize=64)
+def _remembered(cls: Hashable, given: object, overrides: tuple[Any, ...]) -> dict[str, Any]:
+    config = dict(given) if isinstance(given, tuple) else given
+    made: Config = as_config(cast("type[Config]", cls), cast("Any", config), dict(overrides))
+    return made.to_dict()
 
 
 def _union_of(owner: type[Config], f: dataclasses.Field[Any]) -> type[Config] | None:

@@ -28,16 +28,21 @@ end points, also when closed. Polygon rings and LinearRings follow GEOS:
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal, NamedTuple, overload
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple, overload
 
 import numpy as np
 import numpy.typing as npt
 
 from rperc import _geo, _rperc
 from rperc._args import excerpt, float_array, real_number, whole_number
+from rperc._config_base import native_config
+from rperc.config import ScanParams, ScanParamsOverrides
 from rperc.pose import to_world as pose_to_world
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
 
 Method = Literal["auto", "hull", "dp", "vw"]
 Metric = Literal["line", "segment"]
@@ -446,17 +451,8 @@ def _pose_covariance(pose_cov: npt.ArrayLike | None) -> np.ndarray | None:
 def extract_lines(
     ranges: npt.ArrayLike,
     angles: npt.ArrayLike,
-    *,
-    min_range: float = 0.0,
-    max_range: float = math.inf,
-    sigma_range: float = 0.01,
-    sigma_bearing: float = 0.0,
-    breakpoint_lambda: float = math.radians(10.0),
-    split_epsilon: float = 0.05,
-    merge_confidence: float = 0.99,
-    min_points: int = 6,
-    min_length: float = 0.3,
-    model_error: bool = True,
+    config: ScanParams | Mapping[str, Any] | None = None,
+    **overrides: Unpack[ScanParamsOverrides],
 ) -> WallSegments:
     """Extract walls (line segments) from one 2-D laser scan.
 
@@ -472,26 +468,14 @@ def extract_lines(
     ranges, angles:
         1-D arrays of equal length: reading ``k`` measures ``ranges[k]`` metres along
         bearing ``angles[k]`` radians, in the sensor frame, bearings increasing.
-    min_range, max_range:
-        Readings ``<= min_range`` (0 included), ``>= max_range`` (no return) or NaN
-        are invalid and skipped.
-    sigma_range, sigma_bearing:
-        Standard deviations of the range (m) and bearing (rad) noise.
-    breakpoint_lambda:
-        Smallest beam incidence angle (rad) on one surface, the breakpoint
-        detector's lambda; bearing gaps wider than it always split.
-    split_epsilon:
-        Iterative end-point fit splits at points farther than this from the chord (m).
-    merge_confidence:
-        Neighbouring lines merge when the Mahalanobis distance of their difference is
-        below the chi-square (2 dof) quantile of this confidence, in (0, 1).
-    min_points, min_length:
-        Walls with fewer readings (>= 2) or shorter than this (m) are dropped.
-    model_error:
-        Inflate a wall's covariance when its fit residuals show more scatter, or more
-        correlation from reading to reading, than the noise explains (a rough or bent
-        wall, range quantisation, noise above its sigma); both tested at 95 %, so
-        walls whose residuals are plain noise keep the propagated covariance.
+    config:
+        The settings, a :class:`rperc.config.ScanParams` (each field documented
+        there, with its default) or a dict of its fields.
+    **overrides:
+        Fields of :class:`~rperc.config.ScanParams` to change, as keywords
+        (``min_range``, ``max_range``, ``sigma_range``, ``sigma_bearing``,
+        ``breakpoint_lambda``, ``split_epsilon``, ``merge_confidence``,
+        ``min_points``, ``min_length``, ``model_error``).
 
     Returns
     -------
@@ -520,18 +504,7 @@ def extract_lines(
     a = _float_array(angles, "angles")
     if r.ndim != 1 or a.ndim != 1:
         raise ValueError(f"ranges and angles must be 1-D, got shapes {r.shape} and {a.shape}")
-    params = {
-        "min_range": real_number(min_range, "min_range"),
-        "max_range": real_number(max_range, "max_range"),
-        "sigma_range": real_number(sigma_range, "sigma_range"),
-        "sigma_bearing": real_number(sigma_bearing, "sigma_bearing"),
-        "breakpoint_lambda": real_number(breakpoint_lambda, "breakpoint_lambda"),
-        "split_epsilon": real_number(split_epsilon, "split_epsilon"),
-        "merge_confidence": real_number(merge_confidence, "merge_confidence"),
-        "min_points": _count(min_points, "min_points"),
-        "min_length": real_number(min_length, "min_length"),
-        "model_error": _flag(model_error, "model_error"),
-    }
+    params = native_config(ScanParams, config, overrides)
     w = _rperc.extract_lines(r, a, params)
     return WallSegments(
         rho=w.rho, alpha=w.alpha, cov=w.cov, start=w.start, end=w.end,

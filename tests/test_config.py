@@ -137,3 +137,14 @@ def test_the_remembered_native_dict_equals_a_fresh_check_and_still_refuses() -> 
             native_config(ScanParams, None, {"split_epsilon": -1.0})
     got = native_config(PlanarConfig, {"fix_lever_arm": [1.0, 2.0]}, {})  # unhashable
     assert got["fix_lever_arm"] == [1.0, 2.0]
+
+
+def test_the_smoother_takes_its_config_class_and_refuses_a_bad_one_naming_it() -> None:
+    from rperc.config import SmootherConfig
+    from rperc.slam.smoothing import smooth_walls
+
+    # The check comes before any smoothing: a result without walls is not even read.
+    with pytest.raises(ValueError, match="max_iterations"):
+        smooth_walls(None, [], [], [0.0], max_iterations=0)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="tolerance"):
+        smooth_walls(None, [], [], [0.0], SmootherConfig(tolerance=-1.0))  # type: ignore[arg-type]

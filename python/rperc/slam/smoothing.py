@@ -21,14 +21,20 @@ True
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
+from rperc._config_base import as_config
+from rperc.config import SmootherConfig, SmootherConfigOverrides
 from rperc.slam.planar import SlamResult
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
 
 __all__ = ["SmoothedRun", "smooth_walls"]
 
@@ -68,17 +74,18 @@ def smooth_walls(
     controls: npt.ArrayLike,
     walls: npt.ArrayLike,
     times: npt.ArrayLike,
-    *,
-    max_iterations: int = 100,
-    tolerance: float = 1e-9,
+    config: SmootherConfig | Mapping[str, Any] | None = None,
+    **overrides: Unpack[SmootherConfigOverrides],
 ) -> SmoothedRun:
     """Smooths the run ``result`` of :meth:`PlanarSlam.run_arrays` given the same
     ``controls`` and ``walls`` rows: one pose at each of ``times`` (increasing; the
     first the run's first event, where the config's initial pose holds; every wall
     row's time among them), starting from the filter's pose there and its final
-    walls, with its association (``result.wall_pairing``) and its config. Stops after
-    ``max_iterations`` or when a step lowers the cost by less than the fraction
-    ``tolerance``."""
+    walls, with its association (``result.wall_pairing``) and its config. ``config``
+    (a :class:`rperc.config.SmootherConfig` or a dict of its fields) and keyword
+    overrides of its fields set when it stops: after ``max_iterations`` or when a step
+    lowers the cost by less than the fraction ``tolerance``."""
+    options = as_config(SmootherConfig, config, overrides).to_dict()
     if result.walls is None or result.wall_pairing is None:
         raise ValueError("result has no walls: run PlanarSlam.run_arrays with walls=")
     t = np.ascontiguousarray(times, dtype=np.float64)
@@ -93,7 +100,6 @@ def smooth_walls(
             f"times[0] must be the run's first event time {result.t[0]!r} (where the "
             f"start prior holds), got {t[0]!r}"
         )
-    options: dict[str, Any] = {"max_iterations": max_iterations, "tolerance": tolerance}
     out = _rperc.planar_smooth_walls(
         np.ascontiguousarray(controls, dtype=np.float64),
         t,

@@ -25,42 +25,19 @@ fn check_size(len: usize, width: usize, height: usize, channels: usize) -> Resul
     Ok(())
 }
 
-/// A borrowed 8-bit grey image, row-major and contiguous.
+/// A borrowed 8-bit image of `C` channels, row-major and contiguous: the layout of
+/// an `H x W` (`C = 1`) or `H x W x C` uint8 numpy array.
 #[derive(Debug, Clone, Copy)]
-pub struct GrayView<'a> {
+pub struct ImageView<'a, const C: usize> {
     data: &'a [u8],
     width: usize,
     height: usize,
 }
 
-impl<'a> GrayView<'a> {
-    /// Wraps `data` (`width * height` bytes) without copying.
-    pub fn new(data: &'a [u8], width: usize, height: usize) -> Result<Self> {
-        check_size(data.len(), width, height, 1)?;
-        Ok(Self {
-            data,
-            width,
-            height,
-        })
-    }
+/// A borrowed 8-bit grey image.
+pub type GrayView<'a> = ImageView<'a, 1>;
 
-    /// Width in pixels.
-    pub fn width(&self) -> usize {
-        self.width
-    }
-
-    /// Height in pixels.
-    pub fn height(&self) -> usize {
-        self.height
-    }
-
-    /// The raw bytes, row by row.
-    pub fn data(&self) -> &'a [u8] {
-        self.data
-    }
-}
-
-/// A borrowed 8-bit RGB image, row-major and contiguous (`R G B R G B ...`).
+/// A borrowed 8-bit RGB image (`R G B R G B ...`).
 ///
 /// # Examples
 /// ```
@@ -71,17 +48,12 @@ impl<'a> GrayView<'a> {
 /// assert_eq!((frame.width(), frame.height()), (4, 3));
 /// assert!(RgbView::new(&pixels, 5, 3).is_err());
 /// ```
-#[derive(Debug, Clone, Copy)]
-pub struct RgbView<'a> {
-    data: &'a [u8],
-    width: usize,
-    height: usize,
-}
+pub type RgbView<'a> = ImageView<'a, 3>;
 
-impl<'a> RgbView<'a> {
-    /// Wraps `data` (`width * height * 3` bytes) without copying.
+impl<'a, const C: usize> ImageView<'a, C> {
+    /// Wraps `data` (`width * height * C` bytes) without copying.
     pub fn new(data: &'a [u8], width: usize, height: usize) -> Result<Self> {
-        check_size(data.len(), width, height, 3)?;
+        check_size(data.len(), width, height, C)?;
         Ok(Self {
             data,
             width,
@@ -99,14 +71,14 @@ impl<'a> RgbView<'a> {
         self.height
     }
 
-    /// The raw bytes, `R G B R G B ...` row by row.
+    /// The raw bytes, row by row (channels interleaved).
     pub fn data(&self) -> &'a [u8] {
         self.data
     }
 
-    /// Row `y` as `width * 3` bytes.
+    /// Row `y` as `width * C` bytes.
     pub fn row(&self, y: usize) -> &'a [u8] {
-        &self.data[y * self.width * 3..(y + 1) * self.width * 3]
+        &self.data[y * self.width * C..(y + 1) * self.width * C]
     }
 }
 

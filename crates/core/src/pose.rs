@@ -136,19 +136,8 @@ impl Pose2 {
     /// `self (+) other` with `d/d self` and `d/d other`.
     pub fn compose_with_jacobians(&self, other: &Pose2) -> (Pose2, Matrix3<f64>, Matrix3<f64>) {
         let dr = self.rotation_derivative() * other.translation();
-        let j_self = Matrix3::new(1.0, 0.0, dr.x, 0.0, 1.0, dr.y, 0.0, 0.0, 1.0);
-        let r = self.rotation();
-        let j_other = Matrix3::new(
-            r[(0, 0)],
-            r[(0, 1)],
-            0.0,
-            r[(1, 0)],
-            r[(1, 1)],
-            0.0,
-            0.0,
-            0.0,
-            1.0,
-        );
+        let j_self = block(&Matrix2::identity(), dr, 1.0);
+        let j_other = block(&self.rotation(), Vector2::zeros(), 1.0);
         (self.compose(other), j_self, j_other)
     }
 
@@ -177,28 +166,8 @@ impl Pose2 {
         let rt = self.rotation().transpose();
         let d = other.translation() - self.translation();
         let dth = self.rotation_derivative().transpose() * d;
-        let j_self = Matrix3::new(
-            -rt[(0, 0)],
-            -rt[(0, 1)],
-            dth.x,
-            -rt[(1, 0)],
-            -rt[(1, 1)],
-            dth.y,
-            0.0,
-            0.0,
-            -1.0,
-        );
-        let j_other = Matrix3::new(
-            rt[(0, 0)],
-            rt[(0, 1)],
-            0.0,
-            rt[(1, 0)],
-            rt[(1, 1)],
-            0.0,
-            0.0,
-            0.0,
-            1.0,
-        );
+        let j_self = block(&-rt, dth, -1.0);
+        let j_other = block(&rt, Vector2::zeros(), 1.0);
         (self.between(other), j_self, j_other)
     }
 
@@ -240,6 +209,23 @@ impl Pose2 {
         );
         (self.inverse_transform_point(p), j_pose, rt)
     }
+}
+
+/// The 3x3 Jacobian `[[m, c], [0 0, s]]` of a planar pose map: the 2x2 block `m` on the
+/// translation, the column `c` the translation takes from the heading, and the
+/// heading's own factor `s`.
+fn block(m: &Matrix2<f64>, c: Vector2<f64>, s: f64) -> Matrix3<f64> {
+    Matrix3::new(
+        m[(0, 0)],
+        m[(0, 1)],
+        c.x,
+        m[(1, 0)],
+        m[(1, 1)],
+        c.y,
+        0.0,
+        0.0,
+        s,
+    )
 }
 
 #[cfg(test)]

@@ -19,6 +19,9 @@ from rperc._atomic import write_text_atomically
 
 #: The Python class of each native config, by the name ``config_schema`` takes.
 CLASS_NAMES = {
+    "color_histogram": "ColorHistogramConfig",
+    "color_shape": "ColorShapeConfig",
+    "particle_color": "ParticleColorConfig",
     "laser": "LaserConfig",
     "laser_scan": "ScanConfig",
     "monobot": "MonobotConfig",
@@ -176,7 +179,7 @@ def _array(module: Module, schema: dict[str, Any]) -> str:
 def _named(module: Module, name: str, schema: dict[str, Any]) -> str:
     """A named type: a string enum becomes its Literal, a struct its class, a tagged
     union (serde's externally tagged enum) a base class with one class per variant."""
-    if "enum" in schema or schema.get("type") == "array":
+    if "oneOf" not in schema and schema.get("type") != "object":  # a Literal, tuple, number
         return _annotation(module, {k: v for k, v in schema.items() if k != "description"})
     if "oneOf" in schema:
         _union(module, name, schema)

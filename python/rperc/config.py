@@ -16,6 +16,16 @@ from rperc._config_base import Config
 __all__ = [
     "Ackermann",
     "AckermannOverrides",
+    "AppearanceParams",
+    "AppearanceParamsOverrides",
+    "ColorDynamics",
+    "ColorDynamicsOverrides",
+    "ColorHistogramConfig",
+    "ColorHistogramConfigOverrides",
+    "ColorShapeConfig",
+    "ColorShapeConfigOverrides",
+    "FilterParams",
+    "FilterParamsOverrides",
     "IcpConfig",
     "IcpConfigOverrides",
     "LaserConfig",
@@ -27,6 +37,8 @@ __all__ = [
     "MonobotConfig",
     "MonobotConfigOverrides",
     "MotionModel",
+    "ParticleColorConfig",
+    "ParticleColorConfigOverrides",
     "PlanarConfig",
     "PlanarConfigOverrides",
     "ScanConfig",
@@ -107,6 +119,432 @@ class AckermannOverrides(TypedDict, total=False):
     laser_left: float
     speed_variance: float
     steering_variance: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class AppearanceParams(Config):
+    """The appearance part of a tracker's parameters: colour space, bins, model and its
+    adaptation, and the gradient term. Defaults are the values tuned on OTB Girl + Couple.
+
+    Attributes:
+        color_space: Colour space of the histograms. Default [`ColorSpace::Hsv`] (best on
+            OTB Girl + Couple; the seed's [`ColorSpace::Opponent`] scores lower there).
+        bins: Bins per axis, 1..=64 each. Default `[8, 8, 4]` (finer chroma than intensity).
+        model: Single or bimodal model. Default bimodal.
+        upper_fraction: Fraction of the ellipse's rows in the upper part of a bimodal model,
+            in (0, 1). Default 0.4.
+        adaptation_rate: `a` of eq. (29), in [0, 1]: weight of the new candidate when
+            adapting the model. Default 0.03. 0 disables adaptation.
+        adaptation_threshold: Eq. (29) is applied only when the intersection eq. (28)
+            exceeds this, in [0, 1]. Default 0.7.
+        gradient_weight: Weight of Birchfield's perimeter-gradient term relative to the
+            colour term, >= 0. Default 0.7. 0 skips the gradient computation entirely.
+        lost_threshold: Below this intersection the target is reported lost, in [0, 1].
+            Default 0.3.
+    """
+
+    color_space: Literal["rgb", "opponent", "rg", "hsv"] = "hsv"
+    bins: tuple[int, int, int] = (8, 8, 4)
+    model: Literal["single", "bimodal"] = "bimodal"
+    upper_fraction: float = 0.4
+    adaptation_rate: float = 0.03
+    adaptation_threshold: float = 0.7
+    gradient_weight: float = 0.7
+    lost_threshold: float = 0.3
+
+
+class AppearanceParamsOverrides(TypedDict, total=False):
+    """The fields of :class:`AppearanceParams`, for keyword arguments."""
+
+    color_space: Literal["rgb", "opponent", "rg", "hsv"]
+    bins: tuple[int, int, int]
+    model: Literal["single", "bimodal"]
+    upper_fraction: float
+    adaptation_rate: float
+    adaptation_threshold: float
+    gradient_weight: float
+    lost_threshold: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class ColorHistogramConfig(Config):
+    """Parameters of a [`ColorHistogramTracker`]. The appearance defaults were tuned on OTB
+    Girl and Couple; the search, lost and scale defaults added since were set on the seeded
+    synthetic sequences and Couple only, with Girl held out.
+
+    Attributes:
+        appearance: Colour model, adaptation and gradient term.
+        search_radius: Half-size of the square search window of centre positions when the
+            target is still, in pixels. Default 10.
+        velocity_gain: The window grows by this times the estimated speed (px per frame, an
+            average of the last displacements), so fast motion stays inside it. Default 1.5;
+            0 keeps it at `search_radius`.
+        max_search_radius: Largest half-size of the window, whether grown by speed or while
+            the target is lost (it doubles every lost frame), >= `search_radius`, <= 512.
+            Default 60.
+        lost_ratio: The target is lost when the intersection falls below this fraction of
+            its running average over confident frames (as well as below
+            `appearance.lost_threshold`), in [0, 1]. Default 0 (off): on the challenge
+            sequences and Couple it froze the box on fast motion (0.6 gave 8 lost frames on
+            fast-1, 7 of them caused by the freeze) and caught no loss the contrast test
+            missed.
+        lost_contrast: The target is lost when its foreground contrast (mean foreground
+            probability inside the box minus that in the ring around it) falls below this,
+            in [-1, 1]. Default 0.05.
+        ring_weight: Weight of the foreground contrast against the background ring when the
+            three scales compete, >= 0. Default 0.5; 0 leaves the scale to the intersection.
+        scale_prior: Weight of the prior `(ln(s / s_confident))^2` that keeps the scale near
+            its value at the last confident frame, >= 0. Default 20: a 4 % step then costs
+            0.03 of a score range of 1 + `gradient_weight`, enough to stop the perimeter
+            gradient from pulling the box out to a stronger edge around the target (a
+            synthetic white ring 1.4-1.7x the target's radius: scale 1.27 with 2, 1.0 with
+            20) while a target that doubles in 60 frames is still followed.
+        scale_step: Relative scale step: each frame tries `s / (1 + step)`, `s`, `s * (1 +
+            step)`. Default 0.04; 0 keeps the initial size.
+        min_scale: Smallest scale relative to the initial box, > 0. Default 0.5.
+        max_scale: Largest scale relative to the initial box, >= `min_scale`. Default 2.0.
+        momentum: Constant-velocity prediction: the search is centred on `centre + momentum
+            * (last displacement)`, momentum in [0, 1]. Default 0.5.
+        pyramid: Search at half resolution first (a 2 x 2-averaged frame: a quarter of the
+            positions, each a quarter of the pixels), then refine the best position over the
+            4 x 4 full-resolution centres it stands for, at its scale. Used while both semi-
+            axes are at least 8 pixels. Default `true`.
+        parallel: Search the three scales in parallel with rayon (default `true`); results
+            are the same either way.
+    """
+
+    _native: ClassVar[str] = "color_histogram"
+    appearance: AppearanceParams = field(default_factory=AppearanceParams)
+    search_radius: int = 10
+    velocity_gain: float = 1.5
+    max_search_radius: int = 60
+    lost_ratio: float = 0.0
+    lost_contrast: float = 0.05
+    ring_weight: float = 0.5
+    scale_prior: float = 20.0
+    scale_step: float = 0.04
+    min_scale: float = 0.5
+    max_scale: float = 2.0
+    momentum: float = 0.5
+    pyramid: bool = True
+    parallel: bool = True
+
+
+class ColorHistogramConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`ColorHistogramConfig`, for keyword arguments."""
+
+    appearance: AppearanceParams
+    search_radius: int
+    velocity_gain: float
+    max_search_radius: int
+    lost_ratio: float
+    lost_contrast: float
+    ring_weight: float
+    scale_prior: float
+    scale_step: float
+    min_scale: float
+    max_scale: float
+    momentum: float
+    pyramid: bool
+    parallel: bool
+
+
+@dataclass(frozen=True, kw_only=True)
+class ColorDynamics(Config):
+    """Process noise of the constant-velocity model, in colour units where each axis of the
+    colour space spans [0, 1). `B` is diagonal, so `B B^T = diag(std^2)`: the velocity of
+    each parameter performs a random walk with these standard deviations per frame, and the
+    parameter itself gets the `*_std` jitter on top.
+
+    Attributes:
+        centroid_std: Std of the centroid per frame (each axis). Default 0.02 (a third of a
+            16-bin cell).
+        centroid_velocity_std: Std of the centroid velocity per frame. Default 0.01.
+        spread_std: Std of each principal magnitude per frame. Default 0.005.
+        spread_velocity_std: Std of the principal magnitudes' velocity per frame. Default
+            0.002.
+        angle_std: Std of the two axis angles per frame, radians. Default 0.05.
+        angle_velocity_std: Std of the angles' velocity per frame, radians. Default 0.02.
+    """
+
+    centroid_std: float = 0.02
+    centroid_velocity_std: float = 0.01
+    spread_std: float = 0.005
+    spread_velocity_std: float = 0.002
+    angle_std: float = 0.05
+    angle_velocity_std: float = 0.02
+
+
+class ColorDynamicsOverrides(TypedDict, total=False):
+    """The fields of :class:`ColorDynamics`, for keyword arguments."""
+
+    centroid_std: float
+    centroid_velocity_std: float
+    spread_std: float
+    spread_velocity_std: float
+    angle_std: float
+    angle_velocity_std: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class FilterParams(Config):
+    """Tuning of a [`ParticleFilter`].
+
+    Attributes:
+        resampler: Resampling scheme. Default [`Resampler::Systematic`].
+        resample_below: When to resample. Default [`ResamplePolicy::Always`]. Spelled
+            `resample_below` (an ESS fraction, or none for "always") in configs.
+        chunk_size: Particles per parallel work item (default 64). Fixed, so the split of
+            the work never depends on the thread count; large enough that a chunk's
+            likelihood calls outweigh rayon's per-task cost.
+        parallel: Weight particles in parallel with rayon (default `true`). Results are
+            identical either way; the serial path is faster for cheap likelihoods or few
+            particles.
+    """
+
+    resampler: Literal["multinomial", "systematic", "stratified", "residual"] = "systematic"
+    resample_below: float | None = None
+    chunk_size: int = 64
+    parallel: bool = True
+
+
+class FilterParamsOverrides(TypedDict, total=False):
+    """The fields of :class:`FilterParams`, for keyword arguments."""
+
+    resampler: Literal["multinomial", "systematic", "stratified", "residual"]
+    resample_below: float | None
+    chunk_size: int
+    parallel: bool
+
+
+@dataclass(frozen=True, kw_only=True)
+class ColorShapeConfig(Config):
+    """Parameters of a [`ColorShapeTracker`](super::ColorShapeTracker) (seed 000 section 3.3).
+
+    Attributes:
+        color_space: Colour space of the distribution: `rgb` or `opponent` (B-G, G-R,
+            R+G+B), the seed's choice against specular highlights. Default opponent.
+        bins: Histogram bins per axis of `H(n)`, 1..=64 each. Default 16 x 16 x 16.
+        n_samples: Number of samples `N`. Default 100.
+        dynamics: Process noise `B` of `s = A s' + B w`.
+        sigma: `sigma` of the weight `exp(-rho^2 / (2 sigma^2))`. Default 0.3.
+        mu: `mu_1, mu_2, mu_3` weighting `1 - Phi_affine`, `1 - Phi_area`, `1 - Phi_quality`
+            in `rho`, each >= 0, not all zero. Default (1, 1, 0.5).
+        area_momentum: `mu` of the area prediction `A_{t-1} + mu (A_{t-1} - A_{t-2})`, in
+            [0, 1]. Default 0.5.
+        hole_penalty: Drop of `Phi_quality` per hole: `Phi_quality = clamp(1 - k (1 - E), 0,
+            1)` with `E` the blob's Euler number. Default 0.25.
+        contour_points: Points on the snake, >= 8. Default 48.
+        search: Edge search along each normal in the snake's first iteration, pixels,
+            1..=64: also how far outside the predicted contour the target's blob may reach.
+            Default 12.
+        min_search: The snake's narrowest search, pixels (each iteration halves the search
+            down to this), >= 1. Default 2.
+        edge_tolerance: A snake point lies on an edge (for `Phi_affine`) within this many
+            pixels. Default 1.5.
+        deform: After the affine fit, each point of `r_t` may move this far along its normal
+            to the nearest edge (then the moves are smoothed): how much a non-rigid target's
+            outline may change shape per frame, pixels. 0 keeps `r_t` affine. Default 4 (set
+            on seeds 10-14 of the clutter and 10-12 of the other experiments: 2 left a bulge
+            into a distractor touching the first frames in the outline for good).
+        deform_passes: Smoothing passes of those moves, (1, 2, 1) / 4 each. Default 2.
+        background_ring: Ring of background, as a fraction of the target's box on each side,
+            whose colours are left out of the reference cloud when at least as frequent
+            there as inside the target; 0 keeps every colour. Default 0.5.
+        velocity_gain: Image velocity smoothing: the contour's predicted motion is this
+            fraction of the last displacement plus the rest of the previous prediction, in
+            [0, 1]. Default 0.5.
+        mix_fraction: Fraction of the samples drawn each frame around the colour
+            distribution measured inside the last accepted contour (a mixture proposal, as
+            in Isard & Blake's ICONDENSATION), in [0, 0.99]: where the shape barely
+            constrains the colour, it keeps the set from drifting off the target's real
+            colours. Default 0.1.
+        split_ratio: A blob larger than this times the predicted area is split at its narrow
+            necks (see `split_radius`), >= 1. Default 1.25.
+        split_radius: The split opens the blob by this fraction of the target's disc-
+            equivalent radius, cutting off parts thinner than twice that (a touching ring or
+            bar of the target's colour), then grows the part over the prediction back; re-
+            acquisition opens the whole segmentation by the same radius before comparing
+            shapes. Default 0.3 (0.2 kept a bar a fifth of the target's width; chosen on
+            seeds 10-19 of the clutter experiment).
+        reacquire_area_ratio: While lost, a blob is a candidate target when its area is
+            within this ratio of the last area (smaller over larger), in (0, 1]. Default
+            0.3.
+        stiffness: The snake's resistance to changing shape from one frame to the next: the
+            affine fit's linear part is drawn towards the prediction's with this weight,
+            relative to a whole contour's worth of edge points (a ridge penalty; the
+            translation is free). Keeps a touching same-coloured object from stretching the
+            contour in one frame. >= 0. Default 0.5.
+        snake_iterations: Snake fit iterations, >= 1. Default 6.
+        morphology_radius: Radius of the opening and closing that clean `S(n)`, pixels.
+            Default 1.
+        refine: Refine the best sample's contour on the image edges (seed 000 "contour
+            updating"). Default true.
+        refine_min_support: The refined contour replaces the best sample's only when at
+            least this fraction of its points lie on the masked image edges: where the
+            target's grey level matches the background, `grad I` has no edge and the
+            sample's contour is kept. Default 0.5.
+        pull_inside: After the refinement, contour points outside the best sample's blob
+            move back to its nearest cell along their normal. Default true.
+        edge_dilation: Dilation radius of `grad S` masking the image edges in the
+            refinement. Default 2.
+        canny: Canny thresholds (low, high) for the image edges `grad I`. Default (20, 50).
+        sample_cells: The target's size on each sample's grid: a target whose disc-
+            equivalent diameter is `d` pixels is segmented on every `floor(d /
+            sample_cells)`-th pixel (at least every pixel). Bounds a sample's cost whatever
+            the target's size; the refined contour is fitted on every pixel. >= 4. Default
+            24.
+        roi_margin: Window margin around the predicted contour, as a fraction of its size
+            (plus the edge search). Default 0.1.
+        cloud_points: Most reference colours kept in the cloud that samples warp. Default
+            512.
+        lost_below: The target is lost when the best sample's weight is below this. Default
+            0.05.
+        min_blob_overlap: The target is also lost when the refined contour and the best
+            sample's blob overlap (intersection over union, on the sampling grid) less than
+            this: the snake kept a shape the segmentation no longer supports. 0 never.
+            Default 0.5.
+        seed: Seed of the sampler.
+        filter: Particle-filter settings. The default chunk of 16 samples gives several
+            chunks to the thread pool for the default 100 samples, each costing a
+            segmentation.
+    """
+
+    _native: ClassVar[str] = "color_shape"
+    color_space: Literal["rgb", "opponent", "rg", "hsv"] = "opponent"
+    bins: tuple[int, int, int] = (16, 16, 16)
+    n_samples: int = 100
+    dynamics: ColorDynamics = field(default_factory=ColorDynamics)
+    sigma: float = 0.3
+    mu: tuple[float, float, float] = (1.0, 1.0, 0.5)
+    area_momentum: float = 0.5
+    hole_penalty: float = 0.25
+    contour_points: int = 48
+    search: int = 12
+    min_search: int = 2
+    edge_tolerance: float = 1.5
+    deform: int = 4
+    deform_passes: int = 2
+    background_ring: float = 0.5
+    velocity_gain: float = 0.5
+    mix_fraction: float = 0.1
+    split_ratio: float = 1.25
+    split_radius: float = 0.3
+    reacquire_area_ratio: float = 0.3
+    stiffness: float = 0.5
+    snake_iterations: int = 6
+    morphology_radius: int = 1
+    refine: bool = True
+    refine_min_support: float = 0.5
+    pull_inside: bool = True
+    edge_dilation: int = 2
+    canny: tuple[float, float] = (20.0, 50.0)
+    sample_cells: float = 24.0
+    roi_margin: float = 0.1
+    cloud_points: int = 512
+    lost_below: float = 0.05
+    min_blob_overlap: float = 0.5
+    seed: int = 0
+    filter: FilterParams = field(default_factory=lambda: FilterParams(chunk_size=16))
+
+
+class ColorShapeConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`ColorShapeConfig`, for keyword arguments."""
+
+    color_space: Literal["rgb", "opponent", "rg", "hsv"]
+    bins: tuple[int, int, int]
+    n_samples: int
+    dynamics: ColorDynamics
+    sigma: float
+    mu: tuple[float, float, float]
+    area_momentum: float
+    hole_penalty: float
+    contour_points: int
+    search: int
+    min_search: int
+    edge_tolerance: float
+    deform: int
+    deform_passes: int
+    background_ring: float
+    velocity_gain: float
+    mix_fraction: float
+    split_ratio: float
+    split_radius: float
+    reacquire_area_ratio: float
+    stiffness: float
+    snake_iterations: int
+    morphology_radius: int
+    refine: bool
+    refine_min_support: float
+    pull_inside: bool
+    edge_dilation: int
+    canny: tuple[float, float]
+    sample_cells: float
+    roi_margin: float
+    cloud_points: int
+    lost_below: float
+    min_blob_overlap: float
+    seed: int
+    filter: FilterParams
+
+
+@dataclass(frozen=True, kw_only=True)
+class ParticleColorConfig(Config):
+    """Parameters of a [`ParticleColorTracker`].
+
+    Attributes:
+        appearance: Colour model, adaptation and gradient term.
+        n_particles: Number of particles, >= 1. Default 200.
+        position_noise: Standard deviation of the per-frame random walk of the centre, as a
+            fraction of the initial box's mean half-size. Default 0.25.
+        scale_noise: Standard deviation of the per-frame random walk of the scale. Default
+            0.02.
+        sigma: `sigma` of the weight `exp(-rho^2 / (2 sigma^2))` (seed 000 section 3.3) with
+            `rho = 1 - intersection` (+ the gradient term). Default 0.1.
+        min_scale: Smallest scale relative to the initial box, > 0. Default 0.5.
+        max_scale: Largest scale relative to the initial box. Default 2.0.
+        mix_fraction: Share of the particles redrawn each frame around the best centre of a
+            coarse local search (a mixture proposal), in [0, 0.99]. Default 0.1 (set on the
+            fast challenge sequences and Couple); 0 is plain CONDENSATION.
+        search_radius: Half-size in pixels of that search's window when the target is still.
+            Default 10.
+        velocity_gain: The window grows by this times the estimated speed (px per frame).
+            Default 1.5.
+        max_search_radius: Largest half-size of the window, >= `search_radius`, <= 512.
+            Default 60.
+        filter: Particle-filter settings (resampler, policy, chunking, parallelism).
+    """
+
+    _native: ClassVar[str] = "particle_color"
+    appearance: AppearanceParams = field(default_factory=AppearanceParams)
+    n_particles: int = 200
+    position_noise: float = 0.25
+    scale_noise: float = 0.02
+    sigma: float = 0.1
+    min_scale: float = 0.5
+    max_scale: float = 2.0
+    mix_fraction: float = 0.1
+    search_radius: int = 10
+    velocity_gain: float = 1.5
+    max_search_radius: int = 60
+    filter: FilterParams = field(default_factory=FilterParams)
+
+
+class ParticleColorConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`ParticleColorConfig`, for keyword arguments."""
+
+    appearance: AppearanceParams
+    n_particles: int
+    position_noise: float
+    scale_noise: float
+    sigma: float
+    min_scale: float
+    max_scale: float
+    mix_fraction: float
+    search_radius: int
+    velocity_gain: float
+    max_search_radius: int
+    filter: FilterParams
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -125,9 +125,12 @@ pub fn defaults<'py, T: serde::Serialize + Default>(
 
 /// The configs the Python layer generates its classes from, by name.
 const SCHEMA_NAMES: &[&str] = &[
+    "color_histogram",
+    "color_shape",
     "laser",
     "laser_scan",
     "monobot",
+    "particle_color",
     "planar",
     "planar_sim",
     "scan_params",
@@ -139,6 +142,9 @@ const SCHEMA_NAMES: &[&str] = &[
 macro_rules! with_config {
     ($name:expr, $f:ident($($arg:expr),*)) => {
         match $name {
+            "color_histogram" => $f::<tracking::ColorTrackerParams>($($arg),*),
+            "color_shape" => $f::<tracking::ColorShapeParams>($($arg),*),
+            "particle_color" => $f::<tracking::ParticleTrackerParams>($($arg),*),
             "laser" => $f::<laser::LaserConfig>($($arg),*),
             "laser_scan" => $f::<laser::ScanConfig>($($arg),*),
             "monobot" => $f::<slam::monobot::MonobotConfig>($($arg),*),
@@ -160,13 +166,18 @@ macro_rules! validated {
     ($($t:ty),+) => {
         $(impl Validated for $t {
             fn check(&self) -> Result<()> {
-                Ok(self.validate()?)
+                // Some validate() answer a count too (the colour models' bins).
+                self.validate()?;
+                Ok(())
             }
         })+
     };
 }
 
 validated!(
+    tracking::ColorTrackerParams,
+    tracking::ColorShapeParams,
+    tracking::ParticleTrackerParams,
     laser::LaserConfig,
     laser::ScanConfig,
     slam::monobot::MonobotConfig,

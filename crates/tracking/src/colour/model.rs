@@ -27,7 +27,7 @@ rperc_core::named_enum! {
 
 /// The appearance part of a tracker's parameters: colour space, bins, model and its
 /// adaptation, and the gradient term. Defaults are the values tuned on OTB Girl + Couple.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct AppearanceParams {
     /// Colour space of the histograms. Default [`ColorSpace::Hsv`] (best on OTB Girl +

@@ -15,7 +15,7 @@ use crate::error::{Result, TrackingError};
 use crate::frame::{BoundingBox, RgbFrame};
 
 /// Parameters of a [`ParticleColorTracker`].
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct ParticleTrackerParams {
     /// Colour model, adaptation and gradient term.

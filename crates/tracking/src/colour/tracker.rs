@@ -20,7 +20,7 @@ use crate::frame::{BoundingBox, RgbFrame};
 /// Parameters of a [`ColorHistogramTracker`]. The appearance defaults were tuned on OTB
 /// Girl and Couple; the search, lost and scale defaults added since were set on the
 /// seeded synthetic sequences and Couple only, with Girl held out.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct ColorTrackerParams {
     /// Colour model, adaptation and gradient term.

@@ -10,7 +10,7 @@ use crate::condensation::FilterParams;
 use crate::error::{Result, TrackingError};
 
 /// Parameters of a [`ColorShapeTracker`](super::ColorShapeTracker) (seed 000 section 3.3).
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct ColorShapeParams {
     /// Colour space of the distribution: `rgb` or `opponent` (B-G, G-R, R+G+B), the

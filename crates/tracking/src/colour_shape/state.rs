@@ -22,8 +22,9 @@ pub type State = SVector<f64, STATE_DIM>;
 /// colour space spans [0, 1). `B` is diagonal, so `B B^T = diag(std^2)`: the velocity of
 /// each parameter performs a random walk with these standard deviations per frame, and the
 /// parameter itself gets the `*_std` jitter on top.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
+#[schemars(rename = "ColorDynamics")] // the public (Python) names are US spelling
 pub struct ColourDynamics {
     /// Std of the centroid per frame (each axis). Default 0.02 (a third of a 16-bin cell).
     pub centroid_std: f64,

@@ -48,7 +48,16 @@ where
 
 /// When to resample at the start of a step. In configs: `resample_below = None`
 /// (always) or an ESS fraction.
-#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Deserialize, serde::Serialize)]
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Default,
+    serde::Deserialize,
+    serde::Serialize,
+    schemars::JsonSchema,
+)]
 #[serde(from = "Option<f64>", into = "Option<f64>")]
 pub enum ResamplePolicy {
     /// Every step, as in the seed's CONDENSATION.
@@ -75,7 +84,7 @@ impl From<ResamplePolicy> for Option<f64> {
 }
 
 /// Tuning of a [`ParticleFilter`].
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct FilterParams {
     /// Resampling scheme. Default [`Resampler::Systematic`].

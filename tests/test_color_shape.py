@@ -145,13 +145,15 @@ def test_every_size_in_the_config_has_a_named_upper_bound(field: str) -> None:
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"seed": None}, r"^seed must be a non-negative integer below 2\*\*64, got None"),
-        ({"sigma": "abc"}, r"^sigma must be a real number, got 'abc'"),
+        # The Rust config's reader, through rperc.config.ColorShapeConfig: the type is
+        # wrong, so a TypeError naming the config and the field.
+        ({"seed": None}, r"^color_shape: seed: Invalid type Option value\. Expected u64"),
+        ({"sigma": "abc"}, r"^color_shape: sigma: Invalid type string \"abc\"\. Expected f64"),
     ],
 )
 def test_bad_arguments_name_the_parameter(kwargs, message):
     frame = np.zeros((40, 50, 3), np.uint8)
-    with pytest.raises(ValueError, match=message):
+    with pytest.raises(TypeError, match=message):
         ColorShapeTracker(frame, (10, 8, 20, 20), **kwargs)
 
 

@@ -16,15 +16,20 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Generic, Literal, Protocol, TypeVar
+from typing import TYPE_CHECKING, Any, Generic, Literal, Protocol, TypeVar
 
 import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
-from rperc._args import excerpt, real_number, whole_number
+from rperc._args import excerpt, whole_number
+from rperc._config_base import native_config
+from rperc.config import ColorShapeConfig, ColorShapeConfigOverrides
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
 
 ColorSpace = Literal["hsv", "opponent", "rg", "rgb"]
 ModelKind = Literal["bimodal", "single"]
@@ -530,9 +535,6 @@ class ColorTemplateTracker(_BoxTracker[_rperc.ColorTemplateTracker]):
         return f"ColorTemplateTracker(last={self._last!r}, scale={self.scale:.3f})"
 
 
-_SHAPE = _rperc.color_shape_defaults()
-
-
 @dataclass(frozen=True)
 class ColorShapeResult:
     """One :class:`ColorShapeTracker` answer: the target's ``contour`` (an (N, 2) array
@@ -573,9 +575,10 @@ class ColorShapeTracker:
     principal spreads.
 
     Start from a ``contour`` (an (N, 2) polygon) or a ``box`` (its inscribed ellipse).
-    ``color_space`` is ``"rgb"`` or ``"opponent"`` (B-G, G-R, R+G+B); ``config`` may hold
-    any other field of the Rust ``ColorShapeParams`` (``rperc._rperc.color_shape_defaults()``
-    lists them).
+    ``config`` is a :class:`rperc.config.ColorShapeConfig` (or a dict of its fields);
+    keyword arguments override its fields (``color_space`` ``"rgb"`` or ``"opponent"``
+    (B-G, G-R, R+G+B), ``n_samples``, ``sigma``, ``seed``, ...), checked by the Rust
+    crate when the tracker is made.
     """
 
     def __init__(
@@ -584,22 +587,15 @@ class ColorShapeTracker:
         box: Sequence[float] | npt.ArrayLike | None = None,
         *,
         contour: npt.ArrayLike | None = None,
-        color_space: Literal["rgb", "opponent"] = _SHAPE["color_space"],
-        n_samples: int = _SHAPE["n_samples"],
-        sigma: float = _SHAPE["sigma"],
-        seed: int = 0,
-        config: dict[str, Any] | None = None,
+        config: ColorShapeConfig | Mapping[str, Any] | None = None,
         channels: Channels = "rgb",
+        **overrides: Unpack[ColorShapeConfigOverrides],
     ) -> None:
         if box is None and contour is None:
             raise ValueError("give a box (x, y, w, h) or a contour (N x 2)")
-        cfg: dict[str, Any] = {k: _plain(v) for k, v in (config or {}).items()}
-        cfg.update(
-            color_space=color_space,
-            n_samples=whole_number(n_samples, "n_samples", 1, limit=_rperc.MAX_PARTICLES + 1),
-            sigma=real_number(sigma, "sigma"),
-            seed=whole_number(seed, "seed", 0, limit=2**64),
-        )
+        if config is not None and not isinstance(config, ColorShapeConfig):
+            config = {k: _plain(v) for k, v in config.items()}
+        cfg = native_config(ColorShapeConfig, config, {k: _plain(v) for k, v in overrides.items()})
         poly = None if contour is None else np.asarray(contour, dtype=np.float64)
         if poly is not None and (poly.ndim != 2 or poly.shape[1] != 2):
             raise ValueError(f"contour must have shape (N, 2), got {poly.shape}")

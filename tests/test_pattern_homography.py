@@ -15,7 +15,7 @@ cv2 = pytest.importorskip("cv2")
 
 from rperc.datasets import data_dir  # noqa: E402
 from rperc.tracking import PatternTracker  # noqa: E402
-from rperc.tracking.perspective import perspective_sequence  # noqa: E402
+from rperc.tracking.perspective import patch_corners, perspective_sequence  # noqa: E402
 from rperc.tracking.synthetic import demo_images  # noqa: E402
 
 
@@ -118,6 +118,50 @@ def test_the_occluded_fraction_follows_the_hidden_share_of_the_model(photo):
     # It rises with the band: the measured and covered shares correlate.
     measured, covered = np.array(seen)[:, 0], np.array([s[1] + s[2] for s in seen]) / 2
     assert np.corrcoef(measured, covered)[0, 1] > 0.8, seen
+
+
+@pytest.mark.parametrize("hidden_frames", [0, 4])
+def test_a_hidden_target_that_reappears_elsewhere_is_found_again(images, hidden_frames):
+    """Hidden for four frames (or none: a jump), the target comes back 190 px away:
+    the track is lost while it is hidden (the gains of the profiles clutter matches
+    by chance spread), then the whole-frame search finds it within two frames."""
+    patch, bg = images
+    patch = patch.astype(np.float32)
+    seq = perspective_sequence(patch, bg, n_frames=8, seed=5)
+    size = (640, 480)
+    still = np.pad(bg.astype(np.float32), ((0, 480), (0, 640)), mode="symmetric")[:480, :640]
+    rng = np.random.default_rng(0)
+    source = patch_corners(*patch.shape[::-1]).astype(np.float32)
+
+    def draw(corners: np.ndarray | None) -> np.ndarray:
+        frame = still.copy()
+        if corners is not None:
+            hom = cv2.getPerspectiveTransform(source, corners.astype(np.float32))
+            cv2.warpPerspective(
+                patch,
+                hom,
+                size,
+                dst=frame,
+                flags=cv2.INTER_LINEAR,
+                borderMode=cv2.BORDER_TRANSPARENT,
+            )
+        frame = frame + rng.normal(0.0, 2.0, frame.shape)
+        return np.clip(np.rint(frame), 0, 255).astype(np.uint8)
+
+    tracker = PatternTracker(draw(seq.corners[0]), seq.region, motion="homography", seed=1)
+    for k in range(1, len(seq.frames)):
+        assert not tracker.update(draw(seq.corners[k])).lost
+    hidden = [tracker.update(draw(None)) for _ in range(hidden_frames)]
+    assert all(p.lost for p in hidden)
+    jump = seq.corners[-1] + np.array([-170.0, 85.0])
+    errors = []
+    for k in range(6):
+        corners = jump + np.array([2.0 * k, -1.0 * k])
+        pose = tracker.update(draw(corners))
+        errors.append(
+            np.inf if pose.lost else np.mean(np.linalg.norm(pose.corners - corners, axis=1))
+        )
+    assert max(errors[2:]) <= 2.0, errors
 
 
 def test_similarity_is_still_the_default_and_corners_need_homography(images):

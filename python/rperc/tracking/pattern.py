@@ -158,8 +158,12 @@ class PatternTracker:
     estimate is refined by Gauss-Newton on the 8-dof homography over the model's
     profiles (eq. 6, Tukey weights on the profiles; ``occluded_fraction`` counts
     those weighed 0), and after a loss the whole frame is searched again on the
-    coarse level. ``sigma`` is the random walk's ``(sigma_x, sigma_y, sigma_theta,
-    sigma_s)`` in pixels, pixels, radians, scale (section 4.1: 5, 5, 3 degrees, 0.1).
+    coarse level. In homography mode the estimate is also lost when the gains of its
+    unoccluded profiles spread more than ``lost_gain_spread`` (the median absolute
+    deviation of their logarithms; clutter matching profiles by chance gives each its
+    own gain, the pattern one for all). ``sigma`` is the random walk's ``(sigma_x,
+    sigma_y, sigma_theta, sigma_s)`` in pixels, pixels, radians, scale (section 4.1: 5,
+    5, 3 degrees, 0.1).
     ``refine_steps`` rounds of a local search refine the weighted mean on the same
     frame (0: the seed's plain mean), with steps starting at ``refine_first_step``
     sigmas and halved each round; with ``refined_particle`` the refined pose replaces
@@ -209,6 +213,7 @@ class PatternTracker:
         sigma: Sequence[float] = (5.0, 5.0, math.radians(3.0), 0.1),
         seed: int = 0,
         motion: MotionName = _TRACKER["motion"],
+        lost_gain_spread: float = _TRACKER["lost_gain_spread"],
         refine_steps: int = _TRACKER["refine_steps"],
         refine_first_step: float = _TRACKER["refine_first_step"],
         refined_particle: bool = _TRACKER["refined_particle"],
@@ -271,6 +276,7 @@ class PatternTracker:
             "second_look": second_look,
             "lost_occluded_fraction": lost_occluded_fraction,
             "motion": motion,
+            "lost_gain_spread": lost_gain_spread,
             "pattern": pattern,
             "filter": {
                 **_FILTER,

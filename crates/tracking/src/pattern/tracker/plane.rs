@@ -55,6 +55,8 @@ pub(super) struct PlaneState {
 pub(super) struct PlaneFit {
     pub(super) state: SVector<f64, 4>,
     pub(super) observation: Observation,
+    /// The spread of the profiles' gains there (see `lost_gain_spread`).
+    pub(super) gain_spread: f64,
     homography: Matrix3<f64>,
     rest: Matrix3<f64>,
     /// The similarity estimate it started from.
@@ -191,6 +193,7 @@ impl PatternTracker {
                 occluded_fraction: fit.occluded_fraction,
             },
             homography: fit.homography,
+            gain_spread: fit.gain_spread,
             rest,
             before: estimate,
         })

@@ -25,6 +25,8 @@ use crate::pattern::observation::ScaleSpace;
 struct Profile {
     samples: Vec<[f64; 2]>,
     unit: Vec<f64>,
+    /// The stored vector's centred norm (its contrast), for the profile's gain.
+    contrast: f64,
     inverse_width: f64,
 }
 
@@ -60,6 +62,7 @@ impl Profiles {
                 Profile {
                     samples,
                     unit: centred.iter().map(|v| v / norm).collect(),
+                    contrast: norm,
                     inverse_width: 1.0 / curvature.max(1e-9),
                 }
             })
@@ -76,6 +79,30 @@ pub(super) struct WarpFit {
     /// Profiles whose deviation exceeds the occlusion threshold or that leave the
     /// scale space's window, over all profiles: Tukey's weight 0.
     pub(super) occluded_fraction: f64,
+    /// The spread of the unoccluded profiles' gains: the median absolute deviation
+    /// of `ln g`, `g = C |o_c| / |a_c|` the slope of the observed profile on the
+    /// stored one. The pattern itself, under one gain, gives them all alike;
+    /// clutter matching profiles by chance gives each its own. Infinite with fewer
+    /// than [`MIN_GAINS`] unoccluded profiles.
+    pub(super) gain_spread: f64,
+}
+
+/// Fewer unoccluded profiles than this leave the gains' spread unknown (infinite).
+const MIN_GAINS: usize = 8;
+
+/// The median absolute deviation of `values` (reordered), infinite below
+/// [`MIN_GAINS`] values.
+fn spread(values: &mut [f64]) -> f64 {
+    if values.len() < MIN_GAINS {
+        return f64::INFINITY;
+    }
+    let median = |v: &mut [f64]| {
+        let k = v.len() / 2;
+        *v.select_nth_unstable_by(k, f64::total_cmp).1
+    };
+    let m = median(values);
+    values.iter_mut().for_each(|v| *v = (*v - m).abs());
+    median(values)
 }
 
 /// The refinement's settings.
@@ -166,6 +193,7 @@ impl Profiles {
         space: &ScaleSpace,
         t: f64,
         mut equations: Option<&mut (SMatrix<f64, 8, 8>, SVector<f64, 8>)>,
+        mut gains: Option<&mut Vec<f64>>,
     ) -> Option<(f64, f64)> {
         let level = level(space, h)?;
         let t2 = t * t;
@@ -192,6 +220,9 @@ impl Profiles {
                 occluded += 1;
                 continue;
             }
+            if let Some(gains) = gains.as_deref_mut() {
+                gains.push((c.max(1e-6) * norm / p.contrast).ln());
+            }
             if let Some((a, b)) = equations.as_deref_mut() {
                 let weight = w * p.inverse_width;
                 add_profile(p, &unit, c, norm, &observed.derivatives, weight, a, b);
@@ -211,10 +242,10 @@ impl Profiles {
     ) -> Option<WarpFit> {
         let t = search.threshold;
         let mut h = *h;
-        let (mut cost, mut occluded) = self.evaluate(&h, space, t, None)?;
+        let (mut cost, mut occluded) = self.evaluate(&h, space, t, None, None)?;
         for _ in 0..search.iterations {
             let mut system = (SMatrix::<f64, 8, 8>::zeros(), SVector::<f64, 8>::zeros());
-            self.evaluate(&h, space, t, Some(&mut system))?;
+            self.evaluate(&h, space, t, Some(&mut system), None)?;
             let (mut a, b) = system;
             for k in 0..8 {
                 a[(k, k)] *= 1.0 + search.damping;
@@ -225,7 +256,7 @@ impl Profiles {
             let mut moved = None;
             for fraction in [1.0, 0.5, 0.25] {
                 let tried = homography::compose_update(&h, &(delta * fraction), self.norm);
-                let Some((c, o)) = self.evaluate(&tried, space, t, None) else {
+                let Some((c, o)) = self.evaluate(&tried, space, t, None, None) else {
                     continue;
                 };
                 if c < cost {
@@ -240,9 +271,12 @@ impl Profiles {
                 break;
             }
         }
+        let mut gains = Vec::with_capacity(self.profiles.len());
+        self.evaluate(&h, space, t, None, Some(&mut gains))?;
         Some(WarpFit {
             homography: h,
             occluded_fraction: occluded,
+            gain_spread: spread(&mut gains),
         })
     }
 
@@ -292,5 +326,34 @@ fn add_profile(
             a[(k, m)] += weight * jj * inv;
         }
         b[k] += weight * (ad[k] - c * od[k]) / norm;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The median absolute deviation against its definition on sorted values, and
+    /// Tukey's weight and cost against their formulas.
+    #[test]
+    fn the_gain_spread_and_tukeys_terms_follow_their_definitions() {
+        let values = [0.3, -1.2, 0.05, 2.5, 0.1, 0.0, -0.2, 0.4, 0.15];
+        let mut sorted = values.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        let median = sorted[sorted.len() / 2];
+        let mut deviations: Vec<f64> = values.iter().map(|v| (v - median).abs()).collect();
+        deviations.sort_by(f64::total_cmp);
+        let want = deviations[deviations.len() / 2];
+        assert_eq!(spread(&mut values.to_vec()), want);
+        assert_eq!(spread(&mut [1.0; MIN_GAINS - 1]), f64::INFINITY);
+        let t2: f64 = 2.25;
+        for l2 in [0.0, 0.5, 1.0, 2.0] {
+            let (w, rho) = Profiles::tukey(l2, t2);
+            let r = 1.0 - l2 / t2;
+            assert!((w - r * r).abs() < 1e-15);
+            assert!((rho - t2 / 6.0 * (1.0 - r.powi(3))).abs() < 1e-15);
+        }
+        assert_eq!(Profiles::tukey(3.0, t2), (0.0, t2 / 6.0));
+        assert_eq!(Profiles::tukey(f64::NAN, t2), (0.0, t2 / 6.0));
     }
 }

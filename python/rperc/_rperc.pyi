@@ -532,17 +532,26 @@ def color_segment(
 ) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint8]]: ...
 
 _PatternAnswer: TypeAlias = tuple[
-    float, float, float, float, float, float, bool, npt.NDArray[np.float64]
+    float,
+    float,
+    float,
+    float,
+    float,
+    float,
+    bool,
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
 ]
 
 @final
 class PatternTracker:
-    """CONDENSATION pattern tracker over (x, y, theta, s) (see rperc.tracking)."""
+    """CONDENSATION pattern tracker over (x, y, theta, s) or the plane's homography
+    (see rperc.tracking)."""
 
     def __new__(
         cls,
         frame: npt.NDArray[np.uint8],
-        region: tuple[int, int, int, int] | npt.NDArray[np.bool_],
+        region: tuple[int, int, int, int] | npt.NDArray[np.bool_] | npt.NDArray[np.float64],
         seed: int = 0,
         config: dict[str, Any] | None = None,
     ) -> PatternTracker: ...
@@ -551,6 +560,8 @@ class PatternTracker:
     def last(self) -> _PatternAnswer: ...
     @property
     def n_points(self) -> int: ...
+    @property
+    def model_offsets(self) -> npt.NDArray[np.float64]: ...
 
 def pattern_sequence(
     patch: _ArrayLike, background: _ArrayLike, config: dict[str, Any] | None = None

@@ -73,6 +73,30 @@ fn frame<'py>(obj: &Bound<'py, PyAny>) -> Result<Frame<'py>, Error> {
     })
 }
 
+/// The region a tracker learns from: a box or mask ([`Region`]) or four corners.
+enum Area {
+    Region(Region),
+    Corners([[f64; 2]; 4]),
+}
+
+/// A `(4, 2)` float64 array of corners (top-left, top-right, bottom-right,
+/// bottom-left), or [`region`]'s box or mask.
+fn area(obj: &Bound<'_, PyAny>, width: usize, height: usize) -> Result<Area, Error> {
+    if let Ok(quad) = obj.cast::<numpy::PyArray2<f64>>() {
+        let shape = quad.shape().to_vec();
+        if shape != [4, 2] {
+            return Err(Error::Value(format!(
+                "region corners must have shape (4, 2), got {shape:?}"
+            )));
+        }
+        let a = quad.readonly();
+        let a = a.as_array();
+        let corners = std::array::from_fn(|i| [a[(i, 0)], a[(i, 1)]]);
+        return Ok(Area::Corners(corners));
+    }
+    Ok(Area::Region(region(obj, width, height)?))
+}
+
 /// A box `(x, y, w, h)` of non-negative integers, or a boolean mask the frame's size.
 fn region(obj: &Bound<'_, PyAny>, width: usize, height: usize) -> Result<Region, Error> {
     if let Ok(mask) = obj.cast::<numpy::PyArray2<bool>>() {
@@ -103,8 +127,9 @@ fn region(obj: &Bound<'_, PyAny>, width: usize, height: usize) -> Result<Region,
     }
 }
 
-/// `(x, y, theta, scale, score, occluded_fraction, lost, corners)`, the corners a
-/// `(4, 2)` float64 array (top-left, top-right, bottom-right, bottom-left).
+/// `(x, y, theta, scale, score, occluded_fraction, lost, corners, homography)`, the
+/// corners a `(4, 2)` float64 array (top-left, top-right, bottom-right,
+/// bottom-left), the homography from the first frame a `(3, 3)` one.
 type Answer<'py> = (
     f64,
     f64,
@@ -114,11 +139,13 @@ type Answer<'py> = (
     f64,
     bool,
     Bound<'py, numpy::PyArray2<f64>>,
+    Bound<'py, numpy::PyArray2<f64>>,
 );
 
 fn answer(py: Python<'_>, p: PatternPose) -> Answer<'_> {
     let [x, y, theta, s] = p.state;
     let corners = numpy::ndarray::Array2::from_shape_fn((4, 2), |(i, j)| p.corners[i][j]);
+    let homography = numpy::ndarray::Array2::from_shape_fn((3, 3), |(i, j)| p.homography[i][j]);
     (
         x,
         y,
@@ -128,10 +155,11 @@ fn answer(py: Python<'_>, p: PatternPose) -> Answer<'_> {
         p.occluded_fraction,
         p.lost,
         corners.into_pyarray(py),
+        homography.into_pyarray(py),
     )
 }
 
-/// The CONDENSATION pattern tracker over (x, y, theta, s).
+/// The CONDENSATION pattern tracker over (x, y, theta, s), or the plane's homography.
 #[pyclass(name = "PatternTracker", module = "rperc._rperc")]
 pub struct PyPatternTracker {
     inner: tracking::PatternTracker,
@@ -151,10 +179,13 @@ impl PyPatternTracker {
     ) -> PyResult<Self> {
         let params: PatternTrackerParams = crate::config::from_python(config, "PatternTracker")?;
         let f = self::frame(frame)?;
-        let r = self::region(region, f.width, f.height)?;
+        let r = self::area(region, f.width, f.height)?;
         let view = f.view()?;
         let inner = detached(py, || {
-            Ok(tracking::PatternTracker::new(view, r, params, seed)?)
+            Ok(match r {
+                Area::Region(r) => tracking::PatternTracker::new(view, r, params, seed)?,
+                Area::Corners(c) => tracking::PatternTracker::with_corners(view, c, params, seed)?,
+            })
         })?;
         Ok(Self { inner })
     }
@@ -187,6 +218,20 @@ impl PyPatternTracker {
     #[getter]
     fn n_points(slf: &Bound<'_, Self>) -> PyResult<usize> {
         Ok(crate::errors::shared(slf)?.inner.model().points.len())
+    }
+
+    /// The model points' offsets from the model's centre at scale 1, `(n, 2)`
+    /// float64 (pixels of the region, or of its rectified quad).
+    #[getter]
+    fn model_offsets<'py>(
+        slf: &Bound<'py, Self>,
+        py: Python<'py>,
+    ) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
+        let this = crate::errors::shared(slf)?;
+        let model = this.inner.model();
+        let n = model.points.len();
+        let offsets = numpy::ndarray::Array2::from_shape_fn((n, 2), |(j, d)| model.offset(j)[d]);
+        Ok(offsets.into_pyarray(py))
     }
 }
 

@@ -190,6 +190,7 @@ def pattern(
     seeds: Iterable[int] = range(10),
     frames: int = 40,
     images: str | Path | None = None,
+    motion: str = "similarity",
     grid: Grid = None,
     scheduler: str = "serial",
     workers: int | None = None,
@@ -197,7 +198,9 @@ def pattern(
     """The pattern tracker and its peers on generated sequences whose four
     parameters step up to each of ``steps`` sigma at once, under each of
     ``conditions`` ("plain"; "gain": a gain of 1 +- 0.2 per frame; "occlusion": up to
-    30 % of the patch hidden); ``images`` is a data
+    30 % of the patch hidden; "perspective": the patch in perspective, drawn by
+    OpenCV); ``motion`` is the rperc tracker's ("similarity" or "homography");
+    ``images`` is a data
     folder holding ``images/`` (the data folder by default, generated images
     without one). See :mod:`rperc.bench.suites.pattern`."""
     bounds = _pattern.parse_steps(",".join(str(s) for s in steps))
@@ -212,7 +215,9 @@ def pattern(
 
         images = data_dir() or ""
     combos = _combos(grid, _pattern.settings_taken(), "pattern")
-    options: dict[str, Setting] = {"frames": frames, "images": str(images)}
+    if motion not in _pattern.MOTIONS:
+        raise ValueError(f"motion must be one of {', '.join(_pattern.MOTIONS)}, got {motion!r}")
+    options: dict[str, Setting] = {"frames": frames, "images": str(images), "motion": motion}
     tasks = make_tasks(
         "pattern",
         [_pattern.case_name(s, c) for c in chosen for s in bounds],

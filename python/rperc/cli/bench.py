@@ -121,7 +121,14 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     pa.add_argument(
         "--conditions",
         default="plain",
-        help="comma-separated: plain, gain (1 +- 0.2 per frame), occlusion (up to 30 %%)",
+        help="comma-separated: plain, gain (1 +- 0.2 per frame), occlusion (up to 30 %%),"
+        " perspective (the patch in perspective, drawn by OpenCV)",
+    )
+    pa.add_argument(
+        "--motion",
+        choices=pattern.MOTIONS,
+        default="similarity",
+        help="the rperc tracker's motion model (default similarity)",
     )
     pa.add_argument(
         "--trackers",
@@ -178,6 +185,7 @@ def _plan(args: argparse.Namespace, grid: Any) -> Any:
         conditions=parse_conditions(args.conditions),
         trackers=_names(args.trackers, TRACKERS, "--trackers"),
         frames=args.frames,
+        motion=args.motion,
         **common,
     )
 

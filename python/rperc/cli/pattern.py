@@ -133,7 +133,21 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         help="track a planar pattern (paper [001]) through a video or a folder of images",
     )
     p.add_argument("source", type=Path, help="a folder of images (sorted by name) or a video")
-    p.add_argument("--region", type=region_type, required=True, help="x,y,w,h in frame 0 (px)")
+    where = p.add_mutually_exclusive_group(required=True)
+    where.add_argument("--region", type=region_type, help="x,y,w,h in frame 0 (px)")
+    where.add_argument(
+        "--corners",
+        type=corners_type,
+        help="x1,y1,...,x4,y4: the plane's corners in frame 0 (top-left, top-right,"
+        " bottom-right, bottom-left; needs --motion homography)",
+    )
+    p.add_argument(
+        "--motion",
+        choices=("similarity", "homography"),
+        default="similarity",
+        help="similarity (x, y, theta, scale; paper [001]) or homography (a plane in"
+        " perspective); default similarity",
+    )
     p.add_argument("--seed", type=seed_type, default=0, help="seed of the particle filter")
     p.add_argument("--strip", type=Path, help="write a strip PNG of frames with the pattern drawn")
     p.add_argument(
@@ -163,6 +177,20 @@ def region_type(text: str) -> tuple[int, int, int, int]:
         )
     x, y, w, h = (int(p) for p in parts)
     return (x, y, w, h)
+
+
+def corners_type(text: str) -> np.ndarray:
+    """``x1,y1,...,x4,y4``: eight finite numbers, the four corners."""
+    parts = text.split(",")
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        values = []
+    if len(values) != 8 or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(
+            f"--corners must be eight numbers x1,y1,...,x4,y4, got {excerpt(text)}"
+        )
+    return np.array(values, dtype=np.float64).reshape(4, 2)
 
 
 def load_frames(source: Path) -> list[np.ndarray]:
@@ -275,7 +303,8 @@ def track_pattern_command(args: argparse.Namespace) -> int:
             f"the ground truth has {len(truth.corners)} frames, the source {len(frames)}"
         )
     picks = strip_indices(len(frames), args.frames) if args.strip else None
-    tracker = PatternTracker(frames[0], args.region, seed=args.seed)
+    region = args.region if args.corners is None else args.corners
+    tracker = PatternTracker(frames[0], region, seed=args.seed, motion=args.motion)
     start = time.perf_counter()
     poses = [tracker.initial] + [
         tracker.update(f) for f in progress(frames[1:], desc="tracking", unit="frame")
@@ -314,6 +343,7 @@ def track_pattern_command(args: argparse.Namespace) -> int:
         {
             "source": str(args.source),
             "frames": len(frames),
+            "motion": args.motion,
             "fps": fps,
             "lost_frames": int(lost),
             **metrics,
@@ -327,6 +357,7 @@ def track_pattern_command(args: argparse.Namespace) -> int:
                     "occluded_fraction": p.occluded_fraction,
                     "lost": p.lost,
                     "corners": p.corners.tolist(),
+                    "homography": p.homography.tolist(),
                 }
                 for p in poses
             ],

@@ -35,6 +35,10 @@ _FILTER = _TRACKER["filter"]
 #: deviation (section 3.3): the seed's straight line, or a parabola (the default).
 DeviationName = Literal["line", "parabola"]
 
+#: The tracker's motion model: the seed's similarity ``(x, y, theta, scale)``, or the
+#: 8-dof homography of a plane seen in perspective.
+MotionName = Literal["similarity", "homography"]
+
 
 @dataclass(frozen=True, eq=False)
 class PatternPose:
@@ -47,8 +51,12 @@ class PatternPose:
     (too many points occluded, e.g. an all-black frame); ``corners``: a read-only
     ``(4, 2)`` float64 array of the initial region's outer corners (top-left,
     top-right, bottom-right, bottom-left, on the pixel edges) moved by the pose,
-    computed by the native tracker. Two poses are equal when every field is,
-    the corners element by element.
+    computed by the native tracker; ``homography``: a read-only ``(3, 3)`` float64
+    array mapping first-frame pixels to this frame's (``H[2, 2] = 1``): the
+    similarity's in similarity mode, the plane's in homography mode (in homography
+    mode ``x, y, theta, scale`` are the similarity part of it at the region's centre:
+    where the centre goes, the local rotation and the square root of the local area
+    ratio). Two poses are equal when every field is, the arrays element by element.
     """
 
     x: float
@@ -59,6 +67,7 @@ class PatternPose:
     occluded_fraction: float
     lost: bool
     corners: npt.NDArray[np.float64]
+    homography: npt.NDArray[np.float64]
 
     # The generated __eq__ would ask an array of comparisons for one truth value.
     __hash__ = None  # type: ignore[assignment]
@@ -67,8 +76,10 @@ class PatternPose:
         if not isinstance(other, PatternPose):
             return NotImplemented
         scalars = ("x", "y", "theta", "scale", "score", "occluded_fraction", "lost")
-        return all(getattr(self, f) == getattr(other, f) for f in scalars) and bool(
-            np.array_equal(self.corners, other.corners)
+        return (
+            all(getattr(self, f) == getattr(other, f) for f in scalars)
+            and bool(np.array_equal(self.corners, other.corners))
+            and bool(np.array_equal(self.homography, other.homography))
         )
 
     def corners_array(self) -> npt.NDArray[np.float64]:
@@ -77,9 +88,10 @@ class PatternPose:
 
 
 def _pose(native: tuple[Any, ...]) -> PatternPose:
-    x, y, theta, scale, score, occluded, lost, corners = native
+    x, y, theta, scale, score, occluded, lost, corners, homography = native
     # Frozen: a pose handed out (and the track's last) cannot be changed in place.
     corners.flags.writeable = False
+    homography.flags.writeable = False
     return PatternPose(
         float(x),
         float(y),
@@ -89,6 +101,7 @@ def _pose(native: tuple[Any, ...]) -> PatternPose:
         float(occluded),
         bool(lost),
         corners,
+        homography,
     )
 
 
@@ -108,6 +121,10 @@ def _frame(frame: npt.ArrayLike) -> np.ndarray:
 
 def _region(region: Sequence[int] | npt.ArrayLike) -> tuple[int, int, int, int] | np.ndarray:
     arr = np.asarray(region)
+    if arr.shape == (4, 2):
+        if not np.issubdtype(arr.dtype, np.number):
+            raise ValueError(f"region corners must be numbers, got dtype {arr.dtype}")
+        return np.ascontiguousarray(arr, dtype=np.float64)
     if arr.dtype == np.bool_:
         if arr.ndim != 2:
             raise ValueError(f"region mask must be 2-D (H, W), got shape {arr.shape}")
@@ -129,11 +146,24 @@ def _seed(seed: int) -> int:
 
 
 class PatternTracker:
-    """CONDENSATION tracker of a planar pattern over ``(x, y, theta, scale)``.
+    """CONDENSATION tracker of a planar pattern over ``(x, y, theta, scale)``, or over
+    the plane's homography.
 
-    ``region`` is a box ``(x, y, w, h)`` in 0-based pixels or a boolean mask of the
-    frame's shape. ``sigma`` is the random walk's ``(sigma_x, sigma_y, sigma_theta,
-    sigma_s)`` in pixels, pixels, radians, scale (section 4.1: 5, 5, 3 degrees, 0.1).
+    ``region`` is a box ``(x, y, w, h)`` in 0-based pixels, a boolean mask of the
+    frame's shape, or (homography mode only) a ``(4, 2)`` array of the four corners
+    top-left, top-right, bottom-right, bottom-left on the outer pixel edges, which
+    must bound a convex quad inside the frame. ``motion`` is ``"similarity"`` (the
+    seed's, default) or ``"homography"``: the particles then search over the
+    similarity with the model seen through the last frame's perspective, the
+    estimate is refined by Gauss-Newton on the 8-dof homography over the model's
+    profiles (eq. 6, Tukey weights on the profiles; ``occluded_fraction`` counts
+    those weighed 0), and after a loss the whole frame is searched again on the
+    coarse level. In homography mode the estimate is also lost when the gains of its
+    unoccluded profiles spread more than ``lost_gain_spread`` (the median absolute
+    deviation of their logarithms; clutter matching profiles by chance gives each its
+    own gain, the pattern one for all). ``sigma`` is the random walk's ``(sigma_x,
+    sigma_y, sigma_theta, sigma_s)`` in pixels, pixels, radians, scale (section 4.1: 5,
+    5, 3 degrees, 0.1).
     ``refine_steps`` rounds of a local search refine the weighted mean on the same
     frame (0: the seed's plain mean), with steps starting at ``refine_first_step``
     sigmas and halved each round; with ``refined_particle`` the refined pose replaces
@@ -182,6 +212,8 @@ class PatternTracker:
         n_particles: int = _TRACKER["n_particles"],
         sigma: Sequence[float] = (5.0, 5.0, math.radians(3.0), 0.1),
         seed: int = 0,
+        motion: MotionName = _TRACKER["motion"],
+        lost_gain_spread: float = _TRACKER["lost_gain_spread"],
         refine_steps: int = _TRACKER["refine_steps"],
         refine_first_step: float = _TRACKER["refine_first_step"],
         refined_particle: bool = _TRACKER["refined_particle"],
@@ -243,6 +275,8 @@ class PatternTracker:
             "coarse_refined": coarse_refined,
             "second_look": second_look,
             "lost_occluded_fraction": lost_occluded_fraction,
+            "motion": motion,
+            "lost_gain_spread": lost_gain_spread,
             "pattern": pattern,
             "filter": {
                 **_FILTER,
@@ -272,6 +306,12 @@ class PatternTracker:
     def n_points(self) -> int:
         """Number of model points learnt from the region."""
         return self._native.n_points
+
+    @property
+    def model_offsets(self) -> npt.NDArray[np.float64]:
+        """The model points' offsets ``(n, 2)`` from the region's centre, in pixels of
+        the region at scale 1 (of the rectified quad for a corners region)."""
+        return self._native.model_offsets
 
     def __repr__(self) -> str:
         p = self._last

@@ -320,6 +320,52 @@ def run_ecc(
     return _timed(f"ECC {motion}", frames, step)
 
 
+def run_orb(
+    frames: np.ndarray, region: tuple[int, int, int, int], n_features: int = 1000
+) -> PlanarRun:
+    """ORB + RANSAC homography against the first frame, as a user writes it with
+    OpenCV: ORB keypoints of the region in frame 0 matched to each frame's (brute
+    force, Hamming, Lowe's ratio 0.75), ``findHomography`` with RANSAC (3 px). A frame
+    with fewer than 4 matches or no homography is a failure and keeps the last
+    corners."""
+    cv2 = _cv2()
+    x, y, w, h = region
+    orb = cv2.ORB_create(nfeatures=n_features)
+    mask = np.zeros(frames[0].shape[:2], np.uint8)
+    mask[y : y + h, x : x + w] = 255
+    kp0, des0 = orb.detectAndCompute(frames[0], mask)
+    matcher = cv2.BFMatcher(cv2.NORM_HAMMING)
+    edges = np.array(
+        [
+            [
+                [x - 0.5, y - 0.5],
+                [x + w - 0.5, y - 0.5],
+                [x + w - 0.5, y + h - 0.5],
+                [x - 0.5, y + h - 0.5],
+            ]
+        ]
+    )
+    last = edges[0].copy()
+    corners, failures = [], 0
+    t0 = time.perf_counter()
+    for frame in frames[1:]:
+        kp, des = orb.detectAndCompute(frame, None)
+        pairs = matcher.knnMatch(des0, des, k=2) if des is not None and des0 is not None else []
+        good = [p[0] for p in pairs if len(p) == 2 and p[0].distance < 0.75 * p[1].distance]
+        hom = None
+        if len(good) >= 4:
+            src = np.array([kp0[m.queryIdx].pt for m in good], dtype=np.float32)
+            dst = np.array([kp[m.trainIdx].pt for m in good], dtype=np.float32)
+            hom, _ = cv2.findHomography(src, dst, cv2.RANSAC, 3.0)
+        if hom is None:
+            failures += 1
+        else:
+            last = cv2.perspectiveTransform(edges, hom)[0]
+        corners.append(last.copy())
+    seconds = (time.perf_counter() - t0) / (len(frames) - 1)
+    return PlanarRun("ORB + RANSAC", np.array(corners), failures, seconds)
+
+
 def run_match_template(
     frames: np.ndarray,
     region: Region,

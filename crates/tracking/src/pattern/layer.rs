@@ -56,6 +56,8 @@ pub(crate) struct CoarseLayer {
     factor: usize,
     model: PatternModel,
     table: PointTable,
+    /// The table as learnt, before any projective rest ([`Self::set_rest`]).
+    base_table: PointTable,
     offsets: Vec<[f64; 2]>,
     space: ScaleSpace,
     scratch: PatternScratch,
@@ -129,9 +131,11 @@ impl CoarseLayer {
             points: kept,
             config: config.clone(),
         };
+        let table = PointTable::new(&model);
         Some(Self {
             factor,
-            table: PointTable::new(&model),
+            base_table: table.clone(),
+            table,
             offsets: (0..model.points.len()).map(|j| model.offset(j)).collect(),
             model,
             space: ScaleSpace::new(),
@@ -141,6 +145,28 @@ impl CoarseLayer {
             states: Vec::new(),
             scales: Vec::new(),
         })
+    }
+
+    /// Sees the model through the projective rest `rest` of the homography mode (a
+    /// map of frame-pixel offsets, see [`PointTable::warped`]), conjugated to this
+    /// level's pixels (`D^-1 rest D`, `D` the scaling by `factor`). `false`, nothing
+    /// changed, when `rest` sends a point to infinity.
+    pub(crate) fn set_rest(&mut self, rest: &nalgebra::Matrix3<f64>) -> bool {
+        let f = self.factor as f64;
+        let mut coarse = *rest;
+        coarse[(0, 2)] /= f;
+        coarse[(1, 2)] /= f;
+        coarse[(2, 0)] *= f;
+        coarse[(2, 1)] *= f;
+        let config = &self.model.config;
+        let half = 0.5 * (config.n_samples as f64 - 1.0) * config.delta;
+        let Some(table) = self.base_table.warped(&coarse, half) else {
+            return false;
+        };
+        self.offsets.clear();
+        self.offsets.extend(table.offsets());
+        self.table = table;
+        true
     }
 
     /// The `keep` states of `hypotheses` (frame coordinates) most likely on the

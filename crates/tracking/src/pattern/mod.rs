@@ -6,6 +6,7 @@
 pub mod contour;
 pub mod correlation;
 mod frame;
+pub mod homography;
 mod layer;
 mod model;
 mod observation;
@@ -14,6 +15,7 @@ mod sequence;
 mod tracker;
 
 pub use frame::PatternFrame;
+pub use homography::MotionModel;
 pub use model::{
     DeviationModel, MIN_REGION_SIDE, ModelPoint, PatternConfig, PatternModel, Region, sample_vector,
 };

@@ -546,6 +546,44 @@ impl PointTable {
             .fold(0.0, f64::max);
         Self { points, radius }
     }
+
+    /// The table of the same points seen through the projective rest `rest` of the
+    /// homography mode ([`super::homography::split`]): each offset moved by it and
+    /// each direction by its Jacobian there, unnormalised, so that a profile's step
+    /// stretches as the plane does. The similarity of a state then places them as
+    /// usual, which places the model by the homography `S rest` (profiles straight
+    /// and evenly spaced, to first order). `half_profile` is half a profile's length
+    /// at scale 1 (pixels), which the bound of the interior check grows by a
+    /// stretch. `None` when `rest` sends a point to infinity.
+    pub(crate) fn warped(&self, rest: &nalgebra::Matrix3<f64>, half_profile: f64) -> Option<Self> {
+        use super::homography::{apply, jacobian};
+        let mut radius = 0.0f64;
+        let points = self
+            .points
+            .iter()
+            .map(|g| {
+                let offset = apply(rest, g.offset)?;
+                let [[a, b], [c, d]] = jacobian(rest, g.offset)?;
+                let [u, v] = g.direction;
+                let direction = [a * u + b * v, c * u + d * v];
+                let stretch = direction[0].hypot(direction[1]);
+                let reach = offset[0].hypot(offset[1]) + half_profile * (stretch - 1.0).max(0.0);
+                radius = radius.max(reach);
+                Some(PointGeometry {
+                    offset,
+                    direction,
+                    ..*g
+                })
+            })
+            .collect::<Option<Arc<[PointGeometry]>>>()?;
+        Some(Self { points, radius })
+    }
+
+    /// The model point offsets in visiting order (pixels from the centre, as placed
+    /// at scale 1).
+    pub(crate) fn offsets(&self) -> impl Iterator<Item = [f64; 2]> + '_ {
+        self.points.iter().map(|g| g.offset)
+    }
 }
 
 impl<'a> PatternLikelihood<'a> {

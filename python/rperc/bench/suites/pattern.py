@@ -25,7 +25,17 @@ from rperc._extras import require
 from rperc.bench.tasks import Task
 from rperc.pose import wrap_angle
 
-TRACKERS = ("rperc", "ecc-euclidean", "ecc-affine", "match-template", "csrt")
+TRACKERS = (
+    "rperc",
+    "ecc-euclidean",
+    "ecc-affine",
+    "ecc-homography",
+    "orb-ransac",
+    "match-template",
+    "csrt",
+)
+#: The pattern tracker's motion models (``--motion``).
+MOTIONS = ("similarity", "homography")
 DEFAULT_TRACKERS = ("rperc", "ecc-affine")
 SHOWN = ("position_rms_px", "angle_rms_deg", "scale_rms_pct", "precision_5px", "failures", "fps")
 PRIMARY = ("position_rms_px", "px")
@@ -33,9 +43,17 @@ PRIMARY = ("position_rms_px", "px")
 SIGMA = (5.0, 5.0, math.radians(3.0), 0.1)
 
 
-#: What a case adds to the steps (the three cases the harness runs): nothing; a gain drawn per
-#: frame in ``1 +- 0.2``; a band of clutter hiding up to 30 % of the patch.
-CONDITIONS = {"plain": "", "gain": " gain 0.2", "occlusion": " occlusion 0.3"}
+#: What a case adds to the steps (the cases the harness runs): nothing; a gain drawn per
+#: frame in ``1 +- 0.2``; a band of clutter hiding up to 30 % of the patch; or the patch
+#: seen in perspective (:func:`rperc.tracking.perspective.perspective_sequence`, OpenCV
+#: draws it: centre, angle and scale step up to the bound in sigma, and each corner is
+#: pushed off the similarity by up to 2 px per sigma of the bound a frame).
+CONDITIONS = {
+    "plain": "",
+    "gain": " gain 0.2",
+    "occlusion": " occlusion 0.3",
+    "perspective": " perspective",
+}
 GAIN = 0.2
 OCCLUSION = 0.3
 
@@ -139,6 +157,8 @@ def _tracker(name: str, settings: dict[str, Any], seed: int) -> Any:
     return {
         "ecc-euclidean": lambda f, r: planar.run_ecc(f, r, "euclidean"),
         "ecc-affine": lambda f, r: planar.run_ecc(f, r, "affine"),
+        "ecc-homography": lambda f, r: planar.run_ecc(f, r, "homography"),
+        "orb-ransac": planar.run_orb,
         "match-template": planar.run_match_template,
         "csrt": planar.run_csrt,
     }[name]
@@ -146,38 +166,30 @@ def _tracker(name: str, settings: dict[str, Any], seed: int) -> Any:
 
 def run(task: Task) -> dict[str, Any]:
     """One tracker on one generated case."""
-    from rperc.tracking import pattern_sequence, planar
+    from rperc.tracking import planar
 
     steps, condition = case_condition(task.dataset)
     patch, background, source = images(task.text("images"))
-    gain = GAIN if condition == "gain" else 0.0
-    seq = pattern_sequence(
-        patch,
-        background,
-        n_frames=int(task.number("frames") or 40),
-        size=(640, 480),
-        max_step_sigmas=steps,
-        other_step_sigmas=steps,
-        gain=(1.0 - gain, 1.0 + gain),
-        max_occlusion=OCCLUSION if condition == "occlusion" else 0.0,
-        seed=task.seed,
-    )
+    frames, region, truth = sequence(patch, background, steps, condition, task)
     if task.method not in TRACKERS:
         raise ValueError(
             f"unknown tracker {excerpt(task.method)}; expected one of {', '.join(TRACKERS)}"
         )
-    result = _tracker(task.method, task.kwargs, task.seed)(seq.frames, seq.region)
-    truth = planar.truth_corners(seq)
+    settings = dict(task.kwargs)
+    motion = task.text("motion") or "similarity"
+    if task.method == "rperc":
+        settings["motion"] = motion
+    result = _tracker(task.method, settings, task.seed)(frames, region)
     s = planar.score(task.dataset, result, truth)
     # Every generated frame shows the patch (occlusion hides part of it, never all).
     pot = planar.pot_score(result.corners, truth, np.ones(len(truth), bool))
-    est = corner_pose(result.corners, seq.region[2])
-    ref = corner_pose(truth, seq.region[2])
+    est = corner_pose(result.corners, region[2])
+    ref = corner_pose(truth, region[2])
     err = est - ref
     err[:, 2] = wrap_angle(err[:, 2])
     rms = np.sqrt(np.nanmean(err**2, axis=0))
     return {
-        "library": "rperc" if task.method == "rperc" else "OpenCV " + _cv2_version(),
+        "library": f"rperc {motion}" if task.method == "rperc" else "OpenCV " + _cv2_version(),
         "images": source,
         "frames": len(truth),
         "position_rms_px": float(math.hypot(rms[0], rms[1])),
@@ -195,6 +207,34 @@ def run(task: Task) -> dict[str, Any]:
         "failures": s.failures,
         "fps": s.fps,
     }
+
+
+def sequence(
+    patch: np.ndarray, background: np.ndarray, steps: float, condition: str, task: Task
+) -> tuple[np.ndarray, tuple[int, int, int, int], np.ndarray]:
+    """The case's frames, the region of frame 0 and the true corners of frames 1..n."""
+    from rperc.tracking import pattern_sequence, planar
+
+    n_frames = int(task.number("frames") or 40)
+    if condition == "perspective":
+        from rperc.tracking.perspective import perspective_sequence
+
+        walk = (SIGMA[0] * steps, math.degrees(SIGMA[2]) * steps, SIGMA[3] * steps, 2.0 * steps)
+        seq = perspective_sequence(patch, background, n_frames=n_frames, steps=walk, seed=task.seed)
+        return seq.frames, seq.region, seq.corners[1:]
+    gain = GAIN if condition == "gain" else 0.0
+    generated = pattern_sequence(
+        patch,
+        background,
+        n_frames=n_frames,
+        size=(640, 480),
+        max_step_sigmas=steps,
+        other_step_sigmas=steps,
+        gain=(1.0 - gain, 1.0 + gain),
+        max_occlusion=OCCLUSION if condition == "occlusion" else 0.0,
+        seed=task.seed,
+    )
+    return generated.frames, generated.region, planar.truth_corners(generated)
 
 
 def _cv2_version() -> str:

@@ -1,12 +1,14 @@
-"""The colour + template tracker's lost rule, chosen by leave-one-sequence-out over
-the OTB dev sequences: for each held-out sequence, the rule (``lost_psr_ratio``,
-``lost_color_ratio``) with the best F1 of ``lost`` against the frames whose IoU with
-the truth is 0, pooled over the other sequences (ties: the higher mean AUC there), is
-scored on it. Prints each sequence's held-out precision, recall and AUC, the pooled
-held-out figures, and every setting's in-sample figures.
+"""The colour + template tracker's lost rule and re-detection, chosen by
+leave-one-sequence-out over the OTB dev sequences: for each held-out sequence, the
+setting of the grid with the best objective pooled over the other sequences is scored
+on it. The objective is the F1 of ``lost`` against the frames whose IoU with the truth
+is 0 (``--objective f1``, ties: the higher mean AUC) or the mean AUC (``--objective
+auc``, ties: the higher F1). Prints each sequence's held-out precision, recall and AUC,
+the pooled held-out figures, and every setting's in-sample figures.
 
     RAYON_NUM_THREADS=1 python benchmarks/template_lost.py [--corpus DIR]
-        [--psr 0,0.4,0.5,0.6] [--color 0,0.6,0.7,0.8] [--set name=value ...]
+        [--grid lost_psr_ratio=0,0.3,0.5 lost_color_ratio=0,0.7,0.8,0.85,0.9]
+        [--objective f1|auc] [--json OUT]
 
 The rule changes the track as well as the flag (a lost frame teaches nothing and
 starts re-detection), so every setting is a full run of every sequence.
@@ -24,7 +26,7 @@ import numpy as np
 from rperc.datasets import data_dir, load_otb
 from rperc.tracking import ColorTemplateTracker, metrics
 
-Setting = tuple[float, float]
+Setting = tuple[float, ...]
 
 
 def run(frames: list[np.ndarray], truth: np.ndarray, settings: dict) -> dict:
@@ -57,32 +59,40 @@ def ratio(a: int, b: int) -> str:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--corpus", type=Path, default=None)
-    ap.add_argument("--psr", default="0,0.4,0.5,0.6")
-    ap.add_argument("--color", default="0,0.6,0.7,0.8")
-    ap.add_argument("--set", nargs="*", default=[], help="fixed settings name=value (JSON)")
+    ap.add_argument(
+        "--grid",
+        nargs="+",
+        default=["lost_psr_ratio=0,0.3,0.5", "lost_color_ratio=0,0.7,0.8,0.85,0.9"],
+        help="name=v1,v2,... per parameter; every combination is run",
+    )
+    ap.add_argument("--objective", choices=("f1", "auc"), default="f1")
     ap.add_argument("--json", type=Path, default=None)
     args = ap.parse_args()
     root = args.corpus or (data_dir() / "otb")
-    fixed = {k: json.loads(v) for k, v in (s.split("=", 1) for s in args.set)}
-    grid: list[Setting] = list(
-        itertools.product(
-            (float(v) for v in args.psr.split(",")), (float(v) for v in args.color.split(","))
-        )
-    )
+    axes = {k: [float(x) for x in v.split(",")] for k, v in (g.split("=", 1) for g in args.grid)}
+    print(f"grid: {' x '.join(axes)}; objective {args.objective}")
+    grid: list[Setting] = list(itertools.product(*axes.values()))
     names = sorted(p.name for p in root.iterdir() if (p / "groundtruth_rect.txt").is_file())
     results: dict[tuple[str, Setting], dict] = {}
     for name in names:
         seq = load_otb(root / name)
         frames = [seq.frame(k) for k in range(len(seq))]
-        for psr, color in grid:
-            settings = {**fixed, "lost_psr_ratio": psr, "lost_color_ratio": color}
-            results[(name, (psr, color))] = run(frames, seq.boxes, settings)
+        for g in grid:
+            results[(name, g)] = run(frames, seq.boxes, dict(zip(axes, g, strict=True)))
         print(f"ran {name}", flush=True)
-    report(names, grid, results, args.json)
+    report(names, grid, results, args.objective, args.json)
 
 
-def report(names: list[str], grid: list[Setting], results: dict, out: Path | None) -> None:
-    print("\nin-sample, every setting (psr ratio, color ratio): F1, precision, recall, mean AUC")
+def score(runs: list[dict], objective: str) -> tuple[float, float]:
+    """The objective first, the other score to break ties."""
+    auc = float(np.mean([r["auc"] for r in runs]))
+    return (f1(runs), auc) if objective == "f1" else (auc, f1(runs))
+
+
+def report(
+    names: list[str], grid: list[Setting], results: dict, objective: str, out: Path | None
+) -> None:
+    print("\nin-sample, every setting: F1, precision, recall, mean AUC")
     for g in grid:
         runs = [results[(n, g)] for n in names]
         hits, flagged, zero = counts(runs)
@@ -98,8 +108,7 @@ def report(names: list[str], grid: list[Setting], results: dict, out: Path | Non
         others = [n for n in names if n != name]
 
         def key(g: Setting, others: list[str] = others) -> tuple[float, float]:
-            runs = [results[(n, g)] for n in others]
-            return f1(runs), float(np.mean([r["auc"] for r in runs]))
+            return score([results[(n, g)] for n in others], objective)
 
         chosen = max(grid, key=key)
         r = results[(name, chosen)]
@@ -125,7 +134,7 @@ def report(names: list[str], grid: list[Setting], results: dict, out: Path | Non
         f"  pooled held-out: P {ratio(hits, flagged)}  R {ratio(hits, zero)}  F1 {f1(held):.3f}"
         f"  mean AUC {mean_auc:.3f}"
     )
-    best = max(grid, key=lambda g: f1([results[(n, g)] for n in names]))
+    best = max(grid, key=lambda g: score([results[(n, g)] for n in names], objective))
     print(f"  chosen on all {len(names)}: {best}")
     if out is not None:
         out.write_text(json.dumps({"held_out": rows, "all": best}, indent=1))

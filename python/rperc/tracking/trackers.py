@@ -476,12 +476,12 @@ class ColorTemplateTracker(_BoxTracker[_rperc.ColorTemplateTracker]):
     ``lost_psr_ratio`` times its level, or when the colour score falls under
     ``lost_color_ratio`` times its level (each ratio 0 turns its test off; the answer,
     a :class:`ColorTemplateResult`, carries these signals). The models then stop
-    learning, the levels sink 3 % a frame, the box moves ``lost_motion`` of the way to
-    the peak (0 keeps it where the target was last seen, 1 follows the peak), and each
-    frame searches a grid of windows ``redetect_step`` window sizes apart,
-    ``redetect_radius`` steps each way (a region about 2.5 windows wide); a distant
-    window is taken when it passes the same rule and its peak reaches
-    ``redetect_ratio`` times the level.
+    learning, the levels sink by the factor ``lost_level_decay`` a frame, the box
+    moves ``lost_motion`` of the way to the peak (0 keeps it where the target was last
+    seen, 1 follows the peak), and each frame searches a grid of windows
+    ``redetect_step`` window sizes apart, ``redetect_radius`` steps each way (a region
+    about 2.5 windows wide); a distant window, re-centred on its peak, is taken when it
+    passes the same rule and its peak reaches ``redetect_ratio`` times the level.
 
     ``seed`` is accepted for the trackers' common signature; nothing is random.
     Defaults were chosen by leave-one-sequence-out over the ten dev OTB sequences.
@@ -526,6 +526,7 @@ class ColorTemplateTracker(_BoxTracker[_rperc.ColorTemplateTracker]):
         lost_ratio: float = _TEMPLATE["lost_ratio"],
         lost_psr_ratio: float = _TEMPLATE["lost_psr_ratio"],
         lost_color_ratio: float = _TEMPLATE["lost_color_ratio"],
+        lost_level_decay: float = _TEMPLATE["lost_level_decay"],
         redetect_step: float = _TEMPLATE["redetect_step"],
         redetect_radius: int = _TEMPLATE["redetect_radius"],
         redetect_ratio: float = _TEMPLATE["redetect_ratio"],
@@ -553,6 +554,7 @@ class ColorTemplateTracker(_BoxTracker[_rperc.ColorTemplateTracker]):
             lost_ratio=lost_ratio,
             lost_psr_ratio=lost_psr_ratio,
             lost_color_ratio=lost_color_ratio,
+            lost_level_decay=lost_level_decay,
             redetect_step=redetect_step,
             redetect_radius=redetect_radius,
             redetect_ratio=redetect_ratio,

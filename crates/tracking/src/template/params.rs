@@ -66,6 +66,10 @@ pub struct ColorTemplateParams {
     /// probability over the box) falls below this fraction of its running level, in
     /// [0, 1]; 0 turns the test off. Default 0.8.
     pub lost_color_ratio: f64,
+    /// Factor on the running levels per lost frame, in (0, 1]: below 1 a target that
+    /// came back changed (turned, lit differently) is taken up again; 1 holds it to its
+    /// old levels. Default 0.97 (halves them in about 23 frames).
+    pub lost_level_decay: f64,
     /// Re-detection: while lost, the search also covers windows centred
     /// `redetect_step` window sizes apart around the last position, in (0, 2].
     /// Default 0.75.
@@ -109,6 +113,7 @@ impl Default for ColorTemplateParams {
             lost_ratio: 0.6,
             lost_psr_ratio: 0.0,
             lost_color_ratio: 0.8,
+            lost_level_decay: 0.97,
             redetect_step: 0.75,
             redetect_radius: 1,
             redetect_ratio: 1.0,
@@ -160,6 +165,7 @@ impl ColorTemplateParams {
         in_range("lost_ratio", self.lost_ratio, 0.0, 1.0)?;
         in_range("lost_psr_ratio", self.lost_psr_ratio, 0.0, 1.0)?;
         in_range("lost_color_ratio", self.lost_color_ratio, 0.0, 1.0)?;
+        rate("lost_level_decay", self.lost_level_decay)?;
         in_range("redetect_step", self.redetect_step, 1e-3, 2.0)?;
         in_range("lost_motion", self.lost_motion, 0.0, 1.0)?;
         in_range("redetect_ratio", self.redetect_ratio, 0.0, 1.0)?;

@@ -14,8 +14,6 @@ use super::scale::ScaleFilter;
 use crate::error::{Result, TrackingError};
 use crate::frame::{BoundingBox, RgbFrame};
 
-/// Factor on the running levels per lost frame (halves them in about 23 frames).
-const LOST_LEVEL_DECAY: f64 = 0.97;
 /// Tracked frames whose peaks set the level before a loss can be declared.
 const WARM_UP_FRAMES: usize = 5;
 
@@ -161,7 +159,7 @@ impl ColorTemplateTracker {
             // The levels sink while the target stays lost, so that a target that came
             // back changed (turned, lit differently) is taken up again and learned
             // from, instead of being held to the levels of its old appearance forever.
-            self.levels.decay(LOST_LEVEL_DECAY);
+            self.levels.decay(self.params.lost_level_decay);
             let (m, (cx, cy)) = (self.params.lost_motion, self.centre);
             let (x, y) = if m >= 1.0 {
                 (best.cx, best.cy)

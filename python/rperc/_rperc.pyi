@@ -11,6 +11,7 @@ __all__ = [
     "CeilingWorld",
     "ColorHistogramTracker",
     "ColorShapeTracker",
+    "ColorTemplateAnswer",
     "ColorTemplateTracker",
     "Ekf",
     "InformationSpectrum",
@@ -474,6 +475,25 @@ class ColorHistogramTracker:
     def lost_frames(self) -> int: ...
 
 @final
+class ColorTemplateAnswer:
+    """One colour + template answer with the signals of its lost flag, frozen."""
+
+    @property
+    def box(self) -> _Box: ...
+    @property
+    def score(self) -> float: ...
+    @property
+    def lost(self) -> bool: ...
+    @property
+    def peak(self) -> float: ...
+    @property
+    def psr(self) -> float: ...
+    @property
+    def apce(self) -> float: ...
+    @property
+    def color_score(self) -> float: ...
+
+@final
 class ColorTemplateTracker:
     """Colour + correlation-filter template tracker (see rperc.tracking)."""
 
@@ -484,7 +504,7 @@ class ColorTemplateTracker:
         seed: int = 0,
         config: dict[str, Any] | None = None,
     ) -> ColorTemplateTracker: ...
-    def update(self, frame: npt.NDArray[np.uint8]) -> tuple[_Box, float, bool]: ...
+    def update(self, frame: npt.NDArray[np.uint8]) -> ColorTemplateAnswer: ...
     @property
     def scale(self) -> float: ...
     @property

@@ -70,7 +70,9 @@ mod _rperc {
         monobot_simulate, monobot_summarize, nees_bounds,
     };
     #[pymodule_export]
-    use crate::template_py::{PyColorTemplateTracker, color_template_defaults};
+    use crate::template_py::{
+        PyColorTemplateAnswer, PyColorTemplateTracker, color_template_defaults,
+    };
     #[pymodule_export]
     use crate::tracking_py::{
         PyColorHistogramTracker, PyParticleColorTracker, effective_sample_size, resample,

@@ -4,7 +4,44 @@ use pyo3::prelude::*;
 use tracking::ColorTemplateParams;
 
 use crate::errors::{detached, exclusive, shared};
-use crate::tracking_py::{Answer, bbox, frame, track};
+use crate::tracking_py::{bbox, frame};
+
+/// One answer of the colour + template tracker, frozen: the `box` `(x, y, w, h)`, the
+/// `score`, the `lost` flag and the signals it was decided from: the merged response's
+/// `peak`, the template response's `psr` and `apce`, and the colour `color_score`.
+#[pyclass(name = "ColorTemplateAnswer", module = "rperc._rperc", frozen)]
+pub struct PyColorTemplateAnswer {
+    #[pyo3(get, name = "box")]
+    bbox: (f64, f64, f64, f64),
+    #[pyo3(get)]
+    score: f64,
+    #[pyo3(get)]
+    lost: bool,
+    #[pyo3(get)]
+    peak: f64,
+    #[pyo3(get)]
+    psr: f64,
+    #[pyo3(get)]
+    apce: f64,
+    #[pyo3(get)]
+    color_score: f64,
+}
+
+impl From<tracking::TemplateResult> for PyColorTemplateAnswer {
+    fn from(r: tracking::TemplateResult) -> Self {
+        let [x, y, w, h] = r.bbox.to_array();
+        let c = r.confidence;
+        Self {
+            bbox: (x, y, w, h),
+            score: r.score,
+            lost: r.lost,
+            peak: c.peak,
+            psr: c.psr,
+            apce: c.apce,
+            color_score: c.color_score,
+        }
+    }
+}
 
 /// Staple-style colour + correlation-filter template tracker with DSST scale.
 #[pyclass(name = "ColorTemplateTracker", module = "rperc._rperc")]
@@ -37,11 +74,18 @@ impl PyColorTemplateTracker {
         Ok(Self { inner })
     }
 
-    /// Tracks the target into `frame`: `((x, y, w, h), score, lost)`.
-    fn update(slf: &Bound<'_, Self>, py: Python<'_>, frame: &Bound<'_, PyAny>) -> PyResult<Answer> {
+    /// Tracks the target into `frame`.
+    fn update(
+        slf: &Bound<'_, Self>,
+        py: Python<'_>,
+        frame: &Bound<'_, PyAny>,
+    ) -> PyResult<PyColorTemplateAnswer> {
         let mut this = exclusive(slf)?;
         let tracker = &mut this.inner;
-        track(py, frame, |view| tracker.update(view))
+        let f = self::frame(frame)?;
+        let view = f.view()?;
+        let r = detached(py, || Ok(tracker.update(view)?))?;
+        Ok(r.into())
     }
 
     /// The current scale relative to the initial box.

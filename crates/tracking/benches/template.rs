@@ -1,6 +1,7 @@
 //! The colour + template tracker (issue 34) stage by stage: resampling the search
 //! window, HOG, the translation filter (detect + learn), the scale filter, the colour
-//! likelihood and response, and one whole update on a 320 x 240 frame.
+//! likelihood and response, the lost rule's PSR and APCE, and one whole update on a
+//! 320 x 240 frame.
 
 use std::hint::black_box;
 
@@ -47,6 +48,12 @@ fn stages_bench(c: &mut Criterion) {
     let mut scale = stages::Scale::new(17, 320);
     group.bench_function("scale_filter_17x320", |b| {
         b.iter(|| black_box(scale.respond()))
+    });
+    let response: Vec<f32> = (0..24 * 24)
+        .map(|k| ((k * 29) % 53) as f32 / 53.0)
+        .collect();
+    group.bench_function("psr_apce_24x24", |b| {
+        b.iter(|| black_box(stages::sharpness(&response, 24, 24)))
     });
     let rgb: Vec<[u8; 3]> = data
         .chunks_exact(3)

@@ -30,4 +30,4 @@ pub use pattern::{
     PatternSequence, PatternTracker, PatternTrackerParams, Region, ScaleSpace, SequenceParams,
     generate_sequence,
 };
-pub use template::{ColorTemplateParams, ColorTemplateTracker};
+pub use template::{ColorTemplateParams, ColorTemplateTracker, Confidence, TemplateResult};

@@ -137,22 +137,62 @@ def _appearance(**values: Any) -> dict[str, Any]:
     return {k: _plain(v) for k, v in values.items()}
 
 
-def _answer(native: tuple[Sequence[float], float, bool]) -> TrackResult:
+@dataclass(frozen=True, repr=False)
+class ColorTemplateResult(TrackResult):
+    """A :class:`ColorTemplateTracker` answer: the :class:`TrackResult` (``score`` is the
+    merged response's peak clamped to [0, 1]) and the signals ``lost`` is decided from:
+    the merged response's ``peak``, the template's correlation response's peak-to-
+    sidelobe ratio ``psr`` (MOSSE) and average peak-to-correlation energy ``apce``
+    (LMCF), and ``color_score``, the colour model's mean foreground probability over the
+    box, in [0, 1]. Unpacks as ``box, score, lost = result``."""
+
+    peak: float
+    psr: float
+    apce: float
+    color_score: float
+
+    def __repr__(self) -> str:
+        base = super().__repr__()[len("TrackResult(") : -1]
+        return (
+            f"ColorTemplateResult({base}, psr={self.psr:.1f}, apce={self.apce:.1f}, "
+            f"color_score={self.color_score:.3f})"
+        )
+
+
+_Native = tuple[Sequence[float], float, bool] | _rperc.ColorTemplateAnswer
+
+
+def _answer(native: _Native) -> TrackResult:
+    if isinstance(native, _rperc.ColorTemplateAnswer):
+        return _template_answer(native)
     b, score, lost = native
     return TrackResult((b[0], b[1], b[2], b[3]), float(score), bool(lost))
 
 
+def _template_answer(native: _rperc.ColorTemplateAnswer) -> ColorTemplateResult:
+    x, y, w, h = native.box
+    return ColorTemplateResult(
+        (x, y, w, h),
+        native.score,
+        native.lost,
+        native.peak,
+        native.psr,
+        native.apce,
+        native.color_score,
+    )
+
+
 class _NativeBox(Protocol):
-    def update(self, frame: npt.NDArray[np.uint8]) -> tuple[Sequence[float], float, bool]: ...
+    def update(self, frame: npt.NDArray[np.uint8]) -> _Native: ...
 
 
-_Native = TypeVar("_Native", bound=_NativeBox)
+_Tracker = TypeVar("_Tracker", bound=_NativeBox)
 
 
-class _BoxTracker(Generic[_Native]):
+class _BoxTracker(Generic[_Tracker]):
     """What the box trackers share: the frame rule, the first box and the update."""
 
-    _native: _Native
+    _native: _Tracker
     _channels: Channels
     _last: TrackResult
 
@@ -161,7 +201,7 @@ class _BoxTracker(Generic[_Native]):
         frame: npt.ArrayLike,
         box: Sequence[float] | npt.ArrayLike,
         channels: str,
-        make: Callable[[np.ndarray, Box], _Native],
+        make: Callable[[np.ndarray, Box], _Tracker],
     ) -> None:
         self._channels = _channels(channels)
         first = _frame(frame, self._channels)
@@ -436,12 +476,17 @@ class ColorTemplateTracker(_BoxTracker[_rperc.ColorTemplateTracker]):
     ``scale_step``, ``scale_learning_rate``, ``scale_sigma``, ``scale_model_area``)
     re-sizes the box within ``min_scale..max_scale`` of the first. The target is
     ``lost`` when the merged response's peak falls under ``lost_ratio`` times its
-    running level (learning fades out on the way down from the level to there); the
-    models then stop learning, the box moves ``lost_motion`` of the way to the peak
-    (0 keeps it where the target was last seen, 1 follows the peak), and each frame
-    searches a grid of windows ``redetect_step`` window sizes apart,
-    ``redetect_radius`` steps each way, until the peak is back (a distant window needs
-    the full running level).
+    running level over the tracked frames (learning fades out on the way down from the
+    level to there), when the template response's peak-to-sidelobe ratio falls under
+    ``lost_psr_ratio`` times its level, or when the colour score falls under
+    ``lost_color_ratio`` times its level (each ratio 0 turns its test off; the answer,
+    a :class:`ColorTemplateResult`, carries these signals). The models then stop
+    learning, the levels sink by the factor ``lost_level_decay`` a frame, the box
+    moves ``lost_motion`` of the way to the peak (0 keeps it where the target was last
+    seen, 1 follows the peak), and each frame searches a grid of windows
+    ``redetect_step`` window sizes apart, ``redetect_radius`` steps each way (a region
+    about 2.5 windows wide); a distant window, re-centred on its peak, is taken when it
+    passes the same rule and its peak reaches ``redetect_ratio`` times the level.
 
     ``seed`` is accepted for the trackers' common signature; nothing is random.
     Defaults were chosen by leave-one-sequence-out over the ten dev OTB sequences.
@@ -484,8 +529,12 @@ class ColorTemplateTracker(_BoxTracker[_rperc.ColorTemplateTracker]):
         min_scale: float = _TEMPLATE["min_scale"],
         max_scale: float = _TEMPLATE["max_scale"],
         lost_ratio: float = _TEMPLATE["lost_ratio"],
+        lost_psr_ratio: float = _TEMPLATE["lost_psr_ratio"],
+        lost_color_ratio: float = _TEMPLATE["lost_color_ratio"],
+        lost_level_decay: float = _TEMPLATE["lost_level_decay"],
         redetect_step: float = _TEMPLATE["redetect_step"],
         redetect_radius: int = _TEMPLATE["redetect_radius"],
+        redetect_ratio: float = _TEMPLATE["redetect_ratio"],
         lost_motion: float = _TEMPLATE["lost_motion"],
         channels: Channels = "rgb",
     ) -> None:
@@ -508,8 +557,12 @@ class ColorTemplateTracker(_BoxTracker[_rperc.ColorTemplateTracker]):
             min_scale=min_scale,
             max_scale=max_scale,
             lost_ratio=lost_ratio,
+            lost_psr_ratio=lost_psr_ratio,
+            lost_color_ratio=lost_color_ratio,
+            lost_level_decay=lost_level_decay,
             redetect_step=redetect_step,
             redetect_radius=redetect_radius,
+            redetect_ratio=redetect_ratio,
             lost_motion=lost_motion,
         )
         config["lambda"] = _plain(lambda_)
@@ -520,6 +573,12 @@ class ColorTemplateTracker(_BoxTracker[_rperc.ColorTemplateTracker]):
             channels,
             lambda first, start: _rperc.ColorTemplateTracker(first, start, seed, config),
         )
+
+    def update(self, frame: npt.ArrayLike) -> ColorTemplateResult:
+        """Track the target into the next frame."""
+        result = _template_answer(self._native.update(_frame(frame, self._channels)))
+        self._last = result
+        return result
 
     @property
     def scale(self) -> float:

@@ -4,6 +4,7 @@ use super::geometry::wrapped;
 use super::hog;
 use super::likelihood::{colour_response, integral};
 use super::patch;
+use super::sharpness::{average_peak_correlation_energy, peak_to_sidelobe};
 use super::tracker::{ColorTemplateTracker, Located};
 use crate::frame::RgbFrame;
 
@@ -16,6 +17,11 @@ fn parabola_offset(left: f32, centre: f32, right: f32) -> f64 {
     }
     (0.5 * f64::from(left - right) / denominator).clamp(-0.5, 0.5)
 }
+
+/// Half-side in cells of the square around the peak that PSR leaves out of the
+/// sidelobe: MOSSE's 11 x 11 pixels on a 64 x 64 map is about a sixth of the map; on
+/// the ~24-cell grid that is 2 cells each way (the label's main lobe is under 1.5 cells).
+const SIDELOBE_EXCLUSION: usize = 2;
 
 impl ColorTemplateTracker {
     /// Samples the window centred at `(cx, cy)`, computes the template and colour
@@ -34,6 +40,10 @@ impl ColorTemplateTracker {
         let table = integral(&s.probability, pw, ph);
         let target = self.geometry.target;
         colour_response(&table, pw, ph, target, (gw, gh, cell), &mut s.colour);
+        // The template's own sharpness, before the colour (smooth by construction: a
+        // box mean) blurs it.
+        let psr = peak_to_sidelobe(&s.template, gw, gh, SIDELOBE_EXCLUSION);
+        let apce = average_peak_correlation_energy(&s.template);
         let alpha = self.params.merge_factor as f32;
         for (t, c) in s.template.iter_mut().zip(&s.colour) {
             *t = (1.0 - alpha) * *t + alpha * c;
@@ -53,6 +63,9 @@ impl ColorTemplateTracker {
         let to_frame = cell as f64 * self.geometry.zoom * self.scale;
         Located {
             peak: f64::from(peak),
+            psr,
+            apce,
+            color: f64::from(s.colour[k]),
             cx: cx + dx * to_frame,
             cy: cy + dy * to_frame,
         }

@@ -10,11 +10,15 @@ mod hog;
 mod learn;
 mod likelihood;
 mod locate;
+mod lost;
 mod params;
 mod patch;
+mod result;
 mod scale;
+mod sharpness;
 pub mod stages;
 mod tracker;
 
 pub use params::ColorTemplateParams;
+pub use result::{Confidence, TemplateResult};
 pub use tracker::ColorTemplateTracker;

@@ -58,6 +58,18 @@ pub struct ColorTemplateParams {
     /// its running level over tracked frames, in [0, 1]; 0 never reports a loss.
     /// Learning fades linearly from the level down to this threshold. Default 0.6.
     pub lost_ratio: f64,
+    /// The target is also lost when the template response's peak-to-sidelobe ratio
+    /// falls below this fraction of its running level, in [0, 1]; 0 turns the test off.
+    /// Default 0.
+    pub lost_psr_ratio: f64,
+    /// The target is also lost when the colour score at the peak (the mean foreground
+    /// probability over the box) falls below this fraction of its running level, in
+    /// [0, 1]; 0 turns the test off. Default 0.8.
+    pub lost_color_ratio: f64,
+    /// Factor on the running levels per lost frame, in (0, 1]: below 1 a target that
+    /// came back changed (turned, lit differently) is taken up again; 1 holds it to its
+    /// old levels. Default 0.97 (halves them in about 23 frames).
+    pub lost_level_decay: f64,
     /// Re-detection: while lost, the search also covers windows centred
     /// `redetect_step` window sizes apart around the last position, in (0, 2].
     /// Default 0.75.
@@ -65,6 +77,11 @@ pub struct ColorTemplateParams {
     /// Re-detection: the grid of windows reaches this many steps each way (1: 3 x 3),
     /// in 0..=4; 0 searches only the last window. Default 1.
     pub redetect_radius: usize,
+    /// Re-detection: a window away from the last position is taken when it passes the
+    /// lost rule and its merged peak reaches this fraction of the running level, in
+    /// [0, 1] (1: the full level; at most `lost_ratio`: the lost rule alone). Far away,
+    /// another object of the same kind is likelier than the target. Default 1.
+    pub redetect_ratio: f64,
     /// While lost, the box moves this fraction of the way to the last window's peak
     /// (without learning from it), in [0, 1]: 0 keeps it where the target was last
     /// seen (right behind an occluder), 1 follows the peak (right when the loss was
@@ -94,8 +111,12 @@ impl Default for ColorTemplateParams {
             min_scale: 0.1,
             max_scale: 10.0,
             lost_ratio: 0.6,
+            lost_psr_ratio: 0.0,
+            lost_color_ratio: 0.8,
+            lost_level_decay: 0.97,
             redetect_step: 0.75,
             redetect_radius: 1,
+            redetect_ratio: 1.0,
             lost_motion: 1.0,
         }
     }
@@ -142,8 +163,12 @@ impl ColorTemplateParams {
         in_range("min_scale", self.min_scale, 1e-3, 1.0)?;
         in_range("max_scale", self.max_scale, 1.0, 1e3)?;
         in_range("lost_ratio", self.lost_ratio, 0.0, 1.0)?;
+        in_range("lost_psr_ratio", self.lost_psr_ratio, 0.0, 1.0)?;
+        in_range("lost_color_ratio", self.lost_color_ratio, 0.0, 1.0)?;
+        rate("lost_level_decay", self.lost_level_decay)?;
         in_range("redetect_step", self.redetect_step, 1e-3, 2.0)?;
         in_range("lost_motion", self.lost_motion, 0.0, 1.0)?;
+        in_range("redetect_ratio", self.redetect_ratio, 0.0, 1.0)?;
         count_in("redetect_radius", self.redetect_radius, 0, 4)
     }
 }
@@ -208,6 +233,13 @@ mod tests {
                     ..Default::default()
                 },
                 "lost_motion",
+            ),
+            (
+                ColorTemplateParams {
+                    lost_color_ratio: 1.5,
+                    ..Default::default()
+                },
+                "lost_color_ratio",
             ),
         ];
         for (params, name) in cases {

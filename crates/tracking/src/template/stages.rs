@@ -6,6 +6,7 @@ use super::hog::{self, CHANNELS, FeatureMap};
 use super::likelihood::{ColourLikelihood, Rect, colour_response, integral};
 use super::patch::{self, Patch, Window};
 use super::scale::ScaleFilter;
+use super::sharpness::{average_peak_correlation_energy, peak_to_sidelobe};
 use crate::colour::ColorSpace;
 use crate::frame::RgbFrame;
 
@@ -117,4 +118,10 @@ pub fn colour(rgb: &[[u8; 3]], width: usize, height: usize) -> f32 {
         &mut out,
     );
     out[0]
+}
+
+/// The lost rule's sharpness signals of a `width x height` response map: PSR (with
+/// the tracker's 2-cell exclusion) plus APCE.
+pub fn sharpness(response: &[f32], width: usize, height: usize) -> f64 {
+    peak_to_sidelobe(response, width, height, 2) + average_peak_correlation_energy(response)
 }

@@ -6,23 +6,14 @@ use super::filter::CorrelationFilter;
 use super::geometry::Geometry;
 use super::hog::FeatureMap;
 use super::likelihood::ColourLikelihood;
+use super::lost::{Levels, LostRule};
 use super::params::ColorTemplateParams;
 use super::patch::{Patch, Window};
+use super::result::{Confidence, TemplateResult};
 use super::scale::ScaleFilter;
-use crate::colour::TrackResult;
 use crate::error::{Result, TrackingError};
 use crate::frame::{BoundingBox, RgbFrame};
 
-/// The running level of the peak is the plain mean of the tracked frames' peaks for
-/// the first `1 / LEVEL_RATE` of them, then an average with this weight: slow enough
-/// that a peak sinking over a few tens of frames (a target sliding behind an
-/// occluder) still falls below it, instead of dragging it down.
-const LEVEL_RATE: f64 = 0.02;
-/// A re-detection window away from the last position is taken only when its peak
-/// reaches the full running level (not `lost_ratio` of it): far away, another object
-/// of the same kind is likelier than the target (Bolt2's runners, Jogging's joggers).
-/// Factor on the running level per lost frame (halves it in about 23 frames).
-const LOST_LEVEL_DECAY: f64 = 0.97;
 /// Tracked frames whose peaks set the level before a loss can be declared.
 const WARM_UP_FRAMES: usize = 5;
 
@@ -31,6 +22,12 @@ const WARM_UP_FRAMES: usize = 5;
 pub(super) struct Located {
     /// The merged response's peak.
     pub(super) peak: f64,
+    /// PSR of the template's response.
+    pub(super) psr: f64,
+    /// APCE of the template's response.
+    pub(super) apce: f64,
+    /// The colour response at the merged peak.
+    pub(super) color: f64,
     /// The target's centre it implies, frame pixels.
     pub(super) cx: f64,
     /// The target's centre it implies, frame pixels.
@@ -84,7 +81,8 @@ pub struct ColorTemplateTracker {
     pub(super) filter: CorrelationFilter,
     pub(super) scale_filter: ScaleFilter,
     pub(super) colour: ColourLikelihood,
-    pub(super) peak_level: Option<f64>,
+    pub(super) levels: Levels,
+    pub(super) rule: LostRule,
     pub(super) tracked_frames: usize,
     pub(super) lost_frames: usize,
     pub(super) scratch: Scratch,
@@ -114,7 +112,8 @@ impl ColorTemplateTracker {
             base: (bbox.w, bbox.h),
             centre: bbox.centre(),
             scale: 1.0,
-            peak_level: None,
+            levels: Levels::default(),
+            rule: LostRule::new(&params),
             tracked_frames: 0,
             lost_frames: 0,
             scratch: Scratch::default(),
@@ -149,19 +148,18 @@ impl ColorTemplateTracker {
     ///
     /// # Errors
     /// [`TrackingError::FrameSizeChanged`] when the frame's size differs from the first.
-    pub fn update(&mut self, frame: RgbFrame<'_>) -> Result<TrackResult> {
+    pub fn update(&mut self, frame: RgbFrame<'_>) -> Result<TemplateResult> {
         self.check_size(&frame)?;
-        let level = self.peak_level.unwrap_or(0.0);
-        let threshold = self.params.lost_ratio * level;
-        let best = self.search(&frame, threshold, level);
-        // The first frames only set the level: a loss needs one to compare with.
-        let lost = self.tracked_frames >= WARM_UP_FRAMES && best.peak < threshold;
+        let levels = self.levels;
+        let best = self.search(&frame, &levels);
+        // The first frames only set the levels: a loss needs them to compare with.
+        let lost = self.tracked_frames >= WARM_UP_FRAMES && !self.rule.passes(&best, &levels);
         if lost {
             self.lost_frames += 1;
-            // The level sinks while the target stays lost, so that a target that came
+            // The levels sink while the target stays lost, so that a target that came
             // back changed (turned, lit differently) is taken up again and learned
-            // from, instead of being held to the level of its old appearance forever.
-            self.peak_level = Some(level * LOST_LEVEL_DECAY);
+            // from, instead of being held to the levels of its old appearance forever.
+            self.levels.decay(self.params.lost_level_decay);
             let (m, (cx, cy)) = (self.params.lost_motion, self.centre);
             let (x, y) = if m >= 1.0 {
                 (best.cx, best.cy)
@@ -174,15 +172,20 @@ impl ColorTemplateTracker {
             self.centre = self.clamp_centre(best.cx, best.cy);
             self.estimate_scale(&frame);
             self.tracked_frames += 1;
-            let rate = (1.0 / self.tracked_frames as f64).max(LEVEL_RATE);
-            self.peak_level = Some((1.0 - rate) * level + rate * best.peak);
-            let confidence = self.confidence(best.peak, level);
+            self.levels.follow(&best, self.tracked_frames);
+            let confidence = self.confidence(best.peak, levels.peak);
             self.learn(&frame, Some(confidence as f32));
         }
-        Ok(TrackResult {
+        Ok(TemplateResult {
             bbox: self.bbox(),
             score: best.peak.clamp(0.0, 1.0),
             lost,
+            confidence: Confidence {
+                peak: best.peak,
+                psr: best.psr,
+                apce: best.apce,
+                color_score: best.color,
+            },
         })
     }
 
@@ -194,7 +197,7 @@ impl ColorTemplateTracker {
         if self.tracked_frames <= WARM_UP_FRAMES || level <= 0.0 {
             return 1.0;
         }
-        let ratio = self.params.lost_ratio;
+        let ratio = self.rule.peak_ratio();
         if ratio >= 1.0 {
             return 1.0;
         }
@@ -232,13 +235,14 @@ impl ColorTemplateTracker {
         }
     }
 
-    /// The target in the window at the last position; while lost, when that window's
-    /// peak stays under `threshold`, the best of a grid of windows around it
-    /// (re-detection in a wider window); a distant window must reach the level.
-    fn search(&mut self, frame: &RgbFrame<'_>, threshold: f64, level: f64) -> Located {
+    /// The target in the window at the last position; while lost, when that window
+    /// fails the lost rule, the best (by peak) of a grid of windows around it that
+    /// passes the rule and whose peak reaches `redetect_ratio` of its level
+    /// (re-detection in a wider window), else the last window's answer.
+    fn search(&mut self, frame: &RgbFrame<'_>, levels: &Levels) -> Located {
         let (cx, cy) = self.centre;
         let here = self.locate(frame, cx, cy);
-        if self.lost_frames == 0 || here.peak >= threshold {
+        if self.lost_frames == 0 || self.rule.passes(&here, levels) {
             return here;
         }
         let reach = self.params.redetect_radius as isize;
@@ -252,12 +256,31 @@ impl ColorTemplateTracker {
                 }
                 let x = cx + i as f64 * step * window.width;
                 let y = cy + j as f64 * step * window.height;
-                let found = self.locate(frame, x, y);
-                if found.peak >= level && found.peak > best.peak {
+                let found = self.redetect_at(frame, x, y, levels);
+                let taken = found.peak >= self.params.redetect_ratio * levels.peak
+                    && self.rule.passes(&found, levels);
+                if taken && found.peak > best.peak {
                     best = found;
                 }
             }
         }
         best
+    }
+
+    /// A re-detection window at `(cx, cy)`; when its peak could pass the rule, the
+    /// window re-centred on that peak, whose answer is judged instead: a target found
+    /// off-centre is under the cosine window's taper and half out of the colour box,
+    /// and its peak there understates the match.
+    fn redetect_at(&mut self, frame: &RgbFrame<'_>, cx: f64, cy: f64, levels: &Levels) -> Located {
+        let found = self.locate(frame, cx, cy);
+        if found.peak < self.rule.peak_ratio() * levels.peak {
+            return found;
+        }
+        let centred = self.locate(frame, found.cx, found.cy);
+        if centred.peak > found.peak {
+            centred
+        } else {
+            found
+        }
     }
 }

@@ -1,0 +1,138 @@
+//! The lost rule: the frame's signals against their running levels over the tracked
+//! frames. A target is lost when the merged peak sinks (`lost_ratio`), when the template's
+//! response loses its single sharp peak (PSR, `lost_psr_ratio`) or when the colour under
+//! the box stops looking like the target's (`lost_color_ratio`); each ratio of 0 turns
+//! its test off. The same rule accepts a re-detection candidate, so a target is taken
+//! up again only where it would not be declared lost.
+
+use super::params::ColorTemplateParams;
+use super::tracker::Located;
+
+/// The running level of the peak is the plain mean of the tracked frames' signals for
+/// the first `1 / LEVEL_RATE` of them, then an average with this weight: slow enough
+/// that a signal sinking over a few tens of frames (a target sliding behind an
+/// occluder) still falls below it, instead of dragging it down.
+const LEVEL_RATE: f64 = 0.02;
+/// PSR is infinite for a peak over a constant sidelobe; the level takes it at this
+/// value (real responses give 5-60) so one such frame cannot hold it up for ever.
+const PSR_CAP: f64 = 1e3;
+
+/// Running levels of the signals over tracked frames (zero before the first).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(super) struct Levels {
+    /// The merged response's peak.
+    pub(super) peak: f64,
+    /// The template response's PSR.
+    pub(super) psr: f64,
+    /// The colour score at the peak.
+    pub(super) color: f64,
+}
+
+impl Levels {
+    /// Takes in the `n`-th tracked frame's signals (`n >= 1`).
+    pub(super) fn follow(&mut self, found: &Located, n: usize) {
+        let rate = (1.0 / n as f64).max(LEVEL_RATE);
+        let mix = |level: f64, value: f64| (1.0 - rate) * level + rate * value;
+        self.peak = mix(self.peak, found.peak);
+        self.psr = mix(self.psr, found.psr.min(PSR_CAP));
+        self.color = mix(self.color, found.color);
+    }
+
+    /// Every level times `factor`.
+    pub(super) fn decay(&mut self, factor: f64) {
+        self.peak *= factor;
+        self.psr *= factor;
+        self.color *= factor;
+    }
+}
+
+/// The thresholds of the rule, as fractions of the levels.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct LostRule {
+    peak: f64,
+    psr: f64,
+    color: f64,
+}
+
+impl LostRule {
+    pub(super) fn new(p: &ColorTemplateParams) -> Self {
+        Self {
+            peak: p.lost_ratio,
+            psr: p.lost_psr_ratio,
+            color: p.lost_color_ratio,
+        }
+    }
+
+    /// Whether `found` is the target by the rule: no signal under its threshold.
+    pub(super) fn passes(&self, found: &Located, levels: &Levels) -> bool {
+        found.peak >= self.peak * levels.peak
+            && found.psr >= self.psr * levels.psr
+            && found.color >= self.color * levels.color
+    }
+
+    /// The merged-peak threshold (where learning has faded to nothing).
+    pub(super) fn peak_ratio(&self) -> f64 {
+        self.peak
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn at(peak: f64, psr: f64, color: f64) -> Located {
+        Located {
+            peak,
+            psr,
+            apce: 0.0,
+            color,
+            cx: 0.0,
+            cy: 0.0,
+        }
+    }
+
+    /// Each ratio tests its own signal, and a ratio of 0 never fires.
+    #[test]
+    fn each_signal_against_its_level() {
+        let levels = Levels {
+            peak: 0.4,
+            psr: 20.0,
+            color: 0.6,
+        };
+        let rule = LostRule {
+            peak: 0.5,
+            psr: 0.5,
+            color: 0.5,
+        };
+        assert!(rule.passes(&at(0.2, 10.0, 0.3), &levels));
+        assert!(!rule.passes(&at(0.19, 10.0, 0.3), &levels));
+        assert!(!rule.passes(&at(0.2, 9.9, 0.3), &levels));
+        assert!(!rule.passes(&at(0.2, 10.0, 0.29), &levels));
+        let off = LostRule {
+            peak: 0.0,
+            psr: 0.0,
+            color: 0.0,
+        };
+        assert!(off.passes(&at(0.0, 0.0, 0.0), &levels));
+    }
+
+    /// The first tracked frame sets the levels; later ones average in at `1 / n`
+    /// (a plain mean), an infinite PSR counting as the cap.
+    #[test]
+    fn levels_are_running_means() {
+        let mut levels = Levels::default();
+        levels.follow(&at(0.3, 10.0, 0.5), 1);
+        assert_eq!(
+            levels,
+            Levels {
+                peak: 0.3,
+                psr: 10.0,
+                color: 0.5
+            }
+        );
+        levels.follow(&at(0.5, f64::INFINITY, 0.7), 2);
+        assert!((levels.peak - 0.4).abs() < 1e-12);
+        assert!((levels.psr - (10.0 + PSR_CAP) / 2.0).abs() < 1e-9);
+        assert!((levels.color - 0.6).abs() < 1e-12);
+    }
+}

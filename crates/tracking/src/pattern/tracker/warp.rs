@@ -332,6 +332,120 @@ fn add_profile(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::pattern::model::{PatternConfig, Region};
+
+    /// A smooth, textured image: sums of sinusoids and a few blobs.
+    fn texture(width: usize, height: usize) -> GrayImage {
+        let data = (0..width * height)
+            .map(|i| {
+                let (x, y) = ((i % width) as f32, (i / width) as f32);
+                let blobs = [(60.0, 50.0, 9.0), (95.0, 70.0, 6.0), (75.0, 95.0, 11.0)]
+                    .iter()
+                    .map(|&(cx, cy, r): &(f32, f32, f32)| {
+                        let d2 = (x - cx).powi(2) + (y - cy).powi(2);
+                        90.0 * (-d2 / (2.0 * r * r)).exp()
+                    })
+                    .sum::<f32>();
+                100.0
+                    + 40.0 * (0.21 * x).sin() * (0.17 * y).cos()
+                    + 25.0 * (0.05 * x + 0.11 * y).sin()
+                    + blobs
+            })
+            .collect();
+        GrayImage {
+            data,
+            width,
+            height,
+        }
+    }
+
+    /// The Gauss-Newton right-hand side is minus the gradient of the weighted cost
+    /// `sum w_j / a_j (1 - C_j(p))` (weights held at the start), by central finite
+    /// differences of the compositional update's 8 parameters.
+    #[test]
+    fn the_normal_equations_point_down_the_cost() {
+        let image = texture(160, 140);
+        let region = Region::Box {
+            x: 40,
+            y: 35,
+            w: 80,
+            h: 75,
+        };
+        let model = PatternModel::from_region(&image, region, &PatternConfig::default()).unwrap();
+        let mut space = ScaleSpace::new();
+        space.build(&image, &model).unwrap();
+        let profiles = Profiles::new(&model);
+        let [cx, cy] = model.centre;
+        // Near the pattern but not on it: a small perspective and shift.
+        let h = Matrix3::new(
+            1.02,
+            0.01,
+            cx + 0.7,
+            -0.015,
+            0.99,
+            cy - 0.4,
+            2e-4,
+            -1e-4,
+            1.0,
+        );
+        let t = 1.5;
+        let mut system = (SMatrix::<f64, 8, 8>::zeros(), SVector::<f64, 8>::zeros());
+        profiles
+            .evaluate(&h, &space, t, Some(&mut system), None)
+            .unwrap();
+        let at = level(&space, &h).unwrap();
+        let mut observed = Observed {
+            values: Vec::new(),
+            derivatives: Vec::new(),
+        };
+        let mut unit = Vec::new();
+        let weights: Vec<f64> = profiles
+            .profiles
+            .iter()
+            .map(|p| {
+                let seen = profiles.observe(p, &h, at, false, &mut observed);
+                let c = seen.and_then(|_| Profiles::correlate(p, &observed.values, &mut unit));
+                c.map_or(0.0, |(c, _)| {
+                    let l2 = (1.0 - c).max(0.0) * p.inverse_width;
+                    Profiles::tukey(l2, t * t).0 * p.inverse_width
+                })
+            })
+            .collect();
+        let mut cost = |p: &SVector<f64, 8>| -> f64 {
+            let moved = homography::compose_update(&h, p, profiles.norm);
+            let there = level(&space, &moved).unwrap();
+            let mut sum = 0.0;
+            for (profile, w) in profiles.profiles.iter().zip(&weights) {
+                if *w == 0.0 {
+                    continue;
+                }
+                profiles
+                    .observe(profile, &moved, there, false, &mut observed)
+                    .unwrap();
+                let (c, _) = Profiles::correlate(profile, &observed.values, &mut unit).unwrap();
+                sum += w * (1.0 - c);
+            }
+            sum
+        };
+        let scale = system.1.abs().max();
+        assert!(scale > 0.0);
+        for k in 0..8 {
+            // A step of about 5e-3 px: the f32 grey levels' rounding (1e-5 of 200)
+            // stays far below the change, and few samples cross a pixel's edge.
+            let eps = 1e-4;
+            let mut p = SVector::<f64, 8>::zeros();
+            p[k] = eps;
+            let plus = cost(&p);
+            p[k] = -eps;
+            let minus = cost(&p);
+            let numeric = -(plus - minus) / (2.0 * eps);
+            assert!(
+                (numeric - system.1[k]).abs() < 1e-3 * scale,
+                "parameter {k}: finite differences {numeric}, normal equations {}",
+                system.1[k]
+            );
+        }
+    }
 
     /// The median absolute deviation against its definition on sorted values, and
     /// Tukey's weight and cost against their formulas.

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rperc._atomic import write_text_atomically
 from rperc.datasets import data_dir, load_otb
 from rperc.tracking import ColorTemplateTracker, metrics
 
@@ -137,7 +138,7 @@ def report(
     best = max(grid, key=lambda g: score([results[(n, g)] for n in names], objective))
     print(f"  chosen on all {len(names)}: {best}")
     if out is not None:
-        out.write_text(json.dumps({"held_out": rows, "all": best}, indent=1))
+        write_text_atomically(out, json.dumps({"held_out": rows, "all": best}, indent=1) + "\n")
 
 
 if __name__ == "__main__":

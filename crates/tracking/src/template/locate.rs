@@ -3,9 +3,10 @@
 use super::geometry::wrapped;
 use super::hog;
 use super::likelihood::{colour_response, integral};
+use super::lost::Located;
 use super::patch;
 use super::sharpness::{average_peak_correlation_energy, peak_to_sidelobe};
-use super::tracker::{ColorTemplateTracker, Located};
+use super::tracker::ColorTemplateTracker;
 use crate::frame::RgbFrame;
 
 /// The sub-cell offset of a peak from its two neighbours' values (the vertex of the

@@ -6,7 +6,23 @@
 //! up again only where it would not be declared lost.
 
 use super::params::ColorTemplateParams;
-use super::tracker::Located;
+
+/// Where one search window put the target.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Located {
+    /// The merged response's peak.
+    pub(super) peak: f64,
+    /// PSR of the template's response.
+    pub(super) psr: f64,
+    /// APCE of the template's response.
+    pub(super) apce: f64,
+    /// The colour response at the merged peak.
+    pub(super) color: f64,
+    /// The target's centre it implies, frame pixels.
+    pub(super) cx: f64,
+    /// The target's centre it implies, frame pixels.
+    pub(super) cy: f64,
+}
 
 /// The running level of the peak is the plain mean of the tracked frames' signals for
 /// the first `1 / LEVEL_RATE` of them, then an average with this weight: slow enough

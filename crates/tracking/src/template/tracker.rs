@@ -6,7 +6,7 @@ use super::filter::CorrelationFilter;
 use super::geometry::Geometry;
 use super::hog::FeatureMap;
 use super::likelihood::ColourLikelihood;
-use super::lost::{Levels, LostRule};
+use super::lost::{Levels, Located, LostRule};
 use super::params::ColorTemplateParams;
 use super::patch::{Patch, Window};
 use super::result::{Confidence, TemplateResult};
@@ -16,23 +16,6 @@ use crate::frame::{BoundingBox, RgbFrame};
 
 /// Tracked frames whose peaks set the level before a loss can be declared.
 const WARM_UP_FRAMES: usize = 5;
-
-/// Where one search window put the target.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Located {
-    /// The merged response's peak.
-    pub(super) peak: f64,
-    /// PSR of the template's response.
-    pub(super) psr: f64,
-    /// APCE of the template's response.
-    pub(super) apce: f64,
-    /// The colour response at the merged peak.
-    pub(super) color: f64,
-    /// The target's centre it implies, frame pixels.
-    pub(super) cx: f64,
-    /// The target's centre it implies, frame pixels.
-    pub(super) cy: f64,
-}
 
 /// Working buffers reused every frame (no allocation in the steady state).
 #[derive(Default)]

@@ -5,6 +5,7 @@
 //! for a wrong type), a numerical failure `rperc.NumericalError`, an unreadable file
 //! `OSError`, and a caught panic `rperc.RpercError`.
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
 use pyo3::exceptions::{
@@ -213,17 +214,23 @@ where
     let pending = Pending::default();
     let out = py.detach(|| {
         let token = Arc::new(interrupt::Interrupt::new());
+        // Set before the unpark: the thread is not "finished" until it has returned,
+        // so a caller woken by the unpark that asked `is_finished()` saw false and
+        // slept a whole poll interval more (10 ms on every call).
+        let done = AtomicBool::new(false);
         std::thread::scope(|scope| {
             let caller = std::thread::current();
             let worker_token = Some(Arc::clone(&token));
+            let done = &done;
             let worker = scope.spawn(move || {
                 let out = interrupt::run_with(worker_token, || guarded(work));
+                done.store(true, Ordering::Release);
                 caller.unpark();
                 out
             });
-            while !worker.is_finished() {
+            while !done.load(Ordering::Acquire) {
                 std::thread::park_timeout(interrupt::POLL_INTERVAL);
-                if !worker.is_finished() && !token.is_stopped() && signalled(&pending) {
+                if !done.load(Ordering::Acquire) && !token.is_stopped() && signalled(&pending) {
                     token.stop();
                 }
             }

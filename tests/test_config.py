@@ -148,3 +148,12 @@ def test_the_smoother_takes_its_config_class_and_refuses_a_bad_one_naming_it() -
         smooth_walls(None, [], [], [0.0], max_iterations=0)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="tolerance"):
         smooth_walls(None, [], [], [0.0], SmootherConfig(tolerance=-1.0))  # type: ignore[arg-type]
+
+
+def test_a_config_of_the_wrong_kind_is_a_type_error_naming_what_is_wanted() -> None:
+    from rperc.slam.planar import simulate
+
+    with pytest.raises(TypeError, match="SimConfig, a mapping of its fields or None"):
+        simulate("radius=3")  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="PlanarConfig, a mapping"):
+        PlanarSlam(["anchor"])  # type: ignore[arg-type]

@@ -70,8 +70,13 @@ def as_config(
     takes both spellings, checked once, here."""
     if isinstance(config, Config):
         base = config.to_dict()
-    else:
+    elif config is None or isinstance(config, Mapping):
         base = dict(config or {})
+    else:
+        raise TypeError(
+            f"config must be a {cls.__name__}, a mapping of its fields or None, "
+            f"got {type(config).__name__}"
+        )
     return cls.from_dict({**base, **(overrides or {})})
 
 

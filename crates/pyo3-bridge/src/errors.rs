@@ -228,7 +228,9 @@ where
                 caller.unpark();
                 out
             });
-            while !done.load(Ordering::Acquire) {
+            // `is_finished()` too: a worker that died without setting `done` must not
+            // leave this thread polling forever.
+            while !done.load(Ordering::Acquire) && !worker.is_finished() {
                 std::thread::park_timeout(interrupt::POLL_INTERVAL);
                 if !done.load(Ordering::Acquire) && !token.is_stopped() && signalled(&pending) {
                     token.stop();

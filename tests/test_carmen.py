@@ -9,7 +9,10 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
+from rperc import _rperc
 from rperc.datasets import DatasetFormatError, TimestampRepairWarning, load_carmen
 
 ODOM = "ODOM {x} {y} {th} 0 0 0 {t} host {t}\n"
@@ -358,4 +361,35 @@ def test_beams_that_sweep_past_a_turn_are_refused_by_line(tmp_path, lines, kind)
     path = tmp_path / "turn.log"
     path.write_text(lines)
     with pytest.raises(DatasetFormatError, match=rf"turn.log:{lines.count(chr(10))}: {kind}.*turn"):
+        load_carmen(path)
+
+
+_DECIMAL = st.from_regex(r"\A[+-]?(\d{1,20}(\.\d{0,20})?|\.\d{1,20})([eE][+-]?\d{1,4})?\Z")
+_TOKEN = st.one_of(
+    _DECIMAL,
+    st.sampled_from(["inf", "-Infinity", "nan", "+NaN", "1_0", "\u0661", "0x1", "1e", ".", ""]),
+    st.text(max_size=6),
+)
+
+
+@given(st.lists(_TOKEN, max_size=8))
+def test_the_fast_number_reader_reads_what_float_reads(tokens):
+    """The readings go through Rust's number parser first (a scan line holds hundreds).
+    Whatever it reads, Python's float() reads to the same value; what it refuses goes to
+    float(), so the reader accepts exactly what float() accepts."""
+    fast = _rperc.parse_floats(tokens)
+    if fast is None:
+        return
+    expected = [float(t) for t in tokens]  # raises if Rust read something float() refuses
+    np.testing.assert_array_equal(fast, np.array(expected, dtype=np.float64))
+
+
+def test_readings_float_alone_reads_take_the_slow_path(tmp_path):
+    """A reading only float() reads (a digit separator) is read as float() reads it, and
+    a bad one is still named."""
+    path = tmp_path / "sep.log"
+    path.write_text(flaser(["1_0", "2.5", "3"]))
+    np.testing.assert_array_equal(load_carmen(path).scans.ranges[0], [10.0, 2.5, 3.0])
+    path.write_text(flaser(["1", "2.5x", "3"]))
+    with pytest.raises(DatasetFormatError, match=r"sep.log:1: ranges: not a number: '2.5x'"):
         load_carmen(path)

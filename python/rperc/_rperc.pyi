@@ -60,6 +60,7 @@ __all__ = [
     "otb_iou",
     "otb_precision",
     "otb_success_curve",
+    "parse_floats",
     "pattern_defaults",
     "pattern_sequence",
     "planar_sim_check",
@@ -735,6 +736,9 @@ def laser_run(
     times: npt.NDArray[np.float64],
     config: Mapping[str, Any] | None = None,
 ) -> LaserRun: ...
+def parse_floats(tokens: list[str]) -> npt.NDArray[np.float64] | None:
+    """The tokens as floats, or None when one is not a plain decimal number."""
+
 def laser_scan_points(
     ranges: _ArrayLike,
     angle_min: float,

@@ -19,6 +19,7 @@ mod pattern_py;
 mod planar_py;
 mod slam_py;
 mod template_py;
+mod text_py;
 mod tracking_py;
 
 use pyo3::prelude::*;
@@ -73,6 +74,8 @@ mod _rperc {
     use crate::template_py::{
         PyColorTemplateAnswer, PyColorTemplateTracker, color_template_defaults,
     };
+    #[pymodule_export]
+    use crate::text_py::parse_floats;
     #[pymodule_export]
     use crate::tracking_py::{
         PyColorHistogramTracker, PyParticleColorTracker, effective_sample_size, resample,

@@ -12,6 +12,8 @@
 use nalgebra::{Matrix2, Vector2};
 use rperc_core::{Pose2, wrap_angle};
 
+use crate::grid::floor_index;
+
 /// At most this many of a scan's points score a pose: the score is a share, and
 /// more points only cost time.
 const SCORED_POINTS: usize = 60;
@@ -78,13 +80,16 @@ impl HitGrid {
             hit: vec![false; cols * rows],
         };
         let within = (hit / cell).ceil() as i64;
+        let hit2 = hit * hit;
         for p in points {
             let (ci, cj) = grid.coords(p);
+            // The point's offset from its own cell's centre, m.
+            let d = p - (Vector2::new(ci as f64 + 0.5, cj as f64 + 0.5) * cell + lo);
             for dj in -within..=within {
+                let dy = dj as f64 * cell - d.y;
                 for di in -within..=within {
-                    let c =
-                        Vector2::new((ci + di) as f64 + 0.5, (cj + dj) as f64 + 0.5) * cell + lo;
-                    if (c - p).norm() <= hit {
+                    let dx = di as f64 * cell - d.x;
+                    if dx * dx + dy * dy <= hit2 {
                         grid.set(ci + di, cj + dj);
                     }
                 }
@@ -96,7 +101,7 @@ impl HitGrid {
     /// The cell of `p` (floor; saturating far outside).
     fn coords(&self, p: &Vector2<f64>) -> (i64, i64) {
         let d = (p - self.origin) / self.cell;
-        (d.x.floor() as i64, d.y.floor() as i64)
+        (floor_index(d.x), floor_index(d.y))
     }
 
     /// Marks a cell hit; cells in the margin stay empty by construction.

@@ -23,6 +23,9 @@ pub struct MapIndex {
     /// `order[start[c]..start[c + 1]]` are the points of cell `c`.
     start: Vec<u32>,
     order: Vec<u32>,
+    /// The points in `order`'s order: a query reads its cells' points from one
+    /// contiguous run instead of gathering them from all over `points`.
+    by_cell: Vec<Vector2<f64>>,
 }
 
 /// A map point found near a query: its index, position, normal and squared distance.
@@ -110,6 +113,7 @@ impl MapIndex {
             order[fill[c] as usize] = i as u32;
             fill[c] += 1;
         }
+        self.by_cell = order.iter().map(|&k| self.points[k as usize]).collect();
         self.start = start;
         self.order = order;
     }
@@ -121,7 +125,7 @@ impl MapIndex {
 
     fn coords(&self, p: &Vector2<f64>) -> (i64, i64) {
         let d = (p - self.origin) / self.cell;
-        (d.x.floor() as i64, d.y.floor() as i64)
+        (floor_index(d.x), floor_index(d.y))
     }
 
     /// The number of map points.
@@ -179,20 +183,30 @@ impl MapIndex {
                 continue;
             }
             let c = j as usize * self.cols + i as usize;
-            for &k in &self.order[self.start[c] as usize..self.start[c + 1] as usize] {
-                let d2 = (self.points[k as usize] - q).norm_squared();
+            let (from, to) = (self.start[c] as usize, self.start[c + 1] as usize);
+            for (slot, p) in self.by_cell[from..to].iter().enumerate() {
+                let d2 = (p - q).norm_squared();
                 if d2 <= limit * limit && best.is_none_or(|(_, b)| d2 < b) {
-                    best = Some((k as usize, d2));
+                    best = Some((from + slot, d2));
                 }
             }
         }
-        best.map(|(index, distance2)| Neighbour {
-            index,
-            point: self.points[index],
-            normal: self.normals[index],
-            distance2,
-        })
+        best.map(|(slot, distance2)| (self.order[slot] as usize, distance2))
+            .map(|(index, distance2)| Neighbour {
+                index,
+                point: self.points[index],
+                normal: self.normals[index],
+                distance2,
+            })
     }
+}
+
+/// `x.floor() as i64` without libm's `floor` call (the baseline x86-64 target has no
+/// rounding instruction, and cell look-ups are the ICP's inner loop): truncate, then
+/// one less for a negative non-integer. Saturates and maps NaN to 0 as `as` does.
+pub(crate) fn floor_index(x: f64) -> i64 {
+    let t = x as i64;
+    t.saturating_sub(i64::from((t as f64) > x))
 }
 
 /// The cells a query reads, its own first, then those sharing an edge, then the
@@ -240,6 +254,21 @@ mod tests {
                 let found = map.nearest(&q, radius).map(|n| n.distance2);
                 assert_eq!(found, brute, "query {q:?}, radius {radius}");
             }
+        }
+    }
+
+    /// Equals `floor() as i64` (the oracle) on integers, halves, tiny offsets either
+    /// side of them, the extremes and NaN.
+    #[test]
+    fn floor_index_equals_floor() {
+        let mut xs = vec![f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 1e300, -1e300];
+        xs.extend([i64::MAX as f64, i64::MIN as f64, -0.0, f64::MIN_POSITIVE]);
+        for k in -2000..2000 {
+            let x = k as f64 * 0.5;
+            xs.extend([x, x + 1e-12, x - 1e-12, x.next_up(), x.next_down()]);
+        }
+        for x in xs {
+            assert_eq!(floor_index(x), x.floor() as i64, "x = {x:e}");
         }
     }
 

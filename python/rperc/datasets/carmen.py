@@ -51,6 +51,7 @@ import math
 import warnings
 from collections import Counter
 from dataclasses import dataclass, field, replace
+from math import isfinite
 from pathlib import Path
 from typing import Literal
 
@@ -377,10 +378,15 @@ def _parse_rawlaser(path: Path, lineno: int, tok: list[str], rows: _ScanRows) ->
 
 
 def _parse_odom(path: Path, lineno: int, tok: list[str], odom: list[list[float]]) -> None:
+    # Inlined (ODOM lines outnumber scans ten to one): the helpers run only to raise.
     if len(tok) != 10:
         raise DatasetFormatError(path, lineno, f"ODOM needs 10 fields, got {len(tok)}")
-    values = _floats(path, lineno, tok[1:8], "ODOM values")
-    _finite(path, lineno, values[:3], "pose")
+    try:
+        values = list(map(float, tok[1:8]))
+    except ValueError:
+        values = _floats(path, lineno, tok[1:8], "ODOM values")
+    if not (isfinite(values[0]) and isfinite(values[1]) and isfinite(values[2])):
+        _finite(path, lineno, values[:3], "pose")
     odom.append(values)
 
 
@@ -552,14 +558,14 @@ def _read_record(
     if tok[0].startswith("#"):
         return COMMENT
     kind = tok[0]
-    if kind in ("FLASER", "RLASER"):
+    if kind == "ODOM":
+        _parse_odom(path, lineno, tok, odom)
+    elif kind in ("FLASER", "RLASER"):
         _parse_flaser(path, lineno, tok, rows, params)
     elif kind == "ROBOTLASER1":
         _parse_robotlaser(path, lineno, tok, rows)
     elif kind == "RAWLASER1":
         _parse_rawlaser(path, lineno, tok, rows)
-    elif kind == "ODOM":
-        _parse_odom(path, lineno, tok, odom)
     elif kind == "PARAM":
         _parse_param(path, lineno, tok, params)
         return kind

@@ -640,12 +640,25 @@ class LocalMapConfig(Config):
         key_angle: ... or turned this much, rad (> 0).
         key_scans: The local map holds the points of this many latest key scans (>= 1).
         cell: Cell of the map's grid, m (> 0; at least ICP's pairing distance).
+        search_reach: Where the odometry prior's three-sigma reach (its position deviation
+            plus its heading deviation at the scan's median range) exceeds this, m (> 0),
+            ICP also starts from the best poses of a correlative search over that window (a
+            robust start: ICP's basin is about its pairing distance).
+        search_step: The search's translation step, m (> 0).
+        search_starts: ICP starts from this many of the search's best poses (1..=64).
+        search_share: The search runs only when ICP from the prior's mean was refused or
+            paired less than this share of the scan's points on lines (in [0, 1]; 1 searches
+            wherever the prior is loose).
     """
 
     key_distance: float = 0.3
     key_angle: float = 0.17453292519943295
     key_scans: int = 20
     cell: float = 0.3
+    search_reach: float = 0.3
+    search_step: float = 0.1
+    search_starts: int = 4
+    search_share: float = 0.5
 
 
 class LocalMapConfigOverrides(TypedDict, total=False):
@@ -655,6 +668,10 @@ class LocalMapConfigOverrides(TypedDict, total=False):
     key_angle: float
     key_scans: int
     cell: float
+    search_reach: float
+    search_step: float
+    search_starts: int
+    search_share: float
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -10,9 +10,10 @@ use rperc_core::Pose2;
 
 use crate::error::{LaserError, Result};
 use crate::grid::MapIndex;
-use crate::icp::{IcpConfig, Match, Prior, match_scan};
+use crate::icp::{IcpConfig, Match, Prior};
 use crate::odometry::Step;
 use crate::scan::ScanPoints;
+use crate::start::{StartSearch, match_robustly};
 
 /// Settings of the local map.
 #[derive(
@@ -29,6 +30,19 @@ pub struct LocalMapConfig {
     pub key_scans: usize,
     /// Cell of the map's grid, m (> 0; at least ICP's pairing distance).
     pub cell: f64,
+    /// Where the odometry prior's three-sigma reach (its position deviation plus its
+    /// heading deviation at the scan's median range) exceeds this, m (> 0), ICP also
+    /// starts from the best poses of a correlative search over that window (a robust
+    /// start: ICP's basin is about its pairing distance).
+    pub search_reach: f64,
+    /// The search's translation step, m (> 0).
+    pub search_step: f64,
+    /// ICP starts from this many of the search's best poses (1..=64).
+    pub search_starts: usize,
+    /// The search runs only when ICP from the prior's mean was refused or paired
+    /// less than this share of the scan's points on lines (in [0, 1]; 1 searches
+    /// wherever the prior is loose).
+    pub search_share: f64,
 }
 
 impl Default for LocalMapConfig {
@@ -38,6 +52,10 @@ impl Default for LocalMapConfig {
             key_angle: 10f64.to_radians(),
             key_scans: 20,
             cell: 0.3,
+            search_reach: 0.3,
+            search_step: 0.1,
+            search_starts: 4,
+            search_share: 0.5,
         }
     }
 }
@@ -49,6 +67,8 @@ impl LocalMapConfig {
             ("key_distance", self.key_distance),
             ("key_angle", self.key_angle),
             ("cell", self.cell),
+            ("search_reach", self.search_reach),
+            ("search_step", self.search_step),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 return Err(LaserError::invalid(
@@ -62,6 +82,20 @@ impl LocalMapConfig {
             return Err(LaserError::invalid(
                 "key_scans",
                 format!("must be in 1..=10000, got {n}"),
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.search_share) {
+            let v = self.search_share;
+            return Err(LaserError::invalid(
+                "search_share",
+                format!("must be in [0, 1], got {v}"),
+            ));
+        }
+        if !(1..=64).contains(&self.search_starts) {
+            let n = self.search_starts;
+            return Err(LaserError::invalid(
+                "search_starts",
+                format!("must be in 1..=64, got {n}"),
             ));
         }
         if self.cell < icp.max_distance {
@@ -182,7 +216,17 @@ impl FrontEnd {
     /// Tracks scan `index` after the odometry `step` from the previous scan.
     pub fn track(&mut self, index: usize, scan: &ScanPoints, step: &Step) -> Result<Tracked> {
         let prior = prior_after(&self.pose, step)?;
-        let matched = match_scan(scan, &self.map, prior.mean, &prior, &self.icp)?;
+        let search = StartSearch {
+            reach: self.local.search_reach,
+            sigmas: 3.0,
+            step: self.local.search_step,
+            starts: self.local.search_starts,
+            share: std::env::var("RPERC_SHARE")
+                .ok()
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(0.5),
+        };
+        let matched = match_robustly(scan, &self.map, &prior, &self.icp, &search)?;
         let (motion, motion_covariance) = relative(&self.pose, &matched.pose, &matched.covariance);
         self.pose = matched.pose;
         let key = self.is_key(&matched.pose);

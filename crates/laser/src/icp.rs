@@ -190,7 +190,18 @@ fn scan_terms(scan: &ScanPoints, map: &MapIndex, pose: &Pose2, cfg: &IcpConfig) 
     out
 }
 
-fn prior_error(pose: &Pose2, prior: &Prior) -> Vector3<f64> {
+/// The scan's truncated least-squares cost at `pose`: the squared distances of the
+/// paired points to their lines, every point on a line that found no partner charged
+/// the pairing distance, over `sigma^2` and the covariance scale (as ICP weighs them).
+pub(crate) fn scan_cost(scan: &ScanPoints, map: &MapIndex, pose: &Pose2, cfg: &IcpConfig) -> f64 {
+    let terms = scan_terms(scan, map, pose, cfg);
+    let lines = scan.normals.iter().filter(|n| n.is_some()).count();
+    let unpaired = lines.saturating_sub(terms.pairs) as f64;
+    let d2 = cfg.max_distance * cfg.max_distance;
+    (terms.sum_r2 + unpaired * d2) / (cfg.sigma * cfg.sigma) / cfg.covariance_scale
+}
+
+pub(crate) fn prior_error(pose: &Pose2, prior: &Prior) -> Vector3<f64> {
     Vector3::new(
         pose.x - prior.mean.x,
         pose.y - prior.mean.y,

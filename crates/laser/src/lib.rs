@@ -13,6 +13,7 @@ pub mod pipeline;
 pub mod scan;
 pub mod sim;
 pub mod sparse;
+pub mod start;
 
 pub use error::{LaserError, Result};
 pub use grid::MapIndex;

@@ -223,6 +223,27 @@ def test_gate_inflation_is_the_smallest_that_meets_the_gate_rate():
     )
 
 
+def test_preset_procedure_fits_the_first_part_and_prefers_first_estimates():
+    """calibrate_mrclam_preset on a run drawn from the model: the calibration is
+    calibrate_mrclam's of the first part alone, first-estimates Jacobians are kept
+    (the innovation test passes with them), and the inflation is gate_inflation's for
+    that config (whose rule test_gate_inflation_... checks by brute force). With no
+    factor that passes (here 1x only: 4 % refused, see that test) it raises."""
+    from rperc.slam.calibration import calibrate_mrclam_preset
+
+    run = _synthetic(seconds=400.0)
+    first = mrclam_window(run, 0.0, 300.0)
+    grid = (1.0, 2.0, 4.0)
+    preset, calibration, factors = calibrate_mrclam_preset(run, seconds=300.0, factors=grid)
+    assert calibration == calibrate_mrclam(first)
+    assert preset["first_estimates"] is True
+    fej = {**calibration.config(), "first_estimates": True}
+    assert factors == gate_inflation(first, fej, factors=grid)[:2]
+    assert preset == inflated(fej, *factors)
+    with pytest.raises(ValueError, match="no inflation"):
+        calibrate_mrclam_preset(run, seconds=300.0, factors=(1.0,))
+
+
 def test_external_fixes_start_with_the_run_not_with_the_truth():
     """The Vicon record of MR.CLAM starts before the odometry; fixes from then would
     start the filter before (and away from) its start pose. Here the truth starts

@@ -146,12 +146,15 @@ MRCLAM = (data_dir() or ROOT / "absent") / "mrclam6"
 
 
 @pytest.mark.skipif(not MRCLAM.is_dir(), reason="MR.CLAM data not found (set RPERC_DATA)")
-@pytest.mark.parametrize("robot", [1, 2, 3])
-def test_each_robot_preset_is_the_calibration_of_its_first_half(robot):
-    """Provenance of every robot's constants: recomputed from the first half of that
-    robot's run (window rule, fit, then the gate-rate inflation over the preset's
-    factors). Robot 1's stays the old single preset, with its 8 s window and 2x / 4x."""
+@pytest.mark.parametrize(("robot", "first_estimates"), [(1, True), (2, False), (3, True)])
+def test_each_robot_preset_is_the_calibration_of_its_first_half(robot, first_estimates):
+    """Provenance of every robot's constants: recomputed by the one procedure
+    (calibrate_mrclam_preset: window rule, fit, then the gate-rate inflation over the
+    preset's factors, with first-estimates Jacobians when the gate test passes with
+    them) from the first half of that robot's run. Robot 1's keeps its 8 s window and
+    2x / 4x; robot 2's first estimates fail the gate test at every factor."""
     from rperc.datasets import load_mrclam
+    from rperc.slam.calibration import calibrate_mrclam_preset
     from rperc.slam.planar import (
         MRCLAM_CALIBRATION_SECONDS,
         MRCLAM_INFLATION_FACTORS,
@@ -159,16 +162,20 @@ def test_each_robot_preset_is_the_calibration_of_its_first_half(robot):
     )
 
     run = load_mrclam(MRCLAM, robot=robot)
-    half = mrclam_window(run, 0.0, MRCLAM_CALIBRATION_SECONDS)
-    calibration = calibrate_mrclam(half)
-    fitted = calibration.config()
-    detection, control, _ = gate_inflation(half, fitted, factors=MRCLAM_INFLATION_FACTORS)
+    expected, calibration, (detection, control) = calibrate_mrclam_preset(
+        run, seconds=MRCLAM_CALIBRATION_SECONDS, factors=MRCLAM_INFLATION_FACTORS
+    )
     if robot == 1:
         assert calibration.window == 8.0
         assert (detection, control) == (2.0, 4.0)
         assert mrclam_preset(1) is PRESETS["mrclam"]
-    expected = inflated(fitted, detection, control)
+    if not first_estimates:
+        half = mrclam_window(run, 0.0, MRCLAM_CALIBRATION_SECONDS)
+        fej = {**calibration.config(), "first_estimates": True}
+        with pytest.raises(ValueError, match="no inflation"):
+            gate_inflation(half, fej, factors=MRCLAM_INFLATION_FACTORS)
     preset = mrclam_preset(robot)
+    assert preset["first_estimates"] is expected["first_estimates"] is first_estimates
     assert preset["bias"]["range_is_depth"] is True
     for key in ("range_offset", "range_scale", "bearing_offset", "bearing_scale"):
         assert preset["bias"][key] == pytest.approx(expected["bias"][key], rel=1e-3, abs=1e-5)
@@ -214,6 +221,27 @@ def test_gate_inflation_is_the_smallest_that_meets_the_gate_rate():
     assert shrunk["motion"]["unicycle"]["turn_rate_variance"] == pytest.approx(
         config["motion"]["unicycle"]["turn_rate_variance"] * 2, rel=1e-15
     )
+
+
+def test_preset_procedure_fits_the_first_part_and_prefers_first_estimates():
+    """calibrate_mrclam_preset on a run drawn from the model: the calibration is
+    calibrate_mrclam's of the first part alone, first-estimates Jacobians are kept
+    (the innovation test passes with them), and the inflation is gate_inflation's for
+    that config (whose rule test_gate_inflation_... checks by brute force). With no
+    factor that passes (here 1x only: 4 % refused, see that test) it raises."""
+    from rperc.slam.calibration import calibrate_mrclam_preset
+
+    run = _synthetic(seconds=400.0)
+    first = mrclam_window(run, 0.0, 300.0)
+    grid = (1.0, 2.0, 4.0)
+    preset, calibration, factors = calibrate_mrclam_preset(run, seconds=300.0, factors=grid)
+    assert calibration == calibrate_mrclam(first)
+    assert preset["first_estimates"] is True
+    fej = {**calibration.config(), "first_estimates": True}
+    assert factors == gate_inflation(first, fej, factors=grid)[:2]
+    assert preset == inflated(fej, *factors)
+    with pytest.raises(ValueError, match="no inflation"):
+        calibrate_mrclam_preset(run, seconds=300.0, factors=(1.0,))
 
 
 def test_external_fixes_start_with_the_run_not_with_the_truth():

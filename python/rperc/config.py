@@ -994,8 +994,12 @@ class PlanarConfig(Config):
             map unobservable, as the nonlinear one is; linearised at changing estimates it
             gains information about them from nowhere, which makes the filter overconfident
             (tested: with it, the robot's absolute heading and position variances never fall
-            below the start's). Point landmarks are still linearised at their current
-            estimates.
+            below the start's). A point landmark's observation is linearised at the point's
+            first estimate too (its position when admitted; the predicted detection stays at
+            its current one). On MR.CLAM robot 3 this takes the robot NEES mean from 42 to
+            2.7; a first estimate made while the robot was far off (robot 2 after 46 s
+            without a sighting, 0.5 rad off) keeps Jacobians that no longer describe the
+            map, and that run diverges.
     """
 
     _native: ClassVar[str] = "planar"

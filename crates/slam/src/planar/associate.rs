@@ -61,6 +61,9 @@ pub(crate) struct Scene<'a> {
     /// `walls[j]`: state landmark `j` is a wall (empty: no walls), so point
     /// detections are never tried against it.
     walls: Vec<bool>,
+    /// `first[j]`: where state point `j` entered the map, the point its observation
+    /// is linearised at with `first_estimates` (empty: at the current estimates).
+    first: Vec<Option<Point2<f64>>>,
 }
 
 impl<'a> Scene<'a> {
@@ -82,7 +85,15 @@ impl<'a> Scene<'a> {
             fixed,
             prr,
             walls: Vec::new(),
+            first: Vec::new(),
         }
+    }
+
+    /// Linearises each state point `j` with `first[j]` at that first estimate
+    /// (Huang, Mourikis & Roumeliotis 2008) instead of its current one.
+    pub fn with_first_estimates(mut self, first: Vec<Option<Point2<f64>>>) -> Self {
+        self.first = first;
+        self
     }
 
     /// Marks which state landmarks are walls (see [`Scene::is_wall`]).
@@ -120,7 +131,14 @@ impl<'a> Scene<'a> {
     /// singular.
     fn linearise(&self, target: Target) -> Option<Linearised> {
         let (l, offset) = self.landmark(target)?;
-        let (predicted, h_robot, h_l) = observe_from(&self.sensor, &self.j_sensor, &l)?;
+        let (predicted, mut h_robot, mut h_l) = observe_from(&self.sensor, &self.j_sensor, &l)?;
+        // First estimates: the Jacobians at the point's first estimate, the predicted
+        // detection at its current one (the innovation stays the EKF's).
+        if let Target::State(j) = target
+            && let Some(Some(first)) = self.first.get(j)
+        {
+            (_, h_robot, h_l) = observe_from(&self.sensor, &self.j_sensor, first)?;
+        }
         let (h_landmark, r) = match target {
             // Frozen: the landmark is known with its frozen covariance (text under Fig. 7).
             Target::Fixed(k) => (

@@ -102,6 +102,9 @@ pub struct PlanarSlam {
     /// Each wall's first estimate, where its observation is linearised with
     /// `first_estimates`.
     pub(super) first: HashMap<u64, Vector2<f64>>,
+    /// Each point landmark's first estimate (its position when admitted), where its
+    /// observation is linearised with `first_estimates`.
+    first_points: HashMap<u64, Point2<f64>>,
     /// How far the updates since the last prediction moved the robot's position
     /// (the pose's first estimate is its prediction: `first_estimates`).
     pub(super) update_shift: Vector2<f64>,
@@ -169,6 +172,7 @@ impl PlanarSlam {
             wall_pairings: Vec::new(),
             revisions: HashMap::new(),
             first: HashMap::new(),
+            first_points: HashMap::new(),
             update_shift: Vector2::zeros(),
             candidates: Vec::new(),
             next_id: 0,
@@ -533,7 +537,15 @@ impl PlanarSlam {
             let ids = self.ekf.landmark_ids().iter();
             ids.map(|id| self.walls.contains_key(id)).collect()
         };
-        Scene::new(&self.ekf, self.mount, self.w, &self.fixed).with_walls(walls)
+        let first = if self.config.first_estimates {
+            let ids = self.ekf.landmark_ids().iter();
+            ids.map(|id| self.first_points.get(id).copied()).collect()
+        } else {
+            Vec::new()
+        };
+        Scene::new(&self.ekf, self.mount, self.w, &self.fixed)
+            .with_walls(walls)
+            .with_first_estimates(first)
     }
 
     /// Nearest neighbour or JCBB over the individually compatible pairings. A
@@ -778,6 +790,9 @@ impl PlanarSlam {
             return self.make_anchor(id, z);
         }
         let (l, g_r, g_z) = landmark_from(&self.robot(), &self.mount, z);
+        if self.config.first_estimates {
+            self.first_points.insert(id, l);
+        }
         let g_r = self.robot_block(&g_r);
         self.ekf.add_landmark_with_id(
             id,

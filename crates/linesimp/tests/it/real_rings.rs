@@ -5,9 +5,7 @@
 //! zig-zag that forces path hulls to take over. Skips with a note when the data folder
 //! is absent.
 
-mod common;
-
-use common::{all_line_results, all_rings, check, data_dir, oracle};
+use crate::common::{all_line_results, all_rings, check, data_dir, oracle};
 use linesimp::{Metric, Tie, chord_distance};
 use nalgebra::Point2;
 

@@ -6,9 +6,7 @@
 //! The oracle (`common::oracle`) is Douglas-Peucker in exact integer arithmetic: inputs are
 //! integers times a power of two, so `(b - a) x (p - a)` is an exact `i128`.
 
-mod common;
-
-use common::{all_line_results, check, to_points};
+use crate::common::{all_line_results, check, to_points};
 use linesimp::{Method, Metric, Simplifier, Tie};
 use proptest::prelude::*;
 

@@ -1,0 +1,6 @@
+//! The crate's integration tests as one binary, linked once: one binary per file
+//! linked nalgebra, rand and the crate 35 times over the workspace, a large share
+//! of `make test`'s build (issue 37).
+
+mod covariance_scale;
+mod pose_jacobians;

@@ -82,6 +82,12 @@ pub fn match_robustly(
     search: &StartSearch,
 ) -> Result<Match> {
     let plain = match_scan(scan, map, prior.mean, prior, icp)?;
+    // The usual case first, and cheaply: ICP paired most of the scan.
+    let on_lines = scan.normals.iter().filter(|n| n.is_some()).count();
+    let share = plain.inliers as f64 / on_lines.max(1) as f64;
+    if (plain.accepted && share >= search.share) || map.is_empty() {
+        return Ok(plain);
+    }
     let covariance = prior
         .information
         .try_inverse()
@@ -93,10 +99,7 @@ pub fn match_robustly(
         .filter(|(_, n)| n.is_some())
         .map(|(p, _)| *p)
         .collect();
-    let far = median_range(&lines);
-    let share = plain.inliers as f64 / lines.len().max(1) as f64;
-    let fitted = plain.accepted && share >= search.share;
-    if fitted || prior_reach(&covariance, far, search.sigmas) <= search.reach || map.is_empty() {
+    if prior_reach(&covariance, median_range(&lines), search.sigmas) <= search.reach {
         return Ok(plain);
     }
     let steps = SearchSteps {

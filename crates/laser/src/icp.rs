@@ -195,8 +195,7 @@ fn scan_terms(scan: &ScanPoints, map: &MapIndex, pose: &Pose2, cfg: &IcpConfig) 
 /// the pairing distance, over `sigma^2` and the covariance scale (as ICP weighs them).
 pub(crate) fn scan_cost(scan: &ScanPoints, map: &MapIndex, pose: &Pose2, cfg: &IcpConfig) -> f64 {
     let terms = scan_terms(scan, map, pose, cfg);
-    let lines = scan.normals.iter().filter(|n| n.is_some()).count();
-    let unpaired = lines.saturating_sub(terms.pairs) as f64;
+    let unpaired = scan.with_normals().saturating_sub(terms.pairs) as f64;
     let d2 = cfg.max_distance * cfg.max_distance;
     (terms.sum_r2 + unpaired * d2) / (cfg.sigma * cfg.sigma) / cfg.covariance_scale
 }

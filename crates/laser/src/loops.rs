@@ -10,7 +10,7 @@
 //! the robot along it). The caller adds a closure only when a second one, from the
 //! next attempt, implies the same correction (joint consistency).
 
-use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
+use nalgebra::{Matrix2, Matrix3, Vector3};
 use rperc_core::{Pose2, wrap_angle};
 
 pub use crate::correlative::Window;
@@ -240,13 +240,7 @@ pub fn close_loop(
     icp: &IcpConfig,
     cfg: &LoopConfig,
 ) -> Result<std::result::Result<Closure, Rejection>> {
-    let lines: Vec<Vector2<f64>> = scan
-        .points
-        .iter()
-        .zip(&scan.normals)
-        .filter(|(_, n)| n.is_some())
-        .map(|(p, _)| *p)
-        .collect();
+    let lines = scan.on_lines();
     if lines.len() < icp.min_inliers || submap.is_empty() {
         return Ok(Err(Rejection::Inliers));
     }

@@ -123,6 +123,16 @@ impl ScanPoints {
     pub fn with_normals(&self) -> usize {
         self.normals.iter().filter(|n| n.is_some()).count()
     }
+
+    /// The points that have a normal (lie on a line), in scan order.
+    pub fn on_lines(&self) -> Vec<Vector2<f64>> {
+        self.points
+            .iter()
+            .zip(&self.normals)
+            .filter(|(_, n)| n.is_some())
+            .map(|(p, _)| *p)
+            .collect()
+    }
 }
 
 /// The valid readings as points, in scan order.

@@ -83,8 +83,7 @@ pub fn match_robustly(
 ) -> Result<Match> {
     let plain = match_scan(scan, map, prior.mean, prior, icp)?;
     // The usual case first, and cheaply: ICP paired most of the scan.
-    let on_lines = scan.normals.iter().filter(|n| n.is_some()).count();
-    let share = plain.inliers as f64 / on_lines.max(1) as f64;
+    let share = plain.inliers as f64 / scan.with_normals().max(1) as f64;
     if (plain.accepted && share >= search.share) || map.is_empty() {
         return Ok(plain);
     }
@@ -92,13 +91,7 @@ pub fn match_robustly(
         .information
         .try_inverse()
         .ok_or_else(|| LaserError::Numerical("the prior's information is singular".into()))?;
-    let lines: Vec<Vector2<f64>> = scan
-        .points
-        .iter()
-        .zip(&scan.normals)
-        .filter(|(_, n)| n.is_some())
-        .map(|(p, _)| *p)
-        .collect();
+    let lines = scan.on_lines();
     if prior_reach(&covariance, median_range(&lines), search.sigmas) <= search.reach {
         return Ok(plain);
     }

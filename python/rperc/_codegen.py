@@ -22,6 +22,8 @@ CLASS_NAMES = {
     "color_histogram": "ColorHistogramConfig",
     "color_shape": "ColorShapeConfig",
     "particle_color": "ParticleColorConfig",
+    "pattern": "PatternConfig",
+    "pattern_sequence": "PatternSequenceConfig",
     "laser": "LaserConfig",
     "laser_scan": "ScanConfig",
     "monobot": "MonobotConfig",
@@ -74,7 +76,7 @@ def generate() -> str:
     # Unions first: a variant's class must subclass its union even where another
     # config uses the same struct on its own.
     for name, part in module.schemas.items():
-        if "oneOf" in part:
+        if _is_union(part):
             _union(module, name, part)
     for (native, cls), schema in zip(CLASS_NAMES.items(), schemas.values(), strict=True):
         module.schemas[cls] = schema
@@ -158,6 +160,8 @@ def _annotation(module: Module, schema: dict[str, Any]) -> str:
         return "None"
     if "enum" in schema:
         return "Literal[" + ", ".join(json.dumps(v) for v in schema["enum"]) + "]"
+    if "oneOf" in schema:  # a plain enum whose variants have doc comments
+        return "Literal[" + ", ".join(json.dumps(v["const"]) for v in schema["oneOf"]) + "]"
     if kinds == "array":
         return _array(module, schema)
     simple = {"number": "float", "integer": "int", "boolean": "bool", "string": "str"}
@@ -179,13 +183,20 @@ def _array(module: Module, schema: dict[str, Any]) -> str:
 def _named(module: Module, name: str, schema: dict[str, Any]) -> str:
     """A named type: a string enum becomes its Literal, a struct its class, a tagged
     union (serde's externally tagged enum) a base class with one class per variant."""
-    if "oneOf" not in schema and schema.get("type") != "object":  # a Literal, tuple, number
+    if not _is_union(schema) and schema.get("type") != "object":  # a Literal, tuple, number
         return _annotation(module, {k: v for k, v in schema.items() if k != "description"})
-    if "oneOf" in schema:
+    if _is_union(schema):
         _union(module, name, schema)
         return name
     _struct(module, name, schema)
     return name
+
+
+def _is_union(schema: dict[str, Any]) -> bool:
+    """serde's externally tagged enum (variants with fields); an enum of plain variants
+    with doc comments is a ``oneOf`` of string constants, a Literal."""
+    variants = schema.get("oneOf", [])
+    return bool(variants) and not all("const" in v for v in variants)
 
 
 def _union(module: Module, name: str, schema: dict[str, Any]) -> None:
@@ -224,7 +235,7 @@ def _default(module: Module, schema: dict[str, Any]) -> str:
 
 def _value(module: Module, name: str, schema: dict[str, Any], value: dict[str, Any]) -> str:
     """The constructor call that builds ``value`` (a dict) as the class ``name``."""
-    if "oneOf" in schema:
+    if _is_union(schema):
         [(tag, body)] = value.items()
         for variant in schema["oneOf"]:
             if tag in variant["properties"]:

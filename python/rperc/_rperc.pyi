@@ -26,6 +26,8 @@ __all__ = [
     "MonobotSummary",
     "NumericalError",
     "ParticleColorTracker",
+    "PatternAnswer",
+    "PatternSequenceAnswer",
     "PatternTracker",
     "PlanarRun",
     "PlanarStatistics",
@@ -60,7 +62,6 @@ __all__ = [
     "otb_iou",
     "otb_precision",
     "otb_success_curve",
-    "pattern_defaults",
     "pattern_sequence",
     "planar_sim_check",
     "planar_sim_nees",
@@ -551,17 +552,28 @@ def color_segment(
     radius: int,
 ) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint8]]: ...
 
-_PatternAnswer: TypeAlias = tuple[
-    float,
-    float,
-    float,
-    float,
-    float,
-    float,
-    bool,
-    npt.NDArray[np.float64],
-    npt.NDArray[np.float64],
-]
+@final
+class PatternAnswer:
+    """One pattern-tracker answer, frozen; its arrays are read-only."""
+
+    @property
+    def x(self) -> float: ...
+    @property
+    def y(self) -> float: ...
+    @property
+    def theta(self) -> float: ...
+    @property
+    def scale(self) -> float: ...
+    @property
+    def score(self) -> float: ...
+    @property
+    def occluded_fraction(self) -> float: ...
+    @property
+    def lost(self) -> bool: ...
+    @property
+    def corners(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def homography(self) -> npt.NDArray[np.float64]: ...
 
 @final
 class PatternTracker:
@@ -573,20 +585,34 @@ class PatternTracker:
         frame: npt.NDArray[np.uint8],
         region: tuple[int, int, int, int] | npt.NDArray[np.bool_] | npt.NDArray[np.float64],
         seed: int = 0,
-        config: dict[str, Any] | None = None,
+        config: Mapping[str, object] | None = None,
     ) -> PatternTracker: ...
-    def update(self, frame: npt.NDArray[np.uint8]) -> _PatternAnswer: ...
+    def update(self, frame: npt.NDArray[np.uint8]) -> PatternAnswer: ...
     @property
-    def last(self) -> _PatternAnswer: ...
+    def last(self) -> PatternAnswer: ...
     @property
     def n_points(self) -> int: ...
     @property
     def model_offsets(self) -> npt.NDArray[np.float64]: ...
 
+@final
+class PatternSequenceAnswer:
+    """A generated Fig. 8 sequence, frozen."""
+
+    @property
+    def frames(self) -> npt.NDArray[np.uint8]: ...
+    @property
+    def truth(self) -> _Array: ...
+    @property
+    def occlusion(self) -> _Array: ...
+    @property
+    def illumination(self) -> _Array: ...
+    @property
+    def region(self) -> tuple[int, int, int, int]: ...
+
 def pattern_sequence(
-    patch: _ArrayLike, background: _ArrayLike, config: dict[str, Any] | None = None
-) -> tuple[npt.NDArray[np.uint8], _Array, _Array, _Array, tuple[int, int, int, int]]: ...
-def pattern_defaults() -> tuple[dict[str, Any], dict[str, Any]]: ...
+    patch: _ArrayLike, background: _ArrayLike, config: Mapping[str, object] | None = None
+) -> PatternSequenceAnswer: ...
 def resample(
     weights: _ArrayLike, n: int, method: str = "systematic", seed: int = 0
 ) -> npt.NDArray[np.intp]: ...

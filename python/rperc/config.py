@@ -39,6 +39,12 @@ __all__ = [
     "MotionModel",
     "ParticleColorConfig",
     "ParticleColorConfigOverrides",
+    "PatternConfig",
+    "PatternConfigOverrides",
+    "PatternModelConfig",
+    "PatternModelConfigOverrides",
+    "PatternSequenceConfig",
+    "PatternSequenceConfigOverrides",
     "PlanarConfig",
     "PlanarConfigOverrides",
     "ScanConfig",
@@ -545,6 +551,267 @@ class ParticleColorConfigOverrides(TypedDict, total=False):
     velocity_gain: float
     max_search_radius: int
     filter: FilterParams
+
+
+@dataclass(frozen=True, kw_only=True)
+class PatternModelConfig(Config):
+    """Parameters of model building and of the observation model.
+
+    Attributes:
+        canny_low: Canny hysteresis thresholds on imageproc's Sobel magnitude scale.
+        canny_high: See `canny_low`.
+        approximation_epsilon: Douglas-Peucker tolerance of the contour approximation,
+            pixels.
+        min_contour_pixels: Contours shorter than this many edge pixels are dropped.
+        point_spacing: Arc length between model points along the approximated contours,
+            pixels.
+        n_samples: `N_s`, grey-level samples per vector.
+        delta: `delta`, the step between samples, pixels.
+        blur_sigma: Gaussian blur (sigma, pixels) of the image the gradient and the vectors
+            are sampled from; the scale space blurs a frame by `blur_sigma * s`.
+        fit_lags: Lags `1..=fit_lags` the auto-correlation slope is fitted on.
+        min_contrast: Points whose profile has a standard deviation below this (grey levels)
+            are textureless and rejected.
+        min_slope: Points whose auto-correlation slope `|W|` is below this are rejected
+            (flat auto-correlation: the profile cannot locate the contour).
+        max_points: At most this many model points are kept (evenly spread along the
+            contours).
+        deviation: The approximation `C~` of the auto-correlation whose inverse turns an
+            inter-correlation into the deviation `lambda` (section 3.3). Default
+            [`DeviationModel::Parabola`].
+        sigma: `sigma` of the Gaussian `Omega_sigma(lambda)`, samples.
+        occlusion_threshold: A point whose deviation `lambda` exceeds this (samples) is
+            occluded.
+        max_occluded_fraction: The largest fraction of points left out as occluded.
+        scale_levels: Scales of the scale-space levels (each >= 1, increasing).
+    """
+
+    canny_low: float = 30.0
+    canny_high: float = 60.0
+    approximation_epsilon: float = 0.7
+    min_contour_pixels: int = 6
+    point_spacing: float = 4.0
+    n_samples: int = 12
+    delta: float = 1.0
+    blur_sigma: float = 1.0
+    fit_lags: int = 2
+    min_contrast: float = 3.0
+    min_slope: float = 0.02
+    max_points: int = 200
+    deviation: Literal["line", "parabola"] = "parabola"
+    sigma: float = 1.0
+    occlusion_threshold: float = 1.5
+    max_occluded_fraction: float = 0.4
+    scale_levels: tuple[float, ...] = (1.0, 1.25, 1.5, 1.75, 2.0, 2.5, 3.0)
+
+
+class PatternModelConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`PatternModelConfig`, for keyword arguments."""
+
+    canny_low: float
+    canny_high: float
+    approximation_epsilon: float
+    min_contour_pixels: int
+    point_spacing: float
+    n_samples: int
+    delta: float
+    blur_sigma: float
+    fit_lags: int
+    min_contrast: float
+    min_slope: float
+    max_points: int
+    deviation: Literal["line", "parabola"]
+    sigma: float
+    occlusion_threshold: float
+    max_occluded_fraction: float
+    scale_levels: tuple[float, ...]
+
+
+@dataclass(frozen=True, kw_only=True)
+class PatternConfig(Config):
+    """Parameters of a [`PatternTracker`].
+
+    Attributes:
+        n_particles: `N_p`, the number of particles (section 4.1 uses 200), without the
+            coarse layer (with it, `coarse_kept`).
+        sigma: `sigma_v = (sigma_x, sigma_y, sigma_theta, sigma_s)` of the random walk of
+            section 3.3, in pixels, pixels, radians and scale units. Default section 4.1's
+            `(5, 5, 3 deg, 0.1)`.
+        lost_occluded_fraction: The estimate is reported lost when more than this fraction
+            of the model points is occluded at it (an all-black frame occludes every point).
+            Default 0.6, above the 40 % of occlusion the likelihood tolerates.
+        refine_steps: Rounds of the local refinement of the estimate (see
+            [`PatternTracker::update`]); 0 (with no `newton_steps`) reports the seed's plain
+            weighted mean. Default 2 (steps of `sigma` and `sigma / 2`), then Gauss-Newton.
+        refine_first_step: The refinement's first step, in random-walk sigmas (halved each
+            round). Default 1: the search then reaches two sigmas from the weighted mean.
+        refined_particle: The refined state replaces the lightest particle, weighted by its
+            likelihood, so that the next frame starts from it. Default `true`.
+        second_look: A frame whose estimate scores below this fraction of the track's
+            typical score gets a second CONDENSATION iteration (see
+            [`PatternTracker::update`]); 0 never. Default 0.9.
+        refine_fine_rounds: The last rounds of the refinement that weigh every model point;
+            the earlier (coarse) ones weigh every other point, at half the cost. Default 0:
+            both rounds are coarse, the Gauss-Newton steps place the peak on every point.
+        newton_steps: Gauss-Newton iterations on eq. 6 after the coordinate rounds (parabola
+            deviation only; see [`PatternTracker::update`]): each costs about three
+            likelihoods where a round of the coordinate search costs twelve. 0 leaves the
+            whole refinement to the coordinate search (6 rounds, the last 2 fine, were the
+            default before). Default 3, at most 100.
+        parallel_min_work: With `filter.parallel`, a frame is processed on the rayon pool
+            only when the tracker's work, particles times model points, reaches this:
+            handing a frame to the pool and back costs more than two cores save on small
+            ones (200 particles of 176 points: 1296 fps on one thread, 1218 on two; 1000
+            particles: 608 and 718, 640 x 480 frames on 2 cores, same run). 0: whenever
+            `filter.parallel`. Default 100 000. The numbers do not depend on it.
+        coarse_particles: States screened a frame by the coarse layer (see
+            [`PatternTracker::update`]), drawn from the prior predictive; its best
+            `coarse_kept` become the particles weighed on the frame. 0: no coarse layer, the
+            particles are the prior predictive's as in the seed. Default 500. A pattern
+            under 16 coarse pixels across (80 frame pixels at the default factor) goes
+            without the layer: its coarse profiles would not fit inside it.
+        coarse_factor: How many times coarser the layer's level is than the frame (each of
+            its pixels the mean of a `coarse_factor x coarse_factor` block). Default 5.
+        coarse_points: Most model points the coarse layer weighs (spread over the fine
+            model's). Default 64.
+        coarse_kept: With the coarse layer, the filter holds this many particles (at most
+            `n_particles`): the layer's best states, not the random walk's draws, so fewer
+            do (200 without the layer: 8 of 10 sequences of 3-sigma steps strayed; 50 after
+            it: none, seeds 0-9). Default 50.
+        coarse_spread: The coarse layer's states are drawn with the random walk's spread
+            times this. Default 2: steps of 3 sigma in all four parameters at once lie where
+            the walk itself hardly draws.
+        coarse_refined: The best this many states of the coarse layer are moved to their
+            peak on the coarse level by Gauss-Newton before the fine layer weighs them.
+            Default 4.
+        motion: The motion model: the seed's similarity `(x, y, theta, s)` (default), or
+            `homography`, the plane in perspective: the particles still search over the
+            similarity, with the model seen through the last frame's projective rest, and
+            the estimate is then refined by Gauss-Newton on the 8-dof homography (see
+            [`PatternTracker::update`]).
+        lost_gain_spread: In homography mode, the estimate is also lost when the gains of
+            its unoccluded profiles (each profile's slope on its stored one, eq. 6's
+            correlation times their contrast ratio) spread more than this: the median
+            absolute deviation of their logarithms. The pattern under one gain gives them
+            all alike; clutter where the pattern is hidden matches a third to a half of the
+            profiles by chance (no more than `lost_occluded_fraction` occluded), each with
+            its own gain. Default 0.3, tuned on generated perspective sequences, seeds 0-9
+            (camera.png over grass.png, and the generated pair): every tracked frame, with
+            gain 0.8-1.2 and up to 30 % occlusion, spread at most 0.22; every frame with the
+            pattern hidden but one (0.24, of 40 per image pair) at least 0.36.
+        pattern: Model building and observation model (sections 3.2-3.3).
+        filter: Particle-filter settings (resampler, policy, chunking, parallelism). Default
+            chunks of 50 particles.
+    """
+
+    _native: ClassVar[str] = "pattern"
+    n_particles: int = 200
+    sigma: tuple[float, float, float, float] = (5.0, 5.0, 0.05235987755982989, 0.1)
+    lost_occluded_fraction: float = 0.6
+    refine_steps: int = 2
+    refine_first_step: float = 1.0
+    refined_particle: bool = True
+    second_look: float = 0.9
+    refine_fine_rounds: int = 0
+    newton_steps: int = 3
+    parallel_min_work: int = 100000
+    coarse_particles: int = 500
+    coarse_factor: int = 5
+    coarse_points: int = 64
+    coarse_kept: int = 50
+    coarse_spread: float = 2.0
+    coarse_refined: int = 4
+    motion: Literal["similarity", "homography"] = "similarity"
+    lost_gain_spread: float = 0.3
+    pattern: PatternModelConfig = field(default_factory=PatternModelConfig)
+    filter: FilterParams = field(default_factory=lambda: FilterParams(chunk_size=50))
+
+
+class PatternConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`PatternConfig`, for keyword arguments."""
+
+    n_particles: int
+    sigma: tuple[float, float, float, float]
+    lost_occluded_fraction: float
+    refine_steps: int
+    refine_first_step: float
+    refined_particle: bool
+    second_look: float
+    refine_fine_rounds: int
+    newton_steps: int
+    parallel_min_work: int
+    coarse_particles: int
+    coarse_factor: int
+    coarse_points: int
+    coarse_kept: int
+    coarse_spread: float
+    coarse_refined: int
+    motion: Literal["similarity", "homography"]
+    lost_gain_spread: float
+    pattern: PatternModelConfig
+    filter: FilterParams
+
+
+@dataclass(frozen=True, kw_only=True)
+class PatternSequenceConfig(Config):
+    """How a sequence is generated.
+
+    Attributes:
+        n_frames: Frames, the first one at the identity pose included.
+        width: Frame width, pixels.
+        height: Frame height, pixels.
+        sigma: The tracker's `sigma_v` (pixels, pixels, radians, scale): steps are drawn in
+            its units. Default section 4.1's `(5, 5, 3 deg, 0.1)`.
+        max_step_sigmas: Frame `k`'s step sweeps one component, `(k - 1) mod 4` (x, y,
+            theta, s in turn), uniform in `[-K sigma, K sigma]` with this `K` (Fig. 8 sweeps
+            to about 4), as Fig. 8 plots each component against its own truth.
+        other_step_sigmas: The other components step uniformly in `[-k sigma, k sigma]` with
+            this `k`.
+        max_occlusion: Largest fraction of the patch hidden by an occluder (uniform per
+            frame, from 0); the occluder is a band of background clutter over one side of
+            the patch.
+        gain: Gain `a` of the illumination change `g -> a g + b`, uniform in this range.
+        offset: Offset `b`, uniform in this range (grey levels).
+        noise: Standard deviation of the additive Gaussian noise, grey levels.
+        background_speed: Background motion, pixels per frame (a random direction per
+            sequence).
+        scale_range: The scale stays in this range (a step that would leave it is
+            reflected).
+        seed: Seed of every random draw.
+    """
+
+    _native: ClassVar[str] = "pattern_sequence"
+    n_frames: int = 60
+    width: int = 640
+    height: int = 480
+    sigma: tuple[float, float, float, float] = (5.0, 5.0, 0.05235987755982989, 0.1)
+    max_step_sigmas: float = 4.0
+    other_step_sigmas: float = 0.5
+    max_occlusion: float = 0.0
+    gain: tuple[float, float] = (1.0, 1.0)
+    offset: tuple[float, float] = (0.0, 0.0)
+    noise: float = 2.0
+    background_speed: float = 2.0
+    scale_range: tuple[float, float] = (0.7, 1.5)
+    seed: int = 0
+
+
+class PatternSequenceConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`PatternSequenceConfig`, for keyword arguments."""
+
+    n_frames: int
+    width: int
+    height: int
+    sigma: tuple[float, float, float, float]
+    max_step_sigmas: float
+    other_step_sigmas: float
+    max_occlusion: float
+    gain: tuple[float, float]
+    offset: tuple[float, float]
+    noise: float
+    background_speed: float
+    scale_range: tuple[float, float]
+    seed: int
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -56,7 +56,9 @@ mod _rperc {
         visual_memory_defaults, visual_memory_learn, visual_memory_replay,
     };
     #[pymodule_export]
-    use crate::pattern_py::{PyPatternTracker, pattern_defaults, pattern_sequence};
+    use crate::pattern_py::{
+        PyPatternAnswer, PyPatternSequence, PyPatternTracker, pattern_sequence,
+    };
     #[pymodule_export]
     use crate::planar_py::{
         PyPlanarRun, PyPlanarStatistics, PySimulatedWorld, PySmoothedWalls, planar_sim_check,

@@ -45,7 +45,7 @@ const MAX_COARSE_FACTOR: usize = 32;
 const TYPICAL_SCORE_DECAY: f64 = 0.95;
 
 /// Parameters of a [`PatternTracker`].
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct PatternTrackerParams {
     /// `N_p`, the number of particles (section 4.1 uses 200), without the coarse

@@ -21,6 +21,7 @@ from rperc._atomic import write_text_atomically
 CLASS_NAMES = {
     "color_histogram": "ColorHistogramConfig",
     "color_shape": "ColorShapeConfig",
+    "color_template": "ColorTemplateConfig",
     "particle_color": "ParticleColorConfig",
     "pattern": "PatternConfig",
     "pattern_sequence": "PatternSequenceConfig",

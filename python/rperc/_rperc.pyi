@@ -10,6 +10,7 @@ __all__ = [
     "MAX_PARTICLES",
     "CeilingWorld",
     "ColorHistogramTracker",
+    "ColorShapeAnswer",
     "ColorShapeTracker",
     "ColorTemplateAnswer",
     "ColorTemplateTracker",
@@ -35,14 +36,13 @@ __all__ = [
     "ScanWalls",
     "SimulatedWorld",
     "SmoothedWalls",
+    "TrackAnswer",
     "WorldWalls",
     "__version__",
     "ceiling_defaults",
     "ceiling_drive",
     "check_allocation",
     "color_segment",
-    "color_shape_defaults",
-    "color_template_defaults",
     "config_check",
     "config_defaults",
     "config_names",
@@ -75,7 +75,6 @@ __all__ = [
     "simplify_indices",
     "simplify_many_indices",
     "simplify_topology_indices",
-    "tracker_defaults",
     "visual_memory_check",
     "visual_memory_defaults",
     "visual_memory_learn",
@@ -458,6 +457,17 @@ def nees_bounds(dof: int, runs: int, confidence: float) -> tuple[float, float]: 
 _Box: TypeAlias = tuple[float, float, float, float]
 
 @final
+class TrackAnswer:
+    """One colour-histogram tracker answer, frozen."""
+
+    @property
+    def box(self) -> _Box: ...
+    @property
+    def score(self) -> float: ...
+    @property
+    def lost(self) -> bool: ...
+
+@final
 class ColorHistogramTracker:
     """Colour-histogram tracker with local search (see rperc.tracking)."""
 
@@ -465,9 +475,9 @@ class ColorHistogramTracker:
         cls,
         frame: npt.NDArray[np.uint8],
         bbox: _Box | list[float] | _ArrayLike,
-        config: dict[str, Any] | None = None,
+        config: Mapping[str, object] | None = None,
     ) -> ColorHistogramTracker: ...
-    def update(self, frame: npt.NDArray[np.uint8]) -> tuple[_Box, float, bool]: ...
+    def update(self, frame: npt.NDArray[np.uint8]) -> TrackAnswer: ...
     @property
     def scale(self) -> float: ...
     @property
@@ -503,15 +513,13 @@ class ColorTemplateTracker:
         frame: npt.NDArray[np.uint8],
         bbox: _Box | list[float] | _ArrayLike,
         seed: int = 0,
-        config: dict[str, Any] | None = None,
+        config: Mapping[str, object] | None = None,
     ) -> ColorTemplateTracker: ...
     def update(self, frame: npt.NDArray[np.uint8]) -> ColorTemplateAnswer: ...
     @property
     def scale(self) -> float: ...
     @property
     def lost_frames(self) -> int: ...
-
-def color_template_defaults() -> dict[str, Any]: ...
 
 @final
 class ParticleColorTracker:
@@ -522,9 +530,26 @@ class ParticleColorTracker:
         frame: npt.NDArray[np.uint8],
         bbox: _Box | list[float] | _ArrayLike,
         seed: int = 0,
-        config: dict[str, Any] | None = None,
+        config: Mapping[str, object] | None = None,
     ) -> ParticleColorTracker: ...
-    def update(self, frame: npt.NDArray[np.uint8]) -> tuple[_Box, float, bool]: ...
+    def update(self, frame: npt.NDArray[np.uint8]) -> TrackAnswer: ...
+    @property
+    def ess(self) -> float: ...
+
+@final
+class ColorShapeAnswer:
+    """One colour+shape tracker answer, frozen; the contour is read-only."""
+
+    @property
+    def contour(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def box(self) -> _Box: ...
+    @property
+    def distribution(self) -> tuple[float, float, float, float, float, float, float, float]: ...
+    @property
+    def score(self) -> float: ...
+    @property
+    def lost(self) -> bool: ...
     @property
     def ess(self) -> float: ...
 
@@ -537,13 +562,10 @@ class ColorShapeTracker:
         frame: npt.NDArray[np.uint8],
         bbox: _Box | list[float] | _ArrayLike | None = None,
         contour: _ArrayLike | None = None,
-        config: dict[str, Any] | None = None,
+        config: Mapping[str, object] | None = None,
     ) -> ColorShapeTracker: ...
-    def update(
-        self, frame: npt.NDArray[np.uint8]
-    ) -> tuple[npt.NDArray[np.float64], _Box, list[float], float, bool, float]: ...
+    def update(self, frame: npt.NDArray[np.uint8]) -> ColorShapeAnswer: ...
 
-def color_shape_defaults() -> dict[str, Any]: ...
 def color_segment(
     frame: npt.NDArray[np.uint8],
     colours: npt.NDArray[np.float64],
@@ -617,7 +639,6 @@ def resample(
     weights: _ArrayLike, n: int, method: str = "systematic", seed: int = 0
 ) -> npt.NDArray[np.intp]: ...
 def effective_sample_size(weights: _ArrayLike) -> float: ...
-def tracker_defaults() -> tuple[dict[str, Any], dict[str, Any]]: ...
 def otb_iou(a: _ArrayLike, b: _ArrayLike) -> _Array: ...
 def otb_center_error(a: _ArrayLike, b: _ArrayLike) -> _Array: ...
 def otb_success_curve(overlaps: _ArrayLike) -> _Array: ...

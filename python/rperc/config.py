@@ -24,6 +24,8 @@ __all__ = [
     "ColorHistogramConfigOverrides",
     "ColorShapeConfig",
     "ColorShapeConfigOverrides",
+    "ColorTemplateConfig",
+    "ColorTemplateConfigOverrides",
     "FilterParams",
     "FilterParamsOverrides",
     "IcpConfig",
@@ -492,6 +494,131 @@ class ColorShapeConfigOverrides(TypedDict, total=False):
     min_blob_overlap: float
     seed: int
     filter: FilterParams
+
+
+@dataclass(frozen=True, kw_only=True)
+class ColorTemplateConfig(Config):
+    """Parameters of a [`super::ColorTemplateTracker`]. Defaults chosen by leave-one-sequence-
+    out over the ten dev OTB sequences (see the crate README).
+
+    Attributes:
+        template_size: Side in pixels of the square whose area the search window is
+            resampled to (Staple's fixed area): bounds the cost of a frame whatever the
+            target's size. Default 96, in 32..=256.
+        cell_size: HOG cell side in patch pixels, in 2..=8. Default 4.
+        padding: The search window is the target grown by `padding` times its mean side on
+            each axis, in 0.2..=4. Default 1.
+        learning_rate: Learning rate of the translation filter (running average of its
+            numerator and denominator), in (0, 1]. Default 0.02.
+        lambda_: Regulariser `lambda` of the correlation filters, > 0. Default 1e-3. Spelled
+            `lambda_` in configs (`lambda` is a Python keyword).
+        output_sigma_factor: Width of the Gaussian label as a fraction of the target's mean
+            side (in cells), > 0. Default 1/16.
+        color_space: Colour space of the foreground and background histograms. Default RGB.
+        bins: Histogram bins per axis. Default 32 x 32 x 32.
+        color_learning_rate: Learning rate of the colour histograms, in (0, 1]. Default
+            0.04.
+        inner_padding: The foreground histogram is learned inside the target shrunk by this
+            times its mean side (its edges mix target and background), in [0, 0.45]. Default
+            0.2.
+        merge_factor: Weight of the colour response in the merged response map, in [0, 1]; 0
+            is the template alone, 1 the colour alone. Default 0.2.
+        n_scales: Scales sampled by the scale filter (odd, 3..=65). Default 17.
+        scale_step: Ratio between neighbouring scale samples, in (1, 1.5]. Default 1.03.
+        scale_learning_rate: Learning rate of the scale filter, in (0, 1]. Default 0.025.
+        scale_sigma: Width of the scale filter's Gaussian label, in scale steps, > 0.
+            Default 1.
+        scale_model_area: Pixel area each scale sample is resampled to before HOG, in
+            64..=4096. Default 512.
+        min_scale: Smallest scale relative to the first box, in (0, 1]. Default 0.1.
+        max_scale: Largest scale relative to the first box, >= 1. Default 10.
+        lost_ratio: The target is lost when the merged response's peak falls below this
+            fraction of its running level over tracked frames, in [0, 1]; 0 never reports a
+            loss. Learning fades linearly from the level down to this threshold. Default
+            0.6.
+        lost_psr_ratio: The target is also lost when the template response's peak-to-
+            sidelobe ratio falls below this fraction of its running level, in [0, 1]; 0
+            turns the test off. Default 0.
+        lost_color_ratio: The target is also lost when the colour score at the peak (the
+            mean foreground probability over the box) falls below this fraction of its
+            running level, in [0, 1]; 0 turns the test off. Default 0.8.
+        lost_level_decay: Factor on the running levels per lost frame, in (0, 1]: below 1 a
+            target that came back changed (turned, lit differently) is taken up again; 1
+            holds it to its old levels. Default 0.97 (halves them in about 23 frames).
+        redetect_step: Re-detection: while lost, the search also covers windows centred
+            `redetect_step` window sizes apart around the last position, in (0, 2]. Default
+            0.75.
+        redetect_radius: Re-detection: the grid of windows reaches this many steps each way
+            (1: 3 x 3), in 0..=4; 0 searches only the last window. Default 1.
+        redetect_ratio: Re-detection: a window away from the last position is taken when it
+            passes the lost rule and its merged peak reaches this fraction of the running
+            level, in [0, 1] (1: the full level; at most `lost_ratio`: the lost rule alone).
+            Far away, another object of the same kind is likelier than the target. Default
+            1.
+        lost_motion: While lost, the box moves this fraction of the way to the last window's
+            peak (without learning from it), in [0, 1]: 0 keeps it where the target was last
+            seen (right behind an occluder), 1 follows the peak (right when the loss was a
+            false alarm). Default 1.
+    """
+
+    _native: ClassVar[str] = "color_template"
+    template_size: int = 96
+    cell_size: int = 4
+    padding: float = 1.0
+    learning_rate: float = 0.02
+    lambda_: float = 0.001
+    output_sigma_factor: float = 0.0625
+    color_space: Literal["rgb", "opponent", "rg", "hsv"] = "rgb"
+    bins: tuple[int, int, int] = (32, 32, 32)
+    color_learning_rate: float = 0.04
+    inner_padding: float = 0.2
+    merge_factor: float = 0.2
+    n_scales: int = 17
+    scale_step: float = 1.03
+    scale_learning_rate: float = 0.025
+    scale_sigma: float = 1.0
+    scale_model_area: float = 512.0
+    min_scale: float = 0.1
+    max_scale: float = 10.0
+    lost_ratio: float = 0.6
+    lost_psr_ratio: float = 0.0
+    lost_color_ratio: float = 0.8
+    lost_level_decay: float = 0.97
+    redetect_step: float = 0.75
+    redetect_radius: int = 1
+    redetect_ratio: float = 1.0
+    lost_motion: float = 1.0
+
+
+class ColorTemplateConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`ColorTemplateConfig`, for keyword arguments."""
+
+    template_size: int
+    cell_size: int
+    padding: float
+    learning_rate: float
+    lambda_: float
+    output_sigma_factor: float
+    color_space: Literal["rgb", "opponent", "rg", "hsv"]
+    bins: tuple[int, int, int]
+    color_learning_rate: float
+    inner_padding: float
+    merge_factor: float
+    n_scales: int
+    scale_step: float
+    scale_learning_rate: float
+    scale_sigma: float
+    scale_model_area: float
+    min_scale: float
+    max_scale: float
+    lost_ratio: float
+    lost_psr_ratio: float
+    lost_color_ratio: float
+    lost_level_decay: float
+    redetect_step: float
+    redetect_radius: int
+    redetect_ratio: float
+    lost_motion: float
 
 
 @dataclass(frozen=True, kw_only=True)

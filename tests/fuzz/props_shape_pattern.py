@@ -29,7 +29,7 @@ def _target_frame() -> np.ndarray:
     return frame
 
 
-SHAPE_FIELDS = sorted(config_fields(_rperc.color_shape_defaults()))
+SHAPE_FIELDS = sorted(config_fields(_rperc.config_defaults("color_shape")))
 PATTERN_FIELDS = sorted(config_fields(_rperc.config_defaults("pattern")))
 
 CONTOURS = st.one_of(

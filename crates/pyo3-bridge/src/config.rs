@@ -127,6 +127,7 @@ pub fn defaults<'py, T: serde::Serialize + Default>(
 const SCHEMA_NAMES: &[&str] = &[
     "color_histogram",
     "color_shape",
+    "color_template",
     "laser",
     "laser_scan",
     "monobot",
@@ -146,6 +147,7 @@ macro_rules! with_config {
         match $name {
             "color_histogram" => $f::<tracking::ColorTrackerParams>($($arg),*),
             "color_shape" => $f::<tracking::ColorShapeParams>($($arg),*),
+            "color_template" => $f::<tracking::ColorTemplateParams>($($arg),*),
             "particle_color" => $f::<tracking::ParticleTrackerParams>($($arg),*),
             "pattern" => $f::<tracking::PatternTrackerParams>($($arg),*),
             "pattern_sequence" => $f::<tracking::SequenceParams>($($arg),*),
@@ -181,6 +183,7 @@ macro_rules! validated {
 validated!(
     tracking::ColorTrackerParams,
     tracking::ColorShapeParams,
+    tracking::ColorTemplateParams,
     tracking::ParticleTrackerParams,
     tracking::PatternTrackerParams,
     tracking::SequenceParams,

@@ -29,7 +29,7 @@ mod _rperc {
     #[pymodule_export]
     use crate::ceiling_py::{PyCeilingWorld, ceiling_defaults, ceiling_drive};
     #[pymodule_export]
-    use crate::colour_shape_py::{PyColorShapeTracker, color_segment, color_shape_defaults};
+    use crate::colour_shape_py::{PyColorShapeAnswer, PyColorShapeTracker, color_segment};
     #[pymodule_export]
     use crate::config::{config_check, config_defaults, config_names, config_schema};
     #[pymodule_export]
@@ -72,13 +72,11 @@ mod _rperc {
         monobot_simulate, monobot_summarize, nees_bounds,
     };
     #[pymodule_export]
-    use crate::template_py::{
-        PyColorTemplateAnswer, PyColorTemplateTracker, color_template_defaults,
-    };
+    use crate::template_py::{PyColorTemplateAnswer, PyColorTemplateTracker};
     #[pymodule_export]
     use crate::tracking_py::{
-        PyColorHistogramTracker, PyParticleColorTracker, effective_sample_size, resample,
-        tracker_defaults,
+        PyColorHistogramTracker, PyParticleColorTracker, PyTrackAnswer, effective_sample_size,
+        resample,
     };
 
     use super::*;

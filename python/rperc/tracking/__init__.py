@@ -35,8 +35,10 @@ corner). The GIL is released while a frame is processed.
   precision at 5 and 15 px, success rate, fps) running the pattern tracker against
   OpenCV's ECC, rotation/scale ``matchTemplate`` and CSRT on the same frames.
 
-Parameters are keyword arguments with the defaults of the Rust configs (tuned on OTB
-Girl and Couple); ``help(ColorHistogramTracker)`` lists them.
+Parameters have the defaults of the Rust configs (tuned on OTB Girl and Couple);
+``help(ColorHistogramTracker)`` lists them. :class:`PatternTracker`,
+:class:`ColorTemplateTracker` and :class:`ColorShapeTracker` take one config of
+:mod:`rperc.config` as ``config=`` and its fields as typed keyword overrides.
 """
 
 from rperc.tracking import metrics, planar

@@ -25,8 +25,15 @@ import numpy.typing as npt
 
 from rperc import _rperc
 from rperc._args import excerpt, whole_number
-from rperc._config_base import native_config
-from rperc.config import ColorShapeConfig, ColorShapeConfigOverrides
+from rperc._config_base import as_config, native_config
+from rperc.config import (
+    ColorHistogramConfig,
+    ColorShapeConfig,
+    ColorShapeConfigOverrides,
+    ColorTemplateConfig,
+    ColorTemplateConfigOverrides,
+    ParticleColorConfig,
+)
 
 if TYPE_CHECKING:
     from typing_extensions import Unpack
@@ -37,10 +44,12 @@ ResamplerName = Literal["systematic", "multinomial", "stratified", "residual"]
 Channels = Literal["rgb", "bgr"]
 Box = tuple[float, float, float, float]
 
-# The Rust configs are the one source of the defaults shown in the signatures below.
-_COLOR, _PARTICLE = _rperc.tracker_defaults()
-_APPEARANCE = _COLOR["appearance"]
-_FILTER = _PARTICLE["filter"]
+# The generated configs (from the Rust structs) are the one source of the defaults
+# shown in the signatures below.
+_COLOR = ColorHistogramConfig()
+_PARTICLE = ParticleColorConfig()
+_APPEARANCE = _COLOR.appearance
+_FILTER = _PARTICLE.filter
 
 
 @dataclass(frozen=True)
@@ -54,7 +63,7 @@ class TrackResult:
     score: float
     lost: bool
 
-    def __iter__(self) -> Iterator[Any]:
+    def __iter__(self) -> Iterator[Box | float | bool]:
         return iter((self.box, self.score, self.lost))
 
     def __repr__(self) -> str:
@@ -159,14 +168,13 @@ class ColorTemplateResult(TrackResult):
         )
 
 
-_Native = tuple[Sequence[float], float, bool] | _rperc.ColorTemplateAnswer
+_Native = _rperc.TrackAnswer | _rperc.ColorTemplateAnswer
 
 
 def _answer(native: _Native) -> TrackResult:
     if isinstance(native, _rperc.ColorTemplateAnswer):
         return _template_answer(native)
-    b, score, lost = native
-    return TrackResult((b[0], b[1], b[2], b[3]), float(score), bool(lost))
+    return TrackResult(native.box, native.score, native.lost)
 
 
 def _template_answer(native: _rperc.ColorTemplateAnswer) -> ColorTemplateResult:
@@ -263,27 +271,27 @@ class ColorHistogramTracker(_BoxTracker[_rperc.ColorHistogramTracker]):
         frame: npt.ArrayLike,
         box: Sequence[float] | npt.ArrayLike,
         *,
-        color_space: ColorSpace = _APPEARANCE["color_space"],
-        bins: Sequence[int] = tuple(_APPEARANCE["bins"]),
-        model: ModelKind = _APPEARANCE["model"],
-        upper_fraction: float = _APPEARANCE["upper_fraction"],
-        adaptation_rate: float = _APPEARANCE["adaptation_rate"],
-        adaptation_threshold: float = _APPEARANCE["adaptation_threshold"],
-        gradient_weight: float = _APPEARANCE["gradient_weight"],
-        lost_threshold: float = _APPEARANCE["lost_threshold"],
-        search_radius: int = _COLOR["search_radius"],
-        velocity_gain: float = _COLOR["velocity_gain"],
-        max_search_radius: int = _COLOR["max_search_radius"],
-        lost_ratio: float = _COLOR["lost_ratio"],
-        lost_contrast: float = _COLOR["lost_contrast"],
-        ring_weight: float = _COLOR["ring_weight"],
-        scale_prior: float = _COLOR["scale_prior"],
-        scale_step: float = _COLOR["scale_step"],
-        min_scale: float = _COLOR["min_scale"],
-        max_scale: float = _COLOR["max_scale"],
-        momentum: float = _COLOR["momentum"],
-        pyramid: bool = _COLOR["pyramid"],
-        parallel: bool = _COLOR["parallel"],
+        color_space: ColorSpace = _APPEARANCE.color_space,
+        bins: Sequence[int] = _APPEARANCE.bins,
+        model: ModelKind = _APPEARANCE.model,
+        upper_fraction: float = _APPEARANCE.upper_fraction,
+        adaptation_rate: float = _APPEARANCE.adaptation_rate,
+        adaptation_threshold: float = _APPEARANCE.adaptation_threshold,
+        gradient_weight: float = _APPEARANCE.gradient_weight,
+        lost_threshold: float = _APPEARANCE.lost_threshold,
+        search_radius: int = _COLOR.search_radius,
+        velocity_gain: float = _COLOR.velocity_gain,
+        max_search_radius: int = _COLOR.max_search_radius,
+        lost_ratio: float = _COLOR.lost_ratio,
+        lost_contrast: float = _COLOR.lost_contrast,
+        ring_weight: float = _COLOR.ring_weight,
+        scale_prior: float = _COLOR.scale_prior,
+        scale_step: float = _COLOR.scale_step,
+        min_scale: float = _COLOR.min_scale,
+        max_scale: float = _COLOR.max_scale,
+        momentum: float = _COLOR.momentum,
+        pyramid: bool = _COLOR.pyramid,
+        parallel: bool = _COLOR.parallel,
         channels: Channels = "rgb",
     ) -> None:
         appearance = _appearance(
@@ -363,28 +371,28 @@ class ParticleColorTracker(_BoxTracker[_rperc.ParticleColorTracker]):
         box: Sequence[float] | npt.ArrayLike,
         *,
         seed: int = 0,
-        n_particles: int = _PARTICLE["n_particles"],
-        position_noise: float = _PARTICLE["position_noise"],
-        scale_noise: float = _PARTICLE["scale_noise"],
-        sigma: float = _PARTICLE["sigma"],
-        min_scale: float = _PARTICLE["min_scale"],
-        max_scale: float = _PARTICLE["max_scale"],
-        mix_fraction: float = _PARTICLE["mix_fraction"],
-        search_radius: int = _PARTICLE["search_radius"],
-        velocity_gain: float = _PARTICLE["velocity_gain"],
-        max_search_radius: int = _PARTICLE["max_search_radius"],
-        resampler: ResamplerName = _FILTER["resampler"],
-        resample_below: float | None = _FILTER["resample_below"],
-        chunk_size: int = _FILTER["chunk_size"],
-        parallel: bool = _FILTER["parallel"],
-        color_space: ColorSpace = _APPEARANCE["color_space"],
-        bins: Sequence[int] = tuple(_APPEARANCE["bins"]),
-        model: ModelKind = _APPEARANCE["model"],
-        upper_fraction: float = _APPEARANCE["upper_fraction"],
-        adaptation_rate: float = _APPEARANCE["adaptation_rate"],
-        adaptation_threshold: float = _APPEARANCE["adaptation_threshold"],
-        gradient_weight: float = _APPEARANCE["gradient_weight"],
-        lost_threshold: float = _APPEARANCE["lost_threshold"],
+        n_particles: int = _PARTICLE.n_particles,
+        position_noise: float = _PARTICLE.position_noise,
+        scale_noise: float = _PARTICLE.scale_noise,
+        sigma: float = _PARTICLE.sigma,
+        min_scale: float = _PARTICLE.min_scale,
+        max_scale: float = _PARTICLE.max_scale,
+        mix_fraction: float = _PARTICLE.mix_fraction,
+        search_radius: int = _PARTICLE.search_radius,
+        velocity_gain: float = _PARTICLE.velocity_gain,
+        max_search_radius: int = _PARTICLE.max_search_radius,
+        resampler: ResamplerName = _FILTER.resampler,
+        resample_below: float | None = _FILTER.resample_below,
+        chunk_size: int = _FILTER.chunk_size,
+        parallel: bool = _FILTER.parallel,
+        color_space: ColorSpace = _APPEARANCE.color_space,
+        bins: Sequence[int] = _APPEARANCE.bins,
+        model: ModelKind = _APPEARANCE.model,
+        upper_fraction: float = _APPEARANCE.upper_fraction,
+        adaptation_rate: float = _APPEARANCE.adaptation_rate,
+        adaptation_threshold: float = _APPEARANCE.adaptation_threshold,
+        gradient_weight: float = _APPEARANCE.gradient_weight,
+        lost_threshold: float = _APPEARANCE.lost_threshold,
         channels: Channels = "rgb",
     ) -> None:
         appearance = _appearance(
@@ -461,7 +469,6 @@ def _weights(weights: npt.ArrayLike) -> np.ndarray:
     return arr.astype(np.float64)
 
 
-_TEMPLATE = _rperc.color_template_defaults()
 TemplateColorSpace = Literal["hsv", "opponent", "rg", "rgb"]
 
 
@@ -488,8 +495,11 @@ class ColorTemplateTracker(_BoxTracker[_rperc.ColorTemplateTracker]):
     about 2.5 windows wide); a distant window, re-centred on its peak, is taken when it
     passes the same rule and its peak reaches ``redetect_ratio`` times the level.
 
-    ``seed`` is accepted for the trackers' common signature; nothing is random.
-    Defaults were chosen by leave-one-sequence-out over the ten dev OTB sequences.
+    ``config`` is a :class:`rperc.config.ColorTemplateConfig` (or a dict of its fields;
+    its help lists every field with its default); keyword arguments override its
+    fields, checked by the Rust crate when the tracker is made. ``seed`` is accepted
+    for the trackers' common signature; nothing is random. Defaults were chosen by
+    leave-one-sequence-out over the ten dev OTB sequences.
 
     Examples
     --------
@@ -510,68 +520,23 @@ class ColorTemplateTracker(_BoxTracker[_rperc.ColorTemplateTracker]):
         box: Sequence[float] | npt.ArrayLike,
         *,
         seed: int = 0,
-        template_size: int = _TEMPLATE["template_size"],
-        cell_size: int = _TEMPLATE["cell_size"],
-        padding: float = _TEMPLATE["padding"],
-        learning_rate: float = _TEMPLATE["learning_rate"],
-        lambda_: float = _TEMPLATE["lambda"],
-        output_sigma_factor: float = _TEMPLATE["output_sigma_factor"],
-        color_space: TemplateColorSpace = _TEMPLATE["color_space"],
-        bins: Sequence[int] = tuple(_TEMPLATE["bins"]),
-        color_learning_rate: float = _TEMPLATE["color_learning_rate"],
-        inner_padding: float = _TEMPLATE["inner_padding"],
-        merge_factor: float = _TEMPLATE["merge_factor"],
-        n_scales: int = _TEMPLATE["n_scales"],
-        scale_step: float = _TEMPLATE["scale_step"],
-        scale_learning_rate: float = _TEMPLATE["scale_learning_rate"],
-        scale_sigma: float = _TEMPLATE["scale_sigma"],
-        scale_model_area: float = _TEMPLATE["scale_model_area"],
-        min_scale: float = _TEMPLATE["min_scale"],
-        max_scale: float = _TEMPLATE["max_scale"],
-        lost_ratio: float = _TEMPLATE["lost_ratio"],
-        lost_psr_ratio: float = _TEMPLATE["lost_psr_ratio"],
-        lost_color_ratio: float = _TEMPLATE["lost_color_ratio"],
-        lost_level_decay: float = _TEMPLATE["lost_level_decay"],
-        redetect_step: float = _TEMPLATE["redetect_step"],
-        redetect_radius: int = _TEMPLATE["redetect_radius"],
-        redetect_ratio: float = _TEMPLATE["redetect_ratio"],
-        lost_motion: float = _TEMPLATE["lost_motion"],
+        config: ColorTemplateConfig | Mapping[str, object] | None = None,
         channels: Channels = "rgb",
+        **overrides: Unpack[ColorTemplateConfigOverrides],
     ) -> None:
-        config = _appearance(
-            template_size=template_size,
-            cell_size=cell_size,
-            padding=padding,
-            learning_rate=learning_rate,
-            output_sigma_factor=output_sigma_factor,
-            color_space=color_space,
-            bins=bins,
-            color_learning_rate=color_learning_rate,
-            inner_padding=inner_padding,
-            merge_factor=merge_factor,
-            n_scales=n_scales,
-            scale_step=scale_step,
-            scale_learning_rate=scale_learning_rate,
-            scale_sigma=scale_sigma,
-            scale_model_area=scale_model_area,
-            min_scale=min_scale,
-            max_scale=max_scale,
-            lost_ratio=lost_ratio,
-            lost_psr_ratio=lost_psr_ratio,
-            lost_color_ratio=lost_color_ratio,
-            lost_level_decay=lost_level_decay,
-            redetect_step=redetect_step,
-            redetect_radius=redetect_radius,
-            redetect_ratio=redetect_ratio,
-            lost_motion=lost_motion,
+        if config is not None and not isinstance(config, ColorTemplateConfig):
+            config = {str(k): _plain(v) for k, v in config.items()}
+        #: The tracker's settings, checked by the Rust crate when they were made.
+        self.config = as_config(
+            ColorTemplateConfig, config, {k: _plain(v) for k, v in overrides.items()}
         )
-        config["lambda"] = _plain(lambda_)
+        native = self.config.to_dict()
         seed = whole_number(seed, "seed", 0, limit=2**64)
         self._start(
             frame,
             box,
             channels,
-            lambda first, start: _rperc.ColorTemplateTracker(first, start, seed, config),
+            lambda first, start: _rperc.ColorTemplateTracker(first, start, seed, native),
         )
 
     def update(self, frame: npt.ArrayLike) -> ColorTemplateResult:
@@ -646,14 +611,14 @@ class ColorShapeTracker:
         box: Sequence[float] | npt.ArrayLike | None = None,
         *,
         contour: npt.ArrayLike | None = None,
-        config: ColorShapeConfig | Mapping[str, Any] | None = None,
+        config: ColorShapeConfig | Mapping[str, object] | None = None,
         channels: Channels = "rgb",
         **overrides: Unpack[ColorShapeConfigOverrides],
     ) -> None:
         if box is None and contour is None:
             raise ValueError("give a box (x, y, w, h) or a contour (N x 2)")
         if config is not None and not isinstance(config, ColorShapeConfig):
-            config = {k: _plain(v) for k, v in config.items()}
+            config = {str(k): _plain(v) for k, v in config.items()}
         cfg = native_config(ColorShapeConfig, config, {k: _plain(v) for k, v in overrides.items()})
         poly = None if contour is None else np.asarray(contour, dtype=np.float64)
         if poly is not None and (poly.ndim != 2 or poly.shape[1] != 2):
@@ -666,10 +631,8 @@ class ColorShapeTracker:
 
     def update(self, frame: npt.ArrayLike) -> ColorShapeResult:
         """One CONDENSATION step and contour refinement on the next frame."""
-        contour, b, dist, score, lost, ess = self._native.update(_frame(frame, self._channels))
-        self._last = ColorShapeResult(
-            contour, _box(b), tuple(float(v) for v in dist), float(score), bool(lost), ess
-        )
+        a = self._native.update(_frame(frame, self._channels))
+        self._last = ColorShapeResult(a.contour, a.box, a.distribution, a.score, a.lost, a.ess)
         return self._last
 
     def __repr__(self) -> str:

@@ -38,6 +38,9 @@ Box = tuple[float, float, float, float]
 
 def settings_taken() -> set[str]:
     """The keywords of rperc's tracker constructors: what a settings grid may set."""
+    import dataclasses
+
+    from rperc.config import ColorShapeConfig, ColorTemplateConfig
     from rperc.tracking import (
         ColorHistogramTracker,
         ColorShapeTracker,
@@ -53,8 +56,11 @@ def settings_taken() -> set[str]:
         ColorShapeTracker,
     ):
         params = inspect.signature(cls.__init__).parameters
-        names |= {n for n, p in params.items() if p.kind is p.KEYWORD_ONLY and n != "seed"}
-    return names
+        names |= {n for n, p in params.items() if p.kind is p.KEYWORD_ONLY}
+    # The trackers that take a config take its fields as keyword overrides.
+    for config in (ColorTemplateConfig, ColorShapeConfig):
+        names |= {f.name for f in dataclasses.fields(config)}
+    return names - {"seed", "config"}
 
 
 def sequence_folders(corpora: Sequence[Path], names: Sequence[str] | None) -> list[str]:

@@ -1,7 +1,7 @@
 """Type stubs of the native extension. Use the documented wrappers in :mod:`rperc`."""
 
 from collections.abc import Callable, Mapping
-from typing import Any, TypeAlias, final
+from typing import TypeAlias, final
 
 import numpy as np
 import numpy.typing as npt
@@ -39,7 +39,6 @@ __all__ = [
     "TrackAnswer",
     "WorldWalls",
     "__version__",
-    "ceiling_defaults",
     "ceiling_drive",
     "check_allocation",
     "color_segment",
@@ -76,7 +75,6 @@ __all__ = [
     "simplify_many_indices",
     "simplify_topology_indices",
     "visual_memory_check",
-    "visual_memory_defaults",
     "visual_memory_learn",
     "visual_memory_replay",
     "wall_straightness_covariance",
@@ -672,7 +670,6 @@ class CeilingWorld:
     def patterns(
         self,
     ) -> tuple[list[str], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
-    def configs(self) -> tuple[dict[str, Any], dict[str, Any]]: ...
 
 def check_allocation(name: str, count: int, bytes_each: int) -> None: ...
 def ceiling_drive(
@@ -681,7 +678,6 @@ def ceiling_drive(
     dt: float,
     noise: Mapping[str, object] | None = None,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
-def ceiling_defaults() -> tuple[dict[str, Any], dict[str, Any], dict[str, Any], dict[str, Any]]: ...
 
 @final
 class MemoryFrames:
@@ -735,7 +731,6 @@ def visual_memory_replay(
     config: Mapping[str, object] | None = None,
     seed: int = 0,
 ) -> MemoryReplay: ...
-def visual_memory_defaults() -> tuple[dict[str, Any], dict[str, Any]]: ...
 def visual_memory_check(memory: str) -> None: ...
 
 @final
@@ -780,12 +775,12 @@ def laser_run(
     max_range: npt.NDArray[np.float64],
     controls: npt.NDArray[np.float64],
     times: npt.NDArray[np.float64],
-    config: Mapping[str, Any] | None = None,
+    config: Mapping[str, object] | None = None,
 ) -> LaserRun: ...
 def laser_scan_points(
     ranges: _ArrayLike,
     angle_min: float,
     angle_increment: float,
     max_range: float,
-    config: Mapping[str, Any] | None = None,
+    config: Mapping[str, object] | None = None,
 ) -> LaserScanPoints: ...

@@ -18,6 +18,14 @@ __all__ = [
     "AckermannOverrides",
     "AppearanceParams",
     "AppearanceParamsOverrides",
+    "CameraMount",
+    "CameraMountOverrides",
+    "CeilingCameraConfig",
+    "CeilingCameraConfigOverrides",
+    "CeilingConfig",
+    "CeilingConfigOverrides",
+    "CeilingRenderConfig",
+    "CeilingRenderConfigOverrides",
     "ColorDynamics",
     "ColorDynamicsOverrides",
     "ColorHistogramConfig",
@@ -30,15 +38,25 @@ __all__ = [
     "FilterParamsOverrides",
     "IcpConfig",
     "IcpConfigOverrides",
+    "KeyImageParams",
+    "KeyImageParamsOverrides",
     "LaserConfig",
     "LaserConfigOverrides",
+    "LearnConfig",
+    "LearnConfigOverrides",
     "LocalMapConfig",
     "LocalMapConfigOverrides",
+    "LocaliserParams",
+    "LocaliserParamsOverrides",
     "LoopConfig",
     "LoopConfigOverrides",
     "MonobotConfig",
     "MonobotConfigOverrides",
+    "MosaicParams",
+    "MosaicParamsOverrides",
     "MotionModel",
+    "OdometryNoise",
+    "OdometryNoiseOverrides",
     "ParticleColorConfig",
     "ParticleColorConfigOverrides",
     "PatternConfig",
@@ -49,12 +67,18 @@ __all__ = [
     "PatternSequenceConfigOverrides",
     "PlanarConfig",
     "PlanarConfigOverrides",
+    "ProposalParams",
+    "ProposalParamsOverrides",
+    "ReplayConfig",
+    "ReplayConfigOverrides",
     "ScanConfig",
     "ScanConfigOverrides",
     "ScanParams",
     "ScanParamsOverrides",
     "SensorBias",
     "SensorBiasOverrides",
+    "ServoParams",
+    "ServoParamsOverrides",
     "SimConfig",
     "SimConfigOverrides",
     "SmootherConfig",
@@ -1566,3 +1590,491 @@ class SmootherConfigOverrides(TypedDict, total=False):
 
     max_iterations: int
     tolerance: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class CeilingConfig(Config):
+    """How a ceiling is generated.
+
+    Attributes:
+        size: Extent along world x, metres (the ceiling spans `[0, size[0]] x [0,
+            size[1]]`).
+        resolution: Metres per texel.
+        tile: Side of the square ceiling tiles, metres (0: no tile grid).
+        texture_contrast: Amplitude of the repeated tile texture, grey levels (the clutter).
+        n_patterns: Patterns placed.
+        min_spacing: Least distance between two pattern centres, metres.
+        seed: Seed of the layout and texture.
+    """
+
+    _native: ClassVar[str] = "ceiling"
+    size: tuple[float, float] = (12.0, 8.0)
+    resolution: float = 0.005
+    tile: float = 0.6
+    texture_contrast: float = 12.0
+    n_patterns: int = 24
+    min_spacing: float = 1.0
+    seed: int = 0
+
+
+class CeilingConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`CeilingConfig`, for keyword arguments."""
+
+    size: tuple[float, float]
+    resolution: float
+    tile: float
+    texture_contrast: float
+    n_patterns: int
+    min_spacing: float
+    seed: int
+
+
+@dataclass(frozen=True, kw_only=True)
+class CameraMount(Config):
+    """Where the camera sits on the robot: the camera frame in the robot frame, `X_R = R_m X_C
+    + offset`, with `R_m = Rz(yaw) Ry(pitch) Rx(roll)` (radians). The ideal mount is all
+    zeros.
+
+    Attributes:
+        roll: Rotation about the camera's x axis, radians.
+        pitch: Rotation about y, radians.
+        yaw: Rotation about z (the optical axis), radians.
+        offset: The camera centre in the robot frame, metres.
+    """
+
+    roll: float = 0.0
+    pitch: float = 0.0
+    yaw: float = 0.0
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+class CameraMountOverrides(TypedDict, total=False):
+    """The fields of :class:`CameraMount`, for keyword arguments."""
+
+    roll: float
+    pitch: float
+    yaw: float
+    offset: tuple[float, float, float]
+
+
+@dataclass(frozen=True, kw_only=True)
+class CeilingCameraConfig(Config):
+    """A pinhole camera looking up at a ceiling plane.
+
+    # Examples ``` use rperc_core::Pose2; use navigation::ceiling::CeilingCamera;
+
+    let camera = CeilingCamera::default(); // The ceiling point straight above the ideal
+    camera is the principal point. let robot = Pose2::new(2.0, 1.0, 0.3); let uv =
+    camera.project_ideal(&robot, [2.0, 1.0]); assert!((uv[0] - camera.cx).abs() < 1e-9 &&
+    (uv[1] - camera.cy).abs() < 1e-9); ```
+
+    Attributes:
+        width: Image width, pixels.
+        height: Image height, pixels.
+        fx: Focal length along u, pixels.
+        fy: Focal length along v, pixels.
+        cx: Principal point, pixels (0-based, pixel centres at integers).
+        cy: Principal point, pixels.
+        ceiling_height: `d`: the height of the ceiling above the robot frame's origin,
+            metres.
+        mount: The camera-robot transform.
+    """
+
+    _native: ClassVar[str] = "ceiling_camera"
+    width: int = 320
+    height: int = 240
+    fx: float = 160.0
+    fy: float = 160.0
+    cx: float = 159.5
+    cy: float = 119.5
+    ceiling_height: float = 2.5
+    mount: CameraMount = field(default_factory=CameraMount)
+
+
+class CeilingCameraConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`CeilingCameraConfig`, for keyword arguments."""
+
+    width: int
+    height: int
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    ceiling_height: float
+    mount: CameraMount
+
+
+@dataclass(frozen=True, kw_only=True)
+class CeilingRenderConfig(Config):
+    """The effects of one rendering.
+
+    Attributes:
+        noise: Standard deviation of the additive noise, grey levels.
+        blur: Optical blur, pixels (standard deviation of a Gaussian).
+        gain: Lighting gain `a` of `g -> a g + b`, uniform in this range per frame.
+        offset: Lighting offset `b`, grey levels, uniform in this range per frame.
+        occluder_probability: Chance that a frame holds an occluder (a dark disc, as a cable
+            or a person's head passing between camera and ceiling).
+        occluder_radius: The occluder's radius, as a fraction of the image height.
+        outside_level: Grey level seen beyond the ceiling's edge (the walls).
+        seed: Seed of every per-frame draw (frame `k` uses stream `k`).
+    """
+
+    _native: ClassVar[str] = "ceiling_render"
+    noise: float = 2.0
+    blur: float = 0.6
+    gain: tuple[float, float] = (0.9, 1.1)
+    offset: tuple[float, float] = (-10.0, 10.0)
+    occluder_probability: float = 0.0
+    occluder_radius: float = 0.15
+    outside_level: float = 60.0
+    seed: int = 0
+
+
+class CeilingRenderConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`CeilingRenderConfig`, for keyword arguments."""
+
+    noise: float
+    blur: float
+    gain: tuple[float, float]
+    offset: tuple[float, float]
+    occluder_probability: float
+    occluder_radius: float
+    outside_level: float
+    seed: int
+
+
+@dataclass(frozen=True, kw_only=True)
+class OdometryNoise(Config):
+    """How the odometry errs.
+
+    Attributes:
+        speed_scale_error: Relative error of the measured speed (the odometry reads `v (1 +
+            e)`).
+        turn_scale_error: Relative error of the measured turn rate.
+        speed_sigma: White noise on each step's speed, m/s.
+        turn_sigma: White noise on each step's turn rate, rad/s.
+        seed: Seed of the noise.
+    """
+
+    _native: ClassVar[str] = "odometry_noise"
+    speed_scale_error: float = 0.03
+    turn_scale_error: float = -0.04
+    speed_sigma: float = 0.02
+    turn_sigma: float = 0.03
+    seed: int = 0
+
+
+class OdometryNoiseOverrides(TypedDict, total=False):
+    """The fields of :class:`OdometryNoise`, for keyword arguments."""
+
+    speed_scale_error: float
+    turn_scale_error: float
+    speed_sigma: float
+    turn_sigma: float
+    seed: int
+
+
+@dataclass(frozen=True, kw_only=True)
+class ProposalParams(Config):
+    """How regions are proposed.
+
+    Attributes:
+        contrast: Least difference from the image's median grey that marks a pattern pixel.
+        merge_gap: Blobs whose boxes come within this many pixels merge into one region: a
+            light's frame and its bars, an arrow and its plate.
+        min_area: Least blob area, pixels (smaller blobs carry too few contours to track).
+        max_area_fraction: Largest region, as a fraction of the image area.
+        margin: Pixels added around a blob's bounding box, so that its contours are inside.
+        border: A region must keep this far from the image border (pixels), so that a
+            pattern cut by the border is not learnt.
+    """
+
+    contrast: float = 45.0
+    merge_gap: int = 2
+    min_area: int = 30
+    max_area_fraction: float = 0.25
+    margin: int = 4
+    border: int = 6
+
+
+class ProposalParamsOverrides(TypedDict, total=False):
+    """The fields of :class:`ProposalParams`, for keyword arguments."""
+
+    contrast: float
+    merge_gap: int
+    min_area: int
+    max_area_fraction: float
+    margin: int
+    border: int
+
+
+@dataclass(frozen=True, kw_only=True)
+class LocaliserParams(Config):
+    """How the pose filter weighs the odometry and the trackers.
+
+    Attributes:
+        pixel_sigma: Standard deviation of a tracked model's image position, pixels.
+        rotation_pixel_sigma: Standard deviation, in pixels at its rotation lever, of a
+            tracked model's image rotation: the rotation's is this over the lever.
+        min_rotation_lever: A model whose rotation lever is under this (pixels) tells no
+            rotation: its tracker's turn lags a turning robot (a third of a 30 degree turn
+            was seen missing on a model with a 6 px lever), an error that grows rather than
+            averages out.
+        odometry_sigma: Odometry error per step: `[relative to the distance, relative to the
+            turn, floor in metres, floor in radians]`, each a standard deviation.
+        odometry_scale_sigma: Standard deviation of the odometry's scale errors `[distance,
+            turn]` (relative), estimated as two states of the filter: an uncalibrated wheel
+            odometry errs the same way at every step, which the per-step errors of
+            `odometry_sigma` cannot describe (they grow with the square root of the turn, a
+            scale error with the turn itself). 0 leaves a scale out.
+        gate_probability: A model's innovation is refused above this chi-square probability
+            (3 dof).
+        max_refused_frames: After this many frames in a row in which every tracked model was
+            refused, the filter restarts from the models (the prediction, not they, was
+            wrong).
+        settle_frames: A restarted tracker's state is used after this many updates: it
+            starts at the filter's own prediction, and using it at once would confirm the
+            prediction.
+        guess_sigma: Standard deviation of a localiser's starting guess `[x m, y m, theta
+            rad]`.
+        search_sigmas: When the filter's pose is too uncertain for a tracker started at a
+            model's predicted image pose (this many standard deviations of that prediction
+            reach beyond the tracker's random walk), the robot pose is searched over this
+            many standard deviations of the filter's instead (see [`super::search_pose`]); 0
+            never searches.
+        rigid_map: Localising against a stored mosaic, its models are consider states (see
+            [`PoseFilter::with_map`]): the sightings correct the robot, never the mosaic.
+            False corrects both, as while mapping.
+    """
+
+    pixel_sigma: float = 0.3
+    rotation_pixel_sigma: float = 0.8
+    min_rotation_lever: float = 12.0
+    odometry_sigma: tuple[float, float, float, float] = (0.05, 0.05, 0.003, 0.004)
+    odometry_scale_sigma: tuple[float, float] = (0.0, 0.0)
+    gate_probability: float = 0.999
+    max_refused_frames: int = 3
+    settle_frames: int = 2
+    guess_sigma: tuple[float, float, float] = (0.06, 0.06, 0.06)
+    search_sigmas: float = 3.0
+    rigid_map: bool = True
+
+
+class LocaliserParamsOverrides(TypedDict, total=False):
+    """The fields of :class:`LocaliserParams`, for keyword arguments."""
+
+    pixel_sigma: float
+    rotation_pixel_sigma: float
+    min_rotation_lever: float
+    odometry_sigma: tuple[float, float, float, float]
+    odometry_scale_sigma: tuple[float, float]
+    gate_probability: float
+    max_refused_frames: int
+    settle_frames: int
+    guess_sigma: tuple[float, float, float]
+    search_sigmas: float
+    rigid_map: bool
+
+
+@dataclass(frozen=True, kw_only=True)
+class MosaicParams(Config):
+    """How the mosaic is built and the robot localised.
+
+    Attributes:
+        tracker: Each model's tracker.
+        proposals: Where new models are proposed.
+        max_tracked: At most this many models are tracked at once.
+        min_tracked: While mapping, new models are generated when fewer than this are
+            tracked.
+        min_score: A tracker whose score falls below this is stopped (its model is lost).
+        view_margin: A model is stopped when its box comes this close to the image border
+            (pixels), and restarted when its predicted box is 3 pixels further inside.
+        metric: Poses in metres (`Z / f` from the camera) or, when false, in ideal-image
+            pixels ("up to the scale factor Z/f").
+        localiser: The pose filter that fuses the odometry and the tracked models (eq. 2).
+        min_visible: A model is tracked while at least this fraction of its contour points
+            lies in the view (`view_margin` inside it), and restarted when the prediction
+            puts this fraction there with the hysteresis; 1 asks for its whole box.
+        odometry_prediction: Each tracker's state is moved by the image motion the odometry
+            predicts before it weighs the next frame (a control input of its dynamics);
+            false leaves the whole motion to its random walk, as in the seed.
+    """
+
+    tracker: PatternConfig = field(
+        default_factory=lambda: PatternConfig(
+            n_particles=100,
+            sigma=(4.0, 4.0, 0.026179938779914945, 0.02),
+            refine_steps=4,
+            refine_first_step=0.25,
+            refined_particle=False,
+            refine_fine_rounds=2,
+            newton_steps=0,
+            coarse_particles=0,
+        )
+    )
+    proposals: ProposalParams = field(default_factory=ProposalParams)
+    max_tracked: int = 4
+    min_tracked: int = 3
+    min_score: float = 0.6
+    view_margin: float = 2.0
+    metric: bool = True
+    localiser: LocaliserParams = field(default_factory=LocaliserParams)
+    min_visible: float = 0.75
+    odometry_prediction: bool = True
+
+
+class MosaicParamsOverrides(TypedDict, total=False):
+    """The fields of :class:`MosaicParams`, for keyword arguments."""
+
+    tracker: PatternConfig
+    proposals: ProposalParams
+    max_tracked: int
+    min_tracked: int
+    min_score: float
+    view_margin: float
+    metric: bool
+    localiser: LocaliserParams
+    min_visible: float
+    odometry_prediction: bool
+
+
+@dataclass(frozen=True, kw_only=True)
+class KeyImageParams(Config):
+    """When a new key image is taken.
+
+    Attributes:
+        max_turn: Condition (ii): the largest turn of a shared model between successive key
+            images, radians.
+        max_shift: The largest image displacement of a shared model between successive key
+            images, pixels: short elementary trajectories keep the replay close to the
+            learnt path (the seed's "approximatively fits").
+        max_travel: The largest travel of the robot between successive key images, ideal-
+            image pixels (its pose in the mosaic over the mosaic's units per pixel): a model
+            near the turn's centre barely shifts in the image while the robot drives on, and
+            one such model alone is a poor guide over a long stretch.
+    """
+
+    max_turn: float = 0.3490658503988659
+    max_shift: float = 60.0
+    max_travel: float = 60.0
+
+
+class KeyImageParamsOverrides(TypedDict, total=False):
+    """The fields of :class:`KeyImageParams`, for keyword arguments."""
+
+    max_turn: float
+    max_shift: float
+    max_travel: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class LearnConfig(Config):
+    """How a learning run goes.
+
+    Attributes:
+        mosaic: Mosaic building.
+        keys: Key image selection.
+        odometry: How the odometry errs (the robot drives the commands exactly; its odometry
+            reads them with these errors).
+        covariance_scale: The stored mosaic's covariance (each model's and the joint one) is
+            the mapping filter's times this: the filter counts a tracker's successive states
+            as independent, but a tracker's error lasts while it tracks (its frame-to-frame
+            correlation is 0.65, still 0.38 ten frames apart), and the mosaic it builds is
+            that much less certain than it claims.
+    """
+
+    _native: ClassVar[str] = "memory_learn"
+    mosaic: MosaicParams = field(default_factory=MosaicParams)
+    keys: KeyImageParams = field(default_factory=KeyImageParams)
+    odometry: OdometryNoise = field(default_factory=OdometryNoise)
+    covariance_scale: float = 1.0
+
+
+class LearnConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`LearnConfig`, for keyword arguments."""
+
+    mosaic: MosaicParams
+    keys: KeyImageParams
+    odometry: OdometryNoise
+    covariance_scale: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class ServoParams(Config):
+    """Gains and limits of the servoing law.
+
+    Attributes:
+        gain_distance: Forward gain, 1/s (pixels of error to pixels per second).
+        gain_bearing: Turn gain on the bearing to the goal, 1/s.
+        gain_heading: Turn gain on the heading error near the goal, 1/s.
+        max_speed: Largest forward speed, ideal-image pixels per second.
+        max_turn_rate: Largest turn rate, rad/s.
+        switch_error: An intermediate key image is passed when the error falls under this
+            (pixels).
+        final_error: The last key image (B) is reached when the error falls under this
+            (pixels).
+        align_radius: Within this distance of the goal (pixels) the heading error is
+            corrected.
+    """
+
+    gain_distance: float = 0.8
+    gain_bearing: float = 1.5
+    gain_heading: float = 0.8
+    max_speed: float = 25.0
+    max_turn_rate: float = 0.25
+    switch_error: float = 12.0
+    final_error: float = 1.5
+    align_radius: float = 0.0
+
+
+class ServoParamsOverrides(TypedDict, total=False):
+    """The fields of :class:`ServoParams`, for keyword arguments."""
+
+    gain_distance: float
+    gain_bearing: float
+    gain_heading: float
+    max_speed: float
+    max_turn_rate: float
+    switch_error: float
+    final_error: float
+    align_radius: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class ReplayConfig(Config):
+    """How a replay runs.
+
+    Attributes:
+        mosaic: The localiser (tracker parameters; mapping is off).
+        servo: The servoing law.
+        dt: Control period, seconds (one frame per period).
+        max_frames: The replay gives up after this many frames.
+        max_blind_frames: The robot gives up after this many frames in a row without a model
+            shared with its current key image.
+        metres_per_pixel: Metres per ideal-image pixel the controller assumes to turn its
+            pixel commands into wheel speeds (a gain: any rough value of `Z / f` will do).
+        actuation: How the wheels err: the true motion is the command with these scale
+            errors and noise; the odometry reads the command.
+    """
+
+    _native: ClassVar[str] = "memory_replay"
+    mosaic: MosaicParams = field(default_factory=MosaicParams)
+    servo: ServoParams = field(default_factory=ServoParams)
+    dt: float = 0.1
+    max_frames: int = 1500
+    max_blind_frames: int = 20
+    metres_per_pixel: float = 0.015
+    actuation: OdometryNoise = field(default_factory=OdometryNoise)
+
+
+class ReplayConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`ReplayConfig`, for keyword arguments."""
+
+    mosaic: MosaicParams
+    servo: ServoParams
+    dt: float
+    max_frames: int
+    max_blind_frames: int
+    metres_per_pixel: float
+    actuation: OdometryNoise

@@ -138,6 +138,12 @@ const SCHEMA_NAMES: &[&str] = &[
     "planar_sim",
     "scan_params",
     "smoother",
+    "ceiling",
+    "ceiling_camera",
+    "ceiling_render",
+    "odometry_noise",
+    "memory_learn",
+    "memory_replay",
 ];
 
 /// Calls the generic function `$f::<T>($args)` with `T` the config named `$name`: the
@@ -158,6 +164,12 @@ macro_rules! with_config {
             "planar_sim" => $f::<slam::planar::sim::SimConfig>($($arg),*),
             "scan_params" => $f::<linesimp::ScanParams>($($arg),*),
             "smoother" => $f::<slam::planar::smooth::SmootherConfig>($($arg),*),
+            "ceiling" => $f::<navigation::ceiling::CeilingParams>($($arg),*),
+            "ceiling_camera" => $f::<navigation::ceiling::CeilingCamera>($($arg),*),
+            "ceiling_render" => $f::<navigation::ceiling::RenderParams>($($arg),*),
+            "odometry_noise" => $f::<navigation::ceiling::OdometryNoise>($($arg),*),
+            "memory_learn" => $f::<navigation::memory::LearnParams>($($arg),*),
+            "memory_replay" => $f::<navigation::memory::ReplayParams>($($arg),*),
             _ => Err(unknown_config($name)),
         }
     };
@@ -193,7 +205,13 @@ validated!(
     slam::PlanarConfig,
     slam::planar::sim::SimConfig,
     linesimp::ScanParams,
-    slam::planar::smooth::SmootherConfig
+    slam::planar::smooth::SmootherConfig,
+    navigation::ceiling::CeilingParams,
+    navigation::ceiling::CeilingCamera,
+    navigation::ceiling::RenderParams,
+    navigation::ceiling::OdometryNoise,
+    navigation::memory::LearnParams,
+    navigation::memory::ReplayParams
 );
 
 fn unknown_config(name: &str) -> Error {

@@ -27,7 +27,7 @@ use pyo3::prelude::*;
 #[pymodule]
 mod _rperc {
     #[pymodule_export]
-    use crate::ceiling_py::{PyCeilingWorld, ceiling_defaults, ceiling_drive};
+    use crate::ceiling_py::{PyCeilingWorld, ceiling_drive};
     #[pymodule_export]
     use crate::colour_shape_py::{PyColorShapeAnswer, PyColorShapeTracker, color_segment};
     #[pymodule_export]
@@ -52,8 +52,8 @@ mod _rperc {
     };
     #[pymodule_export]
     use crate::memory_py::{
-        PyMemoryFrames, PyMemoryLearning, PyMemoryReplay, visual_memory_check,
-        visual_memory_defaults, visual_memory_learn, visual_memory_replay,
+        PyMemoryFrames, PyMemoryLearning, PyMemoryReplay, visual_memory_check, visual_memory_learn,
+        visual_memory_replay,
     };
     #[pymodule_export]
     use crate::pattern_py::{

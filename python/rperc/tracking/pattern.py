@@ -25,7 +25,7 @@ import numpy.typing as npt
 
 from rperc import _rperc
 from rperc._args import whole_number
-from rperc._config_base import as_config
+from rperc._config_base import as_config, as_config_moved
 from rperc.config import (
     PatternConfig,
     PatternConfigOverrides,
@@ -142,33 +142,6 @@ def _given(config: Mapping[str, object] | None) -> dict[str, object] | None:
     return None if config is None else {str(k): _tree(v) for k, v in config.items()}
 
 
-def _tracker_config(
-    config: PatternConfig | Mapping[str, object] | None, overrides: Mapping[str, object]
-) -> PatternConfig:
-    """``config`` with ``overrides`` on top, as :class:`PatternConfig`; the keywords of
-    the nested parts the tracker took before (``canny_low``, ``likelihood_sigma``,
-    ``parallel``, ...) set their field in the part, with a DeprecationWarning."""
-    top = {k: _tree(v) for k, v in overrides.items() if k not in _NESTED_KEYWORDS}
-    nested = {k: _tree(v) for k, v in overrides.items() if k in _NESTED_KEYWORDS}
-    base = config if isinstance(config, PatternConfig) else _given(config)
-    cfg = as_config(PatternConfig, base, top)
-    if not nested:
-        return cfg
-    spelled = ", ".join(f"{k}= -> {'.'.join(_NESTED_KEYWORDS[k])}" for k in nested)
-    warnings.warn(
-        f"PatternTracker's keywords of nested fields are deprecated ({spelled}): pass "
-        "pattern=PatternConfig().pattern.replace(...) or filter=PatternConfig()"
-        ".filter.replace(...), or config=PatternConfig(...)",
-        DeprecationWarning,
-        stacklevel=3,
-    )
-    parts = {"pattern": cfg.pattern, "filter": cfg.filter}
-    for key, value in nested.items():
-        part, name = _NESTED_KEYWORDS[key]
-        parts[part] = parts[part].replace(**{name: value})
-    return cfg.replace(**parts)
-
-
 def _frame(frame: npt.ArrayLike) -> np.ndarray:
     arr = np.asarray(frame)
     if arr.dtype != np.uint8:
@@ -277,7 +250,11 @@ class PatternTracker:
         **overrides: Unpack[PatternConfigOverrides],
     ) -> None:
         #: The tracker's settings, checked by the Rust crate when they were made.
-        self.config: PatternConfig = _tracker_config(config, overrides)
+        base = config if isinstance(config, PatternConfig) else _given(config)
+        fields = {k: _tree(v) for k, v in overrides.items()}
+        self.config: PatternConfig = as_config_moved(
+            PatternConfig, base, fields, _NESTED_KEYWORDS, "PatternTracker"
+        )
         native = _rperc.PatternTracker(
             _frame(frame), _region(region), _seed(seed), self.config.to_dict()
         )

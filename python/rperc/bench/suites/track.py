@@ -40,13 +40,19 @@ def settings_taken() -> set[str]:
     """The keywords of rperc's tracker constructors: what a settings grid may set."""
     import dataclasses
 
-    from rperc.config import ColorShapeConfig, ColorTemplateConfig
+    from rperc.config import (
+        ColorHistogramConfig,
+        ColorShapeConfig,
+        ColorTemplateConfig,
+        ParticleColorConfig,
+    )
     from rperc.tracking import (
         ColorHistogramTracker,
         ColorShapeTracker,
         ColorTemplateTracker,
         ParticleColorTracker,
     )
+    from rperc.tracking.trackers import _APPEARANCE_KEYWORDS, _FILTER_KEYWORDS
 
     names: set[str] = set()
     for cls in (
@@ -57,9 +63,16 @@ def settings_taken() -> set[str]:
     ):
         params = inspect.signature(cls.__init__).parameters
         names |= {n for n, p in params.items() if p.kind is p.KEYWORD_ONLY}
-    # The trackers that take a config take its fields as keyword overrides.
-    for config in (ColorTemplateConfig, ColorShapeConfig):
+    # Each tracker takes its config's fields as keyword overrides; the histogram
+    # trackers still take their parts' old flat keywords (deprecated).
+    for config in (
+        ColorTemplateConfig,
+        ColorShapeConfig,
+        ColorHistogramConfig,
+        ParticleColorConfig,
+    ):
         names |= {f.name for f in dataclasses.fields(config)}
+    names |= set(_APPEARANCE_KEYWORDS) | set(_FILTER_KEYWORDS)
     return names - {"seed", "config"}
 
 

@@ -25,7 +25,7 @@ import numpy.typing as npt
 
 from rperc import _rperc
 from rperc._args import excerpt, whole_number
-from rperc._config_base import as_config, as_config_moved, native_config
+from rperc._config_base import as_config, as_config_moved
 from rperc.config import (
     ColorHistogramConfig,
     ColorHistogramConfigOverrides,
@@ -556,9 +556,12 @@ class ColorShapeTracker:
     ) -> None:
         if box is None and contour is None:
             raise ValueError("give a box (x, y, w, h) or a contour (N x 2)")
-        if config is not None and not isinstance(config, ColorShapeConfig):
-            config = {str(k): _plain(v) for k, v in config.items()}
-        cfg = native_config(ColorShapeConfig, config, {k: _plain(v) for k, v in overrides.items()})
+        base = config if isinstance(config, ColorShapeConfig) else _given(config)
+        #: The tracker's settings, checked by the Rust crate when they were made.
+        self.config = as_config(
+            ColorShapeConfig, base, {k: _plain(v) for k, v in overrides.items()}
+        )
+        cfg = self.config.to_dict()
         poly = None if contour is None else np.asarray(contour, dtype=np.float64)
         if poly is not None and (poly.ndim != 2 or poly.shape[1] != 2):
             raise ValueError(f"contour must have shape (N, 2), got {poly.shape}")

@@ -27,6 +27,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 from _timing import print_table
 
+from rperc.config import AppearanceParams
 from rperc.tracking import ColorHistogramTracker, ColorShapeTracker
 from rperc.tracking.metrics import iou, mask_iou, polygon_mask
 from rperc.tracking.shape_sequences import EXPERIMENTS, ShapeSequence, shape_sequence
@@ -73,7 +74,7 @@ def run_box_tracker(
 
 def colour_only(space: str) -> Callable[[np.ndarray, Box], Callable[[np.ndarray], Box]]:
     def make(frame: np.ndarray, box: Box) -> Callable[[np.ndarray], Box]:
-        t = ColorHistogramTracker(frame, box, color_space=space)  # type: ignore[arg-type]
+        t = ColorHistogramTracker(frame, box, appearance=AppearanceParams(color_space=space))  # type: ignore[arg-type]
         return lambda f: t.update(f).box
 
     return make

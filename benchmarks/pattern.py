@@ -44,6 +44,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 from _timing import print_table
 
+from rperc.config import PatternConfig, PatternModelConfig
 from rperc.datasets import data_dir, load_planar_truth
 from rperc.tracking import PatternSequence, PatternTracker, pattern_sequence, planar
 from rperc.tracking.perspective import perspective_sequence
@@ -78,16 +79,15 @@ def run_rperc(
 ) -> tuple[np.ndarray, int, float]:
     """(estimates (n-1, 4), lost frames, seconds per update); ``parallel_min_work``
     None keeps the tracker's default."""
-    extra = {} if parallel_min_work is None else {"parallel_min_work": parallel_min_work}
-    tracker = PatternTracker(
-        seq.frames[0],
-        seq.region,
+    base = PatternConfig()
+    config = base.replace(
         n_particles=n_particles,
-        seed=1,
-        max_points=max_points,
-        parallel=parallel,
-        **extra,
+        pattern=base.pattern.replace(max_points=max_points),
+        filter=base.filter.replace(parallel=parallel),
     )
+    if parallel_min_work is not None:
+        config = config.replace(parallel_min_work=parallel_min_work)
+    tracker = PatternTracker(seq.frames[0], seq.region, seed=1, config=config)
     out, lost = [], 0
     t0 = time.perf_counter()
     for frame in seq.frames[1:]:
@@ -284,7 +284,8 @@ def peers(patch: np.ndarray, bg: np.ndarray, args: argparse.Namespace) -> None:
                 patch,
                 bg,
                 n_frames=args.frames,
-                size=size,
+                width=size[0],
+                height=size[1],
                 seed=seed,
                 max_step_sigmas=3.0,
                 other_step_sigmas=3.0,
@@ -344,9 +345,8 @@ def main() -> None:
     }
     acc_rows: list[list[str]] = []
     for label, extra in kinds.items():
-        seq = pattern_sequence(
-            patch, bg, n_frames=args.frames, size=tuple(args.size), seed=3, **extra
-        )  # type: ignore[arg-type]
+        w, h = args.size
+        seq = pattern_sequence(patch, bg, n_frames=args.frames, width=w, height=h, seed=3, **extra)  # type: ignore[arg-type]
         est, lost, _ = run_rperc(seq, 200)
         acc_rows += accuracy_rows(f"rperc 200 ({label}, lost {lost})", seq, est)
         if cv2 is not None:
@@ -355,8 +355,9 @@ def main() -> None:
                 acc_rows += accuracy_rows(f"ECC {motion} ({label}, failed {fail})", seq, est_e)
     header = ["tracker", "step/sigma", "frames", "pos RMS px", "angle RMS deg", "scale RMS %"]
     print_table("accuracy against the swept step", header, acc_rows)
+    w, h = args.size
     seq = pattern_sequence(
-        patch, bg, n_frames=args.frames, size=tuple(args.size), seed=3, max_step_sigmas=1.0
+        patch, bg, n_frames=args.frames, width=w, height=h, seed=3, max_step_sigmas=1.0
     )
     speed_headline(seq, args.repeats)
     sweep_particles(seq, args.particles)
@@ -438,7 +439,9 @@ def sweep_points(seq: PatternSequence, points: list[int]) -> None:
     an ECC run."""
     rows, used, times = [], [], []
     for m in points:
-        n_points = PatternTracker(seq.frames[0], seq.region, max_points=m).n_points
+        n_points = PatternTracker(
+            seq.frames[0], seq.region, pattern=PatternModelConfig(max_points=m)
+        ).n_points
         _, _, dt = run_rperc(seq, 200, max_points=m)
         dt_e = ecc_seconds(seq)
         used.append(n_points)
@@ -459,7 +462,7 @@ def sweep_sizes(patch: np.ndarray, bg: np.ndarray, args: argparse.Namespace) -> 
     for size in args.sizes:
         w, h = (int(v) for v in size.split("x"))
         seq = pattern_sequence(
-            patch, bg, n_frames=args.frames, size=(w, h), seed=3, max_step_sigmas=1.0
+            patch, bg, n_frames=args.frames, width=w, height=h, seed=3, max_step_sigmas=1.0
         )
         _, _, dt = run_rperc(seq, 200)
         dt_e = ecc_seconds(seq)

@@ -385,7 +385,7 @@ def pattern_folder(tmp_path_factory):
 
     patch, background = demo_images(0)
     seq = pattern_sequence(
-        patch, background, n_frames=8, size=(320, 240), seed=1, max_step_sigmas=0.5
+        patch, background, n_frames=8, width=320, height=240, seed=1, max_step_sigmas=0.5
     )
     folder = tmp_path_factory.mktemp("pattern")
     for k, frame in enumerate(seq.frames):

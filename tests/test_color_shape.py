@@ -168,3 +168,12 @@ def test_a_zero_canny_threshold_refines_instead_of_panicking(canny: list[float])
     for _ in range(2):
         x, y, w, h = t.update(frame).box
     assert 8 <= x <= 12 and 6 <= y <= 10 and 16 <= w <= 24 and 16 <= h <= 24
+
+
+def test_the_tracker_keeps_the_config_it_was_given_with_its_overrides() -> None:
+    from rperc.config import ColorShapeConfig
+
+    frame = np.full((60, 80, 3), 90, np.uint8)
+    frame[14:34, 20:44] = (200, 40, 40)
+    t = ColorShapeTracker(frame, (20, 14, 24, 20), config={"n_samples": 40}, seed=9)
+    assert t.config == ColorShapeConfig(n_samples=40, seed=9)

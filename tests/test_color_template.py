@@ -119,7 +119,8 @@ def test_bad_input_raises_clear_errors():
         ColorTemplateTracker(f, truth[0], n_scales=16)
     with pytest.raises(ValueError, match="lost_ratio"):
         ColorTemplateTracker(f, truth[0], lost_ratio=float("nan"))
-    with pytest.raises(TypeError, match="unexpected keyword argument"):
+    # Issue 36: an unknown field is serde's TypeError naming the config and the field.
+    with pytest.raises(TypeError, match="color_template: merge_facter: Unknown field"):
         ColorTemplateTracker(f, truth[0], merge_facter=0.3)  # type: ignore[call-arg]
     t = ColorTemplateTracker(f, truth[0])
     with pytest.raises(ValueError, match="size changed"):
@@ -155,3 +156,35 @@ def test_lost_signal_on_otb_jogging(data):
     overlaps = metrics.iou(np.array(boxes), seq.boxes[:130])
     assert any(lost[60:90])
     assert overlaps[100:130].mean() > 0.5
+
+
+def test_the_config_and_its_keyword_overrides_are_one_path():
+    # Issue 36: a ColorTemplateConfig, a dict of its fields and keyword overrides give
+    # one config and one track; `lambda_` is the field's name (`lambda` is a keyword).
+    from rperc.config import ColorTemplateConfig
+
+    frames, truth = scene(3, count=4)
+    typed = ColorTemplateTracker(
+        frames[0], truth[0], config=ColorTemplateConfig(merge_factor=0.3), lambda_=0.01
+    )
+    plain = ColorTemplateTracker(frames[0], truth[0], config={"merge_factor": 0.3, "lambda_": 0.01})
+    assert typed.config == plain.config == ColorTemplateConfig(merge_factor=0.3, lambda_=0.01)
+    for f in frames[1:]:
+        assert typed.update(f) == plain.update(f)
+    with pytest.raises(ValueError, match="lambda_"):
+        ColorTemplateTracker(frames[0], truth[0], lambda_=0.0)
+
+
+def test_native_answers_are_frozen_with_named_fields():
+    from rperc import _rperc
+
+    frames, truth = scene(4, count=2)
+    native = _rperc.ColorHistogramTracker(frames[0], tuple(truth[0]), None)
+    answer = native.update(frames[1])
+    assert len(answer.box) == 4 and 0.0 <= answer.score <= 1.0 and answer.lost in (True, False)
+    with pytest.raises(AttributeError):
+        answer.score = 0.5  # type: ignore[misc]
+    shape = _rperc.ColorShapeTracker(frames[0], tuple(truth[0]), None, None).update(frames[1])
+    assert shape.contour.shape[1] == 2 and len(shape.distribution) == 8
+    with pytest.raises(ValueError, match="read-only"):
+        shape.contour[0, 0] = 1.0

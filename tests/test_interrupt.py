@@ -65,8 +65,10 @@ CASES = {
     "a pattern tracker update": _TEXTURED
     + "from rperc.tracking import PatternTracker\ng = f.mean(axis=2).astype(np.uint8)\n"
     # Particles all near the target (sigma tiny) are weighed in full, none cut short.
-    + "t = PatternTracker(g, (60, 40, 200, 160), n_particles=10**6, max_points=2000,\n"
-    + "                   point_spacing=1.0, sigma=(0.01, 0.01, 1e-4, 1e-4))\n"
+    + "from rperc.config import PatternModelConfig\n"
+    + "t = PatternTracker(g, (60, 40, 200, 160), n_particles=10**6,\n"
+    + "                   pattern=PatternModelConfig(max_points=2000, point_spacing=1.0),\n"
+    + "                   sigma=(0.01, 0.01, 1e-4, 1e-4))\n"
     + "print('ready', flush=True)\nt.update(g)\n",
 }
 

@@ -422,3 +422,25 @@ def test_replay_marks_put_truth_and_estimate_on_the_models_in_view(learnt) -> No
     shifted = replace(run.frames, pose=run.frames.pose + offset)
     truth, est = replay_marks(world, learning, replace(run, frames=shifted), 0)
     assert np.hypot(*(truth - est).T).min() > 10.0
+
+
+def test_the_start_guess_follows_the_perturbation_unless_the_config_sets_its_own() -> None:
+    # A start uniform in [-p, p] has the standard deviation p / sqrt(3); a typed
+    # config always holds the field, so only a value other than the default is its own.
+    import math
+
+    from rperc.config import ReplayConfig
+    from rperc.navigation.memory import _with_start_guess
+
+    p = (0.3, 0.3, 0.15)
+    drawn = [v / math.sqrt(3.0) for v in p]
+    for config in (None, {}, ReplayConfig(), {"max_frames": 50}):
+        out = _with_start_guess(config, p)
+        assert out["mosaic"]["localiser"]["guess_sigma"] == drawn  # type: ignore[index]
+    base = ReplayConfig()
+    own = base.replace(
+        mosaic=base.mosaic.replace(localiser=base.mosaic.localiser.replace(guess_sigma=(1, 1, 1)))
+    )
+    assert _with_start_guess(own, p)["mosaic"]["localiser"]["guess_sigma"] == [1, 1, 1]  # type: ignore[index]
+    given = {"mosaic": {"localiser": {"guess_sigma": [0.01, 0.01, 0.01]}}}
+    assert _with_start_guess(given, p)["mosaic"]["localiser"]["guess_sigma"] == [0.01] * 3  # type: ignore[index]

@@ -35,7 +35,7 @@ def test_projection_matches_opencv_project_points() -> None:
     c, s = np.cos(pose[2]), np.sin(pose[2])
     d = xy - pose[:2]
     robot = np.c_[c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1],
-                  np.full(len(d), world.camera["ceiling_height"])]  # fmt: skip
+                  np.full(len(d), world.camera.ceiling_height)]  # fmt: skip
     r_m = _euler(MOUNT["roll"], MOUNT["pitch"], MOUNT["yaw"])
     rvec, _ = cv2.Rodrigues(r_m.T)
     tvec = -r_m.T @ np.asarray(MOUNT["offset"])
@@ -151,4 +151,30 @@ def test_bad_input_is_refused_by_name() -> None:
         drive([0, 0, 0], [[1.0, 0.0]], 0.0)
     with pytest.raises(ValueError, match="commands"):
         drive([0, 0, 0], np.zeros((0, 2)), 0.1)
-    assert set(defaults()) == {"ceiling", "camera", "render", "odometry", "learn", "replay"}
+    with pytest.warns(DeprecationWarning, match="rperc.config"):
+        old = defaults()
+    assert set(old) == {"ceiling", "camera", "render", "odometry", "learn", "replay"}
+
+
+def test_the_world_takes_typed_configs_and_dicts_alike() -> None:
+    # Issue 36: the generated configs and dicts of their fields make one world; it
+    # keeps its configs typed, and pickles as them.
+    import pickle
+
+    from rperc.config import CeilingCameraConfig, CeilingConfig, CeilingRenderConfig
+
+    typed = CeilingWorld(
+        ceiling=CeilingConfig.from_dict(SMALL),
+        camera=CeilingCameraConfig(width=160, height=120, cx=79.5, cy=59.5),
+        render=CeilingRenderConfig(seed=3),
+    )
+    plain = CeilingWorld(
+        ceiling=SMALL, camera={"width": 160, "height": 120, "cx": 79.5, "cy": 59.5},
+        render={"seed": 3},
+    )  # fmt: skip
+    assert typed.camera == plain.camera and typed.image_shape == (120, 160)
+    pose = np.array([[1.5, 1.0, 0.2]])
+    np.testing.assert_array_equal(typed.render(pose), plain.render(pose))
+    again = pickle.loads(pickle.dumps(typed))
+    assert again.ceiling_config == typed.ceiling_config
+    np.testing.assert_array_equal(again.render(pose), typed.render(pose))

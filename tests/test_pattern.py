@@ -10,6 +10,8 @@ import cv2
 import numpy as np
 import pytest
 
+from rperc import _rperc
+from rperc.config import PatternConfig, PatternModelConfig
 from rperc.tracking import PatternPose, PatternTracker, pattern_sequence
 
 H, W = 160, 200
@@ -144,8 +146,11 @@ def test_an_all_black_frame_is_lost_with_the_pose_kept() -> None:
 def test_the_same_seed_gives_the_same_track() -> None:
     first = _first_frame()
     moved = np.roll(first, 4, axis=1)
-    a = PatternTracker(first, BOX, seed=9, parallel=True, parallel_min_work=0).update(moved)
-    b = PatternTracker(first, BOX, seed=9, parallel=False).update(moved)
+    filter = PatternConfig().filter
+    a = PatternTracker(
+        first, BOX, seed=9, filter=filter.replace(parallel=True), parallel_min_work=0
+    ).update(moved)
+    b = PatternTracker(first, BOX, seed=9, filter=filter.replace(parallel=False)).update(moved)
     c = PatternTracker(first, BOX, seed=9).update(moved)
     assert a == b == c
 
@@ -163,14 +168,16 @@ def test_the_same_seed_gives_the_same_track() -> None:
         # particles died in the allocator; a spacing of 1e-9 px asked for 10^9 model
         # points per pixel of contour).
         ({"n_particles": 10**13}, ValueError, "'n_particles': must be in 1..=1000000"),
-        ({"max_points": 10**13}, ValueError, "'max_points': must be in"),
-        ({"point_spacing": 1e-9}, ValueError, "'point_spacing'"),
-        ({"point_spacing": math.inf}, ValueError, "'point_spacing'"),
+        ({"pattern": {"max_points": 10**13}}, ValueError, "'max_points': must be in"),
+        ({"pattern": {"point_spacing": 1e-9}}, ValueError, "'point_spacing'"),
+        ({"pattern": {"point_spacing": math.inf}}, ValueError, "'point_spacing'"),
         ({"sigma": (5, 5, math.nan, 0.1)}, ValueError, "sigma"),
         ({"sigma": (5, 5, 0.1)}, ValueError, "sigma"),
         ({"refine_first_step": 0.0}, ValueError, "refine_first_step"),
         ({"refine_first_step": math.nan}, ValueError, "refine_first_step"),
-        ({"deviation": "cubic"}, ValueError, "deviation"),
+        ({"pattern": {"deviation": "cubic"}}, ValueError, "deviation"),
+        ({"motion": "affine"}, ValueError, "motion"),
+        ({"n_particle": 10}, TypeError, "n_particle"),
         ({"refine_fine_rounds": -1}, ValueError, "refine_fine_rounds"),
         ({"newton_steps": -1}, ValueError, "newton_steps"),
         ({"newton_steps": 10**6}, ValueError, "newton_steps"),
@@ -197,18 +204,18 @@ def test_a_frame_of_another_size_is_refused() -> None:
 
 def test_the_generated_sequence_starts_on_its_region_and_is_seeded() -> None:
     patch, bg = _patch(), _background()
-    seq = pattern_sequence(patch, bg, n_frames=5, size=(W, H), noise=0.0, seed=4)
+    seq = pattern_sequence(patch, bg, n_frames=5, width=W, height=H, noise=0.0, seed=4)
     assert seq.frames.shape == (5, H, W) and seq.frames.dtype == np.uint8
     assert seq.truth.shape == (5, 4) and seq.occlusion.shape == (5,)
     x, y, w, h = seq.region
     np.testing.assert_array_equal(seq.frames[0, y : y + h, x : x + w], patch)
     assert tuple(seq.truth[0]) == (x + (w - 1) / 2, y + (h - 1) / 2, 0.0, 1.0)
-    again = pattern_sequence(patch, bg, n_frames=5, size=(W, H), noise=0.0, seed=4)
+    again = pattern_sequence(patch, bg, n_frames=5, width=W, height=H, noise=0.0, seed=4)
     np.testing.assert_array_equal(seq.frames, again.frames)
     with pytest.raises(ValueError, match="max_occlusion"):
-        pattern_sequence(patch, bg, n_frames=2, size=(W, H), max_occlusion=2.0)
+        pattern_sequence(patch, bg, n_frames=2, width=W, height=H, max_occlusion=2.0)
     with pytest.raises(ValueError, match="patch"):
-        pattern_sequence(patch, bg, n_frames=2, size=(40, 40))
+        pattern_sequence(patch, bg, n_frames=2, width=40, height=40)
 
 
 def test_generated_frames_equal_opencv_warp_affine_of_the_patch() -> None:
@@ -218,7 +225,7 @@ def test_generated_frames_equal_opencv_warp_affine_of_the_patch() -> None:
     covers its region."""
     patch, bg = _patch(), _background()
     seq = pattern_sequence(
-        patch, bg, n_frames=12, size=(W, H), noise=0.0, background_speed=0.0, seed=7
+        patch, bg, n_frames=12, width=W, height=H, noise=0.0, background_speed=0.0, seed=7
     )
     ph, pw = patch.shape
     ones = np.ones_like(patch)
@@ -249,7 +256,14 @@ def test_a_real_patch_over_real_clutter_is_tracked(data) -> None:  # type: ignor
         pytest.skip("images/camera.png or images/grass.png missing")
     patch = camera[60:160, 200:300]
     seq = pattern_sequence(
-        patch, grass, n_frames=24, size=(320, 240), max_step_sigmas=2.0, max_occlusion=0.3, seed=1
+        patch,
+        grass,
+        n_frames=24,
+        width=320,
+        height=240,
+        max_step_sigmas=2.0,
+        max_occlusion=0.3,
+        seed=1,
     )
     tracker = PatternTracker(seq.frames[0], seq.region, seed=1)
     errors = []
@@ -278,7 +292,8 @@ def test_full_three_sigma_steps_keep_the_goals(data, seed, gain, occlusion) -> N
         camera[60:160, 200:300],
         grass,
         n_frames=40,
-        size=(640, 480),
+        width=640,
+        height=480,
         max_step_sigmas=3.0,
         other_step_sigmas=3.0,
         gain=(1 - gain, 1 + gain),
@@ -306,7 +321,7 @@ def test_full_three_sigma_steps_keep_the_goals(data, seed, gain, occlusion) -> N
     [
         ({"seed": None}, r"^seed must be a non-negative integer below 2\*\*64, got None"),
         ({"seed": float("nan")}, r"^seed must be a non-negative integer below 2\*\*64, got nan"),
-        ({"sigma": "abc"}, r"^sigma must hold real numbers"),
+        ({"sigma": "abc"}, r"^pattern: sigma: Invalid type string"),
         ({"refine_steps": 10**9}, r"'refine_steps': must be at most 64, got 1000000000"),
     ],
 )
@@ -348,8 +363,46 @@ def test_sequence_frames_too_large_to_count_are_refused() -> None:
 def test_zero_canny_thresholds_learn_and_track(low: float, high: float) -> None:
     # A threshold of 0 made imageproc's hysteresis walk off the image (a panic). The
     # check: on the unchanged first frame the pose stays at the region's centre.
-    tracker = PatternTracker(_first_frame(), BOX, canny_low=low, canny_high=high, seed=1)
+    model = PatternModelConfig(canny_low=low, canny_high=high)
+    tracker = PatternTracker(_first_frame(), BOX, pattern=model, seed=1)
     pose = tracker.update(_first_frame())
     x, y, w, h = BOX
     assert not pose.lost
     assert abs(pose.x - (x + (w - 1) / 2)) < 1.0 and abs(pose.y - (y + (h - 1) / 2)) < 1.0
+
+
+def test_the_config_and_its_keyword_overrides_are_one_path() -> None:
+    # Issue 36: a PatternConfig, a dict of its fields and keyword overrides give one
+    # config; the old keywords of nested fields still work, with a DeprecationWarning
+    # naming where the field lives now.
+    frame = _first_frame()
+    typed = PatternTracker(frame, BOX, config=PatternConfig(n_particles=80, motion="homography"))
+    plain = PatternTracker(frame, BOX, config={"n_particles": 80}, motion="homography")
+    assert typed.config == plain.config
+    assert (
+        typed.config.filter.chunk_size == _rperc.config_defaults("pattern")["filter"]["chunk_size"]
+    )
+    with pytest.warns(DeprecationWarning, match=r"likelihood_sigma= -> pattern\.sigma"):
+        old = PatternTracker(frame, BOX, likelihood_sigma=2.0, parallel=False)  # type: ignore[call-arg]
+    base = PatternConfig()
+    assert old.config == base.replace(
+        pattern=base.pattern.replace(sigma=2.0), filter=base.filter.replace(parallel=False)
+    )
+    with pytest.warns(DeprecationWarning, match="canny_low"):
+        PatternTracker(frame, BOX, config=PatternConfig(n_particles=80), canny_low=20.0)  # type: ignore[call-arg]
+    with pytest.warns(DeprecationWarning, match="width=w, height=h"):
+        seq = pattern_sequence(_patch(), _background(), n_frames=2, size=(W, H))  # type: ignore[call-arg]
+    assert seq.frames.shape == (2, H, W)
+
+
+def test_answers_are_frozen_with_read_only_arrays() -> None:
+    tracker = _rperc.PatternTracker(_first_frame(), BOX, 0, None)
+    answer = tracker.update(_first_frame())
+    with pytest.raises(AttributeError):
+        answer.x = 1.0  # type: ignore[misc]
+    with pytest.raises(ValueError, match="read-only"):
+        answer.corners[0, 0] = 1.0
+    seq = _rperc.pattern_sequence(
+        _patch().astype(float), _background().astype(float), {"n_frames": 2}
+    )
+    assert seq.region == tuple(int(v) for v in seq.region) and seq.frames.shape[0] == 2

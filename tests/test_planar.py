@@ -143,7 +143,11 @@ def scene(n_frames: int = 8, **kw):
     yy, xx = np.mgrid[0:36, 0:50]
     patch[(xx - 14) ** 2 + (yy - 27) ** 2 < 36] = 240
     bg = rng.uniform(60, 180, (20, 26)).repeat(8, 0).repeat(8, 1)
-    return pattern_sequence(patch, bg, n_frames=n_frames, size=(200, 150), seed=2, **kw), patch, bg
+    return (
+        pattern_sequence(patch, bg, n_frames=n_frames, width=200, height=150, seed=2, **kw),
+        patch,
+        bg,
+    )
 
 
 def test_every_tracker_runs_on_the_same_frames_and_is_scored():

@@ -122,10 +122,10 @@ def test_bad_frames_boxes_and_parameters_raise():
         ColorHistogramTracker(f, (500.0, 10.0, 20.0, 20.0))  # outside the frame
     with pytest.raises(ValueError):
         ColorHistogramTracker(f, (10.0, 10.0, 0.0, 20.0))  # empty box
-    with pytest.raises(TypeError, match="unexpected keyword argument"):
-        ColorHistogramTracker(f, boxes[0], serch_radius=5)
+    with pytest.raises(TypeError, match="color_histogram: serch_radius: Unknown field"):
+        ColorHistogramTracker(f, boxes[0], serch_radius=5)  # type: ignore[call-arg]
     with pytest.raises(ValueError, match="color_space"):
-        ColorHistogramTracker(f, boxes[0], color_space="lab")
+        ColorHistogramTracker(f, boxes[0], appearance={"color_space": "lab"})  # type: ignore[typeddict-item]
     with pytest.raises(ValueError, match="n_particles"):
         ParticleColorTracker(f, boxes[0], n_particles=0)
     t = ColorHistogramTracker(f, boxes[0])
@@ -219,3 +219,29 @@ def test_weights_near_the_largest_float_resample_like_their_scaled_down_copy(met
     # Equal weights: systematic resampling keeps each particle once.
     assert len(set(resample(np.full(10, 1e308), 10, "systematic", seed=4).tolist())) == 10
     assert effective_sample_size(huge) == pytest.approx(effective_sample_size(WEIGHTS))
+
+
+def test_the_histogram_trackers_take_a_config_and_typed_overrides():
+    # Issue 36: one config path; the old flat keywords of the appearance and filter
+    # parts still work, with a DeprecationWarning naming where each field lives now,
+    # and keep the part's other fields.
+    from rperc.config import AppearanceParams, ColorHistogramConfig, ParticleColorConfig
+
+    frames, boxes = synthetic_frames(3)
+    with pytest.warns(DeprecationWarning, match=r"color_space= -> appearance\.color_space"):
+        old = ColorHistogramTracker(frames[0], boxes[0], color_space="rgb", search_radius=5)  # type: ignore[call-arg]
+    typed = ColorHistogramConfig(search_radius=5, appearance=AppearanceParams(color_space="rgb"))
+    new = ColorHistogramTracker(frames[0], boxes[0], config=typed)
+    plain = ColorHistogramTracker(
+        frames[0], boxes[0], config={"appearance": {"color_space": "rgb"}}, search_radius=5
+    )
+    assert old.config == new.config == plain.config == typed
+    for f in frames[1:]:
+        assert old.update(f) == new.update(f) == plain.update(f)
+    with pytest.warns(DeprecationWarning, match=r"resampler= -> filter\.resampler"):
+        pf = ParticleColorTracker(frames[0], boxes[0], resampler="residual", bins=(8, 8, 8))  # type: ignore[call-arg]
+    base = ParticleColorConfig()
+    assert pf.config == base.replace(
+        appearance=base.appearance.replace(bins=(8, 8, 8)),
+        filter=base.filter.replace(resampler="residual"),
+    )

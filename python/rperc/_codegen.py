@@ -21,7 +21,10 @@ from rperc._atomic import write_text_atomically
 CLASS_NAMES = {
     "color_histogram": "ColorHistogramConfig",
     "color_shape": "ColorShapeConfig",
+    "color_template": "ColorTemplateConfig",
     "particle_color": "ParticleColorConfig",
+    "pattern": "PatternConfig",
+    "pattern_sequence": "PatternSequenceConfig",
     "laser": "LaserConfig",
     "laser_scan": "ScanConfig",
     "monobot": "MonobotConfig",
@@ -29,6 +32,14 @@ CLASS_NAMES = {
     "planar_sim": "SimConfig",
     "scan_params": "ScanParams",
     "smoother": "SmootherConfig",
+    # After "pattern": the visual memory's mosaic nests the pattern tracker's config,
+    # whose class is the one "pattern" makes (checked natively when made).
+    "ceiling": "CeilingConfig",
+    "ceiling_camera": "CeilingCameraConfig",
+    "ceiling_render": "CeilingRenderConfig",
+    "odometry_noise": "OdometryNoise",
+    "memory_learn": "LearnConfig",
+    "memory_replay": "ReplayConfig",
 }
 
 HEADER = '''"""The typed configs of rperc, generated from the Rust structs that define them
@@ -74,7 +85,7 @@ def generate() -> str:
     # Unions first: a variant's class must subclass its union even where another
     # config uses the same struct on its own.
     for name, part in module.schemas.items():
-        if "oneOf" in part:
+        if _is_union(part):
             _union(module, name, part)
     for (native, cls), schema in zip(CLASS_NAMES.items(), schemas.values(), strict=True):
         module.schemas[cls] = schema
@@ -104,7 +115,7 @@ def _struct(
     if tag:
         lines.append(f'    _tag: ClassVar[str] = "{tag}"')
     for key, annotation, default in fields:
-        lines.append(f"    {_identifier(key)}: {annotation} = {default}")
+        lines.append(_field(_identifier(key), annotation, default))
     module.blocks.append("\n".join(lines))
     overrides = [
         f"class {name}Overrides(TypedDict, total=False):",
@@ -158,6 +169,8 @@ def _annotation(module: Module, schema: dict[str, Any]) -> str:
         return "None"
     if "enum" in schema:
         return "Literal[" + ", ".join(json.dumps(v) for v in schema["enum"]) + "]"
+    if "oneOf" in schema:  # a plain enum whose variants have doc comments
+        return "Literal[" + ", ".join(json.dumps(v["const"]) for v in schema["oneOf"]) + "]"
     if kinds == "array":
         return _array(module, schema)
     simple = {"number": "float", "integer": "int", "boolean": "bool", "string": "str"}
@@ -179,13 +192,20 @@ def _array(module: Module, schema: dict[str, Any]) -> str:
 def _named(module: Module, name: str, schema: dict[str, Any]) -> str:
     """A named type: a string enum becomes its Literal, a struct its class, a tagged
     union (serde's externally tagged enum) a base class with one class per variant."""
-    if "oneOf" not in schema and schema.get("type") != "object":  # a Literal, tuple, number
+    if not _is_union(schema) and schema.get("type") != "object":  # a Literal, tuple, number
         return _annotation(module, {k: v for k, v in schema.items() if k != "description"})
-    if "oneOf" in schema:
+    if _is_union(schema):
         _union(module, name, schema)
         return name
     _struct(module, name, schema)
     return name
+
+
+def _is_union(schema: dict[str, Any]) -> bool:
+    """serde's externally tagged enum (variants with fields); an enum of plain variants
+    with doc comments is a ``oneOf`` of string constants, a Literal."""
+    variants = schema.get("oneOf", [])
+    return bool(variants) and not all("const" in v for v in variants)
 
 
 def _union(module: Module, name: str, schema: dict[str, Any]) -> None:
@@ -209,34 +229,78 @@ def _union(module: Module, name: str, schema: dict[str, Any]) -> None:
         _struct(module, vname, described, base=name, tag=tag)
 
 
-def _default(module: Module, schema: dict[str, Any]) -> str:
+#: ruff's line length: the module is written as ruff formats it.
+WIDTH = 100
+
+
+@dataclass
+class Call:
+    """A constructor call ``name(key=value, ...)`` of a default."""
+
+    name: str
+    args: list[tuple[str, str | Call]]
+
+    def flat(self) -> str:
+        inner = ", ".join(f"{k}={v.flat() if isinstance(v, Call) else v}" for k, v in self.args)
+        return f"{self.name}({inner})"
+
+    def text(self, column: int, indent: int, tail: int) -> str:
+        """The call from ``column`` of a line indented ``indent`` and followed by
+        ``tail`` characters: on that line when it fits, else one argument a line with
+        a trailing comma, as ruff writes it."""
+        flat = self.flat()
+        if column + len(flat) + tail <= WIDTH or not self.args:
+            return flat
+        pad = " " * (indent + 4)
+        rows = []
+        for key, value in self.args:
+            head = f"{pad}{key}="
+            body = value.text(len(head), indent + 4, 1) if isinstance(value, Call) else value
+            rows.append(f"{head}{body},")
+        return f"{self.name}(\n" + "\n".join(rows) + f"\n{' ' * indent})"
+
+
+def _field(key: str, annotation: str, default: str | Call) -> str:
+    """One field's line (or lines): ``key: annotation = default``."""
+    lead = f"    {key}: {annotation} = "
+    if not isinstance(default, Call):
+        return lead + default
+    if not default.args:  # the part's own defaults
+        return f"{lead}field(default_factory={default.name})"
+    line = f"{lead}field(default_factory=lambda: {default.flat()})"
+    if len(line) <= WIDTH:
+        return line
+    head = "        default_factory=lambda: "
+    return f"{lead}field(\n{head}{default.text(len(head), 8, 0)}\n    )"
+
+
+def _default(module: Module, schema: dict[str, Any]) -> str | Call:
     value = schema.get("default")
     if schema.get("type") == "number" and isinstance(value, str):
         value = float(value)  # "inf": JSON has no infinity
     ref_name, ref = module.resolve(schema) if "$ref" in schema else ("", {})
     if isinstance(value, dict):
-        built = _value(module, ref_name, ref, value)
-        if built.endswith("()"):  # the part's own defaults
-            return f"field(default_factory={built[:-2]})"
-        return f"field(default_factory=lambda: {built})"
+        return _value(module, ref_name, ref, value)
     return _literal(value)
 
 
-def _value(module: Module, name: str, schema: dict[str, Any], value: dict[str, Any]) -> str:
+def _value(module: Module, name: str, schema: dict[str, Any], value: dict[str, Any]) -> Call:
     """The constructor call that builds ``value`` (a dict) as the class ``name``."""
-    if "oneOf" in schema:
+    if _is_union(schema):
         [(tag, body)] = value.items()
         for variant in schema["oneOf"]:
             if tag in variant["properties"]:
                 return _value(module, *module.resolve(variant["properties"][tag]), body)
-    args = []
+    args: list[tuple[str, str | Call]] = []
     for key, v in value.items():
         prop = schema["properties"][key]
+        if v == prop.get("default"):  # only what differs from the part's default
+            continue
         if isinstance(v, dict):
-            args.append(f"{key}={_value(module, *module.resolve(prop), v)}")
-        elif v != prop.get("default"):  # only what differs from the part's default
-            args.append(f"{key}={_literal(v)}")
-    return f"{name}({', '.join(args)})"
+            args.append((key, _value(module, *module.resolve(prop), v)))
+        else:
+            args.append((key, _literal(v)))
+    return Call(name, args)
 
 
 def _literal(value: object) -> str:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import sys
+import warnings
 from collections.abc import Hashable, Mapping
 from typing import Any, ClassVar, TypeVar, cast
 
@@ -78,6 +79,37 @@ def as_config(
             f"got {type(config).__name__}"
         )
     return cls.from_dict({**base, **(overrides or {})})
+
+
+def as_config_moved(
+    cls: type[C],
+    config: C | Mapping[str, Any] | None,
+    overrides: Mapping[str, object],
+    moved: Mapping[str, tuple[str, str]],
+    owner: str,
+) -> C:
+    """:func:`as_config` for a constructor that took flat keywords for fields of its
+    config's nested parts before it took the config: each keyword of ``moved`` sets
+    field ``name`` of part ``part`` (``moved[keyword] = (part, name)``) of the config,
+    the part's other fields kept, with a DeprecationWarning saying where it lives now.
+    Called from the constructor: the warning points at the constructor's caller."""
+    nested = {k: v for k, v in overrides.items() if k in moved}
+    made = as_config(cls, config, {k: v for k, v in overrides.items() if k not in moved})
+    if not nested:
+        return made
+    spelled = ", ".join(f"{k}= -> {'.'.join(moved[k])}" for k in nested)
+    warnings.warn(
+        f"{owner}: keywords of nested fields are deprecated ({spelled}); pass the part "
+        f"(such as part=config.part.replace(...)) or config={cls.__name__}(...)",
+        DeprecationWarning,
+        stacklevel=3,
+    )
+    parts: dict[str, Config] = {}
+    for key, value in nested.items():
+        part, name = moved[key]
+        current = parts.get(part, getattr(made, part))
+        parts[part] = dataclasses.replace(current, **{name: _tuples(value)})
+    return dataclasses.replace(made, **parts)
 
 
 def native_config(

@@ -1,7 +1,7 @@
 """Type stubs of the native extension. Use the documented wrappers in :mod:`rperc`."""
 
 from collections.abc import Callable, Mapping
-from typing import Any, TypeAlias, final
+from typing import TypeAlias, final
 
 import numpy as np
 import numpy.typing as npt
@@ -10,6 +10,7 @@ __all__ = [
     "MAX_PARTICLES",
     "CeilingWorld",
     "ColorHistogramTracker",
+    "ColorShapeAnswer",
     "ColorShapeTracker",
     "ColorTemplateAnswer",
     "ColorTemplateTracker",
@@ -26,6 +27,8 @@ __all__ = [
     "MonobotSummary",
     "NumericalError",
     "ParticleColorTracker",
+    "PatternAnswer",
+    "PatternSequenceAnswer",
     "PatternTracker",
     "PlanarRun",
     "PlanarStatistics",
@@ -33,14 +36,12 @@ __all__ = [
     "ScanWalls",
     "SimulatedWorld",
     "SmoothedWalls",
+    "TrackAnswer",
     "WorldWalls",
     "__version__",
-    "ceiling_defaults",
     "ceiling_drive",
     "check_allocation",
     "color_segment",
-    "color_shape_defaults",
-    "color_template_defaults",
     "config_check",
     "config_defaults",
     "config_names",
@@ -61,7 +62,6 @@ __all__ = [
     "otb_precision",
     "otb_success_curve",
     "parse_floats",
-    "pattern_defaults",
     "pattern_sequence",
     "planar_sim_check",
     "planar_sim_nees",
@@ -75,9 +75,7 @@ __all__ = [
     "simplify_indices",
     "simplify_many_indices",
     "simplify_topology_indices",
-    "tracker_defaults",
     "visual_memory_check",
-    "visual_memory_defaults",
     "visual_memory_learn",
     "visual_memory_replay",
     "wall_straightness_covariance",
@@ -458,6 +456,17 @@ def nees_bounds(dof: int, runs: int, confidence: float) -> tuple[float, float]: 
 _Box: TypeAlias = tuple[float, float, float, float]
 
 @final
+class TrackAnswer:
+    """One colour-histogram tracker answer, frozen."""
+
+    @property
+    def box(self) -> _Box: ...
+    @property
+    def score(self) -> float: ...
+    @property
+    def lost(self) -> bool: ...
+
+@final
 class ColorHistogramTracker:
     """Colour-histogram tracker with local search (see rperc.tracking)."""
 
@@ -465,9 +474,9 @@ class ColorHistogramTracker:
         cls,
         frame: npt.NDArray[np.uint8],
         bbox: _Box | list[float] | _ArrayLike,
-        config: dict[str, Any] | None = None,
+        config: Mapping[str, object] | None = None,
     ) -> ColorHistogramTracker: ...
-    def update(self, frame: npt.NDArray[np.uint8]) -> tuple[_Box, float, bool]: ...
+    def update(self, frame: npt.NDArray[np.uint8]) -> TrackAnswer: ...
     @property
     def scale(self) -> float: ...
     @property
@@ -503,15 +512,13 @@ class ColorTemplateTracker:
         frame: npt.NDArray[np.uint8],
         bbox: _Box | list[float] | _ArrayLike,
         seed: int = 0,
-        config: dict[str, Any] | None = None,
+        config: Mapping[str, object] | None = None,
     ) -> ColorTemplateTracker: ...
     def update(self, frame: npt.NDArray[np.uint8]) -> ColorTemplateAnswer: ...
     @property
     def scale(self) -> float: ...
     @property
     def lost_frames(self) -> int: ...
-
-def color_template_defaults() -> dict[str, Any]: ...
 
 @final
 class ParticleColorTracker:
@@ -522,9 +529,26 @@ class ParticleColorTracker:
         frame: npt.NDArray[np.uint8],
         bbox: _Box | list[float] | _ArrayLike,
         seed: int = 0,
-        config: dict[str, Any] | None = None,
+        config: Mapping[str, object] | None = None,
     ) -> ParticleColorTracker: ...
-    def update(self, frame: npt.NDArray[np.uint8]) -> tuple[_Box, float, bool]: ...
+    def update(self, frame: npt.NDArray[np.uint8]) -> TrackAnswer: ...
+    @property
+    def ess(self) -> float: ...
+
+@final
+class ColorShapeAnswer:
+    """One colour+shape tracker answer, frozen; the contour is read-only."""
+
+    @property
+    def contour(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def box(self) -> _Box: ...
+    @property
+    def distribution(self) -> tuple[float, float, float, float, float, float, float, float]: ...
+    @property
+    def score(self) -> float: ...
+    @property
+    def lost(self) -> bool: ...
     @property
     def ess(self) -> float: ...
 
@@ -537,13 +561,10 @@ class ColorShapeTracker:
         frame: npt.NDArray[np.uint8],
         bbox: _Box | list[float] | _ArrayLike | None = None,
         contour: _ArrayLike | None = None,
-        config: dict[str, Any] | None = None,
+        config: Mapping[str, object] | None = None,
     ) -> ColorShapeTracker: ...
-    def update(
-        self, frame: npt.NDArray[np.uint8]
-    ) -> tuple[npt.NDArray[np.float64], _Box, list[float], float, bool, float]: ...
+    def update(self, frame: npt.NDArray[np.uint8]) -> ColorShapeAnswer: ...
 
-def color_shape_defaults() -> dict[str, Any]: ...
 def color_segment(
     frame: npt.NDArray[np.uint8],
     colours: npt.NDArray[np.float64],
@@ -552,17 +573,28 @@ def color_segment(
     radius: int,
 ) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint8]]: ...
 
-_PatternAnswer: TypeAlias = tuple[
-    float,
-    float,
-    float,
-    float,
-    float,
-    float,
-    bool,
-    npt.NDArray[np.float64],
-    npt.NDArray[np.float64],
-]
+@final
+class PatternAnswer:
+    """One pattern-tracker answer, frozen; its arrays are read-only."""
+
+    @property
+    def x(self) -> float: ...
+    @property
+    def y(self) -> float: ...
+    @property
+    def theta(self) -> float: ...
+    @property
+    def scale(self) -> float: ...
+    @property
+    def score(self) -> float: ...
+    @property
+    def occluded_fraction(self) -> float: ...
+    @property
+    def lost(self) -> bool: ...
+    @property
+    def corners(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def homography(self) -> npt.NDArray[np.float64]: ...
 
 @final
 class PatternTracker:
@@ -574,25 +606,38 @@ class PatternTracker:
         frame: npt.NDArray[np.uint8],
         region: tuple[int, int, int, int] | npt.NDArray[np.bool_] | npt.NDArray[np.float64],
         seed: int = 0,
-        config: dict[str, Any] | None = None,
+        config: Mapping[str, object] | None = None,
     ) -> PatternTracker: ...
-    def update(self, frame: npt.NDArray[np.uint8]) -> _PatternAnswer: ...
+    def update(self, frame: npt.NDArray[np.uint8]) -> PatternAnswer: ...
     @property
-    def last(self) -> _PatternAnswer: ...
+    def last(self) -> PatternAnswer: ...
     @property
     def n_points(self) -> int: ...
     @property
     def model_offsets(self) -> npt.NDArray[np.float64]: ...
 
+@final
+class PatternSequenceAnswer:
+    """A generated Fig. 8 sequence, frozen."""
+
+    @property
+    def frames(self) -> npt.NDArray[np.uint8]: ...
+    @property
+    def truth(self) -> _Array: ...
+    @property
+    def occlusion(self) -> _Array: ...
+    @property
+    def illumination(self) -> _Array: ...
+    @property
+    def region(self) -> tuple[int, int, int, int]: ...
+
 def pattern_sequence(
-    patch: _ArrayLike, background: _ArrayLike, config: dict[str, Any] | None = None
-) -> tuple[npt.NDArray[np.uint8], _Array, _Array, _Array, tuple[int, int, int, int]]: ...
-def pattern_defaults() -> tuple[dict[str, Any], dict[str, Any]]: ...
+    patch: _ArrayLike, background: _ArrayLike, config: Mapping[str, object] | None = None
+) -> PatternSequenceAnswer: ...
 def resample(
     weights: _ArrayLike, n: int, method: str = "systematic", seed: int = 0
 ) -> npt.NDArray[np.intp]: ...
 def effective_sample_size(weights: _ArrayLike) -> float: ...
-def tracker_defaults() -> tuple[dict[str, Any], dict[str, Any]]: ...
 def otb_iou(a: _ArrayLike, b: _ArrayLike) -> _Array: ...
 def otb_center_error(a: _ArrayLike, b: _ArrayLike) -> _Array: ...
 def otb_success_curve(overlaps: _ArrayLike) -> _Array: ...
@@ -626,7 +671,6 @@ class CeilingWorld:
     def patterns(
         self,
     ) -> tuple[list[str], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
-    def configs(self) -> tuple[dict[str, Any], dict[str, Any]]: ...
 
 def check_allocation(name: str, count: int, bytes_each: int) -> None: ...
 def ceiling_drive(
@@ -635,7 +679,6 @@ def ceiling_drive(
     dt: float,
     noise: Mapping[str, object] | None = None,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
-def ceiling_defaults() -> tuple[dict[str, Any], dict[str, Any], dict[str, Any], dict[str, Any]]: ...
 
 @final
 class MemoryFrames:
@@ -689,7 +732,6 @@ def visual_memory_replay(
     config: Mapping[str, object] | None = None,
     seed: int = 0,
 ) -> MemoryReplay: ...
-def visual_memory_defaults() -> tuple[dict[str, Any], dict[str, Any]]: ...
 def visual_memory_check(memory: str) -> None: ...
 
 @final
@@ -734,7 +776,7 @@ def laser_run(
     max_range: npt.NDArray[np.float64],
     controls: npt.NDArray[np.float64],
     times: npt.NDArray[np.float64],
-    config: Mapping[str, Any] | None = None,
+    config: Mapping[str, object] | None = None,
 ) -> LaserRun: ...
 def parse_floats(tokens: list[str]) -> npt.NDArray[np.float64] | None:
     """The tokens as floats, or None when one is not a plain decimal number."""
@@ -744,5 +786,5 @@ def laser_scan_points(
     angle_min: float,
     angle_increment: float,
     max_range: float,
-    config: Mapping[str, Any] | None = None,
+    config: Mapping[str, object] | None = None,
 ) -> LaserScanPoints: ...

@@ -18,35 +18,67 @@ __all__ = [
     "AckermannOverrides",
     "AppearanceParams",
     "AppearanceParamsOverrides",
+    "CameraMount",
+    "CameraMountOverrides",
+    "CeilingCameraConfig",
+    "CeilingCameraConfigOverrides",
+    "CeilingConfig",
+    "CeilingConfigOverrides",
+    "CeilingRenderConfig",
+    "CeilingRenderConfigOverrides",
     "ColorDynamics",
     "ColorDynamicsOverrides",
     "ColorHistogramConfig",
     "ColorHistogramConfigOverrides",
     "ColorShapeConfig",
     "ColorShapeConfigOverrides",
+    "ColorTemplateConfig",
+    "ColorTemplateConfigOverrides",
     "FilterParams",
     "FilterParamsOverrides",
     "IcpConfig",
     "IcpConfigOverrides",
+    "KeyImageParams",
+    "KeyImageParamsOverrides",
     "LaserConfig",
     "LaserConfigOverrides",
+    "LearnConfig",
+    "LearnConfigOverrides",
     "LocalMapConfig",
     "LocalMapConfigOverrides",
+    "LocaliserParams",
+    "LocaliserParamsOverrides",
     "LoopConfig",
     "LoopConfigOverrides",
     "MonobotConfig",
     "MonobotConfigOverrides",
+    "MosaicParams",
+    "MosaicParamsOverrides",
     "MotionModel",
+    "OdometryNoise",
+    "OdometryNoiseOverrides",
     "ParticleColorConfig",
     "ParticleColorConfigOverrides",
+    "PatternConfig",
+    "PatternConfigOverrides",
+    "PatternModelConfig",
+    "PatternModelConfigOverrides",
+    "PatternSequenceConfig",
+    "PatternSequenceConfigOverrides",
     "PlanarConfig",
     "PlanarConfigOverrides",
+    "ProposalParams",
+    "ProposalParamsOverrides",
+    "ReplayConfig",
+    "ReplayConfigOverrides",
     "ScanConfig",
     "ScanConfigOverrides",
     "ScanParams",
     "ScanParamsOverrides",
     "SensorBias",
     "SensorBiasOverrides",
+    "ServoParams",
+    "ServoParamsOverrides",
     "SimConfig",
     "SimConfigOverrides",
     "SmootherConfig",
@@ -489,6 +521,131 @@ class ColorShapeConfigOverrides(TypedDict, total=False):
 
 
 @dataclass(frozen=True, kw_only=True)
+class ColorTemplateConfig(Config):
+    """Parameters of a [`super::ColorTemplateTracker`]. Defaults chosen by leave-one-sequence-
+    out over the ten dev OTB sequences (see the crate README).
+
+    Attributes:
+        template_size: Side in pixels of the square whose area the search window is
+            resampled to (Staple's fixed area): bounds the cost of a frame whatever the
+            target's size. Default 96, in 32..=256.
+        cell_size: HOG cell side in patch pixels, in 2..=8. Default 4.
+        padding: The search window is the target grown by `padding` times its mean side on
+            each axis, in 0.2..=4. Default 1.
+        learning_rate: Learning rate of the translation filter (running average of its
+            numerator and denominator), in (0, 1]. Default 0.02.
+        lambda_: Regulariser `lambda` of the correlation filters, > 0. Default 1e-3. Spelled
+            `lambda_` in configs (`lambda` is a Python keyword).
+        output_sigma_factor: Width of the Gaussian label as a fraction of the target's mean
+            side (in cells), > 0. Default 1/16.
+        color_space: Colour space of the foreground and background histograms. Default RGB.
+        bins: Histogram bins per axis. Default 32 x 32 x 32.
+        color_learning_rate: Learning rate of the colour histograms, in (0, 1]. Default
+            0.04.
+        inner_padding: The foreground histogram is learned inside the target shrunk by this
+            times its mean side (its edges mix target and background), in [0, 0.45]. Default
+            0.2.
+        merge_factor: Weight of the colour response in the merged response map, in [0, 1]; 0
+            is the template alone, 1 the colour alone. Default 0.2.
+        n_scales: Scales sampled by the scale filter (odd, 3..=65). Default 17.
+        scale_step: Ratio between neighbouring scale samples, in (1, 1.5]. Default 1.03.
+        scale_learning_rate: Learning rate of the scale filter, in (0, 1]. Default 0.025.
+        scale_sigma: Width of the scale filter's Gaussian label, in scale steps, > 0.
+            Default 1.
+        scale_model_area: Pixel area each scale sample is resampled to before HOG, in
+            64..=4096. Default 512.
+        min_scale: Smallest scale relative to the first box, in (0, 1]. Default 0.1.
+        max_scale: Largest scale relative to the first box, >= 1. Default 10.
+        lost_ratio: The target is lost when the merged response's peak falls below this
+            fraction of its running level over tracked frames, in [0, 1]; 0 never reports a
+            loss. Learning fades linearly from the level down to this threshold. Default
+            0.6.
+        lost_psr_ratio: The target is also lost when the template response's peak-to-
+            sidelobe ratio falls below this fraction of its running level, in [0, 1]; 0
+            turns the test off. Default 0.
+        lost_color_ratio: The target is also lost when the colour score at the peak (the
+            mean foreground probability over the box) falls below this fraction of its
+            running level, in [0, 1]; 0 turns the test off. Default 0.8.
+        lost_level_decay: Factor on the running levels per lost frame, in (0, 1]: below 1 a
+            target that came back changed (turned, lit differently) is taken up again; 1
+            holds it to its old levels. Default 0.97 (halves them in about 23 frames).
+        redetect_step: Re-detection: while lost, the search also covers windows centred
+            `redetect_step` window sizes apart around the last position, in (0, 2]. Default
+            0.75.
+        redetect_radius: Re-detection: the grid of windows reaches this many steps each way
+            (1: 3 x 3), in 0..=4; 0 searches only the last window. Default 1.
+        redetect_ratio: Re-detection: a window away from the last position is taken when it
+            passes the lost rule and its merged peak reaches this fraction of the running
+            level, in [0, 1] (1: the full level; at most `lost_ratio`: the lost rule alone).
+            Far away, another object of the same kind is likelier than the target. Default
+            1.
+        lost_motion: While lost, the box moves this fraction of the way to the last window's
+            peak (without learning from it), in [0, 1]: 0 keeps it where the target was last
+            seen (right behind an occluder), 1 follows the peak (right when the loss was a
+            false alarm). Default 1.
+    """
+
+    _native: ClassVar[str] = "color_template"
+    template_size: int = 96
+    cell_size: int = 4
+    padding: float = 1.0
+    learning_rate: float = 0.02
+    lambda_: float = 0.001
+    output_sigma_factor: float = 0.0625
+    color_space: Literal["rgb", "opponent", "rg", "hsv"] = "rgb"
+    bins: tuple[int, int, int] = (32, 32, 32)
+    color_learning_rate: float = 0.04
+    inner_padding: float = 0.2
+    merge_factor: float = 0.2
+    n_scales: int = 17
+    scale_step: float = 1.03
+    scale_learning_rate: float = 0.025
+    scale_sigma: float = 1.0
+    scale_model_area: float = 512.0
+    min_scale: float = 0.1
+    max_scale: float = 10.0
+    lost_ratio: float = 0.6
+    lost_psr_ratio: float = 0.0
+    lost_color_ratio: float = 0.8
+    lost_level_decay: float = 0.97
+    redetect_step: float = 0.75
+    redetect_radius: int = 1
+    redetect_ratio: float = 1.0
+    lost_motion: float = 1.0
+
+
+class ColorTemplateConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`ColorTemplateConfig`, for keyword arguments."""
+
+    template_size: int
+    cell_size: int
+    padding: float
+    learning_rate: float
+    lambda_: float
+    output_sigma_factor: float
+    color_space: Literal["rgb", "opponent", "rg", "hsv"]
+    bins: tuple[int, int, int]
+    color_learning_rate: float
+    inner_padding: float
+    merge_factor: float
+    n_scales: int
+    scale_step: float
+    scale_learning_rate: float
+    scale_sigma: float
+    scale_model_area: float
+    min_scale: float
+    max_scale: float
+    lost_ratio: float
+    lost_psr_ratio: float
+    lost_color_ratio: float
+    lost_level_decay: float
+    redetect_step: float
+    redetect_radius: int
+    redetect_ratio: float
+    lost_motion: float
+
+
+@dataclass(frozen=True, kw_only=True)
 class ParticleColorConfig(Config):
     """Parameters of a [`ParticleColorTracker`].
 
@@ -545,6 +702,267 @@ class ParticleColorConfigOverrides(TypedDict, total=False):
     velocity_gain: float
     max_search_radius: int
     filter: FilterParams
+
+
+@dataclass(frozen=True, kw_only=True)
+class PatternModelConfig(Config):
+    """Parameters of model building and of the observation model.
+
+    Attributes:
+        canny_low: Canny hysteresis thresholds on imageproc's Sobel magnitude scale.
+        canny_high: See `canny_low`.
+        approximation_epsilon: Douglas-Peucker tolerance of the contour approximation,
+            pixels.
+        min_contour_pixels: Contours shorter than this many edge pixels are dropped.
+        point_spacing: Arc length between model points along the approximated contours,
+            pixels.
+        n_samples: `N_s`, grey-level samples per vector.
+        delta: `delta`, the step between samples, pixels.
+        blur_sigma: Gaussian blur (sigma, pixels) of the image the gradient and the vectors
+            are sampled from; the scale space blurs a frame by `blur_sigma * s`.
+        fit_lags: Lags `1..=fit_lags` the auto-correlation slope is fitted on.
+        min_contrast: Points whose profile has a standard deviation below this (grey levels)
+            are textureless and rejected.
+        min_slope: Points whose auto-correlation slope `|W|` is below this are rejected
+            (flat auto-correlation: the profile cannot locate the contour).
+        max_points: At most this many model points are kept (evenly spread along the
+            contours).
+        deviation: The approximation `C~` of the auto-correlation whose inverse turns an
+            inter-correlation into the deviation `lambda` (section 3.3). Default
+            [`DeviationModel::Parabola`].
+        sigma: `sigma` of the Gaussian `Omega_sigma(lambda)`, samples.
+        occlusion_threshold: A point whose deviation `lambda` exceeds this (samples) is
+            occluded.
+        max_occluded_fraction: The largest fraction of points left out as occluded.
+        scale_levels: Scales of the scale-space levels (each >= 1, increasing).
+    """
+
+    canny_low: float = 30.0
+    canny_high: float = 60.0
+    approximation_epsilon: float = 0.7
+    min_contour_pixels: int = 6
+    point_spacing: float = 4.0
+    n_samples: int = 12
+    delta: float = 1.0
+    blur_sigma: float = 1.0
+    fit_lags: int = 2
+    min_contrast: float = 3.0
+    min_slope: float = 0.02
+    max_points: int = 200
+    deviation: Literal["line", "parabola"] = "parabola"
+    sigma: float = 1.0
+    occlusion_threshold: float = 1.5
+    max_occluded_fraction: float = 0.4
+    scale_levels: tuple[float, ...] = (1.0, 1.25, 1.5, 1.75, 2.0, 2.5, 3.0)
+
+
+class PatternModelConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`PatternModelConfig`, for keyword arguments."""
+
+    canny_low: float
+    canny_high: float
+    approximation_epsilon: float
+    min_contour_pixels: int
+    point_spacing: float
+    n_samples: int
+    delta: float
+    blur_sigma: float
+    fit_lags: int
+    min_contrast: float
+    min_slope: float
+    max_points: int
+    deviation: Literal["line", "parabola"]
+    sigma: float
+    occlusion_threshold: float
+    max_occluded_fraction: float
+    scale_levels: tuple[float, ...]
+
+
+@dataclass(frozen=True, kw_only=True)
+class PatternConfig(Config):
+    """Parameters of a [`PatternTracker`].
+
+    Attributes:
+        n_particles: `N_p`, the number of particles (section 4.1 uses 200), without the
+            coarse layer (with it, `coarse_kept`).
+        sigma: `sigma_v = (sigma_x, sigma_y, sigma_theta, sigma_s)` of the random walk of
+            section 3.3, in pixels, pixels, radians and scale units. Default section 4.1's
+            `(5, 5, 3 deg, 0.1)`.
+        lost_occluded_fraction: The estimate is reported lost when more than this fraction
+            of the model points is occluded at it (an all-black frame occludes every point).
+            Default 0.6, above the 40 % of occlusion the likelihood tolerates.
+        refine_steps: Rounds of the local refinement of the estimate (see
+            [`PatternTracker::update`]); 0 (with no `newton_steps`) reports the seed's plain
+            weighted mean. Default 2 (steps of `sigma` and `sigma / 2`), then Gauss-Newton.
+        refine_first_step: The refinement's first step, in random-walk sigmas (halved each
+            round). Default 1: the search then reaches two sigmas from the weighted mean.
+        refined_particle: The refined state replaces the lightest particle, weighted by its
+            likelihood, so that the next frame starts from it. Default `true`.
+        second_look: A frame whose estimate scores below this fraction of the track's
+            typical score gets a second CONDENSATION iteration (see
+            [`PatternTracker::update`]); 0 never. Default 0.9.
+        refine_fine_rounds: The last rounds of the refinement that weigh every model point;
+            the earlier (coarse) ones weigh every other point, at half the cost. Default 0:
+            both rounds are coarse, the Gauss-Newton steps place the peak on every point.
+        newton_steps: Gauss-Newton iterations on eq. 6 after the coordinate rounds (parabola
+            deviation only; see [`PatternTracker::update`]): each costs about three
+            likelihoods where a round of the coordinate search costs twelve. 0 leaves the
+            whole refinement to the coordinate search (6 rounds, the last 2 fine, were the
+            default before). Default 3, at most 100.
+        parallel_min_work: With `filter.parallel`, a frame is processed on the rayon pool
+            only when the tracker's work, particles times model points, reaches this:
+            handing a frame to the pool and back costs more than two cores save on small
+            ones (200 particles of 176 points: 1296 fps on one thread, 1218 on two; 1000
+            particles: 608 and 718, 640 x 480 frames on 2 cores, same run). 0: whenever
+            `filter.parallel`. Default 100 000. The numbers do not depend on it.
+        coarse_particles: States screened a frame by the coarse layer (see
+            [`PatternTracker::update`]), drawn from the prior predictive; its best
+            `coarse_kept` become the particles weighed on the frame. 0: no coarse layer, the
+            particles are the prior predictive's as in the seed. Default 500. A pattern
+            under 16 coarse pixels across (80 frame pixels at the default factor) goes
+            without the layer: its coarse profiles would not fit inside it.
+        coarse_factor: How many times coarser the layer's level is than the frame (each of
+            its pixels the mean of a `coarse_factor x coarse_factor` block). Default 5.
+        coarse_points: Most model points the coarse layer weighs (spread over the fine
+            model's). Default 64.
+        coarse_kept: With the coarse layer, the filter holds this many particles (at most
+            `n_particles`): the layer's best states, not the random walk's draws, so fewer
+            do (200 without the layer: 8 of 10 sequences of 3-sigma steps strayed; 50 after
+            it: none, seeds 0-9). Default 50.
+        coarse_spread: The coarse layer's states are drawn with the random walk's spread
+            times this. Default 2: steps of 3 sigma in all four parameters at once lie where
+            the walk itself hardly draws.
+        coarse_refined: The best this many states of the coarse layer are moved to their
+            peak on the coarse level by Gauss-Newton before the fine layer weighs them.
+            Default 4.
+        motion: The motion model: the seed's similarity `(x, y, theta, s)` (default), or
+            `homography`, the plane in perspective: the particles still search over the
+            similarity, with the model seen through the last frame's projective rest, and
+            the estimate is then refined by Gauss-Newton on the 8-dof homography (see
+            [`PatternTracker::update`]).
+        lost_gain_spread: In homography mode, the estimate is also lost when the gains of
+            its unoccluded profiles (each profile's slope on its stored one, eq. 6's
+            correlation times their contrast ratio) spread more than this: the median
+            absolute deviation of their logarithms. The pattern under one gain gives them
+            all alike; clutter where the pattern is hidden matches a third to a half of the
+            profiles by chance (no more than `lost_occluded_fraction` occluded), each with
+            its own gain. Default 0.3, tuned on generated perspective sequences, seeds 0-9
+            (camera.png over grass.png, and the generated pair): every tracked frame, with
+            gain 0.8-1.2 and up to 30 % occlusion, spread at most 0.22; every frame with the
+            pattern hidden but one (0.24, of 40 per image pair) at least 0.36.
+        pattern: Model building and observation model (sections 3.2-3.3).
+        filter: Particle-filter settings (resampler, policy, chunking, parallelism). Default
+            chunks of 50 particles.
+    """
+
+    _native: ClassVar[str] = "pattern"
+    n_particles: int = 200
+    sigma: tuple[float, float, float, float] = (5.0, 5.0, 0.05235987755982989, 0.1)
+    lost_occluded_fraction: float = 0.6
+    refine_steps: int = 2
+    refine_first_step: float = 1.0
+    refined_particle: bool = True
+    second_look: float = 0.9
+    refine_fine_rounds: int = 0
+    newton_steps: int = 3
+    parallel_min_work: int = 100000
+    coarse_particles: int = 500
+    coarse_factor: int = 5
+    coarse_points: int = 64
+    coarse_kept: int = 50
+    coarse_spread: float = 2.0
+    coarse_refined: int = 4
+    motion: Literal["similarity", "homography"] = "similarity"
+    lost_gain_spread: float = 0.3
+    pattern: PatternModelConfig = field(default_factory=PatternModelConfig)
+    filter: FilterParams = field(default_factory=lambda: FilterParams(chunk_size=50))
+
+
+class PatternConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`PatternConfig`, for keyword arguments."""
+
+    n_particles: int
+    sigma: tuple[float, float, float, float]
+    lost_occluded_fraction: float
+    refine_steps: int
+    refine_first_step: float
+    refined_particle: bool
+    second_look: float
+    refine_fine_rounds: int
+    newton_steps: int
+    parallel_min_work: int
+    coarse_particles: int
+    coarse_factor: int
+    coarse_points: int
+    coarse_kept: int
+    coarse_spread: float
+    coarse_refined: int
+    motion: Literal["similarity", "homography"]
+    lost_gain_spread: float
+    pattern: PatternModelConfig
+    filter: FilterParams
+
+
+@dataclass(frozen=True, kw_only=True)
+class PatternSequenceConfig(Config):
+    """How a sequence is generated.
+
+    Attributes:
+        n_frames: Frames, the first one at the identity pose included.
+        width: Frame width, pixels.
+        height: Frame height, pixels.
+        sigma: The tracker's `sigma_v` (pixels, pixels, radians, scale): steps are drawn in
+            its units. Default section 4.1's `(5, 5, 3 deg, 0.1)`.
+        max_step_sigmas: Frame `k`'s step sweeps one component, `(k - 1) mod 4` (x, y,
+            theta, s in turn), uniform in `[-K sigma, K sigma]` with this `K` (Fig. 8 sweeps
+            to about 4), as Fig. 8 plots each component against its own truth.
+        other_step_sigmas: The other components step uniformly in `[-k sigma, k sigma]` with
+            this `k`.
+        max_occlusion: Largest fraction of the patch hidden by an occluder (uniform per
+            frame, from 0); the occluder is a band of background clutter over one side of
+            the patch.
+        gain: Gain `a` of the illumination change `g -> a g + b`, uniform in this range.
+        offset: Offset `b`, uniform in this range (grey levels).
+        noise: Standard deviation of the additive Gaussian noise, grey levels.
+        background_speed: Background motion, pixels per frame (a random direction per
+            sequence).
+        scale_range: The scale stays in this range (a step that would leave it is
+            reflected).
+        seed: Seed of every random draw.
+    """
+
+    _native: ClassVar[str] = "pattern_sequence"
+    n_frames: int = 60
+    width: int = 640
+    height: int = 480
+    sigma: tuple[float, float, float, float] = (5.0, 5.0, 0.05235987755982989, 0.1)
+    max_step_sigmas: float = 4.0
+    other_step_sigmas: float = 0.5
+    max_occlusion: float = 0.0
+    gain: tuple[float, float] = (1.0, 1.0)
+    offset: tuple[float, float] = (0.0, 0.0)
+    noise: float = 2.0
+    background_speed: float = 2.0
+    scale_range: tuple[float, float] = (0.7, 1.5)
+    seed: int = 0
+
+
+class PatternSequenceConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`PatternSequenceConfig`, for keyword arguments."""
+
+    n_frames: int
+    width: int
+    height: int
+    sigma: tuple[float, float, float, float]
+    max_step_sigmas: float
+    other_step_sigmas: float
+    max_occlusion: float
+    gain: tuple[float, float]
+    offset: tuple[float, float]
+    noise: float
+    background_speed: float
+    scale_range: tuple[float, float]
+    seed: int
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -1194,3 +1612,491 @@ class SmootherConfigOverrides(TypedDict, total=False):
 
     max_iterations: int
     tolerance: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class CeilingConfig(Config):
+    """How a ceiling is generated.
+
+    Attributes:
+        size: Extent along world x, metres (the ceiling spans `[0, size[0]] x [0,
+            size[1]]`).
+        resolution: Metres per texel.
+        tile: Side of the square ceiling tiles, metres (0: no tile grid).
+        texture_contrast: Amplitude of the repeated tile texture, grey levels (the clutter).
+        n_patterns: Patterns placed.
+        min_spacing: Least distance between two pattern centres, metres.
+        seed: Seed of the layout and texture.
+    """
+
+    _native: ClassVar[str] = "ceiling"
+    size: tuple[float, float] = (12.0, 8.0)
+    resolution: float = 0.005
+    tile: float = 0.6
+    texture_contrast: float = 12.0
+    n_patterns: int = 24
+    min_spacing: float = 1.0
+    seed: int = 0
+
+
+class CeilingConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`CeilingConfig`, for keyword arguments."""
+
+    size: tuple[float, float]
+    resolution: float
+    tile: float
+    texture_contrast: float
+    n_patterns: int
+    min_spacing: float
+    seed: int
+
+
+@dataclass(frozen=True, kw_only=True)
+class CameraMount(Config):
+    """Where the camera sits on the robot: the camera frame in the robot frame, `X_R = R_m X_C
+    + offset`, with `R_m = Rz(yaw) Ry(pitch) Rx(roll)` (radians). The ideal mount is all
+    zeros.
+
+    Attributes:
+        roll: Rotation about the camera's x axis, radians.
+        pitch: Rotation about y, radians.
+        yaw: Rotation about z (the optical axis), radians.
+        offset: The camera centre in the robot frame, metres.
+    """
+
+    roll: float = 0.0
+    pitch: float = 0.0
+    yaw: float = 0.0
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+class CameraMountOverrides(TypedDict, total=False):
+    """The fields of :class:`CameraMount`, for keyword arguments."""
+
+    roll: float
+    pitch: float
+    yaw: float
+    offset: tuple[float, float, float]
+
+
+@dataclass(frozen=True, kw_only=True)
+class CeilingCameraConfig(Config):
+    """A pinhole camera looking up at a ceiling plane.
+
+    # Examples ``` use rperc_core::Pose2; use navigation::ceiling::CeilingCamera;
+
+    let camera = CeilingCamera::default(); // The ceiling point straight above the ideal
+    camera is the principal point. let robot = Pose2::new(2.0, 1.0, 0.3); let uv =
+    camera.project_ideal(&robot, [2.0, 1.0]); assert!((uv[0] - camera.cx).abs() < 1e-9 &&
+    (uv[1] - camera.cy).abs() < 1e-9); ```
+
+    Attributes:
+        width: Image width, pixels.
+        height: Image height, pixels.
+        fx: Focal length along u, pixels.
+        fy: Focal length along v, pixels.
+        cx: Principal point, pixels (0-based, pixel centres at integers).
+        cy: Principal point, pixels.
+        ceiling_height: `d`: the height of the ceiling above the robot frame's origin,
+            metres.
+        mount: The camera-robot transform.
+    """
+
+    _native: ClassVar[str] = "ceiling_camera"
+    width: int = 320
+    height: int = 240
+    fx: float = 160.0
+    fy: float = 160.0
+    cx: float = 159.5
+    cy: float = 119.5
+    ceiling_height: float = 2.5
+    mount: CameraMount = field(default_factory=CameraMount)
+
+
+class CeilingCameraConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`CeilingCameraConfig`, for keyword arguments."""
+
+    width: int
+    height: int
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    ceiling_height: float
+    mount: CameraMount
+
+
+@dataclass(frozen=True, kw_only=True)
+class CeilingRenderConfig(Config):
+    """The effects of one rendering.
+
+    Attributes:
+        noise: Standard deviation of the additive noise, grey levels.
+        blur: Optical blur, pixels (standard deviation of a Gaussian).
+        gain: Lighting gain `a` of `g -> a g + b`, uniform in this range per frame.
+        offset: Lighting offset `b`, grey levels, uniform in this range per frame.
+        occluder_probability: Chance that a frame holds an occluder (a dark disc, as a cable
+            or a person's head passing between camera and ceiling).
+        occluder_radius: The occluder's radius, as a fraction of the image height.
+        outside_level: Grey level seen beyond the ceiling's edge (the walls).
+        seed: Seed of every per-frame draw (frame `k` uses stream `k`).
+    """
+
+    _native: ClassVar[str] = "ceiling_render"
+    noise: float = 2.0
+    blur: float = 0.6
+    gain: tuple[float, float] = (0.9, 1.1)
+    offset: tuple[float, float] = (-10.0, 10.0)
+    occluder_probability: float = 0.0
+    occluder_radius: float = 0.15
+    outside_level: float = 60.0
+    seed: int = 0
+
+
+class CeilingRenderConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`CeilingRenderConfig`, for keyword arguments."""
+
+    noise: float
+    blur: float
+    gain: tuple[float, float]
+    offset: tuple[float, float]
+    occluder_probability: float
+    occluder_radius: float
+    outside_level: float
+    seed: int
+
+
+@dataclass(frozen=True, kw_only=True)
+class OdometryNoise(Config):
+    """How the odometry errs.
+
+    Attributes:
+        speed_scale_error: Relative error of the measured speed (the odometry reads `v (1 +
+            e)`).
+        turn_scale_error: Relative error of the measured turn rate.
+        speed_sigma: White noise on each step's speed, m/s.
+        turn_sigma: White noise on each step's turn rate, rad/s.
+        seed: Seed of the noise.
+    """
+
+    _native: ClassVar[str] = "odometry_noise"
+    speed_scale_error: float = 0.03
+    turn_scale_error: float = -0.04
+    speed_sigma: float = 0.02
+    turn_sigma: float = 0.03
+    seed: int = 0
+
+
+class OdometryNoiseOverrides(TypedDict, total=False):
+    """The fields of :class:`OdometryNoise`, for keyword arguments."""
+
+    speed_scale_error: float
+    turn_scale_error: float
+    speed_sigma: float
+    turn_sigma: float
+    seed: int
+
+
+@dataclass(frozen=True, kw_only=True)
+class ProposalParams(Config):
+    """How regions are proposed.
+
+    Attributes:
+        contrast: Least difference from the image's median grey that marks a pattern pixel.
+        merge_gap: Blobs whose boxes come within this many pixels merge into one region: a
+            light's frame and its bars, an arrow and its plate.
+        min_area: Least blob area, pixels (smaller blobs carry too few contours to track).
+        max_area_fraction: Largest region, as a fraction of the image area.
+        margin: Pixels added around a blob's bounding box, so that its contours are inside.
+        border: A region must keep this far from the image border (pixels), so that a
+            pattern cut by the border is not learnt.
+    """
+
+    contrast: float = 45.0
+    merge_gap: int = 2
+    min_area: int = 30
+    max_area_fraction: float = 0.25
+    margin: int = 4
+    border: int = 6
+
+
+class ProposalParamsOverrides(TypedDict, total=False):
+    """The fields of :class:`ProposalParams`, for keyword arguments."""
+
+    contrast: float
+    merge_gap: int
+    min_area: int
+    max_area_fraction: float
+    margin: int
+    border: int
+
+
+@dataclass(frozen=True, kw_only=True)
+class LocaliserParams(Config):
+    """How the pose filter weighs the odometry and the trackers.
+
+    Attributes:
+        pixel_sigma: Standard deviation of a tracked model's image position, pixels.
+        rotation_pixel_sigma: Standard deviation, in pixels at its rotation lever, of a
+            tracked model's image rotation: the rotation's is this over the lever.
+        min_rotation_lever: A model whose rotation lever is under this (pixels) tells no
+            rotation: its tracker's turn lags a turning robot (a third of a 30 degree turn
+            was seen missing on a model with a 6 px lever), an error that grows rather than
+            averages out.
+        odometry_sigma: Odometry error per step: `[relative to the distance, relative to the
+            turn, floor in metres, floor in radians]`, each a standard deviation.
+        odometry_scale_sigma: Standard deviation of the odometry's scale errors `[distance,
+            turn]` (relative), estimated as two states of the filter: an uncalibrated wheel
+            odometry errs the same way at every step, which the per-step errors of
+            `odometry_sigma` cannot describe (they grow with the square root of the turn, a
+            scale error with the turn itself). 0 leaves a scale out.
+        gate_probability: A model's innovation is refused above this chi-square probability
+            (3 dof).
+        max_refused_frames: After this many frames in a row in which every tracked model was
+            refused, the filter restarts from the models (the prediction, not they, was
+            wrong).
+        settle_frames: A restarted tracker's state is used after this many updates: it
+            starts at the filter's own prediction, and using it at once would confirm the
+            prediction.
+        guess_sigma: Standard deviation of a localiser's starting guess `[x m, y m, theta
+            rad]`.
+        search_sigmas: When the filter's pose is too uncertain for a tracker started at a
+            model's predicted image pose (this many standard deviations of that prediction
+            reach beyond the tracker's random walk), the robot pose is searched over this
+            many standard deviations of the filter's instead (see [`super::search_pose`]); 0
+            never searches.
+        rigid_map: Localising against a stored mosaic, its models are consider states (see
+            [`PoseFilter::with_map`]): the sightings correct the robot, never the mosaic.
+            False corrects both, as while mapping.
+    """
+
+    pixel_sigma: float = 0.3
+    rotation_pixel_sigma: float = 0.8
+    min_rotation_lever: float = 12.0
+    odometry_sigma: tuple[float, float, float, float] = (0.05, 0.05, 0.003, 0.004)
+    odometry_scale_sigma: tuple[float, float] = (0.0, 0.0)
+    gate_probability: float = 0.999
+    max_refused_frames: int = 3
+    settle_frames: int = 2
+    guess_sigma: tuple[float, float, float] = (0.06, 0.06, 0.06)
+    search_sigmas: float = 3.0
+    rigid_map: bool = True
+
+
+class LocaliserParamsOverrides(TypedDict, total=False):
+    """The fields of :class:`LocaliserParams`, for keyword arguments."""
+
+    pixel_sigma: float
+    rotation_pixel_sigma: float
+    min_rotation_lever: float
+    odometry_sigma: tuple[float, float, float, float]
+    odometry_scale_sigma: tuple[float, float]
+    gate_probability: float
+    max_refused_frames: int
+    settle_frames: int
+    guess_sigma: tuple[float, float, float]
+    search_sigmas: float
+    rigid_map: bool
+
+
+@dataclass(frozen=True, kw_only=True)
+class MosaicParams(Config):
+    """How the mosaic is built and the robot localised.
+
+    Attributes:
+        tracker: Each model's tracker.
+        proposals: Where new models are proposed.
+        max_tracked: At most this many models are tracked at once.
+        min_tracked: While mapping, new models are generated when fewer than this are
+            tracked.
+        min_score: A tracker whose score falls below this is stopped (its model is lost).
+        view_margin: A model is stopped when its box comes this close to the image border
+            (pixels), and restarted when its predicted box is 3 pixels further inside.
+        metric: Poses in metres (`Z / f` from the camera) or, when false, in ideal-image
+            pixels ("up to the scale factor Z/f").
+        localiser: The pose filter that fuses the odometry and the tracked models (eq. 2).
+        min_visible: A model is tracked while at least this fraction of its contour points
+            lies in the view (`view_margin` inside it), and restarted when the prediction
+            puts this fraction there with the hysteresis; 1 asks for its whole box.
+        odometry_prediction: Each tracker's state is moved by the image motion the odometry
+            predicts before it weighs the next frame (a control input of its dynamics);
+            false leaves the whole motion to its random walk, as in the seed.
+    """
+
+    tracker: PatternConfig = field(
+        default_factory=lambda: PatternConfig(
+            n_particles=100,
+            sigma=(4.0, 4.0, 0.026179938779914945, 0.02),
+            refine_steps=4,
+            refine_first_step=0.25,
+            refined_particle=False,
+            refine_fine_rounds=2,
+            newton_steps=0,
+            coarse_particles=0,
+        )
+    )
+    proposals: ProposalParams = field(default_factory=ProposalParams)
+    max_tracked: int = 4
+    min_tracked: int = 3
+    min_score: float = 0.6
+    view_margin: float = 2.0
+    metric: bool = True
+    localiser: LocaliserParams = field(default_factory=LocaliserParams)
+    min_visible: float = 0.75
+    odometry_prediction: bool = True
+
+
+class MosaicParamsOverrides(TypedDict, total=False):
+    """The fields of :class:`MosaicParams`, for keyword arguments."""
+
+    tracker: PatternConfig
+    proposals: ProposalParams
+    max_tracked: int
+    min_tracked: int
+    min_score: float
+    view_margin: float
+    metric: bool
+    localiser: LocaliserParams
+    min_visible: float
+    odometry_prediction: bool
+
+
+@dataclass(frozen=True, kw_only=True)
+class KeyImageParams(Config):
+    """When a new key image is taken.
+
+    Attributes:
+        max_turn: Condition (ii): the largest turn of a shared model between successive key
+            images, radians.
+        max_shift: The largest image displacement of a shared model between successive key
+            images, pixels: short elementary trajectories keep the replay close to the
+            learnt path (the seed's "approximatively fits").
+        max_travel: The largest travel of the robot between successive key images, ideal-
+            image pixels (its pose in the mosaic over the mosaic's units per pixel): a model
+            near the turn's centre barely shifts in the image while the robot drives on, and
+            one such model alone is a poor guide over a long stretch.
+    """
+
+    max_turn: float = 0.3490658503988659
+    max_shift: float = 60.0
+    max_travel: float = 60.0
+
+
+class KeyImageParamsOverrides(TypedDict, total=False):
+    """The fields of :class:`KeyImageParams`, for keyword arguments."""
+
+    max_turn: float
+    max_shift: float
+    max_travel: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class LearnConfig(Config):
+    """How a learning run goes.
+
+    Attributes:
+        mosaic: Mosaic building.
+        keys: Key image selection.
+        odometry: How the odometry errs (the robot drives the commands exactly; its odometry
+            reads them with these errors).
+        covariance_scale: The stored mosaic's covariance (each model's and the joint one) is
+            the mapping filter's times this: the filter counts a tracker's successive states
+            as independent, but a tracker's error lasts while it tracks (its frame-to-frame
+            correlation is 0.65, still 0.38 ten frames apart), and the mosaic it builds is
+            that much less certain than it claims.
+    """
+
+    _native: ClassVar[str] = "memory_learn"
+    mosaic: MosaicParams = field(default_factory=MosaicParams)
+    keys: KeyImageParams = field(default_factory=KeyImageParams)
+    odometry: OdometryNoise = field(default_factory=OdometryNoise)
+    covariance_scale: float = 1.0
+
+
+class LearnConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`LearnConfig`, for keyword arguments."""
+
+    mosaic: MosaicParams
+    keys: KeyImageParams
+    odometry: OdometryNoise
+    covariance_scale: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class ServoParams(Config):
+    """Gains and limits of the servoing law.
+
+    Attributes:
+        gain_distance: Forward gain, 1/s (pixels of error to pixels per second).
+        gain_bearing: Turn gain on the bearing to the goal, 1/s.
+        gain_heading: Turn gain on the heading error near the goal, 1/s.
+        max_speed: Largest forward speed, ideal-image pixels per second.
+        max_turn_rate: Largest turn rate, rad/s.
+        switch_error: An intermediate key image is passed when the error falls under this
+            (pixels).
+        final_error: The last key image (B) is reached when the error falls under this
+            (pixels).
+        align_radius: Within this distance of the goal (pixels) the heading error is
+            corrected.
+    """
+
+    gain_distance: float = 0.8
+    gain_bearing: float = 1.5
+    gain_heading: float = 0.8
+    max_speed: float = 25.0
+    max_turn_rate: float = 0.25
+    switch_error: float = 12.0
+    final_error: float = 1.5
+    align_radius: float = 0.0
+
+
+class ServoParamsOverrides(TypedDict, total=False):
+    """The fields of :class:`ServoParams`, for keyword arguments."""
+
+    gain_distance: float
+    gain_bearing: float
+    gain_heading: float
+    max_speed: float
+    max_turn_rate: float
+    switch_error: float
+    final_error: float
+    align_radius: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class ReplayConfig(Config):
+    """How a replay runs.
+
+    Attributes:
+        mosaic: The localiser (tracker parameters; mapping is off).
+        servo: The servoing law.
+        dt: Control period, seconds (one frame per period).
+        max_frames: The replay gives up after this many frames.
+        max_blind_frames: The robot gives up after this many frames in a row without a model
+            shared with its current key image.
+        metres_per_pixel: Metres per ideal-image pixel the controller assumes to turn its
+            pixel commands into wheel speeds (a gain: any rough value of `Z / f` will do).
+        actuation: How the wheels err: the true motion is the command with these scale
+            errors and noise; the odometry reads the command.
+    """
+
+    _native: ClassVar[str] = "memory_replay"
+    mosaic: MosaicParams = field(default_factory=MosaicParams)
+    servo: ServoParams = field(default_factory=ServoParams)
+    dt: float = 0.1
+    max_frames: int = 1500
+    max_blind_frames: int = 20
+    metres_per_pixel: float = 0.015
+    actuation: OdometryNoise = field(default_factory=OdometryNoise)
+
+
+class ReplayConfigOverrides(TypedDict, total=False):
+    """The fields of :class:`ReplayConfig`, for keyword arguments."""
+
+    mosaic: MosaicParams
+    servo: ServoParams
+    dt: float
+    max_frames: int
+    max_blind_frames: int
+    metres_per_pixel: float
+    actuation: OdometryNoise

@@ -451,7 +451,7 @@ def _pose_covariance(pose_cov: npt.ArrayLike | None) -> np.ndarray | None:
 def extract_lines(
     ranges: npt.ArrayLike,
     angles: npt.ArrayLike,
-    config: ScanParams | Mapping[str, Any] | None = None,
+    config: ScanParams | Mapping[str, object] | None = None,
     **overrides: Unpack[ScanParamsOverrides],
 ) -> WallSegments:
     """Extract walls (line segments) from one 2-D laser scan.

@@ -29,8 +29,8 @@ def _target_frame() -> np.ndarray:
     return frame
 
 
-SHAPE_FIELDS = sorted(config_fields(_rperc.color_shape_defaults()))
-PATTERN_FIELDS = sorted(config_fields(_rperc.pattern_defaults()[0]))
+SHAPE_FIELDS = sorted(config_fields(_rperc.config_defaults("color_shape")))
+PATTERN_FIELDS = sorted(config_fields(_rperc.config_defaults("pattern")))
 
 CONTOURS = st.one_of(
     st.lists(st.tuples(st.floats(-20, 90), st.floats(-20, 70)), min_size=0, max_size=7),
@@ -83,7 +83,7 @@ def prop_color_shape_config_fields(field, value):
 def prop_pattern_config_fields(field, value):
     """Every field of the pattern tracker's config, through the native constructor
     (the typed wrapper's keywords reach the same config)."""
-    config = _rperc.pattern_defaults()[0]
+    config = _rperc.config_defaults("pattern")
     node = config
     *parents, leaf = field.split(".")
     for p in parents:
@@ -100,7 +100,7 @@ def prop_pattern_config_fields(field, value):
         return
     ok, pose = outcome(tracker.update, np.roll(grey, 2, axis=1))
     if ok:
-        assert np.isfinite(np.asarray(pose[0], dtype=float)).all(), pose
+        assert np.isfinite([pose.x, pose.y, pose.theta, pose.scale]).all(), pose
 
 
 @examples(60)

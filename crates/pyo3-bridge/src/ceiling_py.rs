@@ -68,14 +68,6 @@ type Patterns<'py> = (
     Bound<'py, PyArrayDyn<f64>>,
 );
 
-/// Four config dicts.
-type Dicts4<'py> = (
-    Bound<'py, PyAny>,
-    Bound<'py, PyAny>,
-    Bound<'py, PyAny>,
-    Bound<'py, PyAny>,
-);
-
 /// `(frames (n, H, W) uint8, lighting (n, 2), occluders (n, 3) with NaN rows where a
 /// frame has none)`.
 type Rendered<'py> = (
@@ -86,7 +78,8 @@ type Rendered<'py> = (
 
 #[pymethods]
 impl PyCeilingWorld {
-    /// Each config is a dict of the Rust struct's fields (see `ceiling_defaults`).
+    /// Each config is a dict of the Rust struct's fields (`rperc.config`'s
+    /// `CeilingConfig`, `CeilingCameraConfig`, `CeilingRenderConfig`).
     #[new]
     #[pyo3(signature = (ceiling = None, camera = None, render = None))]
     fn new(
@@ -211,14 +204,6 @@ impl PyCeilingWorld {
             shaped(py, theta, &[p.len()])?,
         ))
     }
-
-    /// The configs the world was built with, as dicts: `(camera, render)`.
-    fn configs<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
-        Ok((
-            serde_pyobject::to_pyobject(py, &self.camera)?,
-            serde_pyobject::to_pyobject(py, &self.render)?,
-        ))
-    }
 }
 
 /// One pose `(x, y, theta)`, refused by `name` unless it is 3 finite values.
@@ -266,16 +251,5 @@ pub fn ceiling_drive<'py>(
         shaped(py, pose_rows(&run.truth), &[n + 1, 3])?,
         shaped(py, pose_rows(&run.odometry), &[n + 1, 3])?,
         shaped(py, run.measured.into_iter().flatten().collect(), &[n, 2])?,
-    ))
-}
-
-/// Default configs as dicts: `(ceiling, camera, render, odometry noise)`.
-#[pyfunction]
-pub fn ceiling_defaults(py: Python<'_>) -> PyResult<Dicts4<'_>> {
-    Ok((
-        crate::config::defaults::<CeilingParams>(py)?,
-        crate::config::defaults::<CeilingCamera>(py)?,
-        crate::config::defaults::<RenderParams>(py)?,
-        crate::config::defaults::<OdometryNoise>(py)?,
     ))
 }

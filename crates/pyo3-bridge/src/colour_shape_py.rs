@@ -7,30 +7,38 @@ use tracking::{ColorShapeParams, ColorShapeResult};
 use crate::errors::{Error, detached, detached_parallel, exclusive};
 use crate::tracking_py::{bbox, frame};
 
-/// `(contour (N x 2), (x, y, w, h), distribution (8), score, lost, ess)`.
-type Answer<'py> = (
-    Bound<'py, PyArray2<f64>>,
-    (f64, f64, f64, f64),
-    Vec<f64>,
-    f64,
-    bool,
-    f64,
-);
+/// One answer of the colour+shape tracker, frozen: the `contour` (a read-only
+/// `(N, 2)` float64 array of `(x, y)`), its bounding `box` `(x, y, w, h)`, the colour
+/// `distribution` `(mR, mG, mB, l1, l2, l3, theta, phi)`, the best sample's `score`,
+/// the `lost` flag and the particle set's effective sample size `ess`.
+#[pyclass(name = "ColorShapeAnswer", module = "rperc._rperc", frozen, get_all)]
+pub struct PyColorShapeAnswer {
+    contour: Py<PyArray2<f64>>,
+    #[pyo3(name = "box")]
+    bbox: (f64, f64, f64, f64),
+    distribution: (f64, f64, f64, f64, f64, f64, f64, f64),
+    score: f64,
+    lost: bool,
+    ess: f64,
+}
 
-fn answer(py: Python<'_>, r: ColorShapeResult) -> PyResult<Answer<'_>> {
+fn answer(py: Python<'_>, r: ColorShapeResult) -> PyResult<PyColorShapeAnswer> {
     let n = r.contour.len();
     let flat: Vec<f64> = r.contour.iter().flatten().copied().collect();
     let contour = numpy::ndarray::Array2::from_shape_vec((n, 2), flat)
         .map_err(|e| Error::Value(format!("internal shape error: {e}")))?;
+    let contour = numpy::IntoPyArray::into_pyarray(contour, py);
+    contour.getattr("flags")?.setattr("writeable", false)?;
     let [x, y, w, h] = r.bbox.to_array();
-    Ok((
-        numpy::IntoPyArray::into_pyarray(contour, py),
-        (x, y, w, h),
-        r.distribution.to_vec(),
-        r.score,
-        r.lost,
-        r.ess,
-    ))
+    let [m_r, m_g, m_b, l1, l2, l3, theta, phi] = r.distribution;
+    Ok(PyColorShapeAnswer {
+        contour: contour.unbind(),
+        bbox: (x, y, w, h),
+        distribution: (m_r, m_g, m_b, l1, l2, l3, theta, phi),
+        score: r.score,
+        lost: r.lost,
+        ess: r.ess,
+    })
 }
 
 /// CONDENSATION over the target's colour distribution, weighted by an affine snake.
@@ -77,12 +85,12 @@ impl PyColorShapeTracker {
         Ok(Self { inner })
     }
 
-    /// Tracks into `frame`: `(contour, box, distribution, score, lost, ess)`.
-    fn update<'py>(
-        slf: &Bound<'py, Self>,
-        py: Python<'py>,
-        frame: &Bound<'py, PyAny>,
-    ) -> PyResult<Answer<'py>> {
+    /// Tracks into `frame`.
+    fn update(
+        slf: &Bound<'_, Self>,
+        py: Python<'_>,
+        frame: &Bound<'_, PyAny>,
+    ) -> PyResult<PyColorShapeAnswer> {
         let mut this = exclusive(slf)?;
         let tracker = &mut this.inner;
         let f = self::frame(frame)?;
@@ -92,12 +100,6 @@ impl PyColorShapeTracker {
         let r = detached_parallel(py, || Ok(tracker.update(view)?))?;
         answer(py, r)
     }
-}
-
-/// The default `ColorShapeParams` as a dict.
-#[pyfunction]
-pub fn color_shape_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
-    crate::config::defaults::<ColorShapeParams>(py)
 }
 
 /// The raw and the cleaned segmentation, (H, W) uint8 each.

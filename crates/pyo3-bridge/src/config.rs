@@ -127,14 +127,23 @@ pub fn defaults<'py, T: serde::Serialize + Default>(
 const SCHEMA_NAMES: &[&str] = &[
     "color_histogram",
     "color_shape",
+    "color_template",
     "laser",
     "laser_scan",
     "monobot",
     "particle_color",
+    "pattern",
+    "pattern_sequence",
     "planar",
     "planar_sim",
     "scan_params",
     "smoother",
+    "ceiling",
+    "ceiling_camera",
+    "ceiling_render",
+    "odometry_noise",
+    "memory_learn",
+    "memory_replay",
 ];
 
 /// Calls the generic function `$f::<T>($args)` with `T` the config named `$name`: the
@@ -144,7 +153,10 @@ macro_rules! with_config {
         match $name {
             "color_histogram" => $f::<tracking::ColorTrackerParams>($($arg),*),
             "color_shape" => $f::<tracking::ColorShapeParams>($($arg),*),
+            "color_template" => $f::<tracking::ColorTemplateParams>($($arg),*),
             "particle_color" => $f::<tracking::ParticleTrackerParams>($($arg),*),
+            "pattern" => $f::<tracking::PatternTrackerParams>($($arg),*),
+            "pattern_sequence" => $f::<tracking::SequenceParams>($($arg),*),
             "laser" => $f::<laser::LaserConfig>($($arg),*),
             "laser_scan" => $f::<laser::ScanConfig>($($arg),*),
             "monobot" => $f::<slam::monobot::MonobotConfig>($($arg),*),
@@ -152,6 +164,12 @@ macro_rules! with_config {
             "planar_sim" => $f::<slam::planar::sim::SimConfig>($($arg),*),
             "scan_params" => $f::<linesimp::ScanParams>($($arg),*),
             "smoother" => $f::<slam::planar::smooth::SmootherConfig>($($arg),*),
+            "ceiling" => $f::<navigation::ceiling::CeilingParams>($($arg),*),
+            "ceiling_camera" => $f::<navigation::ceiling::CeilingCamera>($($arg),*),
+            "ceiling_render" => $f::<navigation::ceiling::RenderParams>($($arg),*),
+            "odometry_noise" => $f::<navigation::ceiling::OdometryNoise>($($arg),*),
+            "memory_learn" => $f::<navigation::memory::LearnParams>($($arg),*),
+            "memory_replay" => $f::<navigation::memory::ReplayParams>($($arg),*),
             _ => Err(unknown_config($name)),
         }
     };
@@ -177,14 +195,23 @@ macro_rules! validated {
 validated!(
     tracking::ColorTrackerParams,
     tracking::ColorShapeParams,
+    tracking::ColorTemplateParams,
     tracking::ParticleTrackerParams,
+    tracking::PatternTrackerParams,
+    tracking::SequenceParams,
     laser::LaserConfig,
     laser::ScanConfig,
     slam::monobot::MonobotConfig,
     slam::PlanarConfig,
     slam::planar::sim::SimConfig,
     linesimp::ScanParams,
-    slam::planar::smooth::SmootherConfig
+    slam::planar::smooth::SmootherConfig,
+    navigation::ceiling::CeilingParams,
+    navigation::ceiling::CeilingCamera,
+    navigation::ceiling::RenderParams,
+    navigation::ceiling::OdometryNoise,
+    navigation::memory::LearnParams,
+    navigation::memory::ReplayParams
 );
 
 fn unknown_config(name: &str) -> Error {

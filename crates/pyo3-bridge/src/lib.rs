@@ -28,9 +28,9 @@ use pyo3::prelude::*;
 #[pymodule]
 mod _rperc {
     #[pymodule_export]
-    use crate::ceiling_py::{PyCeilingWorld, ceiling_defaults, ceiling_drive};
+    use crate::ceiling_py::{PyCeilingWorld, ceiling_drive};
     #[pymodule_export]
-    use crate::colour_shape_py::{PyColorShapeTracker, color_segment, color_shape_defaults};
+    use crate::colour_shape_py::{PyColorShapeAnswer, PyColorShapeTracker, color_segment};
     #[pymodule_export]
     use crate::config::{config_check, config_defaults, config_names, config_schema};
     #[pymodule_export]
@@ -53,11 +53,13 @@ mod _rperc {
     };
     #[pymodule_export]
     use crate::memory_py::{
-        PyMemoryFrames, PyMemoryLearning, PyMemoryReplay, visual_memory_check,
-        visual_memory_defaults, visual_memory_learn, visual_memory_replay,
+        PyMemoryFrames, PyMemoryLearning, PyMemoryReplay, visual_memory_check, visual_memory_learn,
+        visual_memory_replay,
     };
     #[pymodule_export]
-    use crate::pattern_py::{PyPatternTracker, pattern_defaults, pattern_sequence};
+    use crate::pattern_py::{
+        PyPatternAnswer, PyPatternSequence, PyPatternTracker, pattern_sequence,
+    };
     #[pymodule_export]
     use crate::planar_py::{
         PyPlanarRun, PyPlanarStatistics, PySimulatedWorld, PySmoothedWalls, planar_sim_check,
@@ -71,15 +73,13 @@ mod _rperc {
         monobot_simulate, monobot_summarize, nees_bounds,
     };
     #[pymodule_export]
-    use crate::template_py::{
-        PyColorTemplateAnswer, PyColorTemplateTracker, color_template_defaults,
-    };
+    use crate::template_py::{PyColorTemplateAnswer, PyColorTemplateTracker};
     #[pymodule_export]
     use crate::text_py::parse_floats;
     #[pymodule_export]
     use crate::tracking_py::{
-        PyColorHistogramTracker, PyParticleColorTracker, effective_sample_size, resample,
-        tracker_defaults,
+        PyColorHistogramTracker, PyParticleColorTracker, PyTrackAnswer, effective_sample_size,
+        resample,
     };
 
     use super::*;

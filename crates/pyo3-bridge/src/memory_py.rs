@@ -168,12 +168,3 @@ pub fn visual_memory_check(memory: &str) -> PyResult<()> {
         .map_err(|e| Error::Value(format!("memory: not a visual memory: {e}")))?;
     Ok(())
 }
-
-/// Default configs as dicts: `(learn, replay)`.
-#[pyfunction]
-pub fn visual_memory_defaults(py: Python<'_>) -> PyResult<(Bound<'_, PyAny>, Bound<'_, PyAny>)> {
-    Ok((
-        crate::config::defaults::<LearnParams>(py)?,
-        crate::config::defaults::<ReplayParams>(py)?,
-    ))
-}

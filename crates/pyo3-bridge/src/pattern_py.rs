@@ -127,36 +127,46 @@ fn region(obj: &Bound<'_, PyAny>, width: usize, height: usize) -> Result<Region,
     }
 }
 
-/// `(x, y, theta, scale, score, occluded_fraction, lost, corners, homography)`, the
-/// corners a `(4, 2)` float64 array (top-left, top-right, bottom-right,
-/// bottom-left), the homography from the first frame a `(3, 3)` one.
-type Answer<'py> = (
-    f64,
-    f64,
-    f64,
-    f64,
-    f64,
-    f64,
-    bool,
-    Bound<'py, numpy::PyArray2<f64>>,
-    Bound<'py, numpy::PyArray2<f64>>,
-);
+/// One answer of the pattern tracker, frozen: the state `x, y, theta, scale`, the
+/// `score`, the `occluded_fraction`, the `lost` flag, the region's `corners` moved by
+/// the pose (a read-only `(4, 2)` float64 array: top-left, top-right, bottom-right,
+/// bottom-left) and the `homography` from the first frame (read-only `(3, 3)`).
+#[pyclass(name = "PatternAnswer", module = "rperc._rperc", frozen, get_all)]
+pub struct PyPatternAnswer {
+    x: f64,
+    y: f64,
+    theta: f64,
+    scale: f64,
+    score: f64,
+    occluded_fraction: f64,
+    lost: bool,
+    corners: Py<numpy::PyArray2<f64>>,
+    homography: Py<numpy::PyArray2<f64>>,
+}
 
-fn answer(py: Python<'_>, p: PatternPose) -> Answer<'_> {
-    let [x, y, theta, s] = p.state;
-    let corners = numpy::ndarray::Array2::from_shape_fn((4, 2), |(i, j)| p.corners[i][j]);
-    let homography = numpy::ndarray::Array2::from_shape_fn((3, 3), |(i, j)| p.homography[i][j]);
-    (
+/// `rows` as a `(R, C)` float64 array nobody can write to: the answer is frozen.
+fn read_only<'py, const R: usize, const C: usize>(
+    py: Python<'py>,
+    rows: &[[f64; C]; R],
+) -> PyResult<Py<numpy::PyArray2<f64>>> {
+    let array = numpy::ndarray::Array2::from_shape_fn((R, C), |(i, j)| rows[i][j]).into_pyarray(py);
+    array.getattr("flags")?.setattr("writeable", false)?;
+    Ok(array.unbind())
+}
+
+fn answer(py: Python<'_>, p: PatternPose) -> PyResult<PyPatternAnswer> {
+    let [x, y, theta, scale] = p.state;
+    Ok(PyPatternAnswer {
         x,
         y,
         theta,
-        s,
-        p.score,
-        p.occluded_fraction,
-        p.lost,
-        corners.into_pyarray(py),
-        homography.into_pyarray(py),
-    )
+        scale,
+        score: p.score,
+        occluded_fraction: p.occluded_fraction,
+        lost: p.lost,
+        corners: read_only(py, &p.corners)?,
+        homography: read_only(py, &p.homography)?,
+    })
 }
 
 /// The CONDENSATION pattern tracker over (x, y, theta, s), or the plane's homography.
@@ -195,7 +205,7 @@ impl PyPatternTracker {
         slf: &Bound<'py, Self>,
         py: Python<'py>,
         frame: &Bound<'py, PyAny>,
-    ) -> PyResult<Answer<'py>> {
+    ) -> PyResult<PyPatternAnswer> {
         let mut this = exclusive(slf)?;
         let tracker = &mut this.inner;
         let f = self::frame(frame)?;
@@ -203,15 +213,15 @@ impl PyPatternTracker {
         // A large model's step runs on the thread pool, whose threads cannot ask
         // Python for signals: this thread polls for Ctrl-C while a worker steps.
         let pose = detached_parallel(py, || Ok(tracker.update(view)?))?;
-        Ok(answer(py, pose))
+        answer(py, pose)
     }
 
     /// The last answer: the initial pose (score 1) before the first update, its
     /// corners those of the region as the tracker placed them.
     #[getter]
-    fn last<'py>(slf: &Bound<'py, Self>, py: Python<'py>) -> PyResult<Answer<'py>> {
+    fn last(slf: &Bound<'_, Self>, py: Python<'_>) -> PyResult<PyPatternAnswer> {
         let pose = crate::errors::shared(slf)?.inner.last();
-        Ok(answer(py, pose))
+        answer(py, pose)
     }
 
     /// Number of points of the learnt model.
@@ -245,15 +255,22 @@ fn gray_image(obj: &Bound<'_, PyAny>, name: &str) -> Result<GrayImage, Error> {
     })
 }
 
-/// The generated sequence: frames `(n, H, W)` uint8, truth `(n, 4)`, occlusion `(n,)`,
-/// illumination `(n, 2)`, and the region `(x, y, w, h)` of frame 0.
-type SequenceAnswer<'py> = (
-    Bound<'py, PyArrayDyn<u8>>,
-    Bound<'py, PyArrayDyn<f64>>,
-    Bound<'py, PyArrayDyn<f64>>,
-    Bound<'py, PyArrayDyn<f64>>,
-    [usize; 4],
-);
+/// A generated sequence, frozen: `frames` `(n, H, W)` uint8, `truth` `(n, 4)` states
+/// `(x, y, theta, scale)`, `occlusion` `(n,)`, `illumination` `(n, 2)` gain and
+/// offset, and the `region` `(x, y, w, h)` the patch fills in frame 0.
+#[pyclass(
+    name = "PatternSequenceAnswer",
+    module = "rperc._rperc",
+    frozen,
+    get_all
+)]
+pub struct PyPatternSequence {
+    frames: Py<PyArrayDyn<u8>>,
+    truth: Py<PyArrayDyn<f64>>,
+    occlusion: Py<PyArrayDyn<f64>>,
+    illumination: Py<PyArrayDyn<f64>>,
+    region: (usize, usize, usize, usize),
+}
 
 /// The Fig. 8 sequence (section 4.1) of `patch` over `background` (GIL released).
 #[pyfunction]
@@ -263,7 +280,7 @@ pub fn pattern_sequence<'py>(
     patch: &Bound<'py, PyAny>,
     background: &Bound<'py, PyAny>,
     config: Option<&Bound<'py, PyAny>>,
-) -> PyResult<SequenceAnswer<'py>> {
+) -> PyResult<PyPatternSequence> {
     let params: SequenceParams = crate::config::from_python(config, "pattern_sequence")?;
     let patch = gray_image(patch, "patch")?;
     let background = gray_image(background, "background")?;
@@ -278,20 +295,12 @@ pub fn pattern_sequence<'py>(
     .map_err(|e| Error::Value(format!("internal shape error: {e}")))?;
     let flat = |rows: Vec<[f64; 4]>| rows.into_iter().flatten().collect::<Vec<f64>>();
     let illumination: Vec<f64> = seq.illumination.into_iter().flatten().collect();
-    Ok((
-        frames.into_pyarray(py),
-        crate::arrays::shaped(py, flat(seq.truth), &[n, 4])?,
-        crate::arrays::shaped(py, seq.occlusion, &[n])?,
-        crate::arrays::shaped(py, illumination, &[n, 2])?,
-        seq.region,
-    ))
-}
-
-/// Default configs as dicts: `(tracker, sequence)`.
-#[pyfunction]
-pub fn pattern_defaults(py: Python<'_>) -> PyResult<(Bound<'_, PyAny>, Bound<'_, PyAny>)> {
-    Ok((
-        crate::config::defaults::<PatternTrackerParams>(py)?,
-        crate::config::defaults::<SequenceParams>(py)?,
-    ))
+    let [x, y, w, h] = seq.region;
+    Ok(PyPatternSequence {
+        frames: frames.into_pyarray(py).unbind(),
+        truth: crate::arrays::shaped(py, flat(seq.truth), &[n, 4])?.unbind(),
+        occlusion: crate::arrays::shaped(py, seq.occlusion, &[n])?.unbind(),
+        illumination: crate::arrays::shaped(py, illumination, &[n, 2])?.unbind(),
+        region: (x, y, w, h),
+    })
 }

@@ -100,9 +100,3 @@ impl PyColorTemplateTracker {
         Ok(shared(slf)?.inner.lost_frames())
     }
 }
-
-/// The default `ColorTemplateParams` as a dict.
-#[pyfunction]
-pub fn color_template_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
-    crate::config::defaults::<ColorTemplateParams>(py)
-}

@@ -82,11 +82,25 @@ pub(crate) fn bbox(obj: &Bound<'_, PyAny>) -> Result<BoundingBox, Error> {
     Ok(BoundingBox { x, y, w, h })
 }
 
-pub(crate) type Answer = ((f64, f64, f64, f64), f64, bool);
+/// One answer of a colour-histogram tracker, frozen: the target's `box` `(x, y, w,
+/// h)`, its `score` and whether it is `lost`.
+#[pyclass(name = "TrackAnswer", module = "rperc._rperc", frozen, get_all)]
+pub struct PyTrackAnswer {
+    #[pyo3(name = "box")]
+    bbox: (f64, f64, f64, f64),
+    score: f64,
+    lost: bool,
+}
 
-fn answer(r: TrackResult) -> Answer {
-    let [x, y, w, h] = r.bbox.to_array();
-    ((x, y, w, h), r.score, r.lost)
+impl From<TrackResult> for PyTrackAnswer {
+    fn from(r: TrackResult) -> Self {
+        let [x, y, w, h] = r.bbox.to_array();
+        Self {
+            bbox: (x, y, w, h),
+            score: r.score,
+            lost: r.lost,
+        }
+    }
 }
 
 /// Birchfield's colour-histogram tracker with local search over position and scale.
@@ -117,8 +131,12 @@ impl PyColorHistogramTracker {
         Ok(Self { inner })
     }
 
-    /// Tracks the target into `frame`: `((x, y, w, h), score, lost)`.
-    fn update(slf: &Bound<'_, Self>, py: Python<'_>, frame: &Bound<'_, PyAny>) -> PyResult<Answer> {
+    /// Tracks the target into `frame`.
+    fn update(
+        slf: &Bound<'_, Self>,
+        py: Python<'_>,
+        frame: &Bound<'_, PyAny>,
+    ) -> PyResult<PyTrackAnswer> {
         let mut this = exclusive(slf)?;
         let tracker = &mut this.inner;
         track(py, frame, |view| tracker.update(view))
@@ -172,15 +190,19 @@ impl PyParticleColorTracker {
         Ok(Self { inner })
     }
 
-    /// Tracks the target into `frame`: `((x, y, w, h), score, lost)`.
-    fn update(slf: &Bound<'_, Self>, py: Python<'_>, frame: &Bound<'_, PyAny>) -> PyResult<Answer> {
+    /// Tracks the target into `frame`.
+    fn update(
+        slf: &Bound<'_, Self>,
+        py: Python<'_>,
+        frame: &Bound<'_, PyAny>,
+    ) -> PyResult<PyTrackAnswer> {
         let mut this = exclusive(slf)?;
         let tracker = &mut this.inner;
         let f = frame_arg(frame)?;
         let view = f.view()?;
         // The particles are weighed on the thread pool, whose threads cannot ask
         // Python for signals: this thread polls for Ctrl-C while a worker steps.
-        Ok(answer(detached_parallel(py, || Ok(tracker.update(view)?))?))
+        Ok(detached_parallel(py, || Ok(tracker.update(view)?))?.into())
     }
 
     /// Effective sample size of the particle set.
@@ -195,13 +217,13 @@ fn frame_arg<'py>(obj: &Bound<'py, PyAny>) -> PyResult<Frame<'py>> {
 }
 
 /// Runs one tracker step on a numpy frame with the GIL released.
-pub(crate) fn track<F>(py: Python<'_>, frame: &Bound<'_, PyAny>, step: F) -> PyResult<Answer>
+pub(crate) fn track<F>(py: Python<'_>, frame: &Bound<'_, PyAny>, step: F) -> PyResult<PyTrackAnswer>
 where
     F: FnOnce(RgbFrame<'_>) -> tracking::Result<TrackResult> + Send,
 {
     let f = frame_arg(frame)?;
     let view = f.view()?;
-    Ok(answer(detached(py, || Ok(step(view)?))?))
+    Ok(detached(py, || Ok(step(view)?))?.into())
 }
 
 /// Indices of `n` particles drawn from `weights` by `method`, seeded (GIL released).
@@ -230,13 +252,4 @@ pub fn resample<'py>(
 pub fn effective_sample_size(weights: &Bound<'_, PyAny>) -> PyResult<f64> {
     let w = crate::arrays::float_vector(weights, "weights")?;
     Ok(tracking::effective_sample_size(&w).map_err(Error::from)?)
-}
-
-/// Default tracker configs as dicts: `(colour, particle)`.
-#[pyfunction]
-pub fn tracker_defaults(py: Python<'_>) -> PyResult<(Bound<'_, PyAny>, Bound<'_, PyAny>)> {
-    Ok((
-        crate::config::defaults::<ColorTrackerParams>(py)?,
-        crate::config::defaults::<ParticleTrackerParams>(py)?,
-    ))
 }

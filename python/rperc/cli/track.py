@@ -391,13 +391,16 @@ def demo_color_shape(out: Path, seed: int, frames: int = 60) -> DemoResult:
 
 def _color_shape_run(name: str, frames: int, seed: int) -> dict[str, Any]:
     """Both trackers over one experiment: contours, boxes, distributions and scores."""
+    from rperc.config import AppearanceParams
     from rperc.tracking import ColorHistogramTracker, ColorShapeTracker
     from rperc.tracking.shape_sequences import shape_sequence
 
     seq = shape_sequence(name, frames=frames, seed=seed)  # type: ignore[arg-type]
     truth = np.array([_mask_box(m) for m in seq.masks])
     cs = ColorShapeTracker(seq.frames[0], contour=seq.outline, color_space=seq.color_space)
-    co = ColorHistogramTracker(seq.frames[0], tuple(truth[0]), color_space=seq.color_space)
+    co = ColorHistogramTracker(
+        seq.frames[0], tuple(truth[0]), appearance=AppearanceParams(color_space=seq.color_space)
+    )
     contours, cs_boxes, co_boxes, dists = [seq.outline], [truth[0]], [truth[0]], []
     for frame in seq.frames[1:]:
         r = cs.update(frame)

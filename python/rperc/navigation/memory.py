@@ -36,6 +36,8 @@ import numpy.typing as npt
 from rperc import _rperc
 from rperc._args import float_array, real_number, whole_number
 from rperc._atomic import write_text_atomically
+from rperc._config_base import Config, as_config
+from rperc.config import LearnConfig, ReplayConfig
 from rperc.datasets._text import read_text
 from rperc.datasets.errors import DatasetFormatError
 from rperc.navigation.world import CeilingWorld
@@ -266,30 +268,30 @@ def learn(
     start: npt.ArrayLike,
     commands: npt.ArrayLike,
     dt: float = 0.1,
-    config: Mapping[str, Any] | None = None,
+    config: LearnConfig | Mapping[str, object] | None = None,
     seed: int = 0,
 ) -> Learning:
     """Drives ``commands`` (``(n, 2)``: ``v`` m/s, ``omega`` rad/s, each ``dt`` s) from
     ``start`` ``(x, y, theta)``, building the mosaic and choosing the key images.
-    ``config`` holds the fields of ``defaults()["learn"]`` (``mosaic``, ``keys``,
-    ``odometry``, and ``covariance_scale``, >= 1, which multiplies the stored mosaic
-    covariance: the mapping filter counts a tracker's successive, correlated states as
-    independent)."""
+    ``config`` is a :class:`rperc.config.LearnConfig` or a dict of its fields
+    (``mosaic``, ``keys``, ``odometry``, and ``covariance_scale``, >= 1, which
+    multiplies the stored mosaic covariance: the mapping filter counts a tracker's
+    successive, correlated states as independent)."""
+    cfg = as_config(LearnConfig, config)
     learnt = _rperc.visual_memory_learn(
         world._native,
         float_array(start, "start").reshape(-1),
         np.ascontiguousarray(float_array(commands, "commands")),
         real_number(dt, "dt"),
-        dict(config or {}),
+        cfg.to_dict(),
         whole_number(seed, "seed", 0, 2**64),
     )
     memory = VisualMemory(learnt.memory)
     f = _frames(learnt.frames)
     c = world.camera
-    scale = float(c["ceiling_height"]) / float(c["fx"])
-    principal = (float(c["cx"]), float(c["cy"]))
-    metric = bool(dict(dict(config or {}).get("mosaic") or {}).get("metric", True))
-    unit = 1.0 if metric else scale
+    scale = c.ceiling_height / c.fx
+    principal = (c.cx, c.cy)
+    unit = 1.0 if cfg.mosaic.metric else scale
     learning = Learning(memory, f, np.zeros(3), scale, principal, unit)
     c_t_0 = learning.camera_to_model(memory.model_centers[0])
     w_t_m = _pose(_se2(f.truth[memory.model_created[0]]) @ _se2(c_t_0))
@@ -317,16 +319,17 @@ def replay(
     world: CeilingWorld,
     memory: VisualMemory,
     start: npt.ArrayLike,
-    config: Mapping[str, Any] | None = None,
+    config: ReplayConfig | Mapping[str, object] | None = None,
     seed: int = 0,
 ) -> ReplayResult:
     """Replays ``memory`` from the true pose ``start`` (the robot believes it is at the
-    first key image). ``config``: the fields of ``defaults()["replay"]``."""
+    first key image). ``config``: a :class:`rperc.config.ReplayConfig` or a dict of its
+    fields."""
     run = _rperc.visual_memory_replay(
         world._native,
         memory.to_json(),
         float_array(start, "start").reshape(-1),
-        dict(config or {}),
+        as_config(ReplayConfig, config).to_dict(),
         whole_number(seed, "seed", 0, 2**64),
     )
     return ReplayResult(run.outcome, run.key_index, _frames(run.frames))
@@ -395,7 +398,7 @@ def evaluate(
     *,
     starts: int = 50,
     perturbation: Sequence[float] = (0.1, 0.1, 0.1),
-    config: Mapping[str, Any] | None = None,
+    config: ReplayConfig | Mapping[str, object] | None = None,
     executor: Executor | None = None,
     seed: int = 0,
     show_progress: bool = False,
@@ -403,7 +406,9 @@ def evaluate(
     """Replays the learnt memory from ``starts`` seeded perturbed starts (through
     ``executor.map`` when given: a process pool or a Dask client's executor) and scores
     everything against the truth. ``show_progress``: a bar on a terminal, log lines
-    elsewhere, one step per finished replay."""
+    elsewhere, one step per finished replay. ``config`` is :func:`replay`'s; its
+    localiser's ``guess_sigma`` is set from ``perturbation`` unless it sets its own (a
+    dict with the field, or a config whose value is not the default)."""
     from rperc._progress import progress
 
     n = whole_number(starts, "starts", 1, 100_000)
@@ -421,20 +426,39 @@ def evaluate(
 
 
 def _with_start_guess(
-    config: Mapping[str, Any] | None, perturbation: Sequence[float]
-) -> dict[str, Any]:
+    config: ReplayConfig | Mapping[str, object] | None, perturbation: Sequence[float]
+) -> dict[str, object]:
     """``config`` with the localiser's starting guess told how the starts are drawn
     (uniform in ``[-p, p]``: a standard deviation of ``p / sqrt(3)``), unless it sets
     its own: the replay then searches the box its start can be in, no wider, and its
-    first covariance is honest."""
-    out = dict(config or {})
-    mosaic = dict(out.get("mosaic") or {})
-    localiser = dict(mosaic.get("localiser") or {})
-    if "guess_sigma" not in localiser:
+    first covariance is honest. A typed config sets its own when its value is not the
+    default (a dataclass always holds the field)."""
+    if isinstance(config, ReplayConfig):
+        own = config.mosaic.localiser.guess_sigma != ReplayConfig().mosaic.localiser.guess_sigma
+        out = config.to_dict()
+    else:
+        out = dict(config or {})
+        localiser_given = _part(_part(out, "mosaic"), "localiser")
+        own = "guess_sigma" in localiser_given
+    mosaic = _part(out, "mosaic")
+    localiser = _part(mosaic, "localiser")
+    if not own:
         p = np.asarray(perturbation, dtype=np.float64).reshape(-1)
         localiser["guess_sigma"] = [max(float(v) / math.sqrt(3.0), 1e-3) for v in p]
         out["mosaic"] = {**mosaic, "localiser": localiser}
     return out
+
+
+def _part(config: Mapping[str, object], name: str) -> dict[str, object]:
+    """The nested part ``name`` of a config dict, as a dict (empty when absent)."""
+    part = config.get(name)
+    if isinstance(part, Mapping):
+        return {str(k): v for k, v in part.items()}
+    if part is None:
+        return {}
+    if isinstance(part, Config):  # a typed part inside a dict
+        return part.to_dict()
+    raise TypeError(f"{name} must be a config or a dict of its fields, got {type(part).__name__}")
 
 
 def _score(learning: Learning, runs: list[ReplayResult]) -> Evaluation:

@@ -10,7 +10,8 @@ pixels per metre, mirrored (a robot turning by ``+phi`` turns its image by ``-ph
 
 >>> import numpy as np
 >>> from rperc.navigation import CeilingWorld
->>> world = CeilingWorld(ceiling={"size": [6.0, 4.0], "n_patterns": 8})
+>>> from rperc.config import CeilingConfig
+>>> world = CeilingWorld(ceiling=CeilingConfig(size=(6.0, 4.0), n_patterns=8))
 >>> frames = world.render(np.array([[3.0, 2.0, 0.0]]))
 >>> frames.shape, frames.dtype
 ((1, 240, 320), dtype('uint8'))
@@ -18,27 +19,44 @@ pixels per metre, mirrored (a robot turning by ``+phi`` turns its image by ``-ph
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
 from rperc._args import float_array, real_number, whole_number
+from rperc._config_base import as_config
+from rperc.config import (
+    CeilingCameraConfig,
+    CeilingConfig,
+    CeilingRenderConfig,
+    LearnConfig,
+    OdometryNoise,
+    ReplayConfig,
+)
 
 __all__ = ["CeilingWorld", "Drive", "defaults", "drive"]
 
 
-def defaults() -> dict[str, dict[str, Any]]:
-    """The default configs (from the Rust crate, the one place they live): ``ceiling``,
-    ``camera``, ``render``, ``odometry``, and the visual memory's ``learn`` and
-    ``replay``."""
-    ceiling, camera, render, odometry = _rperc.ceiling_defaults()
-    learn, replay = _rperc.visual_memory_defaults()
-    return {"ceiling": ceiling, "camera": camera, "render": render, "odometry": odometry,
-            "learn": learn, "replay": replay}  # fmt: skip
+def defaults() -> dict[str, dict[str, object]]:
+    """Deprecated: the default configs as dicts. The typed configs of
+    :mod:`rperc.config` hold them: ``CeilingConfig()``, ``CeilingCameraConfig()``,
+    ``CeilingRenderConfig()``, ``OdometryNoise()``, ``LearnConfig()``,
+    ``ReplayConfig()``."""
+    warnings.warn(
+        "rperc.navigation.defaults() is deprecated; use the classes of rperc.config "
+        "(CeilingConfig(), CeilingCameraConfig(), CeilingRenderConfig(), OdometryNoise(), "
+        "LearnConfig(), ReplayConfig())",
+        DeprecationWarning,
+        stacklevel=2,
+    )
+    kinds = {"ceiling": CeilingConfig, "camera": CeilingCameraConfig,
+             "render": CeilingRenderConfig, "odometry": OdometryNoise,
+             "learn": LearnConfig, "replay": ReplayConfig}  # fmt: skip
+    return {name: cls().to_dict() for name, cls in kinds.items()}
 
 
 def _poses(poses: npt.ArrayLike, name: str) -> np.ndarray:
@@ -69,43 +87,51 @@ class Rendering:
 class CeilingWorld:
     """A generated ceiling, its camera and the rendering effects.
 
-    ``ceiling``, ``camera`` and ``render`` are dicts of the fields of :func:`defaults`
-    (missing fields keep their defaults; unknown ones are a ``TypeError``). The layout
-    and the texture are drawn from ``ceiling["seed"]``, each frame's effects from
-    ``render["seed"]`` and its frame number, so a frame renders identically alone or in
+    ``ceiling``, ``camera`` and ``render`` are a :class:`rperc.config.CeilingConfig`,
+    :class:`~rperc.config.CeilingCameraConfig` and
+    :class:`~rperc.config.CeilingRenderConfig`, or dicts of their fields (missing
+    fields keep their defaults; unknown ones are a ``TypeError``); the world keeps them
+    as :attr:`ceiling_config`, :attr:`camera` and :attr:`render_config`. The layout and
+    the texture are drawn from the ceiling's ``seed``, each frame's effects from the
+    render's ``seed`` and its frame number, so a frame renders identically alone or in
     a batch.
     """
 
     def __init__(
         self,
-        ceiling: Mapping[str, Any] | None = None,
-        camera: Mapping[str, Any] | None = None,
-        render: Mapping[str, Any] | None = None,
+        ceiling: CeilingConfig | Mapping[str, object] | None = None,
+        camera: CeilingCameraConfig | Mapping[str, object] | None = None,
+        render: CeilingRenderConfig | Mapping[str, object] | None = None,
     ) -> None:
-        self._configs = (dict(ceiling or {}), dict(camera or {}), dict(render or {}))
-        self._native = _rperc.CeilingWorld(*self._configs)
+        self.ceiling_config: CeilingConfig = as_config(CeilingConfig, ceiling)
+        self.camera: CeilingCameraConfig = as_config(CeilingCameraConfig, camera)
+        self.render_config: CeilingRenderConfig = as_config(CeilingRenderConfig, render)
+        self._native = _rperc.CeilingWorld(
+            self.ceiling_config.to_dict(), self.camera.to_dict(), self.render_config.to_dict()
+        )
         kinds, centres, theta = self._native.patterns()
         self.pattern_kinds: tuple[str, ...] = tuple(kinds)
         self.pattern_centres: np.ndarray = centres
         self.pattern_theta: np.ndarray = theta
-        self.camera, self.render_config = self._native.configs()
 
-    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+    def __reduce__(
+        self,
+    ) -> tuple[type[CeilingWorld], tuple[CeilingConfig, CeilingCameraConfig, CeilingRenderConfig]]:
         # Pickled as its configs (the ceiling regenerates from its seed), so that
         # worlds travel to process pools and Dask workers.
-        return (CeilingWorld, self._configs)
+        return (CeilingWorld, (self.ceiling_config, self.camera, self.render_config))
 
     def __repr__(self) -> str:
         c = self.camera
         return (
             f"CeilingWorld(patterns={len(self.pattern_kinds)}, "
-            f"image={c['width']}x{c['height']}, ceiling_height={c['ceiling_height']} m)"
+            f"image={c.width}x{c.height}, ceiling_height={c.ceiling_height} m)"
         )
 
     @property
     def image_shape(self) -> tuple[int, int]:
         """``(height, width)`` of the camera's images."""
-        return int(self.camera["height"]), int(self.camera["width"])
+        return self.camera.height, self.camera.width
 
     def render(self, poses: npt.ArrayLike, first_frame: int = 0) -> np.ndarray:
         """The camera's images at ``poses`` (``(n, 3)`` or one ``(3,)``), frame numbers
@@ -167,14 +193,16 @@ def drive(
     start: npt.ArrayLike,
     commands: npt.ArrayLike,
     dt: float,
-    noise: Mapping[str, Any] | None = None,
+    noise: OdometryNoise | Mapping[str, object] | None = None,
 ) -> Drive:
     """Drives the unicycle from ``start`` ``(x, y, theta)`` by ``commands`` ``(n, 2)``
-    ``(v, omega)`` each held ``dt`` seconds, with the odometry errors of ``noise``
-    (fields of ``defaults()["odometry"]``: scale errors and white noise, seeded)."""
+    ``(v, omega)`` each held ``dt`` seconds, with the odometry errors of ``noise`` (a
+    :class:`rperc.config.OdometryNoise` or a dict of its fields: scale errors and white
+    noise, seeded)."""
     cmd = np.ascontiguousarray(float_array(commands, "commands"))
     s = float_array(start, "start").reshape(-1)
     step = real_number(dt, "dt")
-    truth, odometry, measured = _rperc.ceiling_drive(s, cmd, step, dict(noise or {}))
+    native = as_config(OdometryNoise, noise).to_dict()
+    truth, odometry, measured = _rperc.ceiling_drive(s, cmd, step, native)
     t = np.arange(len(truth), dtype=np.float64) * step
     return Drive(t, truth, odometry, measured)

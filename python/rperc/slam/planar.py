@@ -491,7 +491,7 @@ class PlanarSlam:
 
     def __init__(
         self,
-        config: PlanarConfig | Mapping[str, Any] | None = None,
+        config: PlanarConfig | Mapping[str, object] | None = None,
         **overrides: Unpack[PlanarConfigOverrides],
     ) -> None:
         self.config: PlanarConfig = as_config(PlanarConfig, config, overrides)
@@ -621,7 +621,7 @@ class SimulatedRun:
 
 
 def simulate(
-    config: SimConfig | Mapping[str, Any] | None = None, *, seed: int = 0, run: int = 0
+    config: SimConfig | Mapping[str, object] | None = None, *, seed: int = 0, run: int = 0
 ) -> SimulatedRun:
     """Run ``run`` of the simulated world ``config`` (a :class:`rperc.config.SimConfig`
     or a dict of its fields) seeded by ``seed`` (the same stream the Monte Carlo's run
@@ -635,7 +635,7 @@ def simulate(
 
 
 def sim_slam_config(
-    sim: SimConfig | Mapping[str, Any] | None = None, **overrides: Unpack[PlanarConfigOverrides]
+    sim: SimConfig | Mapping[str, object] | None = None, **overrides: Unpack[PlanarConfigOverrides]
 ) -> dict[str, Any]:
     """The filter config that matches the world ``sim`` (same noise, same start), with
     ``overrides`` (e.g. ``anchor=True``) on top, as a dict of
@@ -682,9 +682,9 @@ def _sim_run_nees(sim: dict[str, Any], slam: dict[str, Any], seed: int, run: int
 
 
 def monte_carlo(
-    config: SimConfig | Mapping[str, Any] | None = None,
+    config: SimConfig | Mapping[str, object] | None = None,
     *,
-    slam: PlanarConfig | Mapping[str, Any] | None = None,
+    slam: PlanarConfig | Mapping[str, object] | None = None,
     runs: int = 50,
     seed: int = 0,
     executor: Executor | None = None,
@@ -720,7 +720,7 @@ def monte_carlo(
 
 
 def consistency(
-    config: SimConfig | Mapping[str, Any] | None = None,
+    config: SimConfig | Mapping[str, object] | None = None,
     *,
     variants: tuple[str, ...] = ("plain", "anchor", "external"),
     fix_every: int = 10,

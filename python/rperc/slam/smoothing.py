@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -74,7 +74,7 @@ def smooth_walls(
     controls: npt.ArrayLike,
     walls: npt.ArrayLike,
     times: npt.ArrayLike,
-    config: SmootherConfig | Mapping[str, Any] | None = None,
+    config: SmootherConfig | Mapping[str, object] | None = None,
     **overrides: Unpack[SmootherConfigOverrides],
 ) -> SmoothedRun:
     """Smooths the run ``result`` of :meth:`PlanarSlam.run_arrays` given the same

@@ -2,7 +2,7 @@
 
 Trackers follow OpenCV's convention::
 
-    tracker = ColorHistogramTracker(frame, (x, y, w, h), color_space="hsv")
+    tracker = ColorHistogramTracker(frame, (x, y, w, h), search_radius=20)
     result = tracker.update(next_frame)      # TrackResult(box, score, lost)
     box, score, lost = result
 
@@ -35,8 +35,9 @@ corner). The GIL is released while a frame is processed.
   precision at 5 and 15 px, success rate, fps) running the pattern tracker against
   OpenCV's ECC, rotation/scale ``matchTemplate`` and CSRT on the same frames.
 
-Parameters are keyword arguments with the defaults of the Rust configs (tuned on OTB
-Girl and Couple); ``help(ColorHistogramTracker)`` lists them.
+Each tracker takes one config of :mod:`rperc.config` (generated from the Rust struct,
+with its defaults, tuned on OTB Girl and Couple) as ``config=`` and its fields as typed
+keyword overrides; ``help(ColorHistogramConfig)`` lists them.
 """
 
 from rperc.tracking import metrics, planar

@@ -15,21 +15,27 @@ initial region. The GIL is released while a frame is processed.
 
 from __future__ import annotations
 
-import math
-from collections.abc import Sequence
+import warnings
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
-from rperc._args import float_array, whole_number
-from rperc.tracking.trackers import ResamplerName, _plain
+from rperc._args import whole_number
+from rperc._config_base import as_config, as_config_moved
+from rperc.config import (
+    PatternConfig,
+    PatternConfigOverrides,
+    PatternSequenceConfig,
+    PatternSequenceConfigOverrides,
+)
+from rperc.tracking.trackers import _plain
 
-_TRACKER, _SEQUENCE = _rperc.pattern_defaults()
-_PATTERN = _TRACKER["pattern"]
-_FILTER = _TRACKER["filter"]
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
 
 #: The function approximating a point's auto-correlation whose inverse reads its
 #: deviation (section 3.3): the seed's straight line, or a parabola (the default).
@@ -38,6 +44,28 @@ DeviationName = Literal["line", "parabola"]
 #: The tracker's motion model: the seed's similarity ``(x, y, theta, scale)``, or the
 #: 8-dof homography of a plane seen in perspective.
 MotionName = Literal["similarity", "homography"]
+
+#: The keywords PatternTracker took for fields of its nested parts before it took a
+#: PatternConfig (issue 36), by the part and the field they set there. They still
+#: work, with a DeprecationWarning, for one release.
+_NESTED_KEYWORDS = {
+    **{
+        name: ("pattern", name)
+        for name in (
+            "canny_low",
+            "canny_high",
+            "max_points",
+            "point_spacing",
+            "n_samples",
+            "delta",
+            "occlusion_threshold",
+            "max_occluded_fraction",
+            "deviation",
+        )
+    },
+    "likelihood_sigma": ("pattern", "sigma"),
+    **{name: ("filter", name) for name in ("resampler", "chunk_size", "parallel")},
+}
 
 
 @dataclass(frozen=True, eq=False)
@@ -87,29 +115,31 @@ class PatternPose:
         return np.array(self.corners, dtype=np.float64)
 
 
-def _pose(native: tuple[Any, ...]) -> PatternPose:
-    x, y, theta, scale, score, occluded, lost, corners, homography = native
-    # Frozen: a pose handed out (and the track's last) cannot be changed in place.
-    corners.flags.writeable = False
-    homography.flags.writeable = False
+def _pose(native: _rperc.PatternAnswer) -> PatternPose:
+    # The native answer's arrays are read-only: a pose handed out (and the track's
+    # last) cannot be changed in place.
     return PatternPose(
-        float(x),
-        float(y),
-        float(theta),
-        float(scale),
-        float(score),
-        float(occluded),
-        bool(lost),
-        corners,
-        homography,
+        x=native.x,
+        y=native.y,
+        theta=native.theta,
+        scale=native.scale,
+        score=native.score,
+        occluded_fraction=native.occluded_fraction,
+        lost=native.lost,
+        corners=native.corners,
+        homography=native.homography,
     )
 
 
-def _config(value: Any) -> Any:
+def _tree(value: object) -> object:
     """Nested dicts of numpy scalars and arrays as plain Python, for the config reader."""
-    if isinstance(value, dict):
-        return {k: _config(v) for k, v in value.items()}
+    if isinstance(value, Mapping):
+        return {k: _tree(v) for k, v in value.items()}
     return _plain(value)
+
+
+def _given(config: Mapping[str, object] | None) -> dict[str, object] | None:
+    return None if config is None else {str(k): _tree(v) for k, v in config.items()}
 
 
 def _frame(frame: npt.ArrayLike) -> np.ndarray:
@@ -175,14 +205,15 @@ class PatternTracker:
     CONDENSATION iteration (half its particles around the last pose, twice as wide)
     and keeps the better estimate; 0 never.
     ``lost_occluded_fraction``: the estimate is lost above this occluded fraction.
-    The ``pattern`` parameters (Canny thresholds, points, profile length
-    ``n_samples`` and step ``delta``, likelihood ``likelihood_sigma``, occlusion) are
-    the model's. ``deviation`` is the approximation ``C~`` of a point's
+    The ``pattern`` part (:class:`rperc.config.PatternModelConfig`: Canny thresholds,
+    points, profile length ``n_samples`` and step ``delta``, likelihood ``sigma``,
+    occlusion) is the model's; the ``filter`` part the particle filter's. ``deviation``
+    (in ``pattern``) is the approximation ``C~`` of a point's
     auto-correlation whose inverse turns an inter-correlation into the deviation
     ``lambda``: ``"line"`` is the seed's, ``"parabola"`` (default) keeps ``lambda``
     proportional to a sub-sample offset where the line makes it grow as its square.
-    A seed gives the same track on any number of threads. With ``parallel`` a frame is
-    processed on the thread pool only when particles times model points reaches
+    A seed gives the same track on any number of threads. With ``filter.parallel`` a
+    frame is processed on the thread pool only when particles times model points reaches
     ``parallel_min_work`` (default 100 000): below it, handing a frame to the pool
     and back costs more than two cores save.
     The coarse layer screens ``coarse_particles`` predicted states (the random walk
@@ -191,6 +222,11 @@ class PatternTracker:
     coarse peak by Gauss-Newton and the best ``coarse_kept`` become the particles
     weighed on the frame (``n_particles`` only without the layer): its wider basin
     finds steps of 3 sigma that the particles alone miss. 0 turns it off.
+
+    ``config`` is a :class:`rperc.config.PatternConfig` (or a dict of its fields; its
+    help lists every field with its default); keyword arguments override its fields
+    (``n_particles=500``, ``motion="homography"``, ``pattern=...``), checked by the
+    Rust crate when the tracker is made. ``seed`` seeds the particle filter.
 
     Examples
     --------
@@ -209,83 +245,19 @@ class PatternTracker:
         frame: npt.ArrayLike,
         region: Sequence[int] | npt.ArrayLike,
         *,
-        n_particles: int = _TRACKER["n_particles"],
-        sigma: Sequence[float] = (5.0, 5.0, math.radians(3.0), 0.1),
         seed: int = 0,
-        motion: MotionName = _TRACKER["motion"],
-        lost_gain_spread: float = _TRACKER["lost_gain_spread"],
-        refine_steps: int = _TRACKER["refine_steps"],
-        refine_first_step: float = _TRACKER["refine_first_step"],
-        refined_particle: bool = _TRACKER["refined_particle"],
-        refine_fine_rounds: int = _TRACKER["refine_fine_rounds"],
-        newton_steps: int = _TRACKER["newton_steps"],
-        second_look: float = _TRACKER["second_look"],
-        lost_occluded_fraction: float = _TRACKER["lost_occluded_fraction"],
-        canny_low: float = _PATTERN["canny_low"],
-        canny_high: float = _PATTERN["canny_high"],
-        max_points: int = _PATTERN["max_points"],
-        point_spacing: float = _PATTERN["point_spacing"],
-        n_samples: int = _PATTERN["n_samples"],
-        delta: float = _PATTERN["delta"],
-        likelihood_sigma: float = _PATTERN["sigma"],
-        occlusion_threshold: float = _PATTERN["occlusion_threshold"],
-        max_occluded_fraction: float = _PATTERN["max_occluded_fraction"],
-        deviation: DeviationName = _PATTERN["deviation"],
-        resampler: ResamplerName = _FILTER["resampler"],
-        chunk_size: int = _FILTER["chunk_size"],
-        parallel: bool = _FILTER["parallel"],
-        parallel_min_work: int = _TRACKER["parallel_min_work"],
-        coarse_particles: int = _TRACKER["coarse_particles"],
-        coarse_factor: int = _TRACKER["coarse_factor"],
-        coarse_points: int = _TRACKER["coarse_points"],
-        coarse_kept: int = _TRACKER["coarse_kept"],
-        coarse_spread: float = _TRACKER["coarse_spread"],
-        coarse_refined: int = _TRACKER["coarse_refined"],
+        config: PatternConfig | Mapping[str, object] | None = None,
+        **overrides: Unpack[PatternConfigOverrides],
     ) -> None:
-        sig = float_array(sigma, "sigma").reshape(-1)
-        if sig.shape != (4,):
-            raise ValueError(f"sigma must be 4 numbers (x, y, theta, s), got {np.shape(sigma)}")
-        pattern = {
-            **_PATTERN,
-            "canny_low": canny_low,
-            "canny_high": canny_high,
-            "max_points": max_points,
-            "point_spacing": point_spacing,
-            "n_samples": n_samples,
-            "delta": delta,
-            "sigma": likelihood_sigma,
-            "occlusion_threshold": occlusion_threshold,
-            "max_occluded_fraction": max_occluded_fraction,
-            "deviation": deviation,
-        }
-        config = {
-            "n_particles": n_particles,
-            "sigma": sig.tolist(),
-            "refine_steps": refine_steps,
-            "refine_first_step": refine_first_step,
-            "refined_particle": refined_particle,
-            "refine_fine_rounds": refine_fine_rounds,
-            "newton_steps": newton_steps,
-            "parallel_min_work": parallel_min_work,
-            "coarse_particles": coarse_particles,
-            "coarse_factor": coarse_factor,
-            "coarse_points": coarse_points,
-            "coarse_kept": coarse_kept,
-            "coarse_spread": coarse_spread,
-            "coarse_refined": coarse_refined,
-            "second_look": second_look,
-            "lost_occluded_fraction": lost_occluded_fraction,
-            "motion": motion,
-            "lost_gain_spread": lost_gain_spread,
-            "pattern": pattern,
-            "filter": {
-                **_FILTER,
-                "resampler": resampler,
-                "chunk_size": chunk_size,
-                "parallel": parallel,
-            },
-        }
-        native = _rperc.PatternTracker(_frame(frame), _region(region), _seed(seed), _config(config))
+        #: The tracker's settings, checked by the Rust crate when they were made.
+        base = config if isinstance(config, PatternConfig) else _given(config)
+        fields = {k: _tree(v) for k, v in overrides.items()}
+        self.config: PatternConfig = as_config_moved(
+            PatternConfig, base, fields, _NESTED_KEYWORDS, "PatternTracker"
+        )
+        native = _rperc.PatternTracker(
+            _frame(frame), _region(region), _seed(seed), self.config.to_dict()
+        )
         self._native = native
         # The native tracker's own initial pose: its corners come from the one place
         # that maps a pose to corners, not from a second formula here.
@@ -343,18 +315,9 @@ def pattern_sequence(
     patch: npt.ArrayLike,
     background: npt.ArrayLike,
     *,
-    n_frames: int = _SEQUENCE["n_frames"],
-    size: tuple[int, int] = (_SEQUENCE["width"], _SEQUENCE["height"]),
-    sigma: Sequence[float] = (5.0, 5.0, math.radians(3.0), 0.1),
-    max_step_sigmas: float = _SEQUENCE["max_step_sigmas"],
-    other_step_sigmas: float = _SEQUENCE["other_step_sigmas"],
-    max_occlusion: float = _SEQUENCE["max_occlusion"],
-    gain: tuple[float, float] = tuple(_SEQUENCE["gain"]),
-    offset: tuple[float, float] = tuple(_SEQUENCE["offset"]),
-    noise: float = _SEQUENCE["noise"],
-    background_speed: float = _SEQUENCE["background_speed"],
-    scale_range: tuple[float, float] = tuple(_SEQUENCE["scale_range"]),
-    seed: int = 0,
+    config: PatternSequenceConfig | Mapping[str, object] | None = None,
+    size: tuple[int, int] | None = None,
+    **overrides: Unpack[PatternSequenceConfigOverrides],
 ) -> PatternSequence:
     """The Fig. 8 experiment's sequence: ``patch`` (2-D grey levels) moved along a seeded
     trajectory over ``background`` (2-D, moving by ``background_speed`` px/frame).
@@ -363,25 +326,24 @@ def pattern_sequence(
     ``[-max_step_sigmas sigma, +max_step_sigmas sigma]`` and the others within
     ``other_step_sigmas sigma``; a band of clutter hides up to ``max_occlusion`` of the
     patch; the whole frame gets ``gain * g + offset`` (uniform in the ranges) and
-    Gaussian ``noise``. ``size`` is ``(width, height)``. The GIL is released.
+    Gaussian ``noise``. ``config`` is a :class:`rperc.config.PatternSequenceConfig` (or
+    a dict of its fields); keyword arguments override its fields (``n_frames``,
+    ``width``, ``height``, ``seed``, ...). ``size=(width, height)`` is deprecated. The
+    GIL is released.
     """
-    config = {
-        "n_frames": n_frames,
-        "width": size[0],
-        "height": size[1],
-        "sigma": list(sigma),
-        "max_step_sigmas": max_step_sigmas,
-        "other_step_sigmas": other_step_sigmas,
-        "max_occlusion": max_occlusion,
-        "gain": list(gain),
-        "offset": list(offset),
-        "noise": noise,
-        "background_speed": background_speed,
-        "scale_range": list(scale_range),
-        "seed": _seed(seed),
-    }
+    fields = {k: _tree(v) for k, v in overrides.items()}
+    if size is not None:
+        warnings.warn(
+            "pattern_sequence(size=(w, h)) is deprecated; use width=w, height=h",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        fields.update(width=_tree(size[0]), height=_tree(size[1]))
+    if "seed" in fields:
+        fields["seed"] = _seed(fields["seed"])  # type: ignore[arg-type]
+    base = config if isinstance(config, PatternSequenceConfig) else _given(config)
+    cfg = as_config(PatternSequenceConfig, base, fields)
     p = np.asarray(patch, dtype=np.float64)
     b = np.asarray(background, dtype=np.float64)
-    frames, truth, occlusion, illumination, region = _rperc.pattern_sequence(p, b, _config(config))
-    x, y, w, h = (int(v) for v in region)
-    return PatternSequence(frames, truth, occlusion, illumination, (x, y, w, h))
+    seq = _rperc.pattern_sequence(p, b, cfg.to_dict())
+    return PatternSequence(seq.frames, seq.truth, seq.occlusion, seq.illumination, seq.region)

@@ -506,12 +506,20 @@ def harness_cases(
     def seq(**kw: Any) -> PatternSequence:
         kw.setdefault("background", background)
         bg = kw.pop("background")
-        return pattern_sequence(patch, bg, n_frames=n_frames, size=size, seed=seed, **kw)
+        return pattern_sequence(
+            patch, bg, n_frames=n_frames, width=size[0], height=size[1], seed=seed, **kw
+        )
 
     every = np.ones(n_frames - 1, bool)
     # Three times the frames: a sixth of uniform steps fall within 2.5-3 sigma.
     near3 = pattern_sequence(
-        patch, background, n_frames=3 * n_frames, size=size, seed=seed, max_step_sigmas=3.0
+        patch,
+        background,
+        n_frames=3 * n_frames,
+        width=size[0],
+        height=size[1],
+        seed=seed,
+        max_step_sigmas=3.0,
     )
     k = np.arange(3 * n_frames - 1)
     steps = np.abs(np.diff(near3.truth, axis=0) / np.array(SIGMA))

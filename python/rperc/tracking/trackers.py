@@ -25,8 +25,17 @@ import numpy.typing as npt
 
 from rperc import _rperc
 from rperc._args import excerpt, whole_number
-from rperc._config_base import native_config
-from rperc.config import ColorShapeConfig, ColorShapeConfigOverrides
+from rperc._config_base import as_config, as_config_moved
+from rperc.config import (
+    ColorHistogramConfig,
+    ColorHistogramConfigOverrides,
+    ColorShapeConfig,
+    ColorShapeConfigOverrides,
+    ColorTemplateConfig,
+    ColorTemplateConfigOverrides,
+    ParticleColorConfig,
+    ParticleColorConfigOverrides,
+)
 
 if TYPE_CHECKING:
     from typing_extensions import Unpack
@@ -37,10 +46,25 @@ ResamplerName = Literal["systematic", "multinomial", "stratified", "residual"]
 Channels = Literal["rgb", "bgr"]
 Box = tuple[float, float, float, float]
 
-# The Rust configs are the one source of the defaults shown in the signatures below.
-_COLOR, _PARTICLE = _rperc.tracker_defaults()
-_APPEARANCE = _COLOR["appearance"]
-_FILTER = _PARTICLE["filter"]
+#: The keywords the histogram trackers took for the fields of their nested parts before
+#: they took a config (issue 36), by the part and the field they set: they still work,
+#: with a DeprecationWarning, for one release.
+_APPEARANCE_KEYWORDS = {
+    name: ("appearance", name)
+    for name in (
+        "color_space",
+        "bins",
+        "model",
+        "upper_fraction",
+        "adaptation_rate",
+        "adaptation_threshold",
+        "gradient_weight",
+        "lost_threshold",
+    )
+}
+_FILTER_KEYWORDS = {
+    name: ("filter", name) for name in ("resampler", "resample_below", "chunk_size", "parallel")
+}
 
 
 @dataclass(frozen=True)
@@ -54,7 +78,7 @@ class TrackResult:
     score: float
     lost: bool
 
-    def __iter__(self) -> Iterator[Any]:
+    def __iter__(self) -> Iterator[Box | float | bool]:
         return iter((self.box, self.score, self.lost))
 
     def __repr__(self) -> str:
@@ -133,8 +157,9 @@ def _plain(value: Any) -> Any:
     return value
 
 
-def _appearance(**values: Any) -> dict[str, Any]:
-    return {k: _plain(v) for k, v in values.items()}
+def _given(config: Mapping[str, object] | None) -> dict[str, object] | None:
+    """A dict of config fields with numpy values as Python ones."""
+    return None if config is None else {str(k): _plain(v) for k, v in config.items()}
 
 
 @dataclass(frozen=True, repr=False)
@@ -159,14 +184,13 @@ class ColorTemplateResult(TrackResult):
         )
 
 
-_Native = tuple[Sequence[float], float, bool] | _rperc.ColorTemplateAnswer
+_Native = _rperc.TrackAnswer | _rperc.ColorTemplateAnswer
 
 
 def _answer(native: _Native) -> TrackResult:
     if isinstance(native, _rperc.ColorTemplateAnswer):
         return _template_answer(native)
-    b, score, lost = native
-    return TrackResult((b[0], b[1], b[2], b[3]), float(score), bool(lost))
+    return TrackResult(native.box, native.score, native.lost)
 
 
 def _template_answer(native: _rperc.ColorTemplateAnswer) -> ColorTemplateResult:
@@ -226,10 +250,14 @@ class ColorHistogramTracker(_BoxTracker[_rperc.ColorHistogramTracker]):
     the perimeter. The model adapts by eq. (29) with rate ``adaptation_rate`` when the
     match exceeds ``adaptation_threshold``.
 
-    Parameters: ``color_space`` (``"hsv"``, ``"opponent"`` = the seed's (B-G, G-R,
-    R+G+B), ``"rg"``, ``"rgb"``), ``bins`` per axis, ``model``, ``upper_fraction`` of the
-    ellipse's rows in the upper part, ``lost_threshold`` (score below which the target
-    is reported lost), ``search_radius`` (px, when still), ``velocity_gain`` (the window
+    ``config`` is a :class:`rperc.config.ColorHistogramConfig` (or a dict of its fields;
+    its help lists every field with its default); keyword arguments override its
+    fields, checked by the Rust crate when the tracker is made. Its ``appearance`` part
+    (:class:`rperc.config.AppearanceParams`): ``color_space`` (``"hsv"``,
+    ``"opponent"`` = the seed's (B-G, G-R, R+G+B), ``"rg"``, ``"rgb"``), ``bins`` per
+    axis, ``model``, ``upper_fraction`` of the ellipse's rows in the upper part,
+    ``lost_threshold`` (score below which the target is reported lost). Its own fields:
+    ``search_radius`` (px, when still), ``velocity_gain`` (the window
     grows by this times the estimated speed), ``max_search_radius`` (px; also the widest
     search while lost), ``lost_ratio`` (lost below this fraction of the running
     confident score), ``lost_contrast`` (lost when the box's foreground probability
@@ -239,8 +267,8 @@ class ColorHistogramTracker(_BoxTracker[_rperc.ColorHistogramTracker]):
     (relative to the first box), ``momentum`` (constant-velocity prediction, 0..1),
     ``pyramid`` (search a 2 x 2-averaged frame first, then refine the best position at
     full resolution; used while both semi-axes are at least 8 px), ``parallel``
-    (search the scales on several threads; same result), ``channels`` (``"rgb"``, or
-    ``"bgr"`` for OpenCV frames).
+    (search the scales on several threads; same result). ``channels``: ``"rgb"``, or
+    ``"bgr"`` for OpenCV frames.
 
     When the target is lost (:attr:`TrackResult.lost`) the box stays where it was last
     seen and the search window doubles every frame (up to ``max_search_radius``) until
@@ -263,62 +291,22 @@ class ColorHistogramTracker(_BoxTracker[_rperc.ColorHistogramTracker]):
         frame: npt.ArrayLike,
         box: Sequence[float] | npt.ArrayLike,
         *,
-        color_space: ColorSpace = _APPEARANCE["color_space"],
-        bins: Sequence[int] = tuple(_APPEARANCE["bins"]),
-        model: ModelKind = _APPEARANCE["model"],
-        upper_fraction: float = _APPEARANCE["upper_fraction"],
-        adaptation_rate: float = _APPEARANCE["adaptation_rate"],
-        adaptation_threshold: float = _APPEARANCE["adaptation_threshold"],
-        gradient_weight: float = _APPEARANCE["gradient_weight"],
-        lost_threshold: float = _APPEARANCE["lost_threshold"],
-        search_radius: int = _COLOR["search_radius"],
-        velocity_gain: float = _COLOR["velocity_gain"],
-        max_search_radius: int = _COLOR["max_search_radius"],
-        lost_ratio: float = _COLOR["lost_ratio"],
-        lost_contrast: float = _COLOR["lost_contrast"],
-        ring_weight: float = _COLOR["ring_weight"],
-        scale_prior: float = _COLOR["scale_prior"],
-        scale_step: float = _COLOR["scale_step"],
-        min_scale: float = _COLOR["min_scale"],
-        max_scale: float = _COLOR["max_scale"],
-        momentum: float = _COLOR["momentum"],
-        pyramid: bool = _COLOR["pyramid"],
-        parallel: bool = _COLOR["parallel"],
+        config: ColorHistogramConfig | Mapping[str, object] | None = None,
         channels: Channels = "rgb",
+        **overrides: Unpack[ColorHistogramConfigOverrides],
     ) -> None:
-        appearance = _appearance(
-            color_space=color_space,
-            bins=bins,
-            model=model,
-            upper_fraction=upper_fraction,
-            adaptation_rate=adaptation_rate,
-            adaptation_threshold=adaptation_threshold,
-            gradient_weight=gradient_weight,
-            lost_threshold=lost_threshold,
+        base = config if isinstance(config, ColorHistogramConfig) else _given(config)
+        fields = {k: _plain(v) for k, v in overrides.items()}
+        #: The tracker's settings, checked by the Rust crate when they were made.
+        self.config = as_config_moved(
+            ColorHistogramConfig, base, fields, _APPEARANCE_KEYWORDS, "ColorHistogramTracker"
         )
-        config = {
-            "appearance": appearance,
-            **_appearance(
-                search_radius=search_radius,
-                velocity_gain=velocity_gain,
-                max_search_radius=max_search_radius,
-                lost_ratio=lost_ratio,
-                lost_contrast=lost_contrast,
-                ring_weight=ring_weight,
-                scale_prior=scale_prior,
-                scale_step=scale_step,
-                min_scale=min_scale,
-                max_scale=max_scale,
-                momentum=momentum,
-                pyramid=pyramid,
-                parallel=parallel,
-            ),
-        }
+        native = self.config.to_dict()
         self._start(
             frame,
             box,
             channels,
-            lambda first, start: _rperc.ColorHistogramTracker(first, start, config),
+            lambda first, start: _rperc.ColorHistogramTracker(first, start, native),
         )
 
     @property
@@ -344,17 +332,19 @@ class ColorHistogramTracker(_BoxTracker[_rperc.ColorHistogramTracker]):
 class ParticleColorTracker(_BoxTracker[_rperc.ParticleColorTracker]):
     """CONDENSATION over ``(x, y, scale)`` with the histogram-intersection likelihood
     (seed 000 section 3.3, seed 001 section 3.1): many hypotheses instead of one local
-    search, for clutter and fast motion. Same appearance parameters as
-    :class:`ColorHistogramTracker`, plus ``n_particles``, ``position_noise`` (random-walk
+    search, for clutter and fast motion. ``config`` is a
+    :class:`rperc.config.ParticleColorConfig` (or a dict of its fields), its fields
+    also keyword overrides: the same ``appearance`` part as
+    :class:`ColorHistogramTracker`, ``n_particles``, ``position_noise`` (random-walk
     standard deviation as a fraction of the box's mean semi-axis), ``scale_noise``,
     ``sigma`` of the likelihood ``exp(-(1 - score)^2 / 2 sigma^2)``, ``mix_fraction``
     (share of the particles redrawn each frame around the best centre of a coarse
     local search within ``search_radius`` px, grown by ``velocity_gain`` times the
     estimated speed up to ``max_search_radius``: a mixture proposal that keeps
-    particles on a target that jumped; 0 is plain CONDENSATION), ``resampler``,
-    ``resample_below`` (resample only when the ESS falls below this fraction; ``None``:
-    every step, as the seed does), ``chunk_size``, ``parallel`` and ``channels``. A seed
-    gives the same track on any number of threads.
+    particles on a target that jumped; 0 is plain CONDENSATION), and the ``filter``
+    part: ``resampler``, ``resample_below`` (resample only when the ESS falls below this
+    fraction; ``None``: every step, as the seed does), ``chunk_size``, ``parallel``. A
+    seed gives the same track on any number of threads.
     """
 
     def __init__(
@@ -363,67 +353,24 @@ class ParticleColorTracker(_BoxTracker[_rperc.ParticleColorTracker]):
         box: Sequence[float] | npt.ArrayLike,
         *,
         seed: int = 0,
-        n_particles: int = _PARTICLE["n_particles"],
-        position_noise: float = _PARTICLE["position_noise"],
-        scale_noise: float = _PARTICLE["scale_noise"],
-        sigma: float = _PARTICLE["sigma"],
-        min_scale: float = _PARTICLE["min_scale"],
-        max_scale: float = _PARTICLE["max_scale"],
-        mix_fraction: float = _PARTICLE["mix_fraction"],
-        search_radius: int = _PARTICLE["search_radius"],
-        velocity_gain: float = _PARTICLE["velocity_gain"],
-        max_search_radius: int = _PARTICLE["max_search_radius"],
-        resampler: ResamplerName = _FILTER["resampler"],
-        resample_below: float | None = _FILTER["resample_below"],
-        chunk_size: int = _FILTER["chunk_size"],
-        parallel: bool = _FILTER["parallel"],
-        color_space: ColorSpace = _APPEARANCE["color_space"],
-        bins: Sequence[int] = tuple(_APPEARANCE["bins"]),
-        model: ModelKind = _APPEARANCE["model"],
-        upper_fraction: float = _APPEARANCE["upper_fraction"],
-        adaptation_rate: float = _APPEARANCE["adaptation_rate"],
-        adaptation_threshold: float = _APPEARANCE["adaptation_threshold"],
-        gradient_weight: float = _APPEARANCE["gradient_weight"],
-        lost_threshold: float = _APPEARANCE["lost_threshold"],
+        config: ParticleColorConfig | Mapping[str, object] | None = None,
         channels: Channels = "rgb",
+        **overrides: Unpack[ParticleColorConfigOverrides],
     ) -> None:
-        appearance = _appearance(
-            color_space=color_space,
-            bins=bins,
-            model=model,
-            upper_fraction=upper_fraction,
-            adaptation_rate=adaptation_rate,
-            adaptation_threshold=adaptation_threshold,
-            gradient_weight=gradient_weight,
-            lost_threshold=lost_threshold,
+        base = config if isinstance(config, ParticleColorConfig) else _given(config)
+        fields = {k: _plain(v) for k, v in overrides.items()}
+        moved = {**_APPEARANCE_KEYWORDS, **_FILTER_KEYWORDS}
+        #: The tracker's settings, checked by the Rust crate when they were made.
+        self.config = as_config_moved(
+            ParticleColorConfig, base, fields, moved, "ParticleColorTracker"
         )
-        config = {
-            "appearance": appearance,
-            "filter": _appearance(
-                resampler=resampler,
-                resample_below=resample_below,
-                chunk_size=chunk_size,
-                parallel=parallel,
-            ),
-            **_appearance(
-                n_particles=n_particles,
-                position_noise=position_noise,
-                scale_noise=scale_noise,
-                sigma=sigma,
-                min_scale=min_scale,
-                max_scale=max_scale,
-                mix_fraction=mix_fraction,
-                search_radius=search_radius,
-                velocity_gain=velocity_gain,
-                max_search_radius=max_search_radius,
-            ),
-        }
+        native = self.config.to_dict()
         seed = whole_number(seed, "seed", 0, limit=2**64)
         self._start(
             frame,
             box,
             channels,
-            lambda first, start: _rperc.ParticleColorTracker(first, start, seed, config),
+            lambda first, start: _rperc.ParticleColorTracker(first, start, seed, native),
         )
 
     @property
@@ -461,7 +408,6 @@ def _weights(weights: npt.ArrayLike) -> np.ndarray:
     return arr.astype(np.float64)
 
 
-_TEMPLATE = _rperc.color_template_defaults()
 TemplateColorSpace = Literal["hsv", "opponent", "rg", "rgb"]
 
 
@@ -488,8 +434,11 @@ class ColorTemplateTracker(_BoxTracker[_rperc.ColorTemplateTracker]):
     about 2.5 windows wide); a distant window, re-centred on its peak, is taken when it
     passes the same rule and its peak reaches ``redetect_ratio`` times the level.
 
-    ``seed`` is accepted for the trackers' common signature; nothing is random.
-    Defaults were chosen by leave-one-sequence-out over the ten dev OTB sequences.
+    ``config`` is a :class:`rperc.config.ColorTemplateConfig` (or a dict of its fields;
+    its help lists every field with its default); keyword arguments override its
+    fields, checked by the Rust crate when the tracker is made. ``seed`` is accepted
+    for the trackers' common signature; nothing is random. Defaults were chosen by
+    leave-one-sequence-out over the ten dev OTB sequences.
 
     Examples
     --------
@@ -510,68 +459,23 @@ class ColorTemplateTracker(_BoxTracker[_rperc.ColorTemplateTracker]):
         box: Sequence[float] | npt.ArrayLike,
         *,
         seed: int = 0,
-        template_size: int = _TEMPLATE["template_size"],
-        cell_size: int = _TEMPLATE["cell_size"],
-        padding: float = _TEMPLATE["padding"],
-        learning_rate: float = _TEMPLATE["learning_rate"],
-        lambda_: float = _TEMPLATE["lambda"],
-        output_sigma_factor: float = _TEMPLATE["output_sigma_factor"],
-        color_space: TemplateColorSpace = _TEMPLATE["color_space"],
-        bins: Sequence[int] = tuple(_TEMPLATE["bins"]),
-        color_learning_rate: float = _TEMPLATE["color_learning_rate"],
-        inner_padding: float = _TEMPLATE["inner_padding"],
-        merge_factor: float = _TEMPLATE["merge_factor"],
-        n_scales: int = _TEMPLATE["n_scales"],
-        scale_step: float = _TEMPLATE["scale_step"],
-        scale_learning_rate: float = _TEMPLATE["scale_learning_rate"],
-        scale_sigma: float = _TEMPLATE["scale_sigma"],
-        scale_model_area: float = _TEMPLATE["scale_model_area"],
-        min_scale: float = _TEMPLATE["min_scale"],
-        max_scale: float = _TEMPLATE["max_scale"],
-        lost_ratio: float = _TEMPLATE["lost_ratio"],
-        lost_psr_ratio: float = _TEMPLATE["lost_psr_ratio"],
-        lost_color_ratio: float = _TEMPLATE["lost_color_ratio"],
-        lost_level_decay: float = _TEMPLATE["lost_level_decay"],
-        redetect_step: float = _TEMPLATE["redetect_step"],
-        redetect_radius: int = _TEMPLATE["redetect_radius"],
-        redetect_ratio: float = _TEMPLATE["redetect_ratio"],
-        lost_motion: float = _TEMPLATE["lost_motion"],
+        config: ColorTemplateConfig | Mapping[str, object] | None = None,
         channels: Channels = "rgb",
+        **overrides: Unpack[ColorTemplateConfigOverrides],
     ) -> None:
-        config = _appearance(
-            template_size=template_size,
-            cell_size=cell_size,
-            padding=padding,
-            learning_rate=learning_rate,
-            output_sigma_factor=output_sigma_factor,
-            color_space=color_space,
-            bins=bins,
-            color_learning_rate=color_learning_rate,
-            inner_padding=inner_padding,
-            merge_factor=merge_factor,
-            n_scales=n_scales,
-            scale_step=scale_step,
-            scale_learning_rate=scale_learning_rate,
-            scale_sigma=scale_sigma,
-            scale_model_area=scale_model_area,
-            min_scale=min_scale,
-            max_scale=max_scale,
-            lost_ratio=lost_ratio,
-            lost_psr_ratio=lost_psr_ratio,
-            lost_color_ratio=lost_color_ratio,
-            lost_level_decay=lost_level_decay,
-            redetect_step=redetect_step,
-            redetect_radius=redetect_radius,
-            redetect_ratio=redetect_ratio,
-            lost_motion=lost_motion,
+        if config is not None and not isinstance(config, ColorTemplateConfig):
+            config = {str(k): _plain(v) for k, v in config.items()}
+        #: The tracker's settings, checked by the Rust crate when they were made.
+        self.config = as_config(
+            ColorTemplateConfig, config, {k: _plain(v) for k, v in overrides.items()}
         )
-        config["lambda"] = _plain(lambda_)
+        native = self.config.to_dict()
         seed = whole_number(seed, "seed", 0, limit=2**64)
         self._start(
             frame,
             box,
             channels,
-            lambda first, start: _rperc.ColorTemplateTracker(first, start, seed, config),
+            lambda first, start: _rperc.ColorTemplateTracker(first, start, seed, native),
         )
 
     def update(self, frame: npt.ArrayLike) -> ColorTemplateResult:
@@ -646,15 +550,18 @@ class ColorShapeTracker:
         box: Sequence[float] | npt.ArrayLike | None = None,
         *,
         contour: npt.ArrayLike | None = None,
-        config: ColorShapeConfig | Mapping[str, Any] | None = None,
+        config: ColorShapeConfig | Mapping[str, object] | None = None,
         channels: Channels = "rgb",
         **overrides: Unpack[ColorShapeConfigOverrides],
     ) -> None:
         if box is None and contour is None:
             raise ValueError("give a box (x, y, w, h) or a contour (N x 2)")
-        if config is not None and not isinstance(config, ColorShapeConfig):
-            config = {k: _plain(v) for k, v in config.items()}
-        cfg = native_config(ColorShapeConfig, config, {k: _plain(v) for k, v in overrides.items()})
+        base = config if isinstance(config, ColorShapeConfig) else _given(config)
+        #: The tracker's settings, checked by the Rust crate when they were made.
+        self.config = as_config(
+            ColorShapeConfig, base, {k: _plain(v) for k, v in overrides.items()}
+        )
+        cfg = self.config.to_dict()
         poly = None if contour is None else np.asarray(contour, dtype=np.float64)
         if poly is not None and (poly.ndim != 2 or poly.shape[1] != 2):
             raise ValueError(f"contour must have shape (N, 2), got {poly.shape}")
@@ -666,10 +573,8 @@ class ColorShapeTracker:
 
     def update(self, frame: npt.ArrayLike) -> ColorShapeResult:
         """One CONDENSATION step and contour refinement on the next frame."""
-        contour, b, dist, score, lost, ess = self._native.update(_frame(frame, self._channels))
-        self._last = ColorShapeResult(
-            contour, _box(b), tuple(float(v) for v in dist), float(score), bool(lost), ess
-        )
+        a = self._native.update(_frame(frame, self._channels))
+        self._last = ColorShapeResult(a.contour, a.box, a.distribution, a.score, a.lost, a.ess)
         return self._last
 
     def __repr__(self) -> str:

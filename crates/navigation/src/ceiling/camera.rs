@@ -22,7 +22,16 @@ use crate::error::{NavigationError, Result};
 /// Where the camera sits on the robot: the camera frame in the robot frame,
 /// `X_R = R_m X_C + offset`, with `R_m = Rz(yaw) Ry(pitch) Rx(roll)` (radians).
 /// The ideal mount is all zeros.
-#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Deserialize, serde::Serialize)]
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Default,
+    serde::Deserialize,
+    serde::Serialize,
+    schemars::JsonSchema,
+)]
 #[serde(default, deny_unknown_fields)]
 pub struct CameraMount {
     /// Rotation about the camera's x axis, radians.
@@ -62,7 +71,9 @@ impl CameraMount {
 /// let uv = camera.project_ideal(&robot, [2.0, 1.0]);
 /// assert!((uv[0] - camera.cx).abs() < 1e-9 && (uv[1] - camera.cy).abs() < 1e-9);
 /// ```
-#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
+)]
 #[serde(default, deny_unknown_fields)]
 pub struct CeilingCamera {
     /// Image width, pixels.

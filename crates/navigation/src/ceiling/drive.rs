@@ -8,7 +8,7 @@ use rperc_core::rng::{normal, stream};
 use crate::error::{NavigationError, Result};
 
 /// How the odometry errs.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct OdometryNoise {
     /// Relative error of the measured speed (the odometry reads `v (1 + e)`).
@@ -32,6 +32,18 @@ impl Default for OdometryNoise {
             turn_sigma: 0.03,
             seed: 0,
         }
+    }
+}
+
+impl OdometryNoise {
+    /// Refuses bad values with the parameter's name.
+    pub fn validate(&self) -> Result<()> {
+        use rperc_core::{ensure_in_range, ensure_non_negative};
+        ensure_in_range("speed_scale_error", self.speed_scale_error, -0.5, 0.5)?;
+        ensure_in_range("turn_scale_error", self.turn_scale_error, -0.5, 0.5)?;
+        ensure_non_negative("speed_sigma", self.speed_sigma)?;
+        ensure_non_negative("turn_sigma", self.turn_sigma)?;
+        Ok(())
     }
 }
 
@@ -59,14 +71,11 @@ pub struct Drive {
 /// assert!(run.odometry[10].x > 1.0);                   // the odometry reads 3 % long
 /// ```
 pub fn drive(start: Pose2, commands: &[[f64; 2]], dt: f64, noise: &OdometryNoise) -> Result<Drive> {
-    use rperc_core::{ensure_finite, ensure_in_range, ensure_non_negative, ensure_positive};
+    use rperc_core::{ensure_finite, ensure_positive};
     ensure_positive("dt", dt)?;
     ensure_finite("start", [start.x, start.y, start.theta].iter())?;
     ensure_finite("commands", commands.iter().flatten())?;
-    ensure_in_range("speed_scale_error", noise.speed_scale_error, -0.5, 0.5)?;
-    ensure_in_range("turn_scale_error", noise.turn_scale_error, -0.5, 0.5)?;
-    ensure_non_negative("speed_sigma", noise.speed_sigma)?;
-    ensure_non_negative("turn_sigma", noise.turn_sigma)?;
+    noise.validate()?;
     if commands.is_empty() {
         return Err(NavigationError::InvalidParameter {
             name: "commands",

@@ -13,7 +13,7 @@ use super::world::Ceiling;
 use crate::error::Result;
 
 /// The effects of one rendering.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct RenderParams {
     /// Standard deviation of the additive noise, grey levels.

@@ -117,7 +117,7 @@ pub struct CeilingPattern {
 }
 
 /// How a ceiling is generated.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct CeilingParams {
     /// Extent along world x, metres (the ceiling spans `[0, size[0]] x [0, size[1]]`).

@@ -20,7 +20,7 @@ pub struct TrackedModel {
 }
 
 /// When a new key image is taken.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct KeyImageParams {
     /// Condition (ii): the largest turn of a shared model between successive key

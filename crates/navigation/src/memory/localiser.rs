@@ -29,7 +29,7 @@ use super::geometry::ImageScale;
 use crate::error::{NavigationError, Result};
 
 /// How the pose filter weighs the odometry and the trackers.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct LocaliserParams {
     /// Standard deviation of a tracked model's image position, pixels.

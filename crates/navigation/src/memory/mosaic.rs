@@ -19,7 +19,7 @@ use tracking::pattern::{
 };
 
 /// How the mosaic is built and the robot localised.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct MosaicParams {
     /// Each model's tracker.

@@ -241,7 +241,7 @@ impl Learning {
 }
 
 /// How a learning run goes.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct LearnParams {
     /// Mosaic building.
@@ -270,6 +270,17 @@ impl Default for LearnParams {
     }
 }
 
+impl LearnParams {
+    /// Refuses bad values with the parameter's name.
+    pub fn validate(&self) -> Result<()> {
+        self.mosaic.validate()?;
+        self.keys.validate()?;
+        self.odometry.validate()?;
+        rperc_core::ensure_in_range("covariance_scale", self.covariance_scale, 1.0, 1e6)?;
+        Ok(())
+    }
+}
+
 /// Drives `commands` (`(v, omega)` held `dt` s each) from `start`, building the mosaic
 /// from the images (and the odometry, for the heading while only a small model is in
 /// view), then picks the key images.
@@ -281,7 +292,7 @@ pub fn learn(
     params: &LearnParams,
     seed: u64,
 ) -> Result<Learning> {
-    rperc_core::ensure_in_range("covariance_scale", params.covariance_scale, 1.0, 1e6)?;
+    params.validate()?;
     let drive = crate::ceiling::drive(start, commands, dt, &params.odometry)?;
     let mut builder = MosaicBuilder::new(*world.camera, params.mosaic.clone(), seed)?;
     let (mut reports, mut seconds) = (Vec::new(), Vec::new());
@@ -331,7 +342,7 @@ pub fn learn(
 }
 
 /// How a replay runs.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct ReplayParams {
     /// The localiser (tracker parameters; mapping is off).
@@ -372,6 +383,7 @@ impl ReplayParams {
     pub fn validate(&self) -> Result<()> {
         self.mosaic.validate()?;
         self.servo.validate()?;
+        self.actuation.validate()?;
         rperc_core::ensure_positive("dt", self.dt)?;
         rperc_core::ensure_positive("metres_per_pixel", self.metres_per_pixel)?;
         if self.max_frames == 0 {

@@ -14,7 +14,7 @@ use rperc_core::image::GrayImage;
 use crate::error::{NavigationError, Result};
 
 /// How regions are proposed.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct ProposalParams {
     /// Least difference from the image's median grey that marks a pattern pixel.

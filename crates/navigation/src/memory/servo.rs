@@ -16,7 +16,7 @@ use super::keyimages::{KeyImage, TrackedModel};
 use crate::error::Result;
 
 /// Gains and limits of the servoing law.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct ServoParams {
     /// Forward gain, 1/s (pixels of error to pixels per second).

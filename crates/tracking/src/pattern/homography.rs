@@ -12,8 +12,21 @@ use crate::error::{Result, TrackingError};
 
 /// The motion model of a [`super::PatternTracker`]: the seed's similarity `(x, y,
 /// theta, s)` (section 3.3), or a plane seen in perspective (an 8-dof homography).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize, serde::Serialize)]
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Default,
+    serde::Deserialize,
+    serde::Serialize,
+    schemars::JsonSchema,
+)]
 #[serde(rename_all = "lowercase")]
+// slam's vehicle `MotionModel` has the name in the schemas the Python configs are
+// generated from; serde's spelling of the values is unchanged.
+#[schemars(rename = "PatternMotion")]
 pub enum MotionModel {
     /// `(x, y, theta, s)` of eq. 5.
     #[default]

@@ -30,8 +30,10 @@ pub enum Region {
 }
 
 /// Parameters of model building and of the observation model.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
+// `PatternConfig` is the Python name of the whole tracker's config.
+#[schemars(rename = "PatternModelConfig")]
 pub struct PatternConfig {
     /// Canny hysteresis thresholds on imageproc's Sobel magnitude scale.
     pub canny_low: f32,
@@ -77,7 +79,17 @@ pub struct PatternConfig {
 /// The function `C~` approximating a model point's auto-correlation near its peak
 /// (section 3.2, `W(j)`), inverted to read the deviation `lambda = C~^-1(C)` from an
 /// inter-correlation `C` (section 3.3).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize, serde::Serialize)]
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Default,
+    serde::Deserialize,
+    serde::Serialize,
+    schemars::JsonSchema,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum DeviationModel {
     /// The seed's straight line `1 + W lambda`, `W` the slope:

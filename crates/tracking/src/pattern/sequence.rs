@@ -10,7 +10,7 @@ use rperc_core::rng::{normal, seeded};
 use crate::error::{Result, TrackingError};
 
 /// How a sequence is generated.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct SequenceParams {
     /// Frames, the first one at the identity pose included.

@@ -45,8 +45,10 @@ const MAX_COARSE_FACTOR: usize = 32;
 const TYPICAL_SCORE_DECAY: f64 = 0.95;
 
 /// Parameters of a [`PatternTracker`].
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
+// Its Python name, also where the visual memory's mosaic nests it.
+#[schemars(rename = "PatternConfig")]
 pub struct PatternTrackerParams {
     /// `N_p`, the number of particles (section 4.1 uses 200), without the coarse
     /// layer (with it, `coarse_kept`).

@@ -7,7 +7,7 @@ use crate::error::{Result, TrackingError};
 
 /// Parameters of a [`super::ColorTemplateTracker`]. Defaults chosen by
 /// leave-one-sequence-out over the ten dev OTB sequences (see the crate README).
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct ColorTemplateParams {
     /// Side in pixels of the square whose area the search window is resampled to
@@ -22,7 +22,9 @@ pub struct ColorTemplateParams {
     /// Learning rate of the translation filter (running average of its numerator and
     /// denominator), in (0, 1]. Default 0.02.
     pub learning_rate: f64,
-    /// Regulariser `lambda` of the correlation filters, > 0. Default 1e-3.
+    /// Regulariser `lambda` of the correlation filters, > 0. Default 1e-3. Spelled
+    /// `lambda_` in configs (`lambda` is a Python keyword).
+    #[serde(rename = "lambda_")]
     pub lambda: f64,
     /// Width of the Gaussian label as a fraction of the target's mean side (in cells),
     /// > 0. Default 1/16.
@@ -143,7 +145,7 @@ impl ColorTemplateParams {
         count_in("cell_size", self.cell_size, 2, 8)?;
         in_range("padding", self.padding, 0.2, 4.0)?;
         rate("learning_rate", self.learning_rate)?;
-        positive("lambda", self.lambda)?;
+        positive("lambda_", self.lambda)?;
         positive("output_sigma_factor", self.output_sigma_factor)?;
         check_bins(self.bins)?;
         rate("color_learning_rate", self.color_learning_rate)?;

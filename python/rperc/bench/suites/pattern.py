@@ -107,12 +107,13 @@ def parse_steps(text: str) -> list[float]:
 
 
 def settings_taken() -> set[str]:
-    import inspect
+    """The fields of :class:`rperc.config.PatternConfig`: what a settings grid may set
+    (a nested part as a dict of its fields)."""
+    import dataclasses
 
-    from rperc.tracking import PatternTracker
+    from rperc.config import PatternConfig
 
-    params = inspect.signature(PatternTracker.__init__).parameters
-    return {n for n, p in params.items() if p.kind is p.KEYWORD_ONLY and n != "seed"}
+    return {f.name for f in dataclasses.fields(PatternConfig)}
 
 
 def images(root: str) -> tuple[np.ndarray, np.ndarray, str]:
@@ -227,7 +228,8 @@ def sequence(
         patch,
         background,
         n_frames=n_frames,
-        size=(640, 480),
+        width=640,
+        height=480,
         max_step_sigmas=steps,
         other_step_sigmas=steps,
         gain=(1.0 - gain, 1.0 + gain),

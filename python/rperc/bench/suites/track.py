@@ -38,12 +38,21 @@ Box = tuple[float, float, float, float]
 
 def settings_taken() -> set[str]:
     """The keywords of rperc's tracker constructors: what a settings grid may set."""
+    import dataclasses
+
+    from rperc.config import (
+        ColorHistogramConfig,
+        ColorShapeConfig,
+        ColorTemplateConfig,
+        ParticleColorConfig,
+    )
     from rperc.tracking import (
         ColorHistogramTracker,
         ColorShapeTracker,
         ColorTemplateTracker,
         ParticleColorTracker,
     )
+    from rperc.tracking.trackers import _APPEARANCE_KEYWORDS, _FILTER_KEYWORDS
 
     names: set[str] = set()
     for cls in (
@@ -53,8 +62,18 @@ def settings_taken() -> set[str]:
         ColorShapeTracker,
     ):
         params = inspect.signature(cls.__init__).parameters
-        names |= {n for n, p in params.items() if p.kind is p.KEYWORD_ONLY and n != "seed"}
-    return names
+        names |= {n for n, p in params.items() if p.kind is p.KEYWORD_ONLY}
+    # Each tracker takes its config's fields as keyword overrides; the histogram
+    # trackers still take their parts' old flat keywords (deprecated).
+    for config in (
+        ColorTemplateConfig,
+        ColorShapeConfig,
+        ColorHistogramConfig,
+        ParticleColorConfig,
+    ):
+        names |= {f.name for f in dataclasses.fields(config)}
+    names |= set(_APPEARANCE_KEYWORDS) | set(_FILTER_KEYWORDS)
+    return names - {"seed", "config"}
 
 
 def sequence_folders(corpora: Sequence[Path], names: Sequence[str] | None) -> list[str]:

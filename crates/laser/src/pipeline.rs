@@ -18,7 +18,7 @@ use crate::graph::{Edge, PoseGraph};
 use crate::icp::IcpConfig;
 use crate::loops::{Closure, LoopConfig, agree, close_loop};
 use crate::odometry::{Step, steps};
-use crate::scan::{Beams, ScanConfig, ScanPoints, check_beams, scan_points};
+use crate::scan::{BeamDirections, Beams, ScanConfig, ScanPoints, check_beams, scan_points_with};
 
 /// Every setting of a run.
 #[derive(
@@ -145,7 +145,7 @@ impl ScanLog<'_> {
         Ok(())
     }
 
-    fn points(&self, k: usize, cfg: &ScanConfig) -> Result<ScanPoints> {
+    fn points(&self, k: usize, cfg: &ScanConfig, cache: &mut BeamDirections) -> Result<ScanPoints> {
         let row = &self.ranges[k * self.width..k * self.width + self.counts[k]];
         let beams = Beams {
             ranges: row,
@@ -153,7 +153,7 @@ impl ScanLog<'_> {
             angle_increment: self.angle_increment[k],
             max_range: self.max_range[k],
         };
-        scan_points(&beams, cfg).map_err(|e| LaserError::AtScan {
+        scan_points_with(&beams, cfg, cache).map_err(|e| LaserError::AtScan {
             index: k,
             source: Box::new(e),
         })
@@ -289,7 +289,8 @@ pub fn run(
         out: LaserRun::default(),
         placed: Vec::with_capacity(log.len()),
     };
-    let first = log.points(0, &cfg.scan)?;
+    let mut directions = BeamDirections::default();
+    let first = log.points(0, &cfg.scan, &mut directions)?;
     run.front.first(0, &first)?;
     run.keys.push(Key {
         scan: 0,
@@ -300,7 +301,7 @@ pub fn run(
     run.record(start, None);
     for k in 1..log.len() {
         rperc_core::interrupt::checkpoint()?;
-        let scan = log.points(k, &cfg.scan)?;
+        let scan = log.points(k, &cfg.scan, &mut directions)?;
         run.step(k, &scan, &odometry[k - 1])
             .map_err(|e| LaserError::AtScan {
                 index: k,

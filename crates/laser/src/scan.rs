@@ -135,8 +135,38 @@ impl ScanPoints {
     }
 }
 
+/// The beams' unit directions, kept from scan to scan: every scan of a log usually
+/// shares one geometry, and a direction's sine and cosine were a twentieth of the
+/// pipeline's time. Recomputed, the same way, whenever the geometry changes.
+#[derive(Debug, Clone, Default)]
+pub struct BeamDirections {
+    key: (u64, u64),
+    directions: Vec<Vector2<f64>>,
+}
+
+impl BeamDirections {
+    /// The directions of `count` beams from `angle_min` by `angle_increment`.
+    fn of(&mut self, angle_min: f64, angle_increment: f64, count: usize) -> &[Vector2<f64>] {
+        let key = (angle_min.to_bits(), angle_increment.to_bits());
+        if key != self.key || self.directions.len() < count {
+            self.key = key;
+            self.directions = (0..count)
+                .map(|i| {
+                    let a = angle_min + i as f64 * angle_increment;
+                    Vector2::new(a.cos(), a.sin())
+                })
+                .collect();
+        }
+        &self.directions[..count]
+    }
+}
+
 /// The valid readings as points, in scan order.
-fn raw_points(beams: &Beams<'_>, cfg: &ScanConfig) -> Result<Vec<Vector2<f64>>> {
+fn raw_points(
+    beams: &Beams<'_>,
+    cfg: &ScanConfig,
+    cache: &mut BeamDirections,
+) -> Result<Vec<Vector2<f64>>> {
     let Beams {
         ranges,
         angle_min,
@@ -159,14 +189,12 @@ fn raw_points(beams: &Beams<'_>, cfg: &ScanConfig) -> Result<Vec<Vector2<f64>>> 
     }
     let far = max_range - cfg.max_range_margin;
     let valid = |r: f64| r.is_finite() && r >= cfg.min_range && r < far;
+    let directions = cache.of(angle_min, angle_increment, ranges.len());
     Ok(ranges
         .iter()
-        .enumerate()
-        .filter(|&(_, &r)| valid(r))
-        .map(|(i, &r)| {
-            let a = angle_min + i as f64 * angle_increment;
-            Vector2::new(r * a.cos(), r * a.sin())
-        })
+        .zip(directions)
+        .filter(|&(&r, _)| valid(r))
+        .map(|(&r, d)| Vector2::new(r * d.x, r * d.y))
         .collect())
 }
 
@@ -188,7 +216,16 @@ fn raw_points(beams: &Beams<'_>, cfg: &ScanConfig) -> Result<Vec<Vector2<f64>>> 
 /// assert!(scan.with_normals() > 10);
 /// ```
 pub fn scan_points(beams: &Beams<'_>, cfg: &ScanConfig) -> Result<ScanPoints> {
-    let raw = raw_points(beams, cfg)?;
+    scan_points_with(beams, cfg, &mut BeamDirections::default())
+}
+
+/// [`scan_points`] with the beams' directions kept in `cache` across calls.
+pub fn scan_points_with(
+    beams: &Beams<'_>,
+    cfg: &ScanConfig,
+    cache: &mut BeamDirections,
+) -> Result<ScanPoints> {
+    let raw = raw_points(beams, cfg, cache)?;
     let step = beams.angle_increment.abs();
     let mut out = ScanPoints::default();
     let mut last: Option<Vector2<f64>> = None;
@@ -257,4 +294,37 @@ pub(crate) fn check_beams(ranges: &[f64], count: usize, index: usize) -> Result<
         )));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Kept directions give exactly the points computed afresh (the oracle), through
+    /// changes of start, step and beam count, and back.
+    #[test]
+    fn kept_directions_equal_fresh_ones() {
+        let cfg = ScanConfig::default();
+        let mut cache = BeamDirections::default();
+        let geometries = [
+            (-1.5, 0.01, 300),
+            (-1.5, 0.01, 200),
+            (-1.4, 0.01, 300),
+            (-1.5, 0.02, 150),
+            (-1.5, 0.01, 300),
+        ];
+        for (k, (start, step, n)) in geometries.into_iter().enumerate() {
+            let ranges: Vec<f64> = (0..n)
+                .map(|i| 2.0 + (i as f64 * 0.37 + k as f64).sin())
+                .collect();
+            let beams = Beams {
+                ranges: &ranges,
+                angle_min: start,
+                angle_increment: step,
+                max_range: 30.0,
+            };
+            let kept = scan_points_with(&beams, &cfg, &mut cache).unwrap();
+            assert_eq!(kept, scan_points(&beams, &cfg).unwrap(), "geometry {k}");
+        }
+    }
 }

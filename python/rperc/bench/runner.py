@@ -107,7 +107,9 @@ def _client(scheduler: str, workers: int | None) -> Iterator[Any]:
                 n_workers=workers or 2,
                 threads_per_worker=1,
                 processes=True,
-                dashboard_address=None,
+                # A port of its own: None still asks for 8787, and two clusters
+                # started at once (two runs, or pytest-xdist workers) then clash.
+                dashboard_address=":0",
                 silence_logs=logging.WARNING,
             ) as cluster,
             client_type(cluster) as client,

@@ -182,7 +182,9 @@ impl MapIndex {
             if edge > best.map_or(limit * limit, |(_, b)| b) {
                 continue;
             }
-            let b = self.bucket(ci + di, cj + dj);
+            // Wrapping: a query far outside the map saturates its cell, and the
+            // neighbour of the last cell must not overflow (its bucket is as good).
+            let b = self.bucket(ci.wrapping_add(di), cj.wrapping_add(dj));
             let (from, to) = (self.start[b] as usize, self.start[b + 1] as usize);
             for (slot, p) in self.by_cell[from..to].iter().enumerate() {
                 let d2 = (p - q).norm_squared();
@@ -281,5 +283,8 @@ mod tests {
         assert_eq!(map.start.len(), MIN_BUCKETS + 1);
         assert_eq!(map.nearest(&Vector2::new(1e6, 1e6), 0.1).unwrap().index, 1);
         assert!(map.nearest(&Vector2::new(5e5, 5e5), 0.1).is_none());
+        // A query beyond every cell index (saturated) finds nothing and does not
+        // overflow.
+        assert!(map.nearest(&Vector2::new(1e300, -1e300), 0.1).is_none());
     }
 }

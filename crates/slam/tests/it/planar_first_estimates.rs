@@ -9,16 +9,21 @@
 //! - the chi-square band of the Monte Carlo robot NEES in the simulated room.
 
 use slam::planar::room::{RoomConfig, room_monte_carlo, simulate_room};
-use slam::planar::{FreezeMode, PlanarConfig, PlanarSlam};
+use slam::planar::{Event, FreezeMode, PlanarConfig, PlanarSlam};
 
-const START_VARIANCE: [f64; 3] = [0.04, 0.04, 0.01];
+pub(crate) const START_VARIANCE: [f64; 3] = [0.04, 0.04, 0.01];
 
 /// The smallest ratio, over all events, of the robot's x, y and heading variances to
 /// the start's.
 fn lowest_variance_ratio(cfg: &PlanarConfig, room: &RoomConfig, run: u64) -> [f64; 3] {
-    let data = simulate_room(room, 4, run);
+    lowest_ratio_over(cfg, &simulate_room(room, 4, run).events)
+}
+
+/// The smallest ratio of the robot's x, y and heading variances to the start's over
+/// a run of `events` (shared with the point-landmark test).
+pub(crate) fn lowest_ratio_over(cfg: &PlanarConfig, events: &[Event]) -> [f64; 3] {
     let mut engine = PlanarSlam::new(cfg.clone()).unwrap();
-    engine.run(&data.events).unwrap();
+    engine.run(events).unwrap();
     let tr = engine.finish().trajectory;
     let mut low = [f64::INFINITY; 3];
     for c in &tr.covariance {

@@ -6,25 +6,15 @@
 //! changing current estimates, the filter "observes" its heading from nowhere (the
 //! test shows it does, so the oracle can fail); with first estimates it must not.
 
+use slam::planar::PlanarConfig;
 use slam::planar::sim::{SimConfig, simulate};
-use slam::planar::{PlanarConfig, PlanarSlam};
 
-const START_VARIANCE: [f64; 3] = [0.04, 0.04, 0.01];
+use crate::planar_first_estimates::{START_VARIANCE, lowest_ratio_over};
 
 /// The smallest ratio, over all events, of the robot's x, y and heading variances to
 /// the start's.
 fn lowest_variance_ratio(cfg: &PlanarConfig, sim: &SimConfig, run: u64) -> [f64; 3] {
-    let data = simulate(sim, 7, run).unwrap();
-    let mut engine = PlanarSlam::new(cfg.clone()).unwrap();
-    engine.run(&data.events).unwrap();
-    let tr = engine.finish().trajectory;
-    let mut low = [f64::INFINITY; 3];
-    for c in &tr.covariance {
-        for (k, l) in low.iter_mut().enumerate() {
-            *l = l.min(c[4 * k] / START_VARIANCE[k]);
-        }
-    }
-    low
+    lowest_ratio_over(cfg, &simulate(sim, 7, run).unwrap().events)
 }
 
 #[test]

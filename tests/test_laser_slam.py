@@ -137,6 +137,11 @@ def test_a_settings_grid_reaches_the_pipeline(loop_log: Path) -> None:
         ({"local_map": {"cell": 0.1}}, ValueError, "cell"),
         ({"scan": {"max_flatness": float("nan")}}, ValueError, "max_flatness"),
         ({"chain_inflation": 0.5}, ValueError, "chain_inflation"),
+        ({"local_map": {"search_share": float("nan")}}, ValueError, "search_share"),
+        ({"local_map": {"search_share": 1.5}}, ValueError, "search_share"),
+        ({"local_map": {"search_starts": 0}}, ValueError, "search_starts"),
+        ({"local_map": {"search_reach": -0.1}}, ValueError, "search_reach"),
+        ({"local_map": {"search_step": float("inf")}}, ValueError, "search_step"),
     ],
 )
 def test_bad_settings_name_the_field(loop_log: Path, config: dict, error: type, match: str) -> None:

@@ -212,27 +212,51 @@ fn jump(seed: u64, dx: f64, dy: f64, params: ColorTemplateParams) -> Vec<(bool, 
         .collect()
 }
 
-proptest! {
-    #![proptest_config(ProptestConfig::with_cases(16))]
-
-    /// A target that jumps by a window's width is reported lost, then re-detected
-    /// (IoU > 0.5, not lost) by the wider search within the four frames after the
-    /// jump, a distant window being taken when, re-centred on its peak, it passes the
-    /// lost rule (`redetect_ratio` at `lost_ratio`: the rule alone). Without the search
-    /// (`redetect_radius` 0) it is not found in the first two: the jump is out of the
-    /// filter's own reach (following the peak, the box may creep over later). The
-    /// default `redetect_ratio` of 1 also asks for the peak's running level, which
-    /// this jump reaches only on some seeds (the guide says so).
-    #[test]
-    fn a_jump_is_lost_then_redetected(seed in 0u64..1000, direction in 0usize..4) {
-        let (dx, dy) = [(-40.0, 0.0), (40.0, 0.0), (0.0, -38.0), (0.0, 38.0)][direction];
-        let params = ColorTemplateParams { redetect_ratio: 0.6, ..Default::default() };
-        let steps = jump(seed, dx, dy, params.clone());
-        prop_assert!(steps[0].0, "the jump is not reported lost: {steps:?}");
-        let found = steps.iter().position(|&(lost, overlap)| !lost && overlap > 0.5);
-        prop_assert!(found.is_some_and(|k| k <= 3), "{steps:?}");
-        let blind = ColorTemplateParams { redetect_radius: 0, ..params };
-        let without = jump(seed, dx, dy, blind);
-        prop_assert!(without[..2].iter().all(|&(_, overlap)| overlap < 0.5), "{without:?}");
+/// A target that jumps by a window's width is reported lost, then re-detected
+/// (IoU > 0.5, not lost) by the wider search within the four frames after the jump,
+/// a distant window being taken when, re-centred on its peak, it passes the lost rule
+/// (`redetect_ratio` at `lost_ratio`: the rule alone). Without the search
+/// (`redetect_radius` 0) it is not found in the first two: the jump is out of the
+/// filter's own reach (following the peak, the box may creep over later). The default
+/// `redetect_ratio` of 1 also asks for the peak's running level, which this jump
+/// reaches only on some seeds (the guide says so).
+///
+/// Re-detection within four frames is a rate, not a rule: while lost the box follows
+/// the last window's peak (`lost_motion` 1), and now and then that peak leads the 3 x 3
+/// grid away from the target. A census of seeds 0..1000 in the four directions found
+/// 40 of 4000 jumps not re-detected in time (1 %), so a random draw of 16 cases failed
+/// about one run in seven (CI, 2026-11-29). The claim is checked over a fixed sample
+/// instead: every jump is reported lost, none is found without the search, and at
+/// least 60 of 64 are re-detected in time.
+#[test]
+fn a_jump_is_lost_then_redetected_in_most_cases() {
+    let params = ColorTemplateParams {
+        redetect_ratio: 0.6,
+        ..Default::default()
+    };
+    let blind = ColorTemplateParams {
+        redetect_radius: 0,
+        ..params.clone()
+    };
+    let mut in_time = 0;
+    for seed in 0..16u64 {
+        for (dx, dy) in [(-40.0, 0.0), (40.0, 0.0), (0.0, -38.0), (0.0, 38.0)] {
+            let steps = jump(seed, dx, dy, params.clone());
+            assert!(
+                steps[0].0,
+                "seed {seed}: the jump is not reported lost: {steps:?}"
+            );
+            let found = steps
+                .iter()
+                .position(|&(lost, overlap)| !lost && overlap > 0.5);
+            in_time += usize::from(found.is_some_and(|k| k <= 3));
+            let without = jump(seed, dx, dy, blind.clone());
+            let seen = without[..2].iter().any(|&(_, overlap)| overlap >= 0.5);
+            assert!(!seen, "seed {seed}: found without the search: {without:?}");
+        }
     }
+    assert!(
+        in_time >= 60,
+        "re-detected in time in {in_time} of 64 jumps"
+    );
 }

@@ -29,8 +29,10 @@ develop: $(STAMP)
 
 test: install test-rust test-python
 
+# Incremental compilation only pays on a rebuild; from a fresh clone it costs about a
+# fifth of the test build (CARGO_INCREMENTAL=1 make test-rust to iterate).
 test-rust:
-	. $(BIN)/activate && cargo test --workspace
+	. $(BIN)/activate && CARGO_INCREMENTAL=$${CARGO_INCREMENTAL:-0} cargo test --workspace
 
 # pytest exits 5 when it collects nothing; that is a failure here, not a pass. The
 # tests run on every core (pytest-xdist); each is independent of the others' order.

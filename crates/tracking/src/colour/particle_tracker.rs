@@ -417,14 +417,8 @@ impl ParticleColorTracker {
     /// # Errors
     /// [`TrackingError::FrameSizeChanged`] if `frame` differs in size from the first.
     pub fn update(&mut self, frame: RgbFrame<'_>) -> Result<TrackResult> {
-        if frame.width() != self.width || frame.height() != self.height {
-            return Err(TrackingError::FrameSizeChanged {
-                expected_width: self.width,
-                expected_height: self.height,
-                width: frame.width(),
-                height: frame.height(),
-            });
-        }
+        let size = (frame.width(), frame.height());
+        TrackingError::check_frame_size((self.width, self.height), size)?;
         let use_gradient = self.prepare_frame(&frame);
         if self.image.bins.iter().all(|&b| b == self.image.bins[0]) {
             // One colour everywhere (a black frame): nothing to weigh the particles by;

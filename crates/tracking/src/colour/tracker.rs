@@ -460,14 +460,8 @@ impl ColorHistogramTracker {
     /// # Errors
     /// [`TrackingError::FrameSizeChanged`] if `frame` differs in size from the first.
     pub fn update(&mut self, frame: RgbFrame<'_>) -> Result<TrackResult> {
-        if frame.width() != self.width || frame.height() != self.height {
-            return Err(TrackingError::FrameSizeChanged {
-                expected_width: self.width,
-                expected_height: self.height,
-                width: frame.width(),
-                height: frame.height(),
-            });
-        }
+        let size = (frame.width(), frame.height());
+        TrackingError::check_frame_size((self.width, self.height), size)?;
         let use_gradient = self.params.appearance.gradient_weight > 0.0;
         let window = self.search_window();
         let found = if self.use_pyramid(&frame) {

@@ -528,15 +528,7 @@ impl PatternTracker {
 
     /// [`Self::update`] on the calling thread.
     fn step(&mut self, frame: PatternFrame<'_>) -> Result<PatternPose> {
-        let (width, height) = frame.size();
-        if (width, height) != (self.width, self.height) {
-            return Err(TrackingError::FrameSizeChanged {
-                expected_width: self.width,
-                expected_height: self.height,
-                width,
-                height,
-            });
-        }
+        TrackingError::check_frame_size((self.width, self.height), frame.size())?;
         let resampled = self.predict(frame)?;
         self.build_space(frame)?;
         let report = self.weigh(resampled)?;

@@ -249,6 +249,29 @@ pub fn ensure_non_negative(name: &'static str, value: f64) -> Result<()> {
     }
 }
 
+/// A config's fields checked by name: each of `positive` with [`ensure_positive`],
+/// then each of `non_negative` with [`ensure_non_negative`]; the first refused
+/// field's error.
+///
+/// # Examples
+/// ```
+/// assert!(rperc_core::ensure_fields(&[("dt", 0.1)], &[("noise", 0.0)]).is_ok());
+/// let err = rperc_core::ensure_fields(&[("dt", 0.1)], &[("noise", -1.0)]).unwrap_err();
+/// assert!(err.to_string().contains("'noise'"));
+/// ```
+pub fn ensure_fields(
+    positive: &[(&'static str, f64)],
+    non_negative: &[(&'static str, f64)],
+) -> Result<()> {
+    for &(name, v) in positive {
+        ensure_positive(name, v)?;
+    }
+    for &(name, v) in non_negative {
+        ensure_non_negative(name, v)?;
+    }
+    Ok(())
+}
+
 /// `Err(InvalidParameter)` unless `value` is finite and in `[lo, hi]`.
 pub fn ensure_in_range(name: &'static str, value: f64, lo: f64, hi: f64) -> Result<()> {
     if value.is_finite() && (lo..=hi).contains(&value) {

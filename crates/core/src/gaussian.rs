@@ -236,17 +236,24 @@ pub fn lower_inverse(factor: &DMatrix<f64>) -> DMatrix<f64> {
     w
 }
 
+/// `Err(Dimension)` unless the covariance `cov` is `n x n` for a vector of `n` entries;
+/// `names` are the vector's and the covariance's in the message.
+fn check_sizes(names: [&str; 2], n: usize, cov: &DMatrix<f64>) -> Result<()> {
+    if cov.shape() == (n, n) {
+        return Ok(());
+    }
+    let [vector, covariance] = names;
+    Err(CoreError::Dimension(format!(
+        "{vector} has {n} entries but {covariance} is {}x{}",
+        cov.nrows(),
+        cov.ncols()
+    )))
+}
+
 /// `e^T C^-1 e` through a Cholesky factorisation; an error when `C` is not positive
 /// definite. With the estimation error this is the NEES; with the innovation, the NIS.
 pub fn mahalanobis2(e: &DVector<f64>, cov: &DMatrix<f64>) -> Result<f64> {
-    if cov.nrows() != e.len() || cov.ncols() != e.len() {
-        return Err(CoreError::Dimension(format!(
-            "vector of {} entries against a {}x{} covariance",
-            e.len(),
-            cov.nrows(),
-            cov.ncols()
-        )));
-    }
+    check_sizes(["vector", "the covariance"], e.len(), cov)?;
     let factor = cholesky_lower(cov)?.ok_or_else(|| CoreError::NotPositiveDefinite {
         name: "covariance",
         requirement: Definiteness::Positive.describe(),
@@ -280,14 +287,7 @@ pub struct Gaussian {
 impl Gaussian {
     /// A Gaussian after checking sizes, finiteness and positive definiteness.
     pub fn new(mean: DVector<f64>, cov: DMatrix<f64>) -> Result<Self> {
-        if cov.nrows() != mean.len() || cov.ncols() != mean.len() {
-            return Err(CoreError::Dimension(format!(
-                "mean has {} entries but cov is {}x{}",
-                mean.len(),
-                cov.nrows(),
-                cov.ncols()
-            )));
-        }
+        check_sizes(["mean", "cov"], mean.len(), &cov)?;
         ensure_finite("mean", mean.iter())?;
         check_covariance("cov", &cov, Definiteness::Positive)?;
         Ok(Self { mean, cov })

@@ -237,15 +237,7 @@ impl GrayImage {
         step: [f64; 2],
         out: &mut [[f32; 3]],
     ) -> bool {
-        for (l, g) in out.iter_mut().enumerate() {
-            let x = start[0] + l as f64 * step[0];
-            let y = start[1] + l as f64 * step[1];
-            match self.sample_bilinear_gradient(x, y) {
-                Some(v) => *g = v,
-                None => return false,
-            }
-        }
-        true
+        sample_points(start, step, out, |x, y| self.sample_bilinear_gradient(x, y))
     }
 
     /// Gaussian blur of standard deviation `sigma` pixels into `out` (separable, a
@@ -493,16 +485,27 @@ impl GrayImage {
     /// [`Self::sample_line`] point by point through [`Self::sample_bilinear`] (near the
     /// image's edges, and images a single pixel wide or high, or wider than 2^36).
     fn sample_line_checked(&self, start: [f64; 2], step: [f64; 2], out: &mut [f32]) -> bool {
-        for (l, g) in out.iter_mut().enumerate() {
-            let x = start[0] + l as f64 * step[0];
-            let y = start[1] + l as f64 * step[1];
-            match self.sample_bilinear(x, y) {
-                Some(v) => *g = v,
-                None => return false,
-            }
-        }
-        true
+        sample_points(start, step, out, |x, y| self.sample_bilinear(x, y))
     }
+}
+
+/// `out[l] = sample(start + l step)` point by point, the checked path of the line
+/// samplers; false at the first point `sample` refuses (outside the image).
+fn sample_points<T>(
+    start: [f64; 2],
+    step: [f64; 2],
+    out: &mut [T],
+    sample: impl Fn(f64, f64) -> Option<T>,
+) -> bool {
+    for (l, g) in out.iter_mut().enumerate() {
+        let x = start[0] + l as f64 * step[0];
+        let y = start[1] + l as f64 * step[1];
+        match sample(x, y) {
+            Some(v) => *g = v,
+            None => return false,
+        }
+    }
+    true
 }
 
 /// Fractional bits of the fixed-point positions of the line samplers (2^-24 px).

@@ -16,7 +16,7 @@ pub use chi2::{chi2_cdf, chi2_gate, chi2_quantile, nees_band};
 pub use error::{
     CoreError, ErrorClass, MAX_ALLOCATION_BYTES, MAX_ALLOCATION_ENV, MAX_COORDINATE, MAX_PARTICLES,
     QUOTE_LIMIT, Result, check_allocation, check_bytes, clip, ensure_coordinates, ensure_count,
-    ensure_finite, ensure_in_range, ensure_non_negative, ensure_positive, excerpt,
+    ensure_fields, ensure_finite, ensure_in_range, ensure_non_negative, ensure_positive, excerpt,
     max_allocation_bytes, too_large,
 };
 pub use gaussian::{

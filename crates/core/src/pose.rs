@@ -6,6 +6,8 @@
 //! the inputs' components, checked against central differences in the tests.
 
 use nalgebra::{Matrix2, Matrix2x3, Matrix3, Point2, Vector2, Vector3};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
 
 use crate::angle::wrap_angle;
 
@@ -58,16 +60,7 @@ pub fn arc_functions(phi: f64) -> (f64, f64, f64, f64) {
 /// let back = robot.inverse_transform_point(&ahead);
 /// assert!((back - Point2::new(1.0, 0.0)).norm() < 1e-12);
 /// ```
-#[derive(
-    Debug,
-    Clone,
-    Copy,
-    PartialEq,
-    Default,
-    serde::Serialize,
-    serde::Deserialize,
-    schemars::JsonSchema,
-)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
 pub struct Pose2 {
     /// Position x.
     pub x: f64,

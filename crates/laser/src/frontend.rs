@@ -70,20 +70,10 @@ impl LocalMapConfig {
             ("search_reach", self.search_reach),
             ("search_step", self.search_step),
         ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(LaserError::invalid(
-                    name,
-                    format!("must be finite and > 0, got {v}"),
-                ));
-            }
+            rperc_core::ensure_positive(name, v)?;
         }
-        if !(1..=10_000).contains(&self.key_scans) {
-            let n = self.key_scans;
-            return Err(LaserError::invalid(
-                "key_scans",
-                format!("must be in 1..=10000, got {n}"),
-            ));
-        }
+        // Counts of work, not of memory: nothing is allocated per unit.
+        rperc_core::ensure_count("key_scans", self.key_scans, 1, 10_000, 0)?;
         if !(0.0..=1.0).contains(&self.search_share) {
             let v = self.search_share;
             return Err(LaserError::invalid(
@@ -91,13 +81,7 @@ impl LocalMapConfig {
                 format!("must be in [0, 1], got {v}"),
             ));
         }
-        if !(1..=64).contains(&self.search_starts) {
-            let n = self.search_starts;
-            return Err(LaserError::invalid(
-                "search_starts",
-                format!("must be in 1..=64, got {n}"),
-            ));
-        }
+        rperc_core::ensure_count("search_starts", self.search_starts, 1, 64, 0)?;
         if self.cell < icp.max_distance {
             return Err(LaserError::invalid(
                 "cell",

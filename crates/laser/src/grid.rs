@@ -55,12 +55,7 @@ impl MapIndex {
                 normals.len()
             )));
         }
-        if !(cell.is_finite() && cell > 0.0) {
-            return Err(LaserError::invalid(
-                "cell",
-                format!("must be finite and > 0, got {cell}"),
-            ));
-        }
+        rperc_core::ensure_positive("cell", cell)?;
         if points.len() >= u32::MAX as usize {
             return Err(LaserError::invalid(
                 "points",

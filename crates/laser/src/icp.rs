@@ -66,26 +66,15 @@ impl Default for IcpConfig {
 impl IcpConfig {
     /// Refuses bad values with the parameter's name.
     pub fn validate(&self) -> Result<()> {
-        if !(1..=1000).contains(&self.iterations) {
-            let n = self.iterations;
-            return Err(LaserError::invalid(
-                "iterations",
-                format!("must be in 1..=1000, got {n}"),
-            ));
-        }
-        let positive = [
+        // A count of work, not of memory: nothing is allocated per iteration.
+        rperc_core::ensure_count("iterations", self.iterations, 1, 1000, 0)?;
+        for (name, v) in [
             ("max_distance", self.max_distance),
             ("sigma", self.sigma),
             ("huber", self.huber),
             ("tolerance", self.tolerance),
-        ];
-        for (name, v) in positive {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(LaserError::invalid(
-                    name,
-                    format!("must be finite and > 0, got {v}"),
-                ));
-            }
+        ] {
+            rperc_core::ensure_positive(name, v)?;
         }
         if !(self.covariance_scale.is_finite() && self.covariance_scale >= 1.0) {
             let s = self.covariance_scale;

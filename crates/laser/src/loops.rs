@@ -104,17 +104,6 @@ impl Default for LoopConfig {
     }
 }
 
-fn positive(name: &'static str, v: f64) -> Result<()> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(LaserError::invalid(
-            name,
-            format!("must be finite and > 0, got {v}"),
-        ))
-    }
-}
-
 impl LoopConfig {
     /// The correlative search's share of the settings.
     pub(crate) fn search_steps(&self) -> SearchSteps {
@@ -141,7 +130,7 @@ impl LoopConfig {
             ("agree_angle", self.agree_angle),
             ("max_chi2", self.max_chi2),
         ] {
-            positive(name, v)?;
+            rperc_core::ensure_positive(name, v)?;
         }
         if !(self.max_radius.is_finite()
             && self.max_radius >= self.radius

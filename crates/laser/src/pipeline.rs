@@ -75,13 +75,8 @@ impl LaserConfig {
         self.loops.validate()?;
         self.motion.validate()?;
         rperc_core::ensure_finite("initial_pose", &self.initial_pose)?;
-        if !(1..=1000).contains(&self.graph_iterations) {
-            let n = self.graph_iterations;
-            return Err(LaserError::invalid(
-                "graph_iterations",
-                format!("must be in 1..=1000, got {n}"),
-            ));
-        }
+        // A count of work, not of memory: nothing is allocated per iteration.
+        rperc_core::ensure_count("graph_iterations", self.graph_iterations, 1, 1000, 0)?;
         if !(self.chain_inflation.is_finite() && (1.0..=1e6).contains(&self.chain_inflation)) {
             let c = self.chain_inflation;
             return Err(LaserError::invalid(
@@ -89,13 +84,7 @@ impl LaserConfig {
                 format!("must be in [1, 1e6], got {c}"),
             ));
         }
-        if !(self.graph_tolerance.is_finite() && self.graph_tolerance > 0.0) {
-            let t = self.graph_tolerance;
-            return Err(LaserError::invalid(
-                "graph_tolerance",
-                format!("must be finite and > 0, got {t}"),
-            ));
-        }
+        rperc_core::ensure_positive("graph_tolerance", self.graph_tolerance)?;
         Ok(())
     }
 }

@@ -50,38 +50,19 @@ impl Default for ScanConfig {
 impl ScanConfig {
     /// Refuses bad values with the parameter's name.
     pub fn validate(&self) -> Result<()> {
-        let non_negative = [
-            ("min_range", self.min_range),
-            ("max_range_margin", self.max_range_margin),
-        ];
-        for (name, v) in non_negative {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(LaserError::invalid(
-                    name,
-                    format!("must be finite and >= 0, got {v}"),
-                ));
-            }
-        }
-        let positive = [
-            ("point_spacing", self.point_spacing),
-            ("normal_radius", self.normal_radius),
-            ("max_gap", self.max_gap),
-        ];
-        for (name, v) in positive {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(LaserError::invalid(
-                    name,
-                    format!("must be finite and > 0, got {v}"),
-                ));
-            }
-        }
-        if self.normal_min_points < 3 || self.normal_min_points > 10_000 {
-            let n = self.normal_min_points;
-            return Err(LaserError::invalid(
-                "normal_min_points",
-                format!("must be in 3..=10000, got {n}"),
-            ));
-        }
+        rperc_core::ensure_fields(
+            &[
+                ("point_spacing", self.point_spacing),
+                ("normal_radius", self.normal_radius),
+                ("max_gap", self.max_gap),
+            ],
+            &[
+                ("min_range", self.min_range),
+                ("max_range_margin", self.max_range_margin),
+            ],
+        )?;
+        // A neighbourhood's size: its points are gathered in a reused buffer.
+        rperc_core::ensure_count("normal_min_points", self.normal_min_points, 3, 10_000, 0)?;
         if !(self.max_flatness > 0.0 && self.max_flatness < 1.0) {
             let f = self.max_flatness;
             return Err(LaserError::invalid(

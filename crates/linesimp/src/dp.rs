@@ -193,21 +193,43 @@ pub(crate) fn dp_mark(
         return Ok(());
     }
     let extent = Extent::of(points)?;
+    split_ranges(n, keep, stack, usize::MAX, |i, j| {
+        split_at(points, i, j, epsilon, metric, tie, &extent)
+    })
+}
+
+/// Douglas-Peucker's explicit stack over a chain of `n` vertices: each range taken from
+/// `ranges` is split where `split(i, j)` says, that vertex marked in `keep`, until no
+/// range is left or the ranges taken span more than `budget` vertices; then the range
+/// taken last is back on `ranges` for the caller to finish another way.
+pub(crate) fn split_ranges(
+    n: usize,
+    keep: &mut [bool],
+    ranges: &mut Vec<(usize, usize)>,
+    budget: usize,
+    mut split: impl FnMut(usize, usize) -> Option<usize>,
+) -> Result<()> {
     // Adversarial chains make this quadratic (minutes at 10^6 points): let Ctrl-C in.
     let mut meter = Work::new();
-    stack.clear();
-    stack.push((0, n - 1));
-    while let Some((i, j)) = stack.pop() {
+    let mut work = 0usize;
+    ranges.clear();
+    ranges.push((0, n - 1));
+    while let Some((i, j)) = ranges.pop() {
         if j <= i + 1 {
             continue;
         }
         meter.advance((j - i) as u64)?;
-        if let Some(f) = split_at(points, i, j, epsilon, metric, tie, &extent) {
+        work = work.saturating_add(j - i - 1);
+        if work > budget {
+            ranges.push((i, j));
+            break;
+        }
+        if let Some(f) = split(i, j) {
             keep[f] = true;
             // Left part on top: the output order does not depend on it, but it keeps
             // the traversal identical to the recursive Table 1.
-            stack.push((f, j));
-            stack.push((i, f));
+            ranges.push((f, j));
+            ranges.push((i, f));
         }
     }
     Ok(())

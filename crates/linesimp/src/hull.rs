@@ -21,7 +21,7 @@ use nalgebra::Point2;
 use rperc_core::interrupt::Work;
 
 use crate::Result;
-use crate::dp::{Tie, find_split_line, split_at};
+use crate::dp::{Tie, find_split_line, split_at, split_ranges};
 use crate::metric::{Extent, LineChord, Metric};
 use half::{Far, HalfHull};
 
@@ -138,26 +138,9 @@ pub(crate) fn hull_mark(
     let budget = dp_budget_per_level
         .saturating_mul(n)
         .saturating_mul((usize::BITS - n.leading_zeros()) as usize);
-    let mut work = 0usize;
-    let mut meter = Work::new();
-    ranges.clear();
-    ranges.push((0, n - 1));
-    while let Some((i, j)) = ranges.pop() {
-        if j <= i + 1 {
-            continue;
-        }
-        meter.advance((j - i) as u64)?;
-        work += j - i - 1;
-        if work > budget {
-            ranges.push((i, j));
-            break;
-        }
-        if let Some(f) = split_at(points, i, j, epsilon, Metric::Line, tie, &extent) {
-            keep[f] = true;
-            ranges.push((f, j));
-            ranges.push((i, f));
-        }
-    }
+    split_ranges(n, keep, ranges, budget, |i, j| {
+        split_at(points, i, j, epsilon, Metric::Line, tie, &extent)
+    })?;
     if ranges.is_empty() {
         return Ok(());
     }

@@ -8,6 +8,8 @@
 
 mod exact;
 
+use std::cmp::Ordering;
+
 use nalgebra::Point2;
 
 use crate::{LineSimpError, Result};
@@ -258,47 +260,36 @@ impl LineChord {
     }
 
     /// Exact comparison of `F(p)` with `F(q)` (signed; non-degenerate chords).
-    pub fn cmp_signed(
-        &self,
-        p: &Point2<f64>,
-        kp: f64,
-        q: &Point2<f64>,
-        kq: f64,
-    ) -> std::cmp::Ordering {
-        use std::cmp::Ordering::*;
-        let t = 3.0 * self.tol;
-        if kp > kq + t {
-            return Greater;
-        }
-        if kq > kp + t {
-            return Less;
-        }
-        if self.exact {
-            return Equal;
+    pub fn cmp_signed(&self, p: &Point2<f64>, kp: f64, q: &Point2<f64>, kq: f64) -> Ordering {
+        if let Some(order) = self.order_by_keys(kp, kq) {
+            return order;
         }
         let (vx, vy) = (two_diff(p.x, q.x), two_diff(p.y, q.y));
         cross_sign(&self.ex, &self.ey, &vx, &vy).cmp(&0)
     }
 
-    /// Exact comparison of `|F(p)|` with `|F(q)|`: which of two points is farther.
-    pub fn cmp_abs(
-        &self,
-        p: &Point2<f64>,
-        kp: f64,
-        q: &Point2<f64>,
-        kq: f64,
-    ) -> std::cmp::Ordering {
+    /// The order of two keys where the floats alone settle it: keys more than their
+    /// error bound apart (each is within `tol` of its exact value, so `3 tol` leaves
+    /// room), or any keys when they are exact. `None`: only exact arithmetic can tell.
+    fn order_by_keys(&self, a: f64, b: f64) -> Option<Ordering> {
         use std::cmp::Ordering::*;
-        let (ap, aq) = (kp.abs(), kq.abs());
         let t = 3.0 * self.tol;
-        if ap > aq + t {
-            return Greater;
+        if a > b + t {
+            Some(Greater)
+        } else if b > a + t {
+            Some(Less)
+        } else if self.exact {
+            Some(Equal)
+        } else {
+            None
         }
-        if aq > ap + t {
-            return Less;
-        }
-        if self.exact {
-            return Equal;
+    }
+
+    /// Exact comparison of `|F(p)|` with `|F(q)|`: which of two points is farther.
+    pub fn cmp_abs(&self, p: &Point2<f64>, kp: f64, q: &Point2<f64>, kq: f64) -> Ordering {
+        use std::cmp::Ordering::*;
+        if let Some(order) = self.order_by_keys(kp.abs(), kq.abs()) {
+            return order;
         }
         if self.degenerate {
             return exact::compare_squared_distances(&self.a, p, q).cmp(&0);

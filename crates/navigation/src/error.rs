@@ -14,19 +14,8 @@ pub enum NavigationError {
         /// Why the value was refused.
         reason: String,
     },
-    /// A frame whose size is not the camera's.
-    #[error("frame size changed from {expected_width}x{expected_height} to {width}x{height}")]
-    FrameSizeChanged {
-        /// The camera's image size.
-        expected_width: usize,
-        /// The camera's image size.
-        expected_height: usize,
-        /// Size of the frame passed.
-        width: usize,
-        /// Size of the frame passed.
-        height: usize,
-    },
-    /// From the pattern tracker a model is followed with.
+    /// From the pattern tracker a model is followed with, and a frame whose size is not
+    /// the camera's ([`TrackingError::FrameSizeChanged`]).
     #[error(transparent)]
     Tracking(#[from] TrackingError),
     /// From the shared core: a bad image size, a parameter out of range, an unknown

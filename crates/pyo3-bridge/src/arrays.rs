@@ -210,6 +210,17 @@ pub fn frozen_array(
     read_only(shaped(py, data, shape)?)
 }
 
+/// One field of every item as a read-only 1-D array: a result's column (the ids,
+/// counts or flags of a map's entries).
+pub fn column<T, E: numpy::Element>(
+    py: Python<'_>,
+    items: &[T],
+    field: impl Fn(&T) -> E,
+) -> PyResult<Py<numpy::PyArray1<E>>> {
+    use numpy::IntoPyArray;
+    read_only(items.iter().map(field).collect::<Vec<_>>().into_pyarray(py))
+}
+
 /// Loads numpy's C API at import. The numpy crate loads it lazily, on the first array,
 /// by running Python code, and panics if that code raises; a Ctrl-C that arrived
 /// during native work is raised by exactly that code, so a long run interrupted just

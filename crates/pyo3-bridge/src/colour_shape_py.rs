@@ -4,8 +4,8 @@ use numpy::PyArray2;
 use pyo3::prelude::*;
 use tracking::{ColorShapeParams, ColorShapeResult};
 
-use crate::errors::{Error, detached, detached_parallel, exclusive};
-use crate::tracking_py::{bbox, frame};
+use crate::errors::{Error, detached, exclusive};
+use crate::tracking_py::{Threads, bbox, frame, on_frame};
 
 /// One answer of the colour+shape tracker, frozen: the `contour` (a read-only
 /// `(N, 2)` float64 array of `(x, y)`), its bounding `box` `(x, y, w, h)`, the colour
@@ -93,11 +93,8 @@ impl PyColorShapeTracker {
     ) -> PyResult<PyColorShapeAnswer> {
         let mut this = exclusive(slf)?;
         let tracker = &mut this.inner;
-        let f = self::frame(frame)?;
-        let view = f.view()?;
-        // The samples are weighed on the thread pool, whose threads cannot ask Python
-        // for signals: this thread polls for Ctrl-C while a worker steps.
-        let r = detached_parallel(py, || Ok(tracker.update(view)?))?;
+        // The samples are weighed on the thread pool.
+        let r = on_frame(py, frame, Threads::Pool, |view| tracker.update(view))?;
         answer(py, r)
     }
 }

@@ -53,25 +53,30 @@ fn pairwise<'py>(
     Ok(out.into_pyarray(py))
 }
 
-/// IoU of matching rows of two `(N, 4)` box arrays.
-#[pyfunction]
-pub fn otb_iou<'py>(
-    py: Python<'py>,
-    a: &Bound<'py, PyAny>,
-    b: &Bound<'py, PyAny>,
-) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    pairwise(py, a, b, tracking::metrics::iou)
+/// A `#[pyfunction]` `name(a, b)` giving [`pairwise`] `metric` of two box arrays: the
+/// OTB metrics differ only in the metric.
+macro_rules! box_metric {
+    ($(#[$doc:meta])* $name:ident => $metric:path) => {
+        $(#[$doc])*
+        #[pyfunction]
+        pub fn $name<'py>(
+            py: Python<'py>,
+            a: &Bound<'py, PyAny>,
+            b: &Bound<'py, PyAny>,
+        ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+            pairwise(py, a, b, $metric)
+        }
+    };
 }
 
-/// Centre distances of matching rows of two `(N, 4)` box arrays.
-#[pyfunction]
-pub fn otb_center_error<'py>(
-    py: Python<'py>,
-    a: &Bound<'py, PyAny>,
-    b: &Bound<'py, PyAny>,
-) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    pairwise(py, a, b, tracking::metrics::centre_error)
-}
+box_metric!(
+    /// IoU of matching rows of two `(N, 4)` box arrays.
+    otb_iou => tracking::metrics::iou
+);
+box_metric!(
+    /// Centre distances of matching rows of two `(N, 4)` box arrays.
+    otb_center_error => tracking::metrics::centre_error
+);
 
 /// The success curve over the 21 OTB thresholds.
 #[pyfunction]
@@ -201,15 +206,11 @@ pub fn pose_path_point<'py>(
 
 /// Walls moved to the world by [`walls_to_world`], frozen, arrays read-only: `rho`
 /// and `alpha` (K) and the Jacobians `d_wall` (K, 2, 2) and `d_pose` (K, 2, 3).
-#[pyclass(name = "WorldWalls", module = "rperc._rperc", frozen)]
+#[pyclass(name = "WorldWalls", module = "rperc._rperc", frozen, get_all)]
 pub struct PyWorldWalls {
-    #[pyo3(get)]
     rho: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     alpha: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     d_wall: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     d_pose: Py<PyArrayDyn<f64>>,
 }
 

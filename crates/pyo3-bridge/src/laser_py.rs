@@ -165,11 +165,9 @@ pub fn laser_run<'py>(
 /// One scan's points ([`laser_scan_points`]), frozen, arrays read-only: the kept
 /// `points` (n, 2) in the laser frame and their unit `normals` (n, 2), NaN where a
 /// point is on no line.
-#[pyclass(name = "LaserScanPoints", module = "rperc._rperc", frozen)]
+#[pyclass(name = "LaserScanPoints", module = "rperc._rperc", frozen, get_all)]
 pub struct PyLaserScanPoints {
-    #[pyo3(get)]
     points: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     normals: Py<PyArrayDyn<f64>>,
 }
 

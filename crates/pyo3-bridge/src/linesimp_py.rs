@@ -141,21 +141,14 @@ pub fn simplify_topology_indices<'py>(
 /// `alpha` (K), `cov` (K, 2, 2) of `(rho, alpha)`, the end points `start` and `end`
 /// (K, 2), and the fitted readings' indices back to back, `flat_indices` (M), with
 /// wall `k`'s at `flat_indices[offsets[k]:offsets[k + 1]]` (`offsets` K + 1).
-#[pyclass(name = "ScanWalls", module = "rperc._rperc", frozen)]
+#[pyclass(name = "ScanWalls", module = "rperc._rperc", frozen, get_all)]
 pub struct PyScanWalls {
-    #[pyo3(get)]
     rho: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     alpha: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     cov: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     start: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     end: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     flat_indices: Py<PyArray1<isize>>,
-    #[pyo3(get)]
     offsets: Py<PyArray1<isize>>,
 }
 

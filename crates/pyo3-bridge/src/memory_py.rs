@@ -13,42 +13,31 @@ use crate::errors::{Error, detached};
 /// Per-frame arrays of a run, frozen, read-only: `truth` (n, 3) and `pose` (n, 3,
 /// NaN where unknown), `lost` (n,), the models `tracked` (n,), the robot's processing
 /// `seconds` (n,) and the `covariance` (n, 3, 3) of `pose` (NaN where unknown).
-#[pyclass(name = "MemoryFrames", module = "rperc._rperc", frozen)]
+#[pyclass(name = "MemoryFrames", module = "rperc._rperc", frozen, get_all)]
 pub struct PyMemoryFrames {
-    #[pyo3(get)]
     truth: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     pose: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     lost: Py<PyArray1<bool>>,
-    #[pyo3(get)]
     tracked: Py<PyArray1<i64>>,
-    #[pyo3(get)]
     seconds: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     covariance: Py<PyArrayDyn<f64>>,
 }
 
 /// A learning run ([`visual_memory_learn`]), frozen: the `memory` (JSON) and its
 /// `frames`.
-#[pyclass(name = "MemoryLearning", module = "rperc._rperc", frozen)]
+#[pyclass(name = "MemoryLearning", module = "rperc._rperc", frozen, get_all)]
 pub struct PyMemoryLearning {
-    #[pyo3(get)]
     memory: String,
-    #[pyo3(get)]
     frames: Py<PyMemoryFrames>,
 }
 
 /// A replay ([`visual_memory_replay`]), frozen: its `outcome` (`reached`, `lost` or
 /// `timed_out`), the key image followed at each frame `key_index` (n,) and the
 /// `frames`.
-#[pyclass(name = "MemoryReplay", module = "rperc._rperc", frozen)]
+#[pyclass(name = "MemoryReplay", module = "rperc._rperc", frozen, get_all)]
 pub struct PyMemoryReplay {
-    #[pyo3(get)]
     outcome: String,
-    #[pyo3(get)]
     key_index: Py<PyArray1<i64>>,
-    #[pyo3(get)]
     frames: Py<PyMemoryFrames>,
 }
 

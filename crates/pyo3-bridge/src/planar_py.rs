@@ -11,7 +11,7 @@ use slam::planar::{
 };
 use std::sync::Mutex;
 
-use crate::arrays::{float_vector, frozen_array, point_rows, read_only, shaped, tensor};
+use crate::arrays::{column, float_vector, frozen_array, point_rows, read_only, shaped, tensor};
 use crate::errors::{Error, Result, detached, detached_parallel};
 
 /// Reads an `(N, K)` float array named `name` as rows; `None` is no rows.
@@ -101,51 +101,29 @@ pub fn planar_slam_run<'py>(
 /// event took), the point map (`landmark_*`), the wall map (`wall_*`, empty without
 /// walls) with each wall detection's pairing (-1: left out), the association counts
 /// and the anchor. Its arrays are read-only.
-#[pyclass(name = "PlanarRun", module = "rperc._rperc", frozen)]
+#[pyclass(name = "PlanarRun", module = "rperc._rperc", frozen, get_all)]
 pub struct PyPlanarRun {
-    #[pyo3(get)]
     t: Py<PyArray1<f64>>,
-    #[pyo3(get)]
     kind: Py<PyArray1<u8>>,
-    #[pyo3(get)]
     pose: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     covariance: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     seconds: Py<PyArray1<f64>>,
-    #[pyo3(get)]
     landmark_id: Py<PyArray1<u64>>,
-    #[pyo3(get)]
     landmark_mean: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     landmark_covariance: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     landmark_revisions: Py<PyArray1<u32>>,
-    #[pyo3(get)]
     landmark_frozen: Py<PyArray1<bool>>,
-    #[pyo3(get)]
     landmark_anchor: Py<PyArray1<bool>>,
-    #[pyo3(get)]
     wall_id: Py<PyArray1<u64>>,
-    #[pyo3(get)]
     wall_line: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     wall_covariance: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     wall_ends: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     wall_revisions: Py<PyArray1<u32>>,
-    #[pyo3(get)]
     wall_frozen: Py<PyArray1<bool>>,
-    #[pyo3(get)]
     wall_anchor: Py<PyArray1<bool>>,
-    #[pyo3(get)]
     wall_pairing: Py<PyArray1<i64>>,
-    #[pyo3(get)]
     statistics: Py<PyPlanarStatistics>,
-    #[pyo3(get)]
     anchor: Option<(f64, f64)>,
-    #[pyo3(get)]
     anchor_time: Option<f64>,
 }
 
@@ -184,31 +162,16 @@ impl PyPlanarRun {
             pose: frozen_array(py, tr.pose.concat(), &[n, 3])?,
             covariance: frozen_array(py, tr.covariance.concat(), &[n, 3, 3])?,
             seconds: read_only(tr.seconds.into_pyarray(py))?,
-            landmark_id: read_only(lm.iter().map(|l| l.id).collect::<Vec<_>>().into_pyarray(py))?,
+            landmark_id: column(py, lm, |l| l.id)?,
             landmark_mean: frozen_array(py, lm.iter().flat_map(|l| l.mean).collect(), &[k, 2])?,
             landmark_covariance: frozen_array(
                 py,
                 lm.iter().flat_map(|l| l.covariance).collect(),
                 &[k, 2, 2],
             )?,
-            landmark_revisions: read_only(
-                lm.iter()
-                    .map(|l| l.revisions)
-                    .collect::<Vec<_>>()
-                    .into_pyarray(py),
-            )?,
-            landmark_frozen: read_only(
-                lm.iter()
-                    .map(|l| l.frozen)
-                    .collect::<Vec<_>>()
-                    .into_pyarray(py),
-            )?,
-            landmark_anchor: read_only(
-                lm.iter()
-                    .map(|l| l.anchor)
-                    .collect::<Vec<_>>()
-                    .into_pyarray(py),
-            )?,
+            landmark_revisions: column(py, lm, |l| l.revisions)?,
+            landmark_frozen: column(py, lm, |l| l.frozen)?,
+            landmark_anchor: column(py, lm, |l| l.anchor)?,
             wall_id: walls.id,
             wall_line: walls.line,
             wall_covariance: walls.covariance,
@@ -248,13 +211,7 @@ impl WallArrays {
             .flat_map(|w| [w.start, w.end].concat())
             .collect();
         Ok(Self {
-            id: read_only(
-                walls
-                    .iter()
-                    .map(|w| w.id)
-                    .collect::<Vec<_>>()
-                    .into_pyarray(py),
-            )?,
+            id: column(py, walls, |w| w.id)?,
             line: frozen_array(py, walls.iter().flat_map(|w| w.line).collect(), &[k, 2])?,
             covariance: frozen_array(
                 py,
@@ -262,27 +219,9 @@ impl WallArrays {
                 &[k, 2, 2],
             )?,
             ends: frozen_array(py, ends, &[k, 2, 2])?,
-            revisions: read_only(
-                walls
-                    .iter()
-                    .map(|w| w.revisions)
-                    .collect::<Vec<_>>()
-                    .into_pyarray(py),
-            )?,
-            frozen: read_only(
-                walls
-                    .iter()
-                    .map(|w| w.frozen)
-                    .collect::<Vec<_>>()
-                    .into_pyarray(py),
-            )?,
-            anchor: read_only(
-                walls
-                    .iter()
-                    .map(|w| w.anchor)
-                    .collect::<Vec<_>>()
-                    .into_pyarray(py),
-            )?,
+            revisions: column(py, walls, |w| w.revisions)?,
+            frozen: column(py, walls, |w| w.frozen)?,
+            anchor: column(py, walls, |w| w.anchor)?,
         })
     }
 }
@@ -451,19 +390,13 @@ pub fn planar_simulate<'py>(
 /// columnar `controls` `(t, v, omega)`, `detections` `(t, range, bearing)` with their
 /// `detection_ids`, `fixes` `(t, x, y, var_x, cov_xy, var_y)`, the true pose after
 /// every event `truth` `(t, x, y, theta)` and the true `landmarks` `(n, 2)`.
-#[pyclass(name = "SimulatedWorld", module = "rperc._rperc", frozen)]
+#[pyclass(name = "SimulatedWorld", module = "rperc._rperc", frozen, get_all)]
 pub struct PySimulatedWorld {
-    #[pyo3(get)]
     controls: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     detections: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     detection_ids: Py<PyArray1<i64>>,
-    #[pyo3(get)]
     fixes: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     truth: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     landmarks: Py<PyArrayDyn<f64>>,
 }
 
@@ -582,27 +515,17 @@ pub fn planar_smooth_walls<'py>(
 /// `wall_line` `(W, 2)`, `wall_covariance` `(W, 2, 2)`, `wall_ends` `(W, 2, 2)`), the
 /// odometry bias `(s, b)` (zeros without bias states), and the Levenberg-Marquardt
 /// iterations, final cost and residual count.
-#[pyclass(name = "SmoothedWalls", module = "rperc._rperc", frozen)]
+#[pyclass(name = "SmoothedWalls", module = "rperc._rperc", frozen, get_all)]
 pub struct PySmoothedWalls {
-    #[pyo3(get)]
     pose: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     covariance: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     wall_id: Py<PyArray1<i64>>,
-    #[pyo3(get)]
     wall_line: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     wall_covariance: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     wall_ends: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     bias: (f64, f64),
-    #[pyo3(get)]
     iterations: usize,
-    #[pyo3(get)]
     cost: f64,
-    #[pyo3(get)]
     residuals: usize,
 }
 

@@ -15,15 +15,11 @@ fn vector(obj: &Bound<'_, PyAny>, name: &str) -> Result<DVector<f64>, Error> {
 /// What one measurement update did, frozen, arrays read-only: the `innovation` it
 /// used, its covariance `innovation_cov` (`S`, eq. 8), the `gain` (`K`, eq. 7) and
 /// the `nis`.
-#[pyclass(name = "KalmanUpdate", module = "rperc._rperc", frozen)]
+#[pyclass(name = "KalmanUpdate", module = "rperc._rperc", frozen, get_all)]
 pub struct PyKalmanUpdate {
-    #[pyo3(get)]
     innovation: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     innovation_cov: Py<PyArray2<f64>>,
-    #[pyo3(get)]
     gain: Py<PyArray2<f64>>,
-    #[pyo3(get)]
     nis: f64,
 }
 
@@ -41,13 +37,10 @@ impl PyKalmanUpdate {
 
 /// The eigen-decomposition of a Fisher information matrix, frozen, arrays
 /// read-only: `eigenvalues` ascending, `eigenvectors` as columns, and the `rank`.
-#[pyclass(name = "InformationSpectrum", module = "rperc._rperc", frozen)]
+#[pyclass(name = "InformationSpectrum", module = "rperc._rperc", frozen, get_all)]
 pub struct PyInformationSpectrum {
-    #[pyo3(get)]
     eigenvalues: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     eigenvectors: Py<PyArray2<f64>>,
-    #[pyo3(get)]
     rank: usize,
 }
 
@@ -172,14 +165,7 @@ impl PyEkf {
         r: &Bound<'py, PyAny>,
     ) -> PyResult<PyKalmanUpdate> {
         let mut this = exclusive(slf)?;
-        let (z, r) = (vector(z, "z")?, matrix(r, "R")?);
-        if z.len() != 2 || r.shape() != (2, 2) {
-            return Err(Error::Value("z must have 2 entries and R be 2x2".into()).into());
-        }
-        let (z, r) = (
-            Vector2::new(z[0], z[1]),
-            Matrix2::from_iterator(r.iter().copied()),
-        );
+        let (z, r) = range_bearing(z, r)?;
         let ekf = &mut this.inner;
         let up = detached(py, || Ok(ekf.update_range_bearing(j, &z, &r)?))?;
         PyKalmanUpdate::new(py, &up)
@@ -213,14 +199,7 @@ impl PyEkf {
         r: &Bound<'_, PyAny>,
     ) -> PyResult<usize> {
         let mut this = exclusive(slf)?;
-        let (z, r) = (vector(z, "z")?, matrix(r, "R")?);
-        if z.len() != 2 || r.shape() != (2, 2) {
-            return Err(Error::Value("z must have 2 entries and R be 2x2".into()).into());
-        }
-        let (z, r) = (
-            Vector2::new(z[0], z[1]),
-            Matrix2::from_iterator(r.iter().copied()),
-        );
+        let (z, r) = range_bearing(z, r)?;
         Ok(this
             .inner
             .add_landmark_range_bearing(&z, &r)
@@ -236,6 +215,21 @@ impl PyEkf {
             self.inner.state().len()
         )
     }
+}
+
+/// A range-bearing detection `z` (2 entries) and its noise `R` (2x2).
+fn range_bearing(
+    z: &Bound<'_, PyAny>,
+    r: &Bound<'_, PyAny>,
+) -> Result<(Vector2<f64>, Matrix2<f64>), Error> {
+    let (z, r) = (vector(z, "z")?, matrix(r, "R")?);
+    if z.len() != 2 || r.shape() != (2, 2) {
+        return Err(Error::Value("z must have 2 entries and R be 2x2".into()));
+    }
+    Ok((
+        Vector2::new(z[0], z[1]),
+        Matrix2::from_iterator(r.iter().copied()),
+    ))
 }
 
 fn parse_model(model: &str) -> Result<MeasurementModel, Error> {
@@ -254,33 +248,20 @@ fn monobot_config(config: Option<&Bound<'_, PyAny>>) -> Result<MonobotConfig, Er
 /// with their covariances, the Kalman gains, the predicted covariances, the NEES,
 /// the total Fisher information (eq. 14) and its first entry over time, and each
 /// landmark's first-observation error.
-#[pyclass(name = "MonobotRun", module = "rperc._rperc", frozen)]
+#[pyclass(name = "MonobotRun", module = "rperc._rperc", frozen, get_all)]
 pub struct PyMonobotRun {
-    #[pyo3(get)]
     truth: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     estimate: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     std: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     initial_measurement: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     measurement: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     innovation: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     innovation_cov: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     gain: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     predicted_cov: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     nees: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     fisher: Py<PyArray2<f64>>,
-    #[pyo3(get)]
     fisher_00: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     first_observation_error: Py<PyArrayDyn<f64>>,
 }
 
@@ -324,15 +305,11 @@ pub fn monobot_simulate<'py>(
 /// The errors of Monte Carlo runs, stacked, frozen, arrays read-only: NEES `(runs,
 /// steps+1)`, robot error `(runs, steps+1)`, landmark errors `(runs, steps+1, n)` and
 /// first-observation errors `(runs, n)`.
-#[pyclass(name = "MonobotErrors", module = "rperc._rperc", frozen)]
+#[pyclass(name = "MonobotErrors", module = "rperc._rperc", frozen, get_all)]
 pub struct PyMonobotErrors {
-    #[pyo3(get)]
     nees: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     robot_error: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     landmark_error: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     first_observation_error: Py<PyArrayDyn<f64>>,
 }
 
@@ -380,31 +357,19 @@ pub fn monobot_monte_carlo<'py>(
 /// run-averaged NEES and its band, the landmark and robot errors' mean and spread
 /// over time, each run's final and first-observation landmark errors, and the
 /// sensitivity (slope) and correlation of the final on the first.
-#[pyclass(name = "MonobotSummary", module = "rperc._rperc", frozen)]
+#[pyclass(name = "MonobotSummary", module = "rperc._rperc", frozen, get_all)]
 pub struct PyMonobotSummary {
-    #[pyo3(get)]
     runs: usize,
-    #[pyo3(get)]
     nees: Py<PyArray1<f64>>,
-    #[pyo3(get)]
     nees_band: (f64, f64),
-    #[pyo3(get)]
     nees_in_band: f64,
-    #[pyo3(get)]
     landmark_error_mean: Py<PyArray1<f64>>,
-    #[pyo3(get)]
     landmark_error_std: Py<PyArray1<f64>>,
-    #[pyo3(get)]
     robot_error_mean: Py<PyArray1<f64>>,
-    #[pyo3(get)]
     robot_error_std: Py<PyArray1<f64>>,
-    #[pyo3(get)]
     final_landmark_error: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     first_observation_error: Py<PyArrayDyn<f64>>,
-    #[pyo3(get)]
     sensitivity: f64,
-    #[pyo3(get)]
     correlation: f64,
 }
 

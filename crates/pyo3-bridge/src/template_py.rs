@@ -1,29 +1,23 @@
 //! Binding of the colour + template tracker (issue 34): conversion only.
 
 use pyo3::prelude::*;
-use tracking::ColorTemplateParams;
+use tracking::{ColorTemplateParams, RgbFrame};
 
-use crate::errors::{detached, exclusive, shared};
-use crate::tracking_py::{bbox, frame};
+use crate::errors::{exclusive, shared};
+use crate::tracking_py::{Threads, bbox, on_frame};
 
 /// One answer of the colour + template tracker, frozen: the `box` `(x, y, w, h)`, the
 /// `score`, the `lost` flag and the signals it was decided from: the merged response's
 /// `peak`, the template response's `psr` and `apce`, and the colour `color_score`.
-#[pyclass(name = "ColorTemplateAnswer", module = "rperc._rperc", frozen)]
+#[pyclass(name = "ColorTemplateAnswer", module = "rperc._rperc", frozen, get_all)]
 pub struct PyColorTemplateAnswer {
-    #[pyo3(get, name = "box")]
+    #[pyo3(name = "box")]
     bbox: (f64, f64, f64, f64),
-    #[pyo3(get)]
     score: f64,
-    #[pyo3(get)]
     lost: bool,
-    #[pyo3(get)]
     peak: f64,
-    #[pyo3(get)]
     psr: f64,
-    #[pyo3(get)]
     apce: f64,
-    #[pyo3(get)]
     color_score: f64,
 }
 
@@ -66,11 +60,8 @@ impl PyColorTemplateTracker {
         let params: ColorTemplateParams =
             crate::config::from_python(config, "ColorTemplateTracker")?;
         let b = self::bbox(bbox)?;
-        let f = self::frame(frame)?;
-        let view = f.view()?;
-        let inner = detached(py, || {
-            Ok(tracking::ColorTemplateTracker::new(view, b, params)?)
-        })?;
+        let start = |view: RgbFrame<'_>| tracking::ColorTemplateTracker::new(view, b, params);
+        let inner = on_frame(py, frame, Threads::Caller, start)?;
         Ok(Self { inner })
     }
 
@@ -82,10 +73,7 @@ impl PyColorTemplateTracker {
     ) -> PyResult<PyColorTemplateAnswer> {
         let mut this = exclusive(slf)?;
         let tracker = &mut this.inner;
-        let f = self::frame(frame)?;
-        let view = f.view()?;
-        let r = detached(py, || Ok(tracker.update(view)?))?;
-        Ok(r.into())
+        Ok(on_frame(py, frame, Threads::Caller, |view| tracker.update(view))?.into())
     }
 
     /// The current scale relative to the initial box.

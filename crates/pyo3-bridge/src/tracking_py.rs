@@ -123,11 +123,8 @@ impl PyColorHistogramTracker {
         let params: ColorTrackerParams =
             crate::config::from_python(config, "ColorHistogramTracker")?;
         let b = self::bbox(bbox)?;
-        let f = frame_arg(frame)?;
-        let view = f.view()?;
-        let inner = detached(py, || {
-            Ok(tracking::ColorHistogramTracker::new(view, b, params)?)
-        })?;
+        let start = |view: RgbFrame<'_>| tracking::ColorHistogramTracker::new(view, b, params);
+        let inner = on_frame(py, frame, Threads::Caller, start)?;
         Ok(Self { inner })
     }
 
@@ -139,7 +136,7 @@ impl PyColorHistogramTracker {
     ) -> PyResult<PyTrackAnswer> {
         let mut this = exclusive(slf)?;
         let tracker = &mut this.inner;
-        track(py, frame, |view| tracker.update(view))
+        Ok(on_frame(py, frame, Threads::Caller, |view| tracker.update(view))?.into())
     }
 
     /// The current scale relative to the initial box.
@@ -182,11 +179,8 @@ impl PyParticleColorTracker {
         let params: ParticleTrackerParams =
             crate::config::from_python(config, "ParticleColorTracker")?;
         let b = self::bbox(bbox)?;
-        let f = frame_arg(frame)?;
-        let view = f.view()?;
-        let inner = detached(py, || {
-            Ok(tracking::ParticleColorTracker::new(view, b, params, seed)?)
-        })?;
+        let start = |view: RgbFrame<'_>| tracking::ParticleColorTracker::new(view, b, params, seed);
+        let inner = on_frame(py, frame, Threads::Caller, start)?;
         Ok(Self { inner })
     }
 
@@ -198,11 +192,8 @@ impl PyParticleColorTracker {
     ) -> PyResult<PyTrackAnswer> {
         let mut this = exclusive(slf)?;
         let tracker = &mut this.inner;
-        let f = frame_arg(frame)?;
-        let view = f.view()?;
-        // The particles are weighed on the thread pool, whose threads cannot ask
-        // Python for signals: this thread polls for Ctrl-C while a worker steps.
-        Ok(detached_parallel(py, || Ok(tracker.update(view)?))?.into())
+        // The particles are weighed on the thread pool.
+        Ok(on_frame(py, frame, Threads::Pool, |view| tracker.update(view))?.into())
     }
 
     /// Effective sample size of the particle set.
@@ -212,18 +203,35 @@ impl PyParticleColorTracker {
     }
 }
 
-fn frame_arg<'py>(obj: &Bound<'py, PyAny>) -> PyResult<Frame<'py>> {
-    Ok(frame(obj)?)
+/// Where a tracker's work runs with the GIL released.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Threads {
+    /// On the calling thread ([`detached`]).
+    Caller,
+    /// On the thread pool, whose threads cannot ask Python for signals: the calling
+    /// thread polls for Ctrl-C while a worker steps ([`detached_parallel`]).
+    Pool,
 }
 
-/// Runs one tracker step on a numpy frame with the GIL released.
-pub(crate) fn track<F>(py: Python<'_>, frame: &Bound<'_, PyAny>, step: F) -> PyResult<PyTrackAnswer>
+/// Runs `work` on the numpy RGB `frame` with the GIL released: the one reading of a
+/// tracker's frame for its first frame and its steps.
+pub(crate) fn on_frame<R, F>(
+    py: Python<'_>,
+    frame: &Bound<'_, PyAny>,
+    threads: Threads,
+    work: F,
+) -> PyResult<R>
 where
-    F: FnOnce(RgbFrame<'_>) -> tracking::Result<TrackResult> + Send,
+    R: Send,
+    F: FnOnce(RgbFrame<'_>) -> tracking::Result<R> + Send,
 {
-    let f = frame_arg(frame)?;
+    let f = self::frame(frame)?;
     let view = f.view()?;
-    Ok(detached(py, || Ok(step(view)?))?.into())
+    let work = || Ok(work(view)?);
+    match threads {
+        Threads::Caller => detached(py, work),
+        Threads::Pool => detached_parallel(py, work),
+    }
 }
 
 /// Indices of `n` particles drawn from `weights` by `method`, seeded (GIL released).

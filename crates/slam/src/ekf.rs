@@ -125,6 +125,32 @@ pub(crate) const INTERRUPTIBLE_ROWS: usize = 256;
 /// `P` so that Ctrl-C can stop them without leaving `P` half written.
 const INTERRUPTIBLE_JOSEPH_FLOPS: usize = 100_000_000;
 
+/// The finite inputs of a prediction: the robot's new mean and the Jacobians.
+fn check_prediction<'a>(
+    robot_mean: impl IntoIterator<Item = &'a f64>,
+    fx: impl IntoIterator<Item = &'a f64>,
+    fv: impl IntoIterator<Item = &'a f64>,
+) -> Result<()> {
+    ensure_finite("robot mean", robot_mean)?;
+    ensure_finite("Fx", fx)?;
+    ensure_finite("Fv", fv)?;
+    Ok(())
+}
+
+/// `Err(Diverged)` unless the predicted covariance entries `values` are finite and
+/// its `variances` (the diagonal) not negative.
+fn check_predicted<'a>(
+    mut values: impl Iterator<Item = &'a f64>,
+    mut variances: impl Iterator<Item = &'a f64>,
+) -> Result<()> {
+    if values.all(|v| v.is_finite()) && !variances.any(|&v| v < 0.0) {
+        return Ok(());
+    }
+    Err(SlamError::Diverged(
+        "predict: the predicted robot covariance is not finite or has a negative variance".into(),
+    ))
+}
+
 /// Refuses a noise covariance (`V`, `R`) that is not symmetric positive
 /// semi-definite: a negative variance would make `P` indefinite without any error
 /// further down. Zero noise is allowed.
@@ -467,33 +493,15 @@ impl Ekf {
                 v.shape()
             )));
         }
-        ensure_finite("robot mean", robot_mean.iter())?;
-        ensure_finite("Fx", fx.iter())?;
-        ensure_finite("Fv", fv.iter())?;
+        check_prediction(robot_mean.iter(), fx.iter(), fv.iter())?;
         check_noise("V", v)?;
-        self.predict_unchecked(robot_mean, fx, fv, v)
-    }
-
-    fn predict_unchecked(
-        &mut self,
-        robot_mean: &DVector<f64>,
-        fx: &DMatrix<f64>,
-        fv: &DMatrix<f64>,
-        v: &DMatrix<f64>,
-    ) -> Result<()> {
-        let (r, d) = (self.robot_dim, self.dim());
+        let d = self.dim();
         let prr = self.robot_covariance();
         let new_rr = fx * prr * fx.transpose() + fv * v * fv.transpose();
         // P_lr <- P_lr Fx^T: the landmark rows of the robot columns (contiguous).
         let cross = self.cov.view((r, 0), (d - r, r)) * fx.transpose();
         // Check before writing, so a diverged prediction leaves the filter as it was.
-        let finite = new_rr.iter().chain(cross.iter()).all(|v| v.is_finite());
-        if !finite || new_rr.diagonal().iter().any(|&v| v < 0.0) {
-            return Err(SlamError::Diverged(
-                "predict: the predicted robot covariance is not finite or has a negative variance"
-                    .into(),
-            ));
-        }
+        check_predicted(new_rr.iter().chain(cross.iter()), new_rr.diagonal().iter())?;
         self.cov.view_mut((r, 0), (d - r, r)).copy_from(&cross);
         self.cov
             .view_mut((0, 0), (r, r))
@@ -519,18 +527,11 @@ impl Ekf {
                 self.robot_dim
             )));
         }
-        ensure_finite("robot mean", robot_mean.iter())?;
-        ensure_finite("Fx", fx.iter())?;
-        ensure_finite("Fv", fv.iter())?;
+        check_prediction(robot_mean.iter(), fx.iter(), fv.iter())?;
         check_noise("V", &DMatrix::from_column_slice(2, 2, v.as_slice()))?;
         let prr = Matrix3::from_fn(|i, j| self.cov_at(i, j));
         let new_rr = fx * prr * fx.transpose() + fv * v * fv.transpose();
-        if !new_rr.iter().all(|x| x.is_finite()) || new_rr.diagonal().iter().any(|&x| x < 0.0) {
-            return Err(SlamError::Diverged(
-                "predict: the predicted robot covariance is not finite or has a negative variance"
-                    .into(),
-            ));
-        }
+        check_predicted(new_rr.iter(), new_rr.diagonal().iter())?;
         let (d, cap) = (self.dim(), self.cov.nrows());
         let data = self.cov.as_mut_slice();
         let (c0, rest) = data.split_at_mut(cap);

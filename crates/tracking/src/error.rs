@@ -106,6 +106,21 @@ impl TrackingError {
             _ => None,
         }
     }
+
+    /// [`TrackingError::FrameSizeChanged`] unless a frame of `(width, height)` `size`
+    /// has the `expected` size: every tracker and camera refuses a frame of another
+    /// size the same way.
+    pub fn check_frame_size(expected: (usize, usize), size: (usize, usize)) -> Result<()> {
+        if size == expected {
+            return Ok(());
+        }
+        Err(TrackingError::FrameSizeChanged {
+            expected_width: expected.0,
+            expected_height: expected.1,
+            width: size.0,
+            height: size.1,
+        })
+    }
 }
 
 impl TrackingError {

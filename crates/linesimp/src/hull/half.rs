@@ -32,6 +32,14 @@ pub(super) const NONE: u32 = u32::MAX;
 /// Hulls up to this many corners are searched linearly.
 const LINEAR_SCAN_MAX: usize = 8;
 
+/// Where a vertex that adds no corner is recorded: with the corner it duplicates, or
+/// with the edge it lies strictly inside.
+#[derive(Clone, Copy, Debug)]
+enum Slot {
+    Corner,
+    Edge,
+}
+
 /// One logged insertion (exactly one entry per inserted vertex).
 #[derive(Clone, Copy, Debug)]
 enum Op {
@@ -284,8 +292,8 @@ impl HalfHull {
             // for a chain that crosses itself) outside away from the ends.
             match locate_in_wedge(grid, points, &self.elt[bot..top], p) {
                 Loc::Inside => self.log.push(Op::Nothing),
-                Loc::Corner(s) => self.record_corner(bot + s, k),
-                Loc::Edge(s) => self.record_edge(bot + s, k),
+                Loc::Corner(s) => self.record(Slot::Corner, bot + s, k),
+                Loc::Edge(s) => self.record(Slot::Edge, bot + s, k),
                 Loc::Outside => self.rebuild(points, k),
             }
             return;
@@ -294,9 +302,9 @@ impl HalfHull {
             let (u, w) = (pt(points, self.elt[pos]), pt(points, self.elt[pos + 1]));
             if o == 0 && within(u, w, p) {
                 match p {
-                    _ if p == u => self.record_corner(pos, k),
-                    _ if p == w => self.record_corner(pos + 1, k),
-                    _ => self.record_edge(pos, k),
+                    _ if p == u => self.record(Slot::Corner, pos, k),
+                    _ if p == w => self.record(Slot::Corner, pos + 1, k),
+                    _ => self.record(Slot::Edge, pos, k),
                 }
                 return;
             }
@@ -311,33 +319,44 @@ impl HalfHull {
         let p = pt(points, k);
         let bot = self.bot;
         if m >= 1 && p == pt(points, self.elt[bot]) {
-            return self.record_corner(bot, k);
+            return self.record(Slot::Corner, bot, k);
         }
         if m == 2 {
             let (u, w) = (pt(points, self.elt[bot]), pt(points, self.elt[bot + 1]));
             if orient_on(grid, u, w, p) == 0 && within(u, w, p) {
                 return match p == w {
-                    true => self.record_corner(bot + 1, k),
-                    false => self.record_edge(bot, k),
+                    true => self.record(Slot::Corner, bot + 1, k),
+                    false => self.record(Slot::Edge, bot, k),
                 };
             }
         }
         self.rebuild(points, k);
     }
 
-    /// `k` duplicates the corner at `pos`.
-    fn record_corner(&mut self, pos: usize, k: u32) {
-        let old = self.elt[pos];
+    /// `k` duplicates the corner at `pos` ([`Slot::Corner`]) or lies strictly inside
+    /// the edge at `pos` ([`Slot::Edge`]): the slot takes the point [`Self::prefer`]
+    /// picks, and the insertion is logged with what undoes it.
+    fn record(&mut self, slot: Slot, pos: usize, k: u32) {
+        let old = match slot {
+            Slot::Corner => self.elt[pos],
+            Slot::Edge => self.edge[pos],
+        };
         let new = self.prefer(old, k);
         if new == old {
             self.log.push(Op::Nothing);
             return;
         }
-        self.log.push(Op::Corner {
-            pos: pos as u32,
-            old,
-        });
-        self.set_corner(pos, new);
+        let at = pos as u32;
+        match slot {
+            Slot::Corner => {
+                self.log.push(Op::Corner { pos: at, old });
+                self.set_corner(pos, new);
+            }
+            Slot::Edge => {
+                self.log.push(Op::Edge { pos: at, old });
+                self.set_edge(pos, new);
+            }
+        }
     }
 
     fn set_corner(&mut self, pos: usize, v: u32) {
@@ -347,21 +366,6 @@ impl HalfHull {
         } else {
             self.elt[pos] = v;
         }
-    }
-
-    /// `k` lies strictly inside the edge at `pos`.
-    fn record_edge(&mut self, pos: usize, k: u32) {
-        let old = self.edge[pos];
-        let new = self.prefer(old, k);
-        if new == old {
-            self.log.push(Op::Nothing);
-            return;
-        }
-        self.log.push(Op::Edge {
-            pos: pos as u32,
-            old,
-        });
-        self.set_edge(pos, new);
     }
 
     fn set_edge(&mut self, pos: usize, v: u32) {

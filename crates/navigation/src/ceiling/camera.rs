@@ -16,22 +16,15 @@
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use rperc_core::Pose2;
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
 
 use crate::error::{NavigationError, Result};
 
 /// Where the camera sits on the robot: the camera frame in the robot frame,
 /// `X_R = R_m X_C + offset`, with `R_m = Rz(yaw) Ry(pitch) Rx(roll)` (radians).
 /// The ideal mount is all zeros.
-#[derive(
-    Debug,
-    Clone,
-    Copy,
-    PartialEq,
-    Default,
-    serde::Deserialize,
-    serde::Serialize,
-    schemars::JsonSchema,
-)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Deserialize, Serialize, JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct CameraMount {
     /// Rotation about the camera's x axis, radians.
@@ -71,9 +64,7 @@ impl CameraMount {
 /// let uv = camera.project_ideal(&robot, [2.0, 1.0]);
 /// assert!((uv[0] - camera.cx).abs() < 1e-9 && (uv[1] - camera.cy).abs() < 1e-9);
 /// ```
-#[derive(
-    Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema,
-)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize, JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct CeilingCamera {
     /// Image width, pixels.
@@ -256,14 +247,8 @@ pub fn correct_image(
     out: &mut rperc_core::image::GrayImage,
 ) -> Result<()> {
     camera.validate()?;
-    if (frame.width, frame.height) != (camera.width, camera.height) {
-        return Err(NavigationError::FrameSizeChanged {
-            expected_width: camera.width,
-            expected_height: camera.height,
-            width: frame.width,
-            height: frame.height,
-        });
-    }
+    let expected = (camera.width, camera.height);
+    tracking::TrackingError::check_frame_size(expected, (frame.width, frame.height))?;
     let h = camera.robot_to_camera_homography();
     out.width = camera.width;
     out.height = camera.height;

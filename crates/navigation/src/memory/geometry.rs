@@ -10,6 +10,7 @@
 //! with it set to 1 the mosaic and the robot are in pixels, "up to the scale factor
 //! Z/f" of the seed, which is all visual servoing needs.
 
+use nalgebra::Point2;
 use rperc_core::{Pose2, wrap_angle};
 
 /// The ideal camera's principal point and the scale `Z / f` of eq. 2.
@@ -147,12 +148,9 @@ pub fn fit_pose(pairs: &[([f64; 2], [f64; 2], f64)]) -> Option<Pose2> {
         return None;
     }
     let theta = cross.atan2(dot);
-    let (s, c) = theta.sin_cos();
-    Some(Pose2::new(
-        cm[0] - (c * cr[0] - s * cr[1]),
-        cm[1] - (s * cr[0] + c * cr[1]),
-        theta,
-    ))
+    // The translation takes the turned robot-frame centroid onto the mosaic's.
+    let turned = Pose2::new(0.0, 0.0, theta).transform_point(&Point2::from(cr));
+    Some(Pose2::new(cm[0] - turned.x, cm[1] - turned.y, theta))
 }
 
 /// The largest distance between two of `points` (0 for fewer than two): how far

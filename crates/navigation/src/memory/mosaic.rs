@@ -1023,14 +1023,7 @@ pub fn rotation_lever(model: &PatternModel) -> f64 {
 
 /// The axis-aligned box `(x, y, w, h)` around four corners.
 fn bounds(corners: &[[f64; 2]; 4]) -> [f64; 4] {
-    let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
-    for c in corners {
-        x0 = x0.min(c[0]);
-        y0 = y0.min(c[1]);
-        x1 = x1.max(c[0]);
-        y1 = y1.max(c[1]);
-    }
-    [x0, y0, x1 - x0, y1 - y0]
+    tracking::BoundingBox::enclosing(corners).to_array()
 }
 
 /// The joint covariance of some of a mosaic's models.

@@ -70,21 +70,10 @@ pub(crate) fn anchor_frame(
 /// the sensor frame, `h = R^T (0 - t) - m`, and eq. (25), its Jacobian
 /// `[-R^T, -(dR/dtheta)^T t]` (the mount offset `m` is constant).
 pub(crate) fn anchor_observation(robot: &Pose2, mount: &Pose2) -> (Vector2<f64>, Matrix2x3<f64>) {
-    let rt = robot.rotation().transpose();
-    let t = robot.translation();
-    let h = -(rt * t) - mount.translation();
-    let (s, c) = robot.theta.sin_cos();
-    // dR/dtheta = [[-s, -c], [c, -s]], so -(dR/dtheta)^T t = (s tx - c ty, c tx + s ty).
-    let d_theta = Vector2::new(s * t.x - c * t.y, c * t.x + s * t.y);
-    let jac = Matrix2x3::new(
-        -rt[(0, 0)],
-        -rt[(0, 1)],
-        d_theta.x,
-        -rt[(1, 0)],
-        -rt[(1, 1)],
-        d_theta.y,
-    );
-    (h, jac)
+    // The origin seen from the robot, R^T (0 - t), is rperc-core's inverse transform,
+    // and its pose Jacobian is eq. (25)'s.
+    let (origin, jac, _) = robot.inverse_transform_point_with_jacobians(&Point2::origin());
+    (origin.coords - mount.translation(), jac)
 }
 
 /// A range-bearing detection as a Cartesian point in the sensor frame, with its

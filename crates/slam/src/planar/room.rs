@@ -10,10 +10,9 @@ use std::f64::consts::{FRAC_PI_2, PI};
 use nalgebra::{Point2, Vector2};
 use rperc_core::{Pose2, angle_diff, rng, wrap_angle};
 
-use super::sim::{Circle, MonteCarlo, average_runs, check_fields, gauss, pose_nees};
+use super::sim::{Circle, Drive, MonteCarlo, average_runs, gauss, pose_nees};
 use super::{Association, Event, EventKind, PlanarConfig, PlanarResult, PlanarSlam, WallDetection};
 use crate::error::{Result, SlamError};
-use crate::motion::{MotionModel, Unicycle};
 use crate::wall::observe_wall;
 
 /// The simulated room and its noise (the filter built by
@@ -92,12 +91,8 @@ pub struct RoomRun {
 impl RoomConfig {
     /// Refuses bad values with the field's name.
     pub fn validate(&self) -> Result<()> {
-        Circle::check(
-            [self.radius, self.speed, self.dt],
-            [self.speed_variance, self.turn_rate_variance],
-            &self.initial_pose_variance,
-        )?;
-        check_fields(
+        self.drive().check()?;
+        rperc_core::ensure_fields(
             &[
                 ("max_range", self.max_range),
                 ("rho_variance", self.rho_variance),
@@ -116,14 +111,22 @@ impl RoomConfig {
         Ok(())
     }
 
+    /// How its robot drives.
+    pub(super) fn drive(&self) -> Drive {
+        Drive {
+            radius: self.radius,
+            speed: self.speed,
+            dt: self.dt,
+            noise: [self.speed_variance, self.turn_rate_variance],
+            start_variance: self.initial_pose_variance,
+        }
+    }
+
     /// The filter settings that match this room: same noise, same start, nearest
     /// neighbour association.
     pub fn slam_config(&self) -> PlanarConfig {
         PlanarConfig {
-            motion: MotionModel::Unicycle(Unicycle {
-                speed_variance: self.speed_variance,
-                turn_rate_variance: self.turn_rate_variance,
-            }),
+            motion: self.drive().motion(),
             association: Association::NearestNeighbour,
             initial_pose: [self.centre[0] + self.radius, self.centre[1], FRAC_PI_2],
             initial_pose_variance: self.initial_pose_variance,
@@ -205,13 +208,7 @@ fn scan(
 pub fn simulate_room(cfg: &RoomConfig, seed: u64, run: u64) -> RoomRun {
     let mut rng = rng::stream(seed, run);
     let lines = cfg.lines();
-    let mut robot = Circle::new(
-        &mut rng,
-        cfg.slam_config().initial_pose,
-        &cfg.initial_pose_variance,
-        (cfg.speed, cfg.radius, cfg.dt),
-        [cfg.speed_variance, cfg.turn_rate_variance],
-    );
+    let mut robot = Circle::new(&mut rng, cfg.slam_config().initial_pose, &cfg.drive());
     let mut out = RoomRun {
         events: Vec::new(),
         truth: Vec::new(),

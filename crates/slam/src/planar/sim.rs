@@ -81,12 +81,8 @@ pub struct SimRun {
 impl SimConfig {
     /// Refuses bad values with the field's name.
     pub fn validate(&self) -> Result<()> {
-        Circle::check(
-            [self.radius, self.speed, self.dt],
-            [self.speed_variance, self.turn_rate_variance],
-            &self.initial_pose_variance,
-        )?;
-        check_fields(
+        self.drive().check()?;
+        rperc_core::ensure_fields(
             &[
                 ("ring_gap", self.ring_gap),
                 ("max_range", self.max_range),
@@ -117,13 +113,21 @@ impl SimConfig {
         Ok(())
     }
 
+    /// How its robot drives.
+    pub(super) fn drive(&self) -> Drive {
+        Drive {
+            radius: self.radius,
+            speed: self.speed,
+            dt: self.dt,
+            noise: [self.speed_variance, self.turn_rate_variance],
+            start_variance: self.initial_pose_variance,
+        }
+    }
+
     /// The filter settings that match this world: same noise, same start.
     pub fn slam_config(&self) -> PlanarConfig {
         PlanarConfig {
-            motion: MotionModel::Unicycle(crate::motion::Unicycle {
-                speed_variance: self.speed_variance,
-                turn_rate_variance: self.turn_rate_variance,
-            }),
+            motion: self.drive().motion(),
             range_variance: self.range_variance,
             bearing_variance: self.bearing_variance,
             initial_pose: [self.radius, 0.0, std::f64::consts::FRAC_PI_2],
@@ -153,21 +157,6 @@ pub(super) fn gauss(rng: &mut rng::RngStream, variance: f64) -> f64 {
     variance.sqrt() * rng::normal(rng)
 }
 
-/// A simulator's settings checked by name: `positive` must be > 0, `non_negative`
-/// >= 0.
-pub(super) fn check_fields(
-    positive: &[(&'static str, f64)],
-    non_negative: &[(&'static str, f64)],
-) -> Result<()> {
-    for &(name, v) in positive {
-        rperc_core::ensure_positive(name, v)?;
-    }
-    for &(name, v) in non_negative {
-        rperc_core::ensure_non_negative(name, v)?;
-    }
-    Ok(())
-}
-
 /// The robot of the simulated worlds: laps of a circle at constant speed, its
 /// odometry the true `(v, omega)` plus white noise of the filter's own variances.
 pub(super) struct Circle {
@@ -179,35 +168,53 @@ pub(super) struct Circle {
     noise: [f64; 2],
 }
 
-impl Circle {
-    /// The settings of [`Circle::new`] checked by name: `(radius, speed, dt)` > 0,
-    /// the noise variances and the start variances >= 0.
-    pub fn check(drive: [f64; 3], noise: [f64; 2], start_variance: &[f64; 3]) -> Result<()> {
-        let [radius, speed, dt] = drive;
-        check_fields(
-            &[("radius", radius), ("speed", speed), ("dt", dt)],
+/// How the robot of a simulated world drives, as its config sets it: laps of a circle
+/// of `radius` at `speed`, a control every `dt` seconds, odometry noise `noise`
+/// (speed, turn-rate variances) and the start's variances. The filter's motion model
+/// has the same noise.
+pub(super) struct Drive {
+    pub radius: f64,
+    pub speed: f64,
+    pub dt: f64,
+    pub noise: [f64; 2],
+    pub start_variance: [f64; 3],
+}
+
+impl Drive {
+    /// The settings checked by name: `(radius, speed, dt)` > 0, the noise variances
+    /// and the start variances >= 0.
+    pub fn check(&self) -> Result<()> {
+        rperc_core::ensure_fields(
             &[
-                ("speed_variance", noise[0]),
-                ("turn_rate_variance", noise[1]),
+                ("radius", self.radius),
+                ("speed", self.speed),
+                ("dt", self.dt),
+            ],
+            &[
+                ("speed_variance", self.noise[0]),
+                ("turn_rate_variance", self.noise[1]),
             ],
         )?;
-        start_variance
+        self.start_variance
             .iter()
             .try_for_each(|&v| rperc_core::ensure_non_negative("initial_pose_variance", v))?;
         Ok(())
     }
 
-    /// The robot at `start` moved by a draw of `start_variance`, to drive at `speed`
-    /// on a circle of `radius` with odometry noise `noise` (speed, turn-rate
-    /// variances), one control every `dt` seconds.
-    pub fn new(
-        rng: &mut rng::RngStream,
-        start: [f64; 3],
-        start_variance: &[f64; 3],
-        (speed, radius, dt): (f64, f64, f64),
-        noise: [f64; 2],
-    ) -> Self {
-        let v = start_variance;
+    /// The filter's motion model with the drive's own odometry noise.
+    pub fn motion(&self) -> MotionModel {
+        MotionModel::Unicycle(crate::motion::Unicycle {
+            speed_variance: self.noise[0],
+            turn_rate_variance: self.noise[1],
+        })
+    }
+}
+
+impl Circle {
+    /// The robot at `start` moved by a draw of the drive's start variances, to drive
+    /// as `drive` says.
+    pub fn new(rng: &mut rng::RngStream, start: [f64; 3], drive: &Drive) -> Self {
+        let v = drive.start_variance;
         let pose = Pose2::new(
             start[0] + gauss(rng, v[0]),
             start[1] + gauss(rng, v[1]),
@@ -215,10 +222,10 @@ impl Circle {
         );
         Self {
             pose,
-            speed,
-            omega: speed / radius,
-            dt,
-            noise,
+            speed: drive.speed,
+            omega: drive.speed / drive.radius,
+            dt: drive.dt,
+            noise: drive.noise,
         }
     }
 
@@ -335,13 +342,7 @@ pub fn simulate(cfg: &SimConfig, seed: u64, run: u64) -> Result<SimRun> {
     let mut meter = rperc_core::interrupt::Work::new();
     let mut rng = rng::stream(seed, run);
     let world = cfg.world();
-    let mut robot = Circle::new(
-        &mut rng,
-        cfg.slam_config().initial_pose,
-        &cfg.initial_pose_variance,
-        (cfg.speed, cfg.radius, cfg.dt),
-        [cfg.speed_variance, cfg.turn_rate_variance],
-    );
+    let mut robot = Circle::new(&mut rng, cfg.slam_config().initial_pose, &cfg.drive());
     let (mut events, mut truth) = (Vec::new(), Vec::new());
     for k in 0..cfg.steps {
         meter.advance(1 + world.len() as u64)?;

@@ -7,7 +7,7 @@ use super::ellipse::{Ellipse, half_width, vertical_radius};
 use super::gradient::GradientImage;
 use super::model::{AppearanceParams, ColourModel};
 use super::space::BinImage;
-use super::tracker::{TrackResult, pixel_centre};
+use super::tracker::{TrackResult, check_search_radii, pixel_centre};
 use crate::condensation::{FilterParams, Likelihood, LinearGaussian, ParticleFilter};
 use rperc_core::{MAX_PARTICLES, ensure_positive as positive};
 
@@ -277,15 +277,7 @@ impl ParticleTrackerParams {
         rperc_core::ensure_count("n_particles", self.n_particles, 1, MAX_PARTICLES, 1)?;
         rperc_core::ensure_in_range("mix_fraction", self.mix_fraction, 0.0, 0.99)?;
         rperc_core::ensure_in_range("velocity_gain", self.velocity_gain, 0.0, 100.0)?;
-        if self.max_search_radius < self.search_radius || self.max_search_radius > 512 {
-            return Err(TrackingError::InvalidParameter {
-                name: "max_search_radius",
-                reason: format!(
-                    "must be between search_radius ({}) and 512, got {}",
-                    self.search_radius, self.max_search_radius
-                ),
-            });
-        }
+        check_search_radii(self.search_radius, self.max_search_radius)?;
         positive("position_noise", self.position_noise)?;
         positive("scale_noise", self.scale_noise)?;
         positive("sigma", self.sigma)?;
@@ -403,11 +395,7 @@ impl ParticleColorTracker {
             counts: vec![0; n_bins],
             velocity: (0.0, 0.0),
             speed: 0.0,
-            last: TrackResult {
-                bbox,
-                score: 1.0,
-                lost: false,
-            },
+            last: TrackResult::initial(bbox),
             params,
         })
     }
@@ -417,14 +405,8 @@ impl ParticleColorTracker {
     /// # Errors
     /// [`TrackingError::FrameSizeChanged`] if `frame` differs in size from the first.
     pub fn update(&mut self, frame: RgbFrame<'_>) -> Result<TrackResult> {
-        if frame.width() != self.width || frame.height() != self.height {
-            return Err(TrackingError::FrameSizeChanged {
-                expected_width: self.width,
-                expected_height: self.height,
-                width: frame.width(),
-                height: frame.height(),
-            });
-        }
+        let size = (frame.width(), frame.height());
+        TrackingError::check_frame_size((self.width, self.height), size)?;
         let use_gradient = self.prepare_frame(&frame);
         if self.image.bins.iter().all(|&b| b == self.image.bins[0]) {
             // One colour everywhere (a black frame): nothing to weigh the particles by;

@@ -98,25 +98,30 @@ impl Default for ColorTrackerParams {
     }
 }
 
+/// The search window's half-sizes of both colour trackers: the first `search` and the
+/// widest `max` a lost target grows it to, `search <= max <= 512` (512 px each way
+/// already spans a 1024-pixel frame).
+pub(crate) fn check_search_radii(search: usize, max: usize) -> Result<()> {
+    if search > 512 {
+        return Err(TrackingError::InvalidParameter {
+            name: "search_radius",
+            reason: format!("must be <= 512, got {search}"),
+        });
+    }
+    if max < search || max > 512 {
+        return Err(TrackingError::InvalidParameter {
+            name: "max_search_radius",
+            reason: format!("must be between search_radius ({search}) and 512, got {max}"),
+        });
+    }
+    Ok(())
+}
+
 impl ColorTrackerParams {
     /// Refuses bad values with the parameter's name; returns the number of bins.
     pub fn validate(&self) -> Result<usize> {
         let n_bins = self.appearance.validate()?;
-        if self.search_radius > 512 {
-            return Err(TrackingError::InvalidParameter {
-                name: "search_radius",
-                reason: format!("must be <= 512, got {}", self.search_radius),
-            });
-        }
-        if self.max_search_radius < self.search_radius || self.max_search_radius > 512 {
-            return Err(TrackingError::InvalidParameter {
-                name: "max_search_radius",
-                reason: format!(
-                    "must be between search_radius ({}) and 512, got {}",
-                    self.search_radius, self.max_search_radius
-                ),
-            });
-        }
+        check_search_radii(self.search_radius, self.max_search_radius)?;
         in_range("velocity_gain", self.velocity_gain, 0.0, 100.0)?;
         in_range("lost_ratio", self.lost_ratio, 0.0, 1.0)?;
         in_range("lost_contrast", self.lost_contrast, -1.0, 1.0)?;
@@ -151,6 +156,17 @@ pub struct TrackResult {
     /// single colour, or the particle set collapsed. The box is then where the target
     /// was last seen.
     pub lost: bool,
+}
+
+impl TrackResult {
+    /// The answer before the first update: the box given, a perfect score.
+    pub fn initial(bbox: BoundingBox) -> Self {
+        Self {
+            bbox,
+            score: 1.0,
+            lost: false,
+        }
+    }
 }
 
 /// The search at one scale: its ellipse, the model scaled to its pixel count, a counts
@@ -444,11 +460,7 @@ impl ColorHistogramTracker {
                 searches: vec![ScaleSearch::default(); 3],
                 ..Coarse::default()
             },
-            last: TrackResult {
-                bbox,
-                score: 1.0,
-                lost: false,
-            },
+            last: TrackResult::initial(bbox),
             params,
         })
     }
@@ -460,14 +472,8 @@ impl ColorHistogramTracker {
     /// # Errors
     /// [`TrackingError::FrameSizeChanged`] if `frame` differs in size from the first.
     pub fn update(&mut self, frame: RgbFrame<'_>) -> Result<TrackResult> {
-        if frame.width() != self.width || frame.height() != self.height {
-            return Err(TrackingError::FrameSizeChanged {
-                expected_width: self.width,
-                expected_height: self.height,
-                width: frame.width(),
-                height: frame.height(),
-            });
-        }
+        let size = (frame.width(), frame.height());
+        TrackingError::check_frame_size((self.width, self.height), size)?;
         let use_gradient = self.params.appearance.gradient_weight > 0.0;
         let window = self.search_window();
         let found = if self.use_pyramid(&frame) {

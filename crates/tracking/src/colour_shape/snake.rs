@@ -255,7 +255,7 @@ pub fn relax(
     scratch.current.extend_from_slice(contour);
     search_edges(reach, &is_edge, scratch);
     let n = contour.len();
-    let mut d: Vec<[f64; 2]> = (0..n)
+    let d: Vec<[f64; 2]> = (0..n)
         .map(|i| {
             if scratch.found[i] {
                 let (t, c) = (scratch.targets[i], contour[i]);
@@ -265,13 +265,7 @@ pub fn relax(
             }
         })
         .collect();
-    smooth_closed(&mut d, passes);
-    let moved: Contour = contour
-        .iter()
-        .zip(&d)
-        .map(|(p, v)| [p[0] + v[0], p[1] + v[1]])
-        .collect();
-    resample_closed(&moved, n)
+    smoothly_moved(contour, d, passes)
 }
 
 /// Moves each point of `contour` that may not stay (`stay` false) towards `centre` to
@@ -285,7 +279,7 @@ pub fn pull_radially(
     stay: impl Fn(i64, i64) -> bool,
     inside: impl Fn(i64, i64) -> bool,
 ) -> Contour {
-    let mut d: Vec<[f64; 2]> = contour
+    let d: Vec<[f64; 2]> = contour
         .iter()
         .map(|p| {
             if stay(nearest(p[0]), nearest(p[1])) {
@@ -299,6 +293,12 @@ pub fn pull_radially(
                 .map_or([0.0, 0.0], |t| [t * dx, t * dy])
         })
         .collect();
+    smoothly_moved(contour, d, passes)
+}
+
+/// `contour` moved by the displacements `d` smoothed `passes` times along it (the
+/// snake's elasticity), resampled evenly to as many points.
+fn smoothly_moved(contour: &[[f64; 2]], mut d: Vec<[f64; 2]>, passes: usize) -> Contour {
     smooth_closed(&mut d, passes);
     let moved: Contour = contour
         .iter()

@@ -379,15 +379,8 @@ impl ColorShapeTracker {
     }
 
     fn check_size(&self, frame: &RgbFrame<'_>) -> Result<()> {
-        if (frame.width(), frame.height()) != (self.width, self.height) {
-            return Err(TrackingError::FrameSizeChanged {
-                expected_width: self.width,
-                expected_height: self.height,
-                width: frame.width(),
-                height: frame.height(),
-            });
-        }
-        Ok(())
+        let size = (frame.width(), frame.height());
+        TrackingError::check_frame_size((self.width, self.height), size)
     }
 
     /// Takes `refined` as `r_t`: the image velocity follows its centroid (restarted after

@@ -6,6 +6,8 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 use rperc_core::interrupt;
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::dynamics::LinearGaussian;
@@ -48,16 +50,7 @@ where
 
 /// When to resample at the start of a step. In configs: `resample_below = None`
 /// (always) or an ESS fraction.
-#[derive(
-    Debug,
-    Clone,
-    Copy,
-    PartialEq,
-    Default,
-    serde::Deserialize,
-    serde::Serialize,
-    schemars::JsonSchema,
-)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Deserialize, Serialize, JsonSchema)]
 #[serde(from = "Option<f64>", into = "Option<f64>")]
 pub enum ResamplePolicy {
     /// Every step, as in the seed's CONDENSATION.
@@ -84,7 +77,7 @@ impl From<ResamplePolicy> for Option<f64> {
 }
 
 /// Tuning of a [`ParticleFilter`].
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize, JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct FilterParams {
     /// Resampling scheme. Default [`Resampler::Systematic`].

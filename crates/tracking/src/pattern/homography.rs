@@ -7,22 +7,14 @@
 //! scale 1) to a frame point: `x = (H [o; 1])_xy / (H [o; 1])_z`.
 
 use nalgebra::{Matrix3, SMatrix, SVector};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
 
 use crate::error::{Result, TrackingError};
 
 /// The motion model of a [`super::PatternTracker`]: the seed's similarity `(x, y,
 /// theta, s)` (section 3.3), or a plane seen in perspective (an 8-dof homography).
-#[derive(
-    Debug,
-    Clone,
-    Copy,
-    PartialEq,
-    Eq,
-    Default,
-    serde::Deserialize,
-    serde::Serialize,
-    schemars::JsonSchema,
-)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 // slam's vehicle `MotionModel` has the name in the schemas the Python configs are
 // generated from; serde's spelling of the values is unchanged.

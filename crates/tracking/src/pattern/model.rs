@@ -6,6 +6,8 @@ use super::correlation::{autocorrelation_slope, remove_mean};
 use crate::error::{Result, TrackingError};
 use nalgebra::Point2;
 use rperc_core::image::GrayImage;
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
 
 /// Smallest accepted window side, pixels.
 pub const MIN_REGION_SIDE: usize = 8;
@@ -30,7 +32,7 @@ pub enum Region {
 }
 
 /// Parameters of model building and of the observation model.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize, schemars::JsonSchema)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize, JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 // `PatternConfig` is the Python name of the whole tracker's config.
 #[schemars(rename = "PatternModelConfig")]
@@ -79,17 +81,7 @@ pub struct PatternConfig {
 /// The function `C~` approximating a model point's auto-correlation near its peak
 /// (section 3.2, `W(j)`), inverted to read the deviation `lambda = C~^-1(C)` from an
 /// inter-correlation `C` (section 3.3).
-#[derive(
-    Debug,
-    Clone,
-    Copy,
-    PartialEq,
-    Eq,
-    Default,
-    serde::Deserialize,
-    serde::Serialize,
-    schemars::JsonSchema,
-)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum DeviationModel {
     /// The seed's straight line `1 + W lambda`, `W` the slope:
@@ -213,7 +205,7 @@ impl PatternConfig {
 }
 
 /// One model point: `U(j) = (x, y, phi)`, `V(j)` and `W(j)` of eq. 4.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 pub struct ModelPoint {
     /// `x(j) = (u - x_c) / Delta_x`, normalised in the window.
     pub x: f64,
@@ -229,7 +221,7 @@ pub struct ModelPoint {
 
 /// A learnt pattern: its window and model points (serialisable, so that a mosaic
 /// stores its models as learnt).
-#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 pub struct PatternModel {
     /// Window centre `(x_c, y_c)`, pixels.
     pub centre: [f64; 2],

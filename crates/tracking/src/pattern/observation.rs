@@ -153,28 +153,16 @@ impl ScaleSpace {
     ) -> Result<()> {
         let size = [frame.width, frame.height];
         let copy = |grown: [usize; 4], crop: &mut GrayImage| copy_window(frame, grown, crop);
-        self.build_window_with(size, copy, model, window, span)
+        self.build_window_for(size, copy, model, window, span, None)
     }
 
     /// [`Self::build_window`] on a frame of `size = [width, height]` that `crop` reads
-    /// on demand: `crop(window, out)` fills `out` with the frame's grey levels inside
-    /// `window = [x0, y0, x1, y1)` (a tracker converts only that part of an 8-bit frame,
-    /// not all of it).
-    pub fn build_window_with(
-        &mut self,
-        size: [usize; 2],
-        crop: impl FnOnce([usize; 4], &mut GrayImage),
-        model: &PatternModel,
-        window: [usize; 4],
-        span: [f64; 2],
-    ) -> Result<()> {
-        self.build_window_for(size, crop, model, window, span, None)
-    }
-
-    /// [`Self::build_window_with`] that blurs, of the levels of `span`, only those
-    /// nearest to one of the scales `needed` (the particles' and the reference
-    /// state's; all of them for `None`); [`Self::ensure`] blurs others later from the
-    /// same crop (the refinement's, once its start is known). Every state whose
+    /// on demand (`crop(window, out)` fills `out` with the frame's grey levels inside
+    /// `window = [x0, y0, x1, y1)`: a tracker converts only that part of an 8-bit
+    /// frame, not all of it), blurring, of the levels of `span`, only those nearest to
+    /// one of the scales `needed` (the particles' and the reference state's; all of
+    /// them for `None`); [`Self::ensure`] blurs others later from the same crop (the
+    /// refinement's, once its start is known). Every state whose
     /// nearest level of `span` is blurred reads the same values as from the whole
     /// stack: [`Self::level`] takes the nearest blurred level.
     pub fn build_window_for(

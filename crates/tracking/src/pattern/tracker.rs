@@ -181,6 +181,17 @@ impl Default for PatternTrackerParams {
     }
 }
 
+/// `Err` naming `name` unless the number of steps `value` is at most `max`.
+fn at_most(name: &'static str, value: usize, max: usize) -> Result<()> {
+    if value <= max {
+        return Ok(());
+    }
+    Err(TrackingError::InvalidParameter {
+        name,
+        reason: format!("must be at most {max}, got {value}"),
+    })
+}
+
 impl PatternTrackerParams {
     /// Refuses bad values with the parameter's name.
     pub fn validate(&self) -> Result<()> {
@@ -192,26 +203,10 @@ impl PatternTrackerParams {
             });
         }
         rperc_core::ensure_in_range("second_look", self.second_look, 0.0, 1.0)?;
-        if self.newton_steps > MAX_NEWTON_STEPS {
-            return Err(TrackingError::InvalidParameter {
-                name: "newton_steps",
-                reason: format!(
-                    "must be at most {MAX_NEWTON_STEPS}, got {}",
-                    self.newton_steps
-                ),
-            });
-        }
+        at_most("newton_steps", self.newton_steps, MAX_NEWTON_STEPS)?;
         // The step halves each round: after 64 it is 2^-64 sigmas, so more rounds
         // only spend time (10^9 of them never returned, issue 38).
-        if self.refine_steps > MAX_REFINE_STEPS {
-            return Err(TrackingError::InvalidParameter {
-                name: "refine_steps",
-                reason: format!(
-                    "must be at most {MAX_REFINE_STEPS}, got {}",
-                    self.refine_steps
-                ),
-            });
-        }
+        at_most("refine_steps", self.refine_steps, MAX_REFINE_STEPS)?;
         if !(self.refine_first_step.is_finite() && self.refine_first_step > 0.0) {
             return Err(TrackingError::InvalidParameter {
                 name: "refine_first_step",
@@ -528,15 +523,7 @@ impl PatternTracker {
 
     /// [`Self::update`] on the calling thread.
     fn step(&mut self, frame: PatternFrame<'_>) -> Result<PatternPose> {
-        let (width, height) = frame.size();
-        if (width, height) != (self.width, self.height) {
-            return Err(TrackingError::FrameSizeChanged {
-                expected_width: self.width,
-                expected_height: self.height,
-                width,
-                height,
-            });
-        }
+        TrackingError::check_frame_size((self.width, self.height), frame.size())?;
         let resampled = self.predict(frame)?;
         self.build_space(frame)?;
         let report = self.weigh(resampled)?;

@@ -6,6 +6,7 @@
 
 use rustfft::num_complex::Complex32;
 
+use super::dcf::{DcfModel, hann_1d};
 use super::fft::Fft2;
 use super::hog::FeatureMap;
 
@@ -30,15 +31,7 @@ pub(crate) fn gaussian_label(width: usize, height: usize, sigma: f64) -> Vec<f32
 /// The separable Hann (cosine) window: tapers the patch's edges so the circular
 /// correlation does not see the wrap-around seam.
 pub(crate) fn hann(width: usize, height: usize) -> Vec<f32> {
-    let h1 = |n: usize| -> Vec<f32> {
-        (0..n)
-            .map(|i| {
-                let t = 2.0 * std::f64::consts::PI * (i as f64 + 0.5) / n as f64;
-                (0.5 - 0.5 * t.cos()) as f32
-            })
-            .collect()
-    };
-    let (wx, wy) = (h1(width), h1(height));
+    let (wx, wy) = (hann_1d(width), hann_1d(height));
     wy.iter()
         .flat_map(|&a| wx.iter().map(move |&b| a * b))
         .collect()
@@ -48,13 +41,9 @@ pub(crate) fn hann(width: usize, height: usize) -> Vec<f32> {
 pub(crate) struct CorrelationFilter {
     fft: Fft2,
     window: Vec<f32>,
-    label_hat: Vec<Complex32>,
-    numerator: Vec<Vec<Complex32>>,
-    denominator: Vec<f32>,
-    lambda: f32,
+    model: DcfModel,
     sample_hat: Vec<Vec<Complex32>>,
     spectrum: Vec<Complex32>,
-    trained: bool,
 }
 
 impl CorrelationFilter {
@@ -67,13 +56,9 @@ impl CorrelationFilter {
         Self {
             fft,
             window: hann(width, height),
-            label_hat,
-            numerator: Vec::new(),
-            denominator: vec![0.0; width * height],
-            lambda: lambda as f32,
+            model: DcfModel::new(label_hat, lambda),
             sample_hat: Vec::new(),
             spectrum: Vec::new(),
-            trained: false,
         }
     }
 
@@ -95,35 +80,13 @@ impl CorrelationFilter {
     /// Learns from `map` with learning rate `rate` (1 replaces the model: the first frame).
     pub(crate) fn train(&mut self, map: &FeatureMap, rate: f32) {
         self.transform(map);
-        let rate = if self.trained { rate } else { 1.0 };
-        self.numerator.resize_with(self.sample_hat.len(), || {
-            vec![Complex32::default(); self.fft.len()]
-        });
-        for (num, x) in self.numerator.iter_mut().zip(&self.sample_hat) {
-            for ((a, xv), g) in num.iter_mut().zip(x).zip(&self.label_hat) {
-                *a = *a * (1.0 - rate) + g.conj() * xv * rate;
-            }
-        }
-        for (k, b) in self.denominator.iter_mut().enumerate() {
-            let energy: f32 = self.sample_hat.iter().map(|x| x[k].norm_sqr()).sum();
-            *b = *b * (1.0 - rate) + energy * rate;
-        }
-        self.trained = true;
+        self.model.train(&self.sample_hat, rate);
     }
 
     /// The response map to `map`, row-major, cell (0, 0) the zero shift, wrapped.
     pub(crate) fn respond(&mut self, map: &FeatureMap, out: &mut Vec<f32>) {
         self.transform(map);
-        self.spectrum.clear();
-        self.spectrum.resize(self.fft.len(), Complex32::default());
-        for (num, z) in self.numerator.iter().zip(&self.sample_hat) {
-            for ((s, a), zv) in self.spectrum.iter_mut().zip(num).zip(z) {
-                *s += a.conj() * zv;
-            }
-        }
-        for (s, b) in self.spectrum.iter_mut().zip(&self.denominator) {
-            *s /= b + self.lambda;
-        }
+        self.model.respond(&self.sample_hat, &mut self.spectrum);
         self.fft.inverse(&mut self.spectrum);
         out.clear();
         out.extend(self.spectrum.iter().map(|c| c.re));
@@ -135,12 +98,7 @@ impl CorrelationFilter {
     #[cfg(test)]
     pub(crate) fn spatial(&mut self) -> Vec<Vec<f32>> {
         let mut out = Vec::new();
-        for num in &self.numerator {
-            let mut h: Vec<Complex32> = num
-                .iter()
-                .zip(&self.denominator)
-                .map(|(a, b)| a / (b + self.lambda))
-                .collect();
+        for mut h in self.model.filters() {
             self.fft.inverse(&mut h);
             out.push(h.iter().map(|c| c.re).collect());
         }

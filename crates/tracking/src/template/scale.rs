@@ -6,6 +6,7 @@
 
 use rustfft::num_complex::Complex32;
 
+use super::dcf::{DcfModel, hann_1d};
 use super::fft::Fft1;
 
 /// The 1-D Gaussian label over scale indices, peaked at the middle index (no change).
@@ -22,12 +23,8 @@ pub(crate) struct ScaleFilter {
     n: usize,
     fft: Fft1,
     window: Vec<f32>,
-    label_hat: Vec<Complex32>,
-    numerator: Vec<Vec<Complex32>>,
-    denominator: Vec<f32>,
-    lambda: f32,
+    model: DcfModel,
     sample_hat: Vec<Vec<Complex32>>,
-    trained: bool,
 }
 
 impl ScaleFilter {
@@ -39,22 +36,12 @@ impl ScaleFilter {
             .map(|&v| Complex32::new(v, 0.0))
             .collect();
         fft.forward(&mut label_hat);
-        let window = (0..n)
-            .map(|k| {
-                let t = 2.0 * std::f64::consts::PI * (k as f64 + 0.5) / n as f64;
-                (0.5 - 0.5 * t.cos()) as f32
-            })
-            .collect();
         Self {
             n,
             fft,
-            window,
-            label_hat,
-            numerator: Vec::new(),
-            denominator: vec![0.0; n],
-            lambda: lambda as f32,
+            window: hann_1d(n),
+            model: DcfModel::new(label_hat, lambda),
             sample_hat: Vec::new(),
-            trained: false,
         }
     }
 
@@ -79,35 +66,15 @@ impl ScaleFilter {
     pub(crate) fn train(&mut self, samples: &[Vec<f32>], rate: f32) {
         debug_assert_eq!(samples.len(), self.n);
         self.transform(samples);
-        let rate = if self.trained { rate } else { 1.0 };
-        let n = self.n;
-        self.numerator
-            .resize_with(self.sample_hat.len(), || vec![Complex32::default(); n]);
-        for (num, x) in self.numerator.iter_mut().zip(&self.sample_hat) {
-            for ((a, xv), g) in num.iter_mut().zip(x).zip(&self.label_hat) {
-                *a = *a * (1.0 - rate) + g.conj() * xv * rate;
-            }
-        }
-        for (k, b) in self.denominator.iter_mut().enumerate() {
-            let energy: f32 = self.sample_hat.iter().map(|x| x[k].norm_sqr()).sum();
-            *b = *b * (1.0 - rate) + energy * rate;
-        }
-        self.trained = true;
+        self.model.train(&self.sample_hat, rate);
     }
 
     /// The response over scale indices; its peak's index minus the middle is the
     /// scale change in steps.
     pub(crate) fn respond(&mut self, samples: &[Vec<f32>]) -> Vec<f32> {
         self.transform(samples);
-        let mut spectrum = vec![Complex32::default(); self.n];
-        for (num, z) in self.numerator.iter().zip(&self.sample_hat) {
-            for ((s, a), zv) in spectrum.iter_mut().zip(num).zip(z) {
-                *s += a.conj() * zv;
-            }
-        }
-        for (s, b) in spectrum.iter_mut().zip(&self.denominator) {
-            *s /= b + self.lambda;
-        }
+        let mut spectrum = Vec::with_capacity(self.n);
+        self.model.respond(&self.sample_hat, &mut spectrum);
         self.fft.inverse(&mut spectrum);
         spectrum.iter().map(|c| c.re).collect()
     }

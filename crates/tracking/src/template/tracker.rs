@@ -188,16 +188,7 @@ impl ColorTemplateTracker {
     }
 
     fn check_size(&self, frame: &RgbFrame<'_>) -> Result<()> {
-        let (w, h) = self.frame_size;
-        if (frame.width(), frame.height()) == (w, h) {
-            return Ok(());
-        }
-        Err(TrackingError::FrameSizeChanged {
-            expected_width: w,
-            expected_height: h,
-            width: frame.width(),
-            height: frame.height(),
-        })
+        TrackingError::check_frame_size(self.frame_size, (frame.width(), frame.height()))
     }
 
     /// The centre kept inside the frame, so a drifting box cannot leave it.

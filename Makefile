@@ -41,7 +41,7 @@ test-python:
 
 lint: $(STAMP)
 	cargo fmt --all -- --check
-	cargo clippy --workspace --all-targets -- -D warnings
+	cargo clippy --workspace --all-targets --all-features -- -D warnings
 	$(BIN)/ruff check python tests benchmarks docs/hooks
 	. $(BIN)/activate && python -m mypy.stubtest rperc._rperc
 	. $(BIN)/activate && python -m mypy --strict python/rperc

@@ -48,6 +48,19 @@ SHOWN = (
     "scans_per_second",
 )
 PRIMARY = ("ate_rmse_m", "m")
+#: The laser pipeline's scores a row holds (``LaserResult.measured()``'s names).
+LASER_SCORES = (
+    "scans",
+    "ate_rmse_m",
+    "ate_rmse_causal_m",
+    "loop_error_m",
+    "final_error_m",
+    "nees_mean",
+    "nees_in_band",
+    "loop_closures_accepted",
+    "loop_closures_rejected",
+    "scans_per_second",
+)
 #: The freezing threshold of the ``freeze`` variant (paper [000] uses 50 revisions).
 FREEZE_AFTER = 50
 LOG_SUFFIXES = (".log", ".log.gz", ".gz")
@@ -103,53 +116,28 @@ def walls_options(variant: str, settings: dict[str, Any]) -> dict[str, Any]:
 
 def laser_settings() -> set[str]:
     """The laser pipeline's settings by dotted name (``icp.sigma``)."""
-    from rperc.slam.laser import defaults
+    from rperc._config_base import dotted_fields
+    from rperc.config import LaserConfig
 
-    def walk(d: dict[str, Any], prefix: str) -> set[str]:
-        names: set[str] = set()
-        for k, v in d.items():
-            names |= walk(v, f"{prefix}{k}.") if isinstance(v, dict) else {prefix + k}
-        return names
-
-    return walk(defaults(), "")
+    return set(dotted_fields(LaserConfig()))
 
 
-def nested(settings: dict[str, Any]) -> dict[str, Any]:
-    """Dotted settings (``{"icp.sigma": 0.02}``) as a nested config."""
-    out: dict[str, Any] = {}
-    for name, value in settings.items():
-        *path, leaf = name.split(".")
-        node = out
-        for part in path:
-            node = node.setdefault(part, {})
-        node[leaf] = value
-    return out
-
-
-def run_laser_task(task: Task) -> dict[str, Any]:
+def run_laser_task(task: Task) -> dict[str, str | int | float]:
     """The laser pipeline over one log: ``rperc slam laser``'s scores."""
-    from rperc.slam.laser import load_and_run
+    from rperc.slam.laser import from_settings, load_and_run
 
     wall = set(task.kwargs) & set(SETTINGS)
     if wall:
         raise ValueError(f"{', '.join(sorted(wall))}: wall SLAM settings, not the laser pipeline's")
+    config, start = from_settings(task.kwargs)
     result = load_and_run(
-        task.dataset, seed=task.seed, variant=LASER_METHODS[task.method], config=nested(task.kwargs)
+        task.dataset, seed=task.seed, variant=LASER_METHODS[task.method], config=config, **start
     )
     m = result.measured()
     return {
         "library": "rperc",
         "dataset": Path(task.dataset).name,
-        "scans": m["scans"],
-        "ate_rmse_m": m["ate_rmse_m"],
-        "ate_rmse_causal_m": m["ate_rmse_causal_m"],
-        "loop_error_m": m["loop_error_m"],
-        "final_error_m": m["final_error_m"],
-        "nees_mean": m["nees_mean"],
-        "nees_in_band": m["nees_in_band"],
-        "loop_closures_accepted": m["loop_closures_accepted"],
-        "loop_closures_rejected": m["loop_closures_rejected"],
-        "scans_per_second": m["scans_per_second"],
+        **{k: m[k] for k in LASER_SCORES},
     }
 
 

@@ -34,7 +34,6 @@ NOT_YET_TYPED: dict[str, int] = {
     "rperc.bench.suites.laser": 3,
     "rperc.bench.runner": 5,
     "rperc.bench": 4,
-    "rperc.cli.navigation": 4,
     "rperc.linesimp": 4,
     "rperc.cli.demo": 3,
     "rperc.cli.pattern": 3,

@@ -26,14 +26,10 @@ ALLOWED: dict[str, str] = {}
 #: Places not yet typed, per module: the exact count, which may only shrink (a typed
 #: place leaves it). Empty when issue 36 is done.
 NOT_YET_TYPED: dict[str, int] = {
-    "rperc.bench.table": 16,
     "rperc.slam.planar": 16,
     "rperc.slam.calibration": 12,
     "rperc.plot.navigation": 10,
     "rperc.slam.wallslam": 8,
-    "rperc.bench.suites.laser": 3,
-    "rperc.bench.runner": 5,
-    "rperc.bench": 4,
     "rperc.linesimp": 4,
     "rperc.cli.demo": 3,
     "rperc.cli.pattern": 3,
@@ -41,12 +37,8 @@ NOT_YET_TYPED: dict[str, int] = {
     "rperc.slam.mrclam": 3,
     "rperc.tracking.trackers": 3,
     "rperc.wallcheck": 3,
-    "rperc.bench.tasks": 2,
     "rperc.cli.outputs": 2,
     "rperc.tracking.runs": 2,
-    "rperc.bench.suites.mrclam": 1,
-    "rperc.bench.suites.pattern": 1,
-    "rperc.bench.suites.track": 1,
     "rperc.cli.slamrun": 1,
     "rperc.cli.track": 1,
     "rperc.cli.wallslam": 1,

@@ -26,11 +26,11 @@ from __future__ import annotations
 
 import time
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TypedDict, cast
 
-from rperc.bench.tasks import Task, parse_names
+from rperc.bench.tasks import Row, Setting, Task, parse_names
 
 VARIANT_PARTS = ("plain", "anchor", "freeze", "smoothed", "odometry")
 #: The laser pipeline's methods (each stands alone) and their ``run_laser`` variant.
@@ -99,19 +99,35 @@ def log_files(paths: Sequence[Path]) -> list[str]:
     return [str(p.resolve()) for p in dict.fromkeys(found)]
 
 
-def walls_options(variant: str, settings: dict[str, Any]) -> dict[str, Any]:
-    """``run_walls``'s keywords for a variant and the task's settings."""
+class WallsOptions(TypedDict, total=False):
+    """The keywords of :func:`rperc.slam.wallslam.run_walls` a wall variant sets."""
+
+    anchor: bool
+    freeze_after: int | None
+    use_walls: bool
+    smooth: bool
+    straightness: float
+    association: str
+
+
+def walls_options(variant: str, settings: Mapping[str, Setting]) -> WallsOptions:
+    """``run_walls``'s keywords for a variant and the task's settings (their values
+    are checked by ``run_walls``, naming the setting)."""
     parts = set(variant.split("+"))
-    kw: dict[str, Any] = {
+    unknown = set(settings) - set(SETTINGS)
+    if unknown:
+        raise ValueError(f"{', '.join(sorted(unknown))}: not wall SLAM settings")
+    kw: WallsOptions = {
         "anchor": "anchor" in parts,
         "freeze_after": FREEZE_AFTER if "freeze" in parts else None,
         "use_walls": "odometry" not in parts,
         "smooth": "smoothed" in parts,
     }
-    unknown = set(settings) - set(SETTINGS)
-    if unknown:
-        raise ValueError(f"{', '.join(sorted(unknown))}: not wall SLAM settings")
-    return kw | settings
+    if "straightness" in settings:
+        kw["straightness"] = cast(float, settings["straightness"])
+    if "association" in settings:
+        kw["association"] = cast(str, settings["association"])
+    return kw
 
 
 def laser_settings() -> set[str]:
@@ -122,7 +138,7 @@ def laser_settings() -> set[str]:
     return set(dotted_fields(LaserConfig()))
 
 
-def run_laser_task(task: Task) -> dict[str, str | int | float]:
+def run_laser_task(task: Task) -> Row:
     """The laser pipeline over one log: ``rperc slam laser``'s scores."""
     from rperc.slam.laser import from_settings, load_and_run
 
@@ -141,7 +157,7 @@ def run_laser_task(task: Task) -> dict[str, str | int | float]:
     }
 
 
-def run(task: Task) -> dict[str, Any]:
+def run(task: Task) -> Row:
     """One variant over one log with the task's seed: the scores of ``rperc slam
     walls`` (for ``smoothed``, of the smoothed path), or of ``rperc slam laser``."""
     if task.method in LASER_METHODS:
@@ -156,7 +172,7 @@ def run(task: Task) -> dict[str, Any]:
         # scan times, so their repair (intel.log's four steps back) changes no score.
         warnings.simplefilter("ignore", TimestampRepairWarning)
         log = load_carmen(task.dataset)
-    kw = {"straightness": STRAIGHTNESS} | walls_options(task.method, task.kwargs)
+    kw: WallsOptions = {"straightness": STRAIGHTNESS, **walls_options(task.method, task.kwargs)}
     result = run_walls(log, seed=task.seed, **kw)
     seconds = time.perf_counter() - start
     m = (result.smoothed() if kw["smooth"] else result).measured()

@@ -28,7 +28,7 @@ from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypedDict, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -65,6 +65,32 @@ FORMAT = "rperc-visual-memory/2"
 def _sha256(value: Any) -> str:
     text = json.dumps(value, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()
+
+
+class MemoryPose(TypedDict):
+    """A robot pose in the mosaic frame, as the memory file writes it."""
+
+    x: float
+    y: float
+    theta: float
+
+
+class KeyModel(TypedDict):
+    """A model seen in a key image: its ``id``, tracker ``state`` ``(x, y, theta, s)``
+    in the ideal image and the tracker's ``score``."""
+
+    id: int
+    state: list[float]
+    score: float
+
+
+class KeyImage(TypedDict):
+    """A key image of the memory file: its learning ``frame``, the robot ``pose`` and
+    the ``models`` in view."""
+
+    frame: int
+    pose: MemoryPose
+    models: list[KeyModel]
 
 
 class VisualMemory:
@@ -120,10 +146,10 @@ class VisualMemory:
         return np.array([m["created"] for m in self._data["models"]], dtype=np.int64)
 
     @property
-    def key_images(self) -> list[dict[str, Any]]:
+    def key_images(self) -> list[KeyImage]:
         """Each key image: its learning ``frame``, robot ``pose`` (mosaic) and
         ``models`` (``id`` and tracker ``state`` ``(x, y, theta, s)``)."""
-        return list(self._data["key_images"])
+        return cast("list[KeyImage]", list(self._data["key_images"]))
 
     @property
     def key_poses(self) -> np.ndarray:

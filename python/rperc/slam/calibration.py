@@ -28,12 +28,15 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
 
 from rperc.pose import wrap_angle
+
+if TYPE_CHECKING:
+    from rperc.datasets.mrclam import MrclamRun
 
 __all__ = [
     "MrclamCalibration",
@@ -94,11 +97,11 @@ class MrclamCalibration:
         }
 
 
-def _heading(run: Any) -> FloatArray:
+def _heading(run: MrclamRun) -> FloatArray:
     return np.asarray(np.unwrap(run.truth_theta), dtype=np.float64)
 
 
-def true_range_bearing(run: Any) -> tuple[FloatArray, FloatArray]:
+def true_range_bearing(run: MrclamRun) -> tuple[FloatArray, FloatArray]:
     """The true range and bearing of every landmark sighting, from the ground-truth
     pose interpolated at the sighting's time and the surveyed landmark."""
     t = run.measurement_t
@@ -134,7 +137,7 @@ def _robust_line(
     return float(offset), float(scale), residual, inlier
 
 
-def _windows(run: Any, window: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+def _windows(run: MrclamRun, window: float) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Per window of ``window`` s: (true, odometry) distance along the track, (true,
     odometry) turn, and the sum of the squared odometry steps.
 
@@ -167,7 +170,7 @@ def _scale_and_variance(pairs: FloatArray, sum_dt2: FloatArray) -> tuple[float, 
     return scale, float(np.mean(residual**2) / np.mean(sum_dt2))
 
 
-def _control_variances(run: Any, window: float) -> tuple[float, float, int]:
+def _control_variances(run: MrclamRun, window: float) -> tuple[float, float, int]:
     """Per-step speed and turn-rate variances fitted over ``window`` s, and the
     number of windows."""
     distance, turn, sum_dt2 = _windows(run, window)
@@ -180,7 +183,9 @@ def _control_variances(run: Any, window: float) -> tuple[float, float, int]:
     )
 
 
-def correlation_window(run: Any, *, candidates: tuple[float, ...] = CANDIDATE_WINDOWS) -> float:
+def correlation_window(
+    run: MrclamRun, *, candidates: tuple[float, ...] = CANDIDATE_WINDOWS
+) -> float:
     """The odometry error's correlation time: the shortest candidate window whose
     doubling raises neither fitted per-step variance (speed, turn rate) by more than
     two standard errors of that variance, ``2 sqrt(2 / n)`` for ``n`` windows
@@ -209,7 +214,7 @@ def correlation_window(run: Any, *, candidates: tuple[float, ...] = CANDIDATE_WI
     return float(usable[-1][0])
 
 
-def calibrate_mrclam(run: Any, *, window: float | None = None) -> MrclamCalibration:
+def calibrate_mrclam(run: MrclamRun, *, window: float | None = None) -> MrclamCalibration:
     """Fits the camera and odometry biases and noise of a
     :class:`rperc.datasets.MrclamRun` against its ground truth (see the module docs).
     ``window`` (s) defaults to :func:`correlation_window` of the run. Use
@@ -255,7 +260,7 @@ def calibrate_mrclam(run: Any, *, window: float | None = None) -> MrclamCalibrat
     )
 
 
-def mrclam_window(run: Any, start: float, stop: float) -> Any:
+def mrclam_window(run: MrclamRun, start: float, stop: float) -> MrclamRun:
     """The part of a :class:`rperc.datasets.MrclamRun` with times in ``[start, stop)``
     seconds after its first odometry row (all its time series cut alike)."""
     t0 = float(run.odometry_t[0])
@@ -285,7 +290,7 @@ def mrclam_window(run: Any, start: float, stop: float) -> Any:
 
 
 def gate_inflation(
-    run: Any,
+    run: MrclamRun,
     config: dict[str, Any],
     *,
     factors: tuple[float, ...] = (1.0, 2.0, 4.0),
@@ -334,7 +339,7 @@ def inflated(config: dict[str, Any], detection: float, control: float) -> dict[s
 
 
 def calibrate_mrclam_preset(
-    run: Any,
+    run: MrclamRun,
     *,
     seconds: float,
     factors: tuple[float, ...],

@@ -53,6 +53,9 @@ from rperc.pose import wrap_angle
 if TYPE_CHECKING:
     from typing_extensions import Unpack
 
+    from rperc.datasets.mrclam import MrclamRun
+    from rperc.datasets.victoria_park import VictoriaPark
+
 __all__ = [
     "MRCLAM_CALIBRATION_SECONDS",
     "MRCLAM_ROBOT_PRESETS",
@@ -389,7 +392,7 @@ class Recording:
     fixes: np.ndarray | None = None
 
 
-def mrclam_start(run: Any) -> dict[str, Any]:
+def mrclam_start(run: MrclamRun) -> dict[str, Any]:
     """The start pose of a MR.CLAM run: its ground truth at the first odometry time,
     known to 1 mm and 1 mrad (the dataset's convention: the robots start surveyed)."""
     t0 = float(run.odometry_t[0])
@@ -401,7 +404,7 @@ def mrclam_start(run: Any) -> dict[str, Any]:
 
 
 def mrclam_recording(
-    run: Any, *, fix_interval: float | None = None, fix_sigma: float = 0.1, seed: int = 0
+    run: MrclamRun, *, fix_interval: float | None = None, fix_sigma: float = 0.1, seed: int = 0
 ) -> Recording:
     """The arrays of a :class:`rperc.datasets.MrclamRun`: odometry ``(v, omega)``,
     barcode sightings with their subject ids, and, when ``fix_interval`` is given, an
@@ -434,7 +437,7 @@ def mrclam_recording(
     )
 
 
-def victoria_recording(park: Any, *, gps_sigma: float | None = None) -> Recording:
+def victoria_recording(park: VictoriaPark, *, gps_sigma: float | None = None) -> Recording:
     """The arrays of a :class:`rperc.datasets.VictoriaPark`: encoder speed and
     steering, tree detections (vehicle-relative bearings, no ids) and, when
     ``gps_sigma`` is given, the GPS fixes with that standard deviation."""

@@ -28,9 +28,12 @@ import time
 import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TypedDict, cast
+from typing import TYPE_CHECKING, cast
 
 from rperc.bench.tasks import Row, Setting, Task, parse_names
+
+if TYPE_CHECKING:
+    from rperc.slam.wallslam import WallsOptions
 
 VARIANT_PARTS = ("plain", "anchor", "freeze", "smoothed", "odometry")
 #: The laser pipeline's methods (each stands alone) and their ``run_laser`` variant.
@@ -97,17 +100,6 @@ def log_files(paths: Sequence[Path]) -> list[str]:
         else:
             raise ValueError(f"--logs {p}: no such file or folder")
     return [str(p.resolve()) for p in dict.fromkeys(found)]
-
-
-class WallsOptions(TypedDict, total=False):
-    """The keywords of :func:`rperc.slam.wallslam.run_walls` a wall variant sets."""
-
-    anchor: bool
-    freeze_after: int | None
-    use_walls: bool
-    smooth: bool
-    straightness: float
-    association: str
 
 
 def walls_options(variant: str, settings: Mapping[str, Setting]) -> WallsOptions:
@@ -185,5 +177,5 @@ def run(task: Task) -> Row:
             for k in ("ate_rmse_m", "loop_error_m", "final_error_m", "nees_mean", "nees_in_band")
         },
         "walls": m["walls"],
-        "scans_per_second": m["scans"] / seconds,
+        "scans_per_second": result.counts["scans"] / seconds,
     }

@@ -25,20 +25,7 @@ ALLOWED: dict[str, str] = {}
 
 #: Places not yet typed, per module: the exact count, which may only shrink (a typed
 #: place leaves it). Empty when issue 36 is done.
-NOT_YET_TYPED: dict[str, int] = {
-    "rperc.slam.planar": 13,
-    "rperc.slam.calibration": 5,
-    "rperc.linesimp": 4,
-    "rperc.cli.demo": 3,
-    "rperc.cli.pattern": 3,
-    "rperc.datasets.polylines": 3,
-    "rperc.tracking.trackers": 3,
-    "rperc.wallcheck": 3,
-    "rperc.cli.outputs": 2,
-    "rperc.tracking.runs": 2,
-    "rperc.cli.track": 1,
-    "rperc.tracking.planar": 1,
-}
+NOT_YET_TYPED: dict[str, int] = {}
 
 
 def _module_name(path: Path) -> str:

@@ -21,6 +21,7 @@ from rperc.cli.outputs import (
     write_json,
     wrote,
 )
+from rperc.config import SimConfig
 from rperc.slam import PlanarSlam, SlamResult
 from rperc.slam.evaluation import RunReference
 from rperc.slam.mrclam import mrclam_run
@@ -212,7 +213,6 @@ def demo_slam(out: Path, seed: int, runs: int = 20) -> DemoResult:
     from rperc.slam.planar import (
         VARIANTS,
         consistency,
-        sim_defaults,
         sim_slam_config,
         simulate,
     )
@@ -245,7 +245,7 @@ def demo_slam(out: Path, seed: int, runs: int = 20) -> DemoResult:
         f"{runs}-run mean robot NEES {nees_text}, band [{band[0]:.2f}, {band[1]:.2f}]"
     )
     series = [(n, mc[n].mean_nees) for n in VARIANTS]
-    dt = float(sim_defaults()["dt"])
+    dt = SimConfig().dt
     fig = variants_figure(maps, sim.truth[:, 1:3], sim.landmarks, series, band, title=title, dt=dt)
     path = save(fig, out / "slam_variants.png")
     summary = (

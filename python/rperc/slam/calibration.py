@@ -28,11 +28,13 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
+from rperc._config_base import as_config
+from rperc.config import PlanarConfig, Unicycle
 from rperc.pose import wrap_angle
 
 if TYPE_CHECKING:
@@ -75,7 +77,7 @@ class MrclamCalibration:
     windows: int
     window: float  # seconds: the odometry windows the scales and variances come from
 
-    def config(self) -> dict[str, Any]:
+    def config(self) -> dict[str, object]:
         """The fields of a :class:`rperc.slam.PlanarSlam` config."""
         return {
             "motion": {
@@ -291,7 +293,7 @@ def mrclam_window(run: MrclamRun, start: float, stop: float) -> MrclamRun:
 
 def gate_inflation(
     run: MrclamRun,
-    config: dict[str, Any],
+    config: dict[str, object],
     *,
     factors: tuple[float, ...] = (1.0, 2.0, 4.0),
 ) -> tuple[float, float, int]:
@@ -306,9 +308,9 @@ def gate_inflation(
     check by itself; it is fitted on the calibration data like the rest. Ties in the
     product of the two factors go to the smaller detection factor. Returns the two
     factors and the refused count."""
-    from rperc.slam.planar import PlanarSlam, defaults, mrclam_recording, mrclam_start
+    from rperc.slam.planar import PlanarSlam, mrclam_recording, mrclam_start
 
-    rate = 1.0 - float(config.get("gate_confidence", defaults()["gate_confidence"]))
+    rate = 1.0 - as_config(PlanarConfig, config).gate_confidence
     recording = mrclam_recording(run)
     allowed = rate * len(run.measurement_t)
     pairs = sorted(
@@ -324,17 +326,23 @@ def gate_inflation(
     raise ValueError(f"no inflation in {factors} brings the refusals ({refused}) to {allowed:.1f}")
 
 
-def inflated(config: dict[str, Any], detection: float, control: float) -> dict[str, Any]:
-    """``config`` with its detection variances times ``detection`` and its unicycle
-    control variances times ``control``."""
-    unicycle = dict(config["motion"]["unicycle"])
-    for key in ("speed_variance", "turn_rate_variance"):
-        unicycle[key] *= control
+def inflated(config: dict[str, object], detection: float, control: float) -> dict[str, object]:
+    """``config`` (a dict of :class:`rperc.config.PlanarConfig`'s fields with a unicycle
+    motion) with its detection variances times ``detection`` and its control variances
+    times ``control``."""
+    typed = as_config(PlanarConfig, config)
+    motion = typed.motion
+    if not isinstance(motion, Unicycle):
+        raise ValueError(f"inflated: the motion model must be a unicycle, got {motion!r}")
+    unicycle = {
+        "speed_variance": motion.speed_variance * control,
+        "turn_rate_variance": motion.turn_rate_variance * control,
+    }
     return {
         **config,
         "motion": {"unicycle": unicycle},
-        "range_variance": config["range_variance"] * detection,
-        "bearing_variance": config["bearing_variance"] * detection,
+        "range_variance": typed.range_variance * detection,
+        "bearing_variance": typed.bearing_variance * detection,
     }
 
 
@@ -343,7 +351,7 @@ def calibrate_mrclam_preset(
     *,
     seconds: float,
     factors: tuple[float, ...],
-) -> tuple[dict[str, Any], MrclamCalibration, tuple[float, float]]:
+) -> tuple[dict[str, object], MrclamCalibration, tuple[float, float]]:
     """The one procedure behind every robot's preset, on that robot's first
     ``seconds`` only (the rest stays held out): :func:`calibrate_mrclam`, then the
     linearisation and the inflation chosen by the innovation test (:func:`gate_inflation`

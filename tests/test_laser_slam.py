@@ -235,3 +235,11 @@ def test_the_native_result_is_typed_frozen_and_read_only(loop_log: Path) -> None
     with pytest.raises(AttributeError):
         run.pose = np.zeros((s, 3))  # type: ignore[misc]
     assert f"{s} scans" in repr(run)
+
+
+def test_the_deprecated_nested_helper_still_nests_dotted_settings() -> None:
+    from rperc.bench.suites.laser import nested
+
+    with pytest.warns(DeprecationWarning, match="from_settings"):
+        out = nested({"icp.sigma": 0.02, "loops.enabled": False, "chain_inflation": 2.0})
+    assert out == {"icp": {"sigma": 0.02}, "loops": {"enabled": False}, "chain_inflation": 2.0}

@@ -19,7 +19,8 @@ and wall SLAM's variants, combinable with ``+`` (``anchor+freeze``):
 
 A settings grid may set wall SLAM's ``straightness`` and ``association`` (``nn``,
 ``jcbb``), and any of the laser pipeline's settings by its dotted name
-(``icp.covariance_scale``, ``loops.max_radius``: see ``rperc.slam.laser.defaults()``).
+(``icp.covariance_scale``, ``loops.max_radius``: the fields of
+:class:`rperc.config.LaserConfig`).
 """
 
 from __future__ import annotations
@@ -128,6 +129,28 @@ def laser_settings() -> set[str]:
     from rperc.config import LaserConfig
 
     return set(dotted_fields(LaserConfig()))
+
+
+def nested(settings: Mapping[str, object]) -> dict[str, object]:
+    """Deprecated (the suite now sets dotted settings on a ``LaserConfig``, see
+    :func:`rperc.slam.laser.from_settings`): dotted settings (``{"icp.sigma": 0.02}``)
+    as a nested dict."""
+    warnings.warn(
+        "rperc.bench.suites.laser.nested is deprecated: use rperc.slam.laser.from_settings",
+        DeprecationWarning,
+        stacklevel=2,
+    )
+    out: dict[str, object] = {}
+    for name, value in settings.items():
+        *path, leaf = name.split(".")
+        node = out
+        for part in path:
+            inner = node.setdefault(part, {})
+            if not isinstance(inner, dict):
+                raise ValueError(f"{name}: {part} is a setting, not a part")
+            node = inner
+        node[leaf] = value
+    return out
 
 
 def run_laser_task(task: Task) -> Row:

@@ -44,7 +44,7 @@ def _runs(logs: list[Path], grid: list[float], seeds: list[int]) -> dict[str, di
         for v in grid:
             rows = []
             for seed in seeds:
-                r = run_laser(log, seed=seed, config={"chain_inflation": v})
+                r = run_laser(log, seed=seed, chain_inflation=v)
                 rows.append((r.metrics["ate_rmse_m"], r.metrics["nees_mean"]))
             out[str(v)][name] = rows
             print(f"{name:18s} inflation {v:4}: ATE {np.mean([a for a, _ in rows]):.3f} m, "

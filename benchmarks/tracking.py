@@ -7,7 +7,7 @@ the frames where IoU = 0, and the particle trackers' mean effective sample size.
                                   [--shape-seed 200]
 
 Sequences: the OTB folders named (Girl, Couple), the four challenge sequences of
-``rperc.tracking.challenges`` (fast, scale, occlusion, distractors) and the four
+``benchmarks/challenges.py`` (fast, scale, occlusion, distractors) and the four
 experiments of seed 000 s3.4 from ``rperc.tracking.shape_sequences`` (circles,
 rectangle, nonrigid, clutter; scored on the boxes of their truth masks). Every tracker
 starts from the first truth box.
@@ -39,9 +39,10 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _timing import print_table
 
 from rperc.datasets import data_dir, load_otb
-from rperc.tracking.challenges import CHALLENGES, challenge_sequence
 from rperc.tracking.metrics import auc, iou, precision
 from rperc.tracking.shape_sequences import EXPERIMENTS, shape_sequence
+
+from challenges import CHALLENGES, challenge_sequence
 
 try:
     import cv2

@@ -94,7 +94,7 @@ def one_world(
     configs: tuple[dict[str, Any], dict[str, Any]] = ({}, {}),
 ) -> dict[str, Any]:
     world = CeilingWorld(
-        ceiling={"seed": world_seed}, camera=CAMERA, render={**RENDER, "seed": world_seed}
+        ceiling={"seed": world_seed}, camera=CAMERA, render=RENDER.replace(seed=world_seed)
     )
     try:
         learning = learn(world, START, s_path(), dt=0.1, config=configs[0], seed=world_seed)

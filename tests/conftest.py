@@ -4,12 +4,18 @@ and hypothesis profiles chosen by HYPOTHESIS_PROFILE (``ci`` runs more examples)
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, settings
 
 from rperc.datasets import data_dir
+
+# The experiment harnesses that live with the benchmarks (not in the installed
+# package), such as ``challenges``, import by name; appended, so nothing of the
+# package or of the tests is shadowed by a benchmark script's name.
+sys.path.append(str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
 settings.register_profile(
     "default", max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow]

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from rperc.cli import main
-from rperc.slam.laser import VARIANTS, defaults, load_and_run
+from rperc.config import LaserConfig
+from rperc.slam.laser import VARIANTS, defaults, from_settings, load_and_run, run_config
 
 #: The scores issue 33 asks the JSON (and a bench row) to hold.
 SCORES = (
@@ -145,15 +146,61 @@ def test_a_settings_grid_reaches_the_pipeline(loop_log: Path) -> None:
     ],
 )
 def test_bad_settings_name_the_field(loop_log: Path, config: dict, error: type, match: str) -> None:
+    """Typed keyword overrides (each part a replaced copy of the run's), and the
+    deprecated nested mapping: the same error, naming the field."""
+    base = VARIANTS["loops"]
     with pytest.raises(error, match=match):
+        typed = {
+            k: getattr(base, k).replace(**v) if isinstance(v, dict) else v
+            for k, v in config.items()
+        }
+        load_and_run(loop_log, **typed)
+    with pytest.warns(DeprecationWarning, match="LaserConfig"), pytest.raises(error, match=match):
         load_and_run(loop_log, config=config)
 
 
-def test_bad_variant_and_defaults() -> None:
+def test_bad_variant_and_the_deprecated_defaults() -> None:
     with pytest.raises(ValueError, match="variant"):
         load_and_run("unused.log", variant="teleport")
-    d = defaults()
-    assert set(d) >= {"scan", "icp", "local_map", "loops", "motion"}
+    with pytest.warns(DeprecationWarning, match="LaserConfig"):
+        d = defaults()
+    assert d == LaserConfig().to_dict()
+
+
+def test_a_variant_changes_only_its_own_settings_of_any_config() -> None:
+    """A variant's changes are made on top of the config given (not the other way
+    round), and nothing else of it changes; the run starts where it is told."""
+    start = (1.0, 2.0, 0.5)
+    given = LaserConfig(chain_inflation=2.0)
+    made = run_config("odometry", given, start)
+    assert made.loops == given.loops.replace(enabled=False)
+    assert made.icp == given.icp.replace(min_inliers=1_000_000)
+    assert made.motion == given.motion  # LaserConfig's own, not the experiment's
+    assert made.replace(loops=given.loops, icp=given.icp) == given.replace(initial_pose=start)
+    assert run_config("loops", None, start) == VARIANTS["loops"].replace(initial_pose=start)
+    # An override of the start wins over the reference's.
+    assert run_config("loops", None, start, {"initial_pose": (0.0, 0.0, 0.0)}) == VARIANTS["loops"]
+
+
+def test_settings_from_json_and_the_deprecated_mapping_give_the_same_config() -> None:
+    """The CLI's and the bench's JSON settings (nested, or dotted) and the old mapping
+    spelling of ``config=``: one config, with the run's odometry noise kept where a
+    part is only partly given."""
+    nested = {"icp": {"sigma": 0.02}, "motion": {"speed_variance": 0.5}}
+    config, start = from_settings(nested)
+    assert start == {}
+    assert from_settings({"icp.sigma": 0.02, "motion.speed_variance": 0.5})[0] == config
+    loops = VARIANTS["loops"]
+    assert config == loops.replace(
+        icp=loops.icp.replace(sigma=0.02), motion=loops.motion.replace(speed_variance=0.5)
+    )
+    pose = (3.0, 4.0, 0.1)
+    typed = run_config("scan-matching", config, pose)
+    with pytest.warns(DeprecationWarning):
+        assert run_config("scan-matching", nested, pose) == typed
+    moved, start = from_settings({"initial_pose": [1.0, 2.0, 3.0]})
+    assert start == {"initial_pose": (1.0, 2.0, 3.0)}
+    assert run_config("loops", moved, pose, start).initial_pose == (1.0, 2.0, 3.0)
 
 
 def test_the_native_result_is_typed_frozen_and_read_only(loop_log: Path) -> None:
@@ -188,3 +235,11 @@ def test_the_native_result_is_typed_frozen_and_read_only(loop_log: Path) -> None
     with pytest.raises(AttributeError):
         run.pose = np.zeros((s, 3))  # type: ignore[misc]
     assert f"{s} scans" in repr(run)
+
+
+def test_the_deprecated_nested_helper_still_nests_dotted_settings() -> None:
+    from rperc.bench.suites.laser import nested
+
+    with pytest.warns(DeprecationWarning, match="from_settings"):
+        out = nested({"icp.sigma": 0.02, "loops.enabled": False, "chain_inflation": 2.0})
+    assert out == {"icp": {"sigma": 0.02}, "loops": {"enabled": False}, "chain_inflation": 2.0}

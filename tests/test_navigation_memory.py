@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from rperc.cli.navigation import CAMERA, RENDER, s_path
+from rperc.config import CameraMount
 from rperc.navigation import CeilingWorld, VisualMemory, evaluate, learn, replay
 
 
@@ -24,7 +25,7 @@ from rperc.navigation import CeilingWorld, VisualMemory, evaluate, learn, replay
 def learnt() -> tuple[CeilingWorld, object]:
     # The ideal mount here (eq. 1's correction has its own tests against OpenCV in
     # test_navigation_world.py); noise, lighting and occluders as in the demo.
-    world = CeilingWorld(ceiling={"seed": 4}, render={**RENDER, "seed": 4})
+    world = CeilingWorld(ceiling={"seed": 4}, render=RENDER.replace(seed=4))
     return world, learn(world, (2.5, 2.5, 0.2), s_path(100), dt=0.1, seed=4)
 
 
@@ -148,9 +149,9 @@ def test_a_hand_edited_memory_is_a_clear_value_error(learnt, tmp_path: Path) -> 
 
 def test_bad_worlds_and_memories_are_refused(learnt) -> None:
     world, learning = learnt
-    other = CeilingWorld(ceiling={"seed": 4}, camera={**CAMERA, "width": 640, "height": 480,
-                                                       "cx": 319.5, "cy": 239.5})  # fmt: skip
-    assert CAMERA["mount"]
+    bigger = CAMERA.replace(width=640, height=480, cx=319.5, cy=239.5)
+    other = CeilingWorld(ceiling={"seed": 4}, camera=bigger)
+    assert CAMERA.mount != CameraMount()  # the demo camera is tilted and offset
     with pytest.raises(ValueError, match="320x240"):
         replay(other, learning.memory, learning.frames.truth[0])
     empty = VisualMemory(json.dumps({"models": [], "key_images": [], "image_size": [320, 240]}))
@@ -215,7 +216,7 @@ def test_key_image_boxes_are_drawn_where_the_real_camera_sees_the_models() -> No
     oracle), on a tilted, offset camera."""
     from rperc.plot.navigation import _to_real
 
-    world = CeilingWorld(ceiling={"seed": 6}, camera=CAMERA, render={**RENDER, "seed": 6})
+    world = CeilingWorld(ceiling={"seed": 6}, camera=CAMERA, render=RENDER.replace(seed=6))
     learning = learn(world, (2.5, 2.5, 0.2), s_path(60), dt=0.1, seed=6)
     h = world.matrices()["C_H_R"]
     centres = learning.to_world(learning.memory.model_poses)[:, :2]
@@ -250,9 +251,7 @@ def test_covariance_scale_scales_the_stored_mosaic_covariance_only(learnt) -> No
     # The same seeded learning run with covariance_scale=3: the same models and key
     # images, every stored covariance (each model's and the joint one) three times.
     world, learning = learnt
-    scaled = learn(
-        world, (2.5, 2.5, 0.2), s_path(100), dt=0.1, seed=4, config={"covariance_scale": 3.0}
-    )
+    scaled = learn(world, (2.5, 2.5, 0.2), s_path(100), dt=0.1, seed=4, covariance_scale=3.0)
     base, tripled = json.loads(learning.memory.to_json()), json.loads(scaled.memory.to_json())
     np.testing.assert_array_equal(scaled.memory.model_poses, learning.memory.model_poses)
     assert tripled["key_images"] == base["key_images"]
@@ -266,6 +265,8 @@ def test_covariance_scale_scales_the_stored_mosaic_covariance_only(learnt) -> No
     for bad in (0.5, float("nan")):
         with pytest.raises(ValueError, match="covariance_scale"):
             learn(world, (2.5, 2.5, 0.2), s_path(5), config={"covariance_scale": bad})
+        with pytest.raises(ValueError, match="covariance_scale"):
+            learn(world, (2.5, 2.5, 0.2), s_path(5), covariance_scale=bad)
 
 
 def test_the_demo_worlds_mosaic_and_replays_are_not_overconfident() -> None:
@@ -284,7 +285,7 @@ def test_the_demo_worlds_mosaic_and_replays_are_not_overconfident() -> None:
     from rperc.cli.navigation import START
     from rperc.navigation.memory import _pose, _se2, localization_nees
 
-    world = CeilingWorld(ceiling={"seed": 0}, camera=CAMERA, render={**RENDER, "seed": 0})
+    world = CeilingWorld(ceiling={"seed": 0}, camera=CAMERA, render=RENDER.replace(seed=0))
     learning = learn(world, START, s_path(), dt=0.1, seed=0)
     to_mosaic = np.linalg.inv(_se2(learning.mosaic_in_world))
     truth = learning.frames.truth
@@ -340,7 +341,7 @@ def test_a_replay_that_never_localises_is_lost_not_reached(learnt, case, offset,
     # had refused. The one rule: a lost frame sees no key image.
     world, learning = learnt
     if other_world:
-        world = CeilingWorld(ceiling={"seed": 9}, render={**RENDER, "seed": 9})
+        world = CeilingWorld(ceiling={"seed": 9}, render=RENDER.replace(seed=9))
     start = learning.frames.truth[0] + np.array(offset)
     run = replay(world, learning.memory, start, seed=2)
     assert run.outcome == "lost", (case, run)
@@ -435,12 +436,21 @@ def test_the_start_guess_follows_the_perturbation_unless_the_config_sets_its_own
     p = (0.3, 0.3, 0.15)
     drawn = [v / math.sqrt(3.0) for v in p]
     for config in (None, {}, ReplayConfig(), {"max_frames": 50}):
-        out = _with_start_guess(config, p)
+        out = _with_start_guess(config, {}, p)
         assert out["mosaic"]["localiser"]["guess_sigma"] == drawn  # type: ignore[index]
+        # Other fields given as keyword overrides leave the guess to the perturbation.
+        out = _with_start_guess(config, {"max_frames": 60}, p)
+        assert out["mosaic"]["localiser"]["guess_sigma"] == drawn  # type: ignore[index]
+        assert out["max_frames"] == 60
     base = ReplayConfig()
-    own = base.replace(
-        mosaic=base.mosaic.replace(localiser=base.mosaic.localiser.replace(guess_sigma=(1, 1, 1)))
-    )
-    assert _with_start_guess(own, p)["mosaic"]["localiser"]["guess_sigma"] == [1, 1, 1]  # type: ignore[index]
+    own_mosaic = base.mosaic.replace(localiser=base.mosaic.localiser.replace(guess_sigma=(1, 1, 1)))
+    own = base.replace(mosaic=own_mosaic)
+    assert _with_start_guess(own, {}, p)["mosaic"]["localiser"]["guess_sigma"] == [1, 1, 1]  # type: ignore[index]
+    by_keyword = _with_start_guess(None, {"mosaic": own_mosaic}, p)
+    assert by_keyword["mosaic"]["localiser"]["guess_sigma"] == [1, 1, 1]  # type: ignore[index]
     given = {"mosaic": {"localiser": {"guess_sigma": [0.01, 0.01, 0.01]}}}
-    assert _with_start_guess(given, p)["mosaic"]["localiser"]["guess_sigma"] == [0.01] * 3  # type: ignore[index]
+    assert _with_start_guess(given, {}, p)["mosaic"]["localiser"]["guess_sigma"] == [0.01] * 3  # type: ignore[index]
+    # A dict naming the field keeps it, even when it is the default's value.
+    default = list(base.mosaic.localiser.guess_sigma)
+    named = {"mosaic": {"localiser": {"guess_sigma": default}}}
+    assert _with_start_guess(named, {}, p)["mosaic"]["localiser"]["guess_sigma"] == default  # type: ignore[index]

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from rperc.tracking import ColorHistogramTracker, ParticleColorTracker, metrics, opencv
-from rperc.tracking.challenges import CHALLENGES, challenge_sequence
+
+from challenges import CHALLENGES, challenge_sequence
 
 H, W = 120, 240
 

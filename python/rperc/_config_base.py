@@ -81,6 +81,44 @@ def as_config(
     return cls.from_dict({**base, **(overrides or {})})
 
 
+def dotted_fields(config: Config) -> dict[str, object]:
+    """Every leaf field of ``config`` by its dotted name (``icp.sigma``), as
+    :meth:`Config.to_dict` spells it: the names a settings grid sets."""
+    return _flatten(config.to_dict())
+
+
+def with_dotted(config: C, settings: Mapping[str, object]) -> C:
+    """``config`` with each setting of ``settings`` (dotted name: value) replaced, the
+    other fields of its part kept, checked once, as :meth:`Config.from_dict` checks
+    (an unknown name is a TypeError naming it)."""
+    values = config.to_dict()
+    for name, value in settings.items():
+        *path, leaf = name.split(".")
+        node = values
+        for part in path:
+            inner = node.setdefault(part, {})
+            if not isinstance(inner, dict):
+                raise ValueError(
+                    f"{type(config).__name__}: {excerpt(part)} of {name} is not a part"
+                )
+            node = inner
+        node[leaf] = value
+    return type(config).from_dict(values)
+
+
+def merged(config: C, nested: Mapping[str, object]) -> C:
+    """``config`` with a nested mapping of changes on top (JSON as ``to_dict`` writes
+    it, or a subset): a part's fields not named keep their values."""
+    return with_dotted(config, _flatten(nested))
+
+
+def _flatten(values: Mapping[str, object], prefix: str = "") -> dict[str, object]:
+    out: dict[str, object] = {}
+    for k, v in values.items():
+        out |= _flatten(v, f"{prefix}{k}.") if isinstance(v, Mapping) else {prefix + str(k): v}
+    return out
+
+
 def as_config_moved(
     cls: type[C],
     config: C | Mapping[str, Any] | None,

@@ -15,14 +15,38 @@ import struct
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from types import ModuleType
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from rperc._extras import require
 
-# shapely ships no type information; geometries are typed as ``Any``.
-Geometry = Any
+# shapely ships no type information: inside this module, and where a reader takes a
+# geometry apart, a geometry is a ``Shape`` (unchecked); public signatures name the
+# protocols below, which say what rperc relies on.
+Shape = Any
+
+
+class Geometry(Protocol):
+    """A shapely geometry (any of its types): what rperc returns and reads."""
+
+    @property
+    def geom_type(self) -> str: ...
+
+    @property
+    def is_empty(self) -> bool: ...
+
+
+class GeoInterface(Protocol):
+    """An object that describes itself as GeoJSON (``__geo_interface__``)."""
+
+    @property
+    def __geo_interface__(self) -> Mapping[str, object]: ...
+
+
+#: What a function that takes a geometry accepts: a shapely geometry, any object
+#: with ``__geo_interface__``, or a GeoJSON-like mapping.
+GeometryLike = Geometry | GeoInterface | Mapping[str, object]
 
 
 _WKB_CODES = {
@@ -55,10 +79,12 @@ def to_shapely(obj: object) -> Geometry:
     """``obj`` as a shapely geometry (shapely geometries are returned as they are)."""
     shapely = shapely_module()
     if isinstance(obj, shapely.Geometry):
-        return obj
+        same: Geometry = obj
+        return same
     geometry = importlib.import_module("shapely.geometry")
     try:
-        return geometry.shape(obj)
+        made: Geometry = geometry.shape(obj)
+        return made
     except (KeyError, TypeError, ValueError, AttributeError, shapely.errors.GEOSException) as exc:
         raise ValueError(f"not a valid geometry: {exc}") from exc
 
@@ -82,7 +108,7 @@ class Layout:
     geom_type: str
     parts: tuple[int, ...] = ()
     children: tuple[Layout, ...] = ()
-    keep: Geometry = None
+    keep: Shape = None
 
 
 @dataclass(frozen=True)
@@ -96,28 +122,28 @@ class Dims:
         return 1000 * self.has_z + 2000 * self.has_m
 
 
-def dims_of(geom: Geometry) -> Dims:
+def dims_of(geom: Shape) -> Dims:
     shapely = shapely_module()
     return Dims(bool(shapely.has_z(geom)), bool(shapely.has_m(geom)))
 
 
-def decompose(geom: Geometry) -> tuple[Layout, list[Part]]:
+def decompose(geom: Shape) -> tuple[Layout, list[Part]]:
     """The layout of ``geom`` and its linear parts, in order."""
     shapely = shapely_module()
     dims = dims_of(geom)
     parts: list[Part] = []
 
-    def coords(line: Geometry) -> np.ndarray:
+    def coords(line: Shape) -> np.ndarray:
         return np.asarray(
             shapely.get_coordinates(line, include_z=dims.has_z, include_m=dims.has_m),
             dtype=np.float64,
         )
 
-    def add(line: Geometry, ring: bool) -> int:
+    def add(line: Shape, ring: bool) -> int:
         parts.append(Part(coords(line), ring))
         return len(parts) - 1
 
-    def walk(g: Geometry) -> Layout:
+    def walk(g: Shape) -> Layout:
         kind = g.geom_type
         if g.is_empty or kind in ("Point", "MultiPoint"):
             return Layout(kind, keep=g)
@@ -133,7 +159,7 @@ def decompose(geom: Geometry) -> tuple[Layout, list[Part]]:
 
 def rebuild(
     layout: Layout, coords: Sequence[np.ndarray | None], dims: Dims, srid: int = 0
-) -> Geometry:
+) -> Shape:
     """The geometry of ``layout`` with part ``k`` replaced by ``coords[k]``; ``None``
     drops a collapsed ring (a polygon whose shell is dropped becomes empty)."""
     shapely = shapely_module()
@@ -144,7 +170,7 @@ def rebuild(
     return shapely.set_srid(geom, srid) if srid else geom
 
 
-def _linear_ring(ring: np.ndarray | None, dims: Dims) -> Geometry:
+def _linear_ring(ring: np.ndarray | None, dims: Dims) -> Shape:
     """WKB has no LinearRing type; WKT has, with M."""
     shapely = shapely_module()
     tag = {(False, False): "", (True, False): " Z", (False, True): " M", (True, True): " ZM"}
@@ -183,21 +209,23 @@ def _wkb_points(points: np.ndarray | None) -> bytes:
     return struct.pack("<I", len(pts)) + np.ascontiguousarray(pts, dtype="<f8").tobytes()
 
 
-def linear_parts(geom: Geometry) -> list[Part]:
+def linear_parts(geom: Shape) -> list[Part]:
     """Every line and ring of ``geom``, in order."""
     return decompose(geom)[1]
 
 
 def map_parts(
-    geom: Geometry, simplify_parts: Callable[[list[Part]], list[np.ndarray | None]]
+    geom: Shape, simplify_parts: Callable[[list[Part]], list[np.ndarray | None]]
 ) -> Geometry:
     """``geom`` with its parts replaced by ``simplify_parts(parts)`` (same order)."""
     shapely = shapely_module()
     if geom.is_empty:
-        return geom
+        unchanged: Geometry = geom
+        return unchanged
     layout, parts = decompose(geom)
     new = simplify_parts(parts) if parts else []
-    return rebuild(layout, new, dims_of(geom), int(shapely.get_srid(geom)))
+    rebuilt: Geometry = rebuild(layout, new, dims_of(geom), int(shapely.get_srid(geom)))
+    return rebuilt
 
 
 _DIM_TAGS = {(False, False): "", (True, False): " Z", (False, True): " M", (True, True): " ZM"}
@@ -213,14 +241,14 @@ _KEYWORDS = {
 }
 
 
-def exact_wkt(geom: Geometry) -> str:
+def exact_wkt(geom: Shape) -> str:
     """WKT whose numbers read back bit for bit (Python's shortest round-trip repr),
     with the Z/M tag; GEOS's writer rounds some values at 16 or 17 digits."""
     dims = dims_of(geom)
     return f"{_KEYWORDS[geom.geom_type]}{_DIM_TAGS[dims.has_z, dims.has_m]} {_wkt_body(geom, dims)}"
 
 
-def _wkt_body(geom: Geometry, dims: Dims) -> str:
+def _wkt_body(geom: Shape, dims: Dims) -> str:
     """The parenthesised part of a geometry's WKT (``EMPTY`` when empty)."""
     shapely = shapely_module()
     kind = geom.geom_type

@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal, NamedTuple, overload
+from typing import TYPE_CHECKING, Literal, NamedTuple, cast, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -109,7 +109,7 @@ def simplify(
 ) -> npt.NDArray[np.intp]: ...
 @overload
 def simplify(
-    points: _geo.Geometry,
+    points: _geo.GeometryLike,
     epsilon: float,
     *,
     method: Method = ...,
@@ -119,7 +119,7 @@ def simplify(
     return_indices: Literal[False] = ...,
 ) -> _geo.Geometry: ...
 def simplify(
-    points: npt.ArrayLike | _geo.Geometry,
+    points: npt.ArrayLike | _geo.GeometryLike,
     epsilon: float,
     *,
     method: Method = "auto",
@@ -217,7 +217,7 @@ def simplify(
             raise ValueError("return_indices needs an array of points, not a geometry")
         options = _Options(eps, method, metric, tie, preserve_topology)
         return _geo.map_parts(_geo.to_shapely(points), options.simplify_parts)
-    arr = _as_points(points)
+    arr = _as_points(cast("npt.ArrayLike", points))  # not a geometry: checked above
     if preserve_topology:
         (idx,) = _rperc.simplify_topology_indices([arr], [False], eps, method, metric, tie)
     else:
@@ -353,7 +353,7 @@ class WallSegments:
         ]
 
     @property
-    def __geo_interface__(self) -> dict[str, Any]:
+    def __geo_interface__(self) -> dict[str, str | list[list[list[float]]]]:
         """The walls as a GeoJSON-like MultiLineString, one segment from ``start[k]`` to
         ``end[k]`` per wall, so that ``shapely.geometry.shape(walls)`` works."""
         segments = np.stack([self.start, self.end], axis=1).tolist() if len(self) else []

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -19,6 +19,11 @@ import numpy.typing as npt
 from rperc.datasets import LaserScans
 from rperc.linesimp import WallSegments, extract_lines
 from rperc.pose import wrap_angle
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
+
+    from rperc.config import ScanParamsOverrides
 
 CHI2_2DOF_95 = 5.991464547107979
 """The 95 % quantile of chi-square with 2 dof."""
@@ -47,7 +52,7 @@ class NeesSummary:
         """Share of pairs under chi-square's 95 % quantile (0.95 when honest)."""
         return float(np.mean(self.nees < CHI2_2DOF_95)) if len(self.nees) else math.nan
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, int | float | dict[str, float]]:
         return {
             "pairs": len(self.nees),
             "scans": self.scans,
@@ -109,7 +114,7 @@ def consecutive_wall_nees(
     pose_cov: npt.ArrayLike | None = None,
     every: int = 1,
     straightness: float = 0.0,
-    **extract: Any,
+    **extract: Unpack[ScanParamsOverrides],
 ) -> NeesSummary:
     """NEES of every wall paired between scans ``k`` and ``k + every``, both in the
     world frame through the logged poses, each pose with covariance ``pose_cov``
@@ -126,7 +131,7 @@ def consecutive_wall_nees(
     walls = used = 0
     for k in range(0, len(scans), every):
         n = int(scans.num_beams[k])
-        options = {"max_range": float(scans.max_range[k]), **extract}
+        options: ScanParamsOverrides = {"max_range": float(scans.max_range[k]), **extract}
         found = extract_lines(scans.ranges[k, :n], scans.angles(k), **options)
         world = found.to_world(scans.pose[k], pose_cov)
         cov = np.asarray(world.cov, dtype=np.float64)
@@ -145,7 +150,7 @@ def consecutive_wall_nees(
     return NeesSummary(np.asarray(nees), used, walls)
 
 
-def reading_shares(scans: LaserScans, **extract: Any) -> dict[str, int]:
+def reading_shares(scans: LaserScans, **extract: Unpack[ScanParamsOverrides]) -> dict[str, int]:
     """Where the readings of a log go, by category (counts of readings):
 
     - ``invalid``: NaN, at or below ``min_range`` or at or beyond ``max_range``;
@@ -164,12 +169,14 @@ def reading_shares(scans: LaserScans, **extract: Any) -> dict[str, int]:
     for k in range(len(scans)):
         n = int(scans.num_beams[k])
         ranges, angles = scans.ranges[k, :n], scans.angles(k)
-        options = {"max_range": float(scans.max_range[k]), **extract}
+        options: ScanParamsOverrides = {"max_range": float(scans.max_range[k]), **extract}
         with np.errstate(invalid="ignore"):
             valid = (ranges > min_range) & (ranges > 0) & (ranges < options["max_range"])
         kept = extract_lines(ranges, angles, **options).flat_indices
-        any_length = extract_lines(ranges, angles, **{**options, "min_length": 0.0})
-        any_line = extract_lines(ranges, angles, **{**options, "min_length": 0.0, "min_points": 2})
+        any_length_options: ScanParamsOverrides = {**options, "min_length": 0.0}
+        any_line_options: ScanParamsOverrides = {**any_length_options, "min_points": 2}
+        any_length = extract_lines(ranges, angles, **any_length_options)
+        any_line = extract_lines(ranges, angles, **any_line_options)
         counts["valid"] += int(valid.sum())
         counts["invalid"] += n - int(valid.sum())
         counts["on_walls"] += len(kept)

@@ -19,17 +19,26 @@ combination becomes rows, each setting a column.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Any
+from types import ModuleType
 
-from rperc.bench.runner import TIME_COLUMNS, Row, run_task, run_tasks, same_rows
+from rperc.bench.runner import TIME_COLUMNS, run_task, run_tasks, same_rows
 from rperc.bench.suites import laser as _laser
 from rperc.bench.suites import mrclam as _mrclam
 from rperc.bench.suites import pattern as _pattern
 from rperc.bench.suites import track as _track
 from rperc.bench.table import BenchResult, summarize, write_rows
-from rperc.bench.tasks import Setting, Task, expand_grid, make_tasks, parse_seeds, read_grid
+from rperc.bench.tasks import (
+    Grid,
+    Row,
+    Setting,
+    Task,
+    expand_grid,
+    make_tasks,
+    parse_seeds,
+    read_grid,
+)
 
 __all__ = [
     "TIME_COLUMNS",
@@ -50,8 +59,6 @@ __all__ = [
     "write_rows",
 ]
 
-Grid = Mapping[str, Any] | Sequence[Mapping[str, Any]] | None
-
 
 def _data(*parts: str) -> Path:
     from rperc.datasets import data_dir
@@ -64,7 +71,7 @@ def _data(*parts: str) -> Path:
     return root.joinpath(*parts)
 
 
-def _combos(grid: Grid, allowed: Iterable[str], suite: str) -> list[dict[str, Any]]:
+def _combos(grid: Grid, allowed: Iterable[str], suite: str) -> list[dict[str, Setting]]:
     from rperc.bench.tasks import check_settings
 
     combos = expand_grid(grid)
@@ -86,8 +93,8 @@ def _seeds(seeds: Iterable[int]) -> list[int]:
 def _run(
     suite: str,
     tasks: list[Task],
-    module: Any,
-    combos: list[dict[str, Any]],
+    module: ModuleType,
+    combos: list[dict[str, Setting]],
     scheduler: str,
     workers: int | None,
 ) -> BenchResult:

@@ -19,12 +19,10 @@ from typing import Any
 
 from rperc._extras import MissingExtraError, require
 from rperc._progress import progress, quiet
+from rperc.bench.tasks import Row as Row  # re-exported: its home before tasks
 from rperc.bench.tasks import Task
 
 logger = logging.getLogger("rperc")
-
-#: A row: column name -> a number, string, boolean or None.
-Row = dict[str, Any]
 
 #: The suites' modules, by the name tasks carry (imported on the worker).
 SUITES = {

@@ -7,21 +7,35 @@ from __future__ import annotations
 import csv
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TypedDict
 
 import numpy as np
 
 from rperc._atomic import write_atomically, write_text_atomically
-from rperc.bench.runner import Row
+from rperc.bench.tasks import Row, Setting
+
+
+class Stat(TypedDict):
+    """A metric over a group's runs: the mean and the sample standard deviation of its
+    finite values (None when there are too few) and how many there were."""
+
+    mean: float | None
+    sd: float | None
+    n: int
+
+
+#: A summary line: the group's dataset, method, settings, library, runs and errors,
+#: and a :class:`Stat` per metric column (JSON-shaped, as ``--json`` writes it).
+Group = dict[str, Setting | Stat]
 
 #: Columns that identify a run rather than measure it.
 ID_COLUMNS = ("index", "dataset", "method", "library", "seed", "error")
 
 
-def _is_number(v: Any) -> bool:
+def _is_number(v: object) -> bool:
     return isinstance(v, int | float | np.integer | np.floating) and not isinstance(v, bool)
 
 
@@ -39,28 +53,28 @@ def metric_columns(rows: Sequence[Row], settings: Sequence[str]) -> list[str]:
     return [c for c in columns(rows) if c not in skip and any(_is_number(r.get(c)) for r in rows)]
 
 
-def group_key(row: Row, settings: Sequence[str]) -> tuple[Any, ...]:
+def group_key(row: Row, settings: Sequence[str]) -> tuple[Setting, ...]:
     """What a summary line is of: the dataset, the method and the settings."""
     return (row["dataset"], row["method"], *(row.get(s) for s in settings))
 
 
-def summarize(rows: Sequence[Row], settings: Sequence[str] = ()) -> list[dict[str, Any]]:
+def summarize(rows: Sequence[Row], settings: Sequence[str] = ()) -> list[Group]:
     """Per dataset x method x setting: the number of runs and of error rows, and for
     each metric the mean and the sample standard deviation (``ddof=1``; ``None`` with
     fewer than two values) over the runs that gave a finite value."""
-    groups: dict[tuple[Any, ...], list[Row]] = {}
+    groups: dict[tuple[Setting, ...], list[Row]] = {}
     for r in rows:
         groups.setdefault(group_key(r, settings), []).append(r)
     metrics = metric_columns(rows, settings)
     out = []
     for key, members in groups.items():
-        entry: dict[str, Any] = {"dataset": key[0], "method": key[1]}
+        entry: Group = {"dataset": key[0], "method": key[1]}
         entry.update(zip(settings, key[2:], strict=True))
         entry["library"] = members[0].get("library", "")
         entry["runs"] = len(members)
         entry["errors"] = sum(1 for m in members if m.get("error"))
         for c in metrics:
-            values = np.array([float(m[c]) for m in members if _is_number(m.get(c))])
+            values = np.array([_float(m.get(c)) for m in members if _is_number(m.get(c))])
             values = values[np.isfinite(values)]
             mean = float(values.mean()) if len(values) else None
             sd = float(values.std(ddof=1)) if len(values) > 1 else None
@@ -69,7 +83,12 @@ def summarize(rows: Sequence[Row], settings: Sequence[str] = ()) -> list[dict[st
     return out
 
 
-def _plain(v: Any) -> Any:
+def _float(v: object) -> float:
+    assert isinstance(v, int | float | np.integer | np.floating)  # _is_number said so
+    return float(v)
+
+
+def _plain(v: object) -> object:
     if isinstance(v, np.generic):
         v = v.item()
     if isinstance(v, float) and not math.isfinite(v):
@@ -107,17 +126,15 @@ def write_rows(rows: Sequence[Row], path: str | Path) -> Path:
     raise ValueError(f"--out {p}: use a .csv, .json or .parquet file name")
 
 
-def write_summary(
-    summary: Sequence[dict[str, Any]], path: str | Path, about: dict[str, Any]
-) -> Path:
+def write_summary(summary: Sequence[Group], path: str | Path, about: Mapping[str, object]) -> Path:
     """The summary as JSON: ``about`` (the command, seeds, scheduler) and the groups."""
     p = Path(path)
     text = json.dumps({**about, "groups": [_plain_tree(g) for g in summary]}, indent=1)
     return write_text_atomically(p, text + "\n")
 
 
-def _plain_tree(v: Any) -> Any:
-    if isinstance(v, dict):
+def _plain_tree(v: object) -> object:
+    if isinstance(v, Mapping):
         return {k: _plain_tree(x) for k, x in v.items()}
     return _plain(v)
 
@@ -127,7 +144,7 @@ def _number(v: float) -> str:
     return f"{v:.0f}" if 1000 <= abs(v) < 1e6 else f"{v:.3g}"
 
 
-def _cell(stat: Any) -> str:
+def _cell(stat: Setting | Stat) -> str:
     if not isinstance(stat, dict) or stat["mean"] is None:
         return "-"
     if stat["sd"] is None:
@@ -136,7 +153,7 @@ def _cell(stat: Any) -> str:
 
 
 def format_summary(
-    summary: Sequence[dict[str, Any]], shown: Sequence[str], settings: Sequence[str] = ()
+    summary: Sequence[Group], shown: Sequence[str], settings: Sequence[str] = ()
 ) -> str:
     """A text table: one line per group, ``mean ± sd`` of each ``shown`` metric."""
     header = ["dataset", "method", *settings, "library", "runs", *shown]
@@ -159,7 +176,7 @@ def format_summary(
 
 
 def method_means(
-    summary: Sequence[dict[str, Any]], metric: str, settings: Sequence[str] = ()
+    summary: Sequence[Group], metric: str, settings: Sequence[str] = ()
 ) -> dict[str, float]:
     """Per method (and setting), the mean over datasets of each dataset's mean."""
     acc: dict[str, list[float]] = {}
@@ -170,14 +187,14 @@ def method_means(
     return {k: float(np.mean(v)) for k, v in acc.items()}
 
 
-def label(group: dict[str, Any], settings: Sequence[str]) -> str:
+def label(group: Group, settings: Sequence[str]) -> str:
     """A group's method and settings as one legend label."""
     extra = ", ".join(f"{s}={group.get(s)}" for s in settings)
     return f"{group['method']} ({extra})" if extra else str(group["method"])
 
 
 def plot_summary(
-    summary: Sequence[dict[str, Any]],
+    summary: Sequence[Group],
     metric: str,
     unit: str,
     path: str | Path,
@@ -245,7 +262,7 @@ class BenchResult:
     shown: tuple[str, ...] = ()
     primary: tuple[str, str] = ("", "")
 
-    def summary(self) -> list[dict[str, Any]]:
+    def summary(self) -> list[Group]:
         """Mean and sample sd per dataset x method x setting (:func:`summarize`)."""
         return summarize(self.rows, self.settings)
 

@@ -15,10 +15,14 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 #: A setting's value: what JSON holds and a CSV column can show.
 Setting = bool | int | float | str | None
+#: A run's row: column name -> a setting's kind of value (a score, a name, a flag).
+Row = dict[str, Setting]
+#: A settings grid as given: names and values (or lists of values), or a list of
+#: combinations; read from JSON, so its values are checked when it is expanded.
+Grid = Mapping[str, object] | Sequence[Mapping[str, object]] | None
 
 #: At most this many tasks in one grid: beyond it a typo in a range ("0-99999") would
 #: queue days of work before the first row.
@@ -94,7 +98,7 @@ def parse_names(text: str, choices: Sequence[str], what: str) -> list[str]:
     return list(dict.fromkeys(names))
 
 
-def _setting(name: str, value: Any) -> Setting:
+def _setting(name: str, value: object) -> Setting:
     if isinstance(value, float) and not math.isfinite(value):
         raise ValueError(f"setting {name!r}: {value} is not finite")
     if value is None or isinstance(value, bool | int | float | str):
@@ -102,9 +106,7 @@ def _setting(name: str, value: Any) -> Setting:
     raise ValueError(f"setting {name!r}: {value!r} is not a number, string, boolean or null")
 
 
-def expand_grid(
-    grid: Mapping[str, Any] | Sequence[Mapping[str, Any]] | None,
-) -> list[dict[str, Setting]]:
+def expand_grid(grid: Grid) -> list[dict[str, Setting]]:
     """The settings combinations of a grid: ``{"a": [1, 2], "b": "x"}`` gives every
     combination of the listed values (a single value is a list of one); a list of
     objects gives exactly those combinations. ``None`` or ``{}`` is one empty

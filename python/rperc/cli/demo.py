@@ -38,8 +38,8 @@ class Option:
 
     flag: str
     dest: str
-    type: Callable[[str], Any]
-    default: Any
+    type: Callable[[str], object]
+    default: object
     help: str
 
 
@@ -52,7 +52,7 @@ class Demo:
     #: Older spellings, still accepted for one release with a note on stderr.
     deprecated: tuple[str, ...] = ()
 
-    def defaults(self) -> dict[str, Any]:
+    def defaults(self) -> dict[str, object]:
         return {o.dest: o.default for o in self.options}
 
 

@@ -18,7 +18,7 @@ from rperc.cli.outputs import (
     write_json,
     wrote,
 )
-from rperc.slam.laser import VARIANTS, run_laser
+from rperc.slam.laser import VARIANTS, from_settings, run_laser
 
 
 def add_laser_command(kinds: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -56,8 +56,9 @@ def laser_command(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     log = read_carmen_log(args.log)
     read_s = time.perf_counter() - t0
+    config, start = from_settings(args.config)
     result = run_laser(
-        log, seed=args.seed, variant=args.variant, config=args.config, read_seconds=read_s
+        log, seed=args.seed, variant=args.variant, config=config, read_seconds=read_s, **start
     )
     measured = result.measured()
     print(

@@ -8,17 +8,23 @@ from __future__ import annotations
 import math
 from concurrent.futures import Executor
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rperc.cli.outputs import DemoResult
+from rperc.config import CameraMount, CeilingCameraConfig, CeilingConfig, CeilingRenderConfig
+
+if TYPE_CHECKING:
+    from rperc.navigation import CeilingWorld, Evaluation, Learning, ReplayResult
 
 # The demo's world: a 12 x 8 m ceiling, a camera tilted by a few degrees and offset
 # from the robot's centre (eq. 1 corrects it), grey-level noise sigma 2, lighting
 # changes and an occasional occluder.
-CAMERA = {"mount": {"roll": 0.03, "pitch": -0.02, "yaw": 0.01, "offset": [0.08, -0.03, 0.3]}}
-RENDER = {"noise": 2.0, "occluder_probability": 0.02}
+CAMERA = CeilingCameraConfig(
+    mount=CameraMount(roll=0.03, pitch=-0.02, yaw=0.01, offset=(0.08, -0.03, 0.3))
+)
+RENDER = CeilingRenderConfig(noise=2.0, occluder_probability=0.02)
 START = (2.5, 2.5, 0.2)
 
 
@@ -30,11 +36,11 @@ def s_path(steps: int = 160, speed: float = 0.3, turn: float = 0.15) -> np.ndarr
 
 def run_visual_memory(
     seed: int, starts: int, executor: Executor | None = None
-) -> tuple[Any, Any, Any, list[Any]]:
+) -> tuple[CeilingWorld, Learning, Evaluation, list[ReplayResult]]:
     """The world, the learning run, the evaluation and the replays of the demo."""
     from rperc.navigation import CeilingWorld, evaluate, learn
 
-    world = CeilingWorld(ceiling={"seed": seed}, camera=CAMERA, render={**RENDER, "seed": seed})
+    world = CeilingWorld(CeilingConfig(seed=seed), CAMERA, RENDER.replace(seed=seed))
     learning = learn(world, START, s_path(), dt=0.1, seed=seed)
     evaluation, runs = evaluate(
         world, learning, starts=starts, seed=seed, executor=executor, show_progress=True

@@ -14,7 +14,7 @@ import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -132,7 +132,7 @@ def read_carmen_log(path: Path) -> CarmenLog:
     return log
 
 
-def _plain(value: Any) -> Any:
+def _plain(value: object) -> object:
     """JSON-ready copies of numpy scalars and arrays, paths and tuples."""
     if isinstance(value, Mapping):
         return {str(k): _plain(v) for k, v in value.items()}
@@ -149,7 +149,7 @@ def _plain(value: Any) -> Any:
     return value
 
 
-def write_json(path: Path | None, measured: Mapping[str, Any]) -> None:
+def write_json(path: Path | None, measured: Mapping[str, object]) -> None:
     """Write ``measured`` to ``path`` (checked earlier with :func:`check_output_file`)."""
     if path is None:
         return
@@ -164,5 +164,5 @@ class DemoResult:
 
     summary: str
     figures: list[Path]
-    measured: dict[str, Any]
+    measured: dict[str, object]
     details: list[str] = field(default_factory=list)

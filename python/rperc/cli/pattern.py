@@ -8,7 +8,7 @@ import argparse
 import math
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -26,6 +26,9 @@ from rperc.cli.outputs import (
     wrote,
 )
 from rperc.tracking.synthetic import demo_images
+
+if TYPE_CHECKING:
+    from rperc.datasets.pot import PlanarTruth
 
 COMPONENTS = ("dX (px)", "dY (px)", "dtheta (deg)", "ds (%)")
 
@@ -254,7 +257,7 @@ def _draw_quad(frame: np.ndarray, quad: np.ndarray) -> np.ndarray:
     return np.asarray(im)
 
 
-def load_truth(truth_folder: Path | None, source: Path) -> Any:
+def load_truth(truth_folder: Path | None, source: Path) -> PlanarTruth | None:
     """The POT-210 ground truth of ``--truth``, else of SOURCE when it holds
     ``gt_corners.txt``, else None; read before tracking so a bad file fails at once."""
     from rperc.datasets import load_planar_truth
@@ -265,7 +268,7 @@ def load_truth(truth_folder: Path | None, source: Path) -> Any:
     return None if folder is None else load_planar_truth(folder)
 
 
-def pot_metrics(truth: Any, quads: np.ndarray) -> dict[str, Any]:
+def pot_metrics(truth: PlanarTruth | None, quads: np.ndarray) -> dict[str, float]:
     """POT-210's numbers for the tracked corners ``(n, 4, 2)`` against ``truth``
     (frame 0 is the given region, not scored); nothing without a truth."""
     from rperc.tracking.planar import pot_score

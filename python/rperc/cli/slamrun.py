@@ -8,7 +8,7 @@ import argparse
 import json
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -21,10 +21,15 @@ from rperc.cli.outputs import (
     write_json,
     wrote,
 )
+from rperc.config import SimConfig
 from rperc.slam import PlanarSlam, SlamResult
+from rperc.slam.evaluation import RunReference
 from rperc.slam.mrclam import mrclam_run
 from rperc.slam.planar import PRESETS, RECORDING_VARIANTS, variant_config, victoria_recording
 from rperc.slam.wallslam import ASSOCIATIONS
+
+if TYPE_CHECKING:
+    from rperc.config import SimConfigOverrides
 
 
 def _variants(text: str) -> tuple[str, ...]:
@@ -100,7 +105,7 @@ def _speed(args: argparse.Namespace) -> dict[str, Any]:
     return cfg
 
 
-def _mrclam(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dict[str, Any]]:
+def _mrclam(args: argparse.Namespace) -> tuple[SlamResult, dict[str, float], RunReference]:
     return mrclam_run(
         args.directory, robot=args.robot, variants=args.variant, seed=args.seed,
         fix_interval=args.fix_interval, fix_sigma=args.fix_sigma, span=args.span,
@@ -108,7 +113,7 @@ def _mrclam(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dict[
     )  # fmt: skip
 
 
-def _victoria(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dict[str, Any]]:
+def _victoria(args: argparse.Namespace) -> tuple[SlamResult, dict[str, float], RunReference]:
     from rperc.datasets import load_victoria_park
     from rperc.datasets.victoria_park import LASER_MOUNT
 
@@ -130,8 +135,8 @@ def _victoria(args: argparse.Namespace) -> tuple[SlamResult, dict[str, Any], dic
         "gps_fixes": len(err.distance),
         "gps_fixes_implausible": int(np.count_nonzero(~keep)),
     }
-    ref = {"truth": gps, "landmarks": None, "label": "GPS fixes", "transform": err.transform,
-           "nees": None}  # fmt: skip
+    ref: RunReference = {"truth": gps, "landmarks": None, "label": "GPS fixes",
+                         "transform": err.transform, "nees": None}  # fmt: skip
     return result, metrics, ref
 
 
@@ -146,9 +151,11 @@ def slam_command(args: argparse.Namespace) -> int:
         if importlib.util.find_spec("rerun") is None:
             raise ValueError("--rerun needs the viz extra: pip install rperc[viz]")
     run = _mrclam if args.dataset == "mrclam" else _victoria
-    result, metrics, ref = run(args)
-    metrics |= {
-        "variant": "+".join(args.variant),
+    result, scores, ref = run(args)
+    variant = "+".join(args.variant)
+    metrics: dict[str, object] = {
+        **scores,
+        "variant": variant,
         "landmarks": len(result.landmark_id),
         "statistics": result.statistics,
         "seconds_total": float(result.seconds.sum()),
@@ -166,9 +173,9 @@ def slam_command(args: argparse.Namespace) -> int:
         from rperc.plot.slam import map_figure
 
         score = ", ".join(f"{k} {v:.3g}" for k, v in shown.items() if k.endswith("_m"))
-        title = f"{args.dataset} ({metrics['variant']}): {score}"
+        title = f"{args.dataset} ({variant}): {score}"
         fig = map_figure(
-            [(metrics["variant"], result)], ref["truth"], ref["landmarks"], title=title,
+            [(variant, result)], ref["truth"], ref["landmarks"], title=title,
             truth_label=ref["label"], transform=ref["transform"],
         )  # fmt: skip
         wrote(save(fig, args.plot))
@@ -188,7 +195,7 @@ def slam_command(args: argparse.Namespace) -> int:
 # The demo world: the Rust crate's drifting world (heading noise 0.05 rad^2/s^2 per
 # step, 12 landmarks seen within 4.5 m), where Bailey et al.'s long-run inconsistency
 # shows; the external variant sees an xy fix every 10 steps (1 s).
-DEMO_WORLD: dict[str, Any] = {
+DEMO_WORLD: SimConfigOverrides = {
     "steps": 1500,
     "turn_rate_variance": 0.05,
     "bearing_variance": 1e-3,
@@ -206,7 +213,6 @@ def demo_slam(out: Path, seed: int, runs: int = 20) -> DemoResult:
     from rperc.slam.planar import (
         VARIANTS,
         consistency,
-        sim_defaults,
         sim_slam_config,
         simulate,
     )
@@ -239,7 +245,7 @@ def demo_slam(out: Path, seed: int, runs: int = 20) -> DemoResult:
         f"{runs}-run mean robot NEES {nees_text}, band [{band[0]:.2f}, {band[1]:.2f}]"
     )
     series = [(n, mc[n].mean_nees) for n in VARIANTS]
-    dt = float(sim_defaults()["dt"])
+    dt = SimConfig().dt
     fig = variants_figure(maps, sim.truth[:, 1:3], sim.landmarks, series, band, title=title, dt=dt)
     path = save(fig, out / "slam_variants.png")
     summary = (

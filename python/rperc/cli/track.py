@@ -13,7 +13,7 @@
 from __future__ import annotations
 
 import argparse
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -239,7 +239,7 @@ def write_outputs(
     args: argparse.Namespace,
     frames: Sequence[np.ndarray],
     run: TrackerRun,
-    measured: dict[str, Any],
+    measured: Mapping[str, object],
     video_fps: float = 25.0,
 ) -> None:
     """``--json`` (``measured``), ``--csv`` (one box per frame) and ``--video``."""

@@ -8,7 +8,7 @@ import argparse
 import sys
 import tempfile
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rperc.cli.outputs import (
     DemoResult,
@@ -26,8 +26,13 @@ from rperc.slam.wallslam import (
     ASSOCIATIONS,
     STRAIGHTNESS,
     WallSlamResult,
+    WallsOptions,
     run_walls,
 )
+
+if TYPE_CHECKING:
+    from rperc.config import PlanarConfigOverrides
+    from rperc.datasets.carmen import CarmenLog
 
 
 def add_walls_command(kinds: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -105,7 +110,7 @@ def walls_command(args: argparse.Namespace) -> int:
     return 0
 
 
-DEMO_RUNS: dict[str, dict[str, Any]] = {
+DEMO_RUNS: dict[str, WallsOptions] = {
     "odometry": {"use_walls": False},
     "plain": {},
     "anchored+freeze50": {"anchor": True, "freeze_after": 50},
@@ -134,7 +139,7 @@ def demo_wall_slam(out: Path, seed: int) -> DemoResult:
         "plain robot NEES "
         f"mean {plain.metrics['nees_mean']:.2f} (3 expected), {len(plain.wall_id)} walls"
     )
-    measured_runs: dict[str, Any] = {"seed": seed, **{n: r.measured() for n, r in runs.items()}}
+    measured_runs: dict[str, object] = {"seed": seed, **{n: r.measured() for n, r in runs.items()}}
     paths = [path]
     intel = _intel_log()
     if intel is not None:
@@ -160,7 +165,7 @@ def _intel_log() -> Path | None:
 
 
 def _fig7(
-    log: Any,
+    log: CarmenLog,
     seed: int,
     straightness: float,
     path: Path,
@@ -175,7 +180,13 @@ def _fig7(
 
     prepared = prepare(log, straightness=straightness)
     runs = {
-        name: run_prepared(prepared, seed=seed, smooth=name == "plain", **_overrides(kw))
+        name: run_prepared(
+            prepared,
+            seed=seed,
+            smooth=name == "plain",
+            use_walls=kw.get("use_walls", True),
+            **_overrides(kw),
+        )
         for name, kw in DEMO_RUNS.items()
     }
     # The batch smoothing of the plain run: every pose from all of the scans.
@@ -193,8 +204,11 @@ def _fig7(
     return runs, save(fig, path)
 
 
-def _overrides(kw: dict[str, Any]) -> dict[str, Any]:
-    """A DEMO_RUNS entry as run_prepared's keywords."""
-    return {"use_walls": kw.get("use_walls", True)} | {
-        k: v for k, v in kw.items() if k != "use_walls"
-    }
+def _overrides(kw: WallsOptions) -> PlanarConfigOverrides:
+    """A DEMO_RUNS entry's filter settings, as run_prepared's keywords."""
+    planar: PlanarConfigOverrides = {}
+    if "anchor" in kw:
+        planar["anchor"] = kw["anchor"]
+    if "freeze_after" in kw:
+        planar["freeze_after"] = kw["freeze_after"]
+    return planar

@@ -63,7 +63,7 @@ def read_geometries(path: str | Path) -> list[_geo.Geometry]:
     return [g for _, g in _read_numbered(Path(path))]
 
 
-def _read_numbered(path: Path) -> list[tuple[int, _geo.Geometry]]:
+def _read_numbered(path: Path) -> list[tuple[int, _geo.Shape]]:
     """Each geometry with the line it starts on."""
     kind = format_of(path)
     text = read_text(path)
@@ -76,7 +76,7 @@ def _read_numbered(path: Path) -> list[tuple[int, _geo.Geometry]]:
     return found
 
 
-def _read_wkt(path: Path, text: str) -> list[tuple[int, _geo.Geometry]]:
+def _read_wkt(path: Path, text: str) -> list[tuple[int, _geo.Shape]]:
     shapely = _geo.shapely_module()
     out = []
     for lineno, line in enumerate(split_lines(text), start=1):
@@ -105,7 +105,7 @@ def _read_wkt(path: Path, text: str) -> list[tuple[int, _geo.Geometry]]:
     return out
 
 
-def _finite(path: Path, lineno: int, geom: _geo.Geometry) -> _geo.Geometry:
+def _finite(path: Path, lineno: int, geom: _geo.Shape) -> _geo.Shape:
     """``geom``, after checking that its coordinates are finite: a NaN or infinite
     vertex (WKT ``nan``, GeoJSON ``NaN``) gave polylines no length or area means."""
     shapely = _geo.shapely_module()
@@ -135,7 +135,7 @@ def _too_deep(doc: Any) -> bool:
     return False
 
 
-def _read_geojson(path: Path, text: str) -> list[tuple[int, _geo.Geometry]]:
+def _read_geojson(path: Path, text: str) -> list[tuple[int, _geo.Shape]]:
     shapely = _geo.shapely_module()
     try:
         doc = json.loads(text)
@@ -223,7 +223,7 @@ def read_polylines(path: str | Path) -> list[np.ndarray]:
     return out
 
 
-def _leaf_types(geom: _geo.Geometry) -> set[str]:
+def _leaf_types(geom: _geo.Shape) -> set[str]:
     if hasattr(geom, "geoms"):
         return set().union(*(_leaf_types(g) for g in geom.geoms)) if len(geom.geoms) else set()
     return {geom.geom_type}
@@ -264,7 +264,7 @@ def _read_csv(path: Path, text: str) -> list[tuple[int, np.ndarray]]:
     return out
 
 
-def write_geometries(path: str | Path, geometries: Iterable[Any]) -> Path:
+def write_geometries(path: str | Path, geometries: Iterable[_geo.GeometryLike]) -> Path:
     """Write geometries (shapely geometries or ``__geo_interface__`` objects) in the
     format the suffix names; returns the path.
 
@@ -294,7 +294,7 @@ def wkt_line(geom: _geo.Geometry) -> str:
     return f"SRID={srid};{wkt}" if srid else wkt
 
 
-def _feature_collection(geoms: Sequence[_geo.Geometry]) -> str:
+def _feature_collection(geoms: Sequence[_geo.Shape]) -> str:
     shapely = _geo.shapely_module()
     features = ",\n".join(
         '{"type": "Feature", "properties": {}, "geometry": ' + str(shapely.to_geojson(g)) + "}"
@@ -303,7 +303,7 @@ def _feature_collection(geoms: Sequence[_geo.Geometry]) -> str:
     return '{"type": "FeatureCollection", "features": [\n' + features + "\n]}\n"
 
 
-def _csv_text(geoms: Sequence[_geo.Geometry]) -> str:
+def _csv_text(geoms: Sequence[_geo.Shape]) -> str:
     parts: list[np.ndarray] = []
     for geom in geoms:
         if not _leaf_types(geom) <= {"LineString", "LinearRing", "Polygon"}:

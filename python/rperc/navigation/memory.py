@@ -28,7 +28,7 @@ from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypedDict, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -37,11 +37,14 @@ from rperc import _rperc
 from rperc._args import float_array, real_number, whole_number
 from rperc._atomic import write_text_atomically
 from rperc._config_base import Config, as_config
-from rperc.config import LearnConfig, ReplayConfig
+from rperc.config import LearnConfig, LearnConfigOverrides, ReplayConfig, ReplayConfigOverrides
 from rperc.datasets._text import read_text
 from rperc.datasets.errors import DatasetFormatError
 from rperc.navigation.world import CeilingWorld
 from rperc.pose import wrap_angle
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
 
 __all__ = [
     "FORMAT",
@@ -62,6 +65,32 @@ FORMAT = "rperc-visual-memory/2"
 def _sha256(value: Any) -> str:
     text = json.dumps(value, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()
+
+
+class MemoryPose(TypedDict):
+    """A robot pose in the mosaic frame, as the memory file writes it."""
+
+    x: float
+    y: float
+    theta: float
+
+
+class KeyModel(TypedDict):
+    """A model seen in a key image: its ``id``, tracker ``state`` ``(x, y, theta, s)``
+    in the ideal image and the tracker's ``score``."""
+
+    id: int
+    state: list[float]
+    score: float
+
+
+class KeyImage(TypedDict):
+    """A key image of the memory file: its learning ``frame``, the robot ``pose`` and
+    the ``models`` in view."""
+
+    frame: int
+    pose: MemoryPose
+    models: list[KeyModel]
 
 
 class VisualMemory:
@@ -117,10 +146,10 @@ class VisualMemory:
         return np.array([m["created"] for m in self._data["models"]], dtype=np.int64)
 
     @property
-    def key_images(self) -> list[dict[str, Any]]:
+    def key_images(self) -> list[KeyImage]:
         """Each key image: its learning ``frame``, robot ``pose`` (mosaic) and
         ``models`` (``id`` and tracker ``state`` ``(x, y, theta, s)``)."""
-        return list(self._data["key_images"])
+        return cast("list[KeyImage]", list(self._data["key_images"]))
 
     @property
     def key_poses(self) -> np.ndarray:
@@ -270,14 +299,16 @@ def learn(
     dt: float = 0.1,
     config: LearnConfig | Mapping[str, object] | None = None,
     seed: int = 0,
+    **overrides: Unpack[LearnConfigOverrides],
 ) -> Learning:
     """Drives ``commands`` (``(n, 2)``: ``v`` m/s, ``omega`` rad/s, each ``dt`` s) from
     ``start`` ``(x, y, theta)``, building the mosaic and choosing the key images.
     ``config`` is a :class:`rperc.config.LearnConfig` or a dict of its fields
     (``mosaic``, ``keys``, ``odometry``, and ``covariance_scale``, >= 1, which
     multiplies the stored mosaic covariance: the mapping filter counts a tracker's
-    successive, correlated states as independent)."""
-    cfg = as_config(LearnConfig, config)
+    successive, correlated states as independent); keyword arguments override its
+    fields."""
+    cfg = as_config(LearnConfig, config, overrides)
     learnt = _rperc.visual_memory_learn(
         world._native,
         float_array(start, "start").reshape(-1),
@@ -321,15 +352,16 @@ def replay(
     start: npt.ArrayLike,
     config: ReplayConfig | Mapping[str, object] | None = None,
     seed: int = 0,
+    **overrides: Unpack[ReplayConfigOverrides],
 ) -> ReplayResult:
     """Replays ``memory`` from the true pose ``start`` (the robot believes it is at the
     first key image). ``config``: a :class:`rperc.config.ReplayConfig` or a dict of its
-    fields."""
+    fields; keyword arguments override its fields."""
     run = _rperc.visual_memory_replay(
         world._native,
         memory.to_json(),
         float_array(start, "start").reshape(-1),
-        as_config(ReplayConfig, config).to_dict(),
+        as_config(ReplayConfig, config, overrides).to_dict(),
         whole_number(seed, "seed", 0, 2**64),
     )
     return ReplayResult(run.outcome, run.key_index, _frames(run.frames))
@@ -402,21 +434,22 @@ def evaluate(
     executor: Executor | None = None,
     seed: int = 0,
     show_progress: bool = False,
+    **overrides: Unpack[ReplayConfigOverrides],
 ) -> tuple[Evaluation, list[ReplayResult]]:
     """Replays the learnt memory from ``starts`` seeded perturbed starts (through
     ``executor.map`` when given: a process pool or a Dask client's executor) and scores
     everything against the truth. ``show_progress``: a bar on a terminal, log lines
-    elsewhere, one step per finished replay. ``config`` is :func:`replay`'s; its
-    localiser's ``guess_sigma`` is set from ``perturbation`` unless it sets its own (a
-    dict with the field, or a config whose value is not the default)."""
+    elsewhere, one step per finished replay. ``config`` and the keyword overrides are
+    :func:`replay`'s; the localiser's ``guess_sigma`` is set from ``perturbation``
+    unless they set their own (a dict with the field, or a value not the default)."""
     from rperc._progress import progress
 
     n = whole_number(starts, "starts", 1, 100_000)
     seed = whole_number(seed, "seed", 0)
     begin = learning.frames.truth[0]
     poses = starts_around(begin, n, perturbation, seed)
-    config = _with_start_guess(config, perturbation)
-    jobs = [(world, learning.memory.to_json(), p, config, seed + k)
+    native = _with_start_guess(config, overrides, perturbation)
+    jobs = [(world, learning.memory.to_json(), p, native, seed + k)
             for k, p in enumerate(poses)]  # fmt: skip
     done = executor.map(_replay_job, jobs) if executor else map(_replay_job, jobs)
     if show_progress:
@@ -426,27 +459,27 @@ def evaluate(
 
 
 def _with_start_guess(
-    config: ReplayConfig | Mapping[str, object] | None, perturbation: Sequence[float]
+    config: ReplayConfig | Mapping[str, object] | None,
+    overrides: Mapping[str, object],
+    perturbation: Sequence[float],
 ) -> dict[str, object]:
-    """``config`` with the localiser's starting guess told how the starts are drawn
-    (uniform in ``[-p, p]``: a standard deviation of ``p / sqrt(3)``), unless it sets
-    its own: the replay then searches the box its start can be in, no wider, and its
-    first covariance is honest. A typed config sets its own when its value is not the
-    default (a dataclass always holds the field)."""
-    if isinstance(config, ReplayConfig):
-        own = config.mosaic.localiser.guess_sigma != ReplayConfig().mosaic.localiser.guess_sigma
-        out = config.to_dict()
-    else:
-        out = dict(config or {})
-        localiser_given = _part(_part(out, "mosaic"), "localiser")
-        own = "guess_sigma" in localiser_given
-    mosaic = _part(out, "mosaic")
-    localiser = _part(mosaic, "localiser")
-    if not own:
-        p = np.asarray(perturbation, dtype=np.float64).reshape(-1)
-        localiser["guess_sigma"] = [max(float(v) / math.sqrt(3.0), 1e-3) for v in p]
-        out["mosaic"] = {**mosaic, "localiser": localiser}
-    return out
+    """The replays' config with the localiser's starting guess told how the starts are
+    drawn (uniform in ``[-p, p]``: a standard deviation of ``p / sqrt(3)``), unless it
+    sets its own: the replay then searches the box its start can be in, no wider, and
+    its first covariance is honest. A dict sets its own when it names the field, a
+    typed config or override when its value is not the default (a dataclass always
+    holds the field)."""
+    named = isinstance(config, Mapping) and "guess_sigma" in _part(
+        _part(config, "mosaic"), "localiser"
+    )
+    made = as_config(ReplayConfig, config, overrides)
+    localiser = made.mosaic.localiser
+    if named or localiser.guess_sigma != ReplayConfig().mosaic.localiser.guess_sigma:
+        return made.to_dict()
+    p = np.asarray(perturbation, dtype=np.float64).reshape(-1)
+    sigma = tuple(max(float(v) / math.sqrt(3.0), 1e-3) for v in p)
+    guess = localiser.replace(guess_sigma=sigma)
+    return made.replace(mosaic=made.mosaic.replace(localiser=guess)).to_dict()
 
 
 def _part(config: Mapping[str, object], name: str) -> dict[str, object]:

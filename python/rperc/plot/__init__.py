@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import Any
+from types import ModuleType
 
 import numpy as np
 import numpy.typing as npt
@@ -110,7 +110,7 @@ def outside(points: npt.ArrayLike, limits: Limits) -> int:
     return int(np.count_nonzero(~inside))
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> ModuleType:
     # ``from rperc.plot import plt`` was the old way to make figures; it still works
     # for callers not yet moved to Figure objects, but pyplot is only imported (and a
     # backend chosen by matplotlib's own rules) when someone asks for it.

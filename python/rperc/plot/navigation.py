@@ -4,20 +4,25 @@ and the truth."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
+from matplotlib.gridspec import SubplotSpec
 
 from rperc._atomic import write_atomically
 from rperc.plot import robust_limits, save, set_limits
 
+if TYPE_CHECKING:
+    from rperc.navigation import CeilingWorld, Evaluation, Learning, ReplayResult
+
 __all__ = ["replay_strip", "visual_memory_figure"]
 
 
-def _corners(state: Any, size: tuple[float, float]) -> np.ndarray:
+def _corners(state: Sequence[float], size: tuple[float, float]) -> np.ndarray:
     """A model's window corners at tracker state ``(x, y, theta, s)`` (the tracker's
     convention: theta counter-clockwise on screen)."""
     x, y, theta, s = (float(v) for v in state)
@@ -36,7 +41,7 @@ def _to_real(homography: np.ndarray, points: np.ndarray) -> np.ndarray:
     return out
 
 
-def _key_images(fig: Figure, spec: Any, world: Any, learning: Any) -> None:
+def _key_images(fig: Figure, spec: SubplotSpec, world: CeilingWorld, learning: Learning) -> None:
     keys = learning.memory.key_images
     picks = np.unique(np.linspace(0, len(keys) - 1, min(4, len(keys))).round().astype(int))
     sizes = [m["model"]["size"] for m in learning.memory._data["models"]]
@@ -60,7 +65,7 @@ def _key_images(fig: Figure, spec: Any, world: Any, learning: Any) -> None:
         ax.set_yticks([])
 
 
-def _mosaic(ax: Axes, world: Any, learning: Any) -> None:
+def _mosaic(ax: Axes, world: CeilingWorld, learning: Learning) -> None:
     tex = world.texture()
     res = world.resolution
     extent = (0.0, (tex.shape[1] - 1) * res, 0.0, (tex.shape[0] - 1) * res)
@@ -82,7 +87,7 @@ def _mosaic(ax: Axes, world: Any, learning: Any) -> None:
     ax.legend(loc="upper right", fontsize=7)
 
 
-def _true_model_frames(learning: Any) -> np.ndarray:
+def _true_model_frames(learning: Learning) -> np.ndarray:
     from rperc.navigation.memory import _pose, _se2
 
     truth = learning.frames.truth
@@ -93,7 +98,7 @@ def _true_model_frames(learning: Any) -> np.ndarray:
     return np.array(rows).reshape(-1, 3)
 
 
-def _paths(ax: Axes, learning: Any, runs: list[Any]) -> None:
+def _paths(ax: Axes, learning: Learning, runs: list[ReplayResult]) -> None:
     learnt = learning.frames.truth
     ax.plot(learnt[:, 0], learnt[:, 1], color="k", lw=2.5, label="learnt path A-B, truth")
     for n, r in enumerate(runs):
@@ -113,7 +118,9 @@ def _paths(ax: Axes, learning: Any, runs: list[Any]) -> None:
     ax.legend(loc="best", fontsize=7)
 
 
-def visual_memory_figure(world: Any, learning: Any, evaluation: Any, runs: list[Any]) -> Figure:
+def visual_memory_figure(
+    world: CeilingWorld, learning: Learning, evaluation: Evaluation, runs: list[ReplayResult]
+) -> Figure:
     """Fig. 9 with truth: key images (left), the mosaic (centre), paths (right)."""
     m = evaluation
     fig = Figure(figsize=(16, 5.6), layout="constrained")
@@ -134,13 +141,15 @@ def visual_memory_figure(world: Any, learning: Any, evaluation: Any, runs: list[
     return fig
 
 
-def _world_to_image(world: Any, pose: np.ndarray, points: np.ndarray) -> np.ndarray:
+def _world_to_image(world: CeilingWorld, pose: np.ndarray, points: np.ndarray) -> np.ndarray:
     """World points ``(n, 2+)`` in the real camera's pixels with the robot at ``pose``."""
     out: np.ndarray = world.project(pose, np.ascontiguousarray(points[:, :2]))
     return out
 
 
-def replay_marks(world: Any, learning: Any, run: Any, k: int) -> tuple[np.ndarray, np.ndarray]:
+def replay_marks(
+    world: CeilingWorld, learning: Learning, run: ReplayResult, k: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Frame ``k`` of a replay: where the models truly are in its image (the true
     pattern frames seen from the true pose), and where the robot's estimate puts them
     (the mosaic's models seen from the estimated pose, eq. 2); ``(0, 2)`` when the
@@ -153,12 +162,14 @@ def replay_marks(world: Any, learning: Any, run: Any, k: int) -> tuple[np.ndarra
     return truth, _world_to_image(world, est_robot, models)
 
 
-def _position_error_cm(learning: Any, run: Any, k: int) -> float:
+def _position_error_cm(learning: Learning, run: ReplayResult, k: int) -> float:
     est = learning.to_world(run.frames.pose[k])[0]
     return float(100 * np.hypot(*(est[:2] - run.frames.truth[k, :2])))
 
 
-def replay_strip(world: Any, learning: Any, run: Any, out: Path, frames: int = 8) -> list[Path]:
+def replay_strip(
+    world: CeilingWorld, learning: Learning, run: ReplayResult, out: Path, frames: int = 8
+) -> list[Path]:
     """Eight frames of one replay side by side, each with the models' true image
     positions (circles) and where the robot's estimate puts them (crosses), titled with
     the position error (``replay_strip.png``); and the whole replay so marked as
@@ -199,7 +210,9 @@ def replay_strip(world: Any, learning: Any, run: Any, out: Path, frames: int = 8
     return written
 
 
-def _marked(world: Any, learning: Any, run: Any, k: int, frame: np.ndarray) -> np.ndarray:
+def _marked(
+    world: CeilingWorld, learning: Learning, run: ReplayResult, k: int, frame: np.ndarray
+) -> np.ndarray:
     """An animation frame in colour: a green ring where each model truly is, a red
     cross where the robot's estimate puts it."""
     rgb = np.repeat(frame[:, :, None], 3, axis=2)

@@ -28,12 +28,17 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
+from rperc._config_base import as_config
+from rperc.config import PlanarConfig, Unicycle
 from rperc.pose import wrap_angle
+
+if TYPE_CHECKING:
+    from rperc.datasets.mrclam import MrclamRun
 
 __all__ = [
     "MrclamCalibration",
@@ -72,7 +77,7 @@ class MrclamCalibration:
     windows: int
     window: float  # seconds: the odometry windows the scales and variances come from
 
-    def config(self) -> dict[str, Any]:
+    def config(self) -> dict[str, object]:
         """The fields of a :class:`rperc.slam.PlanarSlam` config."""
         return {
             "motion": {
@@ -94,11 +99,11 @@ class MrclamCalibration:
         }
 
 
-def _heading(run: Any) -> FloatArray:
+def _heading(run: MrclamRun) -> FloatArray:
     return np.asarray(np.unwrap(run.truth_theta), dtype=np.float64)
 
 
-def true_range_bearing(run: Any) -> tuple[FloatArray, FloatArray]:
+def true_range_bearing(run: MrclamRun) -> tuple[FloatArray, FloatArray]:
     """The true range and bearing of every landmark sighting, from the ground-truth
     pose interpolated at the sighting's time and the surveyed landmark."""
     t = run.measurement_t
@@ -134,7 +139,7 @@ def _robust_line(
     return float(offset), float(scale), residual, inlier
 
 
-def _windows(run: Any, window: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+def _windows(run: MrclamRun, window: float) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Per window of ``window`` s: (true, odometry) distance along the track, (true,
     odometry) turn, and the sum of the squared odometry steps.
 
@@ -167,7 +172,7 @@ def _scale_and_variance(pairs: FloatArray, sum_dt2: FloatArray) -> tuple[float, 
     return scale, float(np.mean(residual**2) / np.mean(sum_dt2))
 
 
-def _control_variances(run: Any, window: float) -> tuple[float, float, int]:
+def _control_variances(run: MrclamRun, window: float) -> tuple[float, float, int]:
     """Per-step speed and turn-rate variances fitted over ``window`` s, and the
     number of windows."""
     distance, turn, sum_dt2 = _windows(run, window)
@@ -180,7 +185,9 @@ def _control_variances(run: Any, window: float) -> tuple[float, float, int]:
     )
 
 
-def correlation_window(run: Any, *, candidates: tuple[float, ...] = CANDIDATE_WINDOWS) -> float:
+def correlation_window(
+    run: MrclamRun, *, candidates: tuple[float, ...] = CANDIDATE_WINDOWS
+) -> float:
     """The odometry error's correlation time: the shortest candidate window whose
     doubling raises neither fitted per-step variance (speed, turn rate) by more than
     two standard errors of that variance, ``2 sqrt(2 / n)`` for ``n`` windows
@@ -209,7 +216,7 @@ def correlation_window(run: Any, *, candidates: tuple[float, ...] = CANDIDATE_WI
     return float(usable[-1][0])
 
 
-def calibrate_mrclam(run: Any, *, window: float | None = None) -> MrclamCalibration:
+def calibrate_mrclam(run: MrclamRun, *, window: float | None = None) -> MrclamCalibration:
     """Fits the camera and odometry biases and noise of a
     :class:`rperc.datasets.MrclamRun` against its ground truth (see the module docs).
     ``window`` (s) defaults to :func:`correlation_window` of the run. Use
@@ -255,7 +262,7 @@ def calibrate_mrclam(run: Any, *, window: float | None = None) -> MrclamCalibrat
     )
 
 
-def mrclam_window(run: Any, start: float, stop: float) -> Any:
+def mrclam_window(run: MrclamRun, start: float, stop: float) -> MrclamRun:
     """The part of a :class:`rperc.datasets.MrclamRun` with times in ``[start, stop)``
     seconds after its first odometry row (all its time series cut alike)."""
     t0 = float(run.odometry_t[0])
@@ -285,8 +292,8 @@ def mrclam_window(run: Any, start: float, stop: float) -> Any:
 
 
 def gate_inflation(
-    run: Any,
-    config: dict[str, Any],
+    run: MrclamRun,
+    config: dict[str, object],
     *,
     factors: tuple[float, ...] = (1.0, 2.0, 4.0),
 ) -> tuple[float, float, int]:
@@ -301,9 +308,9 @@ def gate_inflation(
     check by itself; it is fitted on the calibration data like the rest. Ties in the
     product of the two factors go to the smaller detection factor. Returns the two
     factors and the refused count."""
-    from rperc.slam.planar import PlanarSlam, defaults, mrclam_recording, mrclam_start
+    from rperc.slam.planar import PlanarSlam, mrclam_recording, mrclam_start
 
-    rate = 1.0 - float(config.get("gate_confidence", defaults()["gate_confidence"]))
+    rate = 1.0 - as_config(PlanarConfig, config).gate_confidence
     recording = mrclam_recording(run)
     allowed = rate * len(run.measurement_t)
     pairs = sorted(
@@ -319,26 +326,32 @@ def gate_inflation(
     raise ValueError(f"no inflation in {factors} brings the refusals ({refused}) to {allowed:.1f}")
 
 
-def inflated(config: dict[str, Any], detection: float, control: float) -> dict[str, Any]:
-    """``config`` with its detection variances times ``detection`` and its unicycle
-    control variances times ``control``."""
-    unicycle = dict(config["motion"]["unicycle"])
-    for key in ("speed_variance", "turn_rate_variance"):
-        unicycle[key] *= control
+def inflated(config: dict[str, object], detection: float, control: float) -> dict[str, object]:
+    """``config`` (a dict of :class:`rperc.config.PlanarConfig`'s fields with a unicycle
+    motion) with its detection variances times ``detection`` and its control variances
+    times ``control``."""
+    typed = as_config(PlanarConfig, config)
+    motion = typed.motion
+    if not isinstance(motion, Unicycle):
+        raise ValueError(f"inflated: the motion model must be a unicycle, got {motion!r}")
+    unicycle = {
+        "speed_variance": motion.speed_variance * control,
+        "turn_rate_variance": motion.turn_rate_variance * control,
+    }
     return {
         **config,
         "motion": {"unicycle": unicycle},
-        "range_variance": config["range_variance"] * detection,
-        "bearing_variance": config["bearing_variance"] * detection,
+        "range_variance": typed.range_variance * detection,
+        "bearing_variance": typed.bearing_variance * detection,
     }
 
 
 def calibrate_mrclam_preset(
-    run: Any,
+    run: MrclamRun,
     *,
     seconds: float,
     factors: tuple[float, ...],
-) -> tuple[dict[str, Any], MrclamCalibration, tuple[float, float]]:
+) -> tuple[dict[str, object], MrclamCalibration, tuple[float, float]]:
     """The one procedure behind every robot's preset, on that robot's first
     ``seconds`` only (the rest stays held out): :func:`calibrate_mrclam`, then the
     linearisation and the inflation chosen by the innovation test (:func:`gate_inflation`

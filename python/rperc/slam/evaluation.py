@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TypedDict
 
 import numpy as np
 import numpy.typing as npt
@@ -36,6 +37,7 @@ __all__ = [
     "GpsError",
     "LandmarkError",
     "NeesResult",
+    "RunReference",
     "Se2Transform",
     "TrajectoryError",
     "align_se2",
@@ -565,3 +567,16 @@ def gps_error(
     transform = align_se2(assoc.reference, assoc.estimate)
     moved = transform.apply_points(assoc.reference)
     return GpsError(assoc, transform, np.hypot(*(moved - assoc.estimate).T))
+
+
+class RunReference(TypedDict):
+    """What a run on a recording is scored against, as the ``rperc slam`` commands
+    draw it: the reference path ``truth`` (rows ``x, y, theta`` or ``x, y``), the
+    reference ``landmarks`` ``(L, 2)`` if any, the path's legend ``label``, the run's
+    ``nees`` against it if computed, and the alignment ``transform`` if drawn aligned."""
+
+    truth: np.ndarray
+    landmarks: np.ndarray | None
+    label: str
+    nees: NeesResult | None
+    transform: Se2Transform | None

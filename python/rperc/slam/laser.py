@@ -29,39 +29,89 @@ import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rperc import _rperc
 from rperc._args import whole_number
-from rperc.config import LaserConfig
+from rperc._config_base import as_config, dotted_fields, merged, with_dotted
+from rperc.config import LaserConfig, LaserConfigOverrides, Unicycle
+from rperc.slam.wallslam import SPEED_SIGMA, TURN_SIGMA
 
-#: The pipelines ``run_laser`` offers: the full one, scan matching without loop
-#: closures, and the simulated odometry alone (the baseline).
-VARIANTS: dict[str, dict[str, Any]] = {
-    "loops": {},
-    "scan-matching": {"loops": {"enabled": False}},
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
+
+    from rperc.datasets.carmen import CarmenLog
+
+#: The full pipeline's settings in this experiment: the crate's defaults, told the
+#: simulation's stated odometry noise (the filter's motion model is the one the
+#: odometry was drawn from).
+_LOOPS = LaserConfig(
+    motion=Unicycle(speed_variance=SPEED_SIGMA**2, turn_rate_variance=TURN_SIGMA**2)
+)
+
+#: The pipelines ``run_laser`` offers, as their settings: the full one, scan matching
+#: without loop closures, and the simulated odometry alone (the baseline).
+VARIANTS: dict[str, LaserConfig] = {
+    "loops": _LOOPS,
+    "scan-matching": _LOOPS.replace(loops=_LOOPS.loops.replace(enabled=False)),
     # ICP refuses every match when it needs more pairs than any scan has.
-    "odometry": {"loops": {"enabled": False}, "icp": {"min_inliers": 1_000_000}},
+    "odometry": _LOOPS.replace(
+        loops=_LOOPS.loops.replace(enabled=False),
+        icp=_LOOPS.icp.replace(min_inliers=1_000_000),
+    ),
 }
 
 
-def defaults() -> dict[str, Any]:
-    """The pipeline's default settings, nested by part (scan, icp, local_map, loops,
-    ...): what a ``config`` mapping overrides."""
+def defaults() -> dict[str, object]:
+    """Deprecated: the crate's default settings as a nested dict; use
+    :class:`rperc.config.LaserConfig` (``LaserConfig()``, or ``VARIANTS["loops"]``,
+    the settings a run starts from)."""
+    warnings.warn(
+        "rperc.slam.laser.defaults() is deprecated: use rperc.config.LaserConfig() "
+        "(or rperc.slam.laser.VARIANTS['loops'], the settings a run starts from)",
+        DeprecationWarning,
+        stacklevel=2,
+    )
     return LaserConfig().to_dict()
 
 
-def _merge(base: dict[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:
-    """``base`` with ``over`` on top, nested mappings merged key by key."""
-    out = dict(base)
-    for key, value in over.items():
-        if isinstance(value, Mapping) and isinstance(out.get(key), Mapping):
-            out[key] = _merge(dict(out[key]), value)
-        else:
-            out[key] = value
-    return out
+def _variant_changes(variant: str) -> dict[str, object]:
+    """The settings ``variant`` changes from the full pipeline, by dotted name."""
+    if variant not in VARIANTS:
+        raise ValueError(f"variant must be one of {', '.join(VARIANTS)}, got {variant!r}")
+    full = dotted_fields(VARIANTS["loops"])
+    return {k: v for k, v in dotted_fields(VARIANTS[variant]).items() if full[k] != v}
+
+
+def run_config(
+    variant: str = "loops",
+    config: LaserConfig | Mapping[str, object] | None = None,
+    initial_pose: tuple[float, float, float] | None = None,
+    overrides: Mapping[str, object] | None = None,
+) -> LaserConfig:
+    """The settings of a run: ``config`` (``VARIANTS["loops"]`` when None) with the
+    ``overrides`` on top, then ``variant``'s changes, and the pipeline started at
+    ``initial_pose`` unless an override sets it. A plain mapping as ``config`` is the
+    old spelling (deprecated): nested overrides of the variant's settings."""
+    changes = _variant_changes(variant)
+    over = dict(overrides or {})
+    if config is not None and not isinstance(config, LaserConfig):
+        warnings.warn(
+            "run_laser(config=<mapping>) is deprecated: pass a rperc.config.LaserConfig "
+            "(such as VARIANTS['loops'].replace(...)) or keyword overrides",
+            DeprecationWarning,
+            stacklevel=3,
+        )
+        base = VARIANTS[variant]
+        if initial_pose is not None:
+            base = base.replace(initial_pose=initial_pose)
+        return as_config(LaserConfig, merged(base, config), over)
+    if initial_pose is not None:
+        over.setdefault("initial_pose", initial_pose)
+    made = as_config(LaserConfig, config if config is not None else VARIANTS["loops"], over)
+    return with_dotted(made, changes) if changes else made
 
 
 @dataclass(frozen=True, repr=False)
@@ -84,7 +134,7 @@ class LaserResult:
     counts: dict[str, int] = field(default_factory=dict)
     seconds: dict[str, float] = field(default_factory=dict)
 
-    def measured(self) -> dict[str, Any]:
+    def measured(self) -> dict[str, str | int | float]:
         """Every score, count and timing, as ``rperc slam laser --json`` writes them."""
         total = sum(self.seconds.values())
         return {
@@ -132,23 +182,37 @@ def _scores(result: _rperc.LaserRun, ref: np.ndarray) -> dict[str, float]:
     }
 
 
+def from_settings(settings: Mapping[str, object]) -> tuple[LaserConfig, LaserConfigOverrides]:
+    """Settings read from JSON (nested by part, or by dotted name: ``icp.sigma``) on
+    top of ``VARIANTS["loops"]``: the ``config=`` of :func:`run_laser` and the keyword
+    overrides that keep an ``initial_pose`` the settings set (a config's own start is
+    the reference's first pose)."""
+    config = merged(VARIANTS["loops"], settings)
+    start = "initial_pose" in settings
+    return config, ({"initial_pose": config.initial_pose} if start else {})
+
+
 def run_laser(
-    log: Any,
+    log: CarmenLog,
     *,
     seed: int = 0,
     variant: str = "loops",
-    config: Mapping[str, Any] | None = None,
+    config: LaserConfig | Mapping[str, object] | None = None,
     read_seconds: float = 0.0,
+    **overrides: Unpack[LaserConfigOverrides],
 ) -> LaserResult:
     """Laser SLAM over a :class:`rperc.datasets.CarmenLog` from odometry drawn with
-    ``seed``. ``variant`` is one of :data:`VARIANTS`; ``config`` overrides the
-    pipeline's settings (:func:`defaults`), nested by part. ``read_seconds`` (the
-    time spent reading the log) is counted in the end-to-end speed."""
-    from rperc.slam.wallslam import SPEED_SIGMA, TURN_SIGMA, increments, noisy_controls
+    ``seed``. ``variant`` is one of :data:`VARIANTS`. ``config`` is a
+    :class:`rperc.config.LaserConfig` (``VARIANTS["loops"]``, the crate's defaults
+    told the simulated odometry's noise, when None); keyword arguments override its
+    fields, and the variant's changes (no loop closures, ...) are made on top. The
+    pipeline starts at the reference's first pose unless ``initial_pose=`` is given.
+    ``read_seconds`` (the time spent reading the log) is counted in the end-to-end
+    speed."""
+    from rperc.slam.wallslam import increments, noisy_controls
 
     seed = whole_number(seed, "seed", 0, limit=2**64)
-    if variant not in VARIANTS:
-        raise ValueError(f"variant must be one of {', '.join(VARIANTS)}, got {variant!r}")
+    _variant_changes(variant)
     t0 = time.perf_counter()
     sc = log.scans
     ref = np.asarray(sc.pose, dtype=np.float64)
@@ -156,10 +220,8 @@ def run_laser(
         raise ValueError(f"{log.path}: laser SLAM needs at least 2 scans, got {len(ref)}")
     exact, t = increments(ref)
     controls = np.r_[noisy_controls(exact, seed), [[t[-1], 0.0, 0.0]]]
-    # The odometry noise the filter is told is the simulation's stated noise.
-    noise = {"speed_variance": SPEED_SIGMA**2, "turn_rate_variance": TURN_SIGMA**2}
-    settings = _merge({"motion": noise, "initial_pose": ref[0].tolist()}, VARIANTS[variant])
-    settings = _merge(settings, config or {})
+    start = (float(ref[0, 0]), float(ref[0, 1]), float(ref[0, 2]))
+    settings = run_config(variant, config, start, overrides).to_dict()
     prepare_s = time.perf_counter() - t0
     t0 = time.perf_counter()
     out = _rperc.laser_run(
@@ -205,7 +267,8 @@ def load_and_run(
     *,
     seed: int = 0,
     variant: str = "loops",
-    config: Mapping[str, Any] | None = None,
+    config: LaserConfig | Mapping[str, object] | None = None,
+    **overrides: Unpack[LaserConfigOverrides],
 ) -> LaserResult:
     """Reads a CARMEN log and runs :func:`run_laser` on it, the reading timed too (the
     scans' repaired timestamps only feed the TUM file, so their repair warning is
@@ -213,11 +276,12 @@ def load_and_run(
     from rperc.datasets import TimestampRepairWarning
     from rperc.datasets.carmen import load_carmen
 
-    if variant not in VARIANTS:
-        raise ValueError(f"variant must be one of {', '.join(VARIANTS)}, got {variant!r}")
+    _variant_changes(variant)
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", TimestampRepairWarning)
         log = load_carmen(path)
     read_s = time.perf_counter() - t0
-    return run_laser(log, seed=seed, variant=variant, config=config, read_seconds=read_s)
+    return run_laser(
+        log, seed=seed, variant=variant, config=config, read_seconds=read_s, **overrides
+    )

@@ -3,11 +3,12 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
+from rperc.slam.evaluation import RunReference
 from rperc.slam.planar import PlanarSlam, SlamResult, mrclam_recording, variant_config
 
 __all__ = ["mrclam_run"]
@@ -22,8 +23,8 @@ def mrclam_run(
     fix_interval: float = 1.0,
     fix_sigma: float = 0.1,
     span: tuple[float, float] | None = None,
-    config: dict[str, Any] | None = None,
-) -> tuple[SlamResult, dict[str, Any], dict[str, Any]]:
+    config: Mapping[str, object] | None = None,
+) -> tuple[SlamResult, dict[str, float], RunReference]:
     """One MR.CLAM robot through planar EKF-SLAM with ``variants`` (the ``mrclam``
     preset, ``config`` on top): the result, its scores (``rperc slam mrclam``'s) and
     the reference. ``seed`` draws the external variant's fix noise."""
@@ -54,5 +55,6 @@ def mrclam_run(
         "nees_mean": nees.mean,
         "nees_in_band": float(np.mean(nees.inside)),
     }
-    ref = {"truth": truth, "landmarks": marks, "label": "true path (Vicon)", "nees": nees}
-    return result, metrics, ref | {"transform": None}
+    ref: RunReference = {"truth": truth, "landmarks": marks, "label": "true path (Vicon)",
+                         "nees": nees, "transform": None}  # fmt: skip
+    return result, metrics, ref

@@ -37,7 +37,7 @@ from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -52,6 +52,9 @@ from rperc.pose import wrap_angle
 
 if TYPE_CHECKING:
     from typing_extensions import Unpack
+
+    from rperc.datasets.mrclam import MrclamRun
+    from rperc.datasets.victoria_park import VictoriaPark
 
 __all__ = [
     "MRCLAM_CALIBRATION_SECONDS",
@@ -106,7 +109,7 @@ def _mrclam_preset(
     bearing_variance: float,
     bias: tuple[float, float, float, float, float, float],
     first_estimates: bool,
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """A robot's preset: control and detection variances, its biases ``(range
     offset, range scale, bearing offset, bearing scale, speed scale, turn scale)`` and
     whether the EKF is linearised at first estimates."""
@@ -130,7 +133,7 @@ def _mrclam_preset(
 
 
 #: Each MR.CLAM robot's calibrated preset (see above), by robot number.
-MRCLAM_ROBOT_PRESETS: dict[int, dict[str, Any]] = {
+MRCLAM_ROBOT_PRESETS: dict[int, dict[str, object]] = {
     1: _mrclam_preset(
         0.0261902, 0.0785342, 0.00257694, 0.000609932,
         (0.042337, 1.01402, 0.00441289, 0.982011, 0.946583, 0.952761), True,
@@ -146,14 +149,14 @@ MRCLAM_ROBOT_PRESETS: dict[int, dict[str, Any]] = {
 }  # fmt: skip
 
 
-def mrclam_preset(robot: int) -> dict[str, Any]:
+def mrclam_preset(robot: int) -> dict[str, object]:
     """The preset of MR.CLAM robot ``robot``: its own calibration for robots 1-3; the
     others (4 and 5, not in rperc's corpus) get robot 1's, which they have not been
     fitted on."""
     return MRCLAM_ROBOT_PRESETS.get(robot, MRCLAM_ROBOT_PRESETS[1])
 
 
-PRESETS: dict[str, dict[str, Any]] = {
+PRESETS: dict[str, dict[str, object]] = {
     # Robot 1's, as before per-robot presets: see mrclam_preset.
     "mrclam": MRCLAM_ROBOT_PRESETS[1],
     "victoria": {
@@ -168,7 +171,7 @@ PRESETS: dict[str, dict[str, Any]] = {
 }
 
 
-def defaults() -> dict[str, Any]:
+def defaults() -> dict[str, object]:
     """The default configuration (from the Rust crate, the one place it lives)."""
     return PlanarConfig().to_dict()
 
@@ -248,7 +251,7 @@ class SlamResult:
     landmark_anchor: np.ndarray
     statistics: dict[str, int]
     anchor: tuple[float, float] | None
-    config: dict[str, Any] = field(default_factory=dict)
+    config: dict[str, object] = field(default_factory=dict)
     anchor_time: float | None = None  # when the anchor was made (eqs. 24-25)
     walls: WallMap | None = None  # the wall landmarks, when the run was given walls
     #: The walls' data association: for each row of ``walls``, the id of the wall it
@@ -389,7 +392,7 @@ class Recording:
     fixes: np.ndarray | None = None
 
 
-def mrclam_start(run: Any) -> dict[str, Any]:
+def mrclam_start(run: MrclamRun) -> PlanarConfigOverrides:
     """The start pose of a MR.CLAM run: its ground truth at the first odometry time,
     known to 1 mm and 1 mrad (the dataset's convention: the robots start surveyed)."""
     t0 = float(run.odometry_t[0])
@@ -397,11 +400,11 @@ def mrclam_start(run: Any) -> dict[str, Any]:
     y = float(np.interp(t0, run.truth_t, run.truth_y))
     heading = np.unwrap(run.truth_theta)
     theta = float(wrap_angle(np.interp(t0, run.truth_t, heading)))
-    return {"initial_pose": [x, y, theta], "initial_pose_variance": [1e-6, 1e-6, 1e-6]}
+    return {"initial_pose": (x, y, theta), "initial_pose_variance": (1e-6, 1e-6, 1e-6)}
 
 
 def mrclam_recording(
-    run: Any, *, fix_interval: float | None = None, fix_sigma: float = 0.1, seed: int = 0
+    run: MrclamRun, *, fix_interval: float | None = None, fix_sigma: float = 0.1, seed: int = 0
 ) -> Recording:
     """The arrays of a :class:`rperc.datasets.MrclamRun`: odometry ``(v, omega)``,
     barcode sightings with their subject ids, and, when ``fix_interval`` is given, an
@@ -434,7 +437,7 @@ def mrclam_recording(
     )
 
 
-def victoria_recording(park: Any, *, gps_sigma: float | None = None) -> Recording:
+def victoria_recording(park: VictoriaPark, *, gps_sigma: float | None = None) -> Recording:
     """The arrays of a :class:`rperc.datasets.VictoriaPark`: encoder speed and
     steering, tree detections (vehicle-relative bearings, no ids) and, when
     ``gps_sigma`` is given, the GPS fixes with that standard deviation."""
@@ -549,7 +552,7 @@ class PlanarSlam:
         return _slam_result(out, self.config.to_dict(), with_walls=walls is not None)
 
 
-def _slam_result(out: _rperc.PlanarRun, config: dict[str, Any], with_walls: bool) -> SlamResult:
+def _slam_result(out: _rperc.PlanarRun, config: dict[str, object], with_walls: bool) -> SlamResult:
     """The typed result of a native run (its arrays are read-only)."""
     wall_map = WallMap(
         id=out.wall_id, line=out.wall_line, covariance=out.wall_covariance,
@@ -575,7 +578,7 @@ def _slam_result(out: _rperc.PlanarRun, config: dict[str, Any], with_walls: bool
 RECORDING_VARIANTS = ("plain", "anchor", "external", "freeze")
 
 
-def variant_config(base: Mapping[str, Any], variants: Sequence[str]) -> dict[str, Any]:
+def variant_config(base: Mapping[str, object], variants: Sequence[str]) -> dict[str, object]:
     """``base`` with the filter settings of ``variants`` (names of
     :data:`RECORDING_VARIANTS`; ``freeze`` freezes a landmark after 50 sightings)."""
     cfg = dict(base)
@@ -589,14 +592,14 @@ def variant_config(base: Mapping[str, Any], variants: Sequence[str]) -> dict[str
 
 #: Paper [000]'s variants a consistency study compares, as filter-config overrides.
 #: ``external`` also needs fixes in the world: :func:`consistency` adds them.
-VARIANTS: dict[str, dict[str, Any]] = {
+VARIANTS: dict[str, PlanarConfigOverrides] = {
     "plain": {},
     "anchor": {"anchor": True},
     "external": {"external_fix": True},
 }
 
 
-def sim_defaults() -> dict[str, Any]:
+def sim_defaults() -> dict[str, object]:
     """The default simulated world (from the Rust crate): a robot driving laps of a
     circle among landmarks on two rings, with the noise levels the filter assumes."""
     return SimConfig().to_dict()
@@ -636,7 +639,7 @@ def simulate(
 
 def sim_slam_config(
     sim: SimConfig | Mapping[str, object] | None = None, **overrides: Unpack[PlanarConfigOverrides]
-) -> dict[str, Any]:
+) -> dict[str, object]:
     """The filter config that matches the world ``sim`` (same noise, same start), with
     ``overrides`` (e.g. ``anchor=True``) on top, as a dict of
     :class:`rperc.config.PlanarConfig`'s fields."""
@@ -653,8 +656,8 @@ class PlanarMonteCarlo:
     run_nees: np.ndarray  # (runs, steps)
     mean_nees: np.ndarray  # (steps,)
     band: tuple[float, float]
-    sim: dict[str, Any]
-    slam: dict[str, Any]
+    sim: dict[str, object]
+    slam: dict[str, object]
 
     @property
     def runs(self) -> int:
@@ -674,7 +677,9 @@ class PlanarMonteCarlo:
         )
 
 
-def _sim_run_nees(sim: dict[str, Any], slam: dict[str, Any], seed: int, run: int) -> np.ndarray:
+def _sim_run_nees(
+    sim: dict[str, object], slam: dict[str, object], seed: int, run: int
+) -> np.ndarray:
     """Run ``run``'s NEES series; a top-level function so process pools and Dask can
     pickle it. It draws from stream ``run`` of ``seed``, as the native batch does."""
     out: np.ndarray = _rperc.planar_sim_nees(sim, slam, seed, run, 1)[0]

@@ -38,7 +38,7 @@ import math
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, TypedDict, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -48,6 +48,28 @@ from rperc._args import excerpt, float_array, real_number, whole_number
 from rperc.pose import wrap_angle
 from rperc.slam.planar import PlanarSlam, SlamResult
 from rperc.slam.smoothing import SmoothedRun, smooth_walls
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
+
+    from rperc.config import PlanarConfigOverrides
+    from rperc.datasets.carmen import CarmenLog, LaserScans
+    from rperc.linesimp import WallSegments
+
+#: A run's scores, counts, timings and settings, flat, as ``--json`` writes them.
+Measured = dict[str, str | int | float | bool | None]
+
+
+class WallsOptions(TypedDict, total=False):
+    """Keywords of :func:`run_walls` that choose a variant of the run."""
+
+    anchor: bool
+    freeze_after: int | None
+    use_walls: bool
+    smooth: bool
+    straightness: float
+    association: str
+
 
 __all__ = [
     "ASSOCIATION",
@@ -61,6 +83,7 @@ __all__ = [
     "TURN_SIGMA",
     "PreparedLog",
     "WallSlamResult",
+    "WallsOptions",
     "at_scans",
     "increments",
     "loop_pairs",
@@ -97,7 +120,7 @@ ASSOCIATIONS = ("nn", "jcbb")
 ASSOCIATION = "jcbb"
 
 #: The runs of the Fig. 7 experiment, as overrides of the filter config.
-METHODS: dict[str, dict[str, Any]] = {
+METHODS: dict[str, PlanarConfigOverrides] = {
     "odometry": {},
     "plain": {},
     "anchored_freeze50": {"anchor": True, "freeze_after": 50},
@@ -170,7 +193,7 @@ def straightness_covariance(
 
 
 def wall_rows(
-    scans: Any, t: np.ndarray, *, show_progress: bool = False, straightness: float = 0.0
+    scans: LaserScans, t: np.ndarray, *, show_progress: bool = False, straightness: float = 0.0
 ) -> tuple[np.ndarray, int, int]:
     """Every scan's walls as rows ``(t, rho, alpha, var_rho, cov, var_alpha, x0, y0, x1,
     y1)`` (sensor frame), the readings the walls use and the valid readings. A
@@ -178,7 +201,7 @@ def wall_rows(
     from rperc._progress import progress
     from rperc.linesimp import extract_lines
 
-    parts: list[Any] = []
+    parts: list[WallSegments] = []
     scan: list[int] = []
     used = 0
     steps = range(len(scans))
@@ -208,7 +231,7 @@ def wall_rows(
     return rows, used, valid
 
 
-def _valid_readings(scans: Any) -> int:
+def _valid_readings(scans: LaserScans) -> int:
     """Readings that are finite, positive and under their scan's maximum range."""
     r = np.asarray(scans.ranges, dtype=np.float64)
     beam = np.arange(r.shape[1])[None, :] < np.asarray(scans.num_beams)[:, None]
@@ -296,7 +319,7 @@ class WallSlamResult:
     metrics: dict[str, float]
     counts: dict[str, int]
     seconds: dict[str, float]
-    config: dict[str, Any] = field(default_factory=dict)
+    config: dict[str, object] = field(default_factory=dict)
     #: The batch smoothing of the run (``run_prepared(smooth=True)``), or ``None``.
     smoothing: SmoothedRun | None = None
 
@@ -326,15 +349,19 @@ class WallSlamResult:
             f"NEES mean {m['nees_mean']:.2f}, seconds={sum(self.seconds.values()):.3f})"
         )
 
-    def measured(self) -> dict[str, Any]:
+    def _setting(self, name: str) -> str | int | float | bool | None:
+        value = self.config.get(name)
+        return value if value is None or isinstance(value, str | int | float) else str(value)
+
+    def measured(self) -> Measured:
         """Every metric, count and timing of the run, flat (``rperc slam walls --json``
         and ``rperc bench laser`` write it)."""
         return {
             "log": self.log,
             "anchor": bool(self.config.get("anchor")),
-            "freeze_after": self.config.get("freeze_after"),
-            "straightness_m": self.config.get("straightness"),
-            "association": self.config.get("association"),
+            "freeze_after": self._setting("freeze_after"),
+            "straightness_m": self._setting("straightness"),
+            "association": self._setting("association"),
             **{f"{k}_m" if k in _METRES else k: v for k, v in self.metrics.items()},
             **self.counts,
             "readings_used_share": self.counts["readings_used"]
@@ -343,7 +370,7 @@ class WallSlamResult:
             **self._smoothed_measured(),
         }  # fmt: skip
 
-    def _smoothed_measured(self) -> dict[str, Any]:
+    def _smoothed_measured(self) -> Measured:
         """The smoothed run's scores (``smoothed_``), its biases and iterations."""
         sm = self.smoothing
         if sm is None:
@@ -375,7 +402,7 @@ class PreparedLog:
     """What every run over one log shares: the reference path, the exact odometry
     increments and scan times, the wall sightings and the share of readings used."""
 
-    log: Any
+    log: CarmenLog
     reference: np.ndarray
     exact: np.ndarray
     t: np.ndarray
@@ -391,7 +418,9 @@ class PreparedLog:
         )
 
 
-def prepare(log: Any, *, straightness: float = 0.0, show_progress: bool = False) -> PreparedLog:
+def prepare(
+    log: CarmenLog, *, straightness: float = 0.0, show_progress: bool = False
+) -> PreparedLog:
     """The reference, odometry increments and wall sightings of a
     :class:`rperc.datasets.CarmenLog` (walls extracted once for every run over it)."""
     if not (math.isfinite(straightness) and straightness >= 0):
@@ -410,7 +439,7 @@ def prepare(log: Any, *, straightness: float = 0.0, show_progress: bool = False)
 
 
 def run_walls(
-    log: Any,
+    log: CarmenLog,
     *,
     seed: int = 0,
     anchor: bool = False,
@@ -429,7 +458,8 @@ def run_walls(
     :data:`ASSOCIATION`);
     ``smooth=True`` also smooths the run (:meth:`WallSlamResult.smoothed`)."""
     prepared = prepare(log, straightness=straightness, show_progress=show_progress)
-    overrides: dict[str, Any] = {"association": association, "anchor": anchor}
+    # The association is checked by the crate when the filter is made, naming it.
+    overrides = cast("PlanarConfigOverrides", {"association": association, "anchor": anchor})
     if freeze_after is not None:
         overrides["freeze_after"] = whole_number(freeze_after, "freeze_after", 1)
     return run_prepared(prepared, seed=seed, use_walls=use_walls, smooth=smooth, **overrides)
@@ -441,7 +471,7 @@ def run_prepared(
     seed: int = 0,
     use_walls: bool = True,
     smooth: bool = False,
-    **overrides: Any,
+    **overrides: Unpack[PlanarConfigOverrides],
 ) -> WallSlamResult:
     """One run over a :func:`prepare`d log: odometry drawn with ``seed``, the filter
     config's stated noise and start with ``overrides`` (e.g. ``anchor=True``,
@@ -451,7 +481,7 @@ def run_prepared(
     seed = whole_number(seed, "seed", 0, limit=2**64)
     ref, t = prepared.reference, prepared.t
     rows = prepared.rows if use_walls else np.zeros((0, 10))
-    config: dict[str, Any] = {
+    config: dict[str, object] = {
         "motion": {
             "unicycle": {"speed_variance": SPEED_SIGMA**2, "turn_rate_variance": TURN_SIGMA**2}
         },

@@ -28,13 +28,18 @@ import time
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
 
 from rperc._extras import require
 from rperc.tracking.pattern import PatternSequence, PatternTracker, pattern_sequence
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
+
+    from rperc.config import PatternConfigOverrides
 
 #: Alignment-error thresholds of the success curve, pixels.
 ALIGNMENT_THRESHOLDS = np.arange(0.0, 20.5, 0.5)
@@ -236,7 +241,9 @@ def _timed(
     return PlanarRun(name, np.array(corners, dtype=np.float64).reshape(-1, 4, 2), failures, seconds)
 
 
-def run_pattern(frames: np.ndarray, region: Region, seed: int = 1, **params: Any) -> PlanarRun:
+def run_pattern(
+    frames: np.ndarray, region: Region, seed: int = 1, **params: Unpack[PatternConfigOverrides]
+) -> PlanarRun:
     """The seed's pattern tracker (:class:`PatternTracker`); lost frames are failures."""
     tracker = PatternTracker(frames[0], region, seed=seed, **params)
 

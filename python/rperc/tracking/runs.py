@@ -7,13 +7,21 @@ from __future__ import annotations
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypedDict, cast
 
 import numpy as np
 
 from rperc._args import excerpt
 from rperc._progress import progress
 from rperc.tracking import metrics
+
+if TYPE_CHECKING:
+    from rperc.config import (
+        ColorHistogramConfigOverrides,
+        ColorShapeConfigOverrides,
+        ColorTemplateConfigOverrides,
+        ParticleColorConfigOverrides,
+    )
 
 __all__ = ["CLI_TRACKERS", "TRACKERS", "TrackerRun", "run_tracker", "scores"]
 
@@ -41,11 +49,12 @@ def run_tracker(
     frames: Sequence[np.ndarray] | np.ndarray,
     first_box: Sequence[float],
     seed: int,
-    settings: Mapping[str, Any] | None = None,
+    settings: Mapping[str, object] | None = None,
 ) -> TrackerRun:
     """Run tracker ``name`` from ``first_box`` over ``frames``, ``settings`` passed to
-    its constructor as keywords (``rperc bench`` sweeps them). This is the one place
-    that calls the trackers' Python API (construction and ``update``)."""
+    its constructor as keywords (``rperc bench`` sweeps them; the tracker's config
+    checks them, naming a bad one). This is the one place that calls the trackers'
+    Python API (construction and ``update``)."""
     from rperc.tracking import (
         ColorHistogramTracker,
         ColorShapeTracker,
@@ -58,13 +67,19 @@ def run_tracker(
     kw = dict(settings or {})
     start = time.perf_counter()
     if name == "color-template":
-        tracker: Any = ColorTemplateTracker(frames[0], box, seed=seed, **kw)
+        tracker: Any = ColorTemplateTracker(
+            frames[0], box, seed=seed, **cast("ColorTemplateConfigOverrides", kw)
+        )
     elif name == "color":
-        tracker = ColorHistogramTracker(frames[0], box, **kw)
+        tracker = ColorHistogramTracker(frames[0], box, **cast("ColorHistogramConfigOverrides", kw))
     elif name == "color-pf":
-        tracker = ParticleColorTracker(frames[0], box, seed=seed, **kw)
+        tracker = ParticleColorTracker(
+            frames[0], box, seed=seed, **cast("ParticleColorConfigOverrides", kw)
+        )
     elif name == "color-shape":
-        tracker = ColorShapeTracker(frames[0], box, seed=seed, **kw)
+        # seed is a field of the color-shape config (a keyword override like the rest).
+        shape = cast("ColorShapeConfigOverrides", {**kw, "seed": seed})
+        tracker = ColorShapeTracker(frames[0], box, **shape)
     else:
         raise ValueError(
             f"unknown tracker {excerpt(name)}; expected one of {', '.join(CLI_TRACKERS)}"
@@ -92,7 +107,25 @@ def run_tracker(
     )
 
 
-def scores(run: TrackerRun, truth: np.ndarray) -> dict[str, Any]:
+class TrackerScores(TypedDict):
+    """A run's OTB scores (:func:`scores`): area under the success curve, precision at
+    20 px, mean IoU, lost frames and frames per second, with the per-frame boxes,
+    tracker scores, lost flags and IoU they come from."""
+
+    tracker: str
+    frames: int
+    auc: float
+    precision_20px: float
+    mean_iou: float
+    lost_frames: int
+    fps: float
+    boxes: np.ndarray
+    scores: np.ndarray | None
+    lost: np.ndarray
+    iou: np.ndarray
+
+
+def scores(run: TrackerRun, truth: np.ndarray) -> TrackerScores:
     """The OTB scores of ``run`` against ``truth`` (every frame, the first included)."""
     overlaps = metrics.iou(run.boxes, truth)
     return {

@@ -610,7 +610,18 @@ def color_segment(
 
 
 TrackerName = Literal["color-template", "color", "color-pf", "color-shape"]
-_BY_NAME: dict[str, Any] = {
+
+
+class Updates(Protocol):
+    """A tracker once made: ``update(frame)`` answers a box, a score and ``lost``."""
+
+    def update(self, frame: npt.ArrayLike) -> TrackResult | ColorShapeResult: ...
+
+
+#: A tracker class: called with the first frame, the box and its own keyword options.
+TrackerClass = Callable[..., Updates]
+
+_BY_NAME: dict[str, TrackerClass] = {
     "color-template": ColorTemplateTracker,
     "color": ColorHistogramTracker,
     "color-pf": ParticleColorTracker,
@@ -627,11 +638,11 @@ class OpenCVTracker:
     full answer (float box, score) of the last call is :attr:`last`. Made by
     :func:`opencv`."""
 
-    def __init__(self, kind: Any, channels: Channels, options: dict[str, Any]) -> None:
+    def __init__(self, kind: TrackerClass, channels: Channels, options: dict[str, object]) -> None:
         self._kind = kind
         self._channels = channels
         self._options = options
-        self._tracker: Any = None
+        self._tracker: Updates | None = None
         self.last: TrackResult | ColorShapeResult | None = None
 
     def init(self, frame: npt.ArrayLike, box: Sequence[float] | npt.ArrayLike) -> None:
@@ -649,17 +660,18 @@ class OpenCVTracker:
         return (not r.lost, (x, y, max(w, 1), max(h, 1)))
 
     def __repr__(self) -> str:
-        return f"OpenCVTracker({self._kind.__name__}, channels={self._channels!r})"
+        name = getattr(self._kind, "__name__", repr(self._kind))
+        return f"OpenCVTracker({name}, channels={self._channels!r})"
 
 
 def opencv(
-    tracker: TrackerName | type = "color-template", *, channels: Channels = "bgr", **options: Any
+    tracker: TrackerName | type = "color-template", *, channels: Channels = "bgr", **options: object
 ) -> OpenCVTracker:
     """An OpenCV-style tracker: ``t = opencv("color"); t.init(frame, box);
     ok, box = t.update(frame)``. ``tracker`` is ``"color-template"`` (the default),
     ``"color"``, ``"color-pf"``, ``"color-shape"`` or one of the tracker classes;
-    ``options`` are its keyword parameters. Frames are BGR (OpenCV's order) unless
-    ``channels="rgb"``.
+    ``options`` are its keyword parameters (checked by its config). Frames are BGR
+    (OpenCV's order) unless ``channels="rgb"``.
 
     Examples
     --------

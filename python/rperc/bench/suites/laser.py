@@ -19,18 +19,22 @@ and wall SLAM's variants, combinable with ``+`` (``anchor+freeze``):
 
 A settings grid may set wall SLAM's ``straightness`` and ``association`` (``nn``,
 ``jcbb``), and any of the laser pipeline's settings by its dotted name
-(``icp.covariance_scale``, ``loops.max_radius``: see ``rperc.slam.laser.defaults()``).
+(``icp.covariance_scale``, ``loops.max_radius``: the fields of
+:class:`rperc.config.LaserConfig`).
 """
 
 from __future__ import annotations
 
 import time
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, cast
 
-from rperc.bench.tasks import Task, parse_names
+from rperc.bench.tasks import Row, Setting, Task, parse_names
+
+if TYPE_CHECKING:
+    from rperc.slam.wallslam import WallsOptions
 
 VARIANT_PARTS = ("plain", "anchor", "freeze", "smoothed", "odometry")
 #: The laser pipeline's methods (each stands alone) and their ``run_laser`` variant.
@@ -48,6 +52,19 @@ SHOWN = (
     "scans_per_second",
 )
 PRIMARY = ("ate_rmse_m", "m")
+#: The laser pipeline's scores a row holds (``LaserResult.measured()``'s names).
+LASER_SCORES = (
+    "scans",
+    "ate_rmse_m",
+    "ate_rmse_causal_m",
+    "loop_error_m",
+    "final_error_m",
+    "nees_mean",
+    "nees_in_band",
+    "loop_closures_accepted",
+    "loop_closures_rejected",
+    "scans_per_second",
+)
 #: The freezing threshold of the ``freeze`` variant (paper [000] uses 50 revisions).
 FREEZE_AFTER = 50
 LOG_SUFFIXES = (".log", ".log.gz", ".gz")
@@ -86,74 +103,76 @@ def log_files(paths: Sequence[Path]) -> list[str]:
     return [str(p.resolve()) for p in dict.fromkeys(found)]
 
 
-def walls_options(variant: str, settings: dict[str, Any]) -> dict[str, Any]:
-    """``run_walls``'s keywords for a variant and the task's settings."""
+def walls_options(variant: str, settings: Mapping[str, Setting]) -> WallsOptions:
+    """``run_walls``'s keywords for a variant and the task's settings (their values
+    are checked by ``run_walls``, naming the setting)."""
     parts = set(variant.split("+"))
-    kw: dict[str, Any] = {
+    unknown = set(settings) - set(SETTINGS)
+    if unknown:
+        raise ValueError(f"{', '.join(sorted(unknown))}: not wall SLAM settings")
+    kw: WallsOptions = {
         "anchor": "anchor" in parts,
         "freeze_after": FREEZE_AFTER if "freeze" in parts else None,
         "use_walls": "odometry" not in parts,
         "smooth": "smoothed" in parts,
     }
-    unknown = set(settings) - set(SETTINGS)
-    if unknown:
-        raise ValueError(f"{', '.join(sorted(unknown))}: not wall SLAM settings")
-    return kw | settings
+    if "straightness" in settings:
+        kw["straightness"] = cast(float, settings["straightness"])
+    if "association" in settings:
+        kw["association"] = cast(str, settings["association"])
+    return kw
 
 
 def laser_settings() -> set[str]:
     """The laser pipeline's settings by dotted name (``icp.sigma``)."""
-    from rperc.slam.laser import defaults
+    from rperc._config_base import dotted_fields
+    from rperc.config import LaserConfig
 
-    def walk(d: dict[str, Any], prefix: str) -> set[str]:
-        names: set[str] = set()
-        for k, v in d.items():
-            names |= walk(v, f"{prefix}{k}.") if isinstance(v, dict) else {prefix + k}
-        return names
-
-    return walk(defaults(), "")
+    return set(dotted_fields(LaserConfig()))
 
 
-def nested(settings: dict[str, Any]) -> dict[str, Any]:
-    """Dotted settings (``{"icp.sigma": 0.02}``) as a nested config."""
-    out: dict[str, Any] = {}
+def nested(settings: Mapping[str, object]) -> dict[str, object]:
+    """Deprecated (the suite now sets dotted settings on a ``LaserConfig``, see
+    :func:`rperc.slam.laser.from_settings`): dotted settings (``{"icp.sigma": 0.02}``)
+    as a nested dict."""
+    warnings.warn(
+        "rperc.bench.suites.laser.nested is deprecated: use rperc.slam.laser.from_settings",
+        DeprecationWarning,
+        stacklevel=2,
+    )
+    out: dict[str, object] = {}
     for name, value in settings.items():
         *path, leaf = name.split(".")
         node = out
         for part in path:
-            node = node.setdefault(part, {})
+            inner = node.setdefault(part, {})
+            if not isinstance(inner, dict):
+                raise ValueError(f"{name}: {part} is a setting, not a part")
+            node = inner
         node[leaf] = value
     return out
 
 
-def run_laser_task(task: Task) -> dict[str, Any]:
+def run_laser_task(task: Task) -> Row:
     """The laser pipeline over one log: ``rperc slam laser``'s scores."""
-    from rperc.slam.laser import load_and_run
+    from rperc.slam.laser import from_settings, load_and_run
 
     wall = set(task.kwargs) & set(SETTINGS)
     if wall:
         raise ValueError(f"{', '.join(sorted(wall))}: wall SLAM settings, not the laser pipeline's")
+    config, start = from_settings(task.kwargs)
     result = load_and_run(
-        task.dataset, seed=task.seed, variant=LASER_METHODS[task.method], config=nested(task.kwargs)
+        task.dataset, seed=task.seed, variant=LASER_METHODS[task.method], config=config, **start
     )
     m = result.measured()
     return {
         "library": "rperc",
         "dataset": Path(task.dataset).name,
-        "scans": m["scans"],
-        "ate_rmse_m": m["ate_rmse_m"],
-        "ate_rmse_causal_m": m["ate_rmse_causal_m"],
-        "loop_error_m": m["loop_error_m"],
-        "final_error_m": m["final_error_m"],
-        "nees_mean": m["nees_mean"],
-        "nees_in_band": m["nees_in_band"],
-        "loop_closures_accepted": m["loop_closures_accepted"],
-        "loop_closures_rejected": m["loop_closures_rejected"],
-        "scans_per_second": m["scans_per_second"],
+        **{k: m[k] for k in LASER_SCORES},
     }
 
 
-def run(task: Task) -> dict[str, Any]:
+def run(task: Task) -> Row:
     """One variant over one log with the task's seed: the scores of ``rperc slam
     walls`` (for ``smoothed``, of the smoothed path), or of ``rperc slam laser``."""
     if task.method in LASER_METHODS:
@@ -168,7 +187,7 @@ def run(task: Task) -> dict[str, Any]:
         # scan times, so their repair (intel.log's four steps back) changes no score.
         warnings.simplefilter("ignore", TimestampRepairWarning)
         log = load_carmen(task.dataset)
-    kw = {"straightness": STRAIGHTNESS} | walls_options(task.method, task.kwargs)
+    kw: WallsOptions = {"straightness": STRAIGHTNESS, **walls_options(task.method, task.kwargs)}
     result = run_walls(log, seed=task.seed, **kw)
     seconds = time.perf_counter() - start
     m = (result.smoothed() if kw["smooth"] else result).measured()
@@ -181,5 +200,5 @@ def run(task: Task) -> dict[str, Any]:
             for k in ("ate_rmse_m", "loop_error_m", "final_error_m", "nees_mean", "nees_in_band")
         },
         "walls": m["walls"],
-        "scans_per_second": m["scans"] / seconds,
+        "scans_per_second": result.counts["scans"] / seconds,
     }

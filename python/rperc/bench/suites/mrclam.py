@@ -11,10 +11,9 @@ settings grid may set any planar EKF config field (``rperc.slam.planar.defaults(
 from __future__ import annotations
 
 import time
-from typing import Any
 
 from rperc._args import excerpt
-from rperc.bench.tasks import Task, parse_names
+from rperc.bench.tasks import Row, Task, parse_names
 
 VARIANT_PARTS = ("plain", "anchor", "external", "freeze")
 DEFAULT_VARIANTS = ("plain", "anchor", "external")
@@ -51,7 +50,7 @@ def settings_taken() -> set[str]:
     return set(defaults())
 
 
-def run(task: Task) -> dict[str, Any]:
+def run(task: Task) -> Row:
     """One robot (``dataset`` is ``robotN``) with one variant: ``rperc slam
     mrclam``'s scores."""
     from rperc.slam.mrclam import mrclam_run

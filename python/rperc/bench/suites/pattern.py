@@ -22,7 +22,7 @@ import numpy as np
 
 from rperc._args import excerpt
 from rperc._extras import require
-from rperc.bench.tasks import Task
+from rperc.bench.tasks import Row, Task
 from rperc.pose import wrap_angle
 
 TRACKERS = (
@@ -165,7 +165,7 @@ def _tracker(name: str, settings: dict[str, Any], seed: int) -> Any:
     }[name]
 
 
-def run(task: Task) -> dict[str, Any]:
+def run(task: Task) -> Row:
     """One tracker on one generated case."""
     from rperc.tracking import planar
 

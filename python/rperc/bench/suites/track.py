@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from rperc._extras import require
-from rperc.bench.tasks import Task
+from rperc.bench.tasks import Row, Task
 
 #: rperc's trackers (the settings grid applies to them) and the OpenCV peers.
 RPERC_TRACKERS = ("color-template", "color", "color-pf", "color-shape")
@@ -100,7 +100,7 @@ def sequence_folders(corpora: Sequence[Path], names: Sequence[str] | None) -> li
     return [str(found[n]) for n in sorted(found)]
 
 
-def run(task: Task) -> dict[str, Any]:
+def run(task: Task) -> Row:
     """One tracker over one sequence: its scores (the columns of ``rperc track``)."""
     from rperc.datasets import load_otb
     from rperc.tracking.runs import TrackerRun, run_tracker, scores

@@ -15,11 +15,13 @@ Boxes follow :mod:`rperc.datasets`: ``(x, y, w, h)``, 0-based top-left corner, t
 box of the ellipse drawn in the frame (OTB keeps boxes during occlusions, so do these).
 
 These sequences, with OTB Couple, are what the colour trackers' defaults are set on;
-OTB Girl is held out.
+OTB Girl is held out. An experiment harness, so it lives with the benchmarks, not in
+the installed package (issue 36): ``benchmarks/tracking.py`` and the tests (through
+``tests/conftest.py``) import it as ``challenges``.
 
 Examples
 --------
->>> from rperc.tracking.challenges import challenge_sequence
+>>> from challenges import challenge_sequence
 >>> seq = challenge_sequence("fast", frames=4, seed=1)
 >>> seq.frames.shape, seq.boxes.shape
 ((4, 240, 320, 3), (4, 4))
@@ -33,7 +35,7 @@ from typing import Literal
 import numpy as np
 
 from rperc._args import excerpt, whole_number
-from rperc.datasets._paths import data_dir
+from rperc.datasets import data_dir
 from rperc.tracking.synthetic import SyntheticSequence
 
 __all__ = ["CHALLENGES", "Challenge", "challenge_sequence"]

@@ -11,12 +11,20 @@ STAMP := $(VENV)/.installed
 demo: install
 	$(BIN)/rperc demo all --out out/demo --json out/demo/demo.json
 
-# The Python environment: rperc with its test extras, every dependency read from
-# pyproject.toml (one list, there), then maturin for fast rebuilds of the extension.
+# The Python environment: rperc (editable) with its test extras, every dependency
+# read from pyproject.toml (one list, there; .ci/requirements.py prints it), and
+# maturin for fast rebuilds of the extension. pip installs the dependencies while
+# cargo builds the extension, instead of after it as `pip install -e ".[extras]"`
+# does; the editable install then finds the build done.
+EXTRAS := test geo viz docs
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[test,geo,viz,docs]" "maturin>=1.9.4,<2"
+	$(BIN)/python -m pip install --quiet --upgrade pip "maturin>=1.9.4,<2"
+	$(BIN)/python .ci/requirements.py $(EXTRAS) > $(VENV)/requirements.txt
+	$(BIN)/python -m pip install --quiet -r $(VENV)/requirements.txt & pip=$$!; \
+	  . $(BIN)/activate && maturin develop --release --quiet --skip-install; built=$$?; \
+	  wait $$pip && test $$built = 0
+	$(BIN)/python -m pip install --quiet --no-deps --no-build-isolation -e .
 	touch $(STAMP)
 
 install: $(STAMP) develop

@@ -58,56 +58,62 @@ class Demo:
 
 @functools.cache
 def registry() -> tuple[Demo, ...]:
-    """Every demo, in the order ``demo all`` runs them. (Built on first use: the demo
-    functions live in the command modules, which import this one.)"""
-    from rperc.cli import lines, navigation, pattern, slam, slamrun, track, wallslam
+    """Every demo, in the order ``demo all`` runs them. (Built on first use, so that
+    ``rperc --help`` does not import every command module and its plotting.)"""
+    from rperc.cli.lines import demo_lines, demo_walls
+    from rperc.cli.navigation import demo_visual_memory
+    from rperc.cli.pattern import demo_pattern
+    from rperc.cli.slam import demo_monobot
+    from rperc.cli.slamrun import demo_slam
+    from rperc.cli.track import demo_color_shape, demo_tracking
+    from rperc.cli.wallslam import demo_wall_slam
 
     return (
-        Demo("lines", "Douglas-Peucker on a noisy spiral, deviation vs epsilon", lines.demo_lines),
-        Demo("walls", "walls from a simulated laser scan vs the ray-cast truth", lines.demo_walls),
+        Demo("lines", "Douglas-Peucker on a noisy spiral, deviation vs epsilon", demo_lines),
+        Demo("walls", "walls from a simulated laser scan vs the ray-cast truth", demo_walls),
         Demo(
             "monobot",
             "EKF-SLAM observability study (Figs. 3-6, Monte Carlo)",
-            slam.demo_monobot,
+            demo_monobot,
             (Option("--runs", "runs", count_at_least(2), 100, "Monte Carlo runs (default 100)"),),
         ),
         Demo(
             "slam",
             "planar EKF-SLAM variants in a simulated world: maps, paths, Monte Carlo NEES",
-            slamrun.demo_slam,
+            demo_slam,
             (Option("--runs", "runs", count_at_least(2), 20, "Monte Carlo runs (default 20)"),),
         ),
         Demo(
             "wall-slam",
             "wall-landmark SLAM on a simulated corridor loop: Fig. 7's maps side by side",
-            wallslam.demo_wall_slam,
+            demo_wall_slam,
             deprecated=("wall_slam",),
         ),
         Demo(
             "tracking",
             "color trackers on a synthetic sequence vs its known boxes",
-            track.demo_tracking,
+            demo_tracking,
             # 1000 frames of 320 x 240 RGB are 230 MB: a bound well above any use.
             (Option("--frames", "frames", count_at_least(2, 1000), 150, "frames (default 150)"),),
         ),
         Demo(
             "color-shape",
             "colour+shape tracker vs colour alone: the four experiments of Fig. 13, colour path",
-            track.demo_color_shape,
+            demo_color_shape,
             (Option("--frames", "frames", count_at_least(2, 1000), 60, "frames (default 60)"),),
             deprecated=("color_shape",),
         ),
         Demo(
             "pattern",
             "pattern tracker: Fig. 8 on a generated sequence, harness vs ECC/matchTemplate/CSRT",
-            pattern.demo_pattern,
+            demo_pattern,
             # 640 x 480 grey frames: 1000 of them are 300 MB.
             (Option("--frames", "frames", count_at_least(9, 1000), 60, "frames (default 60)"),),
         ),
         Demo(
             "visual-memory",
             "ceiling mosaic, key images and visual servoing (Fig. 9) vs the world's truth",
-            navigation.demo_visual_memory,
+            demo_visual_memory,
             (Option("--starts", "starts", count_at_least(1, 1000), 10, "replays (default 10)"),),
         ),
     )

@@ -126,3 +126,22 @@ def test_a_bench_of_an_opencv_peer_without_opencv_exits_2_naming_the_extra(witho
     err = capsys.readouterr().err
     assert status == 2, err
     assert "rperc[opencv]" in err and "Traceback" not in err
+
+
+def test_the_install_step_lists_what_pip_would_install():
+    """``make install`` installs the requirements ``.ci/requirements.py`` prints
+    while cargo builds; they must be what ``pip install -e ".[extras]"`` would have
+    installed: the core list plus each extra's, read from pyproject.toml here by a
+    plain TOML parse, and an unknown extra must stop the install, not be skipped."""
+    import subprocess
+
+    tomllib = pytest.importorskip("tomllib", reason="tomllib is in the standard library from 3.11")
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    script = [sys.executable, str(ROOT / ".ci" / "requirements.py")]
+    listed = subprocess.run([*script, "test", "docs"], capture_output=True, text=True, check=True)
+    expected = set(project["dependencies"])
+    expected |= set(project["optional-dependencies"]["test"])
+    expected |= set(project["optional-dependencies"]["docs"])
+    assert set(listed.stdout.split("\n")) - {""} == expected
+    bad = subprocess.run([*script, "tset"], capture_output=True, text=True)
+    assert bad.returncode != 0 and "tset" in bad.stderr

@@ -46,7 +46,7 @@ impl PlanarSlam {
             self.config.freeze_after.is_some() && self.config.freeze_mode == FreezeMode::Consider;
         self.config.compression == Compression::Auto
             && !consider
-            && self.walls.is_empty()
+            && self.wall_map.is_empty()
             && self.ekf.robot_dim() == 3
     }
 

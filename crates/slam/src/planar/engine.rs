@@ -9,7 +9,7 @@ use rperc_core::{Definiteness, Pose2, check_covariance, chi2_gate};
 
 use super::associate::{self, FixedPoint, Pairing, Scene, Target};
 use super::observe::{anchor_frame, anchor_observation, cartesian, fix_observation, landmark_from};
-use super::wall_map::{Extent, FixedWall};
+use super::wall_map::{FixedWall, WallMap};
 use super::{
     Association, Detection, Event, EventArrays, EventKind, FreezeMode, LandmarkEstimate,
     PlanarConfig, PlanarResult, Statistics, Trajectory, WallDetection,
@@ -86,22 +86,10 @@ pub struct PlanarSlam {
     /// Frozen landmarks and the anchor, with their ids.
     fixed: Vec<FixedPoint>,
     fixed_ids: Vec<u64>,
-    /// Frozen walls and a wall anchor, with their ids.
-    pub(super) fixed_walls: Vec<FixedWall>,
-    pub(super) fixed_wall_ids: Vec<u64>,
-    /// Every wall's seen extent (state, frozen or anchor), in the internal frame.
-    pub(super) walls: HashMap<u64, Extent>,
-    /// The stretches `(from, to)` of each wall's line (coordinates along it, frame
-    /// form) covered by its paired detections, for `wall_shared_sd`.
-    pub(super) wall_parts: HashMap<u64, Vec<(f64, f64)>>,
-    /// The last wall scan: each detection's wall id (paired or admitted), or `None`.
-    pub(super) wall_pairing: Vec<Option<u64>>,
-    /// Every wall detection so far, in the order processed: as `wall_pairing`.
-    pub(super) wall_pairings: Vec<Option<u64>>,
+    /// The walls: their extents, first estimates, frozen ones and pairings.
+    pub(super) wall_map: WallMap,
+    /// How often each landmark (point or wall) was updated, for `freeze_after`.
     pub(super) revisions: HashMap<u64, u32>,
-    /// Each wall's first estimate, where its observation is linearised with
-    /// `first_estimates`.
-    pub(super) first: HashMap<u64, Vector2<f64>>,
     /// Each point landmark's first estimate (its position when admitted), where its
     /// observation is linearised with `first_estimates`.
     first_points: HashMap<u64, Point2<f64>>,
@@ -164,14 +152,8 @@ impl PlanarSlam {
             anchor_time: None,
             fixed: Vec::new(),
             fixed_ids: Vec::new(),
-            fixed_walls: Vec::new(),
-            fixed_wall_ids: Vec::new(),
-            walls: HashMap::new(),
-            wall_parts: HashMap::new(),
-            wall_pairing: Vec::new(),
-            wall_pairings: Vec::new(),
+            wall_map: WallMap::default(),
             revisions: HashMap::new(),
-            first: HashMap::new(),
             first_points: HashMap::new(),
             update_shift: Vector2::zeros(),
             candidates: Vec::new(),
@@ -531,11 +513,11 @@ impl PlanarSlam {
     /// The prior the association works against, with the walls marked.
     pub(super) fn scene(&self) -> Scene<'_> {
         // No wall map at all (point landmarks only): nothing to look up per landmark.
-        let walls = if self.walls.is_empty() {
+        let walls = if self.wall_map.is_empty() {
             Vec::new()
         } else {
             let ids = self.ekf.landmark_ids().iter();
-            ids.map(|id| self.walls.contains_key(id)).collect()
+            ids.map(|&id| self.wall_map.contains(id)).collect()
         };
         let first = if self.config.first_estimates {
             let ids = self.ekf.landmark_ids().iter();
@@ -597,7 +579,7 @@ impl PlanarSlam {
                     format!("detection {i} has no id (association 'known')"),
                 )
             })?;
-            if self.walls.contains_key(&id) {
+            if self.wall_map.contains(id) {
                 return Err(SlamError::invalid(
                     "id",
                     format!("detection {i} has id {id}, which is a wall's"),
@@ -624,7 +606,7 @@ impl PlanarSlam {
         match target {
             Target::State(j) => self.ekf.landmark_ids()[j],
             Target::Fixed(k) => self.fixed_ids[k],
-            Target::FixedWall(k) => self.fixed_wall_ids[k],
+            Target::FixedWall(k) => self.wall_map.fixed_id(k),
         }
     }
 
@@ -693,9 +675,8 @@ impl PlanarSlam {
         let mean = Vector2::new(self.ekf.state()[off], self.ekf.state()[off + 1]);
         let cov = Matrix2::from_column_slice(self.ekf.landmark_covariance(j)?.as_slice());
         self.ekf.remove_landmark(j)?;
-        if self.walls.contains_key(&id) {
-            self.fixed_walls.push(FixedWall { line: mean, cov });
-            self.fixed_wall_ids.push(id);
+        if self.wall_map.contains(id) {
+            self.wall_map.fix(id, FixedWall { line: mean, cov });
         } else {
             self.fixed.push(FixedPoint {
                 mean: Point2::from(mean),
@@ -773,7 +754,7 @@ impl PlanarSlam {
     pub(super) fn fresh_id(&mut self) -> u64 {
         while self.in_state(self.next_id)
             || self.fixed_ids.contains(&self.next_id)
-            || self.walls.contains_key(&self.next_id)
+            || self.wall_map.contains(self.next_id)
         {
             self.next_id += 1;
         }
@@ -847,7 +828,7 @@ impl PlanarSlam {
         let ekf = self.full_ekf();
         let mut out = Vec::new();
         for (j, &id) in ekf.landmark_ids().iter().enumerate() {
-            if self.walls.contains_key(&id) {
+            if self.wall_map.contains(id) {
                 continue;
             }
             let off = ekf.landmark_offset(j).expect("landmark index");
@@ -889,7 +870,7 @@ impl PlanarSlam {
         self.decompress();
         let landmarks = self.landmarks();
         let walls = self.walls();
-        let point_anchor = self.anchor.filter(|id| !self.walls.contains_key(id));
+        let point_anchor = self.anchor.filter(|&id| !self.wall_map.contains(id));
         PlanarResult {
             anchor: point_anchor.map(|_| [self.offset.x, self.offset.y]),
             walls,
@@ -897,7 +878,7 @@ impl PlanarSlam {
             trajectory: self.trajectory,
             landmarks,
             statistics: self.stats,
-            wall_pairing: self.wall_pairings,
+            wall_pairing: self.wall_map.into_pairings(),
         }
     }
 

@@ -33,7 +33,7 @@ mod walls;
 pub use bias::SensorBias;
 pub use config::{Association, Compression, FreezeMode, PlanarConfig, WallInnovation};
 pub use engine::PlanarSlam;
-pub use walls::WALL_PARTS_KEPT;
+pub use wall_map::WALL_PARTS_KEPT;
 
 /// One range-bearing detection of a scan, in the sensor frame.
 #[derive(Debug, Clone, Copy, PartialEq)]

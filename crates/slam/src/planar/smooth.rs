@@ -464,7 +464,7 @@ fn shared_floor(
     let part = (a.min(b), a.max(b));
     let repeats = super::walls::overlapping(parts, part) as f64;
     parts.push(part);
-    if parts.len() > super::walls::WALL_PARTS_KEPT {
+    if parts.len() > super::wall_map::WALL_PARTS_KEPT {
         parts.remove(0);
     }
     crate::wall::straightness_covariance(z, ends, sigma) * repeats.sqrt()

@@ -1,8 +1,16 @@
-//! The wall map's data: each wall's seen extent on its line, and the walls the
-//! filter no longer estimates. Pure geometry, without the filter: the engine holds
-//! these, the wall updates (`walls.rs`) read and write them.
+//! The wall map: each wall's seen extent on its line, the stretches its detections
+//! covered, its first estimate, the walls the filter no longer estimates, and which
+//! wall each detection was paired with. Pure bookkeeping, without the filter: the
+//! engine owns one [`WallMap`] and reads and writes it only through its methods, so
+//! that what the wall map holds can change without touching the engine.
+
+use std::collections::HashMap;
 
 use nalgebra::{Matrix2, Point2, Vector2};
+
+/// How many of a wall's latest paired detections `wall_shared_sd` compares a new one
+/// with: `n` in its `sqrt(n)` is at most this.
+pub const WALL_PARTS_KEPT: usize = 256;
 
 /// A wall the filter no longer estimates (frozen, or a wall anchor with a zero
 /// covariance): observed as known, its covariance added to the noise.
@@ -19,6 +27,138 @@ pub(super) struct Extent {
     pub start: Point2<f64>,
     pub end: Point2<f64>,
     pub origin: Point2<f64>,
+}
+
+/// The walls the engine knows, outside the filter's state (the lines themselves are
+/// in the state, or in [`FixedWall`]s once frozen).
+#[derive(Debug, Clone, Default)]
+pub(super) struct WallMap {
+    /// Every wall's seen extent (state, frozen or anchor), in the internal frame; a
+    /// landmark id is a wall's exactly when it has an extent here.
+    extents: HashMap<u64, Extent>,
+    /// The stretches `(from, to)` of each wall's line (coordinates along it, frame
+    /// form) covered by its paired detections, for `wall_shared_sd`.
+    parts: HashMap<u64, Vec<(f64, f64)>>,
+    /// Each wall's first estimate, where its observation is linearised with
+    /// `first_estimates`.
+    first_estimates: HashMap<u64, Vector2<f64>>,
+    /// Frozen walls and a wall anchor, with their ids (same order).
+    fixed: Vec<FixedWall>,
+    fixed_ids: Vec<u64>,
+    /// The last wall scan: each detection's wall id (paired or admitted), or `None`.
+    pairing: Vec<Option<u64>>,
+    /// Every wall detection so far, in the order processed: as `pairing`.
+    pairings: Vec<Option<u64>>,
+}
+
+impl WallMap {
+    /// Whether there is no wall at all (a run of point landmarks only).
+    pub fn is_empty(&self) -> bool {
+        self.extents.is_empty()
+    }
+
+    /// Whether landmark `id` is a wall.
+    pub fn contains(&self, id: u64) -> bool {
+        self.extents.contains_key(&id)
+    }
+
+    /// Wall `id`'s seen extent.
+    pub fn extent(&self, id: u64) -> Option<&Extent> {
+        self.extents.get(&id)
+    }
+
+    /// Every wall's extent, in the map's (unspecified) order.
+    pub fn extents(&self) -> impl Iterator<Item = (u64, &Extent)> {
+        self.extents.iter().map(|(&id, e)| (id, e))
+    }
+
+    /// Wall `id`'s extent, to grow it as the wall is seen again.
+    pub fn extent_mut(&mut self, id: u64) -> Option<&mut Extent> {
+        self.extents.get_mut(&id)
+    }
+
+    /// A new wall: its extent and, when the filter estimates it, its first estimate.
+    pub fn add(&mut self, id: u64, extent: Extent, first: Option<Vector2<f64>>) {
+        if let Some(line) = first {
+            self.first_estimates.insert(id, line);
+        }
+        self.extents.insert(id, extent);
+    }
+
+    /// Wall `id`'s first estimate (its line when admitted).
+    pub fn first_estimate(&self, id: u64) -> Option<&Vector2<f64>> {
+        self.first_estimates.get(&id)
+    }
+
+    /// The stretches wall `id`'s paired detections covered.
+    pub fn parts(&self, id: u64) -> &[(f64, f64)] {
+        self.parts.get(&id).map_or(&[], Vec::as_slice)
+    }
+
+    /// Remembers the stretch a paired detection covered (if it was placed), keeping
+    /// the latest [`WALL_PARTS_KEPT`]: so that a robot parked before a wall for
+    /// hours neither grows the list nor slows each pairing (Intel's most is 136).
+    pub fn keep_part(&mut self, id: u64, part: Option<(f64, f64)>) {
+        let kept = self.parts.entry(id).or_default();
+        kept.extend(part);
+        if kept.len() > WALL_PARTS_KEPT {
+            kept.remove(0);
+        }
+    }
+
+    /// Wall `id` leaves the filter (frozen, or made the anchor): from now on it is
+    /// known at `wall`.
+    pub fn fix(&mut self, id: u64, wall: FixedWall) {
+        self.fixed.push(wall);
+        self.fixed_ids.push(id);
+    }
+
+    /// The fixed walls with their ids, in the order fixed (`k` in
+    /// `Target::FixedWall(k)`).
+    pub fn fixed(&self) -> impl Iterator<Item = (&FixedWall, u64)> {
+        self.fixed.iter().zip(self.fixed_ids.iter().copied())
+    }
+
+    /// The id of the `k`-th fixed wall.
+    pub fn fixed_id(&self, k: usize) -> u64 {
+        self.fixed_ids[k]
+    }
+
+    /// Fixed wall `id`, if it is one.
+    pub fn fixed_wall(&self, id: u64) -> Option<&FixedWall> {
+        let k = self.fixed_ids.iter().position(|&f| f == id)?;
+        Some(&self.fixed[k])
+    }
+
+    /// A new wall scan of `n` detections, none paired yet.
+    pub fn start_scan(&mut self, n: usize) {
+        self.pairing = vec![None; n];
+    }
+
+    /// Detection `det` of this scan is (or became) wall `id`.
+    pub fn pair(&mut self, det: usize, id: u64) {
+        self.pairing[det] = Some(id);
+    }
+
+    /// Whether detection `det` of this scan has its wall.
+    pub fn is_paired(&self, det: usize) -> bool {
+        self.pairing[det].is_some()
+    }
+
+    /// The scan is done: its pairing joins the run's.
+    pub fn end_scan(&mut self) {
+        self.pairings.extend_from_slice(&self.pairing);
+    }
+
+    /// The last wall scan: each detection's wall id (paired or admitted), or `None`.
+    pub fn last_pairing(&self) -> &[Option<u64>] {
+        &self.pairing
+    }
+
+    /// Every wall detection's pairing so far, in the order processed.
+    pub fn into_pairings(self) -> Vec<Option<u64>> {
+        self.pairings
+    }
 }
 
 /// The foot of `p` on `line` and its coordinate along the line.

@@ -96,10 +96,6 @@ struct WallTarget<'a> {
     parts: &'a [(f64, f64)],
 }
 
-/// How many of a wall's latest paired detections `wall_shared_sd` compares a new one
-/// with: `n` in its `sqrt(n)` is at most this.
-pub const WALL_PARTS_KEPT: usize = 256;
-
 /// The stretch `(from, to)` of `line` (frame form) that detection `seen` covers,
 /// placed with `sensor`.
 fn part_on(line: &Vector2<f64>, sensor: &Pose2, seen: &Seen) -> (f64, f64) {
@@ -215,7 +211,7 @@ impl PlanarSlam {
             o.clear();
         }
         let pairings = self.choose(&options);
-        self.wall_pairing = vec![None; seen.len()];
+        self.wall_map.start_scan(seen.len());
         if !pairings.is_empty() {
             let ids: Vec<u64> = pairings.iter().map(|p| self.target_id(p.target)).collect();
             let zs: Vec<Vector2<f64>> = seen.iter().map(|s| s.z).collect();
@@ -224,28 +220,22 @@ impl PlanarSlam {
             let parts = self.parts_seen(&pairings, &ids, &seen);
             self.apply(&pairings, &zs)?;
             for (id, part) in ids.iter().zip(parts) {
-                let kept = self.wall_parts.entry(*id).or_default();
-                kept.extend(part);
-                // Bounded, so that a robot parked before a wall for hours neither
-                // grows the list nor slows each pairing (Intel's most is 136).
-                if kept.len() > WALL_PARTS_KEPT {
-                    kept.remove(0);
-                }
+                self.wall_map.keep_part(*id, part);
             }
             self.stats.walls_accepted += pairings.len() as u64;
             for (p, id) in pairings.iter().zip(ids) {
                 self.extend(id, &seen[p.det]);
-                self.wall_pairing[p.det] = Some(id);
+                self.wall_map.pair(p.det, id);
             }
         }
         for (i, opts) in options.iter().enumerate() {
-            if self.wall_pairing[i].is_some() || vague[i] {
+            if self.wall_map.is_paired(i) || vague[i] {
                 continue;
             }
             if opts.is_empty() && !near[i] {
                 let id = self.fresh_id();
                 self.admit_wall(id, &seen[i])?;
-                self.wall_pairing[i] = Some(id);
+                self.wall_map.pair(i, id);
             } else {
                 // Compatible with a wall but left out, or outside the gate of an
                 // overlapping wall but inside the admission gate (the gate's tail:
@@ -254,7 +244,7 @@ impl PlanarSlam {
                 self.stats.walls_rejected += 1;
             }
         }
-        self.wall_pairings.extend_from_slice(&self.wall_pairing);
+        self.wall_map.end_scan();
         Ok(())
     }
 
@@ -272,7 +262,7 @@ impl PlanarSlam {
             .zip(ids)
             .map(|(p, id)| {
                 let (line, _, _) = self.wall_line(*id)?;
-                let origin = self.walls.get(id)?.origin;
+                let origin = self.wall_map.extent(*id)?.origin;
                 Some(part_on(&in_frame(&line, &origin), &sensor, &seen[p.det]))
             })
             .collect()
@@ -308,39 +298,36 @@ impl PlanarSlam {
             .unzip()
     }
 
-    /// The stretches wall `id`'s paired detections covered.
-    fn parts_of(&self, id: u64) -> &[(f64, f64)] {
-        self.wall_parts.get(&id).map_or(&[], Vec::as_slice)
-    }
-
     /// The walls of the map: in the state, then fixed.
     fn wall_targets(&self) -> Vec<WallTarget<'_>> {
         let x = self.ekf.state();
         let mut targets = Vec::new();
         for (j, id) in self.ekf.landmark_ids().iter().enumerate() {
-            if let Some(extent) = self.walls.get(id) {
+            if let Some(extent) = self.wall_map.extent(*id) {
                 let line = Vector2::new(x[self.offset_of(j)], x[self.offset_of(j) + 1]);
-                let first = self.first.get(id).filter(|_| self.config.first_estimates);
+                let first = self
+                    .wall_map
+                    .first_estimate(*id)
+                    .filter(|_| self.config.first_estimates);
                 targets.push(WallTarget {
                     target: Target::State(j),
                     line,
                     linearised: first.copied().unwrap_or(line),
                     fixed: None,
                     extent,
-                    parts: self.parts_of(*id),
+                    parts: self.wall_map.parts(*id),
                 });
             }
         }
-        let fixed = self.fixed_walls.iter().zip(&self.fixed_wall_ids);
-        for (k, (f, id)) in fixed.enumerate() {
-            if let Some(extent) = self.walls.get(id) {
+        for (k, (f, id)) in self.wall_map.fixed().enumerate() {
+            if let Some(extent) = self.wall_map.extent(id) {
                 targets.push(WallTarget {
                     target: Target::FixedWall(k),
                     line: f.line,
                     linearised: f.line,
                     fixed: Some(&f.cov),
                     extent,
-                    parts: self.parts_of(*id),
+                    parts: self.wall_map.parts(id),
                 });
             }
         }
@@ -374,8 +361,7 @@ impl PlanarSlam {
             let c = self.ekf.covariance_block_fixed::<2, 2>(off, off)?;
             return Some((Vector2::new(x[off], x[off + 1]), c, self.ekf.is_consider(j)));
         }
-        let k = self.fixed_wall_ids.iter().position(|&f| f == id)?;
-        let f = &self.fixed_walls[k];
+        let f = self.wall_map.fixed_wall(id)?;
         Some((f.line, f.cov, true))
     }
 
@@ -386,7 +372,7 @@ impl PlanarSlam {
         let Some((line, _, _)) = self.wall_line(id) else {
             return;
         };
-        if let Some(e) = self.walls.get_mut(&id) {
+        if let Some(e) = self.wall_map.extent_mut(id) {
             let [a, b] = seen.local.map(|p| sensor.transform_point(&p));
             *e = covering(
                 &in_frame(&line, &e.origin),
@@ -427,8 +413,11 @@ impl PlanarSlam {
             w
         };
         let g_robot = w_lin.d_pose * j_sensor;
-        if self.config.anchor && self.anchor.is_none() && self.ekf.num_landmarks() == 0 {
+        // The anchor leaves the filter at once: it has no first estimate.
+        let anchors = self.config.anchor && self.anchor.is_none() && self.ekf.num_landmarks() == 0;
+        let first = if anchors {
             self.make_wall_anchor(id, &w, &g_robot, &seen.r, &origin)?;
+            None
         } else {
             self.ekf.add_landmark_with_id(
                 id,
@@ -437,10 +426,10 @@ impl PlanarSlam {
                 &dyn_mat(&w_lin.d_wall),
                 &dyn_mat(&seen.r),
             )?;
-            self.first.insert(id, w.wall);
-        }
-        self.walls
-            .insert(id, covering(&in_frame(&w.wall, &origin), &ends, origin));
+            Some(w.wall)
+        };
+        let extent = covering(&in_frame(&w.wall, &origin), &ends, origin);
+        self.wall_map.add(id, extent, first);
         self.revisions.insert(id, 0);
         self.stats.walls_new += 1;
         Ok(())
@@ -472,11 +461,9 @@ impl PlanarSlam {
         let j_z = m * w.d_wall;
         let pose = self.ekf.state().fixed_rows::<3>(0).into_owned();
         self.reanchor(&pose, &j_r, &(j_z * r * j_z.transpose()))?;
-        self.fixed_walls.push(FixedWall {
-            line: w.wall,
-            cov: Matrix2::zeros(),
-        });
-        self.fixed_wall_ids.push(id);
+        let line = w.wall;
+        let cov = Matrix2::zeros();
+        self.wall_map.fix(id, FixedWall { line, cov });
         self.anchor = Some(id);
         self.anchor_time = self.time;
         Ok(())
@@ -488,9 +475,9 @@ impl PlanarSlam {
     /// The walls in the world frame, sorted by id.
     pub fn walls(&self) -> Vec<WallEstimate> {
         let mut out: Vec<WallEstimate> = self
-            .walls
-            .iter()
-            .filter_map(|(&id, e)| {
+            .wall_map
+            .extents()
+            .filter_map(|(id, e)| {
                 let (line, cov, frozen) = self.wall_line(id)?;
                 Some(self.wall_estimate(id, line, cov, frozen, e))
             })
@@ -502,7 +489,7 @@ impl PlanarSlam {
     /// For each wall of the last wall scan, the wall it was paired with or admitted
     /// as (`None`: compatible with some wall but left out).
     pub fn last_wall_pairing(&self) -> &[Option<u64>] {
-        &self.wall_pairing
+        self.wall_map.last_pairing()
     }
 
     /// A wall (about its reference point) in the world frame: about the world's

@@ -56,7 +56,7 @@ def fmt_seconds(t: float | None, note: str = "") -> str:
 
 
 def print_table(title: str, header: list[str], rows: list[list[str]]) -> None:
-    widths = [max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(header)]
+    widths = [max([len(h), *(len(r[k]) for r in rows)]) for k, h in enumerate(header)]
     print(f"\n## {title}")
     print(" | ".join(h.ljust(w) for h, w in zip(header, widths, strict=True)))
     print("-+-".join("-" * w for w in widths))

@@ -248,6 +248,9 @@ def main() -> None:
         cv2.setNumThreads(args.cv_threads)
     trackers = rperc_trackers() | opencv_trackers()
     if args.only is not None:
+        unknown = sorted(set(args.only) - set(trackers))
+        if unknown:
+            ap.error(f"--only: no tracker named {', '.join(unknown)}; one of {', '.join(trackers)}")
         trackers = {k: v for k, v in trackers.items() if k in args.only}
     missing = [n for n in ("CSRT", "KCF", "MIL") if f"OpenCV {n}" not in trackers]
     seqs = sequences(args.sequences, args.challenge_seed, args.shape_seed)

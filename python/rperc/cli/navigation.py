@@ -57,8 +57,13 @@ def demo_visual_memory(out: Path, seed: int, starts: int = 10) -> DemoResult:
 
     # The replays are independent and release the GIL (each is seeded on its own, so
     # the answers do not depend on the order they finish in): one thread per core.
-    with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
+    # On Ctrl-C the replays not yet started are cancelled; a `with` block would run
+    # every queued one before the interrupt reached the user.
+    pool = ThreadPoolExecutor(max_workers=os.cpu_count() or 1)
+    try:
         world, learning, ev, runs = run_visual_memory(seed, starts, pool)
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
     figures = [save(visual_memory_figure(world, learning, ev, runs), out / "visual_memory.png")]
     figures += replay_strip(world, learning, runs[0], out)
     m = ev.to_dict()

@@ -49,4 +49,42 @@ impl PatternFrame<'_> {
             }
         }
     }
+
+    /// Refills `out` with the means of the `factor x factor` blocks of the grey levels
+    /// of `window = [x0, y0, x1, y1)` (whose sides are multiples of `factor`): the
+    /// window read by [`Self::window_to_gray`], then block-averaged. A grey frame's
+    /// blocks are summed as integers, which is exact, so the values are those of the
+    /// two passes (whose `f32` sums of whole numbers are exact too); an RGB frame
+    /// takes the two passes through `fine`.
+    pub(super) fn window_to_blocks(
+        self,
+        window: [usize; 4],
+        factor: usize,
+        fine: &mut GrayImage,
+        out: &mut GrayImage,
+    ) {
+        let PatternFrame::Gray(v) = self else {
+            self.window_to_gray(window, fine);
+            super::layer::downsample(fine, factor, out);
+            return;
+        };
+        let factor = factor.max(1);
+        let [x0, y0, x1, y1] = window;
+        let (w, h) = ((x1 - x0) / factor, (y1 - y0) / factor);
+        out.width = w;
+        out.height = h;
+        out.data.clear();
+        let mut sums = vec![0u32; w];
+        let norm = 1.0 / (factor * factor) as f32;
+        for cy in 0..h {
+            sums.fill(0);
+            for y in y0 + cy * factor..y0 + (cy + 1) * factor {
+                let row = &v.data()[y * v.width()..][x0..x0 + w * factor];
+                for (sum, block) in sums.iter_mut().zip(row.chunks_exact(factor)) {
+                    *sum += block.iter().map(|&g| u32::from(g)).sum::<u32>();
+                }
+            }
+            out.data.extend(sums.iter().map(|&s| s as f32 * norm));
+        }
+    }
 }

@@ -256,9 +256,8 @@ impl CoarseLayer {
         let size = [width / factor, height / factor];
         let fine = &mut self.fine;
         let crop = |grown: [usize; 4], out: &mut GrayImage| {
-            let [x0, y0, x1, y1] = grown.map(|v| v * factor);
-            frame.window_to_gray([x0, y0, x1, y1], fine);
-            downsample(fine, factor, out);
+            let window = grown.map(|v| v * factor);
+            frame.window_to_blocks(window, factor, fine, out);
         };
         self.scales.clear();
         self.scales.extend(self.states.iter().map(|s| s[3]));
@@ -308,7 +307,7 @@ fn from_coarse(v: f64, f: f64) -> f64 {
 
 /// `out` (resized) = `image` averaged over blocks of `factor x factor` pixels; a
 /// partial block at the right or bottom edge is dropped.
-fn downsample(image: &GrayImage, factor: usize, out: &mut GrayImage) {
+pub(super) fn downsample(image: &GrayImage, factor: usize, out: &mut GrayImage) {
     let factor = factor.max(1);
     let (w, h) = (image.width / factor, image.height / factor);
     out.width = w;
@@ -357,6 +356,32 @@ fn coarse_point(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The fused block means of an 8-bit window are those of its grey levels
+    /// block-averaged in two passes, bit for bit, at every factor and offset.
+    #[test]
+    fn fused_block_means_equal_the_two_passes() {
+        let (w, h) = (23, 17);
+        let data: Vec<u8> = (0..w * h).map(|i| (i * 7919 % 251) as u8).collect();
+        let view = rperc_core::image::GrayView::new(&data, w, h).unwrap();
+        let frame = PatternFrame::Gray(view);
+        for factor in 1..=5 {
+            for (x0, y0) in [(0, 0), (3, 2), (1, 4)] {
+                let (cw, ch) = ((w - x0) / factor, (h - y0) / factor);
+                let window = [x0, y0, x0 + cw * factor, y0 + ch * factor];
+                let (mut fine, mut two, mut fused) = (
+                    GrayImage::default(),
+                    GrayImage::default(),
+                    GrayImage::default(),
+                );
+                frame.window_to_gray(window, &mut fine);
+                downsample(&fine, factor, &mut two);
+                frame.window_to_blocks(window, factor, &mut fine, &mut fused);
+                assert_eq!((fused.width, fused.height), (cw, ch));
+                assert_eq!(fused.data, two.data, "factor {factor} at ({x0}, {y0})");
+            }
+        }
+    }
 
     /// The block means against their definition, a partial block dropped.
     #[test]

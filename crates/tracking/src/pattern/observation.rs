@@ -31,6 +31,8 @@ pub struct ScaleSpace {
     origin: [f64; 2],
     crop: GrayImage,
     kernels: Vec<(f64, Arc<[f32]>)>,
+    /// Levels not used by the last build, kept for their buffers.
+    spare: Vec<Level>,
 }
 
 /// One level of a [`ScaleSpace`] with its own work buffers (one per band of rows),
@@ -199,7 +201,15 @@ impl ScaleSpace {
         let hi = nearest(all, span[1].clamp(first, last));
         self.scales.clear();
         self.scales.extend_from_slice(&all[lo..=hi.max(lo)]);
-        self.levels.resize_with(self.scales.len(), Level::default);
+        // Levels beyond this frame's wait in `spare` with their buffers: a frame
+        // needing one more level would otherwise allocate (and fault in) new ones.
+        let n = self.scales.len();
+        if self.levels.len() > n {
+            self.spare.extend(self.levels.drain(n..));
+        }
+        while self.levels.len() < n {
+            self.levels.push(self.spare.pop().unwrap_or_default());
+        }
         for (level, &s) in self.levels.iter_mut().zip(&self.scales) {
             level.kernel = kernel(&mut self.kernels, config.blur_sigma * s);
             level.ready = false;

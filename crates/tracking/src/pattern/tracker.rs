@@ -832,6 +832,12 @@ impl PatternTracker {
         Ok(())
     }
 
+    /// Whether [`Self::update`] runs its frames on the rayon pool (`filter.parallel`
+    /// and at least `parallel_min_work`); otherwise it runs on the calling thread.
+    pub fn runs_on_pool(&self) -> bool {
+        self.parallel
+    }
+
     /// The last answer (the initial pose, score 1, before the first update).
     pub fn last(&self) -> PatternPose {
         self.last

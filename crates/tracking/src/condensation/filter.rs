@@ -626,6 +626,18 @@ impl<const D: usize> ParticleFilter<D> {
         Ok(())
     }
 
+    /// Clamps every particle into the box `[lo, hi]`, component by component: a
+    /// search confined to where its likelihood is cheap to evaluate (the pattern
+    /// tracker's second look, inside the scale space already built). Weights, mean
+    /// and random stream are unchanged.
+    pub fn clamp(&mut self, lo: &SVector<f64, D>, hi: &SVector<f64, D>) {
+        for p in &mut self.particles {
+            for d in 0..D {
+                p[d] = p[d].max(lo[d]).min(hi[d]);
+            }
+        }
+    }
+
     /// Weighted mean of the particles: the state estimate.
     pub fn mean(&self) -> SVector<f64, D> {
         self.mean

@@ -292,6 +292,22 @@ impl ScaleSpace {
         self.blur_levels(&wanted);
     }
 
+    /// Blurs, among the levels of the last build, those nearest to one of `scales`
+    /// that are not blurred yet (as the build blurs those of its `needed`).
+    pub fn ensure_nearest(&mut self, scales: &[f64]) {
+        if self.scales.is_empty() {
+            return;
+        }
+        let mut wanted = vec![false; self.levels.len()];
+        for &s in scales.iter().filter(|s| !s.is_nan()) {
+            wanted[nearest(&self.scales, s)] = true;
+        }
+        for (w, level) in wanted.iter_mut().zip(&self.levels) {
+            *w &= !level.ready;
+        }
+        self.blur_levels(&wanted);
+    }
+
     /// Blurs the levels `k` with `wanted[k]`, in parallel when there is enough work
     /// and it runs on a worker of the rayon pool:
     /// each level in as many bands of rows as there are threads, so that one large

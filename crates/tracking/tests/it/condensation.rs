@@ -163,6 +163,42 @@ fn a_shift_is_a_control_input_of_the_random_walk() {
     assert_eq!(shifted.particles(), &before[..]);
 }
 
+/// `clamp` puts each component into its interval, `min(max(v, lo), hi)` of the set
+/// before, and leaves the weights alone; particles already inside do not move.
+#[test]
+fn clamping_keeps_each_component_in_its_interval() {
+    let dynamics = LinearGaussian::random_walk(Vector2::new(1.0, 1.0));
+    let mut pf = ParticleFilter::new(
+        200,
+        Vector2::zeros(),
+        Matrix2::identity() * 4.0,
+        dynamics,
+        FilterParams::default(),
+        5,
+    )
+    .unwrap();
+    pf.step(&|s: &SVector<f64, 2>| -0.5 * (s - Vector2::new(0.5, -0.5)).norm_squared());
+    let (before, weights) = (pf.particles().to_vec(), pf.weights().to_vec());
+    let (lo, hi) = (Vector2::new(-1.0, -0.5), Vector2::new(0.75, 2.0));
+    pf.clamp(&lo, &hi);
+    let mut moved = 0;
+    for (a, b) in pf.particles().iter().zip(&before) {
+        for d in 0..2 {
+            let expected = if b[d] < lo[d] {
+                lo[d]
+            } else if b[d] > hi[d] {
+                hi[d]
+            } else {
+                b[d]
+            };
+            assert_eq!(a[d], expected);
+        }
+        moved += usize::from(a != b);
+    }
+    assert!(moved > 0 && moved < before.len(), "{moved} moved");
+    assert_eq!(pf.weights(), &weights[..]);
+}
+
 // ---------------------------------------------------------------- determinism
 
 fn run_filter(threads: usize, parallel: bool) -> (Vec<SVector<f64, 3>>, Vec<f64>, Vec<StepReport>) {

@@ -690,6 +690,11 @@ fn levels_blurred_on_demand_equal_the_whole_stack() {
     assert!(!same(full.level(1.5), part.level(1.5)));
     part.ensure([1.4, 1.6]);
     assert!(same(full.level(1.5), part.level(1.5)));
+    // By nearest level: 1.9 and 2.2 want 2.0 only, so 1.75 still reads 1.5.
+    assert!(!same(full.level(2.0), part.level(2.0)));
+    part.ensure_nearest(&[1.9, 2.2, f64::NAN]);
+    assert!(same(full.level(2.0), part.level(2.0)));
+    assert!(same(full.level(1.5), part.level(1.7)));
     let state = SVector::from([TRUTH[0], TRUTH[1], TRUTH[2], 1.5]);
     let mut scratch = PatternScratch::default();
     let whole = PatternLikelihood::new(&m, &full).observe(&state, &mut scratch);

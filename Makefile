@@ -60,7 +60,7 @@ fmt:
 	$(BIN)/ruff format python tests benchmarks docs/hooks
 
 bench: install
-	cargo bench --workspace
+	cargo bench --workspace --features bench
 	. $(BIN)/activate && for b in benchmarks/*.py; do python $$b; done
 
 # The short benchmark suites whose JSON summaries the docs' benchmarks page renders

@@ -29,7 +29,7 @@ ratios and accuracies, and the cost growth with the number of landmarks.
   overhead). The slope of log time against log n, fitted over the three largest n
   (and between successive n), should be about 1 for a full prediction and 2 for a
   full update, and about 0 compressed (the active area does not grow with the map;
-  ``cargo bench -p slam --bench planar`` measures the same).
+  ``cargo bench -p slam --features bench --bench planar`` measures the same).
 - Both run on one thread by default (rperc's rayon pool and numpy's BLAS; see
   below); the machine may be shared, so each figure is a best or median of repeats,
   and ratios come from the same run.

@@ -65,7 +65,7 @@ impl PatternFrame<'_> {
     ) {
         let PatternFrame::Gray(v) = self else {
             self.window_to_gray(window, fine);
-            super::layer::downsample(fine, factor, out);
+            downsample(fine, factor, out);
             return;
         };
         let factor = factor.max(1);
@@ -86,5 +86,27 @@ impl PatternFrame<'_> {
             }
             out.data.extend(sums.iter().map(|&s| s as f32 * norm));
         }
+    }
+}
+
+/// `out` (resized) = `image` averaged over blocks of `factor x factor` pixels; a
+/// partial block at the right or bottom edge is dropped.
+pub(super) fn downsample(image: &GrayImage, factor: usize, out: &mut GrayImage) {
+    let factor = factor.max(1);
+    let (w, h) = (image.width / factor, image.height / factor);
+    out.width = w;
+    out.height = h;
+    out.data.clear();
+    out.data.resize(w * h, 0.0);
+    let norm = 1.0 / (factor * factor) as f32;
+    for y in 0..h * factor {
+        let row = &image.data[y * image.width..][..w * factor];
+        let sums = &mut out.data[(y / factor) * w..][..w];
+        for (sum, block) in sums.iter_mut().zip(row.chunks_exact(factor)) {
+            *sum += block.iter().sum::<f32>();
+        }
+    }
+    for v in &mut out.data {
+        *v *= norm;
     }
 }

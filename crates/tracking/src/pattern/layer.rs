@@ -17,7 +17,7 @@ use nalgebra::SVector;
 use rperc_core::image::GrayImage;
 
 use super::correlation::{autocorrelation_curvature, autocorrelation_slope, remove_mean};
-use super::frame::PatternFrame;
+use super::frame::{PatternFrame, downsample};
 use super::model::{ModelPoint, PatternConfig, PatternModel, sample_vector};
 use super::observation::{PatternLikelihood, PatternScratch, PointTable, ScaleSpace};
 use super::search::{NEWTON_TOLERANCE, Newton, frame_window};
@@ -303,28 +303,6 @@ fn to_coarse(v: f64, f: f64) -> f64 {
 /// The inverse of [`to_coarse`].
 fn from_coarse(v: f64, f: f64) -> f64 {
     v * f + 0.5 * (f - 1.0)
-}
-
-/// `out` (resized) = `image` averaged over blocks of `factor x factor` pixels; a
-/// partial block at the right or bottom edge is dropped.
-pub(super) fn downsample(image: &GrayImage, factor: usize, out: &mut GrayImage) {
-    let factor = factor.max(1);
-    let (w, h) = (image.width / factor, image.height / factor);
-    out.width = w;
-    out.height = h;
-    out.data.clear();
-    out.data.resize(w * h, 0.0);
-    let norm = 1.0 / (factor * factor) as f32;
-    for y in 0..h * factor {
-        let row = &image.data[y * image.width..][..w * factor];
-        let sums = &mut out.data[(y / factor) * w..][..w];
-        for (sum, block) in sums.iter_mut().zip(row.chunks_exact(factor)) {
-            *sum += block.iter().sum::<f32>();
-        }
-    }
-    for v in &mut out.data {
-        *v *= norm;
-    }
 }
 
 /// The fine model point `point`, at `p` on the coarse level `blurred`, with its

@@ -135,7 +135,13 @@ def run_ecc_single(seq: PatternSequence) -> float:
     for frame in seq.frames[1:]:
         try:
             _, warp = cv2.findTransformECC(
-                template, frame.astype(np.float32), warp, cv2.MOTION_AFFINE, criteria, None, 5
+                template,
+                frame.astype(np.float32),
+                warp,
+                cv2.MOTION_AFFINE,
+                criteria,
+                None,
+                planar.ECC_GAUSS_FILTER,
             )
         except cv2.error:
             pass

@@ -5,12 +5,14 @@ of particles.
 
     python benchmarks/pattern.py [--frames 40] [--size 640 480] [--particles 50 100 200 500 1000]
         [--points 25 50 100 200] [--sizes 320x240 640x480 1280x960] [--repeats 5]
-        [--part all|peers|sweeps] [--seeds 3] [--kinds full-step,perspective] [--no-v25]
+        [--part all|peers|sweeps] [--seeds 3] [--kinds full-step,gain,occlusion,perspective]
+        [--no-v25]
 
 ``--part peers`` runs only the peer table (issue 35): rperc in both modes (similarity
 and homography), ECC affine and homography started from the previous frame, and ORB +
 RANSAC against the first frame, on generated full-step sequences (3 sigma in every
-parameter at once) and perspective sequences (``--kinds``; OpenCV draws them, see
+parameter at once; also with a gain or an occlusion band, as ``rperc bench pattern``
+has them) and perspective sequences (``--kinds``; OpenCV draws them, see
 ``rperc.tracking.perspective``) at 640 x 480 and 1280 x 720, held-out seeds from 10,
 and on the real POT-210 video ``planar/V25_2`` (every peer from the box halving its
 first true corners, and the homography mode from the corners themselves) with POT-210's
@@ -270,36 +272,56 @@ def v25_2(repeats: int) -> list[list[str]]:
     return rows[:-1]
 
 
+#: The generated cases of the peer table (``--kinds``): what each adds to steps of 3
+#: sigma in all four parameters at once (``perspective``: OpenCV draws the patch in
+#: perspective instead, see :func:`perspective_sequence`). Gain and occlusion as in
+#: ``rperc bench pattern``: a gain in 1 +- 0.2 per frame, a band hiding up to 30 %.
+KINDS: dict[str, dict[str, object]] = {
+    "full-step": {},
+    "gain": {"gain": (0.8, 1.2)},
+    "occlusion": {"max_occlusion": 0.3},
+    "perspective": {},
+}
+
+
+def generated(
+    kind: str, patch: np.ndarray, bg: np.ndarray, size: tuple[int, int], seed: int, frames: int
+) -> tuple[np.ndarray, tuple[int, int, int, int], np.ndarray]:
+    """A generated case of :data:`KINDS`: its frames, first region and true corners
+    of frames 1..n."""
+    if kind == "perspective":
+        seq = perspective_sequence(patch, bg, n_frames=frames, size=size, seed=seed)
+        return seq.frames, seq.region, seq.corners[1:]
+    steps = pattern_sequence(
+        patch,
+        bg,
+        n_frames=frames,
+        width=size[0],
+        height=size[1],
+        seed=seed,
+        max_step_sigmas=3.0,
+        other_step_sigmas=3.0,
+        **KINDS[kind],  # type: ignore[arg-type]
+    )
+    return steps.frames, steps.region, planar.truth_corners(steps)
+
+
 def peers(patch: np.ndarray, bg: np.ndarray, args: argparse.Namespace) -> None:
-    """The issue 35 peer table: generated full-step and perspective sequences at
-    640 x 480 and 1280 x 720 (``args.seeds`` held-out seeds each, from 10: seeds 0-9
-    tuned the defaults), then V25_2."""
+    """The issue 35 peer table: the generated cases of ``args.kinds`` at 640 x 480
+    and 1280 x 720 (``args.seeds`` held-out seeds each, from 10: seeds 0-9 tuned the
+    defaults), then V25_2."""
     rows: list[list[str]] = []
-    kinds = args.kinds.split(",")
+    kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
+    unknown = [k for k in kinds if k not in KINDS]
+    if unknown or not kinds:
+        raise SystemExit(f"--kinds {args.kinds!r}: expected some of {', '.join(KINDS)}")
     for size in ((640, 480), (1280, 720)):
         for seed in range(10, 10 + args.seeds):
-            if "perspective" in kinds:
-                seq = perspective_sequence(patch, bg, n_frames=args.frames, size=size, seed=seed)
-                runs = peer_runs(seq.frames, seq.region, args.repeats)
-                label = f"{size[0]}x{size[1]} perspective, seed {seed}"
-                truth = seq.corners[1:]
+            for kind in kinds:
+                frames, region, truth = generated(kind, patch, bg, size, seed, args.frames)
+                runs = peer_runs(frames, region, args.repeats)
+                label = f"{size[0]}x{size[1]} {kind.replace('-', ' ')}, seed {seed}"
                 rows += peer_rows(label, runs, truth, np.ones(len(truth), bool))
-            if "full-step" not in kinds:
-                continue
-            seq = pattern_sequence(
-                patch,
-                bg,
-                n_frames=args.frames,
-                width=size[0],
-                height=size[1],
-                seed=seed,
-                max_step_sigmas=3.0,
-                other_step_sigmas=3.0,
-            )
-            truth = planar.truth_corners(seq)
-            runs = peer_runs(seq.frames, seq.region, args.repeats)
-            label = f"{size[0]}x{size[1]} full step, seed {seed}"
-            rows += peer_rows(label, runs, truth, np.ones(len(truth), bool))
     if not args.no_v25:
         rows += v25_2(args.repeats)
     print_table(
@@ -324,7 +346,8 @@ def main() -> None:
     ap.add_argument(
         "--kinds",
         default="full-step,perspective",
-        help="generated sequences of the peer table: full-step, perspective or both",
+        help="generated sequences of the peer table: some of full-step, gain, occlusion,"
+        " perspective (comma-separated)",
     )
     ap.add_argument("--no-v25", action="store_true", help="leave V25_2 out of the peer table")
     args = ap.parse_args()

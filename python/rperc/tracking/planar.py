@@ -280,13 +280,13 @@ def _ecc_level(warp: np.ndarray, factor: float) -> np.ndarray:
     return out
 
 
-#: ``gaussFiltSize`` of the harness's ``findTransformECC``: no pre-blur. OpenCV's 5
-#: blurs the template, a crop, with its edges reflected, and the frame with the true
-#: neighbours there: on the very frame the template was cut from, affine ECC started
-#: at the exact warp moved about 1 px away. On the 3-sigma steps of ``rperc bench
-#: pattern`` (seeds 10-19, plain and gain 0.2) 1 gave a median corner error of 0.22 px
-#: and no failure where 5 gave 0.90 px and 55-58 failures (3 gave 0.66 px, 19-37), and
-#: 1 failed least under occlusion too (38 failures to 5's 97): the peer at its best.
+#: ``gaussFiltSize`` of the harness's ``findTransformECC``: no pre-blur, the peer at
+#: its best. OpenCV's default, 5, blurs the template, a crop, with its edges
+#: reflected, and the frame with the true neighbours there: on the very frame the
+#: template was cut from, affine ECC started at the exact warp moves away from it, and
+#: on ``rperc bench pattern``'s 3-sigma steps it is less accurate and fails more often
+#: than with 1 (the figures are in the commit that chose 1, and in the benchmark's
+#: output).
 ECC_GAUSS_FILTER = 1
 
 

@@ -682,9 +682,9 @@ impl PatternTracker {
     /// refinement's reach around their mean; a level's values inside its window do
     /// not depend on the window, so every state reads what a rebuild would give. The
     /// second look then searches where the first one's particles spread (the coarse
-    /// layer's, tens of pixels wide) without blurring the frame again: 46 % of the
-    /// frames of a partly occluded pattern take it, and a rebuild cost about as much
-    /// as the rest of the second look.
+    /// layer's, tens of pixels wide) without blurring the frame again, which cost
+    /// about as much as the rest of the second look (most frames of a partly
+    /// occluded pattern take one).
     fn space_for_second_look(&mut self, frame: PatternFrame<'_>) -> Result<()> {
         let Some((lo, hi)) = self.covered else {
             return self.build_space(frame);

@@ -7,8 +7,10 @@ auc``, ties: the higher F1). Prints each sequence's held-out precision, recall a
 the pooled held-out figures, and every setting's in-sample figures.
 
     RAYON_NUM_THREADS=1 python benchmarks/template_lost.py [--corpus DIR]
-        [--grid lost_psr_ratio=0,0.3,0.5 lost_color_ratio=0,0.7,0.8,0.85,0.9]
+        [--grid lost_contrast_ratio=none,-0.2,-0.1,0,0.1,0.2 lost_color_ratio=0.7,0.8,0.9]
         [--objective f1|auc] [--json OUT]
+
+A grid value ``none`` is the field's ``None`` (``lost_contrast_ratio``: test off).
 
 The rule changes the track as well as the flag (a lost frame teaches nothing and
 starts re-detection), so every setting is a full run of every sequence.
@@ -27,7 +29,7 @@ from rperc._atomic import write_text_atomically
 from rperc.datasets import data_dir, load_otb
 from rperc.tracking import ColorTemplateTracker, metrics
 
-Setting = tuple[float, ...]
+Setting = tuple[float | None, ...]
 
 
 def run(frames: list[np.ndarray], truth: np.ndarray, settings: dict) -> dict:
@@ -63,14 +65,17 @@ def main() -> None:
     ap.add_argument(
         "--grid",
         nargs="+",
-        default=["lost_psr_ratio=0,0.3,0.5", "lost_color_ratio=0,0.7,0.8,0.85,0.9"],
-        help="name=v1,v2,... per parameter; every combination is run",
+        default=[
+            "lost_contrast_ratio=none,-0.2,-0.1,0,0.1,0.2",
+            "lost_color_ratio=0.7,0.8,0.9",
+        ],
+        help="name=v1,v2,... per parameter (none: the field's None); every combination is run",
     )
     ap.add_argument("--objective", choices=("f1", "auc"), default="f1")
     ap.add_argument("--json", type=Path, default=None)
     args = ap.parse_args()
     root = args.corpus or (data_dir() / "otb")
-    axes = {k: [float(x) for x in v.split(",")] for k, v in (g.split("=", 1) for g in args.grid)}
+    axes = {k: [_value(x) for x in v.split(",")] for k, v in (g.split("=", 1) for g in args.grid)}
     print(f"grid: {' x '.join(axes)}; objective {args.objective}")
     grid: list[Setting] = list(itertools.product(*axes.values()))
     names = sorted(p.name for p in root.iterdir() if (p / "groundtruth_rect.txt").is_file())
@@ -82,6 +87,10 @@ def main() -> None:
             results[(name, g)] = run(frames, seq.boxes, dict(zip(axes, g, strict=True)))
         print(f"ran {name}", flush=True)
     report(names, grid, results, args.objective, args.json)
+
+
+def _value(text: str) -> float | None:
+    return None if text.strip().lower() == "none" else float(text)
 
 
 def score(runs: list[dict], objective: str) -> tuple[float, float]:

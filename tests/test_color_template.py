@@ -81,6 +81,30 @@ def test_result_carries_the_lost_signals():
     assert (box, score, lost) == (gone.box, gone.score, gone.lost)
 
 
+def test_seed_contrast_closed_form_and_its_test():
+    """The seed contrast is the first frame's colour model's mean foreground probability
+    over the box minus over the rest of the window. On the target every colour is
+    foreground-only (P = 1) and around it background-only (P = 0): close to 1 - 0, less
+    only the resampled edge pixels. Painted over, every colour in the window is
+    background-only: exactly 0 - 0. With every other test off, the flag then fires by
+    the contrast test alone, and does not without it."""
+    frames, truth = scene(4, count=8, vx=0.0, vy=0.0)
+    x, y = int(truth[0][0]), int(truth[0][1])
+    hidden = frames[0].copy()
+    hidden[y : y + 28, x : x + 28] = 75
+    others_off = {"lost_ratio": 0.0, "lost_color_ratio": 0.0, "lost_psr_ratio": 0.0}
+    flags = {}
+    for ratio in (None, 0.5):
+        t = ColorTemplateTracker(frames[0], truth[0], lost_contrast_ratio=ratio, **others_off)
+        for f in frames[1:]:
+            r = t.update(f)
+        assert not r.lost and 0.85 < r.contrast <= 1.0
+        gone = t.update(hidden)
+        assert gone.contrast == 0.0
+        flags[ratio] = gone.lost
+    assert flags == {None: False, 0.5: True}
+
+
 def test_same_frames_same_track_and_bgr_channels():
     frames, truth = scene(3, count=6)
     a = ColorTemplateTracker(frames[0], truth[0])

@@ -6,16 +6,13 @@ use super::filter::CorrelationFilter;
 use super::geometry::Geometry;
 use super::hog::FeatureMap;
 use super::likelihood::ColourLikelihood;
-use super::lost::{Levels, Located, LostRule};
+use super::lost::{Levels, Located, LostRule, WARM_UP_FRAMES};
 use super::params::ColorTemplateParams;
 use super::patch::{Patch, Window};
 use super::result::{Confidence, TemplateResult};
 use super::scale::ScaleFilter;
 use crate::error::{Result, TrackingError};
 use crate::frame::{BoundingBox, RgbFrame};
-
-/// Tracked frames whose peaks set the level before a loss can be declared.
-const WARM_UP_FRAMES: usize = 5;
 
 /// Working buffers reused every frame (no allocation in the steady state).
 #[derive(Default)]
@@ -64,6 +61,9 @@ pub struct ColorTemplateTracker {
     pub(super) filter: CorrelationFilter,
     pub(super) scale_filter: ScaleFilter,
     pub(super) colour: ColourLikelihood,
+    /// The colour histograms learned on the first frame alone: the drift signal's
+    /// reference, which a slow slide onto the background cannot teach.
+    pub(super) colour_seed: ColourLikelihood,
     pub(super) levels: Levels,
     pub(super) rule: LostRule,
     pub(super) tracked_frames: usize,
@@ -90,6 +90,7 @@ impl ColorTemplateTracker {
             filter: CorrelationFilter::new(gw, gh, geometry.label_sigma(&params), params.lambda),
             scale_filter: ScaleFilter::new(params.n_scales, params.scale_sigma, params.lambda),
             colour: ColourLikelihood::new(params.color_space, params.bins),
+            colour_seed: ColourLikelihood::new(params.color_space, params.bins),
             geometry,
             frame_size: (frame.width(), frame.height()),
             base: (bbox.w, bbox.h),
@@ -103,6 +104,7 @@ impl ColorTemplateTracker {
             params,
         };
         tracker.learn(&frame, None);
+        tracker.colour_seed = tracker.colour.clone();
         Ok(tracker)
     }
 
@@ -168,6 +170,7 @@ impl ColorTemplateTracker {
                 psr: best.psr,
                 apce: best.apce,
                 color_score: best.color,
+                contrast: best.contrast,
             },
         })
     }

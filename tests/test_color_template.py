@@ -87,7 +87,7 @@ def test_seed_contrast_closed_form_and_its_test():
     foreground-only (P = 1) and around it background-only (P = 0): close to 1 - 0, less
     only the resampled edge pixels. Painted over, every colour in the window is
     background-only: exactly 0 - 0. With every other test off, the flag then fires by
-    the contrast test alone, and does not without it."""
+    the contrast test alone, and does not without it; the target back, it clears."""
     frames, truth = scene(4, count=8, vx=0.0, vy=0.0)
     x, y = int(truth[0][0]), int(truth[0][1])
     hidden = frames[0].copy()
@@ -102,6 +102,9 @@ def test_seed_contrast_closed_form_and_its_test():
         gone = t.update(hidden)
         assert gone.contrast == 0.0
         flags[ratio] = gone.lost
+        # Back in view, the contrast clears the found threshold (0.5 of its level by
+        # default) again: taken up at once.
+        assert not t.update(frames[0]).lost
     assert flags == {None: False, 0.5: True}
 
 

@@ -574,6 +574,10 @@ class ColorTemplateConfig(Config):
             `None`: on its own, leave-one-sequence-out over the ten OTB dev sequences chose
             no setting of it that improved the flag's precision and recall at once (see the
             guide).
+        found_contrast_ratio: Hysteresis of the contrast test: once lost, the target is
+            found again only when the seed's colour contrast is back over this multiple of
+            its warm-up mean (or `lost_contrast_ratio`, when higher), in [-1, 1]. Default
+            0.5.
         lost_level_decay: Factor on the running levels per lost frame, in (0, 1]: below 1 a
             target that came back changed (turned, lit differently) is taken up again; 1
             holds it to its old levels. Default 0.97 (halves them in about 23 frames).
@@ -616,6 +620,7 @@ class ColorTemplateConfig(Config):
     lost_psr_ratio: float = 0.0
     lost_color_ratio: float = 0.8
     lost_contrast_ratio: float | None = None
+    found_contrast_ratio: float = 0.5
     lost_level_decay: float = 0.97
     redetect_step: float = 0.75
     redetect_radius: int = 1
@@ -648,6 +653,7 @@ class ColorTemplateConfigOverrides(TypedDict, total=False):
     lost_psr_ratio: float
     lost_color_ratio: float
     lost_contrast_ratio: float | None
+    found_contrast_ratio: float
     lost_level_decay: float
     redetect_step: float
     redetect_radius: int

@@ -4,7 +4,10 @@
 //! the box stops looking like the target's (`lost_color_ratio`); each ratio of 0 turns
 //! its test off. A slow drift onto the background escapes those (the models learn on
 //! the way, and the levels follow); the seed's colour contrast catches it
-//! (`lost_contrast_ratio`, against its level over the warm-up frames). The same rule
+//! (`lost_contrast_ratio`, against its level over the warm-up frames), with hysteresis:
+//! a target lost is found again only once the contrast is back over
+//! `found_contrast_ratio` of the level (a box on the background hovers around 0 and
+//! would flicker between lost and found across a single threshold). The same rule
 //! accepts a re-detection candidate, so a target is taken up again only where it would
 //! not be declared lost.
 
@@ -89,6 +92,7 @@ pub(super) struct LostRule {
     psr: f64,
     color: f64,
     contrast: Option<f64>,
+    found_contrast: f64,
 }
 
 impl LostRule {
@@ -98,15 +102,25 @@ impl LostRule {
             psr: p.lost_psr_ratio,
             color: p.lost_color_ratio,
             contrast: p.lost_contrast_ratio,
+            found_contrast: p.found_contrast_ratio,
         }
     }
 
-    /// Whether `found` is the target by the rule: no signal under its threshold. The
-    /// contrast test needs a seed that stood out from its surroundings (a positive
-    /// level): otherwise its colours tell nothing about where the target is.
-    pub(super) fn passes(&self, found: &Located, levels: &Levels) -> bool {
+    /// Whether `found` is the target by the rule: no signal under its threshold; while
+    /// the target `was_lost`, the contrast's threshold is the higher of the lost and
+    /// found ratios. The contrast test needs a seed that stood out from its
+    /// surroundings (a positive level): otherwise its colours tell nothing about where
+    /// the target is.
+    pub(super) fn passes(&self, found: &Located, levels: &Levels, was_lost: bool) -> bool {
         let contrast = match self.contrast {
-            Some(ratio) if levels.contrast > 0.0 => found.contrast >= ratio * levels.contrast,
+            Some(lost) if levels.contrast > 0.0 => {
+                let ratio = if was_lost {
+                    lost.max(self.found_contrast)
+                } else {
+                    lost
+                };
+                found.contrast >= ratio * levels.contrast
+            }
             _ => true,
         };
         found.peak >= self.peak * levels.peak
@@ -151,25 +165,28 @@ mod tests {
             psr: 0.5,
             color: 0.5,
             contrast: None,
+            found_contrast: 0.0,
         };
-        assert!(rule.passes(&at(0.2, 10.0, 0.3), &levels));
-        assert!(!rule.passes(&at(0.19, 10.0, 0.3), &levels));
-        assert!(!rule.passes(&at(0.2, 9.9, 0.3), &levels));
-        assert!(!rule.passes(&at(0.2, 10.0, 0.29), &levels));
+        assert!(rule.passes(&at(0.2, 10.0, 0.3), &levels, false));
+        assert!(!rule.passes(&at(0.19, 10.0, 0.3), &levels, false));
+        assert!(!rule.passes(&at(0.2, 9.9, 0.3), &levels, false));
+        assert!(!rule.passes(&at(0.2, 10.0, 0.29), &levels, false));
         let off = LostRule {
             peak: 0.0,
             psr: 0.0,
             color: 0.0,
             contrast: None,
+            found_contrast: 0.0,
         };
-        assert!(off.passes(&at(0.0, 0.0, 0.0), &levels));
+        assert!(off.passes(&at(0.0, 0.0, 0.0), &levels, true));
     }
 
     /// The contrast test: a negative ratio puts the threshold under 0 (the box less
     /// target-coloured than its surroundings by that share of the seed's contrast);
-    /// `None` or a seed without contrast never fires.
+    /// once lost, the found ratio's threshold holds (hysteresis); `None` or a seed
+    /// without contrast never fires.
     #[test]
-    fn contrast_against_the_seed_level() {
+    fn contrast_against_the_seed_level_with_hysteresis() {
         let mut levels = Levels {
             contrast: 0.4,
             ..Levels::default()
@@ -179,21 +196,29 @@ mod tests {
             psr: 0.0,
             color: 0.0,
             contrast: Some(-0.25),
+            found_contrast: 0.5,
         };
         let with = |c: f64| Located {
             contrast: c,
             ..at(0.0, 0.0, 0.0)
         };
-        assert!(rule.passes(&with(-0.1), &levels));
-        assert!(!rule.passes(&with(-0.1001), &levels));
+        assert!(rule.passes(&with(-0.1), &levels, false));
+        assert!(!rule.passes(&with(-0.1001), &levels, false));
+        assert!(!rule.passes(&with(0.1999), &levels, true));
+        assert!(rule.passes(&with(0.2), &levels, true));
+        let below = LostRule {
+            found_contrast: -0.5,
+            ..rule
+        };
+        assert!(!below.passes(&with(-0.1001), &levels, true));
         levels.contrast = 0.0;
-        assert!(rule.passes(&with(-1.0), &levels));
+        assert!(rule.passes(&with(-1.0), &levels, true));
         levels.contrast = 0.4;
         let off = LostRule {
             contrast: None,
             ..rule
         };
-        assert!(off.passes(&with(-1.0), &levels));
+        assert!(off.passes(&with(-1.0), &levels, true));
     }
 
     /// The first tracked frame sets the levels; later ones average in at `1 / n`

@@ -76,6 +76,10 @@ pub struct ColorTemplateParams {
     /// its own, leave-one-sequence-out over the ten OTB dev sequences chose no setting
     /// of it that improved the flag's precision and recall at once (see the guide).
     pub lost_contrast_ratio: Option<f64>,
+    /// Hysteresis of the contrast test: once lost, the target is found again only when
+    /// the seed's colour contrast is back over this multiple of its warm-up mean (or
+    /// `lost_contrast_ratio`, when higher), in [-1, 1]. Default 0.5.
+    pub found_contrast_ratio: f64,
     /// Factor on the running levels per lost frame, in (0, 1]: below 1 a target that
     /// came back changed (turned, lit differently) is taken up again; 1 holds it to its
     /// old levels. Default 0.97 (halves them in about 23 frames).
@@ -124,6 +128,7 @@ impl Default for ColorTemplateParams {
             lost_psr_ratio: 0.0,
             lost_color_ratio: 0.8,
             lost_contrast_ratio: None,
+            found_contrast_ratio: 0.5,
             lost_level_decay: 0.97,
             redetect_step: 0.75,
             redetect_radius: 1,
@@ -179,6 +184,7 @@ impl ColorTemplateParams {
         if let Some(ratio) = self.lost_contrast_ratio {
             in_range("lost_contrast_ratio", ratio, -1.0, 1.0)?;
         }
+        in_range("found_contrast_ratio", self.found_contrast_ratio, -1.0, 1.0)?;
         rate("lost_level_decay", self.lost_level_decay)?;
         in_range("redetect_step", self.redetect_step, 1e-3, 2.0)?;
         in_range("lost_motion", self.lost_motion, 0.0, 1.0)?;

@@ -138,7 +138,9 @@ impl ColorTemplateTracker {
         let levels = self.levels;
         let best = self.search(&frame, &levels);
         // The first frames only set the levels: a loss needs them to compare with.
-        let lost = self.tracked_frames >= WARM_UP_FRAMES && !self.rule.passes(&best, &levels);
+        let was_lost = self.lost_frames > 0;
+        let lost =
+            self.tracked_frames >= WARM_UP_FRAMES && !self.rule.passes(&best, &levels, was_lost);
         if lost {
             self.lost_frames += 1;
             // The levels sink while the target stays lost, so that a target that came
@@ -219,7 +221,7 @@ impl ColorTemplateTracker {
     fn search(&mut self, frame: &RgbFrame<'_>, levels: &Levels) -> Located {
         let (cx, cy) = self.centre;
         let here = self.locate(frame, cx, cy);
-        if self.lost_frames == 0 || self.rule.passes(&here, levels) {
+        if self.lost_frames == 0 || self.rule.passes(&here, levels, true) {
             return here;
         }
         let reach = self.params.redetect_radius as isize;
@@ -235,7 +237,7 @@ impl ColorTemplateTracker {
                 let y = cy + j as f64 * step * window.height;
                 let found = self.redetect_at(frame, x, y, levels);
                 let taken = found.peak >= self.params.redetect_ratio * levels.peak
-                    && self.rule.passes(&found, levels);
+                    && self.rule.passes(&found, levels, true);
                 if taken && found.peak > best.peak {
                     best = found;
                 }

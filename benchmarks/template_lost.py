@@ -9,7 +9,7 @@ Prints each sequence's held-out precision, recall and AUC, the pooled held-out
 figures, and every setting's in-sample figures.
 
     RAYON_NUM_THREADS=1 python benchmarks/template_lost.py [--corpus DIR]
-        [--grid lost_contrast_ratio=none,-0.3,-0.2 found_contrast_ratio=0.1,0.2,0.3 ...]
+        [--grid lost_contrast_ratio=none,-0.3 found_contrast_ratio=0 ...]
         [--objective f1|auc|f1-auc] [--auc-slack 0.005] [--runs OUT.json]
         [--from-runs IN.json] [--json OUT]
 
@@ -75,7 +75,11 @@ def ratio(a: int, b: int) -> str:
 
 
 def _value(text: str) -> float | None:
-    return None if text.strip().lower() == "none" else float(text)
+    """``none`` is None, a whole number an int (for count fields), else a float."""
+    text = text.strip().lower()
+    if text == "none":
+        return None
+    return int(text) if text.lstrip("-").isdigit() else float(text)
 
 
 def main() -> None:
@@ -85,10 +89,10 @@ def main() -> None:
         "--grid",
         nargs="+",
         default=[
-            "lost_contrast_ratio=none,-0.3,-0.2",
-            "found_contrast_ratio=0.1,0.2,0.3",
-            "lost_color_ratio=0.75,0.8,0.85",
-            "lost_level_decay=0.97,0.99",
+            "lost_contrast_ratio=none,-0.3",
+            "found_contrast_ratio=0",
+            "lost_color_ratio=0.7,0.75,0.8,0.85",
+            "lost_level_decay=0.97,0.98,0.99,0.995",
         ],
         help="name=v1,v2,... per parameter (none: the field's None); every combination is run",
     )

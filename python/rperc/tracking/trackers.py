@@ -435,7 +435,9 @@ class ColorTemplateTracker(_BoxTracker[_rperc.ColorTemplateTracker]):
     colour model inside the box against the rest of the window) falls under it times
     its mean over the first tracked frames, a lost target being found again only once
     it is back over ``found_contrast_ratio`` times that mean (the answer, a
-    :class:`ColorTemplateResult`, carries these signals). The models then stop
+    :class:`ColorTemplateResult`, carries these signals). While lost, a window whose
+    seed contrast reaches ``refind_contrast_ratio`` times that mean is the target again
+    whatever its peak. The models then stop
     learning, the levels sink by the factor ``lost_level_decay`` a frame, the box
     moves ``lost_motion`` of the way to the peak (0 keeps it where the target was last
     seen, 1 follows the peak), and each frame searches a grid of windows

@@ -7,7 +7,10 @@
 //! (`lost_contrast_ratio`, against its level over the warm-up frames), with hysteresis:
 //! a target lost is found again only once the contrast is back over
 //! `found_contrast_ratio` of the level (a box on the background hovers around 0 and
-//! would flicker between lost and found across a single threshold). The same rule
+//! would flicker between lost and found across a single threshold). While lost, a
+//! window whose seed contrast is back over `refind_contrast_ratio` of the level is the
+//! target again whatever its peak (the peak's level is of the appearance before the
+//! loss, and sinks slowly). The same rule
 //! accepts a re-detection candidate, so a target is taken up again only where it would
 //! not be declared lost.
 
@@ -93,6 +96,7 @@ pub(super) struct LostRule {
     color: f64,
     contrast: Option<f64>,
     found_contrast: f64,
+    refind_contrast: Option<f64>,
 }
 
 impl LostRule {
@@ -103,6 +107,7 @@ impl LostRule {
             color: p.lost_color_ratio,
             contrast: p.lost_contrast_ratio,
             found_contrast: p.found_contrast_ratio,
+            refind_contrast: p.refind_contrast_ratio,
         }
     }
 
@@ -123,10 +128,19 @@ impl LostRule {
             }
             _ => true,
         };
-        found.peak >= self.peak * levels.peak
+        let usual = found.peak >= self.peak * levels.peak
             && found.psr >= self.psr * levels.psr
             && found.color >= self.color * levels.color
-            && contrast
+            && contrast;
+        usual || (was_lost && self.refound(found, levels))
+    }
+
+    /// Whether a lost target is back by its seed contrast alone: the peak and colour
+    /// levels are those of the appearance before the loss, which the frames up to it
+    /// (learned from at a fading rate) may have blurred; the seed's model was not.
+    fn refound(&self, found: &Located, levels: &Levels) -> bool {
+        self.refind_contrast
+            .is_some_and(|r| levels.contrast > 0.0 && found.contrast >= r * levels.contrast)
     }
 
     /// The merged-peak threshold (where learning has faded to nothing).
@@ -166,6 +180,7 @@ mod tests {
             color: 0.5,
             contrast: None,
             found_contrast: 0.0,
+            refind_contrast: None,
         };
         assert!(rule.passes(&at(0.2, 10.0, 0.3), &levels, false));
         assert!(!rule.passes(&at(0.19, 10.0, 0.3), &levels, false));
@@ -177,6 +192,7 @@ mod tests {
             color: 0.0,
             contrast: None,
             found_contrast: 0.0,
+            refind_contrast: None,
         };
         assert!(off.passes(&at(0.0, 0.0, 0.0), &levels, true));
     }
@@ -197,6 +213,7 @@ mod tests {
             color: 0.0,
             contrast: Some(-0.25),
             found_contrast: 0.5,
+            refind_contrast: None,
         };
         let with = |c: f64| Located {
             contrast: c,
@@ -219,6 +236,37 @@ mod tests {
             ..rule
         };
         assert!(off.passes(&with(-1.0), &levels, true));
+    }
+
+    /// While lost, a window whose contrast reaches the refind ratio of the seed level
+    /// is the target even with its peak under threshold; while tracked, it is not.
+    #[test]
+    fn a_lost_target_is_refound_by_its_contrast() {
+        let levels = Levels {
+            peak: 1.0,
+            contrast: 0.4,
+            ..Levels::default()
+        };
+        let rule = LostRule {
+            peak: 0.6,
+            psr: 0.0,
+            color: 0.0,
+            contrast: None,
+            found_contrast: 0.0,
+            refind_contrast: Some(0.7),
+        };
+        let weak = |c: f64| Located {
+            contrast: c,
+            ..at(0.5, 0.0, 0.0)
+        };
+        assert!(!rule.passes(&weak(0.28), &levels, false));
+        assert!(rule.passes(&weak(0.28), &levels, true));
+        assert!(!rule.passes(&weak(0.2799), &levels, true));
+        let off = LostRule {
+            refind_contrast: None,
+            ..rule
+        };
+        assert!(!off.passes(&weak(1.0), &levels, true));
     }
 
     /// The first tracked frame sets the levels; later ones average in at `1 / n`

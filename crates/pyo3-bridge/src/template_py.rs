@@ -8,7 +8,8 @@ use crate::tracking_py::{Threads, bbox, on_frame};
 
 /// One answer of the colour + template tracker, frozen: the `box` `(x, y, w, h)`, the
 /// `score`, the `lost` flag and the signals it was decided from: the merged response's
-/// `peak`, the template response's `psr` and `apce`, and the colour `color_score`.
+/// `peak`, the template response's `psr` and `apce`, the colour `color_score` and the
+/// seed colour model's `contrast`.
 #[pyclass(name = "ColorTemplateAnswer", module = "rperc._rperc", frozen, get_all)]
 pub struct PyColorTemplateAnswer {
     #[pyo3(name = "box")]
@@ -19,6 +20,7 @@ pub struct PyColorTemplateAnswer {
     psr: f64,
     apce: f64,
     color_score: f64,
+    contrast: f64,
 }
 
 impl From<tracking::TemplateResult> for PyColorTemplateAnswer {
@@ -33,6 +35,7 @@ impl From<tracking::TemplateResult> for PyColorTemplateAnswer {
             psr: c.psr,
             apce: c.apce,
             color_score: c.color_score,
+            contrast: c.contrast,
         }
     }
 }

@@ -168,19 +168,23 @@ class ColorTemplateResult(TrackResult):
     merged response's peak clamped to [0, 1]) and the signals ``lost`` is decided from:
     the merged response's ``peak``, the template's correlation response's peak-to-
     sidelobe ratio ``psr`` (MOSSE) and average peak-to-correlation energy ``apce``
-    (LMCF), and ``color_score``, the colour model's mean foreground probability over the
-    box, in [0, 1]. Unpacks as ``box, score, lost = result``."""
+    (LMCF), ``color_score``, the colour model's mean foreground probability over the
+    box, in [0, 1], and ``contrast``, the first frame's colour model's mean foreground
+    probability over the box minus its mean over the rest of the search window, in
+    [-1, 1] (near or under 0 once the box has drifted onto the background). Unpacks as
+    ``box, score, lost = result``."""
 
     peak: float
     psr: float
     apce: float
     color_score: float
+    contrast: float
 
     def __repr__(self) -> str:
         base = super().__repr__()[len("TrackResult(") : -1]
         return (
             f"ColorTemplateResult({base}, psr={self.psr:.1f}, apce={self.apce:.1f}, "
-            f"color_score={self.color_score:.3f})"
+            f"color_score={self.color_score:.3f}, contrast={self.contrast:.3f})"
         )
 
 
@@ -203,6 +207,7 @@ def _template_answer(native: _rperc.ColorTemplateAnswer) -> ColorTemplateResult:
         native.psr,
         native.apce,
         native.color_score,
+        native.contrast,
     )
 
 
@@ -425,8 +430,14 @@ class ColorTemplateTracker(_BoxTracker[_rperc.ColorTemplateTracker]):
     running level over the tracked frames (learning fades out on the way down from the
     level to there), when the template response's peak-to-sidelobe ratio falls under
     ``lost_psr_ratio`` times its level, or when the colour score falls under
-    ``lost_color_ratio`` times its level (each ratio 0 turns its test off; the answer,
-    a :class:`ColorTemplateResult`, carries these signals). The models then stop
+    ``lost_color_ratio`` times its level (each ratio 0 turns its test off), or, when
+    ``lost_contrast_ratio`` is set, when the seed's colour contrast (the first frame's
+    colour model inside the box against the rest of the window) falls under it times
+    its mean over the first tracked frames, a lost target being found again only once
+    it is back over ``found_contrast_ratio`` times that mean (the answer, a
+    :class:`ColorTemplateResult`, carries these signals). While lost, a window whose
+    seed contrast reaches ``refind_contrast_ratio`` times that mean is the target again
+    whatever its peak. The models then stop
     learning, the levels sink by the factor ``lost_level_decay`` a frame, the box
     moves ``lost_motion`` of the way to the peak (0 keeps it where the target was last
     seen, 1 follows the peak), and each frame searches a grid of windows

@@ -39,6 +39,7 @@ impl Rect {
 }
 
 /// Foreground and background histograms with their learning state.
+#[derive(Clone)]
 pub(crate) struct ColourLikelihood {
     space: ColorSpace,
     bins: [usize; 3],

@@ -1,5 +1,6 @@
 //! One search window: the merged response map (template and colour) and its peak.
 
+use super::contrast::{box_at, contrast};
 use super::geometry::wrapped;
 use super::hog;
 use super::likelihood::{colour_response, integral};
@@ -27,7 +28,8 @@ const SIDELOBE_EXCLUSION: usize = 2;
 impl ColorTemplateTracker {
     /// Samples the window centred at `(cx, cy)`, computes the template and colour
     /// responses, merges them (Staple eq. 4: `(1 - alpha) f_tmpl + alpha f_hist`) and
-    /// returns the peak and the target centre it implies, in frame pixels.
+    /// returns the peak, the signals of the lost rule and the target centre it implies,
+    /// in frame pixels.
     pub(super) fn locate(&mut self, frame: &RgbFrame<'_>, cx: f64, cy: f64) -> Located {
         let window = self.window_at(cx, cy);
         let (pw, ph) = self.geometry.patch;
@@ -56,6 +58,11 @@ impl ColorTemplateTracker {
             .max_by(|a, b| a.1.total_cmp(b.1))
             .unwrap_or((0, &0.0));
         let (i, j) = (k % gw, k / gw);
+        self.colour_seed
+            .back_project(&s.patch.rgb, &mut s.probability);
+        let seed_table = integral(&s.probability, pw, ph);
+        let at_peak = box_at((pw, ph), target, (i, j), (gw, gh, cell));
+        let contrast = contrast(&seed_table, pw, ph, at_peak);
         let at = |ii: usize, jj: usize| merged[jj * gw + ii];
         let dx =
             wrapped(i, gw) + parabola_offset(at((i + gw - 1) % gw, j), peak, at((i + 1) % gw, j));
@@ -67,6 +74,7 @@ impl ColorTemplateTracker {
             psr,
             apce,
             color: f64::from(s.colour[k]),
+            contrast,
             cx: cx + dx * to_frame,
             cy: cy + dy * to_frame,
         }

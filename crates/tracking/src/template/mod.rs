@@ -3,6 +3,7 @@
 //! ([`hog`], [`filter`]) merged with a per-pixel colour likelihood ([`likelihood`]),
 //! DSST's scale filter ([`scale`]), a lost signal and re-detection ([`tracker`]).
 
+mod contrast;
 mod dcf;
 mod fft;
 mod filter;

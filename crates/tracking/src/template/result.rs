@@ -18,6 +18,10 @@ pub struct Confidence {
     /// Mean foreground probability of the colour model over the target-sized box at the
     /// peak, in [0, 1].
     pub color_score: f64,
+    /// The first frame's colour model's mean foreground probability over the box minus
+    /// its mean over the rest of the search window, in [-1, 1]: near or under 0 when
+    /// the box has drifted onto the background.
+    pub contrast: f64,
 }
 
 /// One answer of the colour + template tracker.
@@ -27,7 +31,8 @@ pub struct TemplateResult {
     pub bbox: BoundingBox,
     /// The merged response's peak, clamped to [0, 1].
     pub score: f64,
-    /// The target is not where the box is (see `ColorTemplateParams::lost_apce_ratio`).
+    /// The target is not where the box is (see `ColorTemplateParams::lost_ratio` and the
+    /// other `lost_*` fields).
     pub lost: bool,
     /// The signals `lost` was decided from.
     pub confidence: Confidence,

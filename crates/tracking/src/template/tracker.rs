@@ -6,16 +6,13 @@ use super::filter::CorrelationFilter;
 use super::geometry::Geometry;
 use super::hog::FeatureMap;
 use super::likelihood::ColourLikelihood;
-use super::lost::{Levels, Located, LostRule};
+use super::lost::{Levels, Located, LostRule, WARM_UP_FRAMES};
 use super::params::ColorTemplateParams;
 use super::patch::{Patch, Window};
 use super::result::{Confidence, TemplateResult};
 use super::scale::ScaleFilter;
 use crate::error::{Result, TrackingError};
 use crate::frame::{BoundingBox, RgbFrame};
-
-/// Tracked frames whose peaks set the level before a loss can be declared.
-const WARM_UP_FRAMES: usize = 5;
 
 /// Working buffers reused every frame (no allocation in the steady state).
 #[derive(Default)]
@@ -64,6 +61,9 @@ pub struct ColorTemplateTracker {
     pub(super) filter: CorrelationFilter,
     pub(super) scale_filter: ScaleFilter,
     pub(super) colour: ColourLikelihood,
+    /// The colour histograms learned on the first frame alone: the drift signal's
+    /// reference, which a slow slide onto the background cannot teach.
+    pub(super) colour_seed: ColourLikelihood,
     pub(super) levels: Levels,
     pub(super) rule: LostRule,
     pub(super) tracked_frames: usize,
@@ -90,6 +90,7 @@ impl ColorTemplateTracker {
             filter: CorrelationFilter::new(gw, gh, geometry.label_sigma(&params), params.lambda),
             scale_filter: ScaleFilter::new(params.n_scales, params.scale_sigma, params.lambda),
             colour: ColourLikelihood::new(params.color_space, params.bins),
+            colour_seed: ColourLikelihood::new(params.color_space, params.bins),
             geometry,
             frame_size: (frame.width(), frame.height()),
             base: (bbox.w, bbox.h),
@@ -103,6 +104,7 @@ impl ColorTemplateTracker {
             params,
         };
         tracker.learn(&frame, None);
+        tracker.colour_seed = tracker.colour.clone();
         Ok(tracker)
     }
 
@@ -136,7 +138,9 @@ impl ColorTemplateTracker {
         let levels = self.levels;
         let best = self.search(&frame, &levels);
         // The first frames only set the levels: a loss needs them to compare with.
-        let lost = self.tracked_frames >= WARM_UP_FRAMES && !self.rule.passes(&best, &levels);
+        let was_lost = self.lost_frames > 0;
+        let lost =
+            self.tracked_frames >= WARM_UP_FRAMES && !self.rule.passes(&best, &levels, was_lost);
         if lost {
             self.lost_frames += 1;
             // The levels sink while the target stays lost, so that a target that came
@@ -168,6 +172,7 @@ impl ColorTemplateTracker {
                 psr: best.psr,
                 apce: best.apce,
                 color_score: best.color,
+                contrast: best.contrast,
             },
         })
     }
@@ -216,7 +221,7 @@ impl ColorTemplateTracker {
     fn search(&mut self, frame: &RgbFrame<'_>, levels: &Levels) -> Located {
         let (cx, cy) = self.centre;
         let here = self.locate(frame, cx, cy);
-        if self.lost_frames == 0 || self.rule.passes(&here, levels) {
+        if self.lost_frames == 0 || self.rule.passes(&here, levels, true) {
             return here;
         }
         let reach = self.params.redetect_radius as isize;
@@ -232,7 +237,7 @@ impl ColorTemplateTracker {
                 let y = cy + j as f64 * step * window.height;
                 let found = self.redetect_at(frame, x, y, levels);
                 let taken = found.peak >= self.params.redetect_ratio * levels.peak
-                    && self.rule.passes(&found, levels);
+                    && self.rule.passes(&found, levels, true);
                 if taken && found.peak > best.peak {
                     best = found;
                 }

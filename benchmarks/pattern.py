@@ -315,18 +315,43 @@ def peers(patch: np.ndarray, bg: np.ndarray, args: argparse.Namespace) -> None:
     unknown = [k for k in kinds if k not in KINDS]
     if unknown or not kinds:
         raise SystemExit(f"--kinds {args.kinds!r}: expected some of {', '.join(KINDS)}")
+    # Seconds per frame of each peer, summed over a case's seeds (first run of each).
+    spent: dict[str, dict[str, list[float]]] = {}
     for size in ((640, 480), (1280, 720)):
         for seed in range(10, 10 + args.seeds):
             for kind in kinds:
                 frames, region, truth = generated(kind, patch, bg, size, seed, args.frames)
                 runs = peer_runs(frames, region, args.repeats)
-                label = f"{size[0]}x{size[1]} {kind.replace('-', ' ')}, seed {seed}"
-                rows += peer_rows(label, runs, truth, np.ones(len(truth), bool))
+                case = f"{size[0]}x{size[1]} {kind.replace('-', ' ')}"
+                rows += peer_rows(f"{case}, seed {seed}", runs, truth, np.ones(len(truth), bool))
+                for name, rs in runs.items():
+                    spent.setdefault(case, {}).setdefault(name, []).append(
+                        float(np.median([r.seconds for r in rs]))
+                    )
     if not args.no_v25:
         rows += v25_2(args.repeats)
     print_table(
         f"peers in the same run (fps: median of {args.repeats} alternated runs)",
         PEER_HEADER,
+        rows,
+    )
+    print_throughput(spent)
+
+
+def print_throughput(spent: dict[str, dict[str, list[float]]]) -> None:
+    """Each case's fps over all its seeds, frames over time (every sequence has as
+    many frames), and the ratio to ECC affine's: ECC's speed varies with the sequence
+    (its iterations), so a median of per-seed ratios over a few seeds can flatter
+    either side."""
+    rows = []
+    for case, peers_spent in spent.items():
+        fps = {name: len(s) / sum(s) for name, s in peers_spent.items()}
+        for name, value in fps.items():
+            ratio = value / fps["ECC affine"]
+            rows.append([case, name, str(len(peers_spent[name])), f"{value:.0f}", f"{ratio:.2f}"])
+    print_table(
+        "throughput over the seeds (frames over time)",
+        ["case", "method", "seeds", "fps", "x ECC affine"],
         rows,
     )
 

@@ -70,6 +70,15 @@ CASES = {
     + "                   pattern=PatternModelConfig(max_points=2000, point_spacing=1.0),\n"
     + "                   sigma=(0.01, 0.01, 1e-4, 1e-4))\n"
     + "print('ready', flush=True)\nt.update(g)\n",
+    # The same update on the calling thread (below parallel_min_work a serial tracker
+    # no longer hands its frames to a worker thread): its own checkpoints poll.
+    "a serial pattern tracker update": _TEXTURED
+    + "from rperc.tracking import PatternTracker\ng = f.mean(axis=2).astype(np.uint8)\n"
+    + "from rperc.config import PatternModelConfig\n"
+    + "t = PatternTracker(g, (60, 40, 200, 160), n_particles=10**6, coarse_particles=0,\n"
+    + "                   pattern=PatternModelConfig(max_points=2000, point_spacing=1.0),\n"
+    + "                   sigma=(0.01, 0.01, 1e-4, 1e-4), parallel_min_work=10**15)\n"
+    + "print('ready', flush=True)\nt.update(g)\n",
 }
 
 # Far above the 20 ms poll interval (the child also needs time to unwind and exit on a

@@ -169,6 +169,13 @@ def test_every_tracker_runs_on_the_same_frames_and_is_scored():
     assert pattern.precision_5 == 1.0 and pattern.failures == 0
 
 
+@pytest.mark.parametrize("bad", [0, 2, -1, 1.0, True])
+def test_an_ecc_pre_blur_opencv_refuses_is_an_error_not_a_run_of_failures(bad):
+    seq, _, _ = scene(n_frames=2, max_step_sigmas=0.5)
+    with pytest.raises((ValueError, TypeError), match="gauss_filter"):
+        planar.run_ecc(seq.frames, seq.region, "affine", gauss_filter=bad)
+
+
 def test_ecc_exceptions_are_counted_as_failures_not_raised():
     seq, _, _ = scene(n_frames=3, max_step_sigmas=0.5)
     frames = seq.frames.copy()

@@ -301,7 +301,14 @@ def run_ecc(
     the region's template, warm-started from the last warp and initialised coarse to
     fine over a ``levels``-level pyramid, with ``gaussFiltSize`` ``gauss_filter`` (see
     :data:`ECC_GAUSS_FILTER`). An exception at the finest level, or a non-finite warp,
-    counts as a failure; the frame keeps the coarser (or last) warp."""
+    counts as a failure; the frame keeps the coarser (or last) warp.
+
+    Raises ValueError for a ``gauss_filter`` that is not a positive odd int (OpenCV
+    would throw at every frame, which the harness would count as failures)."""
+    if isinstance(gauss_filter, bool) or not isinstance(gauss_filter, int):
+        raise TypeError(f"gauss_filter must be an int, got {type(gauss_filter).__name__}")
+    if gauss_filter < 1 or gauss_filter % 2 == 0:
+        raise ValueError(f"gauss_filter must be a positive odd int, got {gauss_filter}")
     cv2 = _cv2()
 
     kinds = {

@@ -99,6 +99,24 @@ pub fn luma(r: u8, g: u8, b: u8) -> f32 {
     (0.299 * f64::from(r) + 0.587 * f64::from(g) + 0.114 * f64::from(b)) as f32
 }
 
+/// The 8-bit grey level nearest `v`: `v.round().clamp(0.0, 255.0) as u8` (ties away
+/// from zero, NaN to 0), without libm's `round` call, which the baseline x86-64 target
+/// makes for every pixel of a rendered or converted image.
+///
+/// # Examples
+/// ```
+/// use rperc_core::image::grey_level;
+///
+/// assert_eq!([grey_level(-3.0), grey_level(2.5), grey_level(2.49), grey_level(300.0)], [0, 3, 2, 255]);
+/// ```
+#[inline]
+pub fn grey_level(v: f64) -> u8 {
+    let v = v.clamp(0.0, 255.0);
+    // In [0, 255] truncation is the floor, exactly, and so is the fraction.
+    let floor = v as u8;
+    floor + u8::from(v - f64::from(floor) >= 0.5)
+}
+
 /// An owned grey image of `f32` levels (0..255 for converted 8-bit images).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct GrayImage {
@@ -165,7 +183,8 @@ impl GrayImage {
         if !(x >= 0.0 && y >= 0.0 && x <= w - 1.0 && y <= h - 1.0) {
             return None;
         }
-        let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+        // The coordinates are >= 0 here: truncation is the floor, without a libm call.
+        let (x0, y0) = (x as usize, y as usize);
         let (x1, y1) = ((x0 + 1).min(self.width - 1), (y0 + 1).min(self.height - 1));
         let (fx, fy) = ((x - x0 as f64) as f32, (y - y0 as f64) as f32);
         let top = self.at(x0, y0) * (1.0 - fx) + self.at(x1, y0) * fx;
@@ -623,6 +642,27 @@ mod tests {
             data: (0..w * h).map(|i| ((i * 53) % 97) as f32 * 1.3).collect(),
             width: w,
             height: h,
+        }
+    }
+
+    #[test]
+    fn grey_level_is_libms_round_then_clamp() {
+        let oracle = |v: f64| v.round().clamp(0.0, 255.0) as u8;
+        let mut specials = vec![f64::NAN, f64::INFINITY, f64::NEG_INFINITY, -0.0, 0.5, 254.5];
+        specials.extend([0.49999999999999994, 255.49999999999997, 1e300, -1e-300]);
+        for v in specials {
+            assert_eq!(grey_level(v), oracle(v), "v = {v:e}");
+        }
+        // Every tie and its two neighbouring doubles, and a dense sweep.
+        for k in -4..=520 {
+            let tie = f64::from(k) * 0.5;
+            for v in [tie.next_down(), tie, tie.next_up()] {
+                assert_eq!(grey_level(v), oracle(v), "v = {v:e}");
+            }
+        }
+        for k in -10_000..=270_000 {
+            let v = f64::from(k) * 1e-3 + 1e-7;
+            assert_eq!(grey_level(v), oracle(v), "v = {v:e}");
         }
     }
 

@@ -5,7 +5,7 @@
 
 use rand::Rng;
 use rperc_core::Pose2;
-use rperc_core::image::GrayImage;
+use rperc_core::image::{GrayImage, grey_level};
 use rperc_core::rng::{normal, stream};
 
 use super::camera::{CeilingCamera, apply_homography};
@@ -133,7 +133,7 @@ pub fn render(
             gain * f64::from(g) + offset
         };
         let noisy = level + params.noise * normal(&mut rng);
-        out.push(noisy.round().clamp(0.0, 255.0) as u8);
+        out.push(grey_level(noisy));
     }
     Ok(RenderTruth {
         lighting: [gain, offset],

@@ -5,7 +5,7 @@
 //! view has room and placed by eq. 3.
 
 use rperc_core::Pose2;
-use rperc_core::image::{GrayImage, GrayView};
+use rperc_core::image::{GrayImage, GrayView, grey_level};
 
 use super::acquire::{Found, search_pose};
 use super::geometry::{ImageScale, PointPair, fit_pose, spread};
@@ -388,12 +388,8 @@ impl MosaicBuilder {
         self.raw.set_from_gray(&frame);
         correct_image(&self.camera, &self.raw, -1.0, &mut self.ideal)?;
         self.bytes.clear();
-        self.bytes.extend(
-            self.ideal
-                .data
-                .iter()
-                .map(|&g| g.round().clamp(0.0, 255.0) as u8),
-        );
+        self.bytes
+            .extend(self.ideal.data.iter().map(|&g| grey_level(f64::from(g))));
         Ok(())
     }
 

@@ -5,7 +5,7 @@ use super::contour::{approximate, sample_polyline, simplifier, trace_contours};
 use super::correlation::{autocorrelation_slope, remove_mean};
 use crate::error::{Result, TrackingError};
 use nalgebra::Point2;
-use rperc_core::image::GrayImage;
+use rperc_core::image::{GrayImage, grey_level};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
@@ -284,7 +284,7 @@ fn region_edges(
     let bytes: Vec<u8> = image
         .data
         .iter()
-        .map(|&g| g.round().clamp(0.0, 255.0) as u8)
+        .map(|&g| grey_level(f64::from(g)))
         .collect();
     let Some(buffer) = image::GrayImage::from_raw(image.width as u32, image.height as u32, bytes)
     else {

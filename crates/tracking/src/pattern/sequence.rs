@@ -4,7 +4,7 @@
 //! occlusion, gain/offset illumination changes and noise.
 
 use rand::Rng;
-use rperc_core::image::GrayImage;
+use rperc_core::image::{GrayImage, grey_level};
 use rperc_core::rng::{normal, seeded};
 
 use crate::error::{Result, TrackingError};
@@ -319,7 +319,7 @@ fn render_frame<R: Rng>(
                 None => clutter(x, y, 0),
             };
             let noisy = draw.gain * g + draw.offset + params.noise * normal(rng);
-            frames.push(noisy.round().clamp(0.0, 255.0) as u8);
+            frames.push(grey_level(noisy));
         }
     }
 }

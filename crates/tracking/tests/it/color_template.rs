@@ -189,8 +189,13 @@ fn noisy(mut data: Vec<u8>, rng: &mut impl Rng) -> Vec<u8> {
 
 /// Runs a tracker from `(x0, y0)` over 10 frames of a still target, then the target
 /// jumps by `(dx, dy)` (about a search window: out of the filter's reach) and stays
-/// there; the lost flags and IoUs with the truth of the 6 frames after the jump.
-fn jump(seed: u64, dx: f64, dy: f64, params: ColorTemplateParams) -> Vec<(bool, f64)> {
+/// there; the lost flags and IoUs with the truth of the `after` frames after the jump.
+fn jump(
+    seed: u64,
+    (dx, dy): (f64, f64),
+    params: ColorTemplateParams,
+    after: usize,
+) -> Vec<(bool, f64)> {
     let scene = Scene::new(seed);
     let mut rng = rperc_core::rng::seeded(seed + 1);
     let (x0, y0, size) = (68.0, 48.0, 24.0);
@@ -203,7 +208,7 @@ fn jump(seed: u64, dx: f64, dy: f64, params: ColorTemplateParams) -> Vec<(bool, 
     }
     let moved = scene.frame(x0 + dx, y0 + dy, size, false);
     let truth = BoundingBox::new(x0 + dx, y0 + dy, size, size);
-    (0..6)
+    (0..after)
         .map(|_| {
             let data = noisy(moved.clone(), &mut rng);
             let r = tracker.update(view(&data)).unwrap();
@@ -227,7 +232,7 @@ fn jump(seed: u64, dx: f64, dy: f64, params: ColorTemplateParams) -> Vec<(bool, 
 /// 40 of 4000 jumps not re-detected in time (1 %), so a random draw of 16 cases failed
 /// about one run in seven (CI, 2026-11-29). The claim is checked over a fixed sample
 /// instead: every jump is reported lost, none is found without the search, and at
-/// least 60 of 64 are re-detected in time.
+/// least 45 of 48 are re-detected in time (each run only as long as its check reads).
 #[test]
 fn a_jump_is_lost_then_redetected_in_most_cases() {
     let params = ColorTemplateParams {
@@ -239,9 +244,9 @@ fn a_jump_is_lost_then_redetected_in_most_cases() {
         ..params.clone()
     };
     let mut in_time = 0;
-    for seed in 0..16u64 {
-        for (dx, dy) in [(-40.0, 0.0), (40.0, 0.0), (0.0, -38.0), (0.0, 38.0)] {
-            let steps = jump(seed, dx, dy, params.clone());
+    for seed in 0..12u64 {
+        for step in [(-40.0, 0.0), (40.0, 0.0), (0.0, -38.0), (0.0, 38.0)] {
+            let steps = jump(seed, step, params.clone(), 4);
             assert!(
                 steps[0].0,
                 "seed {seed}: the jump is not reported lost: {steps:?}"
@@ -250,13 +255,13 @@ fn a_jump_is_lost_then_redetected_in_most_cases() {
                 .iter()
                 .position(|&(lost, overlap)| !lost && overlap > 0.5);
             in_time += usize::from(found.is_some_and(|k| k <= 3));
-            let without = jump(seed, dx, dy, blind.clone());
-            let seen = without[..2].iter().any(|&(_, overlap)| overlap >= 0.5);
+            let without = jump(seed, step, blind.clone(), 2);
+            let seen = without.iter().any(|&(_, overlap)| overlap >= 0.5);
             assert!(!seen, "seed {seed}: found without the search: {without:?}");
         }
     }
     assert!(
-        in_time >= 60,
-        "re-detected in time in {in_time} of 64 jumps"
+        in_time >= 45,
+        "re-detected in time in {in_time} of 48 jumps"
     );
 }

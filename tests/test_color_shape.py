@@ -28,6 +28,24 @@ def test_polygon_mask_matches_shapely_point_in_polygon() -> None:
     assert np.array_equal(mask[far], inside[far])
 
 
+@pytest.mark.parametrize("centre", [(20, 15), (-4, 15), (38, 33), (-40, -40)])
+def test_polygon_mask_of_a_polygon_partly_or_wholly_outside_the_frame(centre) -> None:
+    """The mask tests only the centres in the polygon's bounding box: one that leaves the
+    frame, or lies wholly outside it, must still match shapely everywhere."""
+    rng = np.random.default_rng(7)
+    t = np.sort(rng.uniform(0, 2 * np.pi, 15))
+    r = rng.uniform(5, 16, 15)
+    poly = np.stack([centre[0] + r * np.cos(t), centre[1] + r * np.sin(t)], axis=1)
+    mask = polygon_mask(poly, (30, 40))
+    yy, xx = np.mgrid[0:30, 0:40]
+    shape = shapely.Polygon(poly)
+    inside = shapely.contains_xy(shape, xx.ravel(), yy.ravel()).reshape(30, 40)
+    far = shapely.distance(shape.exterior, shapely.points(xx.ravel(), yy.ravel())) > 1e-9
+    assert np.array_equal(mask[far.reshape(30, 40)], inside[far.reshape(30, 40)])
+    with pytest.raises(ValueError, match="non-finite"):
+        polygon_mask(np.where(np.arange(15)[:, None] == 3, np.nan, poly), (30, 40))
+
+
 def test_mask_iou_matches_shapely_areas_for_rasterised_squares() -> None:
     a = np.zeros((20, 20), bool)
     b = np.zeros((20, 20), bool)

@@ -67,16 +67,26 @@ def precision(pred: npt.ArrayLike, truth: npt.ArrayLike, threshold: float = 20.0
 
 def polygon_mask(polygon: npt.ArrayLike, shape: tuple[int, int]) -> np.ndarray:
     """The pixels of an ``(H, W)`` image whose centres (at integer ``(x, y)``) lie inside
-    a closed ``(N, 2)`` polygon of ``(x, y)`` points."""
+    a closed ``(N, 2)`` polygon of ``(x, y)`` points (non-finite vertices refused)."""
     from matplotlib.path import Path
 
     poly = np.asarray(polygon, dtype=np.float64)
     if poly.ndim != 2 or poly.shape[1] != 2 or len(poly) < 3:
         raise ValueError(f"polygon must have shape (N >= 3, 2), got {poly.shape}")
+    if not np.isfinite(poly).all():
+        raise ValueError("polygon has a non-finite vertex")
     h, w = shape
-    yy, xx = np.mgrid[0:h, 0:w]
+    mask = np.zeros((h, w), dtype=bool)
+    # Only the centres inside the polygon's bounding box can be inside it: a contour
+    # covers a small part of a frame, and the point-in-polygon test is the cost.
+    x0, y0 = max(math.ceil(poly[:, 0].min()), 0), max(math.ceil(poly[:, 1].min()), 0)
+    x1, y1 = min(math.floor(poly[:, 0].max()), w - 1), min(math.floor(poly[:, 1].max()), h - 1)
+    if x0 > x1 or y0 > y1:
+        return mask
+    yy, xx = np.mgrid[y0 : y1 + 1, x0 : x1 + 1]
     inside = Path(poly).contains_points(np.stack([xx.ravel(), yy.ravel()], axis=1))
-    return np.asarray(inside.reshape(h, w), dtype=bool)
+    mask[y0 : y1 + 1, x0 : x1 + 1] = inside.reshape(xx.shape)
+    return mask
 
 
 def mask_iou(a: npt.ArrayLike, b: npt.ArrayLike) -> float:

@@ -35,6 +35,7 @@ import numpy as np
 
 from rperc._args import excerpt, whole_number
 from rperc.datasets._paths import data_dir
+from rperc.tracking.metrics import polygon_mask
 
 __all__ = ["EXPERIMENTS", "ShapeSequence", "shape_sequence"]
 
@@ -89,14 +90,6 @@ def _star(cx: float, cy: float, r0: float, phase: float, n: int = 120) -> np.nda
     t = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
     r = r0 * (1 + 0.18 * np.sin(3 * t + phase) + 0.08 * np.cos(2 * t - 1.7 * phase))
     return np.stack([cx + r * np.cos(t), cy + r * np.sin(t)], axis=1)
-
-
-def _polygon_mask(poly: np.ndarray) -> np.ndarray:
-    from matplotlib.path import Path as MplPath
-
-    xx, yy = _grid()
-    pts = np.stack([xx.ravel(), yy.ravel()], axis=1)
-    return np.asarray(MplPath(poly).contains_points(pts).reshape(HEIGHT, WIDTH), dtype=bool)
 
 
 def _finish(rng: np.random.Generator, image: np.ndarray) -> np.ndarray:
@@ -198,7 +191,7 @@ def _nonrigid(
     frames, masks = [], []
     for f in range(n):
         poly = _star(*track(f), radius, 0.15 * f)
-        mask = _polygon_mask(poly)
+        mask = polygon_mask(poly, (HEIGHT, WIDTH))
         image = background.copy()
         if clutter:
             bx = 160.0 + 120.0 * np.sin(2 * np.pi * f / bar_period + bar_phase)

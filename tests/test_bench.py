@@ -119,6 +119,8 @@ def tcp_cluster(tmp_path_factory: pytest.TempPathFactory):
                         "1",
                         "--nworkers",
                         "1",
+                        # No nanny: one process a worker, which teardown can kill.
+                        "--no-nanny",
                         *common,
                     ],
                     stdout=subprocess.DEVNULL,
@@ -131,13 +133,13 @@ def tcp_cluster(tmp_path_factory: pytest.TempPathFactory):
             client.wait_for_workers(2, timeout=60)
         yield address
     finally:
-        for p in reversed(procs):
-            p.terminate()
+        # Killed, not terminated: a worker's graceful close waits on a scheduler that is
+        # closing too (seconds, now and then 20), and without a nanny (see above) a
+        # worker is one process, so nothing is orphaned.
         for p in procs:
-            try:
-                p.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                p.kill()
+            p.kill()
+        for p in procs:
+            p.wait(timeout=20)
 
 
 # ------------------------------------------------------------ schedulers agree

@@ -301,10 +301,13 @@ def test_auto_is_path_hulls_for_line_and_plain_dp_for_segment(seed, n, eps):
 def visvalingam(points: np.ndarray, area: float) -> list[int]:
     """Brute force from the definition: recompute every effective area (the triangle
     with the current neighbours), remove the smallest (ties: the smallest index) while
-    it is <= area."""
-    alive = list(range(len(points)))
+    it is <= area. (The survivors are kept as an index array, not a list, so that each
+    round is numpy's work, not a conversion of the list.)"""
+    points = np.asarray(points, dtype=float)
+    alive = np.arange(len(points))
     while len(alive) > 2:
-        a, p, b = (points[alive[:-2]], points[alive[1:-1]], points[alive[2:]])
+        kept = points[alive]
+        a, p, b = kept[:-2], kept[1:-1], kept[2:]
         cross = (p[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1]) - (p[:, 1] - a[:, 1]) * (
             b[:, 0] - a[:, 0]
         )
@@ -312,8 +315,8 @@ def visvalingam(points: np.ndarray, area: float) -> list[int]:
         k = int(np.argmin(areas))  # the first of equal minima
         if areas[k] > area:
             break
-        del alive[k + 1]
-    return alive
+        alive = np.delete(alive, k + 1)
+    return alive.tolist()
 
 
 @pytest.mark.parametrize("area", [0.0, 1e-8, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 0.1, 1.0])

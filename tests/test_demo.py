@@ -5,6 +5,7 @@ and each capability writes its figure."""
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import io
 import itertools
 import json
@@ -227,7 +228,8 @@ def test_a_new_capability_is_one_registry_entry(tmp_path, capsys, monkeypatch):
         "fake", "a test demo", fake, (Option("--size", "size", count_at_least(2), 4, "n"),)
     )
     monkeypatch.setattr(demo_module, "registry", lambda: (entry,))
-    assert main(["demo", "all", "--out", str(tmp_path), "--seed", "7"]) == 0
+    # One process: worker processes would look the demo up in the unpatched registry.
+    assert main(["demo", "all", "--out", str(tmp_path), "--seed", "7", "--jobs", "1"]) == 0
     assert capsys.readouterr().out == "fake: 4 points, seed 7\n"
     assert main(["demo", "fake", "--out", str(tmp_path), "--size", "5"]) == 0
     assert capsys.readouterr().out == "fake: 5 points, seed 0\n"
@@ -394,3 +396,44 @@ def test_deprecated_demo_names_still_parse_to_the_kebab_case_demo(old, new):
     assert parser.parse_args(["demo", old]).demo_entry.name == new
     assert parser.parse_args(["demo", new]).demo_entry.name == new
     assert all("_" not in d.name for d in demo_module.registry())
+
+
+def test_demos_in_worker_processes_print_and_measure_what_one_process_does(tmp_path, monkeypatch):
+    """``demo all --jobs 2`` runs the demos in two processes, longest first, and must
+    print the same lines in the registry's order, with the same measured figures, as
+    ``--jobs 1`` (timings aside). Three short demos stand in for the registry (the
+    workers find each by name in the full one)."""
+    chosen = [d for d in demo_module.registry() if d.name in ("lines", "walls", "tracking")]
+    # tracking, last here, is started first (the longest) and ends last; lines and walls
+    # end in the other order than they are printed.
+    weights = (0.1, 0.2, 5.0)
+    chosen = [dataclasses.replace(d, seconds=s) for d, s in zip(chosen, weights, strict=True)]
+    monkeypatch.setattr(demo_module, "registry", lambda: tuple(chosen))
+    runs = {}
+    for jobs in (1, 2):
+        out = tmp_path / f"jobs{jobs}"
+        stdout, stderr = io.StringIO(), io.StringIO()
+        argv = ["demo", "all", "--out", str(out), "--json", str(out / "all.json")]
+        with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+            assert main([*argv, "--jobs", str(jobs)]) == 0, stderr.getvalue()
+        measured = _untimed(json.loads((out / "all.json").read_text())["demos"])
+        figures = sorted(p.name for p in out.glob("*.png"))
+        runs[jobs] = (stdout.getvalue().splitlines(), measured, figures)
+        assert [line.split(":")[0] for line in runs[jobs][0]] == ["lines", "walls", "tracking"]
+        assert len(re.findall(r"wrote (.+\.png)", stderr.getvalue())) == len(figures)
+    assert runs[1][1:] == runs[2][1:]
+    # The summary lines agree but for the measured speeds some of them print.
+    speeds = re.compile(r"\d+(?:\.\d+)? (?:fps|Hz|s)\b")
+    assert [speeds.sub("#", x) for x in runs[1][0]] == [speeds.sub("#", x) for x in runs[2][0]]
+
+
+def _untimed(value):
+    """``value`` without its timings (keys ``seconds*``, ``fps``, ``hz``), recursively."""
+    if isinstance(value, dict):
+        timing = ("fps", "hz")
+        return {
+            k: _untimed(v) for k, v in value.items() if not (k.startswith("seconds") or k in timing)
+        }
+    if isinstance(value, list):
+        return [_untimed(v) for v in value]
+    return value

@@ -12,10 +12,14 @@ capability, write its demo next to its command and append one :class:`Demo` to
 from __future__ import annotations
 
 import argparse
+import contextlib
 import functools
+import multiprocessing
+import os
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -51,6 +55,9 @@ class Demo:
     options: tuple[Option, ...] = ()
     #: Older spellings, still accepted for one release with a note on stderr.
     deprecated: tuple[str, ...] = ()
+    #: About how long it runs on one core, seconds: ``demo all --jobs`` starts the
+    #: longest first, so that no long demo is left to run alone at the end.
+    seconds: float = 1.0
 
     def defaults(self) -> dict[str, object]:
         return {o.dest: o.default for o in self.options}
@@ -76,6 +83,7 @@ def registry() -> tuple[Demo, ...]:
             "EKF-SLAM observability study (Figs. 3-6, Monte Carlo)",
             demo_monobot,
             (Option("--runs", "runs", count_at_least(2), 100, "Monte Carlo runs (default 100)"),),
+            seconds=3.0,
         ),
         Demo(
             "slam",
@@ -88,6 +96,7 @@ def registry() -> tuple[Demo, ...]:
             "wall-landmark SLAM on a simulated corridor loop: Fig. 7's maps side by side",
             demo_wall_slam,
             deprecated=("wall_slam",),
+            seconds=2.0,
         ),
         Demo(
             "tracking",
@@ -95,6 +104,7 @@ def registry() -> tuple[Demo, ...]:
             demo_tracking,
             # 1000 frames of 320 x 240 RGB are 230 MB: a bound well above any use.
             (Option("--frames", "frames", count_at_least(2, 1000), 150, "frames (default 150)"),),
+            seconds=2.0,
         ),
         Demo(
             "color-shape",
@@ -102,6 +112,7 @@ def registry() -> tuple[Demo, ...]:
             demo_color_shape,
             (Option("--frames", "frames", count_at_least(2, 1000), 60, "frames (default 60)"),),
             deprecated=("color_shape",),
+            seconds=5.0,
         ),
         Demo(
             "pattern",
@@ -109,12 +120,14 @@ def registry() -> tuple[Demo, ...]:
             demo_pattern,
             # 640 x 480 grey frames: 1000 of them are 300 MB.
             (Option("--frames", "frames", count_at_least(9, 1000), 60, "frames (default 60)"),),
+            seconds=9.0,
         ),
         Demo(
             "visual-memory",
             "ceiling mosaic, key images and visual servoing (Fig. 9) vs the world's truth",
             demo_visual_memory,
             (Option("--starts", "starts", count_at_least(1, 1000), 10, "replays (default 10)"),),
+            seconds=17.0,
         ),
     )
 
@@ -136,16 +149,34 @@ def add_demos(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg
         p.set_defaults(run=_run_one, demo_entry=d)
     p = demos.add_parser("all", help="every demo above, one figure and one summary line each")
     _common_options(p)
+    p.add_argument(
+        "--jobs",
+        type=count_at_least(1, 64),
+        default=min(os.cpu_count() or 1, 64),
+        help="demos run at once, each in its own process (default: one per core; 1 runs"
+        " them one after another in this process)",
+    )
     p.set_defaults(run=run_all)
 
 
-def _run(d: Demo, out: Path, seed: int, options: dict[str, Any]) -> tuple[DemoResult, float]:
+def _timed(d: Demo, out: Path, seed: int, options: dict[str, Any]) -> tuple[DemoResult, float]:
     start = time.perf_counter()
     result = d.run(out, seed, **options)
-    seconds = time.perf_counter() - start
+    return result, time.perf_counter() - start
+
+
+def _run(d: Demo, out: Path, seed: int, options: dict[str, Any]) -> tuple[DemoResult, float]:
+    result, seconds = _timed(d, out, seed, options)
     for path in result.figures:
         wrote(path)
     return result, seconds
+
+
+def _timed_by_name(name: str, out: Path, seed: int) -> tuple[DemoResult, float]:
+    """One demo with its defaults, in a worker process: it is found there by name (a
+    demo's function is not sent across)."""
+    (d,) = (d for d in registry() if d.name == name)
+    return _timed(d, out, seed, d.defaults())
 
 
 def _run_one(args: argparse.Namespace) -> int:
@@ -173,21 +204,49 @@ def run_all(args: argparse.Namespace) -> int:
     summaries: dict[str, str] = {}
     missing: list[str] = []
     start = time.perf_counter()
-    for d in registry():
-        try:
-            result, seconds = _run(d, out, args.seed, d.defaults())
-        except MissingExtraError as exc:
-            # A bare install (pip install .) still runs every demo that needs nothing
-            # more, and names what each other one needs, in one line, exiting 2.
-            print(f"rperc: demo {d.name} not run: {exc}", file=sys.stderr)
-            missing.append(d.name)
-            continue
-        print(result.summary, flush=True)
-        measured[d.name] = {**result.measured, "seconds": seconds}
-        summaries[d.name] = result.summary
+    with _outcomes(out, args.seed, args.jobs) as outcomes:
+        for d, outcome in zip(registry(), outcomes, strict=True):
+            try:
+                result, seconds = outcome()
+            except MissingExtraError as exc:
+                # A bare install (pip install .) still runs every demo that needs
+                # nothing more, and names what each other one needs, in one line,
+                # exiting 2.
+                print(f"rperc: demo {d.name} not run: {exc}", file=sys.stderr)
+                missing.append(d.name)
+                continue
+            for path in result.figures:
+                wrote(path)
+            print(result.summary, flush=True)
+            measured[d.name] = {**result.measured, "seconds": seconds}
+            summaries[d.name] = result.summary
     total = time.perf_counter() - start
     ran = len(registry()) - len(missing)
     print(f"rperc demo all: {ran} demos in {total:.1f} s", file=sys.stderr)
     # The printed lines too: the docs' papers page quotes them beside the figures.
     write_json(args.json, {"demos": measured, "summaries": summaries, "seconds": total})
     return 2 if missing else 0
+
+
+Outcome = Callable[[], tuple[DemoResult, float]]
+
+
+@contextlib.contextmanager
+def _outcomes(out: Path, seed: int, jobs: int) -> Iterator[list[Outcome]]:
+    """Each demo's outcome, in the registry's order: a call that returns its result or
+    raises what it raised. With ``jobs`` > 1 the demos run in that many worker
+    processes, longest first; the results are still read in order, so the summary
+    lines and the JSON are the same as one after another."""
+    if jobs == 1:
+        yield [functools.partial(_timed, d, out, seed, d.defaults()) for d in registry()]
+        return
+    # spawn, not fork: the parent may already hold rayon's and BLAS's threads.
+    pool = ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn"))
+    try:
+        longest_first = sorted(registry(), key=lambda d: -d.seconds)
+        futures = {d.name: pool.submit(_timed_by_name, d.name, out, seed) for d in longest_first}
+        yield [futures[d.name].result for d in registry()]
+    finally:
+        # On Ctrl-C or an error the demos not yet started are cancelled (the workers
+        # had the signal too, and stop their own).
+        pool.shutdown(wait=True, cancel_futures=True)

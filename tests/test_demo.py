@@ -291,6 +291,19 @@ def test_color_shape_contour_iou_is_recomputed_against_the_generator(demo_all):
         ious.append(poly.intersection(truth).area / poly.union(truth).area)
     # Rasterised IoU (printed) and exact areas differ by the boundary pixels only.
     assert printed == pytest.approx(np.mean(ious), abs=0.03)
+    # Each experiment's loss and re-acquisition counts from its per-frame lost flags: a
+    # re-acquisition is a lost frame followed by a tracked one.
+    for name, run in demo_all["measured"]["color-shape"]["experiments"].items():
+        lost, found, fps = grab(
+            rf"{name} experiment .*?lost in {NUMBER} frames, re-acquired {NUMBER} times, "
+            rf"{NUMBER} fps",
+            line,
+        )
+        flags = run["lost"]
+        assert len(flags) == int(frames) - 1
+        assert lost == sum(flags)
+        assert found == sum(1 for k in range(1, len(flags)) if flags[k - 1] and not flags[k])
+        assert fps == pytest.approx(run["fps"], abs=0.5)
 
 
 def test_pattern_fig8_errors_are_recomputed_against_the_generator(demo_all):

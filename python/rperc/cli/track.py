@@ -13,6 +13,8 @@
 from __future__ import annotations
 
 import argparse
+import itertools
+import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -366,12 +368,14 @@ def demo_color_shape(out: Path, seed: int, frames: int = 60) -> DemoResult:
     for name in EXPERIMENTS:
         run = _color_shape_run(name, frames, seed)
         figures.append(save(_color_shape_strip(run, seed), out / f"color_shape_{name}.png"))
-        experiments[name] = {"contour_iou": run["contour_iou"], "box_iou": run["box_iou"]}
+        experiments[name] = {k: run[k] for k in ("contour_iou", "box_iou", "lost", "fps")}
+        experiments[name]["reacquired"] = run["reacquired"]
         iou, box = np.mean(run["contour_iou"]), run["box_iou"]
         lines.append(
             f"{name} experiment ({len(run['seq'])} frames, seed {seed}) against its truth "
-            f"masks: color-shape contour IoU {iou:.3f}, box IoU {box['color-shape']:.3f}; "
-            f"color only box IoU {box['color']:.3f}"
+            f"masks: color-shape contour IoU {iou:.3f}, box IoU {box['color-shape']:.3f}, "
+            f"lost in {sum(run['lost'])} frames, re-acquired {run['reacquired']} times, "
+            f"{run['fps']:.0f} fps; color only box IoU {box['color']:.3f}"
         )
         if name == "rectangle":
             rectangle = run
@@ -402,8 +406,12 @@ def _color_shape_run(name: str, frames: int, seed: int) -> dict[str, Any]:
         seq.frames[0], tuple(truth[0]), appearance=AppearanceParams(color_space=seq.color_space)
     )
     contours, cs_boxes, co_boxes, dists = [seq.outline], [truth[0]], [truth[0]], []
+    lost, update_seconds = [], 0.0
     for frame in seq.frames[1:]:
+        start = time.perf_counter()
         r = cs.update(frame)
+        update_seconds += time.perf_counter() - start
+        lost.append(r.lost)
         contours.append(r.contour)
         cs_boxes.append(np.asarray(r.box))
         co_boxes.append(np.asarray(co.update(frame).box))
@@ -423,6 +431,10 @@ def _color_shape_run(name: str, frames: int, seed: int) -> dict[str, Any]:
         "distributions": np.asarray(dists),
         "contour_iou": contour_iou,
         "box_iou": box_iou,
+        "lost": lost,
+        # Frames where a lost target is found again (lost, then not).
+        "reacquired": sum(a and not b for a, b in itertools.pairwise(lost)),
+        "fps": (len(seq) - 1) / update_seconds,
     }
 
 

@@ -9,6 +9,7 @@ use rperc_core::{Definiteness, Pose2, check_covariance, chi2_gate};
 
 use super::associate::{self, FixedPoint, Pairing, Scene, Target};
 use super::observe::{anchor_frame, anchor_observation, cartesian, fix_observation, landmark_from};
+use super::point_map::PointMap;
 use super::wall_map::{FixedWall, WallMap};
 use super::{
     Association, Detection, Event, EventArrays, EventKind, FreezeMode, LandmarkEstimate,
@@ -83,16 +84,12 @@ pub struct PlanarSlam {
     pub(super) anchor: Option<u64>,
     /// When the anchor was made (before it, the state is in the world frame).
     pub(super) anchor_time: Option<f64>,
-    /// Frozen landmarks and the anchor, with their ids.
-    fixed: Vec<FixedPoint>,
-    fixed_ids: Vec<u64>,
+    /// The points outside the state: frozen ones and the anchor, and first estimates.
+    points: PointMap,
     /// The walls: their extents, first estimates, frozen ones and pairings.
     pub(super) wall_map: WallMap,
     /// How often each landmark (point or wall) was updated, for `freeze_after`.
     pub(super) revisions: HashMap<u64, u32>,
-    /// Each point landmark's first estimate (its position when admitted), where its
-    /// observation is linearised with `first_estimates`.
-    first_points: HashMap<u64, Point2<f64>>,
     /// How far the updates since the last prediction moved the robot's position
     /// (the pose's first estimate is its prediction: `first_estimates`).
     pub(super) update_shift: Vector2<f64>,
@@ -150,11 +147,9 @@ impl PlanarSlam {
             offset: Vector2::zeros(),
             anchor: None,
             anchor_time: None,
-            fixed: Vec::new(),
-            fixed_ids: Vec::new(),
+            points: PointMap::default(),
             wall_map: WallMap::default(),
             revisions: HashMap::new(),
-            first_points: HashMap::new(),
             update_shift: Vector2::zeros(),
             candidates: Vec::new(),
             next_id: 0,
@@ -521,11 +516,11 @@ impl PlanarSlam {
         };
         let first = if self.config.first_estimates {
             let ids = self.ekf.landmark_ids().iter();
-            ids.map(|id| self.first_points.get(id).copied()).collect()
+            ids.map(|&id| self.points.first_estimate(id)).collect()
         } else {
             Vec::new()
         };
-        Scene::new(&self.ekf, self.mount, self.w, &self.fixed)
+        Scene::new(&self.ekf, self.mount, self.w, self.points.fixed())
             .with_walls(walls)
             .with_first_estimates(first)
     }
@@ -587,11 +582,7 @@ impl PlanarSlam {
             }
             let target = match self.ekf.landmark_index(id) {
                 Some(j) => Some(Target::State(j)),
-                None => self
-                    .fixed_ids
-                    .iter()
-                    .position(|&f| f == id)
-                    .map(Target::Fixed),
+                None => self.points.fixed_index(id).map(Target::Fixed),
             };
             match target.map(|t| scene.pairing(i, z, t)) {
                 None => found.unmatched.push(i),
@@ -605,7 +596,7 @@ impl PlanarSlam {
     pub(super) fn target_id(&self, target: Target) -> u64 {
         match target {
             Target::State(j) => self.ekf.landmark_ids()[j],
-            Target::Fixed(k) => self.fixed_ids[k],
+            Target::Fixed(k) => self.points.fixed_id(k),
             Target::FixedWall(k) => self.wall_map.fixed_id(k),
         }
     }
@@ -678,11 +669,8 @@ impl PlanarSlam {
         if self.wall_map.contains(id) {
             self.wall_map.fix(id, FixedWall { line: mean, cov });
         } else {
-            self.fixed.push(FixedPoint {
-                mean: Point2::from(mean),
-                cov,
-            });
-            self.fixed_ids.push(id);
+            let mean = Point2::from(mean);
+            self.points.fix(id, FixedPoint { mean, cov });
         }
         self.stats.frozen += 1;
         Ok(())
@@ -753,7 +741,7 @@ impl PlanarSlam {
 
     pub(super) fn fresh_id(&mut self) -> u64 {
         while self.in_state(self.next_id)
-            || self.fixed_ids.contains(&self.next_id)
+            || self.points.fixed_index(self.next_id).is_some()
             || self.wall_map.contains(self.next_id)
         {
             self.next_id += 1;
@@ -772,7 +760,7 @@ impl PlanarSlam {
         }
         let (l, g_r, g_z) = landmark_from(&self.robot(), &self.mount, z);
         if self.config.first_estimates {
-            self.first_points.insert(id, l);
+            self.points.set_first_estimate(id, l);
         }
         let g_r = self.robot_block(&g_r);
         self.ekf.add_landmark_with_id(
@@ -796,11 +784,8 @@ impl PlanarSlam {
         for c in &mut self.candidates {
             c.mean -= a.coords;
         }
-        self.fixed.push(FixedPoint {
-            mean: Point2::origin(),
-            cov: Matrix2::zeros(),
-        });
-        self.fixed_ids.push(id);
+        let (mean, cov) = (Point2::origin(), Matrix2::zeros());
+        self.points.fix(id, FixedPoint { mean, cov });
         self.anchor = Some(id);
         self.anchor_time = self.time;
         Ok(())
@@ -839,8 +824,7 @@ impl PlanarSlam {
             let frozen = ekf.is_consider(j);
             out.push(self.estimate(id, Point2::new(x[off], x[off + 1]), &c, frozen));
         }
-        for (k, &id) in self.fixed_ids.iter().enumerate() {
-            let f = &self.fixed[k];
+        for (id, f) in self.points.fixed_with_ids() {
             out.push(self.estimate(id, f.mean, &dyn_mat(&f.cov), Some(id) != self.anchor));
         }
         out.sort_by_key(|l| l.id);

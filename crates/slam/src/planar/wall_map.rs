@@ -8,6 +8,8 @@ use std::collections::HashMap;
 
 use nalgebra::{Matrix2, Point2, Vector2};
 
+use super::fixed::Fixed;
+
 /// How many of a wall's latest paired detections `wall_shared_sd` compares a new one
 /// with: `n` in its `sqrt(n)` is at most this.
 pub const WALL_PARTS_KEPT: usize = 256;
@@ -42,9 +44,8 @@ pub(super) struct WallMap {
     /// Each wall's first estimate, where its observation is linearised with
     /// `first_estimates`.
     first_estimates: HashMap<u64, Vector2<f64>>,
-    /// Frozen walls and a wall anchor, with their ids (same order).
-    fixed: Vec<FixedWall>,
-    fixed_ids: Vec<u64>,
+    /// Frozen walls and a wall anchor, with their ids.
+    fixed: Fixed<FixedWall>,
     /// The last wall scan: each detection's wall id (paired or admitted), or `None`.
     pairing: Vec<Option<u64>>,
     /// Every wall detection so far, in the order processed: as `pairing`.
@@ -109,25 +110,23 @@ impl WallMap {
     /// Wall `id` leaves the filter (frozen, or made the anchor): from now on it is
     /// known at `wall`.
     pub fn fix(&mut self, id: u64, wall: FixedWall) {
-        self.fixed.push(wall);
-        self.fixed_ids.push(id);
+        self.fixed.push(id, wall);
     }
 
     /// The fixed walls with their ids, in the order fixed (`k` in
     /// `Target::FixedWall(k)`).
     pub fn fixed(&self) -> impl Iterator<Item = (&FixedWall, u64)> {
-        self.fixed.iter().zip(self.fixed_ids.iter().copied())
+        self.fixed.iter().map(|(id, wall)| (wall, id))
     }
 
     /// The id of the `k`-th fixed wall.
     pub fn fixed_id(&self, k: usize) -> u64 {
-        self.fixed_ids[k]
+        self.fixed.id(k)
     }
 
     /// Fixed wall `id`, if it is one.
     pub fn fixed_wall(&self, id: u64) -> Option<&FixedWall> {
-        let k = self.fixed_ids.iter().position(|&f| f == id)?;
-        Some(&self.fixed[k])
+        self.fixed.get(id)
     }
 
     /// A new wall scan of `n` detections, none paired yet.

@@ -8,6 +8,7 @@ use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Point2, Vector2};
 use rperc_core::{Definiteness, Pose2, check_covariance, chi2_gate};
 
 use super::associate::{self, FixedPoint, Pairing, Scene, Target};
+use super::candidates::{Candidates, Sighting};
 use super::observe::{anchor_frame, anchor_observation, cartesian, fix_observation, landmark_from};
 use super::point_map::PointMap;
 use super::wall_map::{FixedWall, WallMap};
@@ -26,16 +27,6 @@ struct Found {
     unmatched: Vec<usize>,
     rejected: u64,
     truncated: bool,
-}
-
-/// A sighting of a landmark not yet in the map.
-#[derive(Debug, Clone, PartialEq)]
-struct Candidate {
-    id: Option<u64>,
-    mean: Point2<f64>,
-    cov: Matrix2<f64>,
-    count: u32,
-    last_seen: f64,
 }
 
 /// The planar EKF-SLAM engine (see the [module docs](super)).
@@ -93,7 +84,7 @@ pub struct PlanarSlam {
     /// How far the updates since the last prediction moved the robot's position
     /// (the pose's first estimate is its prediction: `first_estimates`).
     pub(super) update_shift: Vector2<f64>,
-    candidates: Vec<Candidate>,
+    candidates: Candidates,
     next_id: u64,
     events: usize,
     /// Work done since the last interrupt checkpoint (Ctrl-C from Python).
@@ -151,7 +142,7 @@ impl PlanarSlam {
             wall_map: WallMap::default(),
             revisions: HashMap::new(),
             update_shift: Vector2::zeros(),
-            candidates: Vec::new(),
+            candidates: Candidates::default(),
             next_id: 0,
             events: 0,
             meter: rperc_core::interrupt::Work::new(),
@@ -469,7 +460,7 @@ impl PlanarSlam {
             self.stats.accepted += pairings.len() as u64;
         }
         self.candidates
-            .retain(|c| t - c.last_seen <= self.config.candidate_window);
+            .forget_older_than(t, self.config.candidate_window);
         for i in unmatched {
             self.sighting(t, &zs[i], ids[i])?;
         }
@@ -686,57 +677,20 @@ impl PlanarSlam {
         let (l, g_r, g_z) = landmark_from(&self.robot(), &self.mount, z);
         let prr = self.pose_covariance();
         let cov = g_r * prr * g_r.transpose() + g_z * self.w * g_z.transpose();
-        let k = match self.config.association {
-            Association::Known => self.candidates.iter().position(|c| c.id == id),
-            _ => self.nearest_candidate(&l, &cov),
+        let sighting = Sighting {
+            id,
+            mean: l,
+            cov,
+            time: t,
         };
-        let count = match k {
-            Some(k) if self.consistent(&self.candidates[k], &l, &cov) => {
-                fuse(&mut self.candidates[k], &l, &cov, t);
-                self.candidates[k].count
-            }
-            _ => {
-                if let Some(k) = k {
-                    self.candidates.swap_remove(k);
-                }
-                self.candidates.push(Candidate {
-                    id,
-                    mean: l,
-                    cov,
-                    count: 1,
-                    last_seen: t,
-                });
-                1
-            }
-        };
-        if count < self.config.candidate_sightings {
+        let by_id = self.config.association == Association::Known;
+        let needed = self.config.candidate_sightings;
+        if self.candidates.sight(&sighting, by_id, self.gate, needed) < needed {
             self.stats.candidate += 1;
             return Ok(());
         }
-        let k = k.filter(|_| count > 1).unwrap_or(self.candidates.len() - 1);
-        self.candidates.swap_remove(k);
         let id = id.unwrap_or_else(|| self.fresh_id());
         self.admit(id, z)
-    }
-
-    fn consistent(&self, c: &Candidate, l: &Point2<f64>, cov: &Matrix2<f64>) -> bool {
-        let e = l - c.mean;
-        (c.cov + cov)
-            .try_inverse()
-            .is_some_and(|inv| e.dot(&(inv * e)) <= self.gate)
-    }
-
-    fn nearest_candidate(&self, l: &Point2<f64>, cov: &Matrix2<f64>) -> Option<usize> {
-        self.candidates
-            .iter()
-            .enumerate()
-            .filter_map(|(k, c)| {
-                let e = l - c.mean;
-                let d2 = e.dot(&((c.cov + cov).try_inverse()? * e));
-                (d2 <= self.gate).then_some((k, d2))
-            })
-            .min_by(|a, b| a.1.total_cmp(&b.1))
-            .map(|(k, _)| k)
     }
 
     pub(super) fn fresh_id(&mut self) -> u64 {
@@ -781,28 +735,13 @@ impl PlanarSlam {
         let (moved, j_r, j_z, a) = anchor_frame(&self.robot(), &self.mount, z);
         self.reanchor(&moved, &j_r, &(j_z * self.w * j_z.transpose()))?;
         self.offset += a.coords;
-        for c in &mut self.candidates {
-            c.mean -= a.coords;
-        }
+        self.candidates.shift_origin(&a.coords);
         let (mean, cov) = (Point2::origin(), Matrix2::zeros());
         self.points.fix(id, FixedPoint { mean, cov });
         self.anchor = Some(id);
         self.anchor_time = self.time;
         Ok(())
     }
-}
-
-/// Fuses a new sighting into a candidate (information form: the two estimates
-/// treated as independent, which is good enough for an admission test).
-fn fuse(c: &mut Candidate, l: &Point2<f64>, cov: &Matrix2<f64>, t: f64) {
-    if let (Some(a), Some(b)) = (c.cov.try_inverse(), cov.try_inverse())
-        && let Some(sum) = (a + b).try_inverse()
-    {
-        c.mean = Point2::from(sum * (a * c.mean.coords + b * l.coords));
-        c.cov = sum;
-    }
-    c.count += 1;
-    c.last_seen = t;
 }
 
 /// Results and the bulk entry point.

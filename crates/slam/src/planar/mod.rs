@@ -19,6 +19,7 @@
 mod arrow;
 mod associate;
 mod bias;
+mod candidates;
 mod compress;
 mod config;
 mod engine;

@@ -738,9 +738,14 @@ impl PlanarSlam {
         self.candidates.shift_origin(&a.coords);
         let (mean, cov) = (Point2::origin(), Matrix2::zeros());
         self.points.fix(id, FixedPoint { mean, cov });
+        self.anchored_at(id);
+        Ok(())
+    }
+
+    /// Landmark `id` (a point or a wall) is the anchor from now on.
+    pub(super) fn anchored_at(&mut self, id: u64) {
         self.anchor = Some(id);
         self.anchor_time = self.time;
-        Ok(())
     }
 }
 

@@ -464,8 +464,7 @@ impl PlanarSlam {
         let line = w.wall;
         let cov = Matrix2::zeros();
         self.wall_map.fix(id, FixedWall { line, cov });
-        self.anchor = Some(id);
-        self.anchor_time = self.time;
+        self.anchored_at(id);
         Ok(())
     }
 }

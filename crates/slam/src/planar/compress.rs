@@ -190,11 +190,11 @@ impl PlanarSlam {
                 // gate with a bound of the robot cross-covariance (O(1)), then the gate
                 // itself (O(3 a0)).
                 let l = c.aux.passive_mean(k);
-                scene.may_observe(&l, passive[k].trace, zs, self.gate)
-                    && scene.may_pair(&l, None, &c.aux.passive_own(k), zs, self.gate)
+                scene.may_observe(&l, passive[k].trace, zs, self.gates.individual())
+                    && scene.may_pair(&l, None, &c.aux.passive_own(k), zs, self.gates.individual())
                     && {
                         let (p_rl, p_ll) = c.aux.passive_covariance(k);
-                        scene.may_pair(&l, Some(&p_rl), &p_ll, zs, self.gate)
+                        scene.may_pair(&l, Some(&p_rl), &p_ll, zs, self.gates.individual())
                     }
             })
             .collect()
@@ -215,7 +215,9 @@ impl PlanarSlam {
         passive
             .filter(|(_, p)| {
                 let distance2 = (p.mean[0] - sensor.x).powi(2) + (p.mean[1] - sensor.y).powi(2);
-                let reach = farthest + p.reach * scale + scene.range_reach(p.trace, self.gate);
+                let reach = farthest
+                    + p.reach * scale
+                    + scene.range_reach(p.trace, self.gates.individual());
                 // Compared squared (reach >= 0); a NaN keeps the landmark for the exact test.
                 distance2 <= reach * reach || distance2.is_nan() || reach.is_nan()
             })

@@ -5,10 +5,11 @@ use std::collections::HashMap;
 use std::time::Instant;
 
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Point2, Vector2};
-use rperc_core::{Definiteness, Pose2, check_covariance, chi2_gate};
+use rperc_core::{Definiteness, Pose2, check_covariance};
 
 use super::associate::{self, FixedPoint, Pairing, Scene, Target};
 use super::candidates::{Candidates, Sighting};
+use super::gates::Gates;
 use super::observe::{anchor_frame, anchor_observation, cartesian, fix_observation, landmark_from};
 use super::point_map::PointMap;
 use super::wall_map::{FixedWall, WallMap};
@@ -65,9 +66,8 @@ pub struct PlanarSlam {
     /// The detection noise `W` (eq. 8).
     w: Matrix2<f64>,
     pub(super) mount: Pose2,
-    pub(super) gate: f64,
-    /// `joint_gates[k]`: the chi-square gate of `k` stacked detections.
-    pub(super) joint_gates: Vec<f64>,
+    /// The association's chi-square gates, individual and joint.
+    pub(super) gates: Gates,
     pub(super) time: Option<f64>,
     control: Vector2<f64>,
     /// The internal frame's origin in the world (the anchor's position; zero without).
@@ -124,12 +124,11 @@ impl PlanarSlam {
         let rd = x.len();
         let p = DMatrix::from_diagonal(&DVector::from_vec(var));
         let ekf = Ekf::new(DVector::from_vec(x), p, rd, 2)?.with_wrapped_angle(2)?;
-        let gate = chi2_gate(2, config.gate_confidence)?;
+        let gates = Gates::new(config.gate_confidence)?;
         Ok(Self {
             w: Matrix2::new(config.range_variance, 0.0, 0.0, config.bearing_variance),
             mount: sensor_mount(&config.motion),
-            gate,
-            joint_gates: vec![0.0, gate],
+            gates,
             config,
             ekf,
             cekf: None,
@@ -421,7 +420,7 @@ impl PlanarSlam {
         let (h, jac) = fix_observation(&self.robot(), &self.offset, &lever);
         let nu = DVector::from_vec(vec![xy[0] - h.x, xy[1] - h.y]);
         let hs = SparseJacobian::new(2).with_block(0, 0, dyn_mat(&jac));
-        let gate = self.gate;
+        let gate = self.gates.individual();
         match self.shifting(|slam| slam.ekf.update_gated(&nu, &hs, &r, gate))? {
             Gated::Applied(update) => {
                 self.follow_update(&[(nu, hs, r)], &update)?;
@@ -474,7 +473,7 @@ impl PlanarSlam {
         zs: &[Vector2<f64>],
         ids: &[Option<u64>],
     ) -> Result<(Vec<Pairing>, Vec<usize>)> {
-        self.grow_joint_gates(zs.len())?;
+        self.gates.grow(zs.len())?;
         let scene = self.scene();
         let found = if self.config.association == Association::Known {
             self.associate_known(&scene, zs, ids)?
@@ -484,16 +483,6 @@ impl PlanarSlam {
         self.stats.rejected += found.rejected;
         self.stats.jcbb_truncated += u64::from(found.truncated);
         Ok((found.pairings, found.unmatched))
-    }
-
-    /// `joint_gates[k]` for every `k <= n`.
-    pub(super) fn grow_joint_gates(&mut self, n: usize) -> Result<()> {
-        while self.joint_gates.len() <= n {
-            let k = self.joint_gates.len();
-            self.joint_gates
-                .push(chi2_gate(2 * k, self.config.gate_confidence)?);
-        }
-        Ok(())
     }
 
     /// The prior the association works against, with the walls marked.
@@ -520,13 +509,13 @@ impl PlanarSlam {
     /// detection compatible with some landmark but left unpaired is rejected (it is
     /// ambiguous, not new); one compatible with none is a candidate.
     fn associate_search(&self, scene: &Scene<'_>, zs: &[Vector2<f64>]) -> Found {
-        let options = associate::compatible(scene, zs, self.gate);
+        let options = associate::compatible(scene, zs, self.gates.individual());
         let (pairings, truncated) = match self.config.association {
             Association::Jcbb => {
                 let out = associate::jcbb(
                     scene,
                     &options,
-                    &self.joint_gates,
+                    self.gates.joint(),
                     self.config.jcbb_max_nodes,
                 );
                 (out.pairings, out.truncated)
@@ -577,7 +566,7 @@ impl PlanarSlam {
             };
             match target.map(|t| scene.pairing(i, z, t)) {
                 None => found.unmatched.push(i),
-                Some(Some(p)) if p.nis <= self.gate => found.pairings.push(p),
+                Some(Some(p)) if p.nis <= self.gates.individual() => found.pairings.push(p),
                 Some(_) => found.rejected += 1,
             }
         }
@@ -685,7 +674,11 @@ impl PlanarSlam {
         };
         let by_id = self.config.association == Association::Known;
         let needed = self.config.candidate_sightings;
-        if self.candidates.sight(&sighting, by_id, self.gate, needed) < needed {
+        if self
+            .candidates
+            .sight(&sighting, by_id, self.gates.individual(), needed)
+            < needed
+        {
             self.stats.candidate += 1;
             return Ok(());
         }

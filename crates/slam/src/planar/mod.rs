@@ -24,6 +24,7 @@ mod compress;
 mod config;
 mod engine;
 mod fixed;
+mod gates;
 mod local;
 mod observe;
 mod point_map;

@@ -204,7 +204,7 @@ impl PlanarSlam {
         let limit = self.config.wall_max_angle_sd.powi(2);
         let vague: Vec<bool> = seen.iter().map(|s| s.r[(1, 1)] > limit).collect();
         self.stats.walls_vague += vague.iter().filter(|&&v| v).count() as u64;
-        self.grow_joint_gates(seen.len())?;
+        self.gates.grow(seen.len())?;
         let new_gate = chi2_gate(2, self.config.wall_admission_confidence)?;
         let (mut options, near) = self.wall_options(&seen, new_gate);
         for (o, _) in options.iter_mut().zip(&vague).filter(|(_, v)| **v) {
@@ -291,7 +291,7 @@ impl PlanarSlam {
                     .filter(|p| p.nis <= new_gate)
                     .collect();
                 let near = !o.is_empty();
-                o.retain(|p| p.nis <= self.gate);
+                o.retain(|p| p.nis <= self.gates.individual());
                 o.sort_by(|a, b| a.nis.total_cmp(&b.nis));
                 (o, near)
             })
@@ -345,7 +345,7 @@ impl PlanarSlam {
         let out = associate::jcbb(
             &self.scene(),
             options,
-            &self.joint_gates,
+            self.gates.joint(),
             self.config.jcbb_max_nodes,
         );
         self.stats.jcbb_truncated += u64::from(out.truncated);

@@ -450,3 +450,23 @@ def _untimed(value):
     if isinstance(value, list):
         return [_untimed(v) for v in value]
     return value
+
+
+def test_a_worker_that_dies_is_a_one_line_error_not_a_hang(tmp_path):
+    """A script without the ``__main__`` guard re-runs itself in each spawned worker,
+    which then fails to start; ``demo all`` must say so in one line and exit 2, at once."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "unguarded.py"
+    script.write_text(
+        "import sys\nfrom rperc.cli import main\n"
+        f"sys.exit(main(['demo', 'all', '--out', {str(tmp_path / 'out')!r}, '--jobs', '2']))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, timeout=120, cwd=tmp_path
+    )
+    assert done.returncode == 2, done.stderr
+    (line,) = [x for x in done.stderr.splitlines() if x.startswith("rperc: error:")]
+    assert "demo worker process ended abruptly" in line and "--jobs 1" in line
+    assert done.stdout == ""  # no demo finished

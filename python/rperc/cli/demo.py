@@ -7,6 +7,12 @@ measured error), the figures it wrote and its measured figures for ``--json``. T
 capability, write its demo next to its command and append one :class:`Demo` to
 :func:`registry`: it then has its own ``rperc demo NAME`` and runs in ``rperc demo all``
 (and so in ``make demo``).
+
+``demo all`` runs the demos in worker processes (``--jobs``, one per core): each worker
+finds its demo by name in :func:`registry` and sends its :class:`DemoResult` back, so
+a result must pickle. A script that calls ``rperc.cli.main(["demo", "all"])`` needs the
+``if __name__ == "__main__":`` guard, as every program that starts processes does (or
+``--jobs 1``, which runs everything in the calling process).
 """
 
 from __future__ import annotations
@@ -19,7 +25,8 @@ import os
 import sys
 import time
 from collections.abc import Callable, Iterator
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -245,8 +252,19 @@ def _outcomes(out: Path, seed: int, jobs: int) -> Iterator[list[Outcome]]:
     try:
         longest_first = sorted(registry(), key=lambda d: -d.seconds)
         futures = {d.name: pool.submit(_timed_by_name, d.name, out, seed) for d in longest_first}
-        yield [futures[d.name].result for d in registry()]
+        yield [functools.partial(_result, futures[d.name]) for d in registry()]
     finally:
         # On Ctrl-C or an error the demos not yet started are cancelled (the workers
         # had the signal too, and stop their own).
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _result(future: Future[tuple[DemoResult, float]]) -> tuple[DemoResult, float]:
+    """A worker's answer; a worker that died (killed, out of memory, or a script
+    without the ``__main__`` guard) is a one-line error, not a pool's traceback."""
+    try:
+        return future.result()
+    except BrokenProcessPool as exc:
+        from rperc import RpercError
+
+        raise RpercError(f"a demo worker process ended abruptly ({exc}); try --jobs 1") from None

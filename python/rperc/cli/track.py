@@ -358,8 +358,10 @@ def demo_color_shape(out: Path, seed: int, frames: int = 60) -> DemoResult:
     section 3.4 (Fig. 13), each scored on the generator's truth masks (contour) and
     their boxes: circles changing colour (RGB), a rectangle under changing light with a
     moving specular highlight, a deforming blob, and a blob among same-coloured
-    distractors (opponent space). One figure per experiment, and the path of the tracked
-    colour distribution against the circle's true colour (Fig. 13, upper left)."""
+    distractors (opponent space). Each line also gives the frames the colour+shape
+    tracker reported lost, how often it found a lost target again, and its update rate.
+    One figure per experiment, and the path of the tracked colour distribution against
+    the circle's true colour (Fig. 13, upper left)."""
     from rperc.plot import save
     from rperc.tracking.shape_sequences import EXPERIMENTS
 

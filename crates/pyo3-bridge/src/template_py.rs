@@ -4,7 +4,7 @@ use pyo3::prelude::*;
 use tracking::{ColorTemplateParams, RgbFrame};
 
 use crate::errors::{exclusive, shared};
-use crate::tracking_py::{Threads, bbox, on_frame};
+use crate::tracking_py::{Threads, on_frame, start_on_box};
 
 /// One answer of the colour + template tracker, frozen: the `box` `(x, y, w, h)`, the
 /// `score`, the `lost` flag and the signals it was decided from: the merged response's
@@ -60,11 +60,11 @@ impl PyColorTemplateTracker {
         config: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let _ = seed;
-        let params: ColorTemplateParams =
-            crate::config::from_python(config, "ColorTemplateTracker")?;
-        let b = self::bbox(bbox)?;
-        let start = |view: RgbFrame<'_>| tracking::ColorTemplateTracker::new(view, b, params);
-        let inner = on_frame(py, frame, Threads::Caller, start)?;
+        let class = "ColorTemplateTracker";
+        let start = |view: RgbFrame<'_>, b, params: ColorTemplateParams| {
+            tracking::ColorTemplateTracker::new(view, b, params)
+        };
+        let inner = start_on_box(py, frame, bbox, config, class, start)?;
         Ok(Self { inner })
     }
 

@@ -6,6 +6,7 @@ use numpy::{
     PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
+use serde::de::DeserializeOwned;
 use tracking::{
     BoundingBox, ColorTrackerParams, ParticleTrackerParams, Resampler, RgbFrame, TrackResult,
 };
@@ -120,11 +121,11 @@ impl PyColorHistogramTracker {
         bbox: &Bound<'_, PyAny>,
         config: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let params: ColorTrackerParams =
-            crate::config::from_python(config, "ColorHistogramTracker")?;
-        let b = self::bbox(bbox)?;
-        let start = |view: RgbFrame<'_>| tracking::ColorHistogramTracker::new(view, b, params);
-        let inner = on_frame(py, frame, Threads::Caller, start)?;
+        let class = "ColorHistogramTracker";
+        let start = |view: RgbFrame<'_>, b, params: ColorTrackerParams| {
+            tracking::ColorHistogramTracker::new(view, b, params)
+        };
+        let inner = start_on_box(py, frame, bbox, config, class, start)?;
         Ok(Self { inner })
     }
 
@@ -176,11 +177,11 @@ impl PyParticleColorTracker {
         seed: u64,
         config: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let params: ParticleTrackerParams =
-            crate::config::from_python(config, "ParticleColorTracker")?;
-        let b = self::bbox(bbox)?;
-        let start = |view: RgbFrame<'_>| tracking::ParticleColorTracker::new(view, b, params, seed);
-        let inner = on_frame(py, frame, Threads::Caller, start)?;
+        let class = "ParticleColorTracker";
+        let start = |view: RgbFrame<'_>, b, params: ParticleTrackerParams| {
+            tracking::ParticleColorTracker::new(view, b, params, seed)
+        };
+        let inner = start_on_box(py, frame, bbox, config, class, start)?;
         Ok(Self { inner })
     }
 
@@ -232,6 +233,28 @@ where
         Threads::Caller => detached(py, work),
         Threads::Pool => detached_parallel(py, work),
     }
+}
+
+/// Starts a box tracker on its first frame with the GIL released: `config` read as its
+/// parameters (errors name `class`), the box checked, then `start`.
+pub(crate) fn start_on_box<P, T, F>(
+    py: Python<'_>,
+    frame: &Bound<'_, PyAny>,
+    bbox: &Bound<'_, PyAny>,
+    config: Option<&Bound<'_, PyAny>>,
+    class: &str,
+    start: F,
+) -> PyResult<T>
+where
+    P: DeserializeOwned + Default + Send,
+    T: Send,
+    F: FnOnce(RgbFrame<'_>, BoundingBox, P) -> tracking::Result<T> + Send,
+{
+    let params: P = crate::config::from_python(config, class)?;
+    let b = self::bbox(bbox)?;
+    on_frame(py, frame, Threads::Caller, move |view| {
+        start(view, b, params)
+    })
 }
 
 /// Indices of `n` particles drawn from `weights` by `method`, seeded (GIL released).

@@ -126,11 +126,8 @@ impl RoomConfig {
     /// neighbour association.
     pub fn slam_config(&self) -> PlanarConfig {
         PlanarConfig {
-            motion: self.drive().motion(),
             association: Association::NearestNeighbour,
-            initial_pose: [self.centre[0] + self.radius, self.centre[1], FRAC_PI_2],
-            initial_pose_variance: self.initial_pose_variance,
-            ..PlanarConfig::default()
+            ..self.drive().slam_config(self.centre)
         }
     }
 

@@ -3,6 +3,8 @@
 //! range-bearing sightings drawn from exactly the models the filter assumes, so any
 //! inconsistency left is the EKF's own (linearisation), not a modelling error.
 
+use std::f64::consts::FRAC_PI_2;
+
 use nalgebra::{DVector, Matrix3, Point2, Vector2};
 use rayon::prelude::*;
 use rperc_core::{Pose2, angle_diff, mahalanobis2, nees_band, rng};
@@ -127,12 +129,9 @@ impl SimConfig {
     /// The filter settings that match this world: same noise, same start.
     pub fn slam_config(&self) -> PlanarConfig {
         PlanarConfig {
-            motion: self.drive().motion(),
             range_variance: self.range_variance,
             bearing_variance: self.bearing_variance,
-            initial_pose: [self.radius, 0.0, std::f64::consts::FRAC_PI_2],
-            initial_pose_variance: self.initial_pose_variance,
-            ..PlanarConfig::default()
+            ..self.drive().slam_config([0.0; 2])
         }
     }
 
@@ -207,6 +206,17 @@ impl Drive {
             speed_variance: self.noise[0],
             turn_rate_variance: self.noise[1],
         })
+    }
+
+    /// The filter settings that match this drive about `centre`: its motion noise,
+    /// and the start on the circle's east point heading north, with its variances.
+    pub fn slam_config(&self, centre: [f64; 2]) -> PlanarConfig {
+        PlanarConfig {
+            motion: self.motion(),
+            initial_pose: [centre[0] + self.radius, centre[1], FRAC_PI_2],
+            initial_pose_variance: self.start_variance,
+            ..PlanarConfig::default()
+        }
     }
 }
 

@@ -18,7 +18,7 @@ use nalgebra::{DMatrix, DVector, Vector2};
 
 use super::engine::PlanarSlam;
 use super::local::Local;
-use super::{Association, Compression, FreezeMode};
+use super::{Compression, FreezeMode};
 use crate::ekf::{Ekf, SparseJacobian, Update};
 use crate::error::Result;
 
@@ -107,7 +107,7 @@ impl PlanarSlam {
         if self.cekf.is_none() {
             return Ok(());
         }
-        let wanted = if self.config.association == Association::Known {
+        let wanted = if self.association.by_id() {
             self.passive_by_id(ids)
         } else {
             self.passive_in_view(zs)
@@ -190,12 +190,27 @@ impl PlanarSlam {
                 // gate with a bound of the robot cross-covariance (O(1)), then the gate
                 // itself (O(3 a0)).
                 let l = c.aux.passive_mean(k);
-                scene.may_observe(&l, passive[k].trace, zs, self.gates.individual())
-                    && scene.may_pair(&l, None, &c.aux.passive_own(k), zs, self.gates.individual())
-                    && {
-                        let (p_rl, p_ll) = c.aux.passive_covariance(k);
-                        scene.may_pair(&l, Some(&p_rl), &p_ll, zs, self.gates.individual())
-                    }
+                scene.may_observe(
+                    &l,
+                    passive[k].trace,
+                    zs,
+                    self.association.gates().individual(),
+                ) && scene.may_pair(
+                    &l,
+                    None,
+                    &c.aux.passive_own(k),
+                    zs,
+                    self.association.gates().individual(),
+                ) && {
+                    let (p_rl, p_ll) = c.aux.passive_covariance(k);
+                    scene.may_pair(
+                        &l,
+                        Some(&p_rl),
+                        &p_ll,
+                        zs,
+                        self.association.gates().individual(),
+                    )
+                }
             })
             .collect()
     }
@@ -217,7 +232,7 @@ impl PlanarSlam {
                 let distance2 = (p.mean[0] - sensor.x).powi(2) + (p.mean[1] - sensor.y).powi(2);
                 let reach = farthest
                     + p.reach * scale
-                    + scene.range_reach(p.trace, self.gates.individual());
+                    + scene.range_reach(p.trace, self.association.gates().individual());
                 // Compared squared (reach >= 0); a NaN keeps the landmark for the exact test.
                 distance2 <= reach * reach || distance2.is_nan() || reach.is_nan()
             })

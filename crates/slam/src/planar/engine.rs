@@ -7,28 +7,19 @@ use std::time::Instant;
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Point2, Vector2};
 use rperc_core::{Definiteness, Pose2, check_covariance};
 
-use super::associate::{self, FixedPoint, Pairing, Scene, Target};
+use super::associate::{FixedPoint, Pairing, Scene, Target};
+use super::associator::Associator;
 use super::candidates::{Candidates, Sighting};
-use super::gates::Gates;
 use super::observe::{anchor_frame, anchor_observation, cartesian, fix_observation, landmark_from};
 use super::point_map::PointMap;
 use super::wall_map::{FixedWall, WallMap};
 use super::{
-    Association, Detection, Event, EventArrays, EventKind, FreezeMode, LandmarkEstimate,
-    PlanarConfig, PlanarResult, Statistics, Trajectory, WallDetection,
+    Detection, Event, EventArrays, EventKind, FreezeMode, LandmarkEstimate, PlanarConfig,
+    PlanarResult, Statistics, Trajectory, WallDetection,
 };
 use crate::ekf::{Ekf, Gated, SparseJacobian, dyn_mat};
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::motion::MotionModel;
-
-/// What the association of one scan found.
-#[derive(Default)]
-struct Found {
-    pairings: Vec<Pairing>,
-    unmatched: Vec<usize>,
-    rejected: u64,
-    truncated: bool,
-}
 
 /// The planar EKF-SLAM engine (see the [module docs](super)).
 ///
@@ -66,8 +57,8 @@ pub struct PlanarSlam {
     /// The detection noise `W` (eq. 8).
     w: Matrix2<f64>,
     pub(super) mount: Pose2,
-    /// The association's chi-square gates, individual and joint.
-    pub(super) gates: Gates,
+    /// The association: its rule and its chi-square gates.
+    pub(super) association: Associator,
     pub(super) time: Option<f64>,
     control: Vector2<f64>,
     /// The internal frame's origin in the world (the anchor's position; zero without).
@@ -124,11 +115,15 @@ impl PlanarSlam {
         let rd = x.len();
         let p = DMatrix::from_diagonal(&DVector::from_vec(var));
         let ekf = Ekf::new(DVector::from_vec(x), p, rd, 2)?.with_wrapped_angle(2)?;
-        let gates = Gates::new(config.gate_confidence)?;
+        let association = Associator::new(
+            config.association,
+            config.gate_confidence,
+            config.jcbb_max_nodes,
+        )?;
         Ok(Self {
             w: Matrix2::new(config.range_variance, 0.0, 0.0, config.bearing_variance),
             mount: sensor_mount(&config.motion),
-            gates,
+            association,
             config,
             ekf,
             cekf: None,
@@ -270,7 +265,7 @@ impl PlanarSlam {
     /// the allocation limit: found only as the state grew, the error came seconds into
     /// the run and named a state dimension the caller never set (issue 38).
     fn check_known_landmarks(&self, ids: impl Iterator<Item = u64>) -> Result<()> {
-        if self.config.association != Association::Known {
+        if !self.association.by_id() {
             return Ok(());
         }
         let landmarks = ids.collect::<std::collections::HashSet<u64>>().len() as u128;
@@ -420,7 +415,7 @@ impl PlanarSlam {
         let (h, jac) = fix_observation(&self.robot(), &self.offset, &lever);
         let nu = DVector::from_vec(vec![xy[0] - h.x, xy[1] - h.y]);
         let hs = SparseJacobian::new(2).with_block(0, 0, dyn_mat(&jac));
-        let gate = self.gates.individual();
+        let gate = self.association.gates().individual();
         match self.shifting(|slam| slam.ekf.update_gated(&nu, &hs, &r, gate))? {
             Gated::Applied(update) => {
                 self.follow_update(&[(nu, hs, r)], &update)?;
@@ -450,7 +445,7 @@ impl PlanarSlam {
         }
         // Ids are the association only when it is 'known'; otherwise they are ignored
         // (a data set's labels must not leak into NN or JCBB).
-        let known = self.config.association == Association::Known;
+        let known = self.association.by_id();
         let ids: Vec<Option<u64>> = detections.iter().map(|d| d.id.filter(|_| known)).collect();
         self.localise(&zs, &ids)?;
         let (pairings, unmatched) = self.associate(&zs, &ids)?;
@@ -473,12 +468,13 @@ impl PlanarSlam {
         zs: &[Vector2<f64>],
         ids: &[Option<u64>],
     ) -> Result<(Vec<Pairing>, Vec<usize>)> {
-        self.gates.grow(zs.len())?;
+        self.association.begin_scan(zs.len())?;
         let scene = self.scene();
-        let found = if self.config.association == Association::Known {
-            self.associate_known(&scene, zs, ids)?
+        let found = if self.association.by_id() {
+            let targets = self.named_targets(ids)?;
+            self.association.known(&scene, zs, &targets)
         } else {
-            self.associate_search(&scene, zs)
+            self.association.search(&scene, zs)
         };
         self.stats.rejected += found.rejected;
         self.stats.jcbb_truncated += u64::from(found.truncated);
@@ -505,49 +501,10 @@ impl PlanarSlam {
             .with_first_estimates(first)
     }
 
-    /// Nearest neighbour or JCBB over the individually compatible pairings. A
-    /// detection compatible with some landmark but left unpaired is rejected (it is
-    /// ambiguous, not new); one compatible with none is a candidate.
-    fn associate_search(&self, scene: &Scene<'_>, zs: &[Vector2<f64>]) -> Found {
-        let options = associate::compatible(scene, zs, self.gates.individual());
-        let (pairings, truncated) = match self.config.association {
-            Association::Jcbb => {
-                let out = associate::jcbb(
-                    scene,
-                    &options,
-                    self.gates.joint(),
-                    self.config.jcbb_max_nodes,
-                );
-                (out.pairings, out.truncated)
-            }
-            _ => (associate::nearest_neighbour(&options), false),
-        };
-        let paired: Vec<usize> = pairings.iter().map(|p| p.det).collect();
-        let mut found = Found {
-            pairings,
-            truncated,
-            ..Found::default()
-        };
-        for (i, opts) in options.iter().enumerate() {
-            if opts.is_empty() {
-                found.unmatched.push(i);
-            } else if !paired.contains(&i) {
-                found.rejected += 1;
-            }
-        }
-        found
-    }
-
-    /// Known ids: each detection is paired with its landmark behind the individual
-    /// gate; an id not in the map goes to the candidate list.
-    fn associate_known(
-        &self,
-        scene: &Scene<'_>,
-        zs: &[Vector2<f64>],
-        ids: &[Option<u64>],
-    ) -> Result<Found> {
-        let mut found = Found::default();
-        for (i, (z, id)) in zs.iter().zip(ids).enumerate() {
+    /// The landmark each detection's id names (`None`: an id not in the map, a
+    /// candidate). A detection without an id, or with a wall's, is an error.
+    fn named_targets(&self, ids: &[Option<u64>]) -> Result<Vec<Option<Target>>> {
+        let named = |(i, id): (usize, &Option<u64>)| {
             let id = id.ok_or_else(|| {
                 SlamError::invalid(
                     "id",
@@ -560,17 +517,12 @@ impl PlanarSlam {
                     format!("detection {i} has id {id}, which is a wall's"),
                 ));
             }
-            let target = match self.ekf.landmark_index(id) {
+            Ok(match self.ekf.landmark_index(id) {
                 Some(j) => Some(Target::State(j)),
                 None => self.points.fixed_index(id).map(Target::Fixed),
-            };
-            match target.map(|t| scene.pairing(i, z, t)) {
-                None => found.unmatched.push(i),
-                Some(Some(p)) if p.nis <= self.gates.individual() => found.pairings.push(p),
-                Some(_) => found.rejected += 1,
-            }
-        }
-        Ok(found)
+            })
+        };
+        ids.iter().enumerate().map(named).collect()
     }
 
     pub(super) fn target_id(&self, target: Target) -> u64 {
@@ -672,12 +624,14 @@ impl PlanarSlam {
             cov,
             time: t,
         };
-        let by_id = self.config.association == Association::Known;
+        let by_id = self.association.by_id();
         let needed = self.config.candidate_sightings;
-        if self
-            .candidates
-            .sight(&sighting, by_id, self.gates.individual(), needed)
-            < needed
+        if self.candidates.sight(
+            &sighting,
+            by_id,
+            self.association.gates().individual(),
+            needed,
+        ) < needed
         {
             self.stats.candidate += 1;
             return Ok(());

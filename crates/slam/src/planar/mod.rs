@@ -18,6 +18,7 @@
 
 mod arrow;
 mod associate;
+mod associator;
 mod bias;
 mod candidates;
 mod compress;

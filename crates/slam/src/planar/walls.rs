@@ -24,9 +24,9 @@ use std::f64::consts::PI;
 use nalgebra::{DVector, Matrix2, Matrix2x3, Matrix3, Matrix3x2, Point2, Vector2};
 use rperc_core::{Definiteness, Pose2, check_covariance, chi2_gate, wrap_angle};
 
-use super::associate::{self, Pairing, Scene, Target};
+use super::associate::{Pairing, Scene, Target};
 use super::wall_map::{Extent, FixedWall, along, covering, gap};
-use super::{Association, PlanarSlam, WallDetection, WallEstimate, WallInnovation};
+use super::{PlanarSlam, WallDetection, WallEstimate, WallInnovation};
 use crate::ekf::dyn_mat;
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::wall::{
@@ -204,7 +204,7 @@ impl PlanarSlam {
         let limit = self.config.wall_max_angle_sd.powi(2);
         let vague: Vec<bool> = seen.iter().map(|s| s.r[(1, 1)] > limit).collect();
         self.stats.walls_vague += vague.iter().filter(|&&v| v).count() as u64;
-        self.gates.grow(seen.len())?;
+        self.association.begin_scan(seen.len())?;
         let new_gate = chi2_gate(2, self.config.wall_admission_confidence)?;
         let (mut options, near) = self.wall_options(&seen, new_gate);
         for (o, _) in options.iter_mut().zip(&vague).filter(|(_, v)| **v) {
@@ -291,7 +291,7 @@ impl PlanarSlam {
                     .filter(|p| p.nis <= new_gate)
                     .collect();
                 let near = !o.is_empty();
-                o.retain(|p| p.nis <= self.gates.individual());
+                o.retain(|p| p.nis <= self.association.gates().individual());
                 o.sort_by(|a, b| a.nis.total_cmp(&b.nis));
                 (o, near)
             })
@@ -339,17 +339,10 @@ impl PlanarSlam {
     /// scan (split by an occluding object), and each is a sighting of it with its
     /// own noise (walls carry no ids).
     fn choose(&mut self, options: &[Vec<Pairing>]) -> Vec<Pairing> {
-        if self.config.association != Association::Jcbb {
-            return options.iter().filter_map(|o| o.first().cloned()).collect();
-        }
-        let out = associate::jcbb(
-            &self.scene(),
-            options,
-            self.gates.joint(),
-            self.config.jcbb_max_nodes,
-        );
-        self.stats.jcbb_truncated += u64::from(out.truncated);
-        out.pairings
+        let nearest = |o: &[Vec<Pairing>]| o.iter().filter_map(|o| o.first().cloned()).collect();
+        let (pairings, truncated) = self.association.choose(&self.scene(), options, nearest);
+        self.stats.jcbb_truncated += u64::from(truncated);
+        pairings
     }
 
     /// Wall `id`'s line, covariance and whether it is frozen, from the state or the

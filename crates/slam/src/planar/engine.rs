@@ -7,6 +7,7 @@ use std::time::Instant;
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Point2, Vector2};
 use rperc_core::{Definiteness, Pose2, check_covariance};
 
+use super::active_area::ActiveArea;
 use super::associate::{FixedPoint, Pairing, Scene, Target};
 use super::associator::Associator;
 use super::candidates::{Candidates, Sighting};
@@ -52,8 +53,8 @@ pub struct PlanarSlam {
     /// The working filter: the full one, or while compressed the sub-filter of the
     /// robot and the active landmarks.
     pub(super) ekf: Ekf,
-    /// The compressed EKF's auxiliary state (Guivant & Nebot 2001), while compressed.
-    pub(super) cekf: Option<super::local::Local>,
+    /// The compressed EKF's active area (Guivant & Nebot 2001).
+    pub(super) area: ActiveArea,
     /// The detection noise `W` (eq. 8).
     w: Matrix2<f64>,
     pub(super) mount: Pose2,
@@ -115,6 +116,7 @@ impl PlanarSlam {
         let rd = x.len();
         let p = DMatrix::from_diagonal(&DVector::from_vec(var));
         let ekf = Ekf::new(DVector::from_vec(x), p, rd, 2)?.with_wrapped_angle(2)?;
+        let area = ActiveArea::new(&config);
         let association = Associator::new(
             config.association,
             config.gate_confidence,
@@ -126,7 +128,7 @@ impl PlanarSlam {
             association,
             config,
             ekf,
-            cekf: None,
+            area,
             time: None,
             control: Vector2::zeros(),
             offset: Vector2::zeros(),
@@ -161,7 +163,7 @@ impl PlanarSlam {
     /// The whole filter, after the global update of a compressed one (O(n^2 a),
     /// `a` the active states; the engine then runs on until it compresses again).
     pub fn full_filter(&mut self) -> &Ekf {
-        self.decompress();
+        self.area.decompress(&mut self.ekf);
         &self.ekf
     }
 
@@ -236,7 +238,7 @@ impl PlanarSlam {
             Event::Walls { t, walls } => {
                 self.predict_to(*t)?;
                 // Walls are associated against every wall: no compression with them.
-                self.decompress();
+                self.area.decompress(&mut self.ekf);
                 self.wall_scan(walls)?;
                 Ok(EventKind::Walls)
             }
@@ -315,7 +317,7 @@ impl PlanarSlam {
             let v = self.config.motion.control_noise();
             let fx = self.first_estimate_fx(pred.fx);
             self.ekf.predict_planar(&pred.mean, &fx, &pred.fv, &v)?;
-            self.follow_prediction(&fx);
+            self.area.follow_prediction(&fx);
         }
         self.time = Some(t);
         Ok(())
@@ -418,7 +420,7 @@ impl PlanarSlam {
         let gate = self.association.gates().individual();
         match self.shifting(|slam| slam.ekf.update_gated(&nu, &hs, &r, gate))? {
             Gated::Applied(update) => {
-                self.follow_update(&[(nu, hs, r)], &update)?;
+                self.area.follow_update(&[(nu, hs, r)], &update)?;
                 self.stats.fixes_applied += 1;
             }
             Gated::Rejected { .. } => self.stats.fixes_rejected += 1,
@@ -583,7 +585,7 @@ impl PlanarSlam {
             return Ok(()); // already frozen, or the anchor
         }
         // Removal reaches every state: the global update first.
-        self.decompress();
+        self.area.decompress(&mut self.ekf);
         let Some(j) = self.ekf.landmark_index(id) else {
             return Ok(());
         };
@@ -641,7 +643,7 @@ impl PlanarSlam {
     }
 
     pub(super) fn fresh_id(&mut self) -> u64 {
-        while self.in_state(self.next_id)
+        while self.area.contains(&self.ekf, self.next_id)
             || self.points.fixed_index(self.next_id).is_some()
             || self.wall_map.contains(self.next_id)
         {
@@ -671,7 +673,7 @@ impl PlanarSlam {
             &dyn_mat(&g_z),
             &dyn_mat(&self.w),
         )?;
-        self.follow_admission(&g_r)
+        self.area.follow_admission(&g_r)
     }
 
     /// Eqs. (24)-(25): the landmark becomes the global reference. The map (here only
@@ -701,7 +703,7 @@ impl PlanarSlam {
     /// The map in the world frame, sorted by id (a compressed filter is read
     /// through a global update of a copy: O(n^2 a)).
     pub fn landmarks(&self) -> Vec<LandmarkEstimate> {
-        let ekf = self.full_ekf();
+        let ekf = self.area.full(&self.ekf);
         let mut out = Vec::new();
         for (j, &id) in ekf.landmark_ids().iter().enumerate() {
             if self.wall_map.contains(id) {
@@ -742,7 +744,7 @@ impl PlanarSlam {
     /// The trajectory, the map and the statistics (after the global update of a
     /// compressed filter).
     pub fn finish(mut self) -> PlanarResult {
-        self.decompress();
+        self.area.decompress(&mut self.ekf);
         let landmarks = self.landmarks();
         let walls = self.walls();
         let point_anchor = self.anchor.filter(|&id| !self.wall_map.contains(id));

@@ -16,6 +16,7 @@
 //! paired by a Mahalanobis gate plus segment overlap, and frozen and anchored by the
 //! same config as the points (see [`PlanarSlam`]).
 
+mod active_area;
 mod arrow;
 mod associate;
 mod associator;
@@ -26,7 +27,6 @@ mod config;
 mod engine;
 mod fixed;
 mod gates;
-mod local;
 mod observe;
 mod point_map;
 pub mod room;

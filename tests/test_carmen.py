@@ -346,6 +346,18 @@ def test_a_robotlaser1_without_a_real_geometry_is_refused(tmp_path, fov, res, ma
     assert load_carmen(path).scans.angle_increment.tolist() == [1.5]
 
 
+def test_a_robotlaser1_with_a_field_too_few_is_refused_with_its_counts(tmp_path):
+    # ROBOTLASER1 and RAWLASER1 share the check (the RAWLASER1 test has its own).
+    path = tmp_path / "robot.log"
+    line = ROBOTLASER.format(fov="3.0", res="1.5", max_range="20").rsplit(" ", 1)[0]
+    path.write_text(line + "\n")
+    with pytest.raises(
+        DatasetFormatError,
+        match=r"robot\.log:1: ROBOTLASER1 with 3 beams and 0 remissions needs 27 fields, got 26",
+    ):
+        load_carmen(path)
+
+
 @pytest.mark.parametrize(
     ("lines", "kind"),
     [

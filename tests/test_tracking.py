@@ -245,3 +245,12 @@ def test_the_histogram_trackers_take_a_config_and_typed_overrides():
         appearance=base.appearance.replace(bins=(8, 8, 8)),
         filter=base.filter.replace(resampler="residual"),
     )
+
+
+def test_a_deprecated_tracker_keyword_is_reported_at_the_callers_line():
+    # The warning names the line that passed the old keyword, not a line of rperc's
+    # (the config helper sits between the constructor and the warning).
+    frames, boxes = synthetic_frames(2)
+    with pytest.warns(DeprecationWarning) as caught:
+        ColorHistogramTracker(frames[0], boxes[0], color_space="rgb")  # type: ignore[call-arg]
+    assert [w.filename for w in caught] == [__file__]

@@ -125,12 +125,15 @@ def as_config_moved(
     overrides: Mapping[str, object],
     moved: Mapping[str, tuple[str, str]],
     owner: str,
+    *,
+    stacklevel: int = 3,
 ) -> C:
     """:func:`as_config` for a constructor that took flat keywords for fields of its
     config's nested parts before it took the config: each keyword of ``moved`` sets
     field ``name`` of part ``part`` (``moved[keyword] = (part, name)``) of the config,
     the part's other fields kept, with a DeprecationWarning saying where it lives now.
-    Called from the constructor: the warning points at the constructor's caller."""
+    Called from the constructor: the warning points at the constructor's caller
+    (``stacklevel`` 3; one more for each helper between the constructor and here)."""
     nested = {k: v for k, v in overrides.items() if k in moved}
     made = as_config(cls, config, {k: v for k, v in overrides.items() if k not in moved})
     if not nested:
@@ -140,7 +143,7 @@ def as_config_moved(
         f"{owner}: keywords of nested fields are deprecated ({spelled}); pass the part "
         f"(such as part=config.part.replace(...)) or config={cls.__name__}(...)",
         DeprecationWarning,
-        stacklevel=3,
+        stacklevel=stacklevel,
     )
     parts: dict[str, Config] = {}
     for key, value in nested.items():

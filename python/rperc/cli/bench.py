@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -64,49 +65,60 @@ def _common(p: argparse.ArgumentParser, seeds: str) -> None:
     p.set_defaults(run=bench_command)
 
 
+def _corpus(p: argparse.ArgumentParser, flag: str, metavar: str, what: str, folder: str) -> None:
+    """The repeatable option that names a suite's inputs; without it the suite reads
+    its ``folder`` of the data folder."""
+    p.add_argument(
+        flag,
+        type=Path,
+        action="append",
+        metavar=metavar,
+        help=f"{what} (repeatable; default the data folder's {folder}/)",
+    )
+
+
+def _methods(
+    p: argparse.ArgumentParser,
+    flag: str,
+    defaults: Sequence[str],
+    choices: Sequence[str],
+    what: str = "comma-separated",
+) -> None:
+    """The option that picks a suite's methods (trackers, variants), comma-separated:
+    the suite's defaults unless given, and every choice (or part) named in its help."""
+    p.add_argument(flag, default=",".join(defaults), help=f"{what}: {', '.join(choices)}")
+
+
 def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     from rperc.bench.suites import laser, mrclam, pattern, track
 
     p = sub.add_parser("bench", help="score a capability over a corpus (serial or Dask)")
     kinds = p.add_subparsers(dest="suite", required=True, metavar="SUITE")
     t = kinds.add_parser("track", help="trackers over OTB folders, OpenCV's in the same run")
-    t.add_argument(
-        "--corpus",
-        type=Path,
-        action="append",
-        metavar="DIR",
-        help="a folder of OTB sequence folders, or one (repeatable; default "
-        "the data folder's otb/)",
-    )
+    _corpus(t, "--corpus", "DIR", "a folder of OTB sequence folders, or one", "otb")
     t.add_argument("--sequences", metavar="A,B", help="only these sequences (folder names)")
-    t.add_argument(
-        "--trackers",
-        default=",".join(track.DEFAULT_TRACKERS),
-        help=f"comma-separated: {', '.join(track.TRACKERS)}",
-    )
+    _methods(t, "--trackers", track.DEFAULT_TRACKERS, track.TRACKERS)
     _common(t, "0")
     la = kinds.add_parser("laser", help="CARMEN logs through laser SLAM")
-    la.add_argument(
-        "--logs",
-        type=Path,
-        action="append",
-        metavar="FILE_OR_DIR",
-        help="a CARMEN log or a folder of them (repeatable; default the data folder's carmen/)",
-    )
-    la.add_argument(
+    _corpus(la, "--logs", "FILE_OR_DIR", "a CARMEN log or a folder of them", "carmen")
+    _methods(
+        la,
         "--variants",
-        default=",".join(laser.DEFAULT_VARIANTS),
-        help="comma-separated: laser (the default), scan-matching, or wall SLAM's "
-        f"variants with parts joined by +: {', '.join(laser.VARIANT_PARTS)}",
+        laser.DEFAULT_VARIANTS,
+        laser.VARIANT_PARTS,
+        "comma-separated: laser (the default), scan-matching, or wall SLAM's variants with "
+        "parts joined by +",
     )
     _common(la, "0")
     m = kinds.add_parser("mrclam", help="MR.CLAM robots through planar EKF-SLAM")
     m.add_argument("--directory", type=Path, help="the MR.CLAM folder (default mrclam6/)")
     m.add_argument("--robots", default="1-3", help="e.g. 1-3 or 1,3")
-    m.add_argument(
+    _methods(
+        m,
         "--variants",
-        default=",".join(mrclam.DEFAULT_VARIANTS),
-        help=f"comma-separated, parts joined by +: {', '.join(mrclam.VARIANT_PARTS)}",
+        mrclam.DEFAULT_VARIANTS,
+        mrclam.VARIANT_PARTS,
+        "comma-separated, parts joined by +",
     )
     m.add_argument(
         "--span",
@@ -130,11 +142,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         default="similarity",
         help="the rperc tracker's motion model (default similarity)",
     )
-    pa.add_argument(
-        "--trackers",
-        default=",".join(pattern.DEFAULT_TRACKERS),
-        help=f"comma-separated: {', '.join(pattern.TRACKERS)}",
-    )
+    _methods(pa, "--trackers", pattern.DEFAULT_TRACKERS, pattern.TRACKERS)
     pa.add_argument(
         "--frames",
         type=count_at_least(2, 100_000),

@@ -186,14 +186,21 @@ def _timed_by_name(name: str, out: Path, seed: int) -> tuple[DemoResult, float]:
     return _timed(d, out, seed, d.defaults())
 
 
+def _outputs(args: argparse.Namespace) -> Path:
+    """The ``--out`` folder, made, and the ``--json`` file, checked, before any demo
+    runs. The folder first: ``--json`` may point into it."""
+    out = prepare_output_folder(args.out, "--out")
+    check_output_file(args.json, "--json")
+    return out
+
+
 def _run_one(args: argparse.Namespace) -> int:
     d: Demo = args.demo_entry
     if args.demo != d.name:
         print(
             f"rperc demo {args.demo}: deprecated name, use 'rperc demo {d.name}'", file=sys.stderr
         )
-    out = prepare_output_folder(args.out, "--out")  # first: --json may point into it
-    check_output_file(args.json, "--json")
+    out = _outputs(args)
     result, seconds = _run(d, out, args.seed, {o.dest: getattr(args, o.dest) for o in d.options})
     print(result.summary)
     for line in result.details:
@@ -203,8 +210,7 @@ def _run_one(args: argparse.Namespace) -> int:
 
 
 def run_all(args: argparse.Namespace) -> int:
-    out = prepare_output_folder(args.out, "--out")  # first: --json may point into it
-    check_output_file(args.json, "--json")
+    out = _outputs(args)
     from rperc._extras import MissingExtraError
 
     measured: dict[str, Any] = {}

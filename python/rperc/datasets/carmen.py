@@ -343,38 +343,38 @@ def _within_a_turn(path: Path, lineno: int, kind: str, n: int, step: float) -> N
         )
 
 
-def _parse_robotlaser(path: Path, lineno: int, tok: list[str], rows: _ScanRows) -> None:
+def _laser_ranges(
+    path: Path, lineno: int, tok: list[str], trailing: int
+) -> tuple[np.ndarray, tuple[float, float, float], int]:
+    """What ROBOTLASER1 and RAWLASER1 lines share: the laser config and the ranges,
+    checked, before ``trailing`` fields that follow the remissions. Returns the
+    ranges, ``(start, res, max_range)`` and where the trailing fields begin."""
     n, m, (start, _fov, res, max_range) = _laser_config(path, lineno, tok)
     _within_a_turn(path, lineno, tok[0], n, res)
-    expected = 10 + n + m + 14
+    expected = 10 + n + m + trailing
     if len(tok) != expected:
         raise DatasetFormatError(
             path,
             lineno,
-            f"ROBOTLASER1 with {n} beams and {m} remissions needs {expected} fields, "
-            f"got {len(tok)}",
+            f"{tok[0]} with {n} beams and {m} remissions needs {expected} fields, got {len(tok)}",
         )
     ranges = _float_array(path, lineno, tok[9 : 9 + n], "ranges")
-    tail = _floats(path, lineno, tok[10 + n + m : 10 + n + m + 12], "poses")
+    return ranges, (start, res, max_range), 10 + n + m
+
+
+def _parse_robotlaser(path: Path, lineno: int, tok: list[str], rows: _ScanRows) -> None:
+    ranges, geometry, at = _laser_ranges(path, lineno, tok, 14)
+    tail = _floats(path, lineno, tok[at : at + 12], "poses")
     lx, ly, lth, rx, ry, rth = _finite(path, lineno, tail[:6], "pose")
     ts = _finite(path, lineno, tail[11:12], "timestamp")[0]
-    rows.add(tok[0], ranges, (start, res, max_range, lx, ly, lth, rx, ry, rth, ts), lineno)
+    rows.add(tok[0], ranges, (*geometry, lx, ly, lth, rx, ry, rth, ts), lineno)
 
 
 def _parse_rawlaser(path: Path, lineno: int, tok: list[str], rows: _ScanRows) -> None:
-    n, m, (start, _fov, res, max_range) = _laser_config(path, lineno, tok)
-    _within_a_turn(path, lineno, tok[0], n, res)
-    expected = 10 + n + m + 3
-    if len(tok) != expected:
-        raise DatasetFormatError(
-            path,
-            lineno,
-            f"RAWLASER1 with {n} beams and {m} remissions needs {expected} fields, got {len(tok)}",
-        )
-    ranges = _float_array(path, lineno, tok[9 : 9 + n], "ranges")
-    ts = _finite(path, lineno, _floats(path, lineno, tok[10 + n + m : 11 + n + m], "time"), "ts")
+    ranges, geometry, at = _laser_ranges(path, lineno, tok, 3)
+    ts = _finite(path, lineno, _floats(path, lineno, tok[at : at + 1], "time"), "ts")[0]
     nan = math.nan  # the pose comes from the odometry once all of it is read
-    rows.add(tok[0], ranges, (start, res, max_range, nan, nan, nan, nan, nan, nan, ts[0]), lineno)
+    rows.add(tok[0], ranges, (*geometry, nan, nan, nan, nan, nan, nan, ts), lineno)
 
 
 def _parse_odom(path: Path, lineno: int, tok: list[str], odom: list[list[float]]) -> None:

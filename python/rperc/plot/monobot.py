@@ -68,27 +68,32 @@ def _estimates_panel(ax: Axes, run: MonobotResult, k: np.ndarray) -> None:
     ax.plot(k, run.estimate[:, 1], color="tab:red", label="landmark, estimate")
     _band(ax, k, run.estimate[:, 1], run.bounds[:, 1], "tab:red")
     ax.plot([], [], ":", color="0.3", label="estimate +- 2 sigma")
-    ax.set_ylabel("position [m]")
-    ax.set_title("estimates against the truth", fontsize=9)
-    ax.legend(fontsize=7)
+    _labels(ax, "position [m]", "estimates against the truth")
 
 
 def _error_panels(vehicle: Axes, landmarks: Axes, run: MonobotResult, k: np.ndarray) -> None:
     vehicle.plot(k, run.error[:, 0], color="tab:blue", label="estimate - truth")
-    _band(vehicle, k, np.zeros_like(k, dtype=float), run.bounds[:, 0], "tab:blue")
-    vehicle.plot([], [], ":", color="tab:blue", label="+- 2 sigma (filter)")
-    vehicle.axhline(0, color="0.5", lw=0.5)
-    vehicle.set_ylabel("robot error [m]")
-    vehicle.set_title("vehicle error", fontsize=9)
-    vehicle.legend(fontsize=7)
+    _around_zero(vehicle, k, run.bounds[:, 0], "tab:blue", "+- 2 sigma (filter)")
+    _labels(vehicle, "robot error [m]", "vehicle error")
     for i in range(1, run.estimate.shape[1]):
         landmarks.plot(k, run.error[:, i], lw=1, label=f"landmark {i}" if i <= 5 else None)
-    _band(landmarks, k, np.zeros_like(k, dtype=float), run.bounds[:, 1], "k")
-    landmarks.plot([], [], ":", color="k", label="+- 2 sigma (landmark 1)")
-    landmarks.axhline(0, color="0.5", lw=0.5)
-    landmarks.set_ylabel("landmark error, estimate - truth [m]")
-    landmarks.set_title("landmark errors", fontsize=9)
-    landmarks.legend(fontsize=7)
+    _around_zero(landmarks, k, run.bounds[:, 1], "k", "+- 2 sigma (landmark 1)")
+    _labels(landmarks, "landmark error, estimate - truth [m]", "landmark errors")
+
+
+def _around_zero(ax: Axes, k: np.ndarray, bound: np.ndarray, color: str, label: str) -> None:
+    """An error panel's 2-sigma band around zero, with its legend entry and the zero
+    line the errors should straddle."""
+    _band(ax, k, np.zeros_like(k, dtype=float), bound, color)
+    ax.plot([], [], ":", color=color, label=label)
+    ax.axhline(0, color="0.5", lw=0.5)
+
+
+def _labels(ax: Axes, ylabel: str, title: str) -> None:
+    """The y label, title and legend of a panel of a run's figure."""
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=7)
 
 
 def _inside(run: MonobotResult) -> float:
@@ -107,9 +112,7 @@ def run_figure(run: MonobotResult) -> Figure:
     ax = axes[3]
     ax.plot(k[1:], run.gain[:, 0, off], color="k", label="vehicle gain")
     ax.plot(k[1:], run.gain[:, 1, off], color="tab:gray", label="landmark gain")
-    ax.set_ylabel("Kalman gain [-]")
-    ax.set_title("Kalman gains (first landmark's measurement)", fontsize=9)
-    ax.legend(fontsize=7)
+    _labels(ax, "Kalman gain [-]", "Kalman gains (first landmark's measurement)")
     for ax in axes:
         ax.set_xlabel("iteration k [steps]")
         ax.grid(alpha=0.3)

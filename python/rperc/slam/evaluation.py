@@ -279,9 +279,18 @@ def align_se2(source: npt.ArrayLike, target: npt.ArrayLike) -> Se2Transform:
 # ------------------------------------------------------------------ trajectory error
 
 
+def _rms(values: np.ndarray) -> float:
+    """Root mean square: every RMSE and RMS this module reports."""
+    return math.sqrt(float(np.mean(values**2)))
+
+
 def _stats(errors: np.ndarray) -> str:
-    rmse = math.sqrt(float(np.mean(errors**2)))
-    return f"rmse {rmse:.4g}, mean {errors.mean():.4g}, max {errors.max():.4g}"
+    return f"rmse {_rms(errors):.4g}, mean {errors.mean():.4g}, max {errors.max():.4g}"
+
+
+def _alignment(transform: Se2Transform | None) -> str:
+    """How an error was measured, for its repr."""
+    return "aligned" if transform is not None else "not aligned"
 
 
 @dataclass(frozen=True, repr=False)
@@ -298,22 +307,21 @@ class TrajectoryError:
     @property
     def rmse(self) -> float:
         """ATE RMSE of the positions (the translation part of evo's APE)."""
-        return math.sqrt(float(np.mean(self.position_error**2)))
+        return _rms(self.position_error)
 
     @property
     def heading_rmse(self) -> float:
-        return math.sqrt(float(np.mean(self.heading_error**2)))
+        return _rms(self.heading_error)
 
     @property
     def matched(self) -> int:
         return self.association.matched
 
     def __repr__(self) -> str:
-        kind = "aligned" if self.transform is not None else "not aligned"
         return (
-            f"TrajectoryError({kind}, {self.matched} of {self.association.total} poses: "
-            f"position [m] {_stats(self.position_error)}; heading [rad] "
-            f"{_stats(np.abs(self.heading_error))})"
+            f"TrajectoryError({_alignment(self.transform)}, {self.matched} of "
+            f"{self.association.total} poses: position [m] {_stats(self.position_error)}; "
+            f"heading [rad] {_stats(np.abs(self.heading_error))})"
         )
 
 
@@ -376,14 +384,14 @@ class LandmarkError:
 
     @property
     def rmse(self) -> float:
-        return math.sqrt(float(np.mean(self.error**2)))
+        return _rms(self.error)
 
     def __repr__(self) -> str:
-        kind = "aligned" if self.transform is not None else "not aligned"
         return (
-            f"LandmarkError({kind}, {len(self.ids)} matched: {_stats(self.error)} m; "
-            f"estimated but not surveyed {list(self.unmatched_estimate_ids)}, surveyed but "
-            f"not estimated {list(self.missing_reference_ids)})"
+            f"LandmarkError({_alignment(self.transform)}, {len(self.ids)} matched: "
+            f"{_stats(self.error)} m; estimated but not surveyed "
+            f"{list(self.unmatched_estimate_ids)}, surveyed but not estimated "
+            f"{list(self.missing_reference_ids)})"
         )
 
 
@@ -537,7 +545,7 @@ class GpsError:
 
     @property
     def rms(self) -> float:
-        return math.sqrt(float(np.mean(self.distance**2)))
+        return _rms(self.distance)
 
     def __repr__(self) -> str:
         a = self.association

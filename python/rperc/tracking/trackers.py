@@ -18,14 +18,14 @@ import math
 import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Generic, Literal, Protocol, TypeVar
+from typing import TYPE_CHECKING, Any, Generic, Literal, Protocol, TypeVar, cast
 
 import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
 from rperc._args import excerpt, whole_number
-from rperc._config_base import as_config, as_config_moved
+from rperc._config_base import C, as_config_moved
 from rperc.config import (
     ColorHistogramConfig,
     ColorHistogramConfigOverrides,
@@ -160,6 +160,29 @@ def _plain(value: Any) -> Any:
 def _given(config: Mapping[str, object] | None) -> dict[str, object] | None:
     """A dict of config fields with numpy values as Python ones."""
     return None if config is None else {str(k): _plain(v) for k, v in config.items()}
+
+
+#: The trackers that never took flat keywords for their nested parts.
+_NOTHING_MOVED: Mapping[str, tuple[str, str]] = {}
+
+
+def _settings(
+    cls: type[C],
+    config: C | Mapping[str, object] | None,
+    overrides: Mapping[str, object],
+    owner: str,
+    moved: Mapping[str, tuple[str, str]] = _NOTHING_MOVED,
+) -> C:
+    """A tracker's config, the one way every tracker reads it: ``config`` (a ``cls``, a
+    dict of its fields or ``None``) with the keyword ``overrides`` on top, numpy values
+    as Python ones, checked by the Rust crate. The old flat keywords of ``moved`` still
+    set their nested fields, with a DeprecationWarning at the tracker's caller."""
+    if not isinstance(config, cls):
+        # mypy does not narrow a type variable by isinstance: the cast says what is left.
+        config = _given(cast("Mapping[str, object] | None", config))
+    fields = {k: _plain(v) for k, v in overrides.items()}
+    # 4: as_config_moved, this, the tracker's constructor, then its caller.
+    return as_config_moved(cls, config, fields, moved, owner, stacklevel=4)
 
 
 @dataclass(frozen=True, repr=False)
@@ -300,11 +323,9 @@ class ColorHistogramTracker(_BoxTracker[_rperc.ColorHistogramTracker]):
         channels: Channels = "rgb",
         **overrides: Unpack[ColorHistogramConfigOverrides],
     ) -> None:
-        base = config if isinstance(config, ColorHistogramConfig) else _given(config)
-        fields = {k: _plain(v) for k, v in overrides.items()}
         #: The tracker's settings, checked by the Rust crate when they were made.
-        self.config = as_config_moved(
-            ColorHistogramConfig, base, fields, _APPEARANCE_KEYWORDS, "ColorHistogramTracker"
+        self.config = _settings(
+            ColorHistogramConfig, config, overrides, "ColorHistogramTracker", _APPEARANCE_KEYWORDS
         )
         native = self.config.to_dict()
         self._start(
@@ -362,12 +383,10 @@ class ParticleColorTracker(_BoxTracker[_rperc.ParticleColorTracker]):
         channels: Channels = "rgb",
         **overrides: Unpack[ParticleColorConfigOverrides],
     ) -> None:
-        base = config if isinstance(config, ParticleColorConfig) else _given(config)
-        fields = {k: _plain(v) for k, v in overrides.items()}
         moved = {**_APPEARANCE_KEYWORDS, **_FILTER_KEYWORDS}
         #: The tracker's settings, checked by the Rust crate when they were made.
-        self.config = as_config_moved(
-            ParticleColorConfig, base, fields, moved, "ParticleColorTracker"
+        self.config = _settings(
+            ParticleColorConfig, config, overrides, "ParticleColorTracker", moved
         )
         native = self.config.to_dict()
         seed = whole_number(seed, "seed", 0, limit=2**64)
@@ -474,12 +493,8 @@ class ColorTemplateTracker(_BoxTracker[_rperc.ColorTemplateTracker]):
         channels: Channels = "rgb",
         **overrides: Unpack[ColorTemplateConfigOverrides],
     ) -> None:
-        if config is not None and not isinstance(config, ColorTemplateConfig):
-            config = {str(k): _plain(v) for k, v in config.items()}
         #: The tracker's settings, checked by the Rust crate when they were made.
-        self.config = as_config(
-            ColorTemplateConfig, config, {k: _plain(v) for k, v in overrides.items()}
-        )
+        self.config = _settings(ColorTemplateConfig, config, overrides, "ColorTemplateTracker")
         native = self.config.to_dict()
         seed = whole_number(seed, "seed", 0, limit=2**64)
         self._start(
@@ -567,11 +582,8 @@ class ColorShapeTracker:
     ) -> None:
         if box is None and contour is None:
             raise ValueError("give a box (x, y, w, h) or a contour (N x 2)")
-        base = config if isinstance(config, ColorShapeConfig) else _given(config)
         #: The tracker's settings, checked by the Rust crate when they were made.
-        self.config = as_config(
-            ColorShapeConfig, base, {k: _plain(v) for k, v in overrides.items()}
-        )
+        self.config = _settings(ColorShapeConfig, config, overrides, "ColorShapeTracker")
         cfg = self.config.to_dict()
         poly = None if contour is None else np.asarray(contour, dtype=np.float64)
         if poly is not None and (poly.ndim != 2 or poly.shape[1] != 2):

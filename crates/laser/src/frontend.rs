@@ -205,10 +205,7 @@ impl FrontEnd {
             sigmas: 3.0,
             step: self.local.search_step,
             starts: self.local.search_starts,
-            share: std::env::var("RPERC_SHARE")
-                .ok()
-                .and_then(|v| v.parse().ok())
-                .unwrap_or(0.5),
+            share: self.local.search_share,
         };
         let matched = match_robustly(scan, &self.map, &prior, &self.icp, &search)?;
         let (motion, motion_covariance) = relative(&self.pose, &matched.pose, &matched.covariance);

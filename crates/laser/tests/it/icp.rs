@@ -282,3 +282,57 @@ fn a_tight_prior_is_not_searched() {
     let robust = match_robustly(&s, &map, &prior, &cfg, &search).unwrap();
     assert_eq!(plain, robust);
 }
+
+/// The front end searches as its config says: with `search_share` 0 it keeps ICP from
+/// the prior's mean whenever that was accepted, with 1 it searches wherever the prior
+/// is loose; each is `match_robustly` with that share, from the same map and prior.
+#[test]
+fn the_front_end_searches_by_its_configured_share() {
+    use laser::frontend::{FrontEnd, LocalMapConfig, prior_after};
+    use laser::odometry::Step;
+    let walls = cluttered_room(12.0, 8.0);
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let start = Pose2::new(4.0, 3.0, 0.2);
+    let first = scan(&walls, &start, 0.0, &mut rng);
+    let truth = Pose2::new(4.4, 3.2, 0.3);
+    let second = scan(&walls, &truth, 0.0, &mut rng);
+    let sd = Vector3::new(0.4, 0.4, 8f64.to_radians());
+    let mut differ = 0;
+    for k in 0..8 {
+        let a = k as f64 * std::f64::consts::TAU / 8.0;
+        let off = Pose2::new(
+            0.7 * a.cos(),
+            0.7 * a.sin(),
+            15f64.to_radians() * a.sin().signum(),
+        );
+        let step = Step {
+            motion: start.between(&truth.compose(&off)),
+            covariance: Matrix3::from_diagonal(&sd.map(|v| v * v)),
+        };
+        let prior = prior_after(&start, &step).unwrap();
+        let mut found = Vec::new();
+        for share in [0.0, 1.0] {
+            let local = LocalMapConfig {
+                search_share: share,
+                ..LocalMapConfig::default()
+            };
+            let mut front = FrontEnd::new(start, IcpConfig::default(), local).unwrap();
+            front.first(0, &first).unwrap();
+            let tracked = front.track(1, &second, &step).unwrap();
+            let map = map_from(&walls, &start, 0.0, &mut rng);
+            let search = StartSearch {
+                reach: local.search_reach,
+                sigmas: 3.0,
+                step: local.search_step,
+                starts: local.search_starts,
+                share,
+            };
+            let want = match_robustly(&second, &map, &prior, &IcpConfig::default(), &search);
+            assert_eq!(tracked.matched, want.unwrap(), "offset {k}, share {share}");
+            found.push(tracked.matched);
+        }
+        differ += usize::from(found[0] != found[1]);
+    }
+    // The case is a real one: the share decides the match from some offsets.
+    assert!(differ >= 1, "the share changed no match");
+}

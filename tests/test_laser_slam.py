@@ -42,8 +42,10 @@ def _truth_ate(pose: np.ndarray, truth: np.ndarray) -> float:
 
 def test_each_stage_beats_the_one_before_against_the_truth(loop_log: Path) -> None:
     """Over six odometry draws, scan matching removes most of the odometry's drift
-    and the loop closures most of what is left (the simulated truth is the oracle;
-    1 cm range noise, so every seed's final path is within 10 cm)."""
+    (over four fifths) and the loop closures most of what is left (over half; the
+    front end leaves them less since its far wall points have normals), and every
+    seed's final path is within 5 cm of the simulated truth (the oracle; 1 cm range
+    noise)."""
     from rperc.datasets.carmen import load_carmen
 
     truth = np.asarray(load_carmen(loop_log).scans.pose)
@@ -56,9 +58,9 @@ def test_each_stage_beats_the_one_before_against_the_truth(loop_log: Path) -> No
             if v == "loops":
                 assert r.counts["loop_closures_accepted"] >= 2
     mean = {v: float(np.mean(a)) for v, a in ate.items()}
-    assert mean["scan-matching"] < 0.5 * mean["odometry"], ate
-    assert mean["loops"] < 0.3 * mean["scan-matching"], ate
-    assert max(ate["loops"]) < 0.1, ate
+    assert mean["scan-matching"] < 0.2 * mean["odometry"], ate
+    assert mean["loops"] < 0.5 * mean["scan-matching"], ate
+    assert max(ate["loops"]) < 0.05, ate
 
 
 def test_final_covariance_is_not_overconfident_in_simulation(loop_log: Path) -> None:

@@ -109,6 +109,32 @@ def test_nan_poses_are_errors_with_line(tmp_path, pose):
         load_carmen(path)
 
 
+def test_bad_odom_lines_are_reported_in_file_order(tmp_path):
+    """ODOM lines are read as numbers once the file is read (a batch); their errors
+    still come in file order: the first bad line of any kind raises, and a skip lists
+    every bad line by line number, the good ODOM rows kept in order."""
+    path = tmp_path / "o.log"
+    path.write_text(
+        ODOM.format(x=0, y=0, th=0, t=1)
+        + ODOM.format(x="1.5e", y=0, th=0, t=2)  # line 2: not a number
+        + flaser(["1", "2"])
+        + flaser(["1", "2"], pose="0 nan 0")  # line 4: a pose that is not finite
+        + ODOM.format(x=0, y="inf", th=0, t=5)  # line 5: a pose that is not finite
+        + ODOM.format(x=3, y=4, th=0.5, t=6)
+    )
+    with pytest.raises(DatasetFormatError, match=r"o\.log:2: ODOM values: not a number: '1\.5e'"):
+        load_carmen(path)
+    log = load_carmen(path, on_error="skip")
+    assert [e.line for e in log.errors] == [2, 4, 5]
+    assert "pose not finite" in log.errors[2].reason
+    assert log.odometry.pose.tolist() == [[0.0, 0.0, 0.0], [3.0, 4.0, 0.5]]
+    assert log.odometry.timestamp.tolist() == [1.0, 6.0]
+    # With only the late ODOM line bad, the error names it, after the scans read.
+    path.write_text(flaser(["1", "2"]) + ODOM.format(x=0, y="inf", th=0, t=5))
+    with pytest.raises(DatasetFormatError, match=r"o\.log:2: pose not finite"):
+        load_carmen(path)
+
+
 def test_non_utf8_line_is_reported_or_skipped(tmp_path):
     path = tmp_path / "u.log"
     path.write_bytes(

@@ -51,7 +51,6 @@ import math
 import warnings
 from collections import Counter
 from dataclasses import dataclass, field, replace
-from math import isfinite
 from pathlib import Path
 from typing import Literal
 
@@ -377,17 +376,53 @@ def _parse_rawlaser(path: Path, lineno: int, tok: list[str], rows: _ScanRows) ->
     rows.add(tok[0], ranges, (*geometry, nan, nan, nan, nan, nan, nan, ts), lineno)
 
 
-def _parse_odom(path: Path, lineno: int, tok: list[str], odom: list[list[float]]) -> None:
-    # Inlined (ODOM lines outnumber scans ten to one): the helpers run only to raise.
-    if len(tok) != 10:
-        raise DatasetFormatError(path, lineno, f"ODOM needs 10 fields, got {len(tok)}")
-    try:
-        values = list(map(float, tok[1:8]))
-    except ValueError:
-        values = _floats(path, lineno, tok[1:8], "ODOM values")
-    if not (isfinite(values[0]) and isfinite(values[1]) and isfinite(values[2])):
-        _finite(path, lineno, values[:3], "pose")
-    odom.append(values)
+def _odom_values(path: Path, lineno: int, tok: list[str]) -> list[float]:
+    """One ODOM line's seven values, or a DatasetFormatError naming the line."""
+    values = _floats(path, lineno, tok[1:8], "ODOM values")
+    _finite(path, lineno, values[:3], "pose")
+    return values
+
+
+class _OdomRows:
+    """The ODOM lines' tokens, read as numbers in one batch once the file is read:
+    ODOM lines outnumber scans ten to one, and a parse per line was about a quarter of
+    reading a log. A line that does not read is found again by :func:`_odom_values`,
+    so its error is the per-line one, and no error is reported out of file order."""
+
+    def __init__(self) -> None:
+        self.tokens: list[list[str]] = []
+        self.lines: list[int] = []
+
+    def add(self, path: Path, lineno: int, tok: list[str]) -> None:
+        if len(tok) != 10:
+            raise DatasetFormatError(path, lineno, f"ODOM needs 10 fields, got {len(tok)}")
+        self.tokens.append(tok)
+        self.lines.append(lineno)
+
+    def check_before(self, path: Path, lineno: int) -> None:
+        """Raises the error of the first bad ODOM line before line ``lineno``."""
+        for tok, at in zip(self.tokens, self.lines, strict=True):
+            if at >= lineno:
+                return
+            _odom_values(path, at, tok)
+
+    def stack(self, path: Path, errors: list[SkippedLine] | None) -> np.ndarray:
+        """The ``(N, 7)`` values; a bad line raises, or with ``errors`` is left out and
+        listed there."""
+        flat = _rperc.parse_floats([v for tok in self.tokens for v in tok[1:8]])
+        if flat is not None:
+            arr: np.ndarray = flat.reshape(len(self.tokens), 7)
+            if np.isfinite(arr[:, :3]).all():
+                return arr
+        rows = []
+        for tok, at in zip(self.tokens, self.lines, strict=True):
+            try:
+                rows.append(_odom_values(path, at, tok))
+            except DatasetFormatError as exc:
+                if errors is None:
+                    raise
+                errors.append(SkippedLine(exc.line, exc.reason))
+        return np.asarray(rows, dtype=np.float64).reshape(len(rows), 7)
 
 
 def _parse_param(path: Path, lineno: int, tok: list[str], params: dict[str, str]) -> None:
@@ -436,7 +471,7 @@ def load_carmen(
     if on_error not in ("raise", "skip"):
         raise ValueError(f"on_error must be 'raise' or 'skip', got {excerpt(on_error)}")
     path = Path(path)
-    rows, odom, params = _ScanRows(), list[list[float]](), dict[str, str]()
+    rows, odom, params = _ScanRows(), _OdomRows(), dict[str, str]()
     skipped: Counter[str] = Counter()
     first_line: dict[str, int] = {}
     errors: list[SkippedLine] = []
@@ -446,6 +481,7 @@ def load_carmen(
             kind = _read_record(path, lineno, raw, rows, odom, params, strict)
         except DatasetFormatError as exc:
             if on_error == "raise":
+                odom.check_before(path, lineno)
                 raise
             errors.append(SkippedLine(exc.line, exc.reason))
             continue
@@ -454,7 +490,8 @@ def load_carmen(
         elif kind is not None:
             skipped[kind] += 1
             first_line.setdefault(kind, lineno)
-    odometry = _stack_odometry(odom)
+    odometry = _stack_odometry(odom.stack(path, errors if on_error == "skip" else None))
+    errors.sort(key=lambda e: e.line)
     no_return = _default_max_range(rows)
     scans, no_pose = _stack_scans(rows, odometry)
     scans, repaired = _repair_times(path, scans)
@@ -544,7 +581,7 @@ def _read_record(
     lineno: int,
     raw: str | DatasetFormatError,
     rows: _ScanRows,
-    odom: list[list[float]],
+    odom: _OdomRows,
     params: dict[str, str],
     strict: bool,
 ) -> str | None:
@@ -559,7 +596,7 @@ def _read_record(
         return COMMENT
     kind = tok[0]
     if kind == "ODOM":
-        _parse_odom(path, lineno, tok, odom)
+        odom.add(path, lineno, tok)
     elif kind in ("FLASER", "RLASER"):
         _parse_flaser(path, lineno, tok, rows, params)
     elif kind == "ROBOTLASER1":
@@ -633,8 +670,7 @@ def _interpolate_odometry(odometry: Odometry, times: np.ndarray) -> np.ndarray:
     return out
 
 
-def _stack_odometry(odom: list[list[float]]) -> Odometry:
-    arr = np.asarray(odom, dtype=np.float64).reshape(len(odom), 7)
+def _stack_odometry(arr: np.ndarray) -> Odometry:
     return Odometry(
         pose=arr[:, 0:3].copy(), velocity=arr[:, 3:6].copy(), timestamp=arr[:, 6].copy()
     )

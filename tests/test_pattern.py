@@ -406,3 +406,55 @@ def test_answers_are_frozen_with_read_only_arrays() -> None:
         _patch().astype(float), _background().astype(float), {"n_frames": 2}
     )
     assert seq.region == tuple(int(v) for v in seq.region) and seq.frames.shape[0] == 2
+
+
+def _similarity_quad(
+    size: tuple[int, int], centre: tuple[float, float], angle: float
+) -> np.ndarray:
+    """The corners (top-left, top-right, bottom-right, bottom-left, outer pixel edges) of
+    a ``size`` patch turned by ``angle`` about ``centre``, at scale 1."""
+    w, h = size
+    rel = np.array([[-w / 2, -h / 2], [w / 2, -h / 2], [w / 2, h / 2], [-w / 2, h / 2]])
+    c, s = math.cos(angle), math.sin(angle)
+    return rel @ np.array([[c, s], [-s, c]]) + np.array(centre)
+
+
+@pytest.mark.parametrize("images", [0, 1, 2])
+def test_a_hidden_target_is_lost_then_found_where_it_reappears(images: int) -> None:
+    """Similarity mode: hidden for three frames, the pattern is reported lost (the
+    gains of the profiles clutter matches by chance spread), and when it reappears
+    about 190 px away the whole-frame search finds it at once. OpenCV draws every
+    frame; its corners are the oracle."""
+    from rperc.tracking.perspective import patch_corners
+    from rperc.tracking.synthetic import demo_images
+
+    patch, bg = demo_images(images)
+    patch = patch.astype(np.float32)
+    h, w = patch.shape
+    still = np.pad(bg.astype(np.float32), ((0, 480), (0, 640)), mode="symmetric")[:480, :640]
+    source = patch_corners(w, h).astype(np.float32)
+    rng = np.random.default_rng(images)
+
+    def draw(corners: np.ndarray | None) -> np.ndarray:
+        frame = still.copy()
+        if corners is not None:
+            hom = cv2.getPerspectiveTransform(source, corners.astype(np.float32))
+            flags, border = cv2.INTER_LINEAR, cv2.BORDER_TRANSPARENT
+            cv2.warpPerspective(patch, hom, (640, 480), dst=frame, flags=flags, borderMode=border)
+        frame = frame + rng.normal(0.0, 2.0, frame.shape)
+        return np.clip(np.rint(frame), 0, 255).astype(np.uint8)
+
+    start = _similarity_quad((w, h), (300.0, 240.0), 0.0)
+    x0, y0 = start.min(axis=0)
+    tracker = PatternTracker(draw(start), (round(x0 + 0.5), round(y0 + 0.5), w, h), seed=1)
+    for k in range(1, 6):
+        corners = _similarity_quad((w, h), (300.0 + 2 * k, 240.0 - k), 0.01 * k)
+        assert not tracker.update(draw(corners)).lost
+    assert all(tracker.update(draw(None)).lost for _ in range(3))
+    errors = []
+    for k in range(4):
+        corners = _similarity_quad((w, h), (130.0 + 2 * k, 330.0 - k), 0.05)
+        pose = tracker.update(draw(corners))
+        assert not pose.lost, k
+        errors.append(float(np.mean(np.linalg.norm(pose.corners - corners, axis=1))))
+    assert max(errors) <= 2.0, errors

@@ -869,16 +869,19 @@ class PatternConfig(Config):
             similarity, with the model seen through the last frame's projective rest, and
             the estimate is then refined by Gauss-Newton on the 8-dof homography (see
             [`PatternTracker::update`]).
-        lost_gain_spread: In homography mode, the estimate is also lost when the gains of
-            its unoccluded profiles (each profile's slope on its stored one, eq. 6's
-            correlation times their contrast ratio) spread more than this: the median
-            absolute deviation of their logarithms. The pattern under one gain gives them
-            all alike; clutter where the pattern is hidden matches a third to a half of the
-            profiles by chance (no more than `lost_occluded_fraction` occluded), each with
-            its own gain. Default 0.3, tuned on generated perspective sequences, seeds 0-9
-            (camera.png over grass.png, and the generated pair): every tracked frame, with
-            gain 0.8-1.2 and up to 30 % occlusion, spread at most 0.22; every frame with the
-            pattern hidden but one (0.24, of 40 per image pair) at least 0.36.
+        lost_gain_spread: The estimate is also lost when the gains of its unoccluded
+            profiles (each profile's slope on its stored one, eq. 6's correlation times
+            their contrast ratio) spread more than this: the median absolute deviation of
+            their logarithms. The pattern under one gain gives them all alike; clutter where
+            the pattern is hidden matches a third to a half of the profiles by chance (no
+            more than `lost_occluded_fraction` occluded), each with its own gain. Default
+            0.3, tuned on generated perspective sequences, seeds 0-9 (camera.png over
+            grass.png, and the generated pair): every tracked frame, with gain 0.8-1.2 and
+            up to 30 % occlusion, spread at most 0.22; every frame with the pattern hidden
+            but one (0.24, of 40 per image pair) at least 0.36. In similarity mode the gains
+            are read only on frames that score under `second_look` of the track's typical
+            score, and no frame of the full-step, gain and occlusion sequences is lost by it
+            (`rperc bench pattern`).
         pattern: Model building and observation model (sections 3.2-3.3).
         filter: Particle-filter settings (resampler, policy, chunking, parallelism). Default
             chunks of 50 particles.

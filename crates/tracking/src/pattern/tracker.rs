@@ -21,6 +21,7 @@ mod plane;
 mod warp;
 
 use plane::PlaneState;
+use warp::Profiles;
 
 /// Particles whose log-likelihood, extrapolated from part of their points, falls this
 /// far below a better one's are not weighed to the end (a relative weight of about
@@ -123,7 +124,7 @@ pub struct PatternTrackerParams {
     /// the estimate is then refined by Gauss-Newton on the 8-dof homography (see
     /// [`PatternTracker::update`]).
     pub motion: MotionModel,
-    /// In homography mode, the estimate is also lost when the gains of its
+    /// The estimate is also lost when the gains of its
     /// unoccluded profiles (each profile's slope on its stored one, eq. 6's
     /// correlation times their contrast ratio) spread more than this: the median
     /// absolute deviation of their logarithms. The pattern under one gain gives
@@ -133,7 +134,10 @@ pub struct PatternTrackerParams {
     /// perspective sequences, seeds 0-9 (camera.png over grass.png, and the
     /// generated pair): every tracked frame, with gain 0.8-1.2 and up to 30 %
     /// occlusion, spread at most 0.22; every frame with the pattern hidden but one
-    /// (0.24, of 40 per image pair) at least 0.36.
+    /// (0.24, of 40 per image pair) at least 0.36. In similarity mode the gains are
+    /// read only on frames that score under `second_look` of the track's typical
+    /// score, and no frame of the full-step, gain and occlusion sequences is lost
+    /// by it (`rperc bench pattern`).
     pub lost_gain_spread: f64,
     /// Model building and observation model (sections 3.2-3.3).
     pub pattern: PatternConfig,
@@ -322,6 +326,9 @@ pub struct PatternTracker {
     /// The map of model offsets into the first frame, inverted (for
     /// [`PatternPose::homography`]).
     first_inverse: Matrix3<f64>,
+    /// The model's profiles as the homography's refinement and the lost test read
+    /// them (both modes).
+    profiles: Profiles,
     /// The homography mode's state (`motion = homography`).
     plane: Option<PlaneState>,
 }
@@ -441,6 +448,7 @@ impl PatternTracker {
             height,
             parallel,
             params,
+            profiles: Profiles::new(&model),
             table: PointTable::new(&model),
             offsets: (0..model.points.len()).map(|j| model.offset(j)).collect(),
             model,
@@ -498,9 +506,11 @@ impl PatternTracker {
     /// score (its recent best, forgotten by 5 % a frame) gets a second iteration on
     /// the same frame ([`Self::look_again`]), and the better of the two estimates.
     ///
-    /// When the estimate is lost (the filter's total loss, or more than
-    /// `lost_occluded_fraction` of the points occluded, as on an all-black frame) the
-    /// last pose is kept and the particles are re-drawn around it.
+    /// When the estimate is lost (the filter's total loss, more than
+    /// `lost_occluded_fraction` of the points occluded, as on an all-black frame, or
+    /// the profiles' gains spread over `lost_gain_spread`, as where the pattern is
+    /// hidden) the last pose is kept and the particles are re-drawn around it; with
+    /// the coarse layer, the next frame is searched whole at the last angle and scale.
     ///
     /// # Errors
     /// [`TrackingError::FrameSizeChanged`] if `frame` differs in size from the first.
@@ -549,7 +559,15 @@ impl PatternTracker {
         if let Some(fit) = &fit {
             (estimate, observation) = (fit.state, fit.observation);
         }
-        let spread = fit.as_ref().map_or(0.0, |f| f.gain_spread);
+        // In similarity mode the gains are read only where the frame already looked
+        // doubtful (it scores under `second_look` of the track's typical score, as a
+        // hidden pattern does): reading them costs a tenth of a frame.
+        let doubtful = self.score(&observation) < self.params.second_look * self.typical_score;
+        let spread = match &fit {
+            Some(f) => f.gain_spread,
+            None if self.plane.is_none() && !report.lost && doubtful => self.gain_spread(&estimate),
+            None => 0.0,
+        };
         let lost = report.lost
             || observation.occluded_fraction > self.params.lost_occluded_fraction
             || !observation.log_likelihood.is_finite()
@@ -578,6 +596,15 @@ impl PatternTracker {
         Ok(self.last)
     }
 
+    /// The spread of the profiles' gains at the similarity `estimate` (see
+    /// `lost_gain_spread`); 0, no evidence, where its scale has no level.
+    fn gain_spread(&mut self, estimate: &SVector<f64, 4>) -> f64 {
+        self.space.ensure([estimate[3], estimate[3]]);
+        let h = homography::similarity(estimate);
+        let t = self.model.config.occlusion_threshold;
+        self.profiles.gain_spread(&h, &self.space, t).unwrap_or(0.0)
+    }
+
     /// The prediction of the particles, [`ParticleFilter::predict`] without a coarse
     /// layer. With one, `coarse_particles` states are drawn from the prior predictive
     /// (the random walk widened by `coarse_spread`) and the `coarse_kept` of them most
@@ -589,8 +616,8 @@ impl PatternTracker {
         };
         let kept = self.filter.particles().len();
         let count = self.params.coarse_particles.max(kept);
-        if self.plane.is_some() && self.last.lost {
-            // Lost in homography mode: the whole frame is searched again.
+        if self.last.lost {
+            // Lost: the whole frame is searched again.
             plane::grid(
                 [self.width, self.height],
                 self.params.coarse_factor,

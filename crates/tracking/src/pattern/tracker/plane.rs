@@ -11,7 +11,7 @@
 use nalgebra::{Matrix3, SVector};
 use rperc_core::image::GrayImage;
 
-use super::warp::{Profiles, WarpSearch};
+use super::warp::WarpSearch;
 use super::{PatternTracker, corners};
 use crate::error::{Result, TrackingError};
 use crate::pattern::frame::PatternFrame;
@@ -48,7 +48,6 @@ pub(super) struct PlaneState {
     pub(super) rest: Matrix3<f64>,
     /// The model's point table as learnt, before the rest.
     base_table: PointTable,
-    profiles: Profiles,
 }
 
 /// A refined homography, not yet committed (the frame may still be lost).
@@ -126,7 +125,6 @@ impl PatternTracker {
             homography: start,
             rest: Matrix3::identity(),
             base_table: self.table.clone(),
-            profiles: Profiles::new(&self.model),
         });
         if !self.set_rest(&rest) {
             return Err(bad());
@@ -176,7 +174,7 @@ impl PatternTracker {
             damping: WARP_DAMPING,
             tolerance: WARP_TOLERANCE,
         };
-        let fit = plane.profiles.refine(&start, &self.space, &search)?;
+        let fit = self.profiles.refine(&start, &self.space, &search)?;
         let quad = self.model_corners().map(|o| apply(&fit.homography, o));
         let quad = [quad[0]?, quad[1]?, quad[2]?, quad[3]?];
         homography::check_quad(&quad, 1.0).ok()?;

@@ -280,6 +280,15 @@ impl Profiles {
         })
     }
 
+    /// The spread of the unoccluded profiles' gains at `h` (see
+    /// [`WarpFit::gain_spread`]), Tukey's threshold `t`; `None` when `h` has no
+    /// level in `space`.
+    pub(super) fn gain_spread(&self, h: &Matrix3<f64>, space: &ScaleSpace, t: f64) -> Option<f64> {
+        let mut gains = Vec::with_capacity(self.profiles.len());
+        self.evaluate(h, space, t, None, Some(&mut gains))?;
+        Some(spread(&mut gains))
+    }
+
     /// The largest move of the model window's corners from `a` to `b` (pixels).
     fn largest_move(&self, a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
         let r = self.norm;

@@ -218,13 +218,17 @@ pub fn scan_points_with(
     // often: along a wall seen at a slant, the kept points then lie off the wall by
     // a bias that changes with the slant, and scan-to-map ICP turned the same way at
     // every match (see the corridor test in tests/it/icp.rs).
+    // A reading after a jump in depth starts afresh, so that a narrow object before
+    // a wall keeps its first reading.
     let mut swept = f64::INFINITY;
     for (i, p) in raw.iter().enumerate() {
-        if swept < cfg.point_spacing {
-            swept += p.norm() * step;
+        let sweep = p.norm() * step;
+        let jump = i > 0 && (p - raw[i - 1]).norm() > cfg.max_gap.max(3.0 * sweep);
+        if swept < cfg.point_spacing && !jump {
+            swept += sweep;
             continue;
         }
-        swept = p.norm() * step;
+        swept = sweep;
         out.points.push(*p);
         out.normals.push(fit_normal(&raw, i, step, cfg));
     }
@@ -312,8 +316,15 @@ mod tests {
 
     /// Readings of `segments` from the origin facing +x: 180 beams, one degree apart.
     fn seen(segments: &[crate::sim::Segment]) -> ScanPoints {
-        let step = 1f64.to_radians();
-        let angles: Vec<f64> = (0..180).map(|i| -FRAC_PI_2 + step * i as f64).collect();
+        seen_every(segments, 1.0)
+    }
+
+    /// Readings of `segments` from the origin facing +x over 180 degrees, `degrees`
+    /// apart.
+    fn seen_every(segments: &[crate::sim::Segment], degrees: f64) -> ScanPoints {
+        let step = degrees.to_radians();
+        let n = (180.0 / degrees).round() as usize;
+        let angles: Vec<f64> = (0..n).map(|i| -FRAC_PI_2 + step * i as f64).collect();
         let ranges = crate::sim::ray_cast(segments, &rperc_core::Pose2::identity(), &angles, 30.0);
         let beams = Beams {
             ranges: &ranges,
@@ -327,7 +338,7 @@ mod tests {
     /// A corridor wall seen at a slant keeps its normal far down the corridor, where
     /// the readings are spread wider than the beams' sweep: every normal is the
     /// wall's own, and the points that have one reach past 8 m along it (with the
-    /// sweep alone, none past 3.3 m did).
+    /// sweep alone the radius was too small there).
     #[test]
     fn a_wall_seen_at_a_slant_has_normals_far_along_it() {
         let wall = crate::sim::Segment::new(-1.0, 1.2, 30.0, 1.2);
@@ -361,6 +372,26 @@ mod tests {
             assert!((n.x + 1.0).abs() < 1e-9 && n.y.abs() < 1e-6, "{p:?}: {n:?}");
         }
         assert!(on_post >= 1, "the post was not seen");
+    }
+
+    /// A narrow post before a wall keeps a point wherever it stands: the thinning
+    /// starts afresh after a jump in depth, so the sweep over the wall's readings
+    /// cannot skip the post's few.
+    #[test]
+    fn a_narrow_object_before_a_wall_keeps_a_point() {
+        let wall = crate::sim::Segment::new(2.5, -10.0, 2.5, 10.0);
+        for degrees in [0.25, 0.5, 1.0] {
+            for k in 0..25 {
+                let y = -0.5 + 0.04 * k as f64;
+                let post = crate::sim::Segment::new(2.0, y - 0.02, 2.0, y + 0.02);
+                let scan = seen_every(&[wall, post], degrees);
+                let on_post = scan.points.iter().filter(|p| (p.x - 2.0).abs() < 1e-9);
+                assert!(
+                    on_post.count() >= 1,
+                    "post at y = {y}, {degrees} degree beams"
+                );
+            }
+        }
     }
 
     /// Kept directions give exactly the points computed afresh (the oracle), through

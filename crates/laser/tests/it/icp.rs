@@ -341,8 +341,7 @@ fn the_front_end_searches_by_its_configured_share() {
 /// scan to a noisy map from the pose one metre back, started at the truth, gives
 /// heading errors that average to zero. Thinning that kept a reading by its own gap
 /// to the last kept one chose readings by their noise, and the kept points of each
-/// wall leant off it by a slant-dependent bias: every match turned the same way, by
-/// nine standard errors over these 200.
+/// wall leant off it by a slant-dependent bias, and every match turned the same way.
 #[test]
 fn range_noise_leaves_no_heading_bias_along_a_corridor() {
     let walls = corridor(400.0, 2.4);

@@ -880,8 +880,7 @@ class PatternConfig(Config):
             up to 30 % occlusion, spread at most 0.22; every frame with the pattern hidden
             but one (0.24, of 40 per image pair) at least 0.36. In similarity mode the gains
             are read only on frames that score under `second_look` of the track's typical
-            score, and no frame of the full-step, gain and occlusion sequences is lost by it
-            (`rperc bench pattern`).
+            score (the frames that get a second look).
         pattern: Model building and observation model (sections 3.2-3.3).
         filter: Particle-filter settings (resampler, policy, chunking, parallelism). Default
             chunks of 50 particles.

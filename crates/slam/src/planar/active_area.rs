@@ -366,11 +366,19 @@ mod tests {
         });
         assert!(!crowded.remake_if_worth(&mut ekf, &far, 4).unwrap());
         assert_eq!(ekf.num_landmarks(), 10);
-        // Consider freezing or compression off: never allowed.
+        // Consider freezing or compression off: never allowed; marginalising
+        // freezing is.
         let off = PlanarConfig {
             compression: Compression::Off,
             ..PlanarConfig::default()
         };
         assert!(!ActiveArea::new(&off).allowed());
+        let freezing = |freeze_mode| PlanarConfig {
+            freeze_after: Some(5),
+            freeze_mode,
+            ..PlanarConfig::default()
+        };
+        assert!(!ActiveArea::new(&freezing(FreezeMode::Consider)).allowed());
+        assert!(ActiveArea::new(&freezing(FreezeMode::Marginalise)).allowed());
     }
 }

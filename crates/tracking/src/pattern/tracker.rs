@@ -136,8 +136,7 @@ pub struct PatternTrackerParams {
     /// occlusion, spread at most 0.22; every frame with the pattern hidden but one
     /// (0.24, of 40 per image pair) at least 0.36. In similarity mode the gains are
     /// read only on frames that score under `second_look` of the track's typical
-    /// score, and no frame of the full-step, gain and occlusion sequences is lost
-    /// by it (`rperc bench pattern`).
+    /// score (the frames that get a second look).
     pub lost_gain_spread: f64,
     /// Model building and observation model (sections 3.2-3.3).
     pub pattern: PatternConfig,
@@ -544,7 +543,7 @@ impl PatternTracker {
         let report = self.weigh(resampled)?;
         let (mut estimate, mut observation) = self.refine(report.lost);
         let mut lost_filter = report.lost;
-        if !report.lost && self.score(&observation) < self.params.second_look * self.typical_score {
+        if !report.lost && self.doubtful(&observation) {
             (estimate, observation, lost_filter) = self.look_again(frame, estimate, observation)?;
         }
         let report = StepReport {
@@ -559,13 +558,13 @@ impl PatternTracker {
         if let Some(fit) = &fit {
             (estimate, observation) = (fit.state, fit.observation);
         }
-        // In similarity mode the gains are read only where the frame already looked
-        // doubtful (it scores under `second_look` of the track's typical score, as a
-        // hidden pattern does): reading them costs a tenth of a frame.
-        let doubtful = self.score(&observation) < self.params.second_look * self.typical_score;
+        // In similarity mode the gains are read only where the frame looks doubtful,
+        // as a hidden pattern does: reading them on every frame cost too much speed.
         let spread = match &fit {
             Some(f) => f.gain_spread,
-            None if self.plane.is_none() && !report.lost && doubtful => self.gain_spread(&estimate),
+            None if self.plane.is_none() && !report.lost && self.doubtful(&observation) => {
+                self.gain_spread(&estimate)
+            }
             None => 0.0,
         };
         let lost = report.lost
@@ -594,6 +593,12 @@ impl PatternTracker {
                 .max(TYPICAL_SCORE_DECAY * self.typical_score);
         }
         Ok(self.last)
+    }
+
+    /// Whether `observation` scores under `second_look` of the track's typical score:
+    /// the frame gets a second look, and in similarity mode its gains are read.
+    fn doubtful(&self, observation: &Observation) -> bool {
+        self.score(observation) < self.params.second_look * self.typical_score
     }
 
     /// The spread of the profiles' gains at the similarity `estimate` (see

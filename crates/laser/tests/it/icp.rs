@@ -202,6 +202,18 @@ fn too_few_pairs_refuse_the_match_and_keep_the_prior() {
     let _ = Vector2::<f64>::zeros();
 }
 
+/// The `k`-th of eight odometry errors (x, y, theta) around a pose: 0.7 m in the
+/// direction `k` eighths of a turn, and 15 degrees, inside a loose prior's three
+/// sigma but beyond ICP's basin.
+fn odometry_offset(k: usize) -> Vector3<f64> {
+    let a = k as f64 * std::f64::consts::TAU / 8.0;
+    Vector3::new(
+        0.7 * a.cos(),
+        0.7 * a.sin(),
+        15f64.to_radians() * a.sin().signum(),
+    )
+}
+
 /// The robust start: where the odometry is off by 0.7 m and 15 degrees (inside the
 /// prior's three sigma), ICP from the prior's mean can settle on the wrong stretch of
 /// wall; with the correlative search's starts every one of eight offsets finds the
@@ -225,12 +237,7 @@ fn a_loose_prior_is_searched_before_icp() {
     let cfg = IcpConfig::default();
     let mut plain_failed = 0;
     for k in 0..8 {
-        let a = k as f64 * std::f64::consts::TAU / 8.0;
-        let off = Vector3::new(
-            0.7 * a.cos(),
-            0.7 * a.sin(),
-            15f64.to_radians() * a.sin().signum(),
-        );
+        let off = odometry_offset(k);
         let mean = Pose2::new(truth.x + off.x, truth.y + off.y, truth.theta + off.z);
         let prior = Prior { mean, information };
         let plain = match_scan(&s, &map, mean, &prior, &cfg).unwrap();
@@ -299,12 +306,8 @@ fn the_front_end_searches_by_its_configured_share() {
     let sd = Vector3::new(0.4, 0.4, 8f64.to_radians());
     let mut differ = 0;
     for k in 0..8 {
-        let a = k as f64 * std::f64::consts::TAU / 8.0;
-        let off = Pose2::new(
-            0.7 * a.cos(),
-            0.7 * a.sin(),
-            15f64.to_radians() * a.sin().signum(),
-        );
+        let o = odometry_offset(k);
+        let off = Pose2::new(o.x, o.y, o.z);
         let step = Step {
             motion: start.between(&truth.compose(&off)),
             covariance: Matrix3::from_diagonal(&sd.map(|v| v * v)),

@@ -9,7 +9,10 @@
 //! information `H_s = sum w J^T J / sigma^2` (Censi 2007's Hessian approximation),
 //! inflated by `covariance_scale` for the residuals' correlation (neighbouring
 //! points share the map's and the wall's errors), and the prior's `Lambda` give the
-//! fused covariance `(H_s / scale + Lambda)^-1`. Where the scan sees nothing (along a
+//! fused covariance `(H_s / scale + Lambda)^-1`. The correlation grows with the
+//! pairs: beyond `independent_pairs` of them the scale grows in proportion, so the
+//! information stops growing (a scan of 300 points on a few walls knows the pose
+//! no better than one of 100: their errors are the walls', shared). Where the scan sees nothing (along a
 //! featureless corridor) `H_s` is zero and the estimate and its variance stay the
 //! prior's: the odometry's.
 
@@ -40,6 +43,10 @@ pub struct IcpConfig {
     pub covariance_scale: f64,
     /// A match with fewer paired points is refused (>= 3).
     pub min_inliers: usize,
+    /// Beyond this many paired points (>= 1) the scan's information stops growing:
+    /// `covariance_scale` is multiplied by `pairs / independent_pairs`. Chosen by
+    /// leave-one-log-out over the nine corpus logs (see the laser guide).
+    pub independent_pairs: usize,
     /// Iterations stop when a step moves less than this, m or rad (> 0).
     pub tolerance: f64,
     /// A point pairs only with a map point whose normal is within this
@@ -57,6 +64,7 @@ impl Default for IcpConfig {
             huber: 2.0,
             covariance_scale: 3.0,
             min_inliers: 10,
+            independent_pairs: 70,
             tolerance: 1e-5,
             max_normal_angle: 30f64.to_radians(),
         }
@@ -96,7 +104,22 @@ impl IcpConfig {
                 format!("must be >= 3, got {}", self.min_inliers),
             ));
         }
+        // A count, not an allocation: nothing is sized by it.
+        rperc_core::ensure_count(
+            "independent_pairs",
+            self.independent_pairs,
+            1,
+            usize::MAX,
+            0,
+        )?;
         Ok(())
+    }
+
+    /// The factor a scan's Hessian over `pairs` paired points is divided by:
+    /// `covariance_scale`, times `pairs / independent_pairs` beyond that many.
+    pub fn scale_for(&self, pairs: usize) -> f64 {
+        let excess = pairs as f64 / self.independent_pairs as f64;
+        self.covariance_scale * excess.max(1.0)
     }
 }
 
@@ -115,9 +138,10 @@ pub struct Prior {
 pub struct Match {
     /// The fused pose (the prior's mean when the match was refused).
     pub pose: Pose2,
-    /// Its covariance: `(H_s / covariance_scale + Lambda)^-1`, or the prior's.
+    /// Its covariance: `(H_s / scale + Lambda)^-1` ([`IcpConfig::scale_for`]), or
+    /// the prior's.
     pub covariance: Matrix3<f64>,
-    /// The scan's information `H_s / covariance_scale` (zero when refused).
+    /// The scan's information `H_s / scale` (zero when refused).
     pub information: Matrix3<f64>,
     /// Points paired with the map in the last iteration.
     pub inliers: usize,
@@ -186,7 +210,8 @@ pub(crate) fn scan_cost(scan: &ScanPoints, map: &MapIndex, pose: &Pose2, cfg: &I
     let terms = scan_terms(scan, map, pose, cfg);
     let unpaired = scan.with_normals().saturating_sub(terms.pairs) as f64;
     let d2 = cfg.max_distance * cfg.max_distance;
-    (terms.sum_r2 + unpaired * d2) / (cfg.sigma * cfg.sigma) / cfg.covariance_scale
+    let scale = cfg.scale_for(scan.with_normals());
+    (terms.sum_r2 + unpaired * d2) / (cfg.sigma * cfg.sigma) / scale
 }
 
 pub(crate) fn prior_error(pose: &Pose2, prior: &Prior) -> Vector3<f64> {
@@ -231,8 +256,9 @@ pub fn match_scan(
         if terms.pairs < cfg.min_inliers {
             return refused(terms.pairs, iterations);
         }
-        let h = terms.h / cfg.covariance_scale + prior.information;
-        let g = terms.g / cfg.covariance_scale + prior.information * prior_error(&pose, prior);
+        let scale = cfg.scale_for(terms.pairs);
+        let h = terms.h / scale + prior.information;
+        let g = terms.g / scale + prior.information * prior_error(&pose, prior);
         let Some(chol) = h.cholesky() else {
             return refused(terms.pairs, iterations);
         };
@@ -266,7 +292,7 @@ fn finish(
     if terms.pairs < cfg.min_inliers {
         return refused(terms.pairs, iterations);
     }
-    let information = terms.h / cfg.covariance_scale;
+    let information = terms.h / cfg.scale_for(terms.pairs);
     let Some(covariance) = (information + prior.information).try_inverse() else {
         return refused(terms.pairs, iterations);
     };

@@ -141,6 +141,44 @@ fn covariance_is_not_overconfident() {
     assert!(mean > 0.05, "NEES mean {mean}");
 }
 
+/// Beyond `independent_pairs` paired points the scan's information is the uncapped
+/// one times `independent_pairs / pairs` (the closed form), at the same pose; at or
+/// under it nothing changes.
+#[test]
+fn information_stops_growing_beyond_the_independent_pairs() {
+    let walls = cluttered_room(12.0, 8.0);
+    let mut rng = ChaCha8Rng::seed_from_u64(0);
+    let map = map_from(&walls, &Pose2::new(4.0, 3.0, 0.2), 0.0, &mut rng);
+    let truth = Pose2::new(4.3, 3.1, 0.25);
+    let s = scan(&walls, &truth, 0.0, &mut rng);
+    let with_cap = |cap: usize| {
+        let cfg = IcpConfig {
+            independent_pairs: cap,
+            ..Default::default()
+        };
+        match_scan(&s, &map, truth, &loose_prior(truth), &cfg).unwrap()
+    };
+    let free = with_cap(usize::MAX);
+    let pairs = free.inliers;
+    assert!(pairs > 100, "{pairs} pairs");
+    for cap in [pairs / 4, pairs / 2] {
+        let m = with_cap(cap);
+        assert_eq!(m.inliers, pairs);
+        let expected = free.information * (cap as f64 / pairs as f64);
+        let gap = (m.information - expected).norm() / expected.norm();
+        assert!(gap < 1e-6, "cap {cap}: relative gap {gap}");
+    }
+    assert_eq!(with_cap(pairs).information, free.information);
+    assert!(
+        IcpConfig {
+            independent_pairs: 0,
+            ..Default::default()
+        }
+        .validate()
+        .is_err()
+    );
+}
+
 /// In a corridor along x the scan fixes y and the heading only: the match keeps the
 /// prior's x and its variance, and corrects y.
 #[test]

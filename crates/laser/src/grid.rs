@@ -171,24 +171,30 @@ impl MapIndex {
             1 => self.cell - f,
             _ => 0.0,
         };
-        let mut best: Option<(usize, f64)> = None;
+        // The best squared distance so far, and a strict bound that admits a point at
+        // exactly `limit` until one is found (then the first of equals wins): one
+        // comparison a point, which the compiler turns into conditional moves.
+        let mut bound = (limit * limit).next_up();
+        let mut best = usize::MAX;
         for (di, dj) in NEIGHBOURS {
             let edge = gap(di, inside.x).powi(2) + gap(dj, inside.y).powi(2);
-            if edge > best.map_or(limit * limit, |(_, b)| b) {
+            if edge >= bound {
                 continue;
             }
             // Wrapping: a query far outside the map saturates its cell, and the
             // neighbour of the last cell must not overflow (its bucket is as good).
             let b = self.bucket(ci.wrapping_add(di), cj.wrapping_add(dj));
             let (from, to) = (self.start[b] as usize, self.start[b + 1] as usize);
-            for (slot, p) in self.by_cell[from..to].iter().enumerate() {
+            for (slot, p) in (from..to).zip(&self.by_cell[from..to]) {
                 let d2 = (p - q).norm_squared();
-                if d2 <= limit * limit && best.is_none_or(|(_, b)| d2 < b) {
-                    best = Some((from + slot, d2));
+                if d2 < bound {
+                    bound = d2;
+                    best = slot;
                 }
             }
         }
-        best.map(|(slot, distance2)| (self.order[slot] as usize, distance2))
+        (best != usize::MAX)
+            .then(|| (self.order[best] as usize, bound))
             .map(|(index, distance2)| Neighbour {
                 index,
                 point: self.points[index],

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 
 from rperc import _rperc
@@ -431,3 +431,54 @@ def test_readings_float_alone_reads_take_the_slow_path(tmp_path):
     path.write_text(flaser(["1", "2.5x", "3"]))
     with pytest.raises(DatasetFormatError, match=r"sep.log:1: ranges: not a number: '2.5x'"):
         load_carmen(path)
+
+
+_FIELD = st.one_of(_TOKEN, st.sampled_from(["FLASER", "host", "0.5", "-3e2"]))
+_GAP = st.sampled_from([" ", "  ", "\t", " \t ", "\u2003", "\u00a0", "\x0b", "\x1c"])
+
+
+@given(st.lists(st.tuples(_FIELD, _GAP), max_size=10), st.integers(0, 4), st.integers(0, 6))
+@example([("1", " "), ("2", "\x1c"), ("3", " ")], 0, 1)  # Python splits at \x1c, Rust did not
+@example([("1", "\x0b"), ("2", " ")], 1, 1)
+def test_the_line_reader_reads_what_split_and_float_read(parts, first, count):
+    """Scan and ODOM lines are read by Rust without Python's split. Whatever it reads,
+    ``str.split`` and ``float()`` (the oracle) read alike: the same field count and the
+    same numbers; anything else it refuses, and the reader then splits the line."""
+    line = "".join(token + gap for token, gap in parts)
+    fast = _rperc.parse_line_floats(line, first, count)
+    batch = _rperc.parse_lines_floats([line, line], first, count)
+    if fast is None:
+        assert batch is None
+        return
+    fields = line.split()
+    assert fast[0] == len(fields)
+    expected = [float(t) for t in fields[first : first + count]]  # raises if Rust read more
+    np.testing.assert_array_equal(fast[1], np.array(expected, dtype=np.float64))
+    assert batch is not None
+    np.testing.assert_array_equal(batch[0], [len(fields)] * 2)
+    np.testing.assert_array_equal(batch[1], np.array([expected] * 2).reshape(2, count))
+
+
+def test_lines_read_by_rust_and_by_split_give_the_same_log(tmp_path):
+    """The same log twice: once with plain spaces (its FLASER and ODOM lines read in
+    Rust), once with a non-ASCII space in every line (each split in Python, the
+    reader's checked path): every array of the two logs is equal, invalid readings
+    and skipped lines included."""
+    lines = ["PARAM robot_front_laser_max 50.0\n"]
+    for k in range(30):
+        lines.append(ODOM.format(x=0.1 * k, y=0.0, th=0.01 * k, t=10.0 + k))
+        ranges = [f"{1.0 + 0.01 * (k + b)}" for b in range(7)] + ["nan", "-1"]
+        lines.append(flaser(ranges, pose=f"{0.1 * k} 0.2 0.03", t=10.5 + k))
+    lines.append("ODOM 1 2 3\n")  # truncated: skipped with its line
+    plain = tmp_path / "plain.log"
+    plain.write_text("".join(lines))
+    spaced = tmp_path / "spaced.log"
+    spaced.write_text("".join(line.replace(" ", "\u2003", 1) for line in lines))
+    a = load_carmen(plain, on_error="skip")
+    b = load_carmen(spaced, on_error="skip")
+    assert a.errors == b.errors and [e.line for e in a.errors] == [62]
+    names = ("ranges", "num_beams", "invalid", "max_range", "pose", "odom", "timestamp", "line")
+    for name in names:
+        np.testing.assert_array_equal(getattr(a.scans, name), getattr(b.scans, name), err_msg=name)
+    np.testing.assert_array_equal(a.odometry.pose, b.odometry.pose)
+    assert a.scans.invalid.tolist() == [2] * 30

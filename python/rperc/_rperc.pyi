@@ -62,6 +62,8 @@ __all__ = [
     "otb_precision",
     "otb_success_curve",
     "parse_floats",
+    "parse_line_floats",
+    "parse_lines_floats",
     "pattern_sequence",
     "planar_sim_check",
     "planar_sim_nees",
@@ -782,6 +784,18 @@ def laser_run(
 ) -> LaserRun: ...
 def parse_floats(tokens: list[str]) -> npt.NDArray[np.float64] | None:
     """The tokens as floats, or None when one is not a plain decimal number."""
+
+def parse_line_floats(
+    line: str, first: int, count: int
+) -> tuple[int, npt.NDArray[np.float64]] | None:
+    """The line's field count and ``count`` of its fields from ``first`` on as floats,
+    or None (a non-ASCII byte, too few fields, or a field that is not a plain number)."""
+
+def parse_lines_floats(
+    lines: list[str], first: int, count: int
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]] | None:
+    """:func:`parse_line_floats` over every line: the field counts and the
+    ``(len(lines), count)`` table, or None when any line does not read."""
 
 def laser_scan_points(
     ranges: _ArrayLike,

@@ -75,7 +75,7 @@ mod _rperc {
     #[pymodule_export]
     use crate::template_py::{PyColorTemplateAnswer, PyColorTemplateTracker};
     #[pymodule_export]
-    use crate::text_py::parse_floats;
+    use crate::text_py::{parse_floats, parse_line_floats, parse_lines_floats};
     #[pymodule_export]
     use crate::tracking_py::{
         PyColorHistogramTracker, PyParticleColorTracker, PyTrackAnswer, effective_sample_size,

@@ -312,10 +312,43 @@ def _parse_flaser(
             path, lineno, f"{tok[0]} with {n} beams needs {expected} fields, got {len(tok)}"
         )
     ranges = _float_array(path, lineno, tok[2 : 2 + n], "ranges")
-    pose = _finite(path, lineno, _floats(path, lineno, tok[2 + n : 2 + n + 7], "poses"), "pose")
-    start, step, max_range = _flaser_geometry(tok[0], n, params)
-    _within_a_turn(path, lineno, tok[0], n, step)
-    rows.add(tok[0], ranges, (start, step, max_range, *pose), lineno)
+    pose = _floats(path, lineno, tok[2 + n : 2 + n + 7], "poses")
+    _add_flaser(path, lineno, tok[0], ranges, pose, rows, params)
+
+
+def _read_flaser_line(
+    path: Path, lineno: int, raw: str, rows: _ScanRows, params: dict[str, str]
+) -> bool:
+    """Reads a well-formed FLASER or RLASER line without splitting it into Python
+    strings (Rust reads its numbers from the line); False, with nothing read, for any
+    line that is not plainly well formed, which :func:`_parse_flaser` then reads and
+    whose fault it names."""
+    head = raw.split(maxsplit=2)
+    if len(head) < 3 or not (head[1].isascii() and head[1].isdigit()):
+        return False
+    n = int(head[1])
+    fast = _rperc.parse_line_floats(raw, 2, n + 7) if n > 0 else None
+    if fast is None or fast[0] != n + 11:
+        return False
+    values = fast[1]
+    _add_flaser(path, lineno, head[0], values[:n], values[n:].tolist(), rows, params)
+    return True
+
+
+def _add_flaser(
+    path: Path,
+    lineno: int,
+    kind: str,
+    ranges: np.ndarray,
+    pose: list[float],
+    rows: _ScanRows,
+    params: dict[str, str],
+) -> None:
+    """An old-style line's scan, its poses checked and its geometry from the PARAMs."""
+    _finite(path, lineno, pose, "pose")
+    start, step, max_range = _flaser_geometry(kind, len(ranges), params)
+    _within_a_turn(path, lineno, kind, len(ranges), step)
+    rows.add(kind, ranges, (start, step, max_range, *pose), lineno)
 
 
 def _laser_config(path: Path, lineno: int, tok: list[str]) -> tuple[int, int, list[float]]:
@@ -376,48 +409,49 @@ def _parse_rawlaser(path: Path, lineno: int, tok: list[str], rows: _ScanRows) ->
     rows.add(tok[0], ranges, (*geometry, nan, nan, nan, nan, nan, nan, ts), lineno)
 
 
-def _odom_values(path: Path, lineno: int, tok: list[str]) -> list[float]:
+def _odom_values(path: Path, lineno: int, raw: str) -> list[float]:
     """One ODOM line's seven values, or a DatasetFormatError naming the line."""
+    tok = raw.split()
+    if len(tok) != 10:
+        raise DatasetFormatError(path, lineno, f"ODOM needs 10 fields, got {len(tok)}")
     values = _floats(path, lineno, tok[1:8], "ODOM values")
     _finite(path, lineno, values[:3], "pose")
     return values
 
 
 class _OdomRows:
-    """The ODOM lines' tokens, read as numbers in one batch once the file is read:
-    ODOM lines outnumber scans ten to one, and a parse per line was about a quarter of
-    reading a log. A line that does not read is found again by :func:`_odom_values`,
-    so its error is the per-line one, and no error is reported out of file order."""
+    """The ODOM lines, read as numbers in one batch once the file is read: ODOM lines
+    outnumber scans ten to one, and a split and parse per line was most of reading a
+    log. A line that does not read is found again by :func:`_odom_values`, so its error
+    is the per-line one, and no error is reported out of file order."""
 
     def __init__(self) -> None:
-        self.tokens: list[list[str]] = []
+        self.raws: list[str] = []
         self.lines: list[int] = []
 
-    def add(self, path: Path, lineno: int, tok: list[str]) -> None:
-        if len(tok) != 10:
-            raise DatasetFormatError(path, lineno, f"ODOM needs 10 fields, got {len(tok)}")
-        self.tokens.append(tok)
+    def add(self, lineno: int, raw: str) -> None:
+        self.raws.append(raw)
         self.lines.append(lineno)
 
     def check_before(self, path: Path, lineno: int) -> None:
         """Raises the error of the first bad ODOM line before line ``lineno``."""
-        for tok, at in zip(self.tokens, self.lines, strict=True):
+        for raw, at in zip(self.raws, self.lines, strict=True):
             if at >= lineno:
                 return
-            _odom_values(path, at, tok)
+            _odom_values(path, at, raw)
 
     def stack(self, path: Path, errors: list[SkippedLine] | None) -> np.ndarray:
         """The ``(N, 7)`` values; a bad line raises, or with ``errors`` is left out and
         listed there."""
-        flat = _rperc.parse_floats([v for tok in self.tokens for v in tok[1:8]])
-        if flat is not None:
-            arr: np.ndarray = flat.reshape(len(self.tokens), 7)
-            if np.isfinite(arr[:, :3]).all():
+        fast = _rperc.parse_lines_floats(self.raws, 1, 7)
+        if fast is not None:
+            fields, arr = fast
+            if (fields == 10).all() and np.isfinite(arr[:, :3]).all():
                 return arr
         rows = []
-        for tok, at in zip(self.tokens, self.lines, strict=True):
+        for raw, at in zip(self.raws, self.lines, strict=True):
             try:
-                rows.append(_odom_values(path, at, tok))
+                rows.append(_odom_values(path, at, raw))
             except DatasetFormatError as exc:
                 if errors is None:
                     raise
@@ -477,6 +511,10 @@ def load_carmen(
     errors: list[SkippedLine] = []
     comments = 0
     for lineno, raw in enumerate(decode_lines(path), start=1):
+        # Most lines are ODOM: kept as they are, read in one batch at the end.
+        if raw.__class__ is str and raw.startswith("ODOM "):
+            odom.add(lineno, raw)
+            continue
         try:
             kind = _read_record(path, lineno, raw, rows, odom, params, strict)
         except DatasetFormatError as exc:
@@ -547,10 +585,16 @@ def infer_no_return(ranges: np.ndarray) -> tuple[float, int] | None:
     near = r[(r >= top * (1 - NO_RETURN_BAND)) & (r < top)]
     _, counts = np.unique(near, return_counts=True)
     rival = int(counts.max()) if len(counts) else 0
-    spread = len(np.unique(r[r < top])) >= NO_RETURN_MIN_COUNT
+    spread = _distinct_at_least(r[r < top], NO_RETURN_MIN_COUNT)
     if spread and count >= NO_RETURN_MIN_COUNT and count >= NO_RETURN_DOMINANCE * max(rival, 1):
         return top, count
     return None
+
+
+def _distinct_at_least(values: np.ndarray, k: int) -> bool:
+    """Whether ``values`` hold at least ``k`` distinct numbers: a short head of a log's
+    readings usually does, which spares sorting all of them."""
+    return len(np.unique(values[: 64 * k])) >= k or len(np.unique(values)) >= k
 
 
 def _default_max_range(rows: _ScanRows) -> dict[str, tuple[float, int]]:
@@ -589,6 +633,9 @@ def _read_record(
     record that is only counted (PARAM too), :data:`COMMENT` for a comment, else None."""
     if isinstance(raw, DatasetFormatError):
         raise raw
+    old_style = raw.startswith(("FLASER ", "RLASER "))
+    if old_style and _read_flaser_line(path, lineno, raw, rows, params):
+        return None
     tok = raw.split()
     if not tok:
         return None
@@ -596,7 +643,7 @@ def _read_record(
         return COMMENT
     kind = tok[0]
     if kind == "ODOM":
-        odom.add(path, lineno, tok)
+        odom.add(lineno, raw)
     elif kind in ("FLASER", "RLASER"):
         _parse_flaser(path, lineno, tok, rows, params)
     elif kind == "ROBOTLASER1":
@@ -618,11 +665,13 @@ def _stack_scans(rows: _ScanRows, odometry: Odometry) -> tuple[LaserScans, int]:
     count = len(rows.ranges)
     width = max((len(r) for r in rows.ranges), default=0)
     ranges = np.full((count, width), np.nan)
-    invalid = np.zeros(count, dtype=np.int64)
     for k, r in enumerate(rows.ranges):
-        bad = ~np.isfinite(r) | (r < 0)
-        invalid[k] = np.count_nonzero(bad)
-        ranges[k, : len(r)] = np.where(bad, np.nan, r)
+        ranges[k, : len(r)] = r
+    # A row's cells past its own beams are padding, not invalid readings.
+    beams = np.array([len(r) for r in rows.ranges], dtype=np.int64).reshape(count)
+    bad = ~np.isfinite(ranges) | (ranges < 0)
+    invalid = np.count_nonzero(bad & (np.arange(width) < beams[:, None]), axis=1).astype(np.int64)
+    ranges[bad] = np.nan
     meta = np.asarray(rows.meta, dtype=np.float64).reshape(count, 10)
     kind = np.asarray(rows.kinds, dtype="<U11").reshape(count)
     raw = kind == "RAWLASER1"
@@ -634,7 +683,7 @@ def _stack_scans(rows: _ScanRows, odometry: Odometry) -> tuple[LaserScans, int]:
         no_pose = int(np.count_nonzero(np.isnan(pose[:, 0])))
     scans = LaserScans(
         ranges=ranges,
-        num_beams=np.array([len(r) for r in rows.ranges], dtype=np.int64),
+        num_beams=beams,
         angle_min=meta[:, 0].copy(),
         angle_increment=meta[:, 1].copy(),
         max_range=meta[:, 2].copy(),

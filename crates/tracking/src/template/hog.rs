@@ -78,9 +78,12 @@ pub(crate) fn unsigned_angle(gx: f32, gy: f32) -> f32 {
 pub(crate) fn orientation_votes(theta: f32) -> [(usize, f32); 2] {
     let width = std::f32::consts::PI / ORIENTATIONS as f32;
     let t = theta / width - 0.5;
-    let lower = t.floor();
-    let frac = t - lower;
-    let b0 = (lower as isize).rem_euclid(ORIENTATIONS as isize) as usize;
+    // The floor without libm's call (the baseline x86-64 target has no rounding
+    // instruction, and this runs for every pixel): truncate, one less below zero.
+    let truncated = t as i32;
+    let lower = truncated - i32::from(truncated as f32 > t);
+    let frac = t - lower as f32;
+    let b0 = lower.rem_euclid(ORIENTATIONS as i32) as usize;
     let b1 = (b0 + 1) % ORIENTATIONS;
     [(b0, 1.0 - frac), (b1, frac)]
 }
@@ -221,6 +224,30 @@ mod tests {
             let got = f64::from(unsigned_angle(gx, gy));
             let d = (got - expected).abs();
             prop_assert!(d.min(std::f64::consts::PI - d) < 2e-5, "{got} vs {expected}");
+        }
+    }
+
+    /// The votes equal those computed with libm's floor (the oracle), across [0, pi)
+    /// and at every bin's edge and centre, where the floor changes.
+    #[test]
+    fn votes_equal_the_floor_based_split() {
+        let width = std::f32::consts::PI / ORIENTATIONS as f32;
+        let mut thetas: Vec<f32> = (0..20_000)
+            .map(|k| k as f32 * std::f32::consts::PI / 20_000.0)
+            .collect();
+        for b in 0..=2 * ORIENTATIONS {
+            let edge = b as f32 * width / 2.0;
+            thetas.extend([edge, edge.next_up(), edge.next_down().max(0.0)]);
+        }
+        for theta in thetas {
+            let t = theta / width - 0.5;
+            let lower = t.floor();
+            let b0 = (lower as isize).rem_euclid(ORIENTATIONS as isize) as usize;
+            let expected = [
+                (b0, 1.0 - (t - lower)),
+                ((b0 + 1) % ORIENTATIONS, t - lower),
+            ];
+            assert_eq!(orientation_votes(theta), expected, "theta {theta}");
         }
     }
 

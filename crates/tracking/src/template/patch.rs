@@ -3,6 +3,7 @@
 //! frame (Staple's "fixed area").
 
 use crate::frame::RgbFrame;
+use rperc_core::image::grey_level;
 
 /// A resampled RGB patch with its grey levels, `width x height` pixels.
 #[derive(Debug, Clone, Default)]
@@ -35,7 +36,8 @@ pub(crate) struct Window {
 /// the edge (OpenCV's `BORDER_REPLICATE`). Computed once per column and per row.
 fn taps(coordinate: f64, n: usize) -> (usize, usize, f32) {
     let c = coordinate.clamp(0.0, (n - 1) as f64);
-    let i0 = c.floor() as usize;
+    // c >= 0 (NaN clamps to NaN, which casts to 0): truncation is the floor.
+    let i0 = c as usize;
     (i0, (i0 + 1).min(n - 1), (c - i0 as f64) as f32)
 }
 
@@ -75,8 +77,11 @@ pub(crate) fn sample(
             };
             let [r, g, b]: [f32; 3] =
                 std::array::from_fn(|c| mix(top, c) * (1.0 - fy) + mix(bottom, c) * fy);
-            out.rgb
-                .push([r.round() as u8, g.round() as u8, b.round() as u8]);
+            out.rgb.push([
+                grey_level(r.into()),
+                grey_level(g.into()),
+                grey_level(b.into()),
+            ]);
             out.grey.push((0.299 * r + 0.587 * g + 0.114 * b) / 255.0);
         }
     }

@@ -586,7 +586,8 @@ class ColorTemplateConfig(Config):
             score is under its threshold (those levels are of the appearance just before the
             loss), in [0, 1]; `None` turns this off. Default 0.7: with the levels sinking
             slowly, a target back after a short occlusion is then taken up at once (the OTB
-            dev sequences hardly tell 0.7, 0.8, 0.9 and off apart: in-sample F1 0.52-0.53).
+            dev sequences hardly tell 0.7, 0.8, 0.9 and off apart; figures:
+            `docs/decisions.md`).
         lost_level_decay: Factor on the running levels per lost frame, in (0, 1]: below 1 a
             target that came back changed (turned, lit differently) is taken up again; 1
             holds it to its old levels. Default 0.995 (halves them in about 140 frames;
@@ -841,9 +842,8 @@ class PatternConfig(Config):
         parallel_min_work: With `filter.parallel`, a frame is processed on the rayon pool
             only when the tracker's work, particles times model points, reaches this:
             handing a frame to the pool and back costs more than two cores save on small
-            ones (200 particles of 176 points: 1296 fps on one thread, 1218 on two; 1000
-            particles: 608 and 718, 640 x 480 frames on 2 cores, same run). 0: whenever
-            `filter.parallel`. Default 100 000. The numbers do not depend on it.
+            ones (figures: `docs/decisions.md`). 0: whenever `filter.parallel`. Default 100
+            000. The numbers do not depend on it.
         coarse_particles: States screened a frame by the coarse layer (see
             [`PatternTracker::update`]), drawn from the prior predictive; its best
             `coarse_kept` become the particles weighed on the frame. 0: no coarse layer, the
@@ -1387,10 +1387,7 @@ class PlanarConfig(Config):
             short wall seen with a loose angle (a door jamb 0.4 m long: about 6 degrees)
             biases every linearised update the same way and the filter turns overconfident.
             Set on a simulated 40 m corridor loop with door jambs, never on a laser log
-            (`benchmarks/wall_corridor.py`, 6 seeds, robot NEES mean / median / share in
-            band with every wall used: 0.4 m jambs of 6 degrees 44.2 / 23.6 / 25 %, 0.8 m
-            10.7 / 4.6 / 82 %, 1.2 m 8.9 / 3.7 / 88 %, no jambs 7.6 / 2.4 / 96 %; with this
-            2-degree limit 7.9 / 2.5 / 91 % with 0.4 m jambs).
+            (`benchmarks/wall_corridor.py`; figures: `docs/decisions.md`).
         wall_shared_sd: The straightness error a detection shares with earlier detections of
             the same part of its wall, m (>= 0; 0: none): a wall's own bends stay where they
             are, so sightings of one stretch of it repeat their error instead of averaging
@@ -1400,14 +1397,11 @@ class PlanarConfig(Config):
             of the same stretch (the shorter one's), among its latest
             [`super::WALL_PARTS_KEPT`]. Its own covariance should already hold the floor
             once (`rperc.slam.wallslam` adds it to every sighting). `sqrt(n)` lies between
-            independent sightings (no growth) and one error shared by all (`n`). In a
-            simulated corridor whose walls have bends of their own (2 cm sd,
-            `benchmarks/wall_corridor.py --bend 0.02`, 12 seeds) the robot's share of scans
-            in band goes from 78 to 89 %. Chosen on ACES with the floor
-            `wallslam.STRAIGHTNESS`, Intel held out (`benchmarks/wall_fig7.py`): on ACES, 10
-            seeds, the robot NEES mean went from 4.7 to 3.5 with `sqrt(n)`, 14.6 with `n`.
-            The detection that admits a wall is not counted: counted, two ACES seeds of ten
-            ended with NEES 145-149.
+            independent sightings (no growth) and one error shared by all (`n`). Checked in
+            a simulated corridor whose walls have bends of their own
+            (`benchmarks/wall_corridor.py --bend 0.02`) and chosen on ACES with the floor
+            `wallslam.STRAIGHTNESS`, Intel held out (`benchmarks/wall_fig7.py`); the
+            detection that admits a wall is not counted (figures: `docs/decisions.md`).
         wall_innovation: Where a wall detection is compared with the map's wall (`segment`,
             the default, or seed 000's `line`).
         anchor: Eqs. (24)-(25): the first landmark becomes the global reference (a point, or
@@ -1453,10 +1447,10 @@ class PlanarConfig(Config):
             (tested: with it, the robot's absolute heading and position variances never fall
             below the start's). A point landmark's observation is linearised at the point's
             first estimate too (its position when admitted; the predicted detection stays at
-            its current one). On MR.CLAM robot 3 this takes the robot NEES mean from 42 to
-            2.7; a first estimate made while the robot was far off (robot 2 after 46 s
-            without a sighting, 0.5 rad off) keeps Jacobians that no longer describe the
-            map, and that run diverges.
+            its current one). It made MR.CLAM robot 3 consistent; but a first estimate made
+            while the robot was far off (robot 2 after a long stretch without a sighting)
+            keeps Jacobians that no longer describe the map, and that run diverges (figures:
+            `docs/decisions.md`).
     """
 
     _native: ClassVar[str] = "planar"

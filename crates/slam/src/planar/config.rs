@@ -31,9 +31,9 @@ rperc_core::named_enum! {
         Line = "line",
         /// The offset at the middle of the seen segment, and the angle: the same
         /// information to first order, without the foot's curvature in the angle.
-        /// Chosen on the simulated corridor loop (`benchmarks/wall_corridor.py`, 6
-        /// seeds, FEJ, bias states, no angle limit, 0.4 m jambs): robot NEES median
-        /// 20.0 and 35 % in band with `line`, 2.1 and 97 % with `segment`.
+        /// Chosen on the simulated corridor loop (`benchmarks/wall_corridor.py`),
+        /// where `line` left the robot far out of its NEES band (figures:
+        /// `docs/decisions.md`).
         #[default]
         Segment = "segment",
     }
@@ -115,10 +115,7 @@ pub struct PlanarConfig {
     /// wall seen with a loose angle (a door jamb 0.4 m long: about 6 degrees) biases
     /// every linearised update the same way and the filter turns overconfident. Set
     /// on a simulated 40 m corridor loop with door jambs, never on a laser log
-    /// (`benchmarks/wall_corridor.py`, 6 seeds, robot NEES mean / median / share in
-    /// band with every wall used: 0.4 m jambs of 6 degrees 44.2 / 23.6 / 25 %,
-    /// 0.8 m 10.7 / 4.6 / 82 %, 1.2 m 8.9 / 3.7 / 88 %, no jambs 7.6 / 2.4 / 96 %;
-    /// with this 2-degree limit 7.9 / 2.5 / 91 % with 0.4 m jambs).
+    /// (`benchmarks/wall_corridor.py`; figures: `docs/decisions.md`).
     pub wall_max_angle_sd: f64,
     /// The straightness error a detection shares with earlier detections of the same
     /// part of its wall, m (>= 0; 0: none): a wall's own bends stay where they are,
@@ -130,13 +127,10 @@ pub struct PlanarConfig {
     /// [`super::WALL_PARTS_KEPT`]. Its own covariance should already
     /// hold the floor once (`rperc.slam.wallslam` adds it to every sighting). `sqrt(n)`
     /// lies between independent sightings (no growth) and one error shared by all
-    /// (`n`). In a simulated corridor whose walls have bends of their own (2 cm sd,
-    /// `benchmarks/wall_corridor.py --bend 0.02`, 12 seeds) the robot's share of
-    /// scans in band goes from 78 to 89 %. Chosen on ACES with the floor
-    /// `wallslam.STRAIGHTNESS`, Intel held out
-    /// (`benchmarks/wall_fig7.py`): on ACES, 10 seeds, the robot NEES mean went from
-    /// 4.7 to 3.5 with `sqrt(n)`, 14.6 with `n`. The detection that admits a wall is
-    /// not counted: counted, two ACES seeds of ten ended with NEES 145-149.
+    /// (`n`). Checked in a simulated corridor whose walls have bends of their own
+    /// (`benchmarks/wall_corridor.py --bend 0.02`) and chosen on ACES with the floor
+    /// `wallslam.STRAIGHTNESS`, Intel held out (`benchmarks/wall_fig7.py`); the
+    /// detection that admits a wall is not counted (figures: `docs/decisions.md`).
     pub wall_shared_sd: f64,
     /// Where a wall detection is compared with the map's wall (`segment`, the
     /// default, or seed 000's `line`).
@@ -193,10 +187,10 @@ pub struct PlanarConfig {
     /// overconfident (tested: with it, the robot's absolute heading and position
     /// variances never fall below the start's). A point landmark's observation is
     /// linearised at the point's first estimate too (its position when admitted; the
-    /// predicted detection stays at its current one). On MR.CLAM robot 3 this takes
-    /// the robot NEES mean from 42 to 2.7; a first estimate made while the robot was
-    /// far off (robot 2 after 46 s without a sighting, 0.5 rad off) keeps Jacobians
-    /// that no longer describe the map, and that run diverges.
+    /// predicted detection stays at its current one). It made MR.CLAM robot 3
+    /// consistent; but a first estimate made while the robot was far off (robot 2
+    /// after a long stretch without a sighting) keeps Jacobians that no longer
+    /// describe the map, and that run diverges (figures: `docs/decisions.md`).
     pub first_estimates: bool,
 }
 

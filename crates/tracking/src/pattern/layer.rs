@@ -31,8 +31,7 @@ const MIN_COARSE_POINTS: usize = 8;
 /// from part of its points, falls this far below the best one met before it (see
 /// [`PatternLikelihood::with_early_exit`]): it only ranks states, and one that far
 /// below (a factor `e^-10`) is not among those kept. 10 rather than the filter's 30
-/// ran the default 24-29 % faster at the same accuracy (seeds 0-9, process time);
-/// 5 gained nothing more.
+/// is faster at the same accuracy (figures: `docs/decisions.md`).
 const COARSE_MARGIN: f64 = 10.0;
 
 /// Most Gauss-Newton steps of [`CoarseLayer::refine`] per state.

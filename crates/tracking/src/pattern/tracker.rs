@@ -88,9 +88,8 @@ pub struct PatternTrackerParams {
     pub newton_steps: usize,
     /// With `filter.parallel`, a frame is processed on the rayon pool only when the
     /// tracker's work, particles times model points, reaches this: handing a frame to
-    /// the pool and back costs more than two cores save on small ones (200 particles
-    /// of 176 points: 1296 fps on one thread, 1218 on two; 1000 particles: 608 and
-    /// 718, 640 x 480 frames on 2 cores, same run). 0: whenever `filter.parallel`.
+    /// the pool and back costs more than two cores save on small ones (figures:
+    /// `docs/decisions.md`). 0: whenever `filter.parallel`.
     /// Default 100 000. The numbers do not depend on it.
     pub parallel_min_work: usize,
     /// States screened a frame by the coarse layer (see [`PatternTracker::update`]),
@@ -174,8 +173,7 @@ impl Default for PatternTrackerParams {
             // Each chunk weighs its particles until one is good, then cuts the rest
             // short (the early exit of `PatternLikelihood::with_early_exit`): fewer,
             // longer chunks weigh fewer particles in full. 200 particles in 4 chunks
-            // still balance two cores (chunks of 16 ran 385 fps, of 50 465 fps, on
-            // 640 x 480 frames of the benchmark, same run).
+            // still balance two cores (figures: `docs/decisions.md`).
             filter: FilterParams {
                 chunk_size: 50,
                 ..FilterParams::default()

@@ -58,11 +58,10 @@ pub(super) struct Levels {
     /// The colour score at the peak.
     pub(super) color: f64,
     /// The seed contrast: its mean over the warm-up frames, then fixed, neither
-    /// followed nor decayed. A running level follows a slow drift down (on the ten
-    /// OTB dev sequences' default tracks, the contrast ranks IoU-0 frames under
-    /// tracked ones with AUROC 0.86 over its warm-up mean; a numpy prototype gave 0.73
-    /// over a running level, 0.92 over the warm-up mean), and the seed's model does
-    /// not change, so its contrast need not sink to take a target up again.
+    /// followed nor decayed. A running level follows a slow drift down (on the OTB
+    /// dev sequences it ranked the IoU-0 frames worse than the warm-up mean does;
+    /// figures: `docs/decisions.md`), and the seed's model does not change, so its
+    /// contrast need not sink to take a target up again.
     pub(super) contrast: f64,
 }
 

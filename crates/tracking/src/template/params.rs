@@ -87,7 +87,8 @@ pub struct ColorTemplateParams {
     /// its threshold (those levels are of the appearance just before the loss), in
     /// [0, 1]; `None` turns this off. Default 0.7: with the levels sinking slowly, a
     /// target back after a short occlusion is then taken up at once (the OTB dev
-    /// sequences hardly tell 0.7, 0.8, 0.9 and off apart: in-sample F1 0.52-0.53).
+    /// sequences hardly tell 0.7, 0.8, 0.9 and off apart; figures:
+    /// `docs/decisions.md`).
     pub refind_contrast_ratio: Option<f64>,
     /// Factor on the running levels per lost frame, in (0, 1]: below 1 a target that
     /// came back changed (turned, lit differently) is taken up again; 1 holds it to its

@@ -193,6 +193,22 @@ impl ScaleSpace {
         span: [f64; 2],
         needed: Option<&[f64]>,
     ) -> Result<()> {
+        let wanted = self.choose_levels(model, span, needed);
+        let union = self.level_windows(size, &mut window, span);
+        self.crop_for_levels(size, union, crop);
+        self.blur_levels(&wanted);
+        Ok(())
+    }
+
+    /// Takes the levels of `model`'s stack nearest to the ends of `span` and those
+    /// between, each with its kernel, none blurred yet; returns which of them to blur
+    /// now: all of them, or (with `needed`) those nearest to one of its scales.
+    fn choose_levels(
+        &mut self,
+        model: &PatternModel,
+        span: [f64; 2],
+        needed: Option<&[f64]>,
+    ) -> Vec<bool> {
         let config = &model.config;
         let all = &config.scale_levels;
         // Clamped first: infinite spans (the whole stack) would tie every level.
@@ -218,12 +234,22 @@ impl ScaleSpace {
         for &s in needed.unwrap_or(&[]) {
             wanted[nearest(&self.scales, s)] = true;
         }
-        let [width, height] = size;
+        wanted
+    }
+
+    /// Sets each level's window in the frame, clipped to `size`: the window its cell
+    /// of `span` (the scales nearest to it, both ends of a tie) needs. Returns their
+    /// union.
+    fn level_windows(
+        &mut self,
+        [width, height]: [usize; 2],
+        window: &mut impl FnMut([f64; 2]) -> [usize; 4],
+        span: [f64; 2],
+    ) -> [usize; 4] {
         let clip = |w: [usize; 4]| {
             let [x0, y0] = [w[0].min(width), w[1].min(height)];
             [x0, y0, w[2].clamp(x0, width), w[3].clamp(y0, height)]
         };
-        // Each level's cell: the scales of `span` nearest to it (both ends of a tie).
         let n = self.scales.len();
         let mut union = [usize::MAX, usize::MAX, 0, 0];
         for k in 0..n {
@@ -246,11 +272,20 @@ impl ScaleSpace {
                 union[3].max(w[3]),
             ];
         }
-        let [x0, y0, x1, y1] = clip(union);
+        clip(union)
+    }
+
+    /// Crops the frame once for every level: the `union` of their windows grown by
+    /// the widest kernel's radius, so that each level blurs its window from the crop,
+    /// which lies at least its own radius inside the crop wherever the crop does not
+    /// stop at the frame's edge. Each level's window becomes its place in the crop.
+    fn crop_for_levels(
+        &mut self,
+        [width, height]: [usize; 2],
+        [x0, y0, x1, y1]: [usize; 4],
+        crop: impl FnOnce([usize; 4], &mut GrayImage),
+    ) {
         self.origin = [x0 as f64, y0 as f64];
-        // One crop, grown by the widest kernel's radius: every level blurs its window
-        // from it, which lies at least its own radius inside the crop wherever the
-        // crop does not stop at the frame's edge.
         let r = self
             .levels
             .iter()
@@ -272,8 +307,6 @@ impl ScaleSpace {
             level.origin = [a as f64, b as f64];
             level.inner = [a - grown[0], b - grown[1], c - grown[0], d - grown[1]];
         }
-        self.blur_levels(&wanted);
-        Ok(())
     }
 
     /// Blurs the levels nearest to the scales of `span = [s_lo, s_hi]` and those

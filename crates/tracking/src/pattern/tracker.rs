@@ -401,37 +401,12 @@ impl PatternTracker {
             Some(_) => params.coarse_kept.min(params.n_particles),
             None => params.n_particles,
         };
-        if !state.iter().all(|v| v.is_finite()) || state[3] <= 0.0 {
-            return Err(TrackingError::InvalidParameter {
-                name: "state",
-                reason: format!("must be finite with a scale > 0, got {state:?}"),
-            });
-        }
-        // A model read back from a mosaic carries its own config; each of its scale
-        // levels blurs up to a whole frame every update.
-        model.config.validate()?;
-        let frame_bytes = (width as u128)
-            .saturating_mul(height as u128)
-            .saturating_mul(4);
-        let levels = model.config.scale_levels.len() as u128;
-        rperc_core::check_allocation("scale_levels", levels, frame_bytes)?;
+        check_start(&model, [width, height], &state)?;
         let state = SVector::from(state);
-        let sigma = SVector::from(params.sigma);
-        let covariance = SMatrix::from_diagonal(&sigma.component_mul(&sigma));
         // The pool only when a frame's work pays for the hand-over.
         let parallel = params.filter.parallel
             && count.saturating_mul(model.points.len()) >= params.parallel_min_work;
-        let filter = ParticleFilter::new(
-            count,
-            state,
-            covariance,
-            LinearGaussian::random_walk(sigma),
-            FilterParams {
-                parallel,
-                ..params.filter.clone()
-            },
-            seed,
-        )?;
+        let filter = start_filter(count, &state, &params, parallel, seed)?;
         let last = PatternPose {
             state: state.into(),
             score: 1.0,
@@ -1003,6 +978,49 @@ impl Refinement<'_, '_> {
             }
         }
     }
+}
+
+/// Refuses a start state that is not finite or has a scale `<= 0`, and a model whose
+/// scale levels would each blur up to a whole `size` frame beyond the allocation
+/// bound (a model read back from a mosaic carries its own config).
+fn check_start(model: &PatternModel, [width, height]: [usize; 2], state: &[f64; 4]) -> Result<()> {
+    if !state.iter().all(|v| v.is_finite()) || state[3] <= 0.0 {
+        return Err(TrackingError::InvalidParameter {
+            name: "state",
+            reason: format!("must be finite with a scale > 0, got {state:?}"),
+        });
+    }
+    model.config.validate()?;
+    let frame_bytes = (width as u128)
+        .saturating_mul(height as u128)
+        .saturating_mul(4);
+    let levels = model.config.scale_levels.len() as u128;
+    rperc_core::check_allocation("scale_levels", levels, frame_bytes)?;
+    Ok(())
+}
+
+/// The tracker's particle filter: `count` particles about `state`, spread and moved
+/// by the random walk of `params.sigma`, on the pool when `parallel`.
+fn start_filter(
+    count: usize,
+    state: &SVector<f64, 4>,
+    params: &PatternTrackerParams,
+    parallel: bool,
+    seed: u64,
+) -> Result<ParticleFilter<4>> {
+    let sigma = SVector::from(params.sigma);
+    let covariance = SMatrix::from_diagonal(&sigma.component_mul(&sigma));
+    ParticleFilter::new(
+        count,
+        *state,
+        covariance,
+        LinearGaussian::random_walk(sigma),
+        FilterParams {
+            parallel,
+            ..params.filter.clone()
+        },
+        seed,
+    )
 }
 
 #[cfg(test)]

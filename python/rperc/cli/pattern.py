@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import math
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -29,6 +30,7 @@ from rperc.tracking.synthetic import demo_images
 
 if TYPE_CHECKING:
     from rperc.datasets.pot import PlanarTruth
+    from rperc.tracking.pattern import PatternPose
 
 COMPONENTS = ("dX (px)", "dY (px)", "dtheta (deg)", "ds (%)")
 
@@ -292,13 +294,7 @@ def track_pattern_command(args: argparse.Namespace) -> int:
     from rperc.cli.track import strip_indices
     from rperc.tracking import PatternTracker
 
-    check_output_file(args.strip, "--strip", figure=True)
-    check_output_file(args.json, "--json")
-    check_output_file(args.animation, "--animation")
-    if args.animation is not None:
-        if args.animation.suffix.lower() not in (".gif", ".mp4"):
-            raise ValueError(f"--animation {args.animation} must end in .gif or .mp4")
-        require("imageio.v3", "--animation")
+    _check_outputs(args)
     frames = load_frames(args.source)
     truth = load_truth(args.truth, args.source)
     if truth is not None and len(truth.corners) != len(frames):
@@ -336,11 +332,7 @@ def track_pattern_command(args: argparse.Namespace) -> int:
         )
         wrote(save(_quad_strip(frames, picks, quads, poses, title), args.strip))
     if args.animation is not None:
-        import imageio.v3 as iio  # type: ignore[import-not-found,unused-ignore]
-
-        drawn = [_draw_quad(f, q) for f, q in zip(frames, quads, strict=True)]
-        write_atomically(args.animation, lambda tmp: iio.imwrite(tmp, drawn))
-        wrote(args.animation)
+        _write_animation(args.animation, frames, quads)
     write_json(
         args.json,
         {
@@ -350,20 +342,43 @@ def track_pattern_command(args: argparse.Namespace) -> int:
             "fps": fps,
             "lost_frames": int(lost),
             **metrics,
-            "poses": [
-                {
-                    "x": p.x,
-                    "y": p.y,
-                    "theta": p.theta,
-                    "scale": p.scale,
-                    "score": p.score,
-                    "occluded_fraction": p.occluded_fraction,
-                    "lost": p.lost,
-                    "corners": p.corners.tolist(),
-                    "homography": p.homography.tolist(),
-                }
-                for p in poses
-            ],
+            "poses": [_pose_json(p) for p in poses],
         },
     )
     return 0
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Refuses unwritable outputs, and an animation that is not a GIF or MP4 or has no
+    imageio, before any frame is read."""
+    check_output_file(args.strip, "--strip", figure=True)
+    check_output_file(args.json, "--json")
+    check_output_file(args.animation, "--animation")
+    if args.animation is not None:
+        if args.animation.suffix.lower() not in (".gif", ".mp4"):
+            raise ValueError(f"--animation {args.animation} must end in .gif or .mp4")
+        require("imageio.v3", "--animation")
+
+
+def _write_animation(path: Path, frames: Sequence[np.ndarray], quads: np.ndarray) -> None:
+    """Every frame with its tracked quadrilateral drawn, as a GIF or MP4 (imageio)."""
+    import imageio.v3 as iio  # type: ignore[import-not-found,unused-ignore]
+
+    drawn = [_draw_quad(f, q) for f, q in zip(frames, quads, strict=True)]
+    write_atomically(path, lambda tmp: iio.imwrite(tmp, drawn))
+    wrote(path)
+
+
+def _pose_json(p: PatternPose) -> dict[str, object]:
+    """One frame's pose as ``--json`` writes it."""
+    return {
+        "x": p.x,
+        "y": p.y,
+        "theta": p.theta,
+        "scale": p.scale,
+        "score": p.score,
+        "occluded_fraction": p.occluded_fraction,
+        "lost": p.lost,
+        "corners": p.corners.tolist(),
+        "homography": p.homography.tolist(),
+    }

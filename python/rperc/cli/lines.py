@@ -37,7 +37,12 @@ if TYPE_CHECKING:
 def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     lines = sub.add_parser("lines", help="line simplification and wall extraction")
     cmds = lines.add_subparsers(dest="lines_command", required=True, metavar="COMMAND")
+    _add_extract(cmds)
+    _add_nees(cmds)
+    _add_simplify(cmds)
 
+
+def _add_extract(cmds: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     ex = cmds.add_parser("extract", help="walls from every scan of a CARMEN log")
     ex.add_argument("log", type=Path, help="CARMEN log (FLASER / ROBOTLASER1 lines)")
     ex.add_argument("--plot", type=Path, help="write a figure of scans and walls (world frame)")
@@ -53,6 +58,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     add_json_option(ex)
     ex.set_defaults(run=extract_command)
 
+
+def _add_nees(cmds: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     ne = cmds.add_parser(
         "nees",
         help="NEES of walls seen in consecutive scans of a CARMEN log (world frame, "
@@ -83,6 +90,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     add_json_option(ne)
     ne.set_defaults(run=nees_command)
 
+
+def _add_simplify(cmds: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     si = cmds.add_parser(
         "simplify", help="simplify the lines and polygons of a WKT, GeoJSON or CSV file"
     )

@@ -71,13 +71,20 @@ fn loose_prior(mean: Pose2) -> Prior {
     }
 }
 
-#[test]
-fn noise_free_match_recovers_the_pose() {
+/// A noise-free map of the cluttered room from one pose, and a noise-free scan from a
+/// pose near it (the truth returned).
+fn noise_free_room() -> (MapIndex, laser::ScanPoints, Pose2) {
     let walls = cluttered_room(12.0, 8.0);
     let mut rng = ChaCha8Rng::seed_from_u64(0);
     let map = map_from(&walls, &Pose2::new(4.0, 3.0, 0.2), 0.0, &mut rng);
     let truth = Pose2::new(4.3, 3.1, 0.25);
     let s = scan(&walls, &truth, 0.0, &mut rng);
+    (map, s, truth)
+}
+
+#[test]
+fn noise_free_match_recovers_the_pose() {
+    let (map, s, truth) = noise_free_room();
     let start = Pose2::new(4.36, 3.05, 0.25 + 2f64.to_radians());
     let cfg = IcpConfig {
         covariance_scale: 1.0,
@@ -146,11 +153,7 @@ fn covariance_is_not_overconfident() {
 /// under it nothing changes.
 #[test]
 fn information_stops_growing_beyond_the_independent_pairs() {
-    let walls = cluttered_room(12.0, 8.0);
-    let mut rng = ChaCha8Rng::seed_from_u64(0);
-    let map = map_from(&walls, &Pose2::new(4.0, 3.0, 0.2), 0.0, &mut rng);
-    let truth = Pose2::new(4.3, 3.1, 0.25);
-    let s = scan(&walls, &truth, 0.0, &mut rng);
+    let (map, s, truth) = noise_free_room();
     let with_cap = |cap: usize| {
         let cfg = IcpConfig {
             independent_pairs: cap,

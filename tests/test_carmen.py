@@ -482,3 +482,22 @@ def test_lines_read_by_rust_and_by_split_give_the_same_log(tmp_path):
         np.testing.assert_array_equal(getattr(a.scans, name), getattr(b.scans, name), err_msg=name)
     np.testing.assert_array_equal(a.odometry.pose, b.odometry.pose)
     assert a.scans.invalid.tolist() == [2] * 30
+
+
+def test_a_beam_count_too_large_to_read_is_named_in_file_order(tmp_path):
+    """A beam count no line could hold (past 64 bits, or past Python's digit limit for
+    int()) is the checked path's: a DatasetFormatError naming the line, skipped on
+    request, and a bad ODOM line before it is still reported first."""
+    huge = "18446744073709551615"
+    path = tmp_path / "huge.log"
+    path.write_text(f"FLASER {huge} 1 2 3 1 2 0 0 0 0 1 h 2\n")
+    with pytest.raises(DatasetFormatError, match=rf"huge.log:1: FLASER with {huge} beams"):
+        load_carmen(path)
+    assert [e.line for e in load_carmen(path, on_error="skip").errors] == [1]
+    path.write_text("RLASER " + "9" * 5000 + " 1 2 3\n")
+    with pytest.raises(DatasetFormatError, match=r"huge.log:1: RLASER without a beam count"):
+        load_carmen(path)
+    path.write_text(f"ODOM 1 2 3\nFLASER {huge} 1 2 3 1 2 0 0 0 0 1 h 2\n")
+    with pytest.raises(DatasetFormatError, match=r"huge.log:1: ODOM needs 10 fields, got 4"):
+        load_carmen(path)
+    assert [e.line for e in load_carmen(path, on_error="skip").errors] == [1, 2]

@@ -789,7 +789,9 @@ def parse_line_floats(
     line: str, first: int, count: int
 ) -> tuple[int, npt.NDArray[np.float64]] | None:
     """The line's field count and ``count`` of its fields from ``first`` on as floats,
-    or None (a non-ASCII byte, too few fields, or a field that is not a plain number)."""
+    or None (a non-ASCII byte, white space only ``str.split`` splits at, such as the
+    vertical tab and 0x1c-0x1f, too few fields, or a field that is not a plain
+    number)."""
 
 def parse_lines_floats(
     lines: list[str], first: int, count: int

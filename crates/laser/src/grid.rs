@@ -260,6 +260,18 @@ mod tests {
         }
     }
 
+    /// A point exactly at the pairing reach is found (the bound is `d <= reach`), and
+    /// not when the reach is one float shorter. The numbers are exact in binary.
+    #[test]
+    fn a_point_exactly_at_the_reach_is_found() {
+        let pts = vec![Vector2::new(0.25, 0.0), Vector2::new(3.0, 3.0)];
+        let map = MapIndex::new(pts, vec![Vector2::new(1.0, 0.0); 2], 0.5).unwrap();
+        let q = Vector2::new(0.0, 0.0);
+        let found = map.nearest(&q, 0.25).map(|n| (n.index, n.distance2));
+        assert_eq!(found, Some((0, 0.0625)));
+        assert!(map.nearest(&q, 0.25f64.next_down()).is_none());
+    }
+
     /// Equals `floor() as i64` (the oracle) on integers, halves, tiny offsets either
     /// side of them, the extremes and NaN.
     #[test]

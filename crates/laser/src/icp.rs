@@ -12,9 +12,9 @@
 //! fused covariance `(H_s / scale + Lambda)^-1`. The correlation grows with the
 //! pairs: beyond `independent_pairs` of them the scale grows in proportion, so the
 //! information stops growing (a scan of 300 points on a few walls knows the pose
-//! no better than one of 100: their errors are the walls', shared). Where the scan sees nothing (along a
-//! featureless corridor) `H_s` is zero and the estimate and its variance stay the
-//! prior's: the odometry's.
+//! no better than one of 100: their errors are the walls', shared). Where the scan
+//! sees nothing (along a featureless corridor) `H_s` is zero and the estimate and
+//! its variance stay the prior's: the odometry's.
 
 use nalgebra::{Matrix3, Vector2, Vector3};
 use rperc_core::{Pose2, wrap_angle};
@@ -205,7 +205,11 @@ fn scan_terms(scan: &ScanPoints, map: &MapIndex, pose: &Pose2, cfg: &IcpConfig) 
 
 /// The scan's truncated least-squares cost at `pose`: the squared distances of the
 /// paired points to their lines, every point on a line that found no partner charged
-/// the pairing distance, over `sigma^2` and the covariance scale (as ICP weighs them).
+/// the pairing distance, over `sigma^2` and the covariance scale of all the scan's
+/// line points ([`IcpConfig::scale_for`]). That scale is the same at every pose, so
+/// the robust start's candidates compare fairly; it is at least ICP's own (which
+/// counts only the pairs), so against a prior the cost leans on the prior a little
+/// more than ICP does.
 pub(crate) fn scan_cost(scan: &ScanPoints, map: &MapIndex, pose: &Pose2, cfg: &IcpConfig) -> f64 {
     let terms = scan_terms(scan, map, pose, cfg);
     let unpaired = scan.with_normals().saturating_sub(terms.pairs) as f64;

@@ -324,10 +324,13 @@ def _read_flaser_line(
     line that is not plainly well formed, which :func:`_parse_flaser` then reads and
     whose fault it names."""
     head = raw.split(maxsplit=2)
-    if len(head) < 3 or not (head[1].isascii() and head[1].isdigit()):
+    # A count with more digits than a line could hold readings for (more than nine)
+    # is the checked path's to name: int() and the native reader both refuse huge ones.
+    count = head[1] if len(head) == 3 else ""
+    if not (count.isascii() and count.isdigit() and len(count) <= 9):
         return False
-    n = int(head[1])
-    fast = _rperc.parse_line_floats(raw, 2, n + 7) if n > 0 else None
+    n = int(count)
+    fast = _rperc.parse_line_floats(raw, 2, n + 7) if 0 < n <= len(raw) else None
     if fast is None or fast[0] != n + 11:
         return False
     values = fast[1]

@@ -93,7 +93,8 @@ fn noise_free_match_recovers_the_pose() {
     let m = match_scan(&s, &map, start, &loose_prior(start), &cfg).unwrap();
     assert!(m.accepted);
     let e = error(&m.pose, &truth);
-    // The loose prior pulls by at most its weight against hundreds of points.
+    // The loose prior pulls by at most its weight against the scan's points (worth
+    // `independent_pairs` of them at most).
     assert!(
         e.x.abs() < 2e-3 && e.y.abs() < 2e-3 && e.z.abs() < 2e-4,
         "error {e:?}"

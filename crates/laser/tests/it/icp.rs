@@ -183,6 +183,50 @@ fn information_stops_growing_beyond_the_independent_pairs() {
     );
 }
 
+/// ICP weighs the scan against the prior with the same capped scale as the
+/// information it returns: from a tight prior, on noise-free data, the fused pose is
+/// the information-weighted mean of the scan's own optimum `x_s` (matched with a
+/// prior of almost no weight) and the prior's mean:
+/// `x_s + (I_s + Lambda)^-1 Lambda (mu - x_s)`, with and without the cap.
+#[test]
+fn the_fused_pose_weighs_the_scan_by_its_capped_information() {
+    let (map, s, truth) = noise_free_room();
+    let lambda = Matrix3::from_diagonal(&Vector3::new(0.02, 0.02, 0.005).map(|v| 1.0 / (v * v)));
+    let offset = Vector3::new(0.02, -0.01, 0.002);
+    let prior = Prior {
+        mean: Pose2::new(
+            truth.x + offset.x,
+            truth.y + offset.y,
+            truth.theta + offset.z,
+        ),
+        information: lambda,
+    };
+    let faint = Prior {
+        information: Matrix3::identity() * 1e-9,
+        ..prior
+    };
+    let own = match_scan(&s, &map, prior.mean, &faint, &IcpConfig::default()).unwrap();
+    let mut errors = Vec::new();
+    for cap in [usize::MAX, own.inliers / 4] {
+        let cfg = IcpConfig {
+            independent_pairs: cap,
+            ..Default::default()
+        };
+        let m = match_scan(&s, &map, prior.mean, &prior, &cfg).unwrap();
+        let pull = error(&prior.mean, &own.pose);
+        let expected = (m.information + lambda).try_inverse().unwrap() * lambda * pull;
+        let e = error(&m.pose, &own.pose);
+        // First order in the pull: its neglected terms are a thousandth of it.
+        assert!(
+            (e - expected).norm() < 1e-3 * expected.norm(),
+            "cap {cap}: {e:?} against {expected:?}"
+        );
+        errors.push(e.norm());
+    }
+    // The capped scan pulls less: the fused pose lies farther from the scan's own.
+    assert!(errors[1] > 1.5 * errors[0], "{errors:?}");
+}
+
 /// In a corridor along x the scan fixes y and the heading only: the match keeps the
 /// prior's x and its variance, and corrects y.
 #[test]

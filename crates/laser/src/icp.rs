@@ -311,3 +311,72 @@ fn finish(
         accepted: true,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scan::{Beams, ScanConfig, scan_points};
+    use crate::sim::{cluttered_room, ray_cast};
+
+    /// The robust start's cost divides by the scale of all the scan's line points,
+    /// the same at every pose: with the cap under them it is the uncapped cost times
+    /// `independent_pairs / with_normals` (closed form), also at a pose where many
+    /// points pair with nothing.
+    #[test]
+    fn the_cost_is_scaled_by_all_the_scans_line_points() {
+        let walls = cluttered_room(12.0, 8.0);
+        let angles: Vec<f64> = (0..361)
+            .map(|i| (-90.0 + 0.5 * i as f64).to_radians())
+            .collect();
+        let points_at = |pose: &Pose2| {
+            let ranges = ray_cast(&walls, pose, &angles, 20.0);
+            let beams = Beams {
+                ranges: &ranges,
+                angle_min: angles[0],
+                angle_increment: angles[1] - angles[0],
+                max_range: 20.0,
+            };
+            scan_points(&beams, &ScanConfig::default()).unwrap()
+        };
+        let from = Pose2::new(4.0, 3.0, 0.2);
+        let map_scan = points_at(&from);
+        // The map's points and normals in the world frame, as the local map holds them.
+        let (rotation, shift) = (from.rotation(), from.translation());
+        let map = MapIndex::new(
+            map_scan
+                .on_lines()
+                .iter()
+                .map(|p| rotation * p + shift)
+                .collect(),
+            map_scan
+                .normals
+                .iter()
+                .flatten()
+                .map(|n| rotation * n)
+                .collect(),
+            0.3,
+        )
+        .unwrap();
+        let truth = Pose2::new(4.3, 3.1, 0.25);
+        let scan = points_at(&truth);
+        let lines = scan.with_normals();
+        let cap = lines / 3;
+        let capped = IcpConfig {
+            independent_pairs: cap,
+            ..Default::default()
+        };
+        let free = IcpConfig {
+            independent_pairs: usize::MAX,
+            ..Default::default()
+        };
+        // At the truth every line point pairs; half a metre off, many do not.
+        for pose in [truth, Pose2::new(4.8, 3.3, 0.3)] {
+            let expected = scan_cost(&scan, &map, &pose, &free) * cap as f64 / lines as f64;
+            let got = scan_cost(&scan, &map, &pose, &capped);
+            assert!(
+                (got - expected).abs() <= 1e-12 * expected.abs(),
+                "{got} against {expected}"
+            );
+        }
+    }
+}

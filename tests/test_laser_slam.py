@@ -40,6 +40,14 @@ def _truth_ate(pose: np.ndarray, truth: np.ndarray) -> float:
     return float(np.sqrt(np.mean(d[:, 0] ** 2 + d[:, 1] ** 2)))
 
 
+def _robot_nees(pose: np.ndarray, truth: np.ndarray, covariance: np.ndarray) -> np.ndarray:
+    """Each scan's robot NEES after the first (whose pose is given), written out here,
+    not taken from the code under test."""
+    err = pose[1:] - truth[1:]
+    err[:, 2] = np.angle(np.exp(1j * err[:, 2]))
+    return np.einsum("ni,nij,nj->n", err, np.linalg.inv(covariance[1:]), err)
+
+
 def test_each_stage_beats_the_one_before_against_the_truth(loop_log: Path) -> None:
     """Over six odometry draws, scan matching removes most of the odometry's drift
     (over four fifths) and the loop closures most of what is left (over half; the
@@ -73,9 +81,7 @@ def test_final_covariance_is_not_overconfident_in_simulation(loop_log: Path) -> 
     nees = []
     for seed in range(4):
         r = load_and_run(loop_log, seed=seed)
-        err = r.pose[1:] - truth[1:]
-        err[:, 2] = np.angle(np.exp(1j * err[:, 2]))
-        nees.append(np.einsum("ni,nij,nj->n", err, np.linalg.inv(r.covariance[1:]), err))
+        nees.append(_robot_nees(r.pose, truth, r.covariance))
     mean = float(np.mean(np.concatenate(nees)))
     assert mean < 3.0 * 1.5, mean
 
@@ -245,3 +251,21 @@ def test_the_deprecated_nested_helper_still_nests_dotted_settings() -> None:
     with pytest.warns(DeprecationWarning, match="from_settings"):
         out = nested({"icp.sigma": 0.02, "loops.enabled": False, "chain_inflation": 2.0})
     assert out == {"icp": {"sigma": 0.02}, "loops": {"enabled": False}, "chain_inflation": 2.0}
+
+
+def test_robot_nees_is_honest_on_the_real_logs(data: Path) -> None:
+    """On the corpus's CARMEN logs (odometry seed 0), the robot NEES mean of the final
+    path against the log's corrected path is at most 6 (3 expected for 3 dof) on at
+    least seven logs of every nine (issue 33's bar), and never under 1 (a covariance so
+    loose it says nothing). The NEES is computed here from the returned covariances, not taken from
+    the run's own score. fhw is the known exception (NEES about 20)."""
+    logs = sorted((data / "carmen").glob("*.log*"))
+    if not logs:
+        pytest.skip("no CARMEN logs in the data folder")
+    means = {}
+    for log in logs:
+        r = load_and_run(log, seed=0)
+        means[log.name] = float(np.mean(_robot_nees(r.pose, r.reference, r.covariance)))
+    honest = [name for name, m in means.items() if m <= 6.0]
+    assert len(honest) * 9 >= len(means) * 7, means
+    assert min(means.values()) > 1.0, means

@@ -71,8 +71,8 @@ bench-json: install
 	. $(BIN)/activate && D=$$(python -c "from rperc.datasets import data_dir; print(data_dir() or '')") \
 	&& if [ -z "$$D" ]; then echo "bench-json: no data folder (RPERC_DATA), nothing measured"; exit 0; fi \
 	&& rperc bench laser --logs $$D/carmen --seeds 0-1 --variants odometry,plain,laser --json $(BENCH)/laser.json \
-	&& rperc bench mrclam --robots 1-3 --variants plain,anchor,external --json $(BENCH)/mrclam.json \
-	&& rperc bench mrclam --robots 1-3 --variants plain,anchor,external --span 444 1e9 --json $(BENCH)/mrclam-heldout.json \
+	&& rperc bench mrclam --robots 1-3 --variants plain,anchor,external,smooth --json $(BENCH)/mrclam.json \
+	&& rperc bench mrclam --robots 1-3 --variants plain,anchor,external,smooth --span 444 1e9 --json $(BENCH)/mrclam-heldout.json \
 	&& rperc bench track --corpus $$D/otb/Girl --trackers color-template,color,csrt,kcf --json $(BENCH)/track.json \
 	&& rperc bench pattern --steps 3 --seeds 10-12 --trackers rperc,ecc-affine --json $(BENCH)/pattern.json
 

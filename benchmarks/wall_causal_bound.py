@@ -115,7 +115,7 @@ def smooth_upto(
     k: int, controls: np.ndarray, prepared: ws.PreparedLog, pairing: np.ndarray,
     walls: tuple[np.ndarray, np.ndarray], start: np.ndarray, config: dict[str, Any],
     tolerance: float = 1e-9,
-) -> _rperc.SmoothedWalls:  # fmt: skip
+) -> _rperc.SmoothedRun:  # fmt: skip
     """The smoother over the data up to scan ``k`` (the controls until its time, the
     sightings at or before it), from the poses ``start`` (``k + 1`` rows); ``walls``
     are every group's ids and starting lines, of which those seen so far are used.
@@ -126,11 +126,12 @@ def smooth_upto(
     ids, lines = walls
     keep = np.isin(ids, pair[pair >= 0])
     c = np.r_[controls[controls[:, 0] < t[k]], [[t[k], 0.0, 0.0]]]
-    out = _rperc.planar_smooth_walls(
+    out = _rperc.planar_smooth(
         c, np.ascontiguousarray(t[: k + 1]), np.ascontiguousarray(start),
         np.ascontiguousarray(rows[seen]), np.ascontiguousarray(pair, dtype=np.int64),
-        np.ascontiguousarray(ids[keep], dtype=np.int64), np.ascontiguousarray(lines[keep]), config,
-        {"max_iterations": 100, "tolerance": tolerance},
+        np.ascontiguousarray(ids[keep], dtype=np.int64), np.ascontiguousarray(lines[keep]),
+        np.zeros((0, 3)), np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)),
+        config, {"max_iterations": 100, "tolerance": tolerance},
     )  # fmt: skip
     return out
 

@@ -35,7 +35,7 @@ __all__ = [
     "RpercError",
     "ScanWalls",
     "SimulatedWorld",
-    "SmoothedWalls",
+    "SmoothedRun",
     "TrackAnswer",
     "WorldWalls",
     "__version__",
@@ -70,7 +70,7 @@ __all__ = [
     "planar_sim_slam_config",
     "planar_simulate",
     "planar_slam_run",
-    "planar_smooth_walls",
+    "planar_smooth",
     "pose_path_point",
     "pose_transform_points",
     "resample",
@@ -389,6 +389,8 @@ class PlanarRun:
     @property
     def wall_pairing(self) -> npt.NDArray[np.int64]: ...
     @property
+    def point_pairing(self) -> npt.NDArray[np.int64]: ...
+    @property
     def statistics(self) -> PlanarStatistics: ...
     @property
     def anchor(self) -> tuple[float, float] | None: ...
@@ -409,8 +411,8 @@ def wall_straightness_covariance(
 ) -> _Array: ...
 
 @final
-class SmoothedWalls:
-    """What :func:`planar_smooth_walls` returns, frozen, arrays read-only."""
+class SmoothedRun:
+    """What :func:`planar_smooth` returns, frozen, arrays read-only."""
 
     @property
     def pose(self) -> npt.NDArray[np.float64]: ...
@@ -425,6 +427,12 @@ class SmoothedWalls:
     @property
     def wall_ends(self) -> npt.NDArray[np.float64]: ...
     @property
+    def landmark_id(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def landmark_mean(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def landmark_covariance(self) -> npt.NDArray[np.float64]: ...
+    @property
     def bias(self) -> tuple[float, float]: ...
     @property
     def iterations(self) -> int: ...
@@ -433,7 +441,7 @@ class SmoothedWalls:
     @property
     def residuals(self) -> int: ...
 
-def planar_smooth_walls(
+def planar_smooth(
     controls: npt.NDArray[np.float64],
     times: npt.NDArray[np.float64],
     poses: npt.NDArray[np.float64],
@@ -441,9 +449,13 @@ def planar_smooth_walls(
     pairing: npt.NDArray[np.int64],
     map_id: npt.NDArray[np.int64],
     map_line: npt.NDArray[np.float64],
+    points: npt.NDArray[np.float64],
+    point_pairing: npt.NDArray[np.int64],
+    landmark_id: npt.NDArray[np.int64],
+    landmark_mean: npt.NDArray[np.float64],
     config: Mapping[str, object] | None = None,
     options: Mapping[str, object] | None = None,
-) -> SmoothedWalls: ...
+) -> SmoothedRun: ...
 def monobot_summarize(
     nees: _ArrayLike,
     robot_error: _ArrayLike,

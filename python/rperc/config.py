@@ -1633,11 +1633,22 @@ class SmootherConfig(Config):
         max_iterations: At most this many Levenberg-Marquardt iterations (>= 1).
         tolerance: Converged when an accepted step lowers the cost by less than this
             fraction.
+        point_huber: Huber's threshold (> 0) on a point sighting's whitened residual norm,
+            in standard deviations: beyond it the sighting's cost grows linearly, so a few
+            wrong sightings (which the filter's gate would refuse) cannot bend the path.
+            `None`: plain least squares.
+        point_correlation_time: Seconds (>= 0) over which the errors of one landmark's
+            sightings stay correlated (a camera that misjudges a target keeps misjudging it
+            while the view barely changes): each point sighting's information is divided by
+            the number of that landmark's sightings within this time of it, itself included,
+            so that a burst of them counts as about one. 0: every sighting independent.
     """
 
     _native: ClassVar[str] = "smoother"
     max_iterations: int = 100
     tolerance: float = 1e-09
+    point_huber: float | None = None
+    point_correlation_time: float = 0.0
 
 
 class SmootherConfigOverrides(TypedDict, total=False):
@@ -1645,6 +1656,8 @@ class SmootherConfigOverrides(TypedDict, total=False):
 
     max_iterations: int
     tolerance: float
+    point_huber: float | None
+    point_correlation_time: float
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -14,6 +14,11 @@ the tests.
   (the off-diagonal negated when the detection has the line's other normal); with
   ``shared_sd`` the straightness floor times ``sqrt(n)`` for the ``n`` earlier
   sightings of the same stretch;
+- points (optional): each paired range-bearing detection, its sensors' biases taken
+  off (``q = (r - offset) / scale``, the range ``q / cos b`` for a depth camera,
+  ``b = (b_m - offset) / scale``), against the range and bearing of its landmark (an
+  unknown in the world frame) from its pose, whitened by ``diag(range_sd,
+  bearing_sd)``;
 - priors: the start (sd floored at ``START_SD_FLOOR``) and the biases;
 - solver: Levenberg-Marquardt (damping ``lambda diag(H)``) with scipy's sparse finite
   differences for the Jacobian and SuperLU for each step; covariances from the dense
@@ -162,6 +167,45 @@ def sightings(
     return res
 
 
+def unbiased(rows: np.ndarray, bias: dict[str, Any] | None) -> np.ndarray:
+    """Point detections ``(t, range, bearing)`` with the sensor's biases removed."""
+    out = np.array(rows, dtype=float).reshape(-1, 3)
+    if bias is None:
+        return out
+    b = (out[:, 2] - bias["bearing_offset"]) / bias["bearing_scale"]
+    q = (out[:, 1] - bias["range_offset"]) / bias["range_scale"]
+    out[:, 1] = q / np.cos(b) if bias["range_is_depth"] else q
+    out[:, 2] = b
+    return out
+
+
+class Points:
+    """The paired point detections of a run: node, landmark index, ``(range,
+    bearing)``; the landmarks' ids and starting positions."""
+
+    def __init__(
+        self, rows: np.ndarray, pairing: np.ndarray, times: np.ndarray,
+        landmarks: dict[int, np.ndarray], bias: dict[str, Any] | None,
+    ) -> None:  # fmt: skip
+        rows = unbiased(rows, bias)
+        keep = np.asarray(pairing) >= 0
+        rows, ids = rows[keep], np.asarray(pairing)[keep]
+        self.ids = np.array(list(dict.fromkeys(int(i) for i in ids)), dtype=np.int64)
+        index = {int(i): j for j, i in enumerate(self.ids)}
+        self.node = np.searchsorted(times, rows[:, 0])
+        self.mark = np.array([index[int(i)] for i in ids], dtype=int)
+        self.z = rows[:, 1:]
+        self.start = np.array([landmarks[int(i)] for i in self.ids], float).reshape(-1, 2)
+
+    def residuals(self, x: np.ndarray, marks: np.ndarray, whiten: np.ndarray) -> np.ndarray:
+        xs, m = x[self.node], marks[self.mark]
+        d = m - xs[:, :2]
+        h = np.c_[np.hypot(d[:, 0], d[:, 1]), wrap(np.arctan2(d[:, 1], d[:, 0]) - xs[:, 2])]
+        e = h - self.z
+        e[:, 1] = wrap(e[:, 1])
+        return (e * whiten).ravel()
+
+
 class Problem:
     """The whitened residuals of a run (see the module docs)."""
 
@@ -169,7 +213,8 @@ class Problem:
         self, controls: np.ndarray, times: np.ndarray, poses: np.ndarray, walls: np.ndarray,
         pairing: np.ndarray, map_id: np.ndarray, map_line: np.ndarray, *, speed_var: float,
         turn_var: float, bias_sd: tuple[float, float] | None, start: np.ndarray,
-        start_var: np.ndarray, shared_sd: float = 0.0,
+        start_var: np.ndarray, shared_sd: float = 0.0, points: Points | None = None,
+        point_var: tuple[float, float] = (1.0, 1.0),
     ) -> None:  # fmt: skip
         self.times, self.S = np.asarray(times, float), len(times)
         self.v, self.w, self.dt = segments(np.asarray(controls, float), self.times)
@@ -178,17 +223,26 @@ class Problem:
         self.sg = sightings(np.asarray(walls, float), np.asarray(pairing), self.times,
                             np.asarray(poses, float), lines, shared_sd)  # fmt: skip
         self.W = len(self.sg["origins"])
+        self.pt = points
+        self.P = 0 if points is None else len(points.ids)
+        self.point_w = 1 / np.sqrt(np.asarray(point_var, float))
         self.nb = 0 if bias_sd is None else 2
         self.bias_w = None if bias_sd is None else 1 / np.asarray(bias_sd, float)
         self.start = np.asarray(start, float)
         self.start_w = 1 / np.sqrt(np.maximum(np.asarray(start_var, float), START_SD_FLOOR**2))
         poses = np.asarray(poses, float)
-        self.x0 = np.r_[poses.ravel(), self.sg["start"].ravel(), np.zeros(self.nb)]
+        marks = np.zeros((0, 2)) if points is None else points.start
+        self.x0 = np.r_[poses.ravel(), self.sg["start"].ravel(), marks.ravel(), np.zeros(self.nb)]
 
     def unpack(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         s, w = 3 * self.S, 2 * self.W
-        bias = z[s + w :] if self.nb else np.zeros(2)
+        bias = z[s + w + 2 * self.P :] if self.nb else np.zeros(2)
         return z[:s].reshape(-1, 3), z[s : s + w].reshape(-1, 2), bias
+
+    def marks(self, z: np.ndarray) -> np.ndarray:
+        """The point landmarks of the unknowns ``z``."""
+        at = 3 * self.S + 2 * self.W
+        return z[at : at + 2 * self.P].reshape(-1, 2)
 
     def residuals(self, z: np.ndarray) -> np.ndarray:
         x, lines, bias = self.unpack(z)
@@ -202,7 +256,18 @@ class Problem:
         e = local - g
         e[:, 2] = wrap(e[:, 2])
         r_link = np.einsum("nij,nj->ni", self.link_w, e).ravel()
+        r_wall = self.wall_residuals(x, lines)
+        r_bias = bias * self.bias_w if self.nb else np.zeros(0)
+        r_point = (
+            np.zeros(0) if self.pt is None else self.pt.residuals(x, self.marks(z), self.point_w)
+        )
+        return np.r_[self.start_w * e0, r_link, r_wall, r_point, r_bias]
+
+    def wall_residuals(self, x: np.ndarray, lines: np.ndarray) -> np.ndarray:
+        """The whitened wall terms of poses ``x`` and ``lines``."""
         sg = self.sg
+        if len(sg["node"]) == 0:
+            return np.zeros(0)
         xs = x[sg["node"]]
         c, s = np.cos(xs[:, 2]), np.sin(xs[:, 2])
         m = sg["mid"]
@@ -218,14 +283,14 @@ class Problem:
         cov[flip, 1, 0] *= -1
         wh = np.linalg.inv(np.linalg.cholesky(cov))
         r_wall = np.einsum("nij,nj->ni", wh, np.c_[offset, angle]).ravel()
-        r_bias = bias * self.bias_w if self.nb else np.zeros(0)
-        return np.r_[self.start_w * e0, r_link, r_wall, r_bias]
+        return r_wall
 
     def sparsity(self) -> lil_matrix:
-        n_res = 3 + 3 * (self.S - 1) + 2 * len(self.sg["node"]) + self.nb
+        n_pt = 0 if self.pt is None else len(self.pt.node)
+        n_res = 3 + 3 * (self.S - 1) + 2 * len(self.sg["node"]) + 2 * n_pt + self.nb
         a = lil_matrix((n_res, len(self.x0)), dtype=int)
         a[:3, :3] = 1
-        bias_cols = slice(3 * self.S + 2 * self.W, len(self.x0))
+        bias_cols = slice(3 * self.S + 2 * self.W + 2 * self.P, len(self.x0))
         for k in range(self.S - 1):
             a[3 + 3 * k : 6 + 3 * k, 3 * k : 3 * k + 6] = 1
             a[3 + 3 * k : 6 + 3 * k, bias_cols] = 1
@@ -233,6 +298,12 @@ class Problem:
         for i, (k, j) in enumerate(zip(self.sg["node"], self.sg["wall"], strict=True)):
             a[o + 2 * i : o + 2 * i + 2, 3 * k : 3 * k + 3] = 1
             a[o + 2 * i : o + 2 * i + 2, 3 * self.S + 2 * j : 3 * self.S + 2 * j + 2] = 1
+        o += 2 * len(self.sg["node"])
+        at = 3 * self.S + 2 * self.W
+        for i in range(n_pt):
+            k, j = self.pt.node[i], self.pt.mark[i]  # type: ignore[union-attr]
+            a[o + 2 * i : o + 2 * i + 2, 3 * k : 3 * k + 3] = 1
+            a[o + 2 * i : o + 2 * i + 2, at + 2 * j : at + 2 * j + 2] = 1
         if self.nb:
             a[-2:, bias_cols] = 1
         return a
@@ -276,8 +347,14 @@ def smooth(problem: Problem, max_iterations: int = 100, tolerance: float = 1e-9)
     x, lines, bias = problem.unpack(z)
     s = problem.S
     pose_cov = np.stack([cov[3 * k : 3 * k + 3, 3 * k : 3 * k + 3] for k in range(s)])
+    at = 3 * s + 2 * problem.W
+    blocks = [
+        cov[at + 2 * j : at + 2 * j + 2, at + 2 * j : at + 2 * j + 2] for j in range(problem.P)
+    ]
+    mark_cov = np.stack(blocks) if blocks else np.zeros((0, 2, 2))
     return {"pose": x, "covariance": pose_cov, "bias": bias, "cost": cost,
-            "iterations": iterations, "lines": lines, "ids": problem.sg["ids"]}  # fmt: skip
+            "iterations": iterations, "lines": lines, "ids": problem.sg["ids"],
+            "marks": problem.marks(z), "mark_cov": mark_cov}  # fmt: skip
 
 
 def wallslam_run(prepared: Any, seed: int) -> tuple[Any, np.ndarray, Any]:

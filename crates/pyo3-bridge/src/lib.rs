@@ -62,9 +62,9 @@ mod _rperc {
     };
     #[pymodule_export]
     use crate::planar_py::{
-        PyPlanarRun, PyPlanarStatistics, PySimulatedWorld, PySmoothedWalls, planar_sim_check,
-        planar_sim_nees, planar_sim_slam_config, planar_simulate, planar_slam_run,
-        planar_smooth_walls, wall_straightness_covariance,
+        PyPlanarRun, PyPlanarStatistics, PySimulatedWorld, PySmoothedRun, planar_sim_check,
+        planar_sim_nees, planar_sim_slam_config, planar_simulate, planar_slam_run, planar_smooth,
+        wall_straightness_covariance,
     };
     #[pymodule_export]
     use crate::slam_py::{

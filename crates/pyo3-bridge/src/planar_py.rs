@@ -99,7 +99,8 @@ pub fn planar_slam_run<'py>(
 /// What [`planar_slam_run`] returns, frozen: the robot after every event (`t`,
 /// `kind` 0 control, 1 scan, 2 fix, `pose`, `covariance` of the pose, `seconds` each
 /// event took), the point map (`landmark_*`), the wall map (`wall_*`, empty without
-/// walls) with each wall detection's pairing (-1: left out), the association counts
+/// walls) with each wall detection's pairing (-1: left out), each point detection's
+/// pairing (`point_pairing`, -1: rejected or a candidate), the association counts
 /// and the anchor. Its arrays are read-only.
 #[pyclass(name = "PlanarRun", module = "rperc._rperc", frozen, get_all)]
 pub struct PyPlanarRun {
@@ -122,6 +123,7 @@ pub struct PyPlanarRun {
     wall_frozen: Py<PyArray1<bool>>,
     wall_anchor: Py<PyArray1<bool>>,
     wall_pairing: Py<PyArray1<i64>>,
+    point_pairing: Py<PyArray1<i64>>,
     statistics: Py<PyPlanarStatistics>,
     anchor: Option<(f64, f64)>,
     anchor_time: Option<f64>,
@@ -142,6 +144,15 @@ impl PyPlanarRun {
     }
 }
 
+/// A pairing per detection, -1 for one left out (ids are admission counters or
+/// data-set ids, far below `i64::MAX`).
+fn pairing_column(pairing: &[Option<u64>]) -> Vec<i64> {
+    pairing
+        .iter()
+        .map(|p| p.map_or(-1, |id| id as i64))
+        .collect()
+}
+
 impl PyPlanarRun {
     fn new(py: Python<'_>, r: PlanarResult) -> PyResult<Self> {
         let tr = r.trajectory;
@@ -151,11 +162,8 @@ impl PyPlanarRun {
         let k = lm.len();
         let walls = WallArrays::new(py, &r.walls)?;
         // -1: a detection left out (ids are admission counters, far below i64::MAX).
-        let pairing: Vec<i64> = r
-            .wall_pairing
-            .iter()
-            .map(|p| p.map_or(-1, |id| id as i64))
-            .collect();
+        let pairing = pairing_column(&r.wall_pairing);
+        let point_pairing = pairing_column(&r.point_pairing);
         Ok(Self {
             t: read_only(tr.t.into_pyarray(py))?,
             kind: read_only(kind.into_pyarray(py))?,
@@ -180,6 +188,7 @@ impl PyPlanarRun {
             wall_frozen: walls.frozen,
             wall_anchor: walls.anchor,
             wall_pairing: read_only(pairing.into_pyarray(py))?,
+            point_pairing: read_only(point_pairing.into_pyarray(py))?,
             statistics: Py::new(
                 py,
                 PyPlanarStatistics {
@@ -456,14 +465,16 @@ pub(crate) fn int_rows(obj: &Bound<'_, PyAny>, name: &str, n: usize) -> Result<V
     }
     Ok(a)
 }
-/// Smooths a wall-SLAM run ([`slam::planar::smooth::smooth_walls`], GIL released):
-/// the filter's `controls` and `walls` rows and `config`, the scan `times` with the
-/// filter's `poses` there `(S, 3)`, `pairing` (int64 per wall row, -1: unused) and
-/// its final map `map_id` (int64) with `map_line` `(W, 2)`. Returns a [`PySmoothedWalls`].
+/// Smooths a SLAM run ([`slam::planar::smooth::smooth`], GIL released): the filter's
+/// `controls`, `walls` and `points` rows and `config`, the pose `times` with the
+/// filter's `poses` there `(S, 3)`; for walls, `pairing` (int64 per wall row, -1:
+/// unused) and the final map `map_id` (int64) with `map_line` `(W, 2)`; for points,
+/// `point_pairing` (int64 per point row, -1: unused) and the final landmarks
+/// `landmark_id` (int64) with `landmark_mean` `(L, 2)`. Returns a [`PySmoothedRun`].
 #[pyfunction]
-#[pyo3(signature = (controls, times, poses, walls, pairing, map_id, map_line, config = None, options = None))]
+#[pyo3(signature = (controls, times, poses, walls, pairing, map_id, map_line, points, point_pairing, landmark_id, landmark_mean, config = None, options = None))]
 #[allow(clippy::too_many_arguments)]
-pub fn planar_smooth_walls<'py>(
+pub fn planar_smooth<'py>(
     py: Python<'py>,
     controls: &Bound<'py, PyAny>,
     times: &Bound<'py, PyAny>,
@@ -472,31 +483,27 @@ pub fn planar_smooth_walls<'py>(
     pairing: &Bound<'py, PyAny>,
     map_id: &Bound<'py, PyAny>,
     map_line: &Bound<'py, PyAny>,
+    points: &Bound<'py, PyAny>,
+    point_pairing: &Bound<'py, PyAny>,
+    landmark_id: &Bound<'py, PyAny>,
+    landmark_mean: &Bound<'py, PyAny>,
     config: Option<&Bound<'py, PyAny>>,
     options: Option<&Bound<'py, PyAny>>,
-) -> PyResult<PySmoothedWalls> {
-    use slam::planar::smooth::{SmootherConfig, WallRun, smooth_walls};
+) -> PyResult<PySmoothedRun> {
+    use slam::planar::smooth::{FilterRun, SmootherConfig, smooth};
     let config: PlanarConfig = crate::config::from_python(config, "planar")?;
     let options: SmootherConfig = crate::config::from_python(options, "smoother")?;
     let controls = rows::<3>(Some(controls), "controls")?;
     let times = float_vector(times, "times")?;
     let poses = rows::<3>(Some(poses), "poses")?;
     let walls = rows::<10>(Some(walls), "walls")?;
-    let pairing = int_rows(pairing, "pairing", walls.len())?;
-    let pairing: Vec<Option<u64>> = pairing.iter().map(|&p| u64::try_from(p).ok()).collect();
-    let map_line = rows::<2>(Some(map_line), "map_line")?;
-    let map_id = int_rows(map_id, "map_id", map_line.len())?;
-    let map = map_id
-        .iter()
-        .zip(&map_line)
-        .map(|(&id, l)| {
-            u64::try_from(id)
-                .map(|id| (id, *l))
-                .map_err(|_| Error::Value(format!("map_id must be >= 0, got {id}")))
-        })
-        .collect::<Result<Vec<_>>>()?;
+    let pairing = optional_ids(pairing, "pairing", walls.len())?;
+    let map = id_rows(map_id, "map_id", map_line, "map_line")?;
+    let points = rows::<3>(Some(points), "points")?;
+    let point_pairing = optional_ids(point_pairing, "point_pairing", points.len())?;
+    let landmarks = id_rows(landmark_id, "landmark_id", landmark_mean, "landmark_mean")?;
     let out = detached(py, || {
-        let run = WallRun {
+        let run = FilterRun {
             config: &config,
             controls: &controls,
             times: &times,
@@ -504,25 +511,59 @@ pub fn planar_smooth_walls<'py>(
             walls: &walls,
             pairing: &pairing,
             map: &map,
+            points: &points,
+            point_pairing: &point_pairing,
+            landmarks: &landmarks,
         };
-        Ok(smooth_walls(&run, &options)?)
+        Ok(smooth(&run, &options)?)
     })?;
-    PySmoothedWalls::new(py, out)
+    PySmoothedRun::new(py, out)
 }
 
-/// What [`planar_smooth_walls`] returns, frozen, arrays read-only: every scan's
-/// smoothed pose `(S, 3)` and marginal covariance `(S, 3, 3)`, the wall map (`wall_id`,
+/// One id per row (int64), a negative one read as `None` (unused).
+fn optional_ids(ids: &Bound<'_, PyAny>, name: &str, n: usize) -> PyResult<Vec<Option<u64>>> {
+    let ids = int_rows(ids, name, n)?;
+    Ok(ids.iter().map(|&p| u64::try_from(p).ok()).collect())
+}
+
+/// Ids (int64, `>= 0`) paired with `(N, 2)` rows.
+fn id_rows(
+    ids: &Bound<'_, PyAny>,
+    id_name: &str,
+    values: &Bound<'_, PyAny>,
+    name: &str,
+) -> PyResult<Vec<(u64, [f64; 2])>> {
+    let values = rows::<2>(Some(values), name)?;
+    let ids = int_rows(ids, id_name, values.len())?;
+    let out = ids
+        .iter()
+        .zip(&values)
+        .map(|(&id, v)| {
+            u64::try_from(id)
+                .map(|id| (id, *v))
+                .map_err(|_| Error::Value(format!("{id_name} must be >= 0, got {id}")))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(out)
+}
+
+/// What [`planar_smooth`] returns, frozen, arrays read-only: every time's smoothed
+/// pose `(S, 3)` and marginal covariance `(S, 3, 3)`, the wall map (`wall_id`,
 /// `wall_line` `(W, 2)`, `wall_covariance` `(W, 2, 2)`, `wall_ends` `(W, 2, 2)`), the
-/// odometry bias `(s, b)` (zeros without bias states), and the Levenberg-Marquardt
+/// point landmarks (`landmark_id`, `landmark_mean` `(L, 2)`, `landmark_covariance`
+/// `(L, 2, 2)`), the odometry bias `(s, b)` (zeros without bias states), and the Levenberg-Marquardt
 /// iterations, final cost and residual count.
-#[pyclass(name = "SmoothedWalls", module = "rperc._rperc", frozen, get_all)]
-pub struct PySmoothedWalls {
+#[pyclass(name = "SmoothedRun", module = "rperc._rperc", frozen, get_all)]
+pub struct PySmoothedRun {
     pose: Py<PyArrayDyn<f64>>,
     covariance: Py<PyArrayDyn<f64>>,
     wall_id: Py<PyArray1<i64>>,
     wall_line: Py<PyArrayDyn<f64>>,
     wall_covariance: Py<PyArrayDyn<f64>>,
     wall_ends: Py<PyArrayDyn<f64>>,
+    landmark_id: Py<PyArray1<i64>>,
+    landmark_mean: Py<PyArrayDyn<f64>>,
+    landmark_covariance: Py<PyArrayDyn<f64>>,
     bias: (f64, f64),
     iterations: usize,
     cost: f64,
@@ -530,20 +571,22 @@ pub struct PySmoothedWalls {
 }
 
 #[pymethods]
-impl PySmoothedWalls {
+impl PySmoothedRun {
     fn __repr__(&self) -> String {
         format!(
-            "SmoothedWalls(cost {:.6e} over {} residuals after {} iterations)",
+            "SmoothedRun(cost {:.6e} over {} residuals after {} iterations)",
             self.cost, self.residuals, self.iterations
         )
     }
 }
 
-impl PySmoothedWalls {
+impl PySmoothedRun {
     fn new(py: Python<'_>, out: slam::planar::smooth::SmoothedRun) -> PyResult<Self> {
         let (s, w) = (out.pose.len(), out.walls.len());
         let walls = &out.walls;
         let ids: Vec<i64> = walls.iter().map(|w| w.id as i64).collect();
+        let (marks, l) = (&out.landmarks, out.landmarks.len());
+        let mark_ids: Vec<i64> = marks.iter().map(|m| m.id as i64).collect();
         Ok(Self {
             pose: frozen_array(py, out.pose.concat(), &[s, 3])?,
             covariance: frozen_array(py, out.covariance.concat(), &[s, 3, 3])?,
@@ -558,6 +601,13 @@ impl PySmoothedWalls {
                 py,
                 walls.iter().flat_map(|w| w.ends.concat()).collect(),
                 &[w, 2, 2],
+            )?,
+            landmark_id: read_only(mark_ids.into_pyarray(py))?,
+            landmark_mean: frozen_array(py, marks.iter().flat_map(|m| m.mean).collect(), &[l, 2])?,
+            landmark_covariance: frozen_array(
+                py,
+                marks.iter().flat_map(|m| m.covariance).collect(),
+                &[l, 2, 2],
             )?,
             bias: (out.bias[0], out.bias[1]),
             iterations: out.iterations,

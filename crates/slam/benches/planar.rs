@@ -266,7 +266,7 @@ fn bench_wall_room(c: &mut Criterion) {
 /// filter's association and estimates as the start).
 fn bench_wall_smoother(c: &mut Criterion) {
     use slam::planar::room::{RoomConfig, simulate_room};
-    use slam::planar::smooth::{SmootherConfig, WallRun, smooth_walls};
+    use slam::planar::smooth::{FilterRun, SmootherConfig, smooth};
     use slam::planar::{Event, EventKind};
     let room = RoomConfig::default();
     let data = simulate_room(&room, 3, 0);
@@ -299,7 +299,7 @@ fn bench_wall_smoother(c: &mut Criterion) {
             .map(|i| tr.pose[i]),
     );
     let map: Vec<(u64, [f64; 2])> = result.walls.iter().map(|w| (w.id, w.line)).collect();
-    let run = WallRun {
+    let run = FilterRun {
         config: &config,
         controls: &controls,
         times: &times,
@@ -307,13 +307,71 @@ fn bench_wall_smoother(c: &mut Criterion) {
         walls: &rows,
         pairing: &result.wall_pairing,
         map: &map,
+        points: &[],
+        point_pairing: &[],
+        landmarks: &[],
     };
     c.bench_function("planar/wall_smoother_300_scans", |b| {
         b.iter(|| {
-            smooth_walls(black_box(&run), &SmootherConfig::default())
+            smooth(black_box(&run), &SmootherConfig::default())
                 .unwrap()
                 .iterations
         })
+    });
+}
+
+/// The batch smoother over a whole simulated point-landmark run (600 steps, 24
+/// landmarks, a pose at every scan; the filter's association and estimates as the
+/// start).
+fn bench_point_smoother(c: &mut Criterion) {
+    use slam::planar::sim::{SimConfig, simulate};
+    use slam::planar::smooth::{FilterRun, SmootherConfig, smooth};
+    use slam::planar::{Event, EventKind};
+    let sim = SimConfig::default();
+    let data = simulate(&sim, 3, 0).unwrap();
+    let config = sim.slam_config();
+    let mut engine = PlanarSlam::new(config.clone()).unwrap();
+    engine.run(&data.events).unwrap();
+    let result = engine.finish();
+    let (mut controls, mut points, mut times) = (vec![], vec![], vec![0.0]);
+    for event in &data.events {
+        match event {
+            Event::Control { t, control } => controls.push([*t, control[0], control[1]]),
+            Event::Scan { t, detections } => {
+                if *t > 0.0 {
+                    times.push(*t);
+                }
+                points.extend(detections.iter().map(|d| [*t, d.range, d.bearing]));
+            }
+            _ => {}
+        }
+    }
+    let tr = &result.trajectory;
+    let mut poses = vec![config.initial_pose];
+    poses.extend(
+        (0..tr.t.len())
+            .filter(|&i| tr.kind[i] == EventKind::Scan && tr.t[i] > 0.0)
+            .map(|i| tr.pose[i]),
+    );
+    let landmarks: Vec<(u64, [f64; 2])> = result.landmarks.iter().map(|l| (l.id, l.mean)).collect();
+    let run = FilterRun {
+        config: &config,
+        controls: &controls,
+        times: &times,
+        poses: &poses,
+        walls: &[],
+        pairing: &[],
+        map: &[],
+        points: &points,
+        point_pairing: &result.point_pairing,
+        landmarks: &landmarks,
+    };
+    let options = SmootherConfig {
+        point_correlation_time: 0.5,
+        ..SmootherConfig::default()
+    };
+    c.bench_function("planar/point_smoother_600_steps", |b| {
+        b.iter(|| smooth(black_box(&run), &options).unwrap().iterations)
     });
 }
 
@@ -325,6 +383,7 @@ criterion_group!(
     bench_mrclam,
     bench_compression,
     bench_wall_room,
-    bench_wall_smoother
+    bench_wall_smoother,
+    bench_point_smoother
 );
 criterion_main!(benches);

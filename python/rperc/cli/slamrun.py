@@ -70,7 +70,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     for q in (m, v):
         q.add_argument(
             "--variant", type=_variants, default=("plain",),
-            help="comma-separated, combinable: plain, anchor, external, freeze",
+            help="comma-separated, combinable: plain, anchor, external, freeze; smooth "
+            "(MR.CLAM: the run smoothed afterwards, every sighting used both ways in time)",
         )  # fmt: skip
         q.add_argument(
             "--compression", choices=("auto", "off"), default="auto",
@@ -116,6 +117,12 @@ def _mrclam(args: argparse.Namespace) -> tuple[SlamResult, dict[str, float], Run
 def _victoria(args: argparse.Namespace) -> tuple[SlamResult, dict[str, float], RunReference]:
     from rperc.datasets import load_victoria_park
     from rperc.datasets.victoria_park import LASER_MOUNT
+
+    if "smooth" in args.variant:
+        raise ValueError(
+            "--variant smooth: the smoother models the unicycle with its sensor at the "
+            "robot's origin (MR.CLAM), not Victoria Park's Ackermann vehicle"
+        )
 
     park = load_victoria_park(args.directory)
     cfg = {**PRESETS["victoria"], "association": args.association, **_speed(args), **args.config}

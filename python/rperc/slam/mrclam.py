@@ -9,9 +9,28 @@ from pathlib import Path
 import numpy as np
 
 from rperc.slam.evaluation import RunReference
-from rperc.slam.planar import PlanarSlam, SlamResult, mrclam_recording, variant_config
+from rperc.slam.planar import (
+    PlanarSlam,
+    Recording,
+    SlamResult,
+    mrclam_recording,
+    variant_config,
+)
 
 __all__ = ["mrclam_run"]
+
+
+#: Seconds between the smoothed path's poses where the robot sees nothing (it has a
+#: pose at every sighting as well): MR.CLAM's robots drive at most 0.5 m/s, 5 cm a
+#: step, under the landmarks' own error.
+SMOOTH_INTERVAL = 0.1
+
+#: The smooth variant's ``point_correlation_time`` (s): one robot's sightings of a
+#: landmark within 5 s share much of their error (Vicon truth: correlation 0.3-0.8 at
+#: lags under 5 s, under 0.2 beyond), so a burst of them counts as about one. Chosen
+#: by leave-one-robot-out (``benchmarks/mrclam_smoothing.py``; figures:
+#: ``docs/decisions.md``).
+SIGHTING_CORRELATION_TIME = 5.0
 
 
 def mrclam_run(
@@ -24,13 +43,24 @@ def mrclam_run(
     fix_sigma: float = 0.1,
     span: tuple[float, float] | None = None,
     config: Mapping[str, object] | None = None,
+    smoother: Mapping[str, object] | None = None,
 ) -> tuple[SlamResult, dict[str, float], RunReference]:
     """One MR.CLAM robot through planar EKF-SLAM with ``variants`` (the ``mrclam``
     preset, ``config`` on top): the result, its scores (``rperc slam mrclam``'s) and
-    the reference. ``seed`` draws the external variant's fix noise."""
+    the reference. ``seed`` draws the external variant's fix noise. With ``smooth``
+    the scores are the smoothed run's (:func:`rperc.slam.smoothing.smooth`: every
+    sighting used both ways in time, with the filter's association; ``smoother``
+    overrides its :class:`rperc.config.SmootherConfig` fields, whose
+    ``point_correlation_time`` is :data:`SIGHTING_CORRELATION_TIME` here), and
+    ``ate_aligned_causal_m`` is the filter's."""
     from rperc.datasets import load_mrclam
     from rperc.slam.planar import mrclam_preset, mrclam_start
 
+    if "smooth" in variants and {"anchor", "external"} & set(variants):
+        raise ValueError(
+            "the smooth variant models odometry and sightings only: combine it with "
+            "plain or freeze, not with anchor or external"
+        )
     run = load_mrclam(directory, robot=robot)
     if span is not None:
         from rperc.slam.calibration import mrclam_window
@@ -43,8 +73,12 @@ def mrclam_run(
     ev = mrclam_recording(run, fix_interval=interval, fix_sigma=fix_sigma, seed=seed)
     result = PlanarSlam(cfg).run(ev, progress=True)
     truth = np.c_[run.truth_x, run.truth_y, run.truth_theta]
-    aligned = result.ate(run.truth_t, truth, align=True)
     marks = np.c_[run.landmark_x, run.landmark_y]
+    if "smooth" in variants:
+        options = {"point_correlation_time": SIGHTING_CORRELATION_TIME, **(smoother or {})}
+        reference = (run.truth_t, truth, (run.landmark_id, marks))
+        return _smoothed_scores(result, ev, reference, options)
+    aligned = result.ate(run.truth_t, truth, align=True)
     nees = result.nees(run.truth_t, truth, reference_landmarks=(run.landmark_id, marks))
     metrics = {
         "ate_m": result.ate(run.truth_t, truth).rmse,
@@ -58,3 +92,39 @@ def mrclam_run(
     ref: RunReference = {"truth": truth, "landmarks": marks, "label": "true path (Vicon)",
                          "nees": nees, "transform": None}  # fmt: skip
     return result, metrics, ref
+
+
+def _smoothed_scores(
+    result: SlamResult,
+    ev: Recording,
+    reference: tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]],
+    options: Mapping[str, object],
+) -> tuple[SlamResult, dict[str, float], RunReference]:
+    """The smooth variant: the filter's ``result`` smoothed with the smoother's
+    ``options``, scored against ``reference`` (truth times, truth, landmarks) as a
+    run is, with the smoothed path and map in the result (the filter's causal ATE
+    kept)."""
+    from rperc.slam.smoothing import smooth
+
+    t_truth, truth, landmarks = reference
+    t0, t1 = float(result.t[0]), float(result.t[-1])
+    seen = ev.detections[:, 0]
+    times = np.unique(np.r_[t0, seen[seen >= t0], np.arange(t0, t1, SMOOTH_INTERVAL)])
+    out = smooth(result, ev.controls, times, detections=ev.detections, config=options)
+    causal = result.ate(t_truth, truth, align=True).rmse
+    smoothed = out.to_result(result)
+    aligned = smoothed.ate(t_truth, truth, align=True)
+    nees = smoothed.nees(t_truth, truth)
+    metrics = {
+        "ate_m": smoothed.ate(t_truth, truth).rmse,
+        "ate_aligned_m": aligned.rmse,
+        "ate_aligned_causal_m": causal,
+        "landmark_rmse_aligned_m": smoothed.landmark_rmse(
+            *landmarks, transform=aligned.transform
+        ).rmse,
+        "nees_mean": nees.mean,
+        "nees_in_band": float(np.mean(nees.inside)),
+    }
+    ref: RunReference = {"truth": truth, "landmarks": landmarks[1],
+                         "label": "true path (Vicon)", "nees": nees, "transform": None}  # fmt: skip
+    return smoothed, metrics, ref

@@ -257,6 +257,9 @@ class SlamResult:
     #: The walls' data association: for each row of ``walls``, the id of the wall it
     #: was paired with or admitted as, -1 when left out (too vague, or ambiguous).
     wall_pairing: np.ndarray | None = None
+    #: The point detections' data association: for each row of ``detections``, the id
+    #: of the landmark it updated or admitted, -1 when rejected or left a candidate.
+    point_pairing: np.ndarray | None = None
 
     def __repr__(self) -> str:
         s = self.statistics
@@ -569,13 +572,15 @@ def _slam_result(out: _rperc.PlanarRun, config: dict[str, object], with_walls: b
         config=config, anchor_time=out.anchor_time,
         walls=wall_map if with_walls else None,
         wall_pairing=out.wall_pairing if with_walls else None,
+        point_pairing=out.point_pairing,
     )  # fmt: skip
 
 
 #: Paper [000]'s variants of a run on a recording (``rperc slam mrclam/victoria
 #: --variant``), combinable: the anchor (eqs 24-25), the external sensor (eqs 26-27)
-#: and landmark freezing.
-RECORDING_VARIANTS = ("plain", "anchor", "external", "freeze")
+#: and landmark freezing; and ``smooth`` (MR.CLAM): the run smoothed afterwards
+#: (:func:`rperc.slam.smoothing.smooth`).
+RECORDING_VARIANTS = ("plain", "anchor", "external", "freeze", "smooth")
 
 
 def variant_config(base: Mapping[str, object], variants: Sequence[str]) -> dict[str, object]:

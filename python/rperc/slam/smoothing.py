@@ -21,8 +21,9 @@ True
 
 from __future__ import annotations
 
+import time
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -36,18 +37,20 @@ from rperc.slam.planar import SlamResult
 if TYPE_CHECKING:
     from typing_extensions import Unpack
 
-__all__ = ["SmoothedRun", "smooth_walls"]
+__all__ = ["SmoothedRun", "smooth", "smooth_walls"]
 
 
 @dataclass(frozen=True, repr=False)
 class SmoothedRun:
-    """A smoothed wall-SLAM run: the pose ``(S, 3)`` at each of the ``S`` times with its
+    """A smoothed SLAM run: the pose ``(S, 3)`` at each of the ``S`` times with its
     marginal covariance ``(S, 3, 3)``; the walls (``wall_id``, ``wall_line`` ``(W, 2)``
     rows ``(rho, alpha)`` in the world frame with ``rho >= 0``, ``wall_covariance``
     ``(W, 2, 2)``, and ``wall_ends`` ``(W, 2, 2)``: the seen extent, its sightings'
-    end points placed with the smoothed poses); the control biases ``(s, b)``; the
-    iterations, the final cost (the sum of squared whitened residuals) and the
-    number of residuals."""
+    end points placed with the smoothed poses); the point landmarks (``landmark_id``,
+    ``landmark_mean`` ``(L, 2)``, ``landmark_covariance`` ``(L, 2, 2)``); the control
+    biases ``(s, b)``; the iterations, the final cost (the sum of squared whitened
+    residuals, Huber's where set), the number of residuals and the seconds the
+    smoothing took."""
 
     times: np.ndarray
     pose: np.ndarray
@@ -56,16 +59,46 @@ class SmoothedRun:
     wall_line: np.ndarray
     wall_covariance: np.ndarray
     wall_ends: np.ndarray
+    landmark_id: np.ndarray
+    landmark_mean: np.ndarray
+    landmark_covariance: np.ndarray
     bias: tuple[float, float]
     iterations: int
     cost: float
     residuals: int
+    seconds: float = 0.0  # the smoothing's wall-clock time
 
     def __repr__(self) -> str:
         return (
             f"SmoothedRun({len(self.pose)} poses, {len(self.wall_id)} walls, "
-            f"{self.iterations} iterations, cost {self.cost:.1f} over {self.residuals} "
-            f"residuals, bias ({self.bias[0]:.4g}, {self.bias[1]:.4g}))"
+            f"{len(self.landmark_id)} landmarks, {self.iterations} iterations, cost "
+            f"{self.cost:.1f} over {self.residuals} residuals, bias ({self.bias[0]:.4g}, "
+            f"{self.bias[1]:.4g}))"
+        )
+
+    def to_result(self, filtered: SlamResult) -> SlamResult:
+        """The filter's run ``filtered`` (the one smoothed) with this path and point
+        map: one row per smoothed pose (``kind`` 0 on every row: a smoothed pose is
+        no event; ``seconds`` the filter's and the smoothing's time shared equally
+        over the rows, so that their sum is the whole run's), the landmarks' means
+        and covariances smoothed. The statistics, the config and the
+        association stay the filter's, so its ``ate``, ``nees`` and
+        ``landmark_rmse`` score the smoothed run."""
+        order = np.searchsorted(self.landmark_id, filtered.landmark_id)
+        if len(self.landmark_id) != len(filtered.landmark_id) or not np.array_equal(
+            self.landmark_id[np.minimum(order, len(order) - 1)], filtered.landmark_id
+        ):
+            raise ValueError("filtered must be the run smoothed: its landmarks differ")
+        total = float(np.sum(filtered.seconds)) + self.seconds
+        return replace(
+            filtered,
+            t=self.times,
+            kind=np.zeros(len(self.times), np.uint8),
+            pose=self.pose,
+            covariance=self.covariance,
+            seconds=np.full(len(self.times), total / max(len(self.times), 1)),
+            landmark_mean=self.landmark_mean[order],
+            landmark_covariance=self.landmark_covariance[order],
         )
 
 
@@ -77,37 +110,55 @@ def smooth_walls(
     config: SmootherConfig | Mapping[str, object] | None = None,
     **overrides: Unpack[SmootherConfigOverrides],
 ) -> SmoothedRun:
+    """:func:`smooth` of a wall-SLAM run: ``smooth(result, controls, times,
+    walls=walls, ...)``."""
+    return smooth(result, controls, times, walls=walls, config=config, **overrides)
+
+
+def smooth(
+    result: SlamResult,
+    controls: npt.ArrayLike,
+    times: npt.ArrayLike,
+    *,
+    walls: npt.ArrayLike | None = None,
+    detections: npt.ArrayLike | None = None,
+    config: SmootherConfig | Mapping[str, object] | None = None,
+    **overrides: Unpack[SmootherConfigOverrides],
+) -> SmoothedRun:
     """Smooths the run ``result`` of :meth:`PlanarSlam.run_arrays` given the same
-    ``controls`` and ``walls`` rows: one pose at each of ``times`` (increasing; the
-    first the run's first event, where the config's initial pose holds; every wall
-    row's time among them), starting from the filter's pose there and its final
-    walls, with its association (``result.wall_pairing``) and its config. ``config``
-    (a :class:`rperc.config.SmootherConfig` or a dict of its fields) and keyword
-    overrides of its fields set when it stops: after ``max_iterations`` or when a step
-    lowers the cost by less than the fraction ``tolerance``."""
+    ``controls``, ``walls`` and ``detections`` rows: one pose at each of ``times``
+    (increasing; the first the run's first event, where the config's initial pose
+    holds; every wall and detection row's time among them), starting from the
+    filter's pose there and its final map, with its association
+    (``result.wall_pairing``, ``result.point_pairing``: a detection the filter's gate
+    refused stays out) and its config. ``config`` (a :class:`rperc.config.SmootherConfig`
+    or a dict of its fields) and keyword overrides of its fields set when it stops
+    (after ``max_iterations`` or when a step lowers the cost by less than the fraction
+    ``tolerance``) and Huber's threshold on the point sightings (``point_huber``).
+    External fixes are not modelled: they only shape the starting point."""
     options = as_config(SmootherConfig, config, overrides).to_dict()
-    if result.walls is None or result.wall_pairing is None:
-        raise ValueError("result has no walls: run PlanarSlam.run_arrays with walls=")
-    t = np.ascontiguousarray(times, dtype=np.float64)
-    if t.ndim != 1 or len(t) == 0:
-        raise ValueError(f"times must be a non-empty 1-D array, got shape {t.shape}")
-    rows = np.searchsorted(result.t, t, side="right") - 1
-    if len(result.t) == 0 or rows.min() < 0:
-        raise ValueError("times must not come before the run's first event")
-    if t[0] != result.t[0]:
-        # The config's initial pose is the prior of the first pose: it holds there only.
+    if result.anchor is not None:
         raise ValueError(
-            f"times[0] must be the run's first event time {result.t[0]!r} (where the "
-            f"start prior holds), got {t[0]!r}"
+            "an anchored run (eqs. 24-25) is in its anchor's frame, which the smoother "
+            "does not model: smooth a run without anchor="
         )
-    out = _rperc.planar_smooth_walls(
+    t = _node_times(result, times)
+    rows = np.searchsorted(result.t, t, side="right") - 1
+    wall_rows, pairing, map_id, map_line = _wall_inputs(result, walls)
+    points, point_pairing = _point_inputs(result, detections)
+    start = time.perf_counter()
+    out = _rperc.planar_smooth(
         np.ascontiguousarray(controls, dtype=np.float64),
         t,
         np.ascontiguousarray(result.pose[rows]),
-        np.ascontiguousarray(walls, dtype=np.float64),
-        result.wall_pairing,
-        result.walls.id.astype(np.int64),
-        np.ascontiguousarray(result.walls.line),
+        wall_rows,
+        pairing,
+        map_id,
+        map_line,
+        points,
+        point_pairing,
+        result.landmark_id.astype(np.int64),
+        np.ascontiguousarray(result.landmark_mean, dtype=np.float64).reshape(-1, 2),
         result.config or None,
         options,
     )
@@ -119,8 +170,60 @@ def smooth_walls(
         wall_line=out.wall_line,
         wall_covariance=out.wall_covariance,
         wall_ends=out.wall_ends,
+        landmark_id=out.landmark_id,
+        landmark_mean=out.landmark_mean,
+        landmark_covariance=out.landmark_covariance,
         bias=out.bias,
         iterations=out.iterations,
         cost=out.cost,
         residuals=out.residuals,
+        seconds=time.perf_counter() - start,
     )
+
+
+def _node_times(result: SlamResult, times: npt.ArrayLike) -> np.ndarray:
+    """``times`` as float64, checked: non-empty, 1-D, from the run's first event."""
+    t = np.ascontiguousarray(times, dtype=np.float64)
+    if t.ndim != 1 or len(t) == 0:
+        raise ValueError(f"times must be a non-empty 1-D array, got shape {t.shape}")
+    if len(result.t) == 0 or t.min() < result.t[0]:
+        raise ValueError("times must not come before the run's first event")
+    if t[0] != result.t[0]:
+        # The config's initial pose is the prior of the first pose: it holds there only.
+        raise ValueError(
+            f"times[0] must be the run's first event time {result.t[0]!r} (where the "
+            f"start prior holds), got {t[0]!r}"
+        )
+    return t
+
+
+def _wall_inputs(
+    result: SlamResult, walls: npt.ArrayLike | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The wall rows, their pairing and the final wall map (all empty without walls)."""
+    if walls is None:
+        return np.zeros((0, 10)), np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2))
+    if result.walls is None or result.wall_pairing is None:
+        raise ValueError("result has no walls: run PlanarSlam.run_arrays with walls=")
+    return (
+        np.ascontiguousarray(walls, dtype=np.float64),
+        result.wall_pairing,
+        result.walls.id.astype(np.int64),
+        np.ascontiguousarray(result.walls.line),
+    )
+
+
+def _point_inputs(
+    result: SlamResult, detections: npt.ArrayLike | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """The point rows and the filter's pairing of each (-1: not used)."""
+    if detections is None:
+        return np.zeros((0, 3)), np.zeros(0, np.int64)
+    rows = np.ascontiguousarray(detections, dtype=np.float64)
+    pairing = result.point_pairing
+    if pairing is None or rows.ndim != 2 or len(pairing) != len(rows):
+        raise ValueError(
+            f"detections must be the run's own {0 if pairing is None else len(pairing)} "
+            f"detection rows, got shape {rows.shape}"
+        )
+    return rows, pairing

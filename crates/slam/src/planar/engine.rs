@@ -77,6 +77,9 @@ pub struct PlanarSlam {
     /// (the pose's first estimate is its prediction: `first_estimates`).
     pub(super) update_shift: Vector2<f64>,
     candidates: Candidates,
+    /// For every point detection so far, in the order given: the landmark it updated
+    /// or admitted, `None` when it was rejected or is still a candidate.
+    point_pairing: Vec<Option<u64>>,
     next_id: u64,
     events: usize,
     /// Work done since the last interrupt checkpoint (Ctrl-C from Python).
@@ -139,6 +142,7 @@ impl PlanarSlam {
             revisions: HashMap::new(),
             update_shift: Vector2::zeros(),
             candidates: Candidates::default(),
+            point_pairing: Vec::new(),
             next_id: 0,
             events: 0,
             meter: rperc_core::interrupt::Work::new(),
@@ -451,6 +455,11 @@ impl PlanarSlam {
         let ids: Vec<Option<u64>> = detections.iter().map(|d| d.id.filter(|_| known)).collect();
         self.localise(&zs, &ids)?;
         let (pairings, unmatched) = self.associate(&zs, &ids)?;
+        let base = self.point_pairing.len();
+        self.point_pairing.resize(base + zs.len(), None);
+        for p in &pairings {
+            self.point_pairing[base + p.det] = Some(self.target_id(p.target));
+        }
         if !pairings.is_empty() {
             self.apply(&pairings, &zs)?;
             self.stats.accepted += pairings.len() as u64;
@@ -458,7 +467,7 @@ impl PlanarSlam {
         self.candidates
             .forget_older_than(t, self.config.candidate_window);
         for i in unmatched {
-            self.sighting(t, &zs[i], ids[i])?;
+            self.point_pairing[base + i] = self.sighting(t, &zs[i], ids[i])?;
         }
         Ok(())
     }
@@ -616,7 +625,9 @@ impl PlanarSlam {
     /// An unexplained detection: joins a consistent candidate (by id, or the nearest
     /// within the Mahalanobis gate) or starts one; after `candidate_sightings`
     /// consistent sightings the landmark enters the map.
-    fn sighting(&mut self, t: f64, z: &Vector2<f64>, id: Option<u64>) -> Result<()> {
+    /// A detection no landmark explains: a candidate, or once seen often enough a new
+    /// landmark (its id returned).
+    fn sighting(&mut self, t: f64, z: &Vector2<f64>, id: Option<u64>) -> Result<Option<u64>> {
         let (l, g_r, g_z) = landmark_from(&self.robot(), &self.mount, z);
         let prr = self.pose_covariance();
         let cov = g_r * prr * g_r.transpose() + g_z * self.w * g_z.transpose();
@@ -636,10 +647,11 @@ impl PlanarSlam {
         ) < needed
         {
             self.stats.candidate += 1;
-            return Ok(());
+            return Ok(None);
         }
         let id = id.unwrap_or_else(|| self.fresh_id());
-        self.admit(id, z)
+        self.admit(id, z)?;
+        Ok(Some(id))
     }
 
     pub(super) fn fresh_id(&mut self) -> u64 {
@@ -756,6 +768,7 @@ impl PlanarSlam {
             landmarks,
             statistics: self.stats,
             wall_pairing: self.wall_map.into_pairings(),
+            point_pairing: self.point_pairing,
         }
     }
 

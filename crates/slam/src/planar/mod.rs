@@ -266,4 +266,8 @@ pub struct PlanarResult {
     /// given, the id of the wall it was paired with or admitted as; `None` when it
     /// was left out (too vague an angle, or ambiguous).
     pub wall_pairing: Vec<Option<u64>>,
+    /// The data association of the point detections: for every one, in the order
+    /// given, the id of the landmark it updated or admitted; `None` when it was
+    /// rejected by the gate or left as a candidate.
+    pub point_pairing: Vec<Option<u64>>,
 }

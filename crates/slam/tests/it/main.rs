@@ -11,4 +11,5 @@ mod planar_control_bias;
 mod planar_first_estimates;
 mod planar_first_estimates_points;
 mod planar_smooth;
+mod planar_smooth_points;
 mod planar_walls;

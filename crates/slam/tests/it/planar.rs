@@ -602,3 +602,39 @@ fn consider_freezing_keeps_the_nees_in_band_where_marginalising_does_not() {
             .any(|l| l.frozen && l.revisions > 21)
     );
 }
+
+/// The point pairing names, for every detection in the order given, the landmark it
+/// admitted or updated; one the gate refuses (a barcode read on the wrong target, 2 m
+/// off) and one still a candidate are `None`.
+#[test]
+fn point_pairing_follows_every_detection() {
+    let config = PlanarConfig {
+        candidate_sightings: 2,
+        ..PlanarConfig::default()
+    };
+    let seen = |range: f64, id: u64| Detection {
+        range,
+        bearing: 0.0,
+        id: Some(id),
+    };
+    let events = vec![
+        Event::Scan {
+            t: 0.0,
+            detections: vec![seen(2.0, 7), seen(3.0, 9)],
+        },
+        Event::Scan {
+            t: 1.0,
+            detections: vec![seen(2.0, 7), seen(4.0, 5)],
+        },
+        Event::Scan {
+            t: 2.0,
+            detections: vec![seen(4.0, 7), seen(2.0, 7)],
+        },
+    ];
+    let out = run(config, &events);
+    assert_eq!(
+        out.point_pairing,
+        vec![None, None, Some(7), None, None, Some(7)]
+    );
+    assert_eq!(out.statistics.rejected, 1);
+}

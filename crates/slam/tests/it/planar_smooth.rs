@@ -12,7 +12,7 @@ use rand_distr::{Distribution, StandardNormal};
 use rperc_core::{Pose2, chi2_quantile, wrap_angle};
 use slam::motion::{MotionModel, Unicycle};
 use slam::planar::PlanarConfig;
-use slam::planar::smooth::{SmootherConfig, WallRun, smooth_walls};
+use slam::planar::smooth::{FilterRun, SmootherConfig, smooth as smooth_run};
 
 /// Walls `(rho, alpha)` of a 10 m square room centred on the origin.
 const WALLS: [[f64; 2]; 4] = [[5.0, 0.0], [5.0, FRAC_PI_2], [5.0, PI], [5.0, -FRAC_PI_2]];
@@ -119,8 +119,8 @@ fn simulate(seed: u64, noise: f64) -> Sim {
 }
 
 /// The run to smooth: the simulation's data, from dead reckoning and `map`.
-fn run_of<'a>(sim: &'a Sim, config: &'a PlanarConfig, map: &'a [(u64, [f64; 2])]) -> WallRun<'a> {
-    WallRun {
+fn run_of<'a>(sim: &'a Sim, config: &'a PlanarConfig, map: &'a [(u64, [f64; 2])]) -> FilterRun<'a> {
+    FilterRun {
         config,
         controls: &sim.controls,
         times: &sim.times,
@@ -128,12 +128,15 @@ fn run_of<'a>(sim: &'a Sim, config: &'a PlanarConfig, map: &'a [(u64, [f64; 2])]
         walls: &sim.walls,
         pairing: &sim.pairing,
         map,
+        points: &[],
+        point_pairing: &[],
+        landmarks: &[],
     }
 }
 
 fn smooth(sim: &Sim, map: &[(u64, [f64; 2])]) -> slam::planar::smooth::SmoothedRun {
     let config = config();
-    smooth_walls(&run_of(sim, &config, map), &SmootherConfig::default()).unwrap()
+    smooth_run(&run_of(sim, &config, map), &SmootherConfig::default()).unwrap()
 }
 
 fn true_map() -> Vec<(u64, [f64; 2])> {
@@ -243,7 +246,7 @@ fn bad_runs_are_errors_that_name_the_input() {
     let mut map = true_map();
     map.pop();
     let run = run_of(&sim, &config, &map);
-    let err = smooth_walls(&run, &SmootherConfig::default())
+    let err = smooth_run(&run, &SmootherConfig::default())
         .unwrap_err()
         .to_string();
     assert!(
@@ -252,24 +255,24 @@ fn bad_runs_are_errors_that_name_the_input() {
     );
     let mut walls = sim.walls.clone();
     walls[5][0] = 0.5;
-    let run = WallRun {
+    let run = FilterRun {
         walls: &walls,
         map: &true_map(),
         ..run
     };
-    let err = smooth_walls(&run, &SmootherConfig::default())
+    let err = smooth_run(&run, &SmootherConfig::default())
         .unwrap_err()
         .to_string();
     assert!(err.contains("row 5"), "{err}");
     let mut poses = sim.dead_reckoning.clone();
     poses[2][1] = f64::NAN;
-    let run = WallRun {
+    let run = FilterRun {
         poses: &poses,
         walls: &sim.walls,
         ..run
     };
-    assert!(smooth_walls(&run, &SmootherConfig::default()).is_err());
-    let run = WallRun {
+    assert!(smooth_run(&run, &SmootherConfig::default()).is_err());
+    let run = FilterRun {
         poses: &sim.dead_reckoning,
         ..run
     };
@@ -278,7 +281,7 @@ fn bad_runs_are_errors_that_name_the_input() {
         ..SmootherConfig::default()
     };
     assert!(
-        smooth_walls(&run, &zero)
+        smooth_run(&run, &zero)
             .unwrap_err()
             .to_string()
             .contains("max_iterations")

@@ -4,7 +4,8 @@ seed (the seed draws the external variant's fix noise; the other variants use th
 recording as it is): ATE against Vicon (raw and aligned), the landmark error after
 alignment, the robot NEES mean and share in band, and events per second.
 
-Variants, combinable with ``+``: ``plain``, ``anchor``, ``external``, ``freeze``. A
+Variants, combinable with ``+``: ``plain``, ``anchor``, ``external``, ``freeze``, and
+``smooth`` (the run smoothed afterwards; its ``ate_aligned_causal_m`` is the filter's). A
 settings grid may set any planar EKF config field (``rperc.slam.planar.defaults()``).
 """
 
@@ -15,7 +16,7 @@ import time
 from rperc._args import excerpt
 from rperc.bench.tasks import Row, Task, parse_names
 
-VARIANT_PARTS = ("plain", "anchor", "external", "freeze")
+VARIANT_PARTS = ("plain", "anchor", "external", "freeze", "smooth")
 DEFAULT_VARIANTS = ("plain", "anchor", "external")
 SHOWN = ("ate_m", "ate_aligned_m", "landmark_rmse_aligned_m", "nees_mean", "nees_in_band")
 PRIMARY = ("ate_aligned_m", "m")

@@ -16,6 +16,8 @@
 //!   detection's covariance at the middle plus, with `wall_shared_sd`, the shared
 //!   straightness floor times `sqrt(n)` for its `n` earlier sightings of the same
 //!   stretch (placed with the starting poses);
+//! - **points**: each paired range-bearing detection measures its landmark from its
+//!   pose ([`point`]), optionally through a Huber kernel;
 //! - **biases**: zero-mean priors of `control_bias_sd`; the first pose: the start's
 //!   prior (its sd floored at [`START_SD_FLOOR`]).
 //!
@@ -24,6 +26,8 @@
 //! points (the middle of their first sighting), which keeps the problem well
 //! conditioned far from the world's origin.
 
+mod point;
+
 use std::collections::HashMap;
 
 use std::ops::AddAssign;
@@ -31,6 +35,7 @@ use std::ops::AddAssign;
 use nalgebra::{DVector, Matrix2, Matrix2x3, Matrix3, Matrix3x2, Point2, Vector2, Vector3};
 use rperc_core::{Pose2, wrap_angle};
 
+use self::point::{PointSighting, huber, point_residual, point_sightings};
 use super::PlanarConfig;
 use super::arrow::Arrow;
 use crate::error::{Result, SlamError, ensure_finite};
@@ -56,6 +61,17 @@ pub struct SmootherConfig {
     pub max_iterations: usize,
     /// Converged when an accepted step lowers the cost by less than this fraction.
     pub tolerance: f64,
+    /// Huber's threshold (> 0) on a point sighting's whitened residual norm, in
+    /// standard deviations: beyond it the sighting's cost grows linearly, so a few
+    /// wrong sightings (which the filter's gate would refuse) cannot bend the path.
+    /// `None`: plain least squares.
+    pub point_huber: Option<f64>,
+    /// Seconds (>= 0) over which the errors of one landmark's sightings stay
+    /// correlated (a camera that misjudges a target keeps misjudging it while the
+    /// view barely changes): each point sighting's information is divided by the
+    /// number of that landmark's sightings within this time of it, itself included,
+    /// so that a burst of them counts as about one. 0: every sighting independent.
+    pub point_correlation_time: f64,
 }
 
 impl Default for SmootherConfig {
@@ -63,6 +79,8 @@ impl Default for SmootherConfig {
         Self {
             max_iterations: 100,
             tolerance: 1e-9,
+            point_huber: None,
+            point_correlation_time: 0.0,
         }
     }
 }
@@ -74,6 +92,10 @@ impl SmootherConfig {
             return Err(SlamError::invalid("max_iterations", "must be >= 1".into()));
         }
         rperc_core::ensure_non_negative("tolerance", self.tolerance)?;
+        if let Some(k) = self.point_huber {
+            rperc_core::ensure_positive("point_huber", k)?;
+        }
+        rperc_core::ensure_non_negative("point_correlation_time", self.point_correlation_time)?;
         Ok(())
     }
 }
@@ -81,7 +103,7 @@ impl SmootherConfig {
 /// A run to smooth: what the filter was given, its association and its estimates
 /// (the starting point).
 #[derive(Debug, Clone, Copy)]
-pub struct WallRun<'a> {
+pub struct FilterRun<'a> {
     /// The filter's configuration (motion model and noise, start, biases,
     /// `wall_shared_sd`).
     pub config: &'a PlanarConfig,
@@ -100,6 +122,13 @@ pub struct WallRun<'a> {
     /// The filter's final walls `(id, rho, alpha)` in the world frame: every paired
     /// id must be here.
     pub map: &'a [(u64, [f64; 2])],
+    /// Point detections `(t, range, bearing)` as measured (the config's biases are
+    /// removed here, as the filter removes them), each at one of `times`.
+    pub points: &'a [[f64; 3]],
+    /// For each point detection, its landmark's id, or `None` (not used).
+    pub point_pairing: &'a [Option<u64>],
+    /// The filter's final landmarks `(id, (x, y))`: every paired id must be here.
+    pub landmarks: &'a [(u64, [f64; 2])],
 }
 
 /// The smoothed run.
@@ -111,6 +140,8 @@ pub struct SmoothedRun {
     pub covariance: Vec<[f64; 9]>,
     /// The walls, sorted by id.
     pub walls: Vec<SmoothedWall>,
+    /// The point landmarks, sorted by id.
+    pub landmarks: Vec<SmoothedLandmark>,
     /// The control biases `(s, b)` (zeros without `control_bias_sd`).
     pub bias: [f64; 2],
     /// Iterations taken, and the final cost (the sum of squared whitened residuals).
@@ -134,6 +165,17 @@ pub struct SmoothedWall {
     /// The seen extent: the end points of its sightings, placed with the smoothed
     /// poses, projected on the line.
     pub ends: [[f64; 2]; 2],
+}
+
+/// A smoothed point landmark, in the world frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SmoothedLandmark {
+    /// The landmark's id (the filter's).
+    pub id: u64,
+    /// `(x, y)`.
+    pub mean: [f64; 2],
+    /// Its covariance, row-major 2x2.
+    pub covariance: [f64; 4],
 }
 
 /// One step of odometry: the controls between two poses, and the inverse square
@@ -161,6 +203,8 @@ struct Estimate {
     poses: Vec<Vector3<f64>>,
     /// `(rho, alpha)` about `origins[j]`.
     lines: Vec<Vector2<f64>>,
+    /// The point landmarks, world frame.
+    points: Vec<Vector2<f64>>,
     bias: Vector2<f64>,
 }
 
@@ -171,24 +215,30 @@ struct Problem {
     sightings: Vec<Sighting>,
     origins: Vec<Point2<f64>>,
     ids: Vec<u64>,
+    points: Vec<PointSighting>,
+    point_ids: Vec<u64>,
+    /// `1 / sd` of a point detection's range and bearing.
+    point_whiten: Vector2<f64>,
+    point_huber: Option<f64>,
     start: Vector3<f64>,
     start_whiten: Matrix3<f64>,
     /// `1 / control_bias_sd`, or `None`: biases not estimated.
     bias_whiten: Option<Vector2<f64>>,
 }
 
-/// Smooths a wall-SLAM run (see the [module docs](self)).
+/// Smooths a SLAM run with walls, point landmarks or both (see the [module
+/// docs](self)).
 ///
 /// # Examples
 /// ```
 /// use slam::planar::PlanarConfig;
-/// use slam::planar::smooth::{SmootherConfig, WallRun, smooth_walls};
+/// use slam::planar::smooth::{FilterRun, SmootherConfig, smooth};
 ///
 /// // Driving 1 m/s along a wall 2 m to the left, seen at both scans.
 /// let config = PlanarConfig::default();
 /// let controls = [[0.0, 1.0, 0.0]];
 /// let wall = |t: f64| [t, 2.0, std::f64::consts::FRAC_PI_2, 1e-4, 0.0, 1e-4, -1.0, 2.0, 1.0, 2.0];
-/// let run = WallRun {
+/// let run = FilterRun {
 ///     config: &config,
 ///     controls: &controls,
 ///     times: &[0.0, 1.0],
@@ -196,26 +246,30 @@ struct Problem {
 ///     walls: &[wall(0.0), wall(1.0)],
 ///     pairing: &[Some(0), Some(0)],
 ///     map: &[(0, [2.0, std::f64::consts::FRAC_PI_2])],
+///     points: &[],
+///     point_pairing: &[],
+///     landmarks: &[],
 /// };
-/// let out = smooth_walls(&run, &SmootherConfig::default()).unwrap();
+/// let out = smooth(&run, &SmootherConfig::default()).unwrap();
 /// // The wall holds the robot's y at 0; the odometry its x at 1 m.
 /// assert!((out.pose[1][0] - 1.0).abs() < 1e-6 && out.pose[1][1].abs() < 1e-6);
 /// ```
-pub fn smooth_walls(run: &WallRun<'_>, options: &SmootherConfig) -> Result<SmoothedRun> {
+pub fn smooth(run: &FilterRun<'_>, options: &SmootherConfig) -> Result<SmoothedRun> {
     options.validate()?;
-    let (problem, start) = Problem::new(run)?;
+    let (problem, start) = Problem::new(run, options)?;
     let (est, iterations, cost) = problem.minimise(start, options)?;
     problem.result(&est, iterations, cost)
 }
 
 impl Problem {
-    fn new(run: &WallRun<'_>) -> Result<(Self, Estimate)> {
+    fn new(run: &FilterRun<'_>, options: &SmootherConfig) -> Result<(Self, Estimate)> {
         check_run(run)?;
         let config = run.config;
         let poses: Vec<Vector3<f64>> = run.poses.iter().map(|p| Vector3::from(*p)).collect();
         let links = links(&config.motion, run.controls, run.times)?;
         let (sightings, origins, ids, lines) = sightings(run, &poses)?;
-        check_size(poses.len(), 2 * origins.len() + 2)?;
+        let (points, point_ids, means) = point_sightings(run, options.point_correlation_time)?;
+        check_size(poses.len(), 2 * (origins.len() + point_ids.len()) + 2)?;
         let var = config.initial_pose_variance;
         let floor = START_SD_FLOOR * START_SD_FLOOR;
         let start_whiten =
@@ -226,6 +280,13 @@ impl Problem {
             sightings,
             origins,
             ids,
+            points,
+            point_ids,
+            point_whiten: Vector2::new(
+                1.0 / config.range_variance.sqrt(),
+                1.0 / config.bearing_variance.sqrt(),
+            ),
+            point_huber: options.point_huber,
             start: Vector3::from(config.initial_pose),
             start_whiten,
             bias_whiten: config
@@ -235,6 +296,7 @@ impl Problem {
         let est = Estimate {
             poses,
             lines,
+            points: means,
             bias: Vector2::zeros(),
         };
         Ok((problem, est))
@@ -265,7 +327,7 @@ fn check_size(poses: usize, global: usize) -> Result<()> {
     Ok(())
 }
 
-fn check_run(run: &WallRun<'_>) -> Result<()> {
+fn check_run(run: &FilterRun<'_>) -> Result<()> {
     run.config.validate()?;
     if !matches!(run.config.motion, MotionModel::Unicycle(_)) {
         return Err(SlamError::invalid(
@@ -297,6 +359,18 @@ fn check_run(run: &WallRun<'_>) -> Result<()> {
     ensure_finite("poses", run.poses.iter().flatten())?;
     ensure_finite("controls", run.controls.iter().flatten())?;
     ensure_finite("walls", run.walls.iter().flatten())?;
+    if run.point_pairing.len() != run.points.len() {
+        return Err(SlamError::invalid(
+            "point_pairing",
+            format!(
+                "{} entries for {} point rows",
+                run.point_pairing.len(),
+                run.points.len()
+            ),
+        ));
+    }
+    ensure_finite("points", run.points.iter().flatten())?;
+    ensure_finite("landmarks", run.landmarks.iter().flat_map(|l| &l.1))?;
     if let Some(k) = (1..n).find(|&k| run.times[k] <= run.times[k - 1]) {
         return Err(SlamError::invalid(
             "times",
@@ -381,14 +455,14 @@ type Sightings = (Vec<Sighting>, Vec<Point2<f64>>, Vec<u64>, Vec<Vector2<f64>>);
 
 /// The paired detections; each wall's reference point (the middle of its first
 /// sighting, placed with the starting pose) and its starting line about it.
-fn sightings(run: &WallRun<'_>, poses: &[Vector3<f64>]) -> Result<Sightings> {
+fn sightings(run: &FilterRun<'_>, poses: &[Vector3<f64>]) -> Result<Sightings> {
     let map: HashMap<u64, [f64; 2]> = run.map.iter().copied().collect();
     let mut index: HashMap<u64, usize> = HashMap::new();
     let (mut out, mut origins, mut ids, mut lines) = (vec![], vec![], vec![], vec![]);
     let mut parts: Vec<Vec<(f64, f64)>> = Vec::new();
     for (i, (row, id)) in run.walls.iter().zip(run.pairing).enumerate() {
         let Some(id) = *id else { continue };
-        let node = node_of(run.times, i, row[0])?;
+        let node = node_of(run.times, "walls", i, row[0])?;
         let pose = Pose2::from_vector(&poses[node]);
         let z = Vector2::new(row[1], row[2]);
         let ends = [Point2::new(row[6], row[7]), Point2::new(row[8], row[9])];
@@ -436,11 +510,12 @@ fn sightings(run: &WallRun<'_>, poses: &[Vector3<f64>]) -> Result<Sightings> {
     Ok((out, origins, ids, lines))
 }
 
-/// The pose index of a wall row's time (row `i`), which must be one of `times`.
-fn node_of(times: &[f64], i: usize, t: f64) -> Result<usize> {
+/// The pose index of the time `t` of row `i` of the input `what`, which must be one
+/// of `times`.
+fn node_of(times: &[f64], what: &'static str, i: usize, t: f64) -> Result<usize> {
     times.binary_search_by(|x| x.total_cmp(&t)).map_err(|_| {
         SlamError::invalid(
-            "walls",
+            what,
             format!("row {i}: time {t} is not one of the poses' times"),
         )
     })
@@ -558,13 +633,24 @@ fn sighting_residual(
 }
 
 impl Problem {
+    /// The global unknowns: the walls, then the points, then the biases.
     fn global_dim(&self) -> usize {
-        2 * self.origins.len() + if self.bias_whiten.is_some() { 2 } else { 0 }
+        self.bias_at() + if self.bias_whiten.is_some() { 2 } else { 0 }
+    }
+
+    /// Where point landmark `j` sits among the global unknowns.
+    fn point_at(&self, j: usize) -> usize {
+        2 * self.origins.len() + 2 * j
+    }
+
+    /// Where the biases sit among the global unknowns.
+    fn bias_at(&self) -> usize {
+        self.point_at(self.point_ids.len())
     }
 
     fn residual_count(&self) -> usize {
         3 + 3 * self.links.len()
-            + 2 * self.sightings.len()
+            + 2 * (self.sightings.len() + self.points.len())
             + if self.bias_whiten.is_some() { 2 } else { 0 }
     }
 
@@ -589,11 +675,12 @@ impl Problem {
         }
         cost += self.add_links(est, h.as_mut())?;
         cost += self.add_sightings(est, h.as_mut())?;
+        cost += self.add_points(est, h.as_mut())?;
         if let Some(wb) = self.bias_whiten {
             let r = est.bias.component_mul(&wb);
             cost += r.norm_squared();
             if let Some((a, grad)) = h.as_mut() {
-                let (at, w) = (2 * self.origins.len(), Matrix2::from_diagonal(&wb));
+                let (at, w) = (self.bias_at(), Matrix2::from_diagonal(&wb));
                 a.global.view_mut((at, at), (2, 2)).add_assign(w * w);
                 grad.rows_mut(3 * s + at, 2).add_assign(w * r);
             }
@@ -604,7 +691,7 @@ impl Problem {
     /// The odometry terms: their cost, added to the normal equations when given.
     fn add_links(&self, est: &Estimate, mut h: Option<&mut Normal>) -> Result<f64> {
         let s = est.poses.len();
-        let at = 2 * self.origins.len();
+        let at = self.bias_at();
         let mut cost = 0.0;
         for (k, link) in self.links.iter().enumerate() {
             let (a, b) = (&est.poses[k], &est.poses[k + 1]);
@@ -644,19 +731,28 @@ impl Problem {
             let (r, jx, jl) =
                 sighting_residual(sg, &est.poses[k], &est.lines[j], &self.origins[j])?;
             cost += r.norm_squared();
-            let Some((a, grad)) = h.as_deref_mut() else {
-                continue;
-            };
-            a.diag[k] += jx.transpose() * jx;
-            a.border[k]
-                .view_mut((0, 2 * j), (3, 2))
-                .add_assign(jx.transpose() * jl);
-            a.global
-                .view_mut((2 * j, 2 * j), (2, 2))
-                .add_assign(jl.transpose() * jl);
-            grad.rows_mut(3 * k, 3).add_assign(jx.transpose() * r);
-            grad.rows_mut(3 * s + 2 * j, 2)
-                .add_assign(jl.transpose() * r);
+            if let Some(h) = h.as_deref_mut() {
+                add_pose_global(h, s, (k, 2 * j), &r, &jx, &jl);
+            }
+        }
+        Ok(cost)
+    }
+
+    /// The point terms (through Huber's kernel when set): their cost, added to the
+    /// normal equations (reweighted) when given.
+    fn add_points(&self, est: &Estimate, mut h: Option<&mut Normal>) -> Result<f64> {
+        let s = est.poses.len();
+        let mut cost = 0.0;
+        for sg in &self.points {
+            let (k, j) = (sg.node, sg.landmark);
+            let (r, jx, jl) =
+                point_residual(sg, &self.point_whiten, &est.poses[k], &est.points[j])?;
+            let (rho, weight) = huber(r.norm(), self.point_huber);
+            cost += rho;
+            if let Some(h) = h.as_deref_mut() {
+                let (r, jx, jl) = (r * weight, jx * weight, jl * weight);
+                add_pose_global(h, s, (k, self.point_at(j)), &r, &jx, &jl);
+            }
         }
         Ok(cost)
     }
@@ -709,8 +805,11 @@ impl Problem {
             *l += step.fixed_rows::<2>(3 * s + 2 * j);
             l.y = wrap_angle(l.y);
         }
+        for (j, p) in next.points.iter_mut().enumerate() {
+            *p += step.fixed_rows::<2>(3 * s + self.point_at(j));
+        }
         if self.bias_whiten.is_some() {
-            next.bias += step.fixed_rows::<2>(3 * s + 2 * self.origins.len());
+            next.bias += step.fixed_rows::<2>(3 * s + self.bias_at());
         }
         next
     }
@@ -740,10 +839,24 @@ impl Problem {
             });
         }
         walls.sort_by_key(|w| w.id);
+        let mut landmarks: Vec<SmoothedLandmark> = (self.point_ids.iter().zip(&est.points))
+            .enumerate()
+            .map(|(j, (&id, p))| {
+                let at = self.point_at(j);
+                let c = global.fixed_view::<2, 2>(at, at);
+                SmoothedLandmark {
+                    id,
+                    mean: [p.x, p.y],
+                    covariance: [c[(0, 0)], c[(0, 1)], c[(1, 0)], c[(1, 1)]],
+                }
+            })
+            .collect();
+        landmarks.sort_by_key(|l| l.id);
         Ok(SmoothedRun {
             pose: est.poses.iter().map(|p| [p.x, p.y, p.z]).collect(),
             covariance: poses.iter().map(row_major).collect(),
             walls,
+            landmarks,
             bias: [est.bias.x, est.bias.y],
             iterations,
             cost,
@@ -768,6 +881,27 @@ impl Problem {
         }
         out
     }
+}
+
+/// Adds a 2-row term in pose `k` and the global unknowns at `at` (residual `r`,
+/// Jacobians `jx` and `jg`) to the normal equations of `s` poses.
+fn add_pose_global(
+    (a, grad): &mut Normal,
+    s: usize,
+    (k, at): (usize, usize),
+    r: &Vector2<f64>,
+    jx: &Matrix2x3<f64>,
+    jg: &Matrix2<f64>,
+) {
+    a.diag[k] += jx.transpose() * jx;
+    a.border[k]
+        .view_mut((0, at), (3, 2))
+        .add_assign(jx.transpose() * jg);
+    a.global
+        .view_mut((at, at), (2, 2))
+        .add_assign(jg.transpose() * jg);
+    grad.rows_mut(3 * k, 3).add_assign(jx.transpose() * r);
+    grad.rows_mut(3 * s + at, 2).add_assign(jg.transpose() * r);
 }
 
 fn row_major(c: &Matrix3<f64>) -> [f64; 9] {

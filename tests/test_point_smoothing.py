@@ -28,13 +28,15 @@ def _run(seed: int, sim: SimConfig = SIM):
 
 
 def test_point_smoother_matches_the_scipy_peer():
-    """The same optimum and covariances as the peer, biases of a depth camera taken
-    off by both (the simulated detections are distorted by the camera model)."""
+    """The same optimum and covariances as the peer, biases of a depth camera and of
+    the odometry taken off by both (the simulated detections are distorted by the
+    camera model)."""
     sim = SimConfig(steps=120)
     world, _, _ = _run(4, sim)
     rec = world.recording
     bias = {"range_offset": 0.05, "range_scale": 1.02, "range_is_depth": True,
-            "bearing_offset": -0.01, "bearing_scale": 0.98}  # fmt: skip
+            "bearing_offset": -0.01, "bearing_scale": 0.98,
+            "control_scale": [0.95, 0.9]}  # fmt: skip
     # A camera sees ahead only: the detections within 75 degrees of its axis.
     ahead = np.abs(rec.detections[:, 2]) < 1.3
     seen, ids = rec.detections[ahead], rec.detection_ids[ahead]
@@ -57,7 +59,7 @@ def test_point_smoother_matches_the_scipy_peer():
         turn_var=sim.turn_rate_variance, bias_sd=None, start=config["initial_pose"],
         start_var=config["initial_pose_variance"],
         points=peer.Points(measured, out.point_pairing, times, marks, bias),
-        point_var=(sim.range_variance, sim.bearing_variance),
+        point_var=(sim.range_variance, sim.bearing_variance), control_scale=(0.95, 0.9),
     )  # fmt: skip
     ref = peer.smooth(problem)
     np.testing.assert_allclose(sm.pose[:, :2], ref["pose"][:, :2], atol=1e-5)
@@ -128,9 +130,28 @@ def test_mrclam_goal(data, robot, span):
     assert m["nees_mean"] <= 6.0
 
 
-def test_smooth_refuses_what_it_does_not_model(tmp_path):
+def test_smooth_refuses_what_it_does_not_model(tmp_path, capsys):
     """The smoother has no anchor frame and no fixes: combining them is an error
     (exit 2), not a silently different run."""
     from rperc.cli import main
 
     assert main(["slam", "mrclam", str(tmp_path), "--variant", "smooth,external"]) == 2
+    assert "not with anchor or external" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("association", ["known", "nn", "jcbb"])
+@pytest.mark.parametrize("compression", ["auto", "off"])
+def test_point_pairing_has_one_entry_per_detection(association, compression):
+    """Every detection gets its pairing, whatever the association and the compressed
+    filter: those paired are the accepted ones plus those that admitted a landmark,
+    and each names a landmark of the map."""
+    sim = SimConfig(steps=200)
+    world = simulate(sim, seed=5)
+    rec = world.recording
+    config = {**sim_slam_config(sim), "association": association, "compression": compression,
+              "freeze_after": 30}  # fmt: skip
+    out = PlanarSlam(config).run(rec)
+    pairing = out.point_pairing
+    assert pairing is not None and len(pairing) == len(rec.detections)
+    assert (pairing >= 0).sum() == out.statistics["accepted"] + out.statistics["new"]
+    assert set(pairing[pairing >= 0].tolist()) <= set(out.landmark_id.tolist())

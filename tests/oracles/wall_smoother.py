@@ -6,9 +6,10 @@ the tests.
 - unknowns: one pose per time, each paired wall's line ``(rho, alpha)`` about its
   reference point (the middle of its first sighting placed with the starting pose),
   the control biases ``(s, b)`` (true controls ``(u0 (1 - s), u1 - b)``);
-- odometry: the controls between two times integrated as arcs, against the relative
-  pose ``R(theta_k)^T (p_{k+1} - p_k), theta_{k+1} - theta_k``, whitened by the
-  control noise carried along at zero bias plus a floor of ``LINK_SD_FLOOR``;
+- odometry: the controls between two times (times ``control_scale``) integrated as
+  arcs, against the relative pose ``R(theta_k)^T (p_{k+1} - p_k), theta_{k+1} -
+  theta_k``, whitened by the control noise carried along at zero bias plus a floor
+  of ``LINK_SD_FLOOR``;
 - walls: the seen segment's middle on the detected line, placed by its pose, against
   its wall: offset and angle, whitened by the detection's covariance at the middle
   (the off-diagonal negated when the detection has the line's other normal); with
@@ -215,9 +216,12 @@ class Problem:
         turn_var: float, bias_sd: tuple[float, float] | None, start: np.ndarray,
         start_var: np.ndarray, shared_sd: float = 0.0, points: Points | None = None,
         point_var: tuple[float, float] = (1.0, 1.0),
+        control_scale: tuple[float, float] = (1.0, 1.0),
     ) -> None:  # fmt: skip
         self.times, self.S = np.asarray(times, float), len(times)
-        self.v, self.w, self.dt = segments(np.asarray(controls, float), self.times)
+        # The true controls are the measured ones times the calibrated scale.
+        scaled = np.array(controls, float) * np.r_[1.0, control_scale]
+        self.v, self.w, self.dt = segments(scaled, self.times)
         self.link_w = link_whitening(self.v, self.w, self.dt, np.array([speed_var, turn_var]))
         lines = {int(i): np.asarray(line) for i, line in zip(map_id, map_line, strict=True)}
         self.sg = sightings(np.asarray(walls, float), np.asarray(pairing), self.times,

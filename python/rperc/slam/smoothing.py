@@ -84,6 +84,12 @@ class SmoothedRun:
         and covariances smoothed. The statistics, the config and the
         association stay the filter's, so its ``ate``, ``nees`` and
         ``landmark_rmse`` score the smoothed run."""
+        if filtered.walls is not None and len(filtered.walls.id):
+            # Its WallMap's revisions and freezing have no smoothed counterpart.
+            raise ValueError(
+                "to_result carries point maps only: read a run's smoothed walls from "
+                "this SmoothedRun's wall_* fields"
+            )
         order = np.searchsorted(self.landmark_id, filtered.landmark_id)
         if len(self.landmark_id) != len(filtered.landmark_id) or not np.array_equal(
             self.landmark_id[np.minimum(order, len(order) - 1)], filtered.landmark_id

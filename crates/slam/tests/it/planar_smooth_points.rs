@@ -290,3 +290,45 @@ fn smoothed_poses_and_landmarks_are_consistent_over_monte_carlo_runs() {
         "smoothing must beat dead reckoning on every run"
     );
 }
+
+/// With odometry alone the smoothed path is the dead reckoning of the controls the
+/// filter uses: scaled by the calibrated `control_scale` (closed-form arcs).
+#[test]
+fn odometry_alone_is_dead_reckoning_of_the_scaled_controls() {
+    let config = PlanarConfig {
+        bias: SensorBias {
+            control_scale: [0.5, 0.8],
+            ..SensorBias::default()
+        },
+        ..config()
+    };
+    let controls = [[0.0, 1.0, 0.1]];
+    let times: Vec<f64> = (0..=10).map(f64::from).collect();
+    let run = FilterRun {
+        config: &config,
+        controls: &controls,
+        times: &times,
+        poses: &vec![[0.0; 3]; times.len()],
+        walls: &[],
+        pairing: &[],
+        map: &[],
+        points: &[],
+        point_pairing: &[],
+        landmarks: &[],
+    };
+    let out = smooth(&run, &SmootherConfig::default()).unwrap();
+    let (v, w) = (0.5, 0.08);
+    let [x0, y0, th0] = config.initial_pose;
+    for (p, t) in out.pose.iter().zip(&times) {
+        let th = th0 + w * t;
+        let (x, y) = (
+            x0 + v / w * (th.sin() - th0.sin()),
+            y0 - v / w * (th.cos() - th0.cos()),
+        );
+        assert!(
+            (p[0] - x).abs() < 1e-6 && (p[1] - y).abs() < 1e-6,
+            "{p:?} at {t}"
+        );
+        assert!(wrap_angle(p[2] - th).abs() < 1e-7);
+    }
+}

@@ -6,8 +6,9 @@
 //! drift of a long first loop stays in the trajectory after the loop closes. The same
 //! sightings, used both ways in time, support a much better trajectory. The
 //! smoother keeps the filter's models term for term:
-//! - **odometry**: the controls between two scans, integrated with the filter's motion
-//!   model and biases (`u0 (1 - s)`, `u1 - b`), give the relative pose
+//! - **odometry**: the controls between two scans (times the config's
+//!   `bias.control_scale`, as the filter takes them), integrated with the filter's
+//!   motion model and biases (`u0 (1 - s)`, `u1 - b`), give the relative pose
 //!   `R(theta_k)^T (p_{k+1} - p_k), theta_{k+1} - theta_k` with the covariance of the
 //!   control noise propagated along the way (at zero bias);
 //! - **walls**: each paired detection's segment middle, on the detected line, placed
@@ -266,7 +267,16 @@ impl Problem {
         check_run(run)?;
         let config = run.config;
         let poses: Vec<Vector3<f64>> = run.poses.iter().map(|p| Vector3::from(*p)).collect();
-        let links = links(&config.motion, run.controls, run.times)?;
+        // The controls as the filter uses them: scaled by the calibrated control_scale.
+        let controls: Vec<[f64; 3]> = run
+            .controls
+            .iter()
+            .map(|c| {
+                let u = config.bias.correct_control([c[1], c[2]]);
+                [c[0], u[0], u[1]]
+            })
+            .collect();
+        let links = links(&config.motion, &controls, run.times)?;
         let (sightings, origins, ids, lines) = sightings(run, &poses)?;
         let (points, point_ids, means) = point_sightings(run, options.point_correlation_time)?;
         check_size(poses.len(), 2 * (origins.len() + point_ids.len()) + 2)?;
@@ -745,10 +755,17 @@ impl Problem {
         let mut cost = 0.0;
         for sg in &self.points {
             let (k, j) = (sg.node, sg.landmark);
-            let (r, jx, jl) =
-                point_residual(sg, &self.point_whiten, &est.poses[k], &est.points[j])?;
-            let (rho, weight) = huber(r.norm(), self.point_huber);
-            cost += rho;
+            let found = point_residual(sg, &self.point_whiten, &est.poses[k], &est.points[j]);
+            let (r, jx, jl) = match (found, h.is_some()) {
+                (Ok(terms), _) => terms,
+                // A trial step that puts a landmark on a pose is a step to refuse.
+                (Err(_), false) => return Ok(f64::INFINITY),
+                (Err(e), true) => return Err(e),
+            };
+            // Huber's threshold is in the sighting's own standard deviations: its
+            // correlation weight scales the cost, not the residual's size.
+            let (rho, weight) = huber(r.norm() / sg.weight, self.point_huber);
+            cost += sg.weight * sg.weight * rho;
             if let Some(h) = h.as_deref_mut() {
                 let (r, jx, jl) = (r * weight, jx * weight, jl * weight);
                 add_pose_global(h, s, (k, self.point_at(j)), &r, &jx, &jl);

@@ -269,6 +269,32 @@ def test_slam_demo_numbers_are_recomputed_from_the_truth(demo_all):
     assert (demo_all["out"] / "slam_variants.png").stat().st_size > 10_000
 
 
+def test_slam_demo_smoothed_numbers_are_recomputed_from_the_truth(demo_all):
+    """The smoothed run's ATE in the slam line: run 0 smoothed here, its pose at each
+    true time found by exact time (every truth row's time is a smoothed pose's: the
+    sightings' and the controls' times coincide in the simulation) and the RMS
+    distance taken by brute force; below the filter's, as smoothing must."""
+    from rperc.cli.slamrun import DEMO_WORLD
+    from rperc.slam import PlanarSlam
+    from rperc.slam.planar import sim_slam_config, simulate
+    from rperc.slam.smoothing import smooth
+
+    line = demo_all["summary"]["slam"]
+    (printed,) = grab(r"smoothed ATE " + NUMBER + " m", line)
+    sim = simulate(DEMO_WORLD, seed=0, run=0)
+    rec = sim.recording
+    result = PlanarSlam(sim_slam_config(DEMO_WORLD)).run(rec)
+    times = np.unique(np.r_[result.t[0], rec.detections[:, 0]])
+    sm = smooth(result, rec.controls, times, detections=rec.detections)
+    est = {float(t): p[:2] for t, p in zip(sm.times, sm.pose, strict=True)}
+    true = {float(row[0]): row[1:3] for row in sim.truth}
+    sq = [float(np.sum((est[t] - xy) ** 2)) for t, xy in true.items() if t in est]
+    assert len(sq) > 0.9 * len(true)
+    assert printed == pytest.approx(math.sqrt(sum(sq) / len(sq)), abs=6e-4)
+    assert printed < demo_all["measured"]["slam"]["smoothed"]["filter_ate_m"]
+    assert (demo_all["out"] / "slam_smoothed.png").stat().st_size > 10_000
+
+
 def test_color_shape_contour_iou_is_recomputed_against_the_generator(demo_all):
     from rperc.tracking.shape_sequences import shape_sequence
 

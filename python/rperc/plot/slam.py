@@ -167,3 +167,35 @@ def variants_figure(
     ax.legend(fontsize=7, loc="upper left")
     fig.suptitle(title, fontsize=10)
     return fig
+
+
+def smoothing_figure(
+    filtered: SlamResult,
+    smoothed: SlamResult,
+    t_truth: npt.ArrayLike,
+    truth: npt.ArrayLike,
+    landmarks: npt.ArrayLike,
+    *,
+    title: str = "",
+) -> Figure:
+    """A run and the same run smoothed (:func:`rperc.slam.smoothing.smooth`): both
+    maps over the true path and landmarks, and below them each path's position error
+    against the truth over time."""
+    fig = Figure(figsize=(9.0, 9.0))
+    grid = fig.add_gridspec(2, 1, height_ratios=(2.2, 1.0))
+    runs = [("filter (causal)", filtered), ("smoothed", smoothed)]
+    draw_map(fig.add_subplot(grid[0]), runs, truth, landmarks, title="estimate vs truth")
+    ax = fig.add_subplot(grid[1])
+    ref_t = np.asarray(t_truth, dtype=np.float64)
+    ref = np.asarray(truth, dtype=np.float64)
+    for (name, result), colour in zip(runs, COLORS, strict=False):
+        t, pose, _ = result.path()
+        x, y = np.interp(t, ref_t, ref[:, 0]), np.interp(t, ref_t, ref[:, 1])
+        ax.plot(t - ref_t[0], np.hypot(pose[:, 0] - x, pose[:, 1] - y), color=colour, lw=0.8,
+                label=f"position error: {name}")  # fmt: skip
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("position error (m)")
+    ax.set_ylim(bottom=0.0)
+    ax.legend(fontsize=7, loc="upper left")
+    fig.suptitle(title, fontsize=10)
+    return fig

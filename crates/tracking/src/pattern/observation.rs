@@ -841,17 +841,10 @@ impl<'a> PatternLikelihood<'a> {
     ) -> Option<f64> {
         let config = &self.model.config;
         let bounded = floor > f64::NEG_INFINITY;
-        let threshold = config.occlusion_threshold * config.occlusion_threshold;
-        let model = config.deviation;
         let inv = 1.0 / (2.0 * config.sigma * config.sigma);
         let mut cost = 0.0;
-        let (image, origin) = self.space.level_at(state[3]);
-        let (sin, cos) = state[2].sin_cos();
-        let scale = state[3];
-        let centre = [state[0] - origin[0], state[1] - origin[1]];
-        let step = config.delta * scale;
+        let placed = self.placement(state);
         let ns = config.n_samples;
-        let interior = self.inside(image, centre, scale, step, ns);
         scratch.observed.resize(BATCH * ns, 0.0);
         scratch.deviations.clear();
         let n = self.points().len();
@@ -859,43 +852,8 @@ impl<'a> PatternLikelihood<'a> {
         // the square roots and divisions of a batch overlap instead of each waiting for
         // its own point's samples.
         for (b, batch) in self.points().chunks(BATCH).enumerate() {
-            let mut inside = [false; BATCH];
-            let buffers = scratch.observed.chunks_exact_mut(ns);
-            for ((geometry, ok), out) in batch.iter().zip(&mut inside).zip(buffers) {
-                let (p, direction) = geometry.placed(centre, [sin, cos], scale);
-                *ok = if interior {
-                    // As `sample_along`, without its checks.
-                    let (start, delta) = segment(p, direction, step, out.len());
-                    image.sample_line_interior(start, delta, out)
-                } else {
-                    sample_along(image, p, direction, step, out)
-                };
-            }
-            let mut products = [(0.0f32, 0.0f32); BATCH];
-            let buffers = scratch.observed.chunks_exact(ns);
-            for ((geometry, product), observed) in batch.iter().zip(&mut products).zip(buffers) {
-                let stored = &self.model.points[geometry.index].vector;
-                *product = centred_products(stored, geometry.sum, observed);
-            }
-            for ((geometry, &(dot, energy)), &ok) in batch.iter().zip(&products).zip(&inside) {
-                let norm = f64::from(energy) * geometry.energy;
-                // The inter-correlation of section 3.3, 0 for a flat vector.
-                let c = if norm > 1e-18 {
-                    f64::from(dot) / norm.sqrt()
-                } else {
-                    0.0
-                };
-                let squared = geometry.squared_deviation(c, model);
-                // Outside the frame, or a NaN grey level (a corrupt frame): the point
-                // is occluded, the sum is not NaN.
-                let squared = if ok && !squared.is_nan() {
-                    squared
-                } else {
-                    f64::INFINITY
-                };
-                scratch.deviations.push(squared);
-                cost += squared.min(threshold);
-            }
+            let inside = placed.sample_batch(batch, &mut scratch.observed, ns);
+            cost += self.batch_deviations(batch, &inside, scratch);
             let seen = (b + 1) * BATCH;
             if bounded && seen < n {
                 let bound = -cost * inv;
@@ -909,6 +867,105 @@ impl<'a> PatternLikelihood<'a> {
             }
         }
         None
+    }
+
+    /// Where `state` puts the model in its scale-space level: the level, the centre in
+    /// its pixels, the rotation and scale, the profiles' step and whether every
+    /// profile lies in the interior (see [`Self::inside`]).
+    fn placement(&self, state: &SVector<f64, 4>) -> Placement<'_> {
+        let config = &self.model.config;
+        let (image, origin) = self.space.level_at(state[3]);
+        let scale = state[3];
+        let centre = [state[0] - origin[0], state[1] - origin[1]];
+        let step = config.delta * scale;
+        let interior = self.inside(image, centre, scale, step, config.n_samples);
+        let (sin, cos) = state[2].sin_cos();
+        Placement {
+            image,
+            centre,
+            sin_cos: [sin, cos],
+            scale,
+            step,
+            interior,
+        }
+    }
+
+    /// Correlates a sampled batch with the model's vectors and pushes each point's
+    /// squared deviation into `scratch.deviations` (infinite where it left the frame
+    /// or met a NaN); returns the batch's cost, each deviation capped at the occlusion
+    /// threshold.
+    fn batch_deviations(
+        &self,
+        batch: &[PointGeometry],
+        inside: &[bool; BATCH],
+        scratch: &mut PatternScratch,
+    ) -> f64 {
+        let config = &self.model.config;
+        let threshold = config.occlusion_threshold * config.occlusion_threshold;
+        let ns = config.n_samples;
+        let mut products = [(0.0f32, 0.0f32); BATCH];
+        let buffers = scratch.observed.chunks_exact(ns);
+        for ((geometry, product), observed) in batch.iter().zip(&mut products).zip(buffers) {
+            let stored = &self.model.points[geometry.index].vector;
+            *product = centred_products(stored, geometry.sum, observed);
+        }
+        let mut cost = 0.0;
+        for ((geometry, &(dot, energy)), &ok) in batch.iter().zip(&products).zip(inside) {
+            let norm = f64::from(energy) * geometry.energy;
+            // The inter-correlation of section 3.3, 0 for a flat vector.
+            let c = if norm > 1e-18 {
+                f64::from(dot) / norm.sqrt()
+            } else {
+                0.0
+            };
+            let squared = geometry.squared_deviation(c, config.deviation);
+            // Outside the frame, or a NaN grey level (a corrupt frame): the point is
+            // occluded, the sum is not NaN.
+            let squared = if ok && !squared.is_nan() {
+                squared
+            } else {
+                f64::INFINITY
+            };
+            scratch.deviations.push(squared);
+            cost += squared.min(threshold);
+        }
+        cost
+    }
+}
+
+/// A state's model placed in its scale-space level (see
+/// [`PatternLikelihood::placement`]).
+struct Placement<'a> {
+    image: &'a GrayImage,
+    centre: [f64; 2],
+    sin_cos: [f64; 2],
+    scale: f64,
+    step: f64,
+    interior: bool,
+}
+
+impl Placement<'_> {
+    /// Samples each point's profile of `batch` into its `ns`-long slice of
+    /// `observed`; whether each stayed in the frame.
+    fn sample_batch(
+        &self,
+        batch: &[PointGeometry],
+        observed: &mut [f32],
+        ns: usize,
+    ) -> [bool; BATCH] {
+        let mut inside = [false; BATCH];
+        let buffers = observed.chunks_exact_mut(ns);
+        for ((geometry, ok), out) in batch.iter().zip(&mut inside).zip(buffers) {
+            let (p, direction) = geometry.placed(self.centre, self.sin_cos, self.scale);
+            *ok = if self.interior {
+                // As `sample_along`, without its checks.
+                let (start, delta) = segment(p, direction, self.step, out.len());
+                self.image.sample_line_interior(start, delta, out)
+            } else {
+                sample_along(self.image, p, direction, self.step, out)
+            };
+        }
+        inside
     }
 }
 

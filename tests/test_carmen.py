@@ -501,3 +501,80 @@ def test_a_beam_count_too_large_to_read_is_named_in_file_order(tmp_path):
     with pytest.raises(DatasetFormatError, match=r"huge.log:1: ODOM needs 10 fields, got 4"):
         load_carmen(path)
     assert [e.line for e in load_carmen(path, on_error="skip").errors] == [1, 2]
+
+
+def _continuum_log(path, param: str, far: list[str]) -> None:
+    """FLASER lines under a max-range PARAM: near readings and ``far`` ones spread
+    over the scans."""
+    rng = np.random.default_rng(5)
+    near = [f"{v:.2f}" for v in rng.uniform(0.5, 9.5, 4000)]
+    lines = [f"PARAM robot_front_laser_max {param} nohost 0\n"]
+    for k in range(100):
+        lines.append(flaser(near[40 * k : 40 * k + 40] + far[5 * k : 5 * k + 5], t=k))
+    path.write_text("".join(lines))
+
+
+def test_a_max_range_param_the_readings_contradict_is_set_aside(tmp_path):
+    """Edmonton's case: a PARAM of 10 m under walls seen 11-40 m away (a continuum of
+    distinct values) is CARMEN's robot setting, not the scanner's reach: it is set
+    aside with a MaxRangeWarning and counted, the range inferred as without a PARAM
+    (here the SICK default); max_range="param" keeps it."""
+    from rperc.datasets import MaxRangeWarning
+    from rperc.datasets.carmen import FLASER_MAX_RANGE
+
+    far = [f"{v:.2f}" for v in np.random.default_rng(6).uniform(11.5, 40.0, 500)]
+    path = tmp_path / "far.log"
+    _continuum_log(path, "10", far)
+    with pytest.warns(MaxRangeWarning, match=r"far\.log: FLASER's max-range PARAM 10 m"):
+        log = load_carmen(path)
+    assert np.all(log.scans.max_range == FLASER_MAX_RANGE)
+    c = log.max_range_contradicted["FLASER"]
+    values = np.array(far, dtype=float)
+    assert (c.param, c.readings, c.distinct) == (10.0, 500, len(np.unique(values)))
+    assert c.farthest == values.max()
+    assert "FLASER max-range PARAM 10 m set aside (500 readings beyond it" in log.summary()
+    kept = load_carmen(path, max_range="param")
+    assert np.all(kept.scans.max_range == 10.0) and kept.max_range_contradicted == {}
+    with pytest.raises(ValueError, match="max_range must be 'auto' or 'param'"):
+        load_carmen(path, max_range="sensor")  # type: ignore[arg-type]
+
+
+def test_a_saturation_just_beyond_the_param_does_not_contradict_it(tmp_path):
+    """The Freiburg logs' case: "no return" written as 81.91 m (with a few strays just
+    below it) above a PARAM of 80.99 m lies within NO_RETURN_BAND of it: the PARAM
+    stands, with no warning (pytest fails on any)."""
+    far = ["81.91"] * 450 + [f"{81.4 + 0.01 * k:.2f}" for k in range(50)]
+    path = tmp_path / "saturated.log"
+    _continuum_log(path, "80.99", far)
+    log = load_carmen(path)
+    assert np.all(log.scans.max_range == 80.99) and log.max_range_contradicted == {}
+
+
+def test_the_command_line_tells_a_param_set_aside(tmp_path, capsys):
+    from rperc.cli.outputs import read_carmen_log
+
+    far = [f"{v:.2f}" for v in np.random.default_rng(7).uniform(12.0, 30.0, 500)]
+    path = tmp_path / "far.log"
+    _continuum_log(path, "10", far)
+    log = read_carmen_log(path)
+    assert log.max_range_contradicted["FLASER"].readings == 500
+    assert "note: far.log: FLASER's max-range PARAM 10 m set aside" in capsys.readouterr().err
+
+
+def test_edmonton_max_range_param_is_set_aside(data):
+    """Edmonton's PARAM says 10 m; counted independently from its FLASER lines, the
+    readings more than 10 % beyond it are the ones that set it aside."""
+    import gzip
+
+    from rperc.datasets import MaxRangeWarning
+
+    path = data / "carmen" / "edmonton.log.gz"
+    with gzip.open(path, "rt") as f:
+        rows = [line.split() for line in f if line.startswith("FLASER ")]
+    readings = np.array([float(v) for r in rows for v in r[2 : 2 + int(r[1])]])
+    beyond = readings[readings > 11.0]
+    with pytest.warns(MaxRangeWarning, match="edmonton"):
+        log = load_carmen(path)
+    c = log.max_range_contradicted["FLASER"]
+    assert (c.param, c.readings, c.distinct) == (10.0, len(beyond), len(np.unique(beyond)))
+    assert np.all(log.scans.max_range > 50.0)

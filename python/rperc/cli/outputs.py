@@ -114,14 +114,24 @@ def wrote(path: Path) -> None:
 
 def read_carmen_log(path: Path) -> CarmenLog:
     """:func:`rperc.datasets.load_carmen` for a command: a repair of the log's scan times
-    (:class:`~rperc.datasets.TimestampRepairWarning`) is told as one ``note:`` line on
-    stderr, in the command's words, instead of a Python warning."""
+    (:class:`~rperc.datasets.TimestampRepairWarning`) and a max-range PARAM set aside
+    (:class:`~rperc.datasets.carmen.MaxRangeWarning`) are told as ``note:`` lines on
+    stderr, in the command's words, instead of Python warnings."""
     from rperc.datasets import TimestampRepairWarning, load_carmen
+    from rperc.datasets.carmen import MaxRangeWarning
 
     with warnings.catch_warnings():
-        # Told below from the log's own count; every other warning goes through.
+        # Told below from the log's own counts; every other warning goes through.
         warnings.simplefilter("ignore", TimestampRepairWarning)
+        warnings.simplefilter("ignore", MaxRangeWarning)
         log = load_carmen(path)
+    for kind, c in log.max_range_contradicted.items():
+        print(
+            f"note: {path.name}: {kind}'s max-range PARAM {c.param:g} m set aside: "
+            f"{c.readings} readings lie beyond it ({c.distinct} distinct values up to "
+            f"{c.farthest:g} m), so the scanner's range is inferred from the readings",
+            file=sys.stderr,
+        )
     if log.times_repaired:
         print(
             f"note: {path.name}: {log.times_repaired} of {len(log.scans)} scan times did not "

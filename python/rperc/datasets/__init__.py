@@ -5,7 +5,14 @@ Every reader reports a malformed line with its file name and line number
 """
 
 from rperc.datasets._paths import data_dir, data_path
-from rperc.datasets.carmen import CarmenLog, LaserScans, Odometry, SkippedLine, load_carmen
+from rperc.datasets.carmen import (
+    CarmenLog,
+    LaserScans,
+    MaxRangeWarning,
+    Odometry,
+    SkippedLine,
+    load_carmen,
+)
 from rperc.datasets.errors import DatasetFormatError
 from rperc.datasets.mrclam import MrclamRun, load_mrclam
 from rperc.datasets.otb import OtbSequence, load_otb, read_boxes
@@ -29,6 +36,7 @@ __all__ = [
     "CarmenLog",
     "DatasetFormatError",
     "LaserScans",
+    "MaxRangeWarning",
     "MrclamRun",
     "Odometry",
     "OtbSequence",

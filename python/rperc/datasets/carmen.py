@@ -31,6 +31,16 @@ readings are invalid (no return), not walls 50 m away; the log's
 :attr:`CarmenLog.no_return` and summary say so. Without such a marker the maximum
 range is the SICK default of 81.83 m.
 
+A max-range PARAM (``robot_front_laser_max``) is CARMEN's robot setting, what its
+navigation uses, and need not be the scanner's reach: edmonton's says 10 m while a
+third of its readings are walls 10-40 m away, spread over a thousand distinct values.
+When readings beyond a PARAM spread over at least :data:`NO_RETURN_MIN_COUNT`
+distinct values more than :data:`NO_RETURN_BAND` past it (a scanner's saturation
+clusters just above its limit, as the Freiburg logs' 81.91 m above their 80.99 m
+PARAM), the readings win: the maximum range is inferred as without a PARAM, with a
+:class:`MaxRangeWarning`, and counted in :attr:`CarmenLog.max_range_contradicted`;
+``load_carmen(path, max_range="param")`` keeps the PARAM.
+
 Old-style FLASER lines carry no angular resolution: without a resolution parameter we
 use fov/n for even n (180, 360 beams: 1 and 0.5 degree steps over 180 degrees) and
 fov/(n-1) for odd n (181, 361: both ends included).
@@ -47,6 +57,7 @@ and the summary say how many changed. Odometry times are kept as written.
 
 from __future__ import annotations
 
+import logging
 import math
 import warnings
 from collections import Counter
@@ -66,6 +77,7 @@ from rperc.pose import wrap_angle
 # FLASER max range is not in the line; SICK LMS scanners of those logs report 81.9 m
 # for "no return", which is beyond any indoor wall.
 FLASER_MAX_RANGE = 81.83
+_log = logging.getLogger(__name__)
 FLASER_FOV = math.pi
 SKIPPED_TYPES = frozenset({"SYNC"})
 #: :func:`infer_no_return`: at least this many readings must share the largest value,
@@ -160,6 +172,25 @@ class SkippedLine:
     reason: str
 
 
+class MaxRangeWarning(UserWarning):
+    """A max-range PARAM that the log's readings contradict was set aside (see the
+    module docs)."""
+
+
+@dataclass(frozen=True)
+class MaxRangeContradiction:
+    """A laser type's max-range PARAM that its readings contradict."""
+
+    param: float
+    """The PARAM's value, m."""
+    readings: int
+    """Readings more than ``NO_RETURN_BAND`` beyond it."""
+    distinct: int
+    """Their distinct values."""
+    farthest: float
+    """The farthest of them, m."""
+
+
 @dataclass(frozen=True)
 class CarmenLog:
     """A parsed CARMEN log."""
@@ -187,6 +218,9 @@ class CarmenLog:
     times_repaired: int = 0
     """Scans whose time did not increase and was repaired (``scans.timestamp`` differs
     from ``scans.timestamp_raw`` there)."""
+    max_range_contradicted: dict[str, MaxRangeContradiction] = field(default_factory=dict)
+    """Per laser type: the max-range PARAM its readings contradict, set aside (see the
+    module docs); empty with ``max_range="param"``."""
 
     def summary(self) -> str:
         """Every count: scans by type, invalid readings, odometry records, PARAM lines,
@@ -207,6 +241,11 @@ class CarmenLog:
                 f"{self.times_repaired} scan times repaired to increase strictly "
                 f"(first at line {int(self.scans.line[first])})"
             )
+        parts += [
+            f"{kind} max-range PARAM {c.param:g} m set aside ({c.readings} readings beyond it, "
+            f"{c.distinct} distinct values up to {c.farthest:g} m)"
+            for kind, c in sorted(self.max_range_contradicted.items())
+        ]
         parts += [
             f"{kind} no-return marker {value:g} m inferred ({count} readings, no max-range PARAM)"
             for kind, (value, count) in sorted(self.no_return.items())
@@ -488,7 +527,11 @@ def _in_range(
 
 
 def load_carmen(
-    path: str | Path, *, strict: bool = False, on_error: Literal["raise", "skip"] = "raise"
+    path: str | Path,
+    *,
+    strict: bool = False,
+    on_error: Literal["raise", "skip"] = "raise",
+    max_range: Literal["auto", "param"] = "auto",
 ) -> CarmenLog:
     """Read a CARMEN log (plain or gzip, with or without a UTF-8 byte-order mark).
 
@@ -503,10 +546,14 @@ def load_carmen(
     with ``strict=True`` an unknown type (anything but the known ones and ``SYNC``) is
     an error. Type names are matched as written: ``flaser`` is not ``FLASER``.
     Scan times that do not increase strictly are repaired (see the module docs) with a
-    :class:`~rperc.datasets.timestamps.TimestampRepairWarning`.
+    :class:`~rperc.datasets.timestamps.TimestampRepairWarning`. A max-range PARAM that
+    the readings contradict is set aside with a :class:`MaxRangeWarning` (see the
+    module docs); ``max_range="param"`` keeps every PARAM as written.
     """
     if on_error not in ("raise", "skip"):
         raise ValueError(f"on_error must be 'raise' or 'skip', got {excerpt(on_error)}")
+    if max_range not in ("auto", "param"):
+        raise ValueError(f"max_range must be 'auto' or 'param', got {excerpt(max_range)}")
     path = Path(path)
     rows, odom, params = _ScanRows(), _OdomRows(), dict[str, str]()
     skipped: Counter[str] = Counter()
@@ -533,13 +580,35 @@ def load_carmen(
             first_line.setdefault(kind, lineno)
     odometry = _stack_odometry(odom.stack(path, errors if on_error == "skip" else None))
     errors.sort(key=lambda e: e.line)
+    contradicted = _set_aside_contradicted(path, rows) if max_range == "auto" else {}
     no_return = _default_max_range(rows)
     scans, no_pose = _stack_scans(rows, odometry)
     scans, repaired = _repair_times(path, scans)
     return CarmenLog(
         path, scans, odometry, dict(skipped), first_line, params, tuple(errors), no_pose,
-        comments, no_return, repaired,
+        comments, no_return, repaired, contradicted,
     )  # fmt: skip
+
+
+def load_carmen_logged(path: str | Path) -> CarmenLog:
+    """:func:`load_carmen` for a run over logs (``rperc bench``, the laser pipeline's
+    loader): a repair of the scan times and a max-range PARAM set aside are told as
+    ``logging`` lines (``rperc.datasets.carmen``) instead of Python warnings; the log
+    counts both (:attr:`CarmenLog.times_repaired`,
+    :attr:`CarmenLog.max_range_contradicted`)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", TimestampRepairWarning)
+        warnings.simplefilter("ignore", MaxRangeWarning)
+        log = load_carmen(path)
+    if log.times_repaired:
+        _log.info("%s: %d scan times repaired", log.path.name, log.times_repaired)
+    for kind, c in log.max_range_contradicted.items():
+        _log.warning(
+            "%s: %s max-range PARAM %g m set aside: %d readings beyond it, %d distinct "
+            "values up to %g m", log.path.name, kind, c.param, c.readings, c.distinct,
+            c.farthest,
+        )  # fmt: skip
+    return log
 
 
 def _repair_times(path: Path, scans: LaserScans) -> tuple[LaserScans, int]:
@@ -598,6 +667,43 @@ def _distinct_at_least(values: np.ndarray, k: int) -> bool:
     """Whether ``values`` hold at least ``k`` distinct numbers: a short head of a log's
     readings usually does, which spares sorting all of them."""
     return len(np.unique(values[: 64 * k])) >= k or len(np.unique(values)) >= k
+
+
+def _set_aside_contradicted(path: Path, rows: _ScanRows) -> dict[str, MaxRangeContradiction]:
+    """Sets aside (to NaN, inferred later as without a PARAM) each laser type's
+    max-range PARAM that its readings contradict: at least :data:`NO_RETURN_MIN_COUNT`
+    distinct values more than :data:`NO_RETURN_BAND` beyond it. Warns for each."""
+    found: dict[str, MaxRangeContradiction] = {}
+    for kind in sorted(set(rows.kinds)):
+        mine = [
+            k for k, m in enumerate(rows.meta) if rows.kinds[k] == kind and not math.isnan(m[2])
+        ]
+        if not mine:
+            continue
+        limits = np.array([rows.meta[k][2] for k in mine])
+        beyond = np.concatenate(
+            [
+                rows.ranges[k][rows.ranges[k] > lim * (1 + NO_RETURN_BAND)]
+                for k, lim in zip(mine, limits, strict=True)
+            ]
+        )
+        distinct = len(np.unique(beyond))
+        if distinct < NO_RETURN_MIN_COUNT:
+            continue
+        found[kind] = MaxRangeContradiction(
+            float(limits.max()), len(beyond), distinct, float(beyond.max())
+        )
+        for k in mine:
+            rows.meta[k] = (*rows.meta[k][:2], math.nan, *rows.meta[k][3:])
+        warnings.warn(
+            f"{path}: {kind}'s max-range PARAM {limits.max():g} m is contradicted by "
+            f"{len(beyond)} readings beyond it ({distinct} distinct values up to "
+            f"{beyond.max():g} m): the scanner's range is inferred from the readings "
+            f"instead (load_carmen(..., max_range='param') keeps the PARAM)",
+            MaxRangeWarning,
+            stacklevel=3,
+        )
+    return found
 
 
 def _default_max_range(rows: _ScanRows) -> dict[str, tuple[float, int]]:

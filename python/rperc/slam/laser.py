@@ -270,17 +270,13 @@ def load_and_run(
     config: LaserConfig | Mapping[str, object] | None = None,
     **overrides: Unpack[LaserConfigOverrides],
 ) -> LaserResult:
-    """Reads a CARMEN log and runs :func:`run_laser` on it, the reading timed too (the
-    scans' repaired timestamps only feed the TUM file, so their repair warning is
-    not repeated here)."""
-    from rperc.datasets import TimestampRepairWarning
-    from rperc.datasets.carmen import load_carmen
+    """Reads a CARMEN log (:func:`rperc.datasets.carmen.load_carmen_logged`: its
+    warnings as log lines) and runs :func:`run_laser` on it, the reading timed too."""
+    from rperc.datasets.carmen import load_carmen_logged
 
     _variant_changes(variant)
     t0 = time.perf_counter()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", TimestampRepairWarning)
-        log = load_carmen(path)
+    log = load_carmen_logged(path)
     read_s = time.perf_counter() - t0
     return run_laser(
         log, seed=seed, variant=variant, config=config, read_seconds=read_s, **overrides

@@ -177,16 +177,13 @@ def run(task: Task) -> Row:
     walls`` (for ``smoothed``, of the smoothed path), or of ``rperc slam laser``."""
     if task.method in LASER_METHODS:
         return run_laser_task(task)
-    from rperc.datasets import TimestampRepairWarning
-    from rperc.datasets.carmen import load_carmen
+    from rperc.datasets.carmen import load_carmen_logged
     from rperc.slam.wallslam import STRAIGHTNESS, run_walls
 
     start = time.perf_counter()
-    with warnings.catch_warnings():
-        # Wall SLAM takes its odometry and times from the corrected path, never the
-        # scan times, so their repair (intel.log's four steps back) changes no score.
-        warnings.simplefilter("ignore", TimestampRepairWarning)
-        log = load_carmen(task.dataset)
+    # Wall SLAM takes its odometry and times from the corrected path, never the scan
+    # times, so their repair (intel.log's four steps back) changes no score.
+    log = load_carmen_logged(task.dataset)
     kw: WallsOptions = {"straightness": STRAIGHTNESS, **walls_options(task.method, task.kwargs)}
     result = run_walls(log, seed=task.seed, **kw)
     seconds = time.perf_counter() - start

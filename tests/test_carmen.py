@@ -503,15 +503,19 @@ def test_a_beam_count_too_large_to_read_is_named_in_file_order(tmp_path):
     assert [e.line for e in load_carmen(path, on_error="skip").errors] == [1, 2]
 
 
-def _continuum_log(path, param: str, far: list[str]) -> None:
-    """FLASER lines under a max-range PARAM: near readings and ``far`` ones spread
+def _continuum_lines(param: str, far: list[str], t0: int = 0) -> list[str]:
+    """A max-range PARAM, then 100 FLASER lines: near readings and ``far`` ones spread
     over the scans."""
-    rng = np.random.default_rng(5)
+    rng = np.random.default_rng(5 + t0)
     near = [f"{v:.2f}" for v in rng.uniform(0.5, 9.5, 4000)]
     lines = [f"PARAM robot_front_laser_max {param} nohost 0\n"]
     for k in range(100):
-        lines.append(flaser(near[40 * k : 40 * k + 40] + far[5 * k : 5 * k + 5], t=k))
-    path.write_text("".join(lines))
+        lines.append(flaser(near[40 * k : 40 * k + 40] + far[5 * k : 5 * k + 5], t=t0 + k))
+    return lines
+
+
+def _continuum_log(path, param: str, far: list[str]) -> None:
+    path.write_text("".join(_continuum_lines(param, far)))
 
 
 def test_a_max_range_param_the_readings_contradict_is_set_aside(tmp_path):
@@ -539,6 +543,42 @@ def test_a_max_range_param_the_readings_contradict_is_set_aside(tmp_path):
         load_carmen(path, max_range="sensor")  # type: ignore[arg-type]
 
 
+def test_each_param_value_is_judged_on_its_own_scans(tmp_path):
+    """A PARAM that changes mid-log: the contradicted 10 m is set aside for its scans
+    only, the honest 50 m stays for its own; infinite readings (invalid) are no
+    evidence either way."""
+    from rperc.datasets import MaxRangeWarning
+
+    far = [f"{v:.2f}" for v in np.random.default_rng(8).uniform(12.0, 30.0, 500)]
+    honest = ["inf"] * 300 + [f"{v:.2f}" for v in np.random.default_rng(9).uniform(10, 40, 200)]
+    path = tmp_path / "two.log"
+    path.write_text("".join(_continuum_lines("10", far) + _continuum_lines("50", honest, 100)))
+    with pytest.warns(MaxRangeWarning) as caught:
+        log = load_carmen(path)
+    assert len(caught) == 1 and "PARAM 10 m" in str(caught[0].message)
+    assert log.max_range_contradicted["FLASER"].param == 10.0
+    assert np.all(log.scans.max_range[100:] == 50.0)
+    assert np.all(log.scans.max_range[:100] != 10.0)
+
+
+def test_inf_readings_do_not_contradict_a_param(tmp_path):
+    path = tmp_path / "inf.log"
+    _continuum_log(path, "10", ["inf"] * 500)
+    log = load_carmen(path)
+    assert np.all(log.scans.max_range == 10.0) and log.max_range_contradicted == {}
+
+
+def test_robotlaser1_keeps_its_own_max_range(tmp_path):
+    """A ROBOTLASER1 line states its max range itself: no PARAM is involved, so none is
+    set aside whatever its readings."""
+    far = " ".join(f"{v:.2f}" for v in np.linspace(21.0, 40.0, 30))
+    line = f"ROBOTLASER1 0 -1.5 3.0 0.1 20 0.01 0 30 {far} 0 0 0 0 0 0 0 0 0 0 0 0 10 host 10\n"
+    path = tmp_path / "robot.log"
+    path.write_text(line)
+    log = load_carmen(path)
+    assert log.scans.max_range[0] == 20.0 and log.max_range_contradicted == {}
+
+
 def test_a_saturation_just_beyond_the_param_does_not_contradict_it(tmp_path):
     """The Freiburg logs' case: "no return" written as 81.91 m (with a few strays just
     below it) above a PARAM of 80.99 m lies within NO_RETURN_BAND of it: the PARAM
@@ -563,10 +603,15 @@ def test_the_command_line_tells_a_param_set_aside(tmp_path, capsys):
 
 def test_edmonton_max_range_param_is_set_aside(data):
     """Edmonton's PARAM says 10 m; counted independently from its FLASER lines, the
-    readings more than 10 % beyond it are the ones that set it aside."""
+    readings more than 10 % beyond it are the ones that set it aside. Most are walls
+    between 11 and 40 m (a continuum of distinct values); its no-return cluster near
+    51.1 m has no single top value, so no marker is inferred and the SICK default
+    holds, as on the acapulco, fhw and infinite-corridor logs (those readings are kept
+    as points on all four)."""
     import gzip
 
     from rperc.datasets import MaxRangeWarning
+    from rperc.datasets.carmen import FLASER_MAX_RANGE
 
     path = data / "carmen" / "edmonton.log.gz"
     with gzip.open(path, "rt") as f:
@@ -577,4 +622,6 @@ def test_edmonton_max_range_param_is_set_aside(data):
         log = load_carmen(path)
     c = log.max_range_contradicted["FLASER"]
     assert (c.param, c.readings, c.distinct) == (10.0, len(beyond), len(np.unique(beyond)))
-    assert np.all(log.scans.max_range > 50.0)
+    walls = beyond[beyond < 40.0]
+    assert len(walls) > 0.75 * len(beyond) and len(np.unique(walls)) > 500
+    assert log.no_return == {} and np.all(log.scans.max_range == FLASER_MAX_RANGE)

@@ -33,7 +33,7 @@ range is the SICK default of 81.83 m.
 
 A max-range PARAM (``robot_front_laser_max``) is CARMEN's robot setting, what its
 navigation uses, and need not be the scanner's reach: edmonton's says 10 m while a
-third of its readings are walls 10-40 m away, spread over a thousand distinct values.
+quarter of its readings are walls 11-40 m away, over 976 distinct values.
 When readings beyond a PARAM spread over at least :data:`NO_RETURN_MIN_COUNT`
 distinct values more than :data:`NO_RETURN_BAND` past it (a scanner's saturation
 clusters just above its limit, as the Freiburg logs' 81.91 m above their 80.99 m
@@ -670,40 +670,45 @@ def _distinct_at_least(values: np.ndarray, k: int) -> bool:
 
 
 def _set_aside_contradicted(path: Path, rows: _ScanRows) -> dict[str, MaxRangeContradiction]:
-    """Sets aside (to NaN, inferred later as without a PARAM) each laser type's
-    max-range PARAM that its readings contradict: at least :data:`NO_RETURN_MIN_COUNT`
-    distinct values more than :data:`NO_RETURN_BAND` beyond it. Warns for each."""
+    """Sets aside (to NaN, inferred later as without a PARAM) each max-range PARAM of
+    the old-style lines (FLASER, RLASER: the others carry their own) that the readings
+    under it contradict: finite readings more than :data:`NO_RETURN_BAND` beyond it
+    taking at least :data:`NO_RETURN_MIN_COUNT` distinct values. Each PARAM value is
+    judged on its own scans (a PARAM can change mid-log). Warns for each; returns per
+    laser type the contradiction with the most readings."""
     found: dict[str, MaxRangeContradiction] = {}
-    for kind in sorted(set(rows.kinds)):
-        mine = [
-            k for k, m in enumerate(rows.meta) if rows.kinds[k] == kind and not math.isnan(m[2])
-        ]
-        if not mine:
-            continue
-        limits = np.array([rows.meta[k][2] for k in mine])
-        beyond = np.concatenate(
-            [
-                rows.ranges[k][rows.ranges[k] > lim * (1 + NO_RETURN_BAND)]
-                for k, lim in zip(mine, limits, strict=True)
-            ]
-        )
+    groups: dict[tuple[str, float], list[int]] = {}
+    for k, m in enumerate(rows.meta):
+        if rows.kinds[k] in _LASER_PARAMS and not math.isnan(m[2]):
+            groups.setdefault((rows.kinds[k], m[2]), []).append(k)
+    for (kind, limit), mine in sorted(groups.items()):
+        beyond = np.concatenate([_beyond(rows.ranges[k], limit) for k in mine])
         distinct = len(np.unique(beyond))
         if distinct < NO_RETURN_MIN_COUNT:
             continue
-        found[kind] = MaxRangeContradiction(
-            float(limits.max()), len(beyond), distinct, float(beyond.max())
-        )
+        c = MaxRangeContradiction(limit, len(beyond), distinct, float(beyond.max()))
+        if kind not in found or c.readings > found[kind].readings:
+            found[kind] = c
         for k in mine:
             rows.meta[k] = (*rows.meta[k][:2], math.nan, *rows.meta[k][3:])
         warnings.warn(
-            f"{path}: {kind}'s max-range PARAM {limits.max():g} m is contradicted by "
+            f"{path}: {kind}'s max-range PARAM {limit:g} m is contradicted by "
             f"{len(beyond)} readings beyond it ({distinct} distinct values up to "
-            f"{beyond.max():g} m): the scanner's range is inferred from the readings "
+            f"{c.farthest:g} m): the scanner's range is inferred from the readings "
             f"instead (load_carmen(..., max_range='param') keeps the PARAM)",
             MaxRangeWarning,
             stacklevel=3,
         )
     return found
+
+
+def _beyond(ranges: np.ndarray, limit: float) -> np.ndarray:
+    """The finite readings more than :data:`NO_RETURN_BAND` beyond ``limit`` (NaN, inf
+    and negative ones are invalid readings, not far walls)."""
+    with np.errstate(invalid="ignore"):
+        far = np.isfinite(ranges) & (ranges > limit * (1 + NO_RETURN_BAND))
+    out: np.ndarray = ranges[far]
+    return out
 
 
 def _default_max_range(rows: _ScanRows) -> dict[str, tuple[float, int]]:

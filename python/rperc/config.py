@@ -1049,7 +1049,13 @@ class IcpConfig(Config):
         max_distance: A point pairs with a map point at most this far away, m (> 0).
         sigma: Standard deviation of a point's distance to its line, m (> 0): range noise
             and the map's own thickness.
-        huber: Residuals beyond this many `sigma` are down-weighted (Huber), (> 0).
+        angle_sigma: The beam's angular noise, rad (>= 0): a point at range `r` lies `r *
+            angle_sigma` off its beam's nominal direction, so its distance to its line has
+            variance `sigma^2 + (r * angle_sigma)^2` and far points weigh less. Default 0
+            (off): leave-one-log-out by ATE chose 0 in every fold; it lowers the NEES and
+            costs ATE where far walls carry the match (figures: `docs/decisions.md`).
+        huber: Residuals beyond this many standard deviations are down-weighted (Huber), (>
+            0).
         covariance_scale: The scan's covariance is inflated by this factor (>= 1) for the
             correlation of its residuals.
         min_inliers: A match with fewer paired points is refused (>= 3).
@@ -1065,6 +1071,7 @@ class IcpConfig(Config):
     iterations: int = 20
     max_distance: float = 0.3
     sigma: float = 0.03
+    angle_sigma: float = 0.0
     huber: float = 2.0
     covariance_scale: float = 3.0
     min_inliers: int = 10
@@ -1079,6 +1086,7 @@ class IcpConfigOverrides(TypedDict, total=False):
     iterations: int
     max_distance: float
     sigma: float
+    angle_sigma: float
     huber: float
     covariance_scale: float
     min_inliers: int

@@ -183,6 +183,56 @@ fn information_stops_growing_beyond_the_independent_pairs() {
     );
 }
 
+/// With `angle_sigma`, a point at range `r` weighs `1 / (sigma^2 + (r angle_sigma)^2)`:
+/// one straight wall at `x = d` seen from the origin gives each of its points the
+/// Jacobian `(1, 0, -y)` (normal `x`), so the information's `xx` entry is the sum of
+/// those weights over the scan's line points (closed form, noise-free, every point
+/// paired, no cap and a covariance scale of 1).
+#[test]
+fn far_points_weigh_less_with_the_beams_angular_noise() {
+    let walls = [Segment::new(6.0, -25.0, 6.0, 25.0)];
+    let mut rng = ChaCha8Rng::seed_from_u64(0);
+    let origin = Pose2::identity();
+    let map = map_from(&walls, &origin, 0.0, &mut rng);
+    let s = scan(&walls, &origin, 0.0, &mut rng);
+    for angle_sigma in [0.0, 0.002, 0.01] {
+        let cfg = IcpConfig {
+            angle_sigma,
+            covariance_scale: 1.0,
+            independent_pairs: usize::MAX,
+            ..Default::default()
+        };
+        let m = match_scan(&s, &map, origin, &loose_prior(origin), &cfg).unwrap();
+        let on_lines: Vec<_> = s
+            .points
+            .iter()
+            .zip(&s.normals)
+            .filter(|(_, n)| n.is_some())
+            .collect();
+        assert_eq!(m.inliers, on_lines.len());
+        let var0 = cfg.sigma * cfg.sigma;
+        let expected: f64 = on_lines
+            .iter()
+            .map(|(p, _)| 1.0 / (var0 + (p.norm() * angle_sigma).powi(2)))
+            .sum();
+        let got = m.information[(0, 0)];
+        assert!(
+            (got - expected).abs() < 1e-9 * expected,
+            "{angle_sigma}: {got} vs {expected}"
+        );
+    }
+    let bad = IcpConfig {
+        angle_sigma: -0.1,
+        ..Default::default()
+    };
+    assert!(
+        bad.validate()
+            .unwrap_err()
+            .to_string()
+            .contains("angle_sigma")
+    );
+}
+
 /// ICP weighs the scan against the prior with the same capped scale as the
 /// information it returns: from a tight prior, on noise-free data, the fused pose is
 /// the information-weighted mean of the scan's own optimum `x_s` (matched with a

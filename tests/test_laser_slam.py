@@ -12,6 +12,7 @@ import pytest
 
 from rperc.cli import main
 from rperc.config import LaserConfig
+from rperc.datasets.carmen import load_carmen
 from rperc.slam.laser import VARIANTS, defaults, from_settings, load_and_run, run_config
 
 #: The scores issue 33 asks the JSON (and a bench row) to hold.
@@ -96,13 +97,15 @@ def test_command_writes_tum_json_and_map(loop_log: Path, tmp_path: Path) -> None
         "scans_per_second",
     ):
         assert key in measured, key
+    # The simulated loop's log has no max-range PARAM: its readings' own range.
+    scans = load_carmen(loop_log).scans
+    assert measured["max_range_m"] == float(np.max(scans.max_range))
+    assert measured["max_range_param_set_aside"] is False
     from evo.tools import file_interface
 
     from rperc.datasets import read_tum
-    from rperc.datasets.carmen import load_carmen
 
     t, poses = read_tum(tum)
-    scans = load_carmen(loop_log).scans
     assert len(t) == len(scans.pose) and np.all(np.diff(t) > 0)
     traj = file_interface.read_tum_trajectory_file(str(tum))
     assert traj.num_poses == len(t)

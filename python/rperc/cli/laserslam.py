@@ -6,9 +6,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import time
 from pathlib import Path
+
+import numpy as np
 
 from rperc.cli.outputs import (
     add_json_option,
@@ -60,7 +63,13 @@ def laser_command(args: argparse.Namespace) -> int:
     result = run_laser(
         log, seed=args.seed, variant=args.variant, config=config, read_seconds=read_s, **start
     )
-    measured = result.measured()
+    # The range the scans were read with, and whether the log's PARAM was set aside
+    # (rperc.datasets.carmen: the readings contradicted it).
+    measured = {
+        **result.measured(),
+        "max_range_m": float(np.max(log.scans.max_range)) if len(log.scans) else math.nan,
+        "max_range_param_set_aside": bool(log.max_range_contradicted),
+    }
     print(
         " ".join(
             f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in measured.items()

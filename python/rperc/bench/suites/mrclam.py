@@ -17,7 +17,7 @@ from rperc._args import excerpt
 from rperc.bench.tasks import Row, Task, parse_names
 
 VARIANT_PARTS = ("plain", "anchor", "external", "freeze", "smooth")
-DEFAULT_VARIANTS = ("plain", "anchor", "external")
+DEFAULT_VARIANTS = ("plain", "anchor", "external", "smooth")
 SHOWN = ("ate_m", "ate_aligned_m", "landmark_rmse_aligned_m", "nees_mean", "nees_in_band")
 PRIMARY = ("ate_aligned_m", "m")
 

@@ -25,6 +25,16 @@ def best_time(fn: Callable[[], object], *, repeat: int = 7, min_time: float = 0.
     return best
 
 
+def against_peer(ours: float, theirs: float, pose: object, peer_pose: object) -> dict[str, float]:
+    """The seconds of rperc and of a peer on the same problem, their ratio, and how far
+    apart their optima's positions are (``(N, 3)`` poses, m)."""
+    import numpy as np
+
+    gap = np.max(np.abs(np.asarray(pose)[:, :2] - np.asarray(peer_pose)[:, :2]))
+    return {"rperc_s": ours, "peer_s": theirs, "ratio": theirs / ours,
+            "max_position_gap_m": float(gap)}  # fmt: skip
+
+
 def time_in_subprocess(setup: str, stmt: str, *, timeout: float = 60.0) -> tuple[float | None, str]:
     """Seconds for one run of ``stmt`` in a fresh interpreter, or ``(None, why)`` when
     it crashed (a peer's recursion overflowing the stack) or took longer than

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 from _oracles import wall_smoother as ref
+from _timing import against_peer
 
 from rperc._atomic import write_text_atomically
 from rperc.config import SimConfig
@@ -51,10 +52,7 @@ def one_run(sim: SimConfig, seed: int) -> dict[str, float]:
     peer = ref.smooth(problem)
     theirs = time.perf_counter() - t0
     return {
-        "rperc_s": ours,
-        "peer_s": theirs,
-        "ratio": theirs / ours,
-        "max_position_gap_m": float(np.max(np.abs(sm.pose[:, :2] - peer["pose"][:, :2]))),
+        **against_peer(ours, theirs, sm.pose, peer["pose"]),
         "filter_ate_m": out.ate(truth[:, 0], truth[:, 1:]).rmse,
         "smoothed_ate_m": sm.to_result(out).ate(truth[:, 0], truth[:, 1:]).rmse,
     }

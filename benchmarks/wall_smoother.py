@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 from _oracles import wall_smoother as ref
+from _timing import against_peer
 
 from rperc._atomic import write_text_atomically
 from rperc.datasets import data_dir
@@ -39,10 +40,7 @@ def one_run(prepared: ws.PreparedLog, seed: int) -> dict[str, float]:
     peer = ref.smooth(ref.wallslam_problem(prepared, controls, out))
     theirs = time.perf_counter() - t0
     return {
-        "rperc_s": ours,
-        "peer_s": theirs,
-        "ratio": theirs / ours,
-        "max_position_gap_m": float(np.max(np.abs(sm.pose[:, :2] - peer["pose"][:, :2]))),
+        **against_peer(ours, theirs, sm.pose, peer["pose"]),
         "iterations": sm.iterations,
         "peer_iterations": peer["iterations"],
         "filter_ate_m": res.metrics["ate_rmse"],

@@ -178,6 +178,7 @@ fn scan_terms(scan: &ScanPoints, map: &MapIndex, pose: &Pose2, cfg: &IcpConfig) 
     let (s, c) = pose.theta.sin_cos();
     let t = Vector2::new(pose.x, pose.y);
     let var0 = cfg.sigma * cfg.sigma;
+    let (inv_var0, k0) = (1.0 / var0, cfg.huber * cfg.sigma);
     let min_cos = cfg.max_normal_angle.cos();
     let rotate = |v: &Vector2<f64>| Vector2::new(c * v.x - s * v.y, s * v.x + c * v.y);
     let mut out = Normal {
@@ -204,9 +205,14 @@ fn scan_terms(scan: &ScanPoints, map: &MapIndex, pose: &Pose2, cfg: &IcpConfig) 
         let r = n.dot(&(q - nb.point));
         // d(R p)/d theta = (-(R p)_y, (R p)_x).
         let j = Vector3::new(n.x, n.y, n.x * -rp.y + n.y * rp.x);
-        let range_sd = p.norm() * cfg.angle_sigma;
-        let var = var0 + range_sd * range_sd;
-        let (inv_var, k) = (1.0 / var, cfg.huber * var.sqrt());
+        let (inv_var, k) = if cfg.angle_sigma > 0.0 {
+            let range_sd = p.norm() * cfg.angle_sigma;
+            let var = var0 + range_sd * range_sd;
+            (1.0 / var, cfg.huber * var.sqrt())
+        } else {
+            // The default: one variance for every point, no root per point.
+            (inv_var0, k0)
+        };
         let w = if r.abs() <= k { 1.0 } else { k / r.abs() };
         out.h += j * j.transpose() * (w * inv_var);
         out.g += j * (w * r * inv_var);

@@ -155,3 +155,12 @@ def test_point_pairing_has_one_entry_per_detection(association, compression):
     assert pairing is not None and len(pairing) == len(rec.detections)
     assert (pairing >= 0).sum() == out.statistics["accepted"] + out.statistics["new"]
     assert set(pairing[pairing >= 0].tolist()) <= set(out.landmark_id.tolist())
+
+
+def test_bench_refuses_smooth_with_anchor_or_external_when_parsing():
+    from rperc.bench.suites.mrclam import parse_variants
+
+    assert parse_variants("plain,smooth,freeze+smooth") == ["plain", "smooth", "freeze+smooth"]
+    for bad in ("smooth+external", "anchor+smooth"):
+        with pytest.raises(ValueError, match="not with anchor or external"):
+            parse_variants(bad)

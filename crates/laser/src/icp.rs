@@ -205,20 +205,21 @@ fn scan_terms(scan: &ScanPoints, map: &MapIndex, pose: &Pose2, cfg: &IcpConfig) 
         let r = n.dot(&(q - nb.point));
         // d(R p)/d theta = (-(R p)_y, (R p)_x).
         let j = Vector3::new(n.x, n.y, n.x * -rp.y + n.y * rp.x);
-        let (inv_var, k) = if cfg.angle_sigma > 0.0 {
+        let (inv_var, k, w2) = if cfg.angle_sigma > 0.0 {
             let range_sd = p.norm() * cfg.angle_sigma;
             let var = var0 + range_sd * range_sd;
-            (1.0 / var, cfg.huber * var.sqrt())
+            (1.0 / var, cfg.huber * var.sqrt(), r * r * var0 / var)
         } else {
-            // The default: one variance for every point, no root per point.
-            (inv_var0, k0)
+            // The default: one variance for every point, no root per point, and the
+            // squared residual as it is (the cost bit for bit as without the option).
+            (inv_var0, k0, r * r)
         };
         let w = if r.abs() <= k { 1.0 } else { k / r.abs() };
         out.h += j * j.transpose() * (w * inv_var);
         out.g += j * (w * r * inv_var);
         out.pairs += 1;
         out.sum_r2 += r * r;
-        out.sum_w2 += r * r * var0 * inv_var;
+        out.sum_w2 += w2;
     }
     out
 }

@@ -853,7 +853,7 @@ impl<'a> PatternLikelihood<'a> {
         // its own point's samples.
         for (b, batch) in self.points().chunks(BATCH).enumerate() {
             let inside = placed.sample_batch(batch, &mut scratch.observed, ns);
-            cost += self.batch_deviations(batch, &inside, scratch);
+            self.batch_deviations(batch, &inside, scratch, &mut cost);
             let seen = (b + 1) * BATCH;
             if bounded && seen < n {
                 let bound = -cost * inv;
@@ -892,14 +892,15 @@ impl<'a> PatternLikelihood<'a> {
 
     /// Correlates a sampled batch with the model's vectors and pushes each point's
     /// squared deviation into `scratch.deviations` (infinite where it left the frame
-    /// or met a NaN); returns the batch's cost, each deviation capped at the occlusion
-    /// threshold.
+    /// or met a NaN); adds each deviation, capped at the occlusion threshold, to
+    /// `cost` in point order (one running sum, as the early exit's bound expects).
     fn batch_deviations(
         &self,
         batch: &[PointGeometry],
         inside: &[bool; BATCH],
         scratch: &mut PatternScratch,
-    ) -> f64 {
+        cost: &mut f64,
+    ) {
         let config = &self.model.config;
         let threshold = config.occlusion_threshold * config.occlusion_threshold;
         let ns = config.n_samples;
@@ -909,7 +910,6 @@ impl<'a> PatternLikelihood<'a> {
             let stored = &self.model.points[geometry.index].vector;
             *product = centred_products(stored, geometry.sum, observed);
         }
-        let mut cost = 0.0;
         for ((geometry, &(dot, energy)), &ok) in batch.iter().zip(&products).zip(inside) {
             let norm = f64::from(energy) * geometry.energy;
             // The inter-correlation of section 3.3, 0 for a flat vector.
@@ -927,9 +927,8 @@ impl<'a> PatternLikelihood<'a> {
                 f64::INFINITY
             };
             scratch.deviations.push(squared);
-            cost += squared.min(threshold);
+            *cost += squared.min(threshold);
         }
-        cost
     }
 }
 

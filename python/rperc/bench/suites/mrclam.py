@@ -32,6 +32,13 @@ def parse_variants(text: str) -> list[str]:
     ]
     if not out:
         raise ValueError(f"--variants {excerpt(text)}: no variant")
+    for v in out:
+        parts = set(v.split("+"))
+        if "smooth" in parts and parts & {"anchor", "external"}:
+            raise ValueError(
+                f"--variants {excerpt(text)}: smooth models odometry and sightings only, "
+                "not with anchor or external"
+            )
     return list(dict.fromkeys(out))
 
 

@@ -172,6 +172,9 @@ struct Normal {
     sum_r2: f64,
     /// The sum of the squared residuals in units of `sigma`: `sum r^2 sigma^2 / var`.
     sum_w2: f64,
+    /// The line points that found no partner, each counted `sigma^2 / var` (1 with
+    /// `angle_sigma` at 0): what the truncated cost charges the pairing distance.
+    unpaired: f64,
 }
 
 fn scan_terms(scan: &ScanPoints, map: &MapIndex, pose: &Pose2, cfg: &IcpConfig) -> Normal {
@@ -187,6 +190,12 @@ fn scan_terms(scan: &ScanPoints, map: &MapIndex, pose: &Pose2, cfg: &IcpConfig) 
         pairs: 0,
         sum_r2: 0.0,
         sum_w2: 0.0,
+        unpaired: 0.0,
+    };
+    // A point's share of the constant variance, `sigma^2 / var` (1 when off).
+    let share = |p: &Vector2<f64>| {
+        let range_sd = p.norm() * cfg.angle_sigma;
+        var0 / (var0 + range_sd * range_sd)
     };
     for (p, own) in scan.points.iter().zip(&scan.normals) {
         // Only points on a line of their own: a point without one (a corner, clutter,
@@ -195,13 +204,14 @@ fn scan_terms(scan: &ScanPoints, map: &MapIndex, pose: &Pose2, cfg: &IcpConfig) 
         let Some(own) = own else { continue };
         let rp = rotate(p);
         let q = rp + t;
-        let Some(nb) = map.nearest(&q, cfg.max_distance) else {
+        let nb = map
+            .nearest(&q, cfg.max_distance)
+            .filter(|nb| rotate(own).dot(&nb.normal) >= min_cos);
+        let Some(nb) = nb else {
+            out.unpaired += if cfg.angle_sigma > 0.0 { share(p) } else { 1.0 };
             continue;
         };
         let n = nb.normal;
-        if rotate(own).dot(&n) < min_cos {
-            continue;
-        }
         let r = n.dot(&(q - nb.point));
         // d(R p)/d theta = (-(R p)_y, (R p)_x).
         let j = Vector3::new(n.x, n.y, n.x * -rp.y + n.y * rp.x);
@@ -226,17 +236,17 @@ fn scan_terms(scan: &ScanPoints, map: &MapIndex, pose: &Pose2, cfg: &IcpConfig) 
 
 /// The scan's truncated least-squares cost at `pose`: the squared distances of the
 /// paired points to their lines, every point on a line that found no partner charged
-/// the pairing distance, over `sigma^2` and the covariance scale of all the scan's
-/// line points ([`IcpConfig::scale_for`]). That scale is the same at every pose, so
-/// the robust start's candidates compare fairly; it is at least ICP's own (which
-/// counts only the pairs), so against a prior the cost leans on the prior a little
-/// more than ICP does.
+/// the pairing distance, each over its own variance (`sigma^2`, plus the beam's
+/// angular noise at its range with `angle_sigma`), and over the covariance scale of
+/// all the scan's line points ([`IcpConfig::scale_for`]). That scale is the same at
+/// every pose, so the robust start's candidates compare fairly; it is at least ICP's
+/// own (which counts only the pairs), so against a prior the cost leans on the prior
+/// a little more than ICP does.
 pub(crate) fn scan_cost(scan: &ScanPoints, map: &MapIndex, pose: &Pose2, cfg: &IcpConfig) -> f64 {
     let terms = scan_terms(scan, map, pose, cfg);
-    let unpaired = scan.with_normals().saturating_sub(terms.pairs) as f64;
     let d2 = cfg.max_distance * cfg.max_distance;
     let scale = cfg.scale_for(scan.with_normals());
-    (terms.sum_w2 + unpaired * d2) / (cfg.sigma * cfg.sigma) / scale
+    (terms.sum_w2 + terms.unpaired * d2) / (cfg.sigma * cfg.sigma) / scale
 }
 
 pub(crate) fn prior_error(pose: &Pose2, prior: &Prior) -> Vector3<f64> {
@@ -338,6 +348,50 @@ mod tests {
     use super::*;
     use crate::scan::{Beams, ScanConfig, scan_points};
     use crate::sim::{cluttered_room, ray_cast};
+
+    /// With `angle_sigma`, a line point that finds no partner is charged the pairing
+    /// distance over its own variance: against a map far from every point, the cost
+    /// is `sum_i d^2 / (sigma^2 + (r_i angle_sigma)^2) / scale` over the scan's line
+    /// points (closed form); with `angle_sigma` 0, `n d^2 / sigma^2 / scale`.
+    #[test]
+    fn an_unpaired_point_is_charged_over_its_own_variance() {
+        let walls = cluttered_room(12.0, 8.0);
+        let angles: Vec<f64> = (0..361)
+            .map(|i| (-90.0 + 0.5 * i as f64).to_radians())
+            .collect();
+        let pose = Pose2::new(4.0, 3.0, 0.2);
+        let ranges = ray_cast(&walls, &pose, &angles, 20.0);
+        let beams = Beams {
+            ranges: &ranges,
+            angle_min: angles[0],
+            angle_increment: angles[1] - angles[0],
+            max_range: 20.0,
+        };
+        let scan = scan_points(&beams, &ScanConfig::default()).unwrap();
+        let far = nalgebra::Vector2::new(1e4, 1e4);
+        let map = MapIndex::new(vec![far], vec![nalgebra::Vector2::new(1.0, 0.0)], 0.3).unwrap();
+        for angle_sigma in [0.0, 0.01] {
+            let cfg = IcpConfig {
+                angle_sigma,
+                ..Default::default()
+            };
+            let var0 = cfg.sigma * cfg.sigma;
+            let d2 = cfg.max_distance * cfg.max_distance;
+            let expected: f64 = scan
+                .points
+                .iter()
+                .zip(&scan.normals)
+                .filter(|(_, n)| n.is_some())
+                .map(|(p, _)| d2 / (var0 + (p.norm() * angle_sigma).powi(2)))
+                .sum::<f64>()
+                / cfg.scale_for(scan.with_normals());
+            let got = scan_cost(&scan, &map, &pose, &cfg);
+            assert!(
+                (got - expected).abs() < 1e-9 * expected,
+                "{angle_sigma}: {got} vs {expected}"
+            );
+        }
+    }
 
     /// The robust start's cost divides by the scale of all the scan's line points,
     /// the same at every pose: with the cap under them it is the uncapped cost times

@@ -25,7 +25,7 @@ from rperc._atomic import write_text_atomically
 from rperc.config import SimConfig
 from rperc.slam import PlanarSlam
 from rperc.slam.planar import sim_slam_config, simulate
-from rperc.slam.smoothing import smooth
+from rperc.slam.smoothing import pose_times, smooth
 
 
 def one_run(sim: SimConfig, seed: int) -> dict[str, float]:
@@ -34,7 +34,7 @@ def one_run(sim: SimConfig, seed: int) -> dict[str, float]:
     truth = truth[np.r_[truth[1:, 0] != truth[:-1, 0], True]]
     config = sim_slam_config(sim)
     out = PlanarSlam(config).run(rec)
-    times = np.unique(np.r_[out.t[0], rec.detections[:, 0]])
+    times = pose_times(out, rec.detections)
     t0 = time.perf_counter()
     sm = smooth(out, rec.controls, times, detections=rec.detections)
     ours = time.perf_counter() - t0

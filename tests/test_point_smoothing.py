@@ -164,3 +164,29 @@ def test_bench_refuses_smooth_with_anchor_or_external_when_parsing():
     for bad in ("smooth+external", "anchor+smooth"):
         with pytest.raises(ValueError, match="not with anchor or external"):
             parse_variants(bad)
+
+
+def test_pose_times_are_the_first_event_and_every_sighting_and_refuse_bad_input():
+    """Against set arithmetic: the run's first event, every sighting time from it on,
+    and with an interval the grid from it (each checked independently); a grid too
+    large for memory, a zero interval, a 1-D table or a NaN time are named errors."""
+    from rperc.slam.smoothing import pose_times
+
+    world, result, _ = _run(1, SimConfig(steps=60))
+    rows = world.recording.detections
+    t0 = float(result.t[0])
+    expected = sorted({t0} | {float(t) for t in rows[:, 0] if t >= t0})
+    np.testing.assert_array_equal(pose_times(result, rows), expected)
+    with_grid = pose_times(result, rows, interval=0.25)
+    assert set(expected) <= set(with_grid.tolist())
+    assert np.all(np.diff(with_grid) > 0) and np.max(np.diff(with_grid)) <= 0.25 + 1e-12
+    with pytest.raises(MemoryError, match="interval"):
+        pose_times(result, rows, interval=1e-15)
+    with pytest.raises(ValueError, match="interval"):
+        pose_times(result, rows, interval=0.0)
+    with pytest.raises(ValueError, match="2-D"):
+        pose_times(result, rows[:, 0])
+    bad = rows.copy()
+    bad[2, 0] = np.nan
+    with pytest.raises(ValueError, match="finite"):
+        pose_times(result, bad)

@@ -280,14 +280,14 @@ def _demo_smoothing(
     from rperc.plot.slam import smoothing_figure
     from rperc.slam.evaluation import associate, pose_nees
     from rperc.slam.planar import sim_slam_config, simulate
-    from rperc.slam.smoothing import smooth
+    from rperc.slam.smoothing import pose_times, smooth
 
     nees = []
     for run in range(runs):
         sim = simulate(DEMO_WORLD, seed=seed, run=run)
         rec = sim.recording
         result = PlanarSlam(sim_slam_config(DEMO_WORLD)).run(rec)
-        times = np.unique(np.r_[result.t[0], rec.detections[:, 0]])
+        times = pose_times(result, rec.detections)
         smoothed = smooth(result, rec.controls, times, detections=rec.detections).to_result(result)
         t, pose = sim.truth_path()
         nees.append(pose_nees(associate(*smoothed.path()[:2], t, pose), smoothed.path()[2]).mean)

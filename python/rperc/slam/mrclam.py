@@ -106,12 +106,10 @@ def _smoothed_scores(
     ``options``, scored against ``reference`` (truth times, truth, landmarks) as a
     run is, with the smoothed path and map in the result (the filter's causal ATE
     kept)."""
-    from rperc.slam.smoothing import smooth
+    from rperc.slam.smoothing import pose_times, smooth
 
     t_truth, truth, landmarks = reference
-    t0, t1 = float(result.t[0]), float(result.t[-1])
-    seen = ev.detections[:, 0]
-    times = np.unique(np.r_[t0, seen[seen >= t0], np.arange(t0, t1, SMOOTH_INTERVAL)])
+    times = pose_times(result, ev.detections, interval=SMOOTH_INTERVAL)
     out = smooth(result, ev.controls, times, detections=ev.detections, config=options)
     causal = result.ate(t_truth, truth, align=True).rmse
     smoothed = out.to_result(result)

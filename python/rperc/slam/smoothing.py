@@ -1,6 +1,6 @@
-"""Batch smoothing of a wall-SLAM run: every scan's pose, every wall and the control
-biases estimated together from all of the run's data, with the filter's data
-association (``slam::planar::smooth`` in Rust: Levenberg-Marquardt over the same
+"""Batch smoothing of a SLAM run with walls, point landmarks or both: the poses, the
+map and the control biases estimated together from all of the run's data, with the
+filter's data association (``slam::planar::smooth`` in Rust: Levenberg-Marquardt over the same
 models, term for term, as the EKF's).
 
 The EKF's trajectory is causal: the drift of a long first loop stays in it after the
@@ -37,7 +37,7 @@ from rperc.slam.planar import SlamResult
 if TYPE_CHECKING:
     from typing_extensions import Unpack
 
-__all__ = ["SmoothedRun", "smooth", "smooth_walls"]
+__all__ = ["SmoothedRun", "pose_times", "smooth", "smooth_walls"]
 
 
 @dataclass(frozen=True, repr=False)
@@ -185,6 +185,38 @@ def smooth(
         residuals=out.residuals,
         seconds=time.perf_counter() - start,
     )
+
+
+def pose_times(
+    result: SlamResult, rows: npt.ArrayLike, *, interval: float | None = None
+) -> np.ndarray:
+    """The times :func:`smooth` needs a pose at: the run's first event and every time
+    of ``rows`` (detection or wall rows, time first) from it on; with ``interval``,
+    also one every ``interval`` seconds over the run, so that the smoothed path is
+    drawn where nothing was seen too (a grid too large for memory is a
+    ``MemoryError`` naming it, before anything is allocated)."""
+    from rperc._args import real_number
+
+    if len(result.t) == 0:
+        raise ValueError("the run has no event")
+    t0, t1 = float(result.t[0]), float(result.t[-1])
+    table = np.asarray(rows, dtype=np.float64)
+    if table.ndim != 2 or table.shape[1] == 0:
+        raise ValueError(f"rows must be a 2-D table, time first, got shape {table.shape}")
+    seen = table[:, 0]
+    if not np.all(np.isfinite(seen)):
+        raise ValueError("rows' times must be finite")
+    grid = np.zeros(0)
+    if interval is not None:
+        step = real_number(interval, "interval")
+        if not (np.isfinite(step) and step > 0):
+            raise ValueError(f"interval must be finite and > 0, got {interval!r}")
+        count = (t1 - t0) / step
+        _rperc.check_allocation(
+            f"poses every interval={step:g} s", int(min(count, 2.0**100)) + 1, 8 * 60
+        )
+        grid = np.arange(t0, t1, step)
+    return np.unique(np.r_[t0, seen[seen >= t0], grid])
 
 
 def _node_times(result: SlamResult, times: npt.ArrayLike) -> np.ndarray:

@@ -122,10 +122,14 @@ fn simulate(seed: u64, noise: f64) -> Sim {
     sim
 }
 
-fn run(sim: &Sim, landmarks: &[(u64, [f64; 2])], options: SmootherConfig) -> SmoothedRun {
-    let config = config();
-    let run = FilterRun {
-        config: &config,
+/// The run to smooth: the simulation's data, from dead reckoning and `landmarks`.
+fn filter_run<'a>(
+    sim: &'a Sim,
+    config: &'a PlanarConfig,
+    landmarks: &'a [(u64, [f64; 2])],
+) -> FilterRun<'a> {
+    FilterRun {
+        config,
         controls: &sim.controls,
         times: &sim.times,
         poses: &sim.dead_reckoning,
@@ -135,8 +139,12 @@ fn run(sim: &Sim, landmarks: &[(u64, [f64; 2])], options: SmootherConfig) -> Smo
         points: &sim.points,
         point_pairing: &sim.pairing,
         landmarks,
-    };
-    smooth(&run, &options).unwrap()
+    }
+}
+
+fn run(sim: &Sim, landmarks: &[(u64, [f64; 2])], options: SmootherConfig) -> SmoothedRun {
+    let config = config();
+    smooth(&filter_run(sim, &config, landmarks), &options).unwrap()
 }
 
 fn true_map() -> Vec<(u64, [f64; 2])> {
@@ -205,18 +213,7 @@ fn bad_point_rows_are_errors_that_name_the_input() {
     let config = config();
     let mut map = true_map();
     map.retain(|(id, _)| *id != 1);
-    let mut run = FilterRun {
-        config: &config,
-        controls: &sim.controls,
-        times: &sim.times,
-        poses: &sim.dead_reckoning,
-        walls: &[],
-        pairing: &[],
-        map: &[],
-        points: &sim.points,
-        point_pairing: &sim.pairing,
-        landmarks: &map,
-    };
+    let mut run = filter_run(&sim, &config, &map);
     let err = smooth(&run, &SmootherConfig::default())
         .unwrap_err()
         .to_string();
@@ -239,6 +236,25 @@ fn bad_point_rows_are_errors_that_name_the_input() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("point_pairing"), "{err}");
+    // A depth that the bias correction leaves at or under zero (the filter refuses it).
+    run.point_pairing = &sim.pairing;
+    let mut near = sim.points.clone();
+    near[3][1] = 0.01;
+    run.points = &near;
+    let err = smooth(&run, &SmootherConfig::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("row 3") && err.contains("range must be > 0"),
+        "{err}"
+    );
+    let mut nan = sim.points.clone();
+    nan[3][1] = f64::NAN;
+    run.points = &nan;
+    let err = smooth(&run, &SmootherConfig::default())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("points"), "{err}");
 }
 
 #[test]

@@ -45,6 +45,16 @@ pub(super) fn point_sightings(
         let Some(id) = *id else { continue };
         let node = node_of(run.times, "points", i, row[0])?;
         let (range, bearing) = run.config.bias.correct_detection(row[1], row[2])?;
+        // As the filter refuses it: a landmark at or behind the sensor has no bearing.
+        if range.is_nan() || range <= 0.0 {
+            return Err(SlamError::invalid(
+                "points",
+                format!(
+                    "row {i}: the range must be > 0, got {} ({range} unbiased)",
+                    row[1]
+                ),
+            ));
+        }
         let landmark = match index.get(&id) {
             Some(&j) => j,
             None => {

@@ -133,7 +133,7 @@ RELINEARIZE_THRESHOLD = 0.01
 NUM_THREADS = 1
 
 EXTRA_HINT = "the laser peer needs small_gicp and gtsam: pip install 'rperc[laser-peer]'"
-VARIANTS = ("icp", "icp+loops", "rperc")
+VARIANTS = ("icp", "icp+loops", "rperc", "rperc-walls")
 
 
 @dataclass(frozen=True)
@@ -504,16 +504,18 @@ def run_peer(log_path: str | Path, seed: int, loops: bool, **settings: Any) -> d
     }  # fmt: skip
 
 
-def run_rperc(log_path: str | Path, seed: int) -> dict[str, Any]:
-    """rperc's laser pipeline (``rperc slam laser``) on the same log with the same
-    odometry draw, in the same run, as a row of the peer's table."""
+def run_rperc(log_path: str | Path, seed: int, walls: bool = False) -> dict[str, Any]:
+    """rperc's laser pipeline (``rperc slam laser``; with ``walls``, its ``walls``
+    variant) on the same log with the same odometry draw, in the same run, as a row
+    of the peer's table."""
     from rperc.slam.laser import load_and_run
 
-    r = load_and_run(log_path, seed=seed)
+    r = load_and_run(log_path, seed=seed, variant="walls" if walls else "loops")
     m = r.measured()
     odo_ate, odo_final = ate(odometry(r.reference, seed)[0], r.reference)
     return {
-        "log": Path(log_path).name, "seed": int(seed), "variant": "rperc",
+        "log": Path(log_path).name, "seed": int(seed),
+        "variant": "rperc-walls" if walls else "rperc",
         "ate_rmse_m": m["ate_rmse_m"], "final_error_m": m["final_error_m"],
         "odometry_ate_rmse_m": odo_ate, "odometry_final_error_m": odo_final,
         "loop_closures": m["loop_closures_accepted"], "scans": m["scans"],
@@ -578,7 +580,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", default="0-2", help="e.g. 0-2 or 0,3,5 (default 0-2)")
     ap.add_argument(
         "--variants", default="icp,icp+loops,rperc",
-        help="icp, icp+loops (the peer) and rperc (rperc slam laser in the same run)",
+        help="icp, icp+loops (the peer), rperc (rperc slam laser in the same run) and "
+        "rperc-walls (its walls variant)",
     )  # fmt: skip
     ap.add_argument("--json", type=Path, help="write every run's row (no paths) here")
     args = ap.parse_args(argv)
@@ -595,8 +598,8 @@ def main(argv: list[str] | None = None) -> int:
         for path in log_files(args.logs):
             for v in variants:
                 for seed in seed_list(args.seeds):
-                    if v == "rperc":
-                        r = run_rperc(path, seed)
+                    if v.startswith("rperc"):
+                        r = run_rperc(path, seed, walls=v == "rperc-walls")
                     else:
                         r = run_peer(path, seed, loops=v == "icp+loops")
                     rows.append({k: x for k, x in r.items() if not isinstance(x, np.ndarray)})
@@ -619,23 +622,26 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def verdict(rows: list[dict[str, Any]]) -> str:
-    """Per log, whether rperc's mean ATE is within the peer's ICP + loops mean plus
-    5 cm (issue 33's goal), and the speed ratio, from this run's rows."""
+    """Per log and rperc variant, whether rperc's mean ATE is within the peer's ICP +
+    loops mean plus 5 cm (issue 33's goal), and the speed ratio, from this run's
+    rows."""
     lines = []
     for log in dict.fromkeys(r["log"] for r in rows):
         mine = {v: [r for r in rows if r["log"] == log and r["variant"] == v] for v in VARIANTS}
-        if not mine["rperc"] or not mine["icp+loops"]:
+        if not mine["icp+loops"]:
             continue
-        ours = float(np.mean([r["ate_rmse_m"] for r in mine["rperc"]]))
         peer = float(np.mean([r["ate_rmse_m"] for r in mine["icp+loops"]]))
-        speed = np.mean([r["scans_per_second"] for r in mine["rperc"]]) / np.mean(
-            [r["scans_per_second"] for r in mine["icp+loops"]]
-        )
-        ok = "yes" if ours <= peer + 0.05 else "no"
-        lines.append(
-            f"{log}: rperc {ours:.3f} m, peer {peer:.3f} m, within +5 cm: {ok}, "
-            f"{speed:.1f}x the peer's scans/s"
-        )
+        peer_speed = np.mean([r["scans_per_second"] for r in mine["icp+loops"]])
+        for v in ("rperc", "rperc-walls"):
+            if not mine[v]:
+                continue
+            ours = float(np.mean([r["ate_rmse_m"] for r in mine[v]]))
+            speed = np.mean([r["scans_per_second"] for r in mine[v]]) / peer_speed
+            ok = "yes" if ours <= peer + 0.05 else "no"
+            lines.append(
+                f"{log}: {v} {ours:.3f} m, peer {peer:.3f} m, within +5 cm: {ok}, "
+                f"{speed:.1f}x the peer's scans/s"
+            )
     return "\n".join(lines)
 
 

@@ -87,6 +87,47 @@ def test_final_covariance_is_not_overconfident_in_simulation(loop_log: Path) -> 
     assert mean < 3.0 * 1.5, mean
 
 
+def _off_the_nearest_wall(walls: np.ndarray, true_walls: np.ndarray) -> np.ndarray:
+    """For each wall ``(W, 4)``, how far its ends lie from the line of the true wall
+    nearest its middle, written out here."""
+    a, b = true_walls[:, :2], true_walls[:, 2:]
+    ab = b - a
+    mid = (walls[:, :2] + walls[:, 2:]) / 2
+    t = np.einsum("pwi,wi->pw", mid[:, None, :] - a, ab) / np.einsum("wi,wi->w", ab, ab)
+    foot = a + np.clip(t, 0.0, 1.0)[..., None] * ab
+    k = np.argmin(np.linalg.norm(mid[:, None, :] - foot, axis=2), axis=1)
+    normal = np.c_[-ab[k, 1], ab[k, 0]] / np.linalg.norm(ab[k], axis=1)[:, None]
+    ends = np.stack([walls[:, :2], walls[:, 2:]], axis=1) - a[k][:, None, :]
+    return np.abs(np.einsum("wei,wi->we", ends, normal))
+
+
+def test_wall_landmarks_lie_on_the_true_walls_and_keep_the_covariance_honest(
+    loop_log: Path,
+) -> None:
+    """The ``walls`` variant maps the simulated corridor's walls: every mapped wall's
+    ends lie within 5 cm of the line of the true wall (the simulator's) nearest it
+    (a landmark is a line; its drawn extent is only where it was seen from poses
+    of their time), the final path stays
+    within 5 cm of the truth, and the robot NEES against the truth stays under the
+    3-dof band's top on average over four draws."""
+    from rperc.scansim import loop_walls
+
+    truth = np.asarray(load_carmen(loop_log).scans.pose)
+    true_walls = loop_walls().reshape(-1, 4)
+    nees = []
+    for seed in range(4):
+        r = load_and_run(loop_log, seed=seed, variant="walls")
+        assert r.walls.shape[1] == 4 and len(r.walls) >= 4
+        assert r.counts["wall_landmarks"] == len(r.walls)
+        assert r.counts["wall_sightings"] >= 2 * len(r.walls)
+        assert np.max(_off_the_nearest_wall(r.walls, true_walls)) < 0.05
+        assert _truth_ate(r.pose, truth) < 0.05
+        nees.append(_robot_nees(r.pose, truth, r.covariance))
+    assert float(np.mean(np.concatenate(nees))) < 3.0 * 1.5
+    # The default pipeline maps no walls.
+    assert len(load_and_run(loop_log, seed=0).walls) == 0
+
+
 def test_command_writes_tum_json_and_map(loop_log: Path, tmp_path: Path) -> None:
     tum, out, png = tmp_path / "run.tum", tmp_path / "run.json", tmp_path / "map.png"
     argv = ["slam", "laser", str(loop_log), "--seed", "2", "--tum", str(tum), "--json", str(out)]

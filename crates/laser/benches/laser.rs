@@ -1,13 +1,16 @@
 //! Criterion benches of the laser pipeline's hot paths: scan preprocessing and one
-//! ICP match against a local map, and one loop-closure attempt, on simulated scans
-//! of a cluttered room.
+//! ICP match against a local map, one loop-closure attempt, and one key scan's
+//! walls extracted and paired with a wall map, on simulated scans of a cluttered
+//! room.
 
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use laser::graph::PoseGraph;
 use laser::loops::{LoopConfig, close_loop};
 use laser::scan::{Beams, ScanConfig, scan_points};
 use laser::sim::{cluttered_room, ray_cast};
+use laser::walls::{Extractor, WallConfig, WallMap};
 use laser::{IcpConfig, MapIndex, Prior, match_scan};
 use nalgebra::Matrix3;
 use rperc_core::Pose2;
@@ -62,6 +65,37 @@ fn bench_scan(c: &mut Criterion) {
     let guess = Pose2::new(3.6, 1.5, 0.2);
     c.bench_function("close_loop/2 m window", |b| {
         b.iter(|| close_loop(black_box(&scan), &map, &guess, &window, &icp, &loops).unwrap())
+    });
+
+    // A key scan's walls: extracted from the beams, then paired with a map that
+    // already holds them (seen from 12 m of path back, so each becomes a factor).
+    let cfg = WallConfig {
+        enabled: true,
+        ..WallConfig::default()
+    };
+    let mut extractor = Extractor::new(cfg);
+    let bounds = (0.0, 80.0);
+    c.bench_function("walls/extract and pair one key scan", |b| {
+        b.iter_batched(
+            || {
+                let mut graph = PoseGraph::new(pose, Matrix3::identity() * 1e8);
+                let mut map = WallMap::default();
+                let seen = Extractor::new(cfg)
+                    .sightings(&ranges, a[0], a[1] - a[0], bounds)
+                    .unwrap();
+                map.observe(0, 0.0, &seen, &mut graph, &cfg).unwrap();
+                graph.add_pose(pose);
+                (graph, map)
+            },
+            |(mut graph, mut map)| {
+                let seen = extractor
+                    .sightings(black_box(&ranges), a[0], a[1] - a[0], bounds)
+                    .unwrap();
+                map.observe(1, 12.0, &seen, &mut graph, &cfg).unwrap();
+                (graph, map)
+            },
+            criterion::BatchSize::SmallInput,
+        )
     });
 }
 

@@ -7,14 +7,19 @@
 //! iteration a closure's information is scaled by `s^2`, `s = min(1, 2 phi / (phi +
 //! chi2))`, so a closure that disagrees with the rest of the graph fades out instead
 //! of bending the map.
+//!
+//! Wall landmarks ([`crate::wall_factor`]) are nodes too, after the poses: a wall's
+//! `(rho, alpha)` fills the first two entries of its 3 x 3 block, whose third is an
+//! unused unit (no factor touches it, so its step is zero).
 
 use std::collections::HashMap;
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector2, Vector3};
 use rperc_core::{Pose2, wrap_angle};
 
 use crate::error::{LaserError, Result};
 use crate::sparse::{Factor, Pattern};
+use crate::wall_factor::{WallFactor, linearise_wall};
 
 /// A relative-pose measurement between two poses.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -41,6 +46,56 @@ pub struct Solved {
     pub chi2: f64,
 }
 
+/// The normal equations in 3 x 3 blocks: diagonal and off-diagonal blocks (row
+/// node > column node), the gradient and the weighted squared error.
+struct Normal {
+    diag: Vec<Matrix3<f64>>,
+    off: HashMap<(usize, usize), Matrix3<f64>>,
+    grad: Vec<Vector3<f64>>,
+    chi2: f64,
+}
+
+impl Normal {
+    fn new(nodes: usize, edges: usize) -> Self {
+        Normal {
+            diag: vec![Matrix3::zeros(); nodes],
+            off: HashMap::with_capacity(edges),
+            grad: vec![Vector3::zeros(); nodes],
+            chi2: 0.0,
+        }
+    }
+
+    /// Adds a factor between nodes `a` and `b` with error `err` (any dimension `D`),
+    /// Jacobians `ja` and `jb` (D x 3) and information `omega`.
+    fn add<D: nalgebra::DimName>(
+        &mut self,
+        a: usize,
+        b: usize,
+        ja: &nalgebra::OMatrix<f64, D, nalgebra::U3>,
+        jb: &nalgebra::OMatrix<f64, D, nalgebra::U3>,
+        omega: &nalgebra::OMatrix<f64, D, D>,
+        err: &nalgebra::OVector<f64, D>,
+    ) where
+        nalgebra::DefaultAllocator: nalgebra::allocator::Allocator<D, nalgebra::U3>
+            + nalgebra::allocator::Allocator<D, D>
+            + nalgebra::allocator::Allocator<D>
+            + nalgebra::allocator::Allocator<nalgebra::U3, D>,
+    {
+        let (wa, wb) = (ja.transpose() * omega, jb.transpose() * omega);
+        self.chi2 += err.dot(&(omega * err));
+        self.diag[a] += &wa * ja;
+        self.diag[b] += &wb * jb;
+        self.grad[a] += &wa * err;
+        self.grad[b] += &wb * err;
+        let (row, col, block) = if a > b {
+            (a, b, wa * jb)
+        } else {
+            (b, a, wb * ja)
+        };
+        *self.off.entry((row, col)).or_insert_with(Matrix3::zeros) += block;
+    }
+}
+
 /// Poses, edges and a prior on the first pose.
 #[derive(Debug, Clone, Default)]
 pub struct PoseGraph {
@@ -48,6 +103,10 @@ pub struct PoseGraph {
     pub poses: Vec<Pose2>,
     /// The measurements.
     pub edges: Vec<Edge>,
+    /// The wall landmarks' current estimates, world `(rho, alpha)`.
+    pub walls: Vec<Vector2<f64>>,
+    /// The wall sightings.
+    pub wall_factors: Vec<WallFactor>,
     /// Information of the first pose's prior (its estimate is the prior's mean).
     pub anchor_information: Matrix3<f64>,
     anchor: Pose2,
@@ -113,6 +172,63 @@ impl PoseGraph {
         Ok(())
     }
 
+    /// Adds a wall landmark at world line `wall` and returns its index.
+    pub fn add_wall(&mut self, wall: Vector2<f64>) -> Result<usize> {
+        if !wall.iter().all(|v| v.is_finite()) {
+            return Err(LaserError::Core(rperc_core::CoreError::NonFinite("wall")));
+        }
+        self.version += 1;
+        self.walls.push(wall);
+        Ok(self.walls.len() - 1)
+    }
+
+    /// Adds a wall sighting (its pose and wall must exist).
+    pub fn add_wall_factor(&mut self, factor: WallFactor) -> Result<()> {
+        if factor.pose >= self.poses.len() || factor.wall >= self.walls.len() {
+            return Err(LaserError::dimension(format!(
+                "a sighting of wall {} from pose {} in a graph of {} walls and {} poses",
+                factor.wall,
+                factor.pose,
+                self.walls.len(),
+                self.poses.len()
+            )));
+        }
+        let finite = factor
+            .z
+            .iter()
+            .chain(factor.mid.iter())
+            .all(|v| v.is_finite())
+            && factor.information.iter().all(|v| v.is_finite());
+        if !finite {
+            return Err(LaserError::Core(rperc_core::CoreError::NonFinite(
+                "wall sighting",
+            )));
+        }
+        self.version += 1;
+        self.wall_factors.push(factor);
+        Ok(())
+    }
+
+    /// Wall sighting `k`'s error and Jacobians at the current estimates.
+    fn wall_linearised(&self, k: usize) -> Result<(Vector2<f64>, Matrix2x3<f64>, Matrix2<f64>)> {
+        let f = &self.wall_factors[k];
+        linearise_wall(&self.poses[f.pose], &self.walls[f.wall], &f.z, &f.mid).ok_or(
+            LaserError::Core(rperc_core::CoreError::NonFinite("wall estimate")),
+        )
+    }
+
+    /// Wall sighting `k`'s squared error by its own information, and its robust
+    /// weight (1 for a plain factor).
+    pub fn wall_chi2(&self, k: usize) -> Result<(f64, f64)> {
+        let f = &self.wall_factors[k];
+        let e = self.wall_linearised(k)?.0;
+        let chi2 = (e.transpose() * f.information * e)[(0, 0)];
+        Ok((
+            chi2,
+            f.robust.map_or(1.0, |phi| dcs_scale(phi, chi2).powi(2)),
+        ))
+    }
+
     /// Removes edge `k` and returns it.
     pub fn remove_edge(&mut self, k: usize) -> Edge {
         self.version += 1;
@@ -167,8 +283,14 @@ impl PoseGraph {
             .as_ref()
             .is_none_or(|(v, _)| *v != self.version)
         {
-            let pairs: Vec<(usize, usize)> = self.edges.iter().map(|e| (e.from, e.to)).collect();
-            self.pattern = Some((self.version, Pattern::new(self.poses.len(), &pairs)?));
+            let n = self.poses.len();
+            let pairs: Vec<(usize, usize)> = self
+                .edges
+                .iter()
+                .map(|e| (e.from, e.to))
+                .chain(self.wall_factors.iter().map(|f| (f.pose, n + f.wall)))
+                .collect();
+            self.pattern = Some((self.version, Pattern::new(n + self.walls.len(), &pairs)?));
         }
         Ok(())
     }
@@ -180,7 +302,12 @@ impl PoseGraph {
     /// indefinite; then a Levenberg-Marquardt damping, growing tenfold, is added to
     /// the diagonal until the factorisation succeeds (a shorter step, same optimum).
     fn factor(&self) -> Result<(Factor<'_>, Vec<Vector3<f64>>)> {
-        let (mut diag, off, grad, _) = self.normal_equations();
+        let Normal {
+            mut diag,
+            off,
+            grad,
+            ..
+        } = self.normal_equations()?;
         let pattern = &self.pattern.as_ref().expect("ensure_pattern first").1;
         let scale = diag.iter().map(|d| d.diagonal().max()).fold(0.0, f64::max);
         let mut damping = 0.0;
@@ -206,49 +333,44 @@ impl PoseGraph {
         ))
     }
 
-    /// The normal equations at the current estimates: diagonal and off-diagonal
-    /// blocks, the gradient and the weighted squared error.
-    #[allow(clippy::type_complexity)]
-    fn normal_equations(
-        &self,
-    ) -> (
-        Vec<Matrix3<f64>>,
-        HashMap<(usize, usize), Matrix3<f64>>,
-        Vec<Vector3<f64>>,
-        f64,
-    ) {
+    /// The normal equations at the current estimates (poses, then walls).
+    fn normal_equations(&self) -> Result<Normal> {
         let n = self.poses.len();
-        let mut diag = vec![Matrix3::zeros(); n];
-        let mut grad = vec![Vector3::zeros(); n];
-        let mut off: HashMap<(usize, usize), Matrix3<f64>> =
-            HashMap::with_capacity(self.edges.len());
+        let mut ne = Normal::new(n + self.walls.len(), self.edges.len());
         let e0 = {
             let d = self.poses[0].to_vector() - self.anchor.to_vector();
             Vector3::new(d.x, d.y, wrap_angle(d.z))
         };
-        diag[0] += self.anchor_information;
-        grad[0] += self.anchor_information * e0;
-        let mut chi2 = (e0.transpose() * self.anchor_information * e0)[(0, 0)];
+        ne.diag[0] += self.anchor_information;
+        ne.grad[0] += self.anchor_information * e0;
+        ne.chi2 += (e0.transpose() * self.anchor_information * e0)[(0, 0)];
         for (k, e) in self.edges.iter().enumerate() {
             let (err, ja, jb) = linearise(&self.poses[e.from], &self.poses[e.to], &e.measurement);
-            let omega = e.information * self.weight(k);
-            chi2 += (err.transpose() * omega * err)[(0, 0)];
-            diag[e.from] += ja.transpose() * omega * ja;
-            diag[e.to] += jb.transpose() * omega * jb;
-            grad[e.from] += ja.transpose() * omega * err;
-            grad[e.to] += jb.transpose() * omega * err;
-            let (a, b, block) = if e.from > e.to {
-                (e.from, e.to, ja.transpose() * omega * jb)
-            } else {
-                (e.to, e.from, jb.transpose() * omega * ja)
-            };
-            *off.entry((a, b)).or_insert_with(Matrix3::zeros) += block;
+            ne.add(
+                e.from,
+                e.to,
+                &ja,
+                &jb,
+                &(e.information * self.weight(k)),
+                &err,
+            );
         }
-        (diag, off, grad, chi2)
+        for k in 0..self.wall_factors.len() {
+            let f = &self.wall_factors[k];
+            let (err, jp, jw) = self.wall_linearised(k)?;
+            let omega = f.information * self.wall_chi2(k)?.1;
+            // The wall's 2 x 2 Jacobian padded to its 3-entry block.
+            let jw3 = Matrix2x3::new(jw[(0, 0)], jw[(0, 1)], 0.0, jw[(1, 0)], jw[(1, 1)], 0.0);
+            ne.add(f.pose, n + f.wall, &jp, &jw3, &omega, &err);
+        }
+        for d in &mut ne.diag[n..] {
+            d[(2, 2)] += 1.0; // the walls' unused entry
+        }
+        Ok(ne)
     }
 
-    /// Gauss-Newton until a step moves no pose by more than `tolerance` (m or rad),
-    /// at most `iterations` times.
+    /// Gauss-Newton until a step moves no pose or wall by more than `tolerance` (m or
+    /// rad), at most `iterations` times.
     pub fn optimize(&mut self, iterations: usize, tolerance: f64) -> Result<Solved> {
         let mut done = 0;
         for _ in 0..iterations {
@@ -258,21 +380,24 @@ impl PoseGraph {
                 let (factor, grad) = self.factor()?;
                 factor.solve(&grad)
             };
-            let mut largest: f64 = 0.0;
-            for (p, s) in self.poses.iter_mut().zip(&step) {
-                if !s.iter().all(|v| v.is_finite()) {
-                    return Err(LaserError::Numerical(
-                        "a pose graph step is not finite".into(),
-                    ));
-                }
-                *p = Pose2::new(p.x - s.x, p.y - s.y, wrap_angle(p.theta - s.z));
-                largest = largest.max(s.x.abs()).max(s.y.abs()).max(s.z.abs());
+            if !step.iter().all(|s| s.iter().all(|v| v.is_finite())) {
+                return Err(LaserError::Numerical(
+                    "a pose graph step is not finite".into(),
+                ));
             }
+            let n = self.poses.len();
+            for (p, s) in self.poses.iter_mut().zip(&step) {
+                *p = Pose2::new(p.x - s.x, p.y - s.y, wrap_angle(p.theta - s.z));
+            }
+            for (w, s) in self.walls.iter_mut().zip(&step[n..]) {
+                *w = Vector2::new(w.x - s.x, wrap_angle(w.y - s.y));
+            }
+            let largest = step.iter().map(|s| s.amax()).fold(0.0, f64::max);
             if largest < tolerance {
                 break;
             }
         }
-        let chi2 = self.normal_equations().3;
+        let chi2 = self.normal_equations()?.chi2;
         Ok(Solved {
             iterations: done,
             chi2,
@@ -282,6 +407,8 @@ impl PoseGraph {
     /// Every pose's marginal covariance at the current estimates.
     pub fn marginals(&mut self) -> Result<Vec<Matrix3<f64>>> {
         self.ensure_pattern()?;
-        Ok(self.factor()?.0.marginals())
+        let mut all = self.factor()?.0.marginals();
+        all.truncate(self.poses.len());
+        Ok(all)
     }
 }

@@ -14,9 +14,12 @@ pub mod scan;
 pub mod sim;
 pub mod sparse;
 pub mod start;
+pub mod wall_factor;
+pub mod walls;
 
 pub use error::{LaserError, Result};
 pub use grid::MapIndex;
 pub use icp::{IcpConfig, Match, Prior, match_scan};
 pub use pipeline::{LaserConfig, LaserRun, ScanLog, run};
 pub use scan::{Beams, ScanConfig, ScanPoints, scan_points};
+pub use walls::WallConfig;

@@ -19,6 +19,7 @@ use crate::icp::IcpConfig;
 use crate::loops::{Closure, LoopConfig, agree, close_loop};
 use crate::odometry::{Step, steps};
 use crate::scan::{BeamDirections, Beams, ScanConfig, ScanPoints, check_beams, scan_points_with};
+use crate::walls::{Extractor, WallConfig, WallMap};
 
 /// Every setting of a run.
 #[derive(
@@ -34,6 +35,8 @@ pub struct LaserConfig {
     pub local_map: LocalMapConfig,
     /// Loop closures.
     pub loops: LoopConfig,
+    /// Walls as landmarks of the pose graph.
+    pub walls: WallConfig,
     /// The odometry's control noise (the same model as the EKF's motion).
     pub motion: Unicycle,
     /// The first scan's pose.
@@ -57,6 +60,7 @@ impl Default for LaserConfig {
             icp: IcpConfig::default(),
             local_map: LocalMapConfig::default(),
             loops: LoopConfig::default(),
+            walls: WallConfig::default(),
             motion: Unicycle::default(),
             initial_pose: [0.0; 3],
             graph_iterations: 10,
@@ -73,6 +77,7 @@ impl LaserConfig {
         self.icp.validate()?;
         self.local_map.validate(&self.icp)?;
         self.loops.validate()?;
+        self.walls.validate()?;
         self.motion.validate()?;
         rperc_core::ensure_finite("initial_pose", &self.initial_pose)?;
         // A count of work, not of memory: nothing is allocated per iteration.
@@ -178,6 +183,11 @@ pub struct LaserRun {
     /// Refusals by reason: too few pairs, too large a residual, degenerate, not
     /// confirmed by the next attempt, removed for disagreeing with the graph.
     pub rejections: [usize; 5],
+    /// The wall landmarks of the final graph, world segments `(x0, y0, x1, y1)` over
+    /// the extent the key scans saw.
+    pub walls: Vec<[f64; 4]>,
+    /// Wall sightings in the final graph.
+    pub wall_factors: usize,
 }
 
 /// A key scan of the graph.
@@ -226,6 +236,9 @@ impl SinceKey {
 
 struct Run<'a> {
     cfg: &'a LaserConfig,
+    log: &'a ScanLog<'a>,
+    walls: WallMap,
+    extractor: Extractor,
     front: FrontEnd,
     graph: PoseGraph,
     keys: Vec<Key>,
@@ -242,8 +255,8 @@ struct Run<'a> {
 
 /// Runs the pipeline over `log` with odometry `controls` `(t, v, omega)` and the
 /// scans' `times`.
-pub fn run(
-    log: &ScanLog<'_>,
+pub fn run<'a>(
+    log: &'a ScanLog<'a>,
     controls: &[[f64; 3]],
     times: &[f64],
     cfg: &LaserConfig,
@@ -266,6 +279,9 @@ pub fn run(
     );
     let mut run = Run {
         cfg,
+        log,
+        walls: WallMap::default(),
+        extractor: Extractor::new(cfg.walls),
         front: FrontEnd::new(start, cfg.icp, cfg.local_map)?,
         // The start is known: 0.1 mm and 0.1 mrad, loose enough for the factorisation.
         graph: PoseGraph::new(start, Matrix3::identity() * 1e8),
@@ -287,6 +303,7 @@ pub fn run(
         path: 0.0,
         shape: KeyScan::new(0, start, &first),
     });
+    run.map_walls(0, 0)?;
     run.record(start, None);
     for k in 1..log.len() {
         rperc_core::interrupt::checkpoint()?;
@@ -343,6 +360,7 @@ impl Run<'_> {
             path: self.path,
             shape: KeyScan::new(k, pose, scan),
         });
+        self.map_walls(k, node)?;
         let key = self.keys.len() - 1;
         let due = key >= self.quiet_until
             && (key.is_multiple_of(self.cfg.loops.every_keys) || self.pending.is_some());
@@ -350,6 +368,29 @@ impl Run<'_> {
             self.try_closure(scan)?;
         }
         Ok(())
+    }
+
+    /// Pairs key scan `k`'s walls (graph node `node`) with the wall map.
+    fn map_walls(&mut self, k: usize, node: usize) -> Result<()> {
+        if !self.cfg.walls.enabled {
+            return Ok(());
+        }
+        let log = self.log;
+        let row = &log.ranges[k * log.width..k * log.width + log.counts[k]];
+        let max_range = log.max_range[k] - self.cfg.scan.max_range_margin;
+        let sightings = self.extractor.sightings(
+            row,
+            log.angle_min[k],
+            log.angle_increment[k],
+            (self.cfg.scan.min_range, max_range),
+        )?;
+        self.walls.observe(
+            node,
+            self.path,
+            &sightings,
+            &mut self.graph,
+            &self.cfg.walls,
+        )
     }
 
     /// The covariance of the latest key's pose relative to each earlier key, from the
@@ -528,6 +569,8 @@ impl Run<'_> {
             })
             .collect();
         self.out.closure_chi2 = closures.iter().map(|&k| self.graph.chi2(k)).collect();
+        self.out.walls = self.walls.segments(&self.graph);
+        self.out.wall_factors = self.graph.wall_factors.len();
         Ok(self.out)
     }
 }

@@ -16,8 +16,9 @@ fn poses(v: &[rperc_core::Pose2]) -> Vec<f64> {
 /// What [`laser_run`] returns, frozen: every scan's final pose `(S, 3)` and
 /// covariance `(S, 3, 3)`, the online (causal) path, the front end's match statistics,
 /// the key scans, the accepted loop closures `(K, 2)` (key scan pairs, as scan
-/// indices) with their chi-square in the final graph, and the closures rejected by
-/// reason. Its arrays are read-only.
+/// indices) with their chi-square in the final graph, the closures rejected by
+/// reason, and the wall landmarks `(W, 4)` (world segments `x0, y0, x1, y1`) with
+/// the number of wall sightings in the graph. Its arrays are read-only.
 #[pyclass(name = "LaserRun", module = "rperc._rperc", frozen)]
 pub struct PyLaserRun {
     #[pyo3(get)]
@@ -42,6 +43,10 @@ pub struct PyLaserRun {
     closure_attempts: usize,
     #[pyo3(get)]
     closures_rejected: usize,
+    #[pyo3(get)]
+    walls: Py<PyArrayDyn<f64>>,
+    #[pyo3(get)]
+    wall_factors: usize,
     /// Rejected closures by reason, in [`REJECTION_REASONS`]' order.
     rejections: [usize; 5],
     /// Scans, key scans and accepted closures (for the repr).
@@ -111,6 +116,12 @@ impl PyLaserRun {
             closure_attempts: out.closure_attempts,
             closures_rejected: out.closures_rejected,
             rejections: out.rejections,
+            walls: read_only(shaped(
+                py,
+                out.walls.iter().flatten().copied().collect(),
+                &[out.walls.len(), 4],
+            )?)?,
+            wall_factors: out.wall_factors,
         })
     }
 }

@@ -106,8 +106,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         "--variants",
         laser.DEFAULT_VARIANTS,
         laser.VARIANT_PARTS,
-        "comma-separated: laser (the default), scan-matching, or wall SLAM's variants with "
-        "parts joined by +",
+        "comma-separated: laser (the default), laser-walls, scan-matching, or wall SLAM's "
+        "variants with parts joined by +",
     )
     _common(la, "0")
     m = kinds.add_parser("mrclam", help="MR.CLAM robots through planar EKF-SLAM")

@@ -32,7 +32,8 @@ def add_laser_command(kinds: argparse._SubParsersAction) -> None:  # type: ignor
         "--variant",
         choices=tuple(VARIANTS),
         default="loops",
-        help="loops (the default), scan-matching (no closures) or odometry",
+        help="loops (the default), walls (loops with wall landmarks), scan-matching (no closures) "
+        "or odometry",
     )
     w.add_argument(
         "--config",

@@ -38,7 +38,8 @@ def laser_map_figure(
 ) -> Figure:
     """One panel: ``cloud`` (scan points on the final path), the reference path in
     grey, the final estimate, the online path, and each closure kept as a segment
-    between the two scans it joins; limits from the reference, so a diverged
+    between the two scans it joins, and the wall landmarks (``walls`` variant) as
+    estimated; limits from the reference, so a diverged
     estimate cannot set them."""
     import matplotlib.pyplot as plt
 
@@ -67,6 +68,11 @@ def laser_map_figure(
         segs = [est[[a, b], :2] for a, b in result.closures]
         ax.add_collection(LineCollection(segs, colors="tab:green", linewidths=0.8))
         ax.plot([], [], color="tab:green", lw=0.8, label=f"loop closures ({len(segs)})")
+    if len(result.walls):
+        walls = list(result.walls.reshape(-1, 2, 2))
+        ax.add_collection(LineCollection(walls, colors="tab:orange", linewidths=1.5))
+        label = f"wall landmarks, estimate ({len(walls)})"
+        ax.plot([], [], color="tab:orange", lw=1.5, label=label)
     (x0, x1), (y0, y1) = reference_limits(ref)
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)

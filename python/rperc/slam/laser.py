@@ -13,12 +13,16 @@ the ``laser`` crate's (:func:`rperc._rperc.laser_run`):
   visit nearby (a coarse-to-fine correlative search, then ICP), verified, and added
   to a sparse pose graph only when the next attempt agrees with it; closures that
   disagree with the optimised graph are removed;
+- in the ``walls`` variant, each key scan's walls (split-and-merge, seed 000 section
+  2.1) are paired with the walls mapped so far; a wall seen again after ten metres
+  of path becomes a landmark of the graph, tying the key scans that saw it (along a
+  corridor, too, where no closure is tried);
 - every scan's final pose is its key scan's optimum moved by the front end's motion
   since, with the marginal covariance of the graph.
 
 >>> from rperc.slam.laser import VARIANTS
 >>> sorted(VARIANTS)
-['loops', 'odometry', 'scan-matching']
+['loops', 'odometry', 'scan-matching', 'walls']
 """
 
 from __future__ import annotations
@@ -51,10 +55,12 @@ _LOOPS = LaserConfig(
     motion=Unicycle(speed_variance=SPEED_SIGMA**2, turn_rate_variance=TURN_SIGMA**2)
 )
 
-#: The pipelines ``run_laser`` offers, as their settings: the full one, scan matching
-#: without loop closures, and the simulated odometry alone (the baseline).
+#: The pipelines ``run_laser`` offers, as their settings: the full one, the full one
+#: with wall landmarks, scan matching without loop closures, and the simulated
+#: odometry alone (the baseline).
 VARIANTS: dict[str, LaserConfig] = {
     "loops": _LOOPS,
+    "walls": _LOOPS.replace(walls=_LOOPS.walls.replace(enabled=True)),
     "scan-matching": _LOOPS.replace(loops=_LOOPS.loops.replace(enabled=False)),
     # ICP refuses every match when it needs more pairs than any scan has.
     "odometry": _LOOPS.replace(
@@ -118,7 +124,8 @@ def run_config(
 class LaserResult:
     """One run over a log: every scan's final pose ``(S, 3)`` and covariance ``(S, 3,
     3)``, the online (causal) path, the reference, the scans' timestamps, the loop
-    closures kept (pairs of scan indices), the scores and the timings."""
+    closures kept (pairs of scan indices), the wall landmarks ``(W, 4)`` (world
+    segments ``x0, y0, x1, y1``), the scores and the timings."""
 
     log: str
     variant: str
@@ -130,6 +137,7 @@ class LaserResult:
     reference: np.ndarray
     closures: np.ndarray
     matched: np.ndarray
+    walls: np.ndarray
     metrics: dict[str, float] = field(default_factory=dict)
     counts: dict[str, int] = field(default_factory=dict)
     seconds: dict[str, float] = field(default_factory=dict)
@@ -244,6 +252,8 @@ def run_laser(
         "loop_closures_rejected": out.closures_rejected,
         "loop_closure_attempts": out.closure_attempts,
         **{f"loop_closures_rejected_{why}": n for why, n in rejected},
+        "wall_landmarks": len(out.walls),
+        "wall_sightings": out.wall_factors,
     }
     return LaserResult(
         log=Path(log.path).name,
@@ -256,6 +266,7 @@ def run_laser(
         reference=ref,
         closures=out.closures,
         matched=out.matched,
+        walls=out.walls,
         metrics=_scores(out, ref),
         counts=counts,
         seconds={"read": read_seconds, "prepare": prepare_s, "slam": slam_s},

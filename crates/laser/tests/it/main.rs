@@ -6,3 +6,4 @@ mod graph;
 mod icp;
 mod pipeline;
 mod sparse;
+mod walls;

@@ -7,7 +7,8 @@ included).
 Methods:
 
 - ``laser``: the laser pipeline (``rperc slam laser``: scan matching, loop closures,
-  pose graph); ``scan-matching``: its front end alone, without closures;
+  pose graph); ``laser-walls``: the same with wall landmarks in the graph;
+  ``scan-matching``: its front end alone, without closures;
 
 and wall SLAM's variants, combinable with ``+`` (``anchor+freeze``):
 
@@ -38,7 +39,11 @@ if TYPE_CHECKING:
 
 VARIANT_PARTS = ("plain", "anchor", "freeze", "smoothed", "odometry")
 #: The laser pipeline's methods (each stands alone) and their ``run_laser`` variant.
-LASER_METHODS = {"laser": "loops", "scan-matching": "scan-matching"}
+LASER_METHODS = {
+    "laser": "loops",
+    "laser-walls": "walls",
+    "scan-matching": "scan-matching",
+}
 DEFAULT_VARIANTS = ("laser",)
 SETTINGS = ("straightness", "association")
 #: What the table and the figure show first.

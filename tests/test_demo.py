@@ -496,3 +496,33 @@ def test_a_worker_that_dies_is_a_one_line_error_not_a_hang(tmp_path):
     (line,) = [x for x in done.stderr.splitlines() if x.startswith("rperc: error:")]
     assert "demo worker process ended abruptly" in line and "--jobs 1" in line
     assert done.stdout == ""  # no demo finished
+
+
+def test_laser_slam_scores_are_recomputed_from_the_truth(demo_all):
+    """The laser-slam line's two ATEs are the simulated truth's (ATE written out
+    here), its wall count is the walls run's, and the mapped walls' ends lie within
+    5 cm of the line of the simulator's nearest wall."""
+    from rperc.datasets.carmen import load_carmen
+    from rperc.scansim import loop_walls, write_loop_log
+    from rperc.slam.laser import run_laser
+
+    line = demo_all["summary"]["laser-slam"]
+    ates = grab(r"ATE " + NUMBER + " / " + NUMBER + " m", line)
+    (walls,) = grab(NUMBER + r" walls", line)
+    log = load_carmen(write_loop_log(demo_all["out"] / "laser_check.log", seed=0))
+    truth = np.asarray(log.scans.pose)
+    for variant, printed in zip(("loops", "walls"), ates, strict=True):
+        r = run_laser(log, seed=0, variant=variant)
+        d = r.pose[:, :2] - truth[:, :2]
+        assert printed == pytest.approx(math.sqrt(np.mean(np.sum(d**2, axis=1))), abs=6e-4)
+    assert walls == len(r.walls) > 0
+    sides = loop_walls().reshape(-1, 4)
+    for x0, y0, x1, y1 in r.walls:
+        mid = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+        best = min(sides, key=lambda w: shapely.LineString(w.reshape(2, 2)).distance(
+            shapely.Point(mid)))  # fmt: skip
+        (ax, ay), (bx, by) = best.reshape(2, 2)
+        for px, py in ((x0, y0), (x1, y1)):
+            off = abs((px - ax) * (by - ay) - (py - ay) * (bx - ax)) / math.hypot(bx - ax, by - ay)
+            assert off < 0.05
+    assert (demo_all["out"] / "laser_slam.png").stat().st_size > 10_000

@@ -74,6 +74,7 @@ class Demo:
 def registry() -> tuple[Demo, ...]:
     """Every demo, in the order ``demo all`` runs them. (Built on first use, so that
     ``rperc --help`` does not import every command module and its plotting.)"""
+    from rperc.cli.laserslam import demo_laser_slam
     from rperc.cli.lines import demo_lines, demo_walls
     from rperc.cli.navigation import demo_visual_memory
     from rperc.cli.pattern import demo_pattern
@@ -103,6 +104,12 @@ def registry() -> tuple[Demo, ...]:
             "wall-landmark SLAM on a simulated corridor loop: Fig. 7's maps side by side",
             demo_wall_slam,
             deprecated=("wall_slam",),
+            seconds=2.0,
+        ),
+        Demo(
+            "laser-slam",
+            "laser SLAM on a simulated corridor loop, with and without wall landmarks",
+            demo_laser_slam,
             seconds=2.0,
         ),
         Demo(

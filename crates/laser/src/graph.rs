@@ -229,6 +229,32 @@ impl PoseGraph {
         ))
     }
 
+    /// Removes the wall sighting of largest squared error (by its own information)
+    /// when that is above `gate` and its wall keeps another sighting: a sighting
+    /// paired with the wrong wall is the one left with the largest error once the
+    /// graph has settled (one at a time, as for closures: a wrong one bends the
+    /// graph and raises its neighbours' errors too). Returns whether one was removed.
+    pub fn prune_wall_factor(&mut self, gate: f64) -> Result<bool> {
+        let mut seen = vec![0usize; self.walls.len()];
+        for f in &self.wall_factors {
+            seen[f.wall] += 1;
+        }
+        let mut worst: Option<(usize, f64)> = None;
+        for k in 0..self.wall_factors.len() {
+            let chi2 = self.wall_chi2(k)?.0;
+            let shared = seen[self.wall_factors[k].wall] >= 2;
+            if shared && chi2 > gate && worst.is_none_or(|(_, c)| chi2 > c) {
+                worst = Some((k, chi2));
+            }
+        }
+        let Some((k, _)) = worst else {
+            return Ok(false);
+        };
+        self.wall_factors.remove(k);
+        self.version += 1;
+        Ok(true)
+    }
+
     /// Removes edge `k` and returns it.
     pub fn remove_edge(&mut self, k: usize) -> Edge {
         self.version += 1;

@@ -188,7 +188,13 @@ pub struct LaserRun {
     pub walls: Vec<[f64; 4]>,
     /// Wall sightings in the final graph.
     pub wall_factors: usize,
+    /// Wall sightings removed for disagreeing with the optimised graph.
+    pub wall_factors_pruned: usize,
 }
+
+/// Wall sightings pruned at most after an optimisation (each removal is followed by
+/// another optimisation).
+const PRUNE_ROUNDS: usize = 5;
 
 /// A key scan of the graph.
 struct Key {
@@ -541,6 +547,17 @@ impl Run<'_> {
         )?;
         self.out.closures_rejected += removed.len();
         self.out.rejections[4] += removed.len();
+        if self.cfg.walls.enabled {
+            let gate = rperc_core::chi2_gate(2, cfg.walls.gate)?;
+            for _ in 0..PRUNE_ROUNDS {
+                if !self.graph.prune_wall_factor(gate)? {
+                    break;
+                }
+                self.out.wall_factors_pruned += 1;
+                self.graph
+                    .optimize(cfg.graph_iterations, cfg.graph_tolerance)?;
+            }
+        }
         Ok(())
     }
 

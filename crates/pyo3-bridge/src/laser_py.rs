@@ -18,7 +18,8 @@ fn poses(v: &[rperc_core::Pose2]) -> Vec<f64> {
 /// the key scans, the accepted loop closures `(K, 2)` (key scan pairs, as scan
 /// indices) with their chi-square in the final graph, the closures rejected by
 /// reason, and the wall landmarks `(W, 4)` (world segments `x0, y0, x1, y1`) with
-/// the number of wall sightings in the graph. Its arrays are read-only.
+/// the number of wall sightings in the graph and of those pruned for disagreeing
+/// with it. Its arrays are read-only.
 #[pyclass(name = "LaserRun", module = "rperc._rperc", frozen)]
 pub struct PyLaserRun {
     #[pyo3(get)]
@@ -47,6 +48,8 @@ pub struct PyLaserRun {
     walls: Py<PyArrayDyn<f64>>,
     #[pyo3(get)]
     wall_factors: usize,
+    #[pyo3(get)]
+    wall_factors_pruned: usize,
     /// Rejected closures by reason, in [`REJECTION_REASONS`]' order.
     rejections: [usize; 5],
     /// Scans, key scans and accepted closures (for the repr).
@@ -122,6 +125,7 @@ impl PyLaserRun {
                 &[out.walls.len(), 4],
             )?)?,
             wall_factors: out.wall_factors,
+            wall_factors_pruned: out.wall_factors_pruned,
         })
     }
 }

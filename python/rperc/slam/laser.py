@@ -254,6 +254,7 @@ def run_laser(
         **{f"loop_closures_rejected_{why}": n for why, n in rejected},
         "wall_landmarks": len(out.walls),
         "wall_sightings": out.wall_factors,
+        "wall_sightings_pruned": out.wall_factors_pruned,
     }
     return LaserResult(
         log=Path(log.path).name,

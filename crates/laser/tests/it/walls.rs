@@ -254,6 +254,30 @@ fn one_wrong_wall_pairing_does_not_wreck_the_map() {
     assert!(kept < 1e-3, "the robust kernel keeps the map: {kept}");
 }
 
+/// Pruning removes the wrong pairing (and only it) from a plain graph, and the map
+/// is then the clean one.
+#[test]
+fn pruning_removes_the_wrong_wall_pairing() {
+    let c = corridor(17);
+    let mut clean = graph(&c, &c.factors);
+    clean.optimize(30, 1e-9).unwrap();
+    let mut wrong = c.factors[6];
+    wrong.z.x -= 1.0;
+    wrong.mid.y -= 1.0;
+    let mut g = graph(&c, &c.factors);
+    g.add_wall_factor(wrong).unwrap();
+    g.optimize(30, 1e-9).unwrap();
+    let gate = rperc_core::chi2_gate(2, 0.999).unwrap();
+    assert!(g.prune_wall_factor(gate).unwrap());
+    assert!(!g.wall_factors.contains(&wrong));
+    assert_eq!(g.wall_factors.len(), c.factors.len());
+    g.optimize(30, 1e-9).unwrap();
+    assert!(!g.prune_wall_factor(gate).unwrap());
+    for (a, b) in g.poses.iter().zip(&clean.poses) {
+        assert!((a.to_vector() - b.to_vector()).norm() < 1e-6);
+    }
+}
+
 const BEAMS: usize = 181;
 
 /// Distance from `p` to segment `s`.

@@ -10,7 +10,7 @@ const BEAMS: usize = 181;
 
 /// Two laps of a circle inside the room: scans every 0.3 m, unicycle controls that
 /// drive it exactly (the odometry noise is the config's; the controls are exact).
-fn laps() -> (Vec<f64>, Vec<usize>, Vec<[f64; 3]>, Vec<f64>) {
+pub(crate) fn laps() -> (Vec<f64>, Vec<usize>, Vec<[f64; 3]>, Vec<f64>) {
     let walls = cluttered_room(12.0, 8.0);
     let angles: Vec<f64> = (0..BEAMS)
         .map(|i| (-90.0 + i as f64).to_radians())
@@ -30,7 +30,7 @@ fn laps() -> (Vec<f64>, Vec<usize>, Vec<[f64; 3]>, Vec<f64>) {
     (ranges, vec![BEAMS; steps], controls, times)
 }
 
-fn log<'a>(
+pub(crate) fn log<'a>(
     ranges: &'a [f64],
     counts: &'a [usize],
     geometry: &'a (Vec<f64>, Vec<f64>, Vec<f64>),
@@ -45,7 +45,7 @@ fn log<'a>(
     }
 }
 
-fn geometry(n: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+pub(crate) fn geometry(n: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     (
         vec![-90f64.to_radians(); n],
         vec![1f64.to_radians(); n],
@@ -53,7 +53,7 @@ fn geometry(n: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     )
 }
 
-fn config() -> LaserConfig {
+pub(crate) fn config() -> LaserConfig {
     LaserConfig {
         initial_pose: [6.0, 2.2, 0.0],
         ..Default::default()

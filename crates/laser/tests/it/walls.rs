@@ -3,9 +3,11 @@
 //! the robust kernel, and the walls a simulated run maps lying on the true walls.
 
 use laser::graph::{Edge, PoseGraph, linearise};
-use laser::sim::{Segment, cluttered_room, ray_cast};
+use laser::sim::{Segment, cluttered_room};
 use laser::wall_factor::{WallFactor, linearise_wall};
-use laser::{LaserConfig, ScanLog, run};
+use laser::{LaserConfig, run};
+
+use crate::pipeline::{config, geometry, laps, log};
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Point2, Vector2, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -278,8 +280,6 @@ fn pruning_removes_the_wrong_wall_pairing() {
     }
 }
 
-const BEAMS: usize = 181;
-
 /// Distance from `p` to segment `s`.
 fn to_segment(p: &Point2<f64>, s: &Segment) -> f64 {
     let (a, b, p) = (s.a, s.b, p.coords);
@@ -290,41 +290,17 @@ fn to_segment(p: &Point2<f64>, s: &Segment) -> f64 {
 /// Two laps inside the cluttered room: the walls the run maps lie on the true walls.
 #[test]
 fn a_simulated_run_maps_walls_on_the_true_walls() {
+    // The double loop of the pipeline's own test, in the same room.
     let room = cluttered_room(12.0, 8.0);
-    let angles: Vec<f64> = (0..BEAMS)
-        .map(|i| (-90.0 + i as f64).to_radians())
-        .collect();
-    let (r, v, steps) = (1.8, 0.3, 76);
-    let w = v / r;
-    let (mut ranges, mut controls, mut times) = (Vec::new(), Vec::new(), Vec::new());
-    for k in 0..steps {
-        let a = w * k as f64;
-        let pose = Pose2::new(6.0 + r * a.sin(), 4.0 - r * a.cos(), a);
-        ranges.extend(ray_cast(&room, &pose, &angles, 30.0));
-        controls.push([k as f64, v, w]);
-        times.push(k as f64);
-    }
-    let counts = vec![BEAMS; steps];
-    let (amin, ainc, rmax) = (
-        vec![-90f64.to_radians(); steps],
-        vec![1f64.to_radians(); steps],
-        vec![30.0; steps],
-    );
-    let log = ScanLog {
-        ranges: &ranges,
-        width: BEAMS,
-        counts: &counts,
-        angle_min: &amin,
-        angle_increment: &ainc,
-        max_range: &rmax,
-    };
+    let (ranges, counts, controls, times) = laps();
+    let g = geometry(counts.len());
+    let log = log(&ranges, &counts, &g);
     let cfg = LaserConfig {
-        initial_pose: [6.0, 2.2, 0.0],
         walls: laser::WallConfig {
             enabled: true,
             ..Default::default()
         },
-        ..Default::default()
+        ..config()
     };
     let out = run(&log, &controls, &times, &cfg).unwrap();
     assert!(out.walls.len() >= 4, "{} walls", out.walls.len());

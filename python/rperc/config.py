@@ -1258,7 +1258,7 @@ class WallConfig(Config):
             offset, m, (> 0) ...
         drift_angle: ... and this angle, rad (> 0), ...
         max_gap: ... and when the gap between the seen segment and the wall's extent along
-            the line is at most this, m (>= 0).
+            the line is at most this, m (0 to 5, the lookup grid's cell).
         ambiguity: A sighting within the gate of two walls is left out unless the nearer one
             is nearer by this much squared Mahalanobis distance (>= 0; 0 keeps the nearest):
             in clutter a sighting can fit a wall and the cupboard in front of it.

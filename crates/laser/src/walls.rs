@@ -63,7 +63,7 @@ pub struct WallConfig {
     /// ... and this angle, rad (> 0), ...
     pub drift_angle: f64,
     /// ... and when the gap between the seen segment and the wall's extent along the
-    /// line is at most this, m (>= 0).
+    /// line is at most this, m (0 to 5, the lookup grid's cell).
     pub max_gap: f64,
     /// A sighting within the gate of two walls is left out unless the nearer one is
     /// nearer by this much squared Mahalanobis distance (>= 0; 0 keeps the nearest):
@@ -113,10 +113,12 @@ impl WallConfig {
             &[
                 ("sigma_range", self.sigma_range),
                 ("straightness", self.straightness),
-                ("max_gap", self.max_gap),
                 ("ambiguity", self.ambiguity),
             ],
         )?;
+        // The grid lookup reads the cells next to the seen segment's: a wall farther
+        // than a cell from it is never found.
+        rperc_core::ensure_in_range("max_gap", self.max_gap, 0.0, CELL)?;
         rperc_core::chi2_gate(2, self.gate)?;
         Ok(())
     }
@@ -326,7 +328,9 @@ impl WallMap {
         let Some(information) = (s.covariance + drift).try_inverse() else {
             return Pairing::Ambiguous;
         };
-        let mut near: Vec<usize> = [cell(&a), cell(&b)]
+        // Every cell along the seen segment and its neighbours: a wall may lie
+        // within `max_gap` of any part of it, not only of its ends.
+        let mut near: Vec<usize> = cells_of(&a, &b)
             .iter()
             .flat_map(|&(x, y)| (-1..=1).flat_map(move |i| (-1..=1).map(move |j| (x + i, y + j))))
             .filter_map(|c| self.cells.get(&c))
@@ -459,5 +463,63 @@ impl WallMap {
         });
         self.register(self.walls.len() - 1, graph);
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Matrix3;
+
+    fn sighting(pose: &Pose2, from: f64, to: f64) -> Sighting {
+        // The wall y = 3 seen from `pose` (heading 0) between x = from and x = to.
+        let rho = 3.0 - pose.y;
+        let ends = [
+            Point2::new(from - pose.x, rho),
+            Point2::new(to - pose.x, rho),
+        ];
+        let z = Vector2::new(rho, std::f64::consts::FRAC_PI_2);
+        let r = Matrix2::new(1e-4, 0.0, 0.0, 1e-4);
+        Sighting {
+            z,
+            ends,
+            covariance: innovation_covariance(&z, &Sighting::middle(&ends), &r),
+        }
+    }
+
+    /// A long sighting pairs with a short wall in its middle, far from its ends,
+    /// and the wall then enters the graph with both sightings.
+    #[test]
+    fn a_wall_inside_a_long_sighting_is_found() {
+        let cfg = WallConfig {
+            enabled: true,
+            ..WallConfig::default()
+        };
+        let start = Pose2::new(10.0, 0.0, 0.0);
+        let mut graph = PoseGraph::new(start, Matrix3::identity() * 1e8);
+        let mut map = WallMap::default();
+        map.observe(0, 0.0, &[sighting(&start, 9.0, 11.0)], &mut graph, &cfg)
+            .unwrap();
+        let later = Pose2::new(10.0, 0.5, 0.0);
+        graph.add_pose(later);
+        let long = sighting(&later, -10.0, 30.0);
+        map.observe(1, 20.0, &[long], &mut graph, &cfg).unwrap();
+        assert_eq!(map.walls.len(), 1, "paired, not a new wall");
+        assert_eq!((graph.walls.len(), graph.wall_factors.len()), (1, 2));
+        // Along (-sin alpha, cos alpha) = (-1, 0): from x = 30 to x = -10.
+        let (lo, hi) = map.walls[0].extent;
+        assert!(
+            (lo + 30.0).abs() < 1e-9 && (hi - 10.0).abs() < 1e-9,
+            "{lo} {hi}"
+        );
+    }
+
+    #[test]
+    fn a_gap_beyond_the_grid_is_refused() {
+        let cfg = WallConfig {
+            max_gap: CELL + 1.0,
+            ..WallConfig::default()
+        };
+        assert!(cfg.validate().is_err());
     }
 }

@@ -195,6 +195,10 @@ def test_a_settings_grid_reaches_the_pipeline(loop_log: Path) -> None:
         ({"local_map": {"search_starts": 0}}, ValueError, "search_starts"),
         ({"local_map": {"search_reach": -0.1}}, ValueError, "search_reach"),
         ({"local_map": {"search_step": float("inf")}}, ValueError, "search_step"),
+        ({"walls": {"straightness": float("nan")}}, ValueError, "straightness"),
+        ({"walls": {"max_gap": 6.0}}, ValueError, "max_gap"),
+        ({"walls": {"gate": 1.0}}, ValueError, "gate"),
+        ({"walls": {"every_path": 0.0}}, ValueError, "every_path"),
     ],
 )
 def test_bad_settings_name_the_field(loop_log: Path, config: dict, error: type, match: str) -> None:

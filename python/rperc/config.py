@@ -1259,9 +1259,6 @@ class WallConfig(Config):
         drift_angle: ... and this angle, rad (> 0), ...
         max_gap: ... and when the gap between the seen segment and the wall's extent along
             the line is at most this, m (0 to 5, the lookup grid's cell).
-        ambiguity: A sighting within the gate of two walls is left out unless the nearer one
-            is nearer by this much squared Mahalanobis distance (>= 0; 0 keeps the nearest):
-            in clutter a sighting can fit a wall and the cupboard in front of it.
         every_path: A sighting becomes a factor after this much path since the wall's last
             one, m (> 0).
         robust: The factors' robust kernel `phi` (dynamic covariance scaling, > 0): a wrong
@@ -1278,7 +1275,6 @@ class WallConfig(Config):
     drift_offset: float = 0.1
     drift_angle: float = 0.03
     max_gap: float = 1.0
-    ambiguity: float = 0.0
     every_path: float = 10.0
     robust: float = 5.0
 
@@ -1296,7 +1292,6 @@ class WallConfigOverrides(TypedDict, total=False):
     drift_offset: float
     drift_angle: float
     max_gap: float
-    ambiguity: float
     every_path: float
     robust: float
 

@@ -65,10 +65,6 @@ pub struct WallConfig {
     /// ... and when the gap between the seen segment and the wall's extent along the
     /// line is at most this, m (0 to 5, the lookup grid's cell).
     pub max_gap: f64,
-    /// A sighting within the gate of two walls is left out unless the nearer one is
-    /// nearer by this much squared Mahalanobis distance (>= 0; 0 keeps the nearest):
-    /// in clutter a sighting can fit a wall and the cupboard in front of it.
-    pub ambiguity: f64,
     /// A sighting becomes a factor after this much path since the wall's last one, m
     /// (> 0).
     pub every_path: f64,
@@ -90,7 +86,6 @@ impl Default for WallConfig {
             drift_offset: 0.1,
             drift_angle: 0.03,
             max_gap: 1.0,
-            ambiguity: 0.0,
             every_path: 10.0,
             robust: 5.0,
         }
@@ -113,13 +108,17 @@ impl WallConfig {
             &[
                 ("sigma_range", self.sigma_range),
                 ("straightness", self.straightness),
-                ("ambiguity", self.ambiguity),
             ],
         )?;
         // The grid lookup reads the cells next to the seen segment's: a wall farther
         // than a cell from it is never found.
         rperc_core::ensure_in_range("max_gap", self.max_gap, 0.0, CELL)?;
-        rperc_core::chi2_gate(2, self.gate)?;
+        if !(self.gate > 0.0 && self.gate < 1.0) {
+            return Err(LaserError::invalid(
+                "gate",
+                format!("must be in (0, 1), got {}", self.gate),
+            ));
+        }
         Ok(())
     }
 
@@ -240,15 +239,6 @@ pub struct WallMap {
     cells: HashMap<(i64, i64), Vec<usize>>,
     /// Factors added to the graph.
     pub factors: usize,
-    /// Sightings left out as ambiguous.
-    pub ambiguous: usize,
-}
-
-/// What a sighting pairs with.
-enum Pairing {
-    Wall(usize),
-    New,
-    Ambiguous,
 }
 
 /// Coordinate along the line `(rho, alpha)` of world point `p`.
@@ -309,25 +299,21 @@ impl WallMap {
         }
     }
 
-    /// The wall that sighting `s` from `pose` pairs with: inside the gate, within
-    /// `max_gap` of its extent, the nearest by Mahalanobis distance and nearer than
-    /// any other by `ambiguity`.
+    /// The wall that sighting `s` from `pose` pairs with: inside the gate (squared
+    /// Mahalanobis distance by `information`, the sighting's with the drift
+    /// allowance), within `max_gap` of its extent, the nearest.
     fn pair(
         &self,
         s: &Sighting,
         pose: &Pose2,
         graph: &PoseGraph,
-        cfg: &WallConfig,
-        gate: f64,
-    ) -> Pairing {
+        (information, gate): (&Matrix2<f64>, f64),
+        max_gap: f64,
+    ) -> Option<usize> {
         let (a, b) = (
             pose.transform_point(&s.ends[0]),
             pose.transform_point(&s.ends[1]),
         );
-        let drift = Matrix2::new(cfg.drift_offset.powi(2), 0.0, 0.0, cfg.drift_angle.powi(2));
-        let Some(information) = (s.covariance + drift).try_inverse() else {
-            return Pairing::Ambiguous;
-        };
         // Every cell along the seen segment and its neighbours: a wall may lie
         // within `max_gap` of any part of it, not only of its ends.
         let mut near: Vec<usize> = cells_of(&a, &b)
@@ -339,8 +325,7 @@ impl WallMap {
             .collect();
         near.sort_unstable();
         near.dedup();
-        let mut inside: Vec<(usize, f64)> = near
-            .into_iter()
+        near.into_iter()
             .filter_map(|k| {
                 let line = self.line(graph, k);
                 let (e, _, _) = linearise_wall(pose, &line, &s.z, &s.mid())?;
@@ -348,16 +333,10 @@ impl WallMap {
                 let (ta, tb) = (along(&line, &a), along(&line, &b));
                 let (lo, hi) = self.walls[k].extent;
                 let gap = (ta.min(tb) - hi).max(lo - ta.max(tb));
-                (d2 <= gate && gap <= cfg.max_gap).then_some((k, d2))
+                (d2 <= gate && gap <= max_gap).then_some((k, d2))
             })
-            .collect();
-        inside.sort_by(|x, y| x.1.total_cmp(&y.1));
-        match inside.as_slice() {
-            [] => Pairing::New,
-            [(k, _)] => Pairing::Wall(*k),
-            [(k, best), (_, next), ..] if next - best >= cfg.ambiguity => Pairing::Wall(*k),
-            _ => Pairing::Ambiguous,
-        }
+            .min_by(|x, y| x.1.total_cmp(&y.1))
+            .map(|(k, _)| k)
     }
 
     /// Pairs the sightings of the key scan at graph node `node` (at `path` m) with
@@ -372,9 +351,12 @@ impl WallMap {
     ) -> Result<()> {
         let gate = rperc_core::chi2_gate(2, cfg.gate)?;
         let pose = graph.poses[node];
+        let drift = Matrix2::new(cfg.drift_offset.powi(2), 0.0, 0.0, cfg.drift_angle.powi(2));
         for s in sightings {
-            let Some(information) = s.covariance.try_inverse() else {
-                continue; // a degenerate fit: no information to give
+            // A degenerate or non-finite fit has no information to give.
+            let finite = s.covariance.iter().all(|v| v.is_finite());
+            let Some(information) = s.covariance.try_inverse().filter(|_| finite) else {
+                continue;
             };
             let factor = WallFactor {
                 pose: node,
@@ -384,10 +366,12 @@ impl WallMap {
                 information,
                 robust: Some(cfg.robust),
             };
-            match self.pair(s, &pose, graph, cfg, gate) {
-                Pairing::Wall(k) => self.revisit(k, s, &pose, path, factor, graph, cfg)?,
-                Pairing::New => self.add(s, &pose, path, factor, graph)?,
-                Pairing::Ambiguous => self.ambiguous += 1,
+            let Some(gated) = (s.covariance + drift).try_inverse() else {
+                continue;
+            };
+            match self.pair(s, &pose, graph, (&gated, gate), cfg.max_gap) {
+                Some(k) => self.revisit(k, s, &pose, path, factor, graph, cfg)?,
+                None => self.add(s, &pose, path, factor, graph)?,
             }
         }
         Ok(())
@@ -416,10 +400,10 @@ impl WallMap {
                 Some(n) => n,
                 None => {
                     let n = graph.add_wall(w.line)?;
-                    let first = w
-                        .first
-                        .take()
-                        .expect("a wall outside the graph keeps its first sighting");
+                    // A wall outside the graph keeps its first sighting until now.
+                    let first = w.first.take().ok_or_else(|| {
+                        LaserError::Numerical(format!("wall {k} lost its first sighting"))
+                    })?;
                     graph.add_wall_factor(WallFactor { wall: n, ..first })?;
                     self.factors += 1;
                     w.node = Some(n);

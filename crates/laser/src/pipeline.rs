@@ -557,6 +557,8 @@ impl Run<'_> {
                 self.graph
                     .optimize(cfg.graph_iterations, cfg.graph_tolerance)?;
             }
+            // The walls' lines, extents and cells follow the optimised poses.
+            self.walls.refresh(&self.graph);
         }
         Ok(())
     }

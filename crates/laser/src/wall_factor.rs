@@ -99,18 +99,26 @@ mod tests {
 
     proptest! {
         /// Central differences confirm both Jacobians, wherever the wall is seen from
-        /// (either side of it, near or far from the origin).
+        /// (either side of it, near or far from the origin), with the sighting written
+        /// in either form of its line: `(-rho, alpha + pi)` takes the branch that
+        /// compares with the predicted line's other form.
         #[test]
         fn jacobians_match_finite_differences(
             x in -20.0..20.0f64, y in -20.0..20.0f64, th in -3.1..3.1f64,
             rho in 0.5..30.0f64, alpha in -3.1..3.1f64,
             dz in -0.05..0.05f64, da in -0.05..0.05f64, t in -3.0..3.0f64,
+            flip in any::<bool>(),
         ) {
             let pose = Pose2::new(x, y, th);
             let wall = Vector2::new(rho, alpha);
             let seen = observe_wall(&pose, &wall).unwrap().wall;
             prop_assume!(seen.x > 0.2);
             let z = Vector2::new(seen.x + dz, wrap_angle(seen.y + da));
+            let z = if flip {
+                Vector2::new(-z.x, wrap_angle(z.y + std::f64::consts::PI))
+            } else {
+                z
+            };
             let mid = Point2::new(z.x * z.y.cos() - t * z.y.sin(), z.x * z.y.sin() + t * z.y.cos());
             let (_, jp, jw) = linearise_wall(&pose, &wall, &z, &mid).unwrap();
             let h = 1e-6;
@@ -155,12 +163,28 @@ mod tests {
         assert!(e.norm() < 1e-12, "{e}");
     }
 
-    /// At the foot of the perpendicular the innovation's covariance is the line's.
+    /// At the foot of the perpendicular the innovation's covariance is the line's;
+    /// `t` metres along the line from it, the offset there moves by `d rho - t d
+    /// alpha` (the point `rho n + t n_perp` of the seen line, measured along the
+    /// predicted normal), which the closed form below spells out entry by entry.
     #[test]
-    fn innovation_covariance_at_the_foot_is_the_lines() {
+    fn innovation_covariance_carries_the_angle_along_the_line() {
         let z = Vector2::new(3.0, 0.4);
-        let foot = Point2::new(3.0 * 0.4f64.cos(), 3.0 * 0.4f64.sin());
+        let (s, c) = 0.4f64.sin_cos();
         let r = Matrix2::new(1e-4, 2e-5, 2e-5, 3e-4);
-        assert!((innovation_covariance(&z, &foot, &r) - r).norm() < 1e-15);
+        for t in [0.0, 2.5, -7.0] {
+            let mid = Point2::new(3.0 * c - t * s, 3.0 * s + t * c);
+            let expected = Matrix2::new(
+                r[(0, 0)] - 2.0 * t * r[(0, 1)] + t * t * r[(1, 1)],
+                r[(0, 1)] - t * r[(1, 1)],
+                r[(0, 1)] - t * r[(1, 1)],
+                r[(1, 1)],
+            );
+            let got = innovation_covariance(&z, &mid, &r);
+            assert!(
+                (got - expected).norm() < 1e-15,
+                "t = {t}: {got} vs {expected}"
+            );
+        }
     }
 }

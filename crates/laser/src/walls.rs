@@ -119,7 +119,16 @@ impl WallConfig {
                 format!("must be in (0, 1), got {}", self.gate),
             ));
         }
-        Ok(())
+        // The extraction's own limits (a `sigma_range` whose square overflows), here
+        // rather than at the first key scan.
+        self.extraction(0.0, self.max_range)
+            .validate()
+            .map_err(|e| match e {
+                linesimp::LineSimpError::InvalidParameter { name, reason } => {
+                    LaserError::invalid(name, reason)
+                }
+                other => LaserError::Numerical(other.to_string()),
+            })
     }
 
     fn extraction(&self, min_range: f64, max_range: f64) -> ScanParams {
@@ -217,10 +226,12 @@ impl Extractor {
 /// A wall of the map.
 #[derive(Debug, Clone)]
 struct Mapped {
-    /// World `(rho, alpha)` while the wall is not in the graph.
-    line: Vector2<f64>,
-    /// Its seen extent along the line (world, along `(-sin alpha, cos alpha)`).
+    /// Its seen extent along the line (world, along `(-sin alpha, cos alpha)`), from
+    /// the graph's poses of the key scans that saw it.
     extent: (f64, f64),
+    /// Each paired sighting's key scan (graph node) and seen ends, laser frame: the
+    /// extent is recomputed from them whenever the graph moves those poses.
+    seen: Vec<(usize, [Point2<f64>; 2])>,
     /// Its index among the graph's walls, once it has two factors.
     node: Option<usize>,
     /// Its first factor, kept until the second one.
@@ -275,27 +286,64 @@ impl WallMap {
         self.walls
             .iter()
             .filter_map(|w| {
-                let line = graph.walls[w.node?];
+                let line = *graph.walls.get(w.node?)?;
                 let (a, b) = (at(&line, w.extent.0), at(&line, w.extent.1));
                 Some([a.x, a.y, b.x, b.y])
             })
             .collect()
     }
 
-    fn line(&self, graph: &PoseGraph, k: usize) -> Vector2<f64> {
-        self.walls[k]
-            .node
-            .map_or(self.walls[k].line, |n| graph.walls[n])
+    /// Wall `k`'s world line: the graph's estimate once it is in the graph, before
+    /// that its first sighting from that key scan's pose as the graph has it now (a
+    /// line fixed at the first sighting would keep the pose of that moment, from
+    /// before any closure moved it). `None` for a node outside `graph`.
+    fn line(&self, graph: &PoseGraph, k: usize) -> Option<Vector2<f64>> {
+        let w = &self.walls[k];
+        match (w.node, &w.first) {
+            (Some(n), _) => graph.walls.get(n).copied(),
+            (None, Some(f)) => wall_to_world(graph.poses.get(f.pose)?, &f.z).map(|l| l.wall),
+            (None, None) => None,
+        }
+    }
+
+    /// Wall `k`'s extent along `line` from its sightings' poses in `graph`.
+    fn extent(&self, graph: &PoseGraph, k: usize, line: &Vector2<f64>) -> (f64, f64) {
+        let mut out = (f64::INFINITY, f64::NEG_INFINITY);
+        for (node, ends) in &self.walls[k].seen {
+            let Some(pose) = graph.poses.get(*node) else {
+                continue;
+            };
+            for end in ends {
+                let t = along(line, &pose.transform_point(end));
+                out = (out.0.min(t), out.1.max(t));
+            }
+        }
+        out
     }
 
     fn register(&mut self, k: usize, graph: &PoseGraph) {
-        let line = self.line(graph, k);
+        let Some(line) = self.line(graph, k) else {
+            return;
+        };
         let (t0, t1) = self.walls[k].extent;
         for c in cells_of(&at(&line, t0), &at(&line, t1)) {
             let list = self.cells.entry(c).or_default();
             if !list.contains(&k) {
                 list.push(k);
             }
+        }
+    }
+
+    /// Recomputes every wall's extent and the lookup grid from `graph`'s poses and
+    /// walls: after an optimisation has moved them (a loop closure), the lines, the
+    /// extents and the cells they cross move with them.
+    pub fn refresh(&mut self, graph: &PoseGraph) {
+        self.cells.clear();
+        for k in 0..self.walls.len() {
+            if let Some(line) = self.line(graph, k) {
+                self.walls[k].extent = self.extent(graph, k, &line);
+            }
+            self.register(k, graph);
         }
     }
 
@@ -318,7 +366,11 @@ impl WallMap {
         // within `max_gap` of any part of it, not only of its ends.
         let mut near: Vec<usize> = cells_of(&a, &b)
             .iter()
-            .flat_map(|&(x, y)| (-1..=1).flat_map(move |i| (-1..=1).map(move |j| (x + i, y + j))))
+            .flat_map(|&(x, y)| {
+                (-1..=1).flat_map(move |i: i64| {
+                    (-1..=1).map(move |j: i64| (x.saturating_add(i), y.saturating_add(j)))
+                })
+            })
             .filter_map(|c| self.cells.get(&c))
             .flatten()
             .copied()
@@ -327,7 +379,7 @@ impl WallMap {
         near.dedup();
         near.into_iter()
             .filter_map(|k| {
-                let line = self.line(graph, k);
+                let line = self.line(graph, k)?;
                 let (e, _, _) = linearise_wall(pose, &line, &s.z, &s.mid())?;
                 let d2 = (e.transpose() * information * e)[(0, 0)];
                 let (ta, tb) = (along(&line, &a), along(&line, &b));
@@ -350,12 +402,19 @@ impl WallMap {
         cfg: &WallConfig,
     ) -> Result<()> {
         let gate = rperc_core::chi2_gate(2, cfg.gate)?;
-        let pose = graph.poses[node];
+        let pose = *graph.poses.get(node).ok_or_else(|| {
+            LaserError::dimension(format!(
+                "key scan node {node} of a graph of {} poses",
+                graph.poses.len()
+            ))
+        })?;
+        // The key pose's error relative to a wall, as an error of the seen line
+        // `(rho, alpha)`: carried to the seen segment's middle like the fit's own
+        // covariance, so that a heading error moves a far middle by its lever arm.
         let drift = Matrix2::new(cfg.drift_offset.powi(2), 0.0, 0.0, cfg.drift_angle.powi(2));
         for s in sightings {
             // A degenerate or non-finite fit has no information to give.
-            let finite = s.covariance.iter().all(|v| v.is_finite());
-            let Some(information) = s.covariance.try_inverse().filter(|_| finite) else {
+            let Some(information) = finite_information(s) else {
                 continue;
             };
             let factor = WallFactor {
@@ -366,7 +425,8 @@ impl WallMap {
                 information,
                 robust: Some(cfg.robust),
             };
-            let Some(gated) = (s.covariance + drift).try_inverse() else {
+            let allowance = innovation_covariance(&s.z, &s.mid(), &drift);
+            let Some(gated) = (s.covariance + allowance).try_inverse() else {
                 continue;
             };
             match self.pair(s, &pose, graph, (&gated, gate), cfg.max_gap) {
@@ -388,18 +448,21 @@ impl WallMap {
         graph: &mut PoseGraph,
         cfg: &WallConfig,
     ) -> Result<()> {
-        let line = self.line(graph, k);
+        let line = self
+            .line(graph, k)
+            .ok_or_else(|| LaserError::Numerical(format!("wall {k} has no line")))?;
         let w = &mut self.walls[k];
         for end in &s.ends {
             let t = along(&line, &pose.transform_point(end));
             w.extent = (w.extent.0.min(t), w.extent.1.max(t));
         }
+        w.seen.push((factor.pose, s.ends));
         if path - w.last_path >= cfg.every_path {
             w.last_path = path;
             let node = match w.node {
                 Some(n) => n,
                 None => {
-                    let n = graph.add_wall(w.line)?;
+                    let n = graph.add_wall(line)?;
                     // A wall outside the graph keeps its first sighting until now.
                     let first = w.first.take().ok_or_else(|| {
                         LaserError::Numerical(format!("wall {k} lost its first sighting"))
@@ -439,8 +502,8 @@ impl WallMap {
             along(&line, &pose.transform_point(&s.ends[1])),
         );
         self.walls.push(Mapped {
-            line,
             extent: (ta.min(tb), ta.max(tb)),
+            seen: vec![(factor.pose, s.ends)],
             node: None,
             first: Some(factor),
             last_path: path,
@@ -448,6 +511,19 @@ impl WallMap {
         self.register(self.walls.len() - 1, graph);
         Ok(())
     }
+}
+
+/// The information of sighting `s`'s innovation; `None` when the sighting or its
+/// information is not finite (a degenerate fit tells nothing).
+fn finite_information(s: &Sighting) -> Option<Matrix2<f64>> {
+    let finite = s.z.iter().all(|v| v.is_finite())
+        && s.ends.iter().all(|e| e.iter().all(|v| v.is_finite()))
+        && s.covariance.iter().all(|v| v.is_finite());
+    let information = s.covariance.try_inverse().filter(|_| finite)?;
+    information
+        .iter()
+        .all(|v| v.is_finite())
+        .then_some(information)
 }
 
 #[cfg(test)]
@@ -496,6 +572,130 @@ mod tests {
             (lo + 30.0).abs() < 1e-9 && (hi - 10.0).abs() < 1e-9,
             "{lo} {hi}"
         );
+    }
+
+    /// The wall y = 3 between x = `from` and x = `to`, seen from the true pose
+    /// `truth`, with a fit covariance of `var` on `(rho, alpha)`: the line through
+    /// the two ends in the laser frame, written with `rho >= 0`.
+    fn seen_from(truth: &Pose2, from: f64, to: f64, var: f64) -> Sighting {
+        let (s, c) = truth.theta.sin_cos();
+        let local = |x: f64| {
+            let (dx, dy) = (x - truth.x, 3.0 - truth.y);
+            Point2::new(c * dx + s * dy, -s * dx + c * dy)
+        };
+        let ends = [local(from), local(to)];
+        let d = ends[1] - ends[0];
+        let mut n = Vector2::new(-d.y, d.x).normalize();
+        if n.dot(&ends[0].coords) < 0.0 {
+            n = -n;
+        }
+        let z = Vector2::new(n.dot(&ends[0].coords), n.y.atan2(n.x));
+        let r = Matrix2::new(var, 0.0, 0.0, var);
+        Sighting {
+            z,
+            ends,
+            covariance: innovation_covariance(&z, &Sighting::middle(&ends), &r),
+        }
+    }
+
+    /// The walls a second key scan's sighting leaves in the map when the graph puts
+    /// that scan's heading `heading_error` off the truth. The wall's seen middle is
+    /// 10 m along it from the sensor's foot.
+    fn walls_after_heading_error(heading_error: f64) -> usize {
+        let cfg = WallConfig::default();
+        let first = Pose2::new(0.0, 0.0, 0.0);
+        let mut graph = PoseGraph::new(first, Matrix3::identity() * 1e8);
+        let mut map = WallMap::default();
+        map.observe(
+            0,
+            0.0,
+            &[seen_from(&first, 8.0, 12.0, 1e-8)],
+            &mut graph,
+            &cfg,
+        )
+        .unwrap();
+        let truth = Pose2::new(0.5, 0.0, 0.0);
+        graph.add_pose(Pose2::new(0.5, 0.0, heading_error));
+        let s = seen_from(&truth, 8.0, 12.0, 1e-8);
+        map.observe(1, 1.0, &[s], &mut graph, &cfg).unwrap();
+        map.walls.len()
+    }
+
+    /// A heading error of exactly `drift_angle` moves a far sighting's middle by the
+    /// lever arm (0.3 m at 10 m), which the allowance carries: with a negligible fit
+    /// the squared distance is `(error / drift_angle)^2`, 1 here (paired), 16 at four
+    /// times the error (beyond the 99 % gate, 9.21: a new wall).
+    #[test]
+    fn the_drift_allowance_carries_a_heading_error_to_far_walls() {
+        let drift = WallConfig::default().drift_angle;
+        assert_eq!(walls_after_heading_error(drift), 1, "paired");
+        assert_eq!(walls_after_heading_error(4.0 * drift), 2, "a new wall");
+    }
+
+    /// When the graph moves the key scan that saw a wall (an optimisation after a
+    /// closure), the wall's line and extent move with it: a wall seen once follows
+    /// its sighting's pose, and `refresh` recomputes the extent and the cells.
+    #[test]
+    fn a_wall_follows_the_poses_that_saw_it() {
+        let cfg = WallConfig::default();
+        let start = Pose2::new(10.0, 0.0, 0.0);
+        let mut graph = PoseGraph::new(start, Matrix3::identity() * 1e8);
+        let mut map = WallMap::default();
+        map.observe(
+            0,
+            0.0,
+            &[seen_from(&start, 9.0, 11.0, 1e-6)],
+            &mut graph,
+            &cfg,
+        )
+        .unwrap();
+        // The optimiser moves that key scan 2 m along the wall and 0.5 m towards it.
+        graph.poses[0] = Pose2::new(12.0, 0.5, 0.0);
+        map.refresh(&graph);
+        let line = map.line(&graph, 0).unwrap();
+        assert!(
+            (line.x - 3.5).abs() < 1e-9,
+            "the wall y = 3 moved to y = 3.5: {line}"
+        );
+        // Along (-sin alpha, cos alpha) = (-1, 0): from x = 13 to x = 11.
+        let (lo, hi) = map.walls[0].extent;
+        assert!(
+            (lo + 13.0).abs() < 1e-9 && (hi + 11.0).abs() < 1e-9,
+            "{lo} {hi}"
+        );
+        // A scan at the moved pose sees the moved wall where the map now has it.
+        let moved = Pose2::new(12.0, 0.5, 0.0);
+        graph.add_pose(moved);
+        let again = seen_from(&Pose2::new(12.0, 0.0, 0.0), 11.0, 13.0, 1e-6);
+        map.observe(1, 1.0, &[again], &mut graph, &cfg).unwrap();
+        assert_eq!(map.walls.len(), 1, "paired with the moved wall");
+    }
+
+    /// A sighting with a NaN in it is skipped, not an error of the run; a node the
+    /// graph does not have is an error, not a panic.
+    #[test]
+    fn bad_sightings_are_skipped_and_bad_nodes_refused() {
+        let cfg = WallConfig::default();
+        let start = Pose2::new(0.0, 0.0, 0.0);
+        let mut graph = PoseGraph::new(start, Matrix3::identity() * 1e8);
+        let mut map = WallMap::default();
+        let mut bad = seen_from(&start, 1.0, 3.0, 1e-6);
+        bad.ends[1].x = f64::NAN;
+        map.observe(0, 0.0, &[bad], &mut graph, &cfg).unwrap();
+        assert!(map.walls.is_empty());
+        let good = seen_from(&start, 1.0, 3.0, 1e-6);
+        assert!(map.observe(5, 0.0, &[good], &mut graph, &cfg).is_err());
+    }
+
+    /// An extraction setting linesimp refuses is refused when the config is checked.
+    #[test]
+    fn the_extractions_limits_are_checked_up_front() {
+        let cfg = WallConfig {
+            sigma_range: 1e200,
+            ..WallConfig::default()
+        };
+        let err = cfg.validate().unwrap_err().to_string();
+        assert!(err.contains("sigma_range"), "{err}");
     }
 
     #[test]

@@ -47,12 +47,17 @@ def count_at_least(minimum: int, maximum: int | None = None) -> Callable[[str], 
 seed_type = count_at_least(0, 2**64 - 1)
 
 
-def positive_float(text: str) -> float:
-    """An argparse type: a finite float > 0."""
+def _number(text: str) -> float:
+    """The float option types' reading of their text, before each checks its range."""
     try:
-        value = float(text)
+        return float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a number, got {excerpt(text)}") from None
+
+
+def positive_float(text: str) -> float:
+    """An argparse type: a finite float > 0."""
+    value = _number(text)
     if not math.isfinite(value) or value <= 0:
         raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
     return value
@@ -60,10 +65,7 @@ def positive_float(text: str) -> float:
 
 def non_negative_float(text: str) -> float:
     """An argparse type: a finite float >= 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {excerpt(text)}") from None
+    value = _number(text)
     if not math.isfinite(value) or value < 0:
         raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}")
     return value

@@ -161,6 +161,17 @@ def _plain(value: object) -> object:
     return value
 
 
+def print_measured(measured: Mapping[str, object]) -> None:
+    """The measured figures as one ``key=value`` line on stdout, floats to 4 significant
+    digits: the SLAM commands' result line, the same for each so that one script reads
+    them all."""
+    print(
+        " ".join(
+            f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in measured.items()
+        )
+    )
+
+
 def write_json(path: Path | None, measured: Mapping[str, object]) -> None:
     """Write ``measured`` to ``path`` (checked earlier with :func:`check_output_file`)."""
     if path is None:

@@ -10,7 +10,6 @@ import json
 import math
 import os
 import sys
-import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -119,14 +118,9 @@ def read_carmen_log(path: Path) -> CarmenLog:
     (:class:`~rperc.datasets.TimestampRepairWarning`) and a max-range PARAM set aside
     (:class:`~rperc.datasets.carmen.MaxRangeWarning`) are told as ``note:`` lines on
     stderr, in the command's words, instead of Python warnings."""
-    from rperc.datasets import TimestampRepairWarning, load_carmen
-    from rperc.datasets.carmen import MaxRangeWarning
+    from rperc.datasets.carmen import _load_untold
 
-    with warnings.catch_warnings():
-        # Told below from the log's own counts; every other warning goes through.
-        warnings.simplefilter("ignore", TimestampRepairWarning)
-        warnings.simplefilter("ignore", MaxRangeWarning)
-        log = load_carmen(path)
+    log = _load_untold(path)  # its warnings are told below, from the log's own counts
     for kind, c in log.max_range_contradicted.items():
         print(
             f"note: {path.name}: {kind}'s max-range PARAM {c.param:g} m set aside: "

@@ -50,6 +50,13 @@ def whole_number(value: object, name: str, minimum: int, limit: int = 2**63) -> 
     return number
 
 
+def seed_number(value: object, name: str = "seed") -> int:
+    """``value`` as a seed: a whole number in ``[0, 2**64)``, the native side's u64.
+    Every seed is read here, so that all take the same range and a bad one (None, NaN,
+    -1) is refused naming ``name``, not inside ``int()`` or pyo3 naming nothing."""
+    return whole_number(value, name, 0, limit=2**64)
+
+
 def _whole(value: object) -> int | None:
     """The int ``value`` stands for (``3``, ``3.0``, ``np.int64(3)``), or None."""
     if isinstance(value, bool):

@@ -71,6 +71,21 @@ def _data(*parts: str) -> Path:
     return root.joinpath(*parts)
 
 
+def _paths(given: Sequence[str | Path] | str | Path | None) -> list[Path]:
+    """One path or several, as a list; empty for None (the caller then takes the data
+    folder's)."""
+    return [Path(given)] if isinstance(given, str | Path) else [Path(p) for p in given or []]
+
+
+def _trackers(trackers: Sequence[str], known: Sequence[str]) -> list[str]:
+    """The trackers asked for, each one of ``known``; none, or an unknown one, is a
+    ValueError listing them."""
+    names = [t for t in trackers if t in known]
+    if not trackers or len(names) != len(trackers):
+        raise ValueError(f"trackers: expected some of {', '.join(known)}")
+    return names
+
+
 def _combos(grid: Grid, allowed: Iterable[str], suite: str) -> list[dict[str, Setting]]:
     from rperc.bench.tasks import check_settings
 
@@ -116,11 +131,8 @@ def track(
     """Trackers over OTB folders (``corpus``: folders holding sequence folders, or
     sequence folders; the data folder's ``otb/`` by default). See
     :mod:`rperc.bench.suites.track`."""
-    roots = [Path(corpus)] if isinstance(corpus, str | Path) else [Path(c) for c in corpus or []]
-    folders = _track.sequence_folders(roots or [_data("otb")], sequences)
-    names = [t for t in trackers if t in _track.TRACKERS]
-    if not trackers or len(names) != len(trackers):
-        raise ValueError(f"trackers: expected some of {', '.join(_track.TRACKERS)}")
+    folders = _track.sequence_folders(_paths(corpus) or [_data("otb")], sequences)
+    names = _trackers(trackers, _track.TRACKERS)
     combos = _combos(grid, _track.settings_taken(), "track")
     tasks = make_tasks(
         "track", folders, names, _seeds(seeds), combos, tunable=_track.RPERC_TRACKERS
@@ -139,8 +151,7 @@ def laser(
 ) -> BenchResult:
     """CARMEN logs (files, or folders of them; the data folder's ``carmen/`` by
     default) through laser SLAM. See :mod:`rperc.bench.suites.laser`."""
-    paths = [Path(logs)] if isinstance(logs, str | Path) else [Path(p) for p in logs or []]
-    files = _laser.log_files(paths or [_data("carmen")])
+    files = _laser.log_files(_paths(logs) or [_data("carmen")])
     names = _laser.parse_variants(",".join(variants))
     combos = _combos(grid, {*_laser.SETTINGS, *_laser.laser_settings()}, "laser")
     tasks = make_tasks("laser", files, names, _seeds(seeds), combos, tunable=names)
@@ -212,9 +223,7 @@ def pattern(
     without one). See :mod:`rperc.bench.suites.pattern`."""
     bounds = _pattern.parse_steps(",".join(str(s) for s in steps))
     chosen = _pattern.parse_conditions(",".join(conditions))
-    names = [t for t in trackers if t in _pattern.TRACKERS]
-    if not trackers or len(names) != len(trackers):
-        raise ValueError(f"trackers: expected some of {', '.join(_pattern.TRACKERS)}")
+    names = _trackers(trackers, _pattern.TRACKERS)
     if isinstance(frames, bool) or not isinstance(frames, int) or not 2 <= frames <= 100_000:
         raise ValueError(f"frames must be an integer in [2, 100000], got {frames!r}")
     if images is None:

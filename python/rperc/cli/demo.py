@@ -70,6 +70,14 @@ class Demo:
         return {o.dest: o.default for o in self.options}
 
 
+def _count(name: str, least: int, default: int, what: str, most: int | None = None) -> Option:
+    """``--NAME N``, a count from ``least`` (to ``most``), passed to the demo as keyword
+    ``NAME``. Its help is made from ``default``, so that the two cannot disagree."""
+    return Option(
+        f"--{name}", name, count_at_least(least, most), default, f"{what} (default {default})"
+    )
+
+
 @functools.cache
 def registry() -> tuple[Demo, ...]:
     """Every demo, in the order ``demo all`` runs them. (Built on first use, so that
@@ -90,14 +98,14 @@ def registry() -> tuple[Demo, ...]:
             "monobot",
             "EKF-SLAM observability study (Figs. 3-6, Monte Carlo)",
             demo_monobot,
-            (Option("--runs", "runs", count_at_least(2), 100, "Monte Carlo runs (default 100)"),),
+            (_count("runs", 2, 100, "Monte Carlo runs"),),
             seconds=3.0,
         ),
         Demo(
             "slam",
             "planar EKF-SLAM variants in a simulated world: maps, paths, Monte Carlo NEES",
             demo_slam,
-            (Option("--runs", "runs", count_at_least(2), 20, "Monte Carlo runs (default 20)"),),
+            (_count("runs", 2, 20, "Monte Carlo runs"),),
         ),
         Demo(
             "wall-slam",
@@ -117,14 +125,14 @@ def registry() -> tuple[Demo, ...]:
             "color trackers on a synthetic sequence vs its known boxes",
             demo_tracking,
             # 1000 frames of 320 x 240 RGB are 230 MB: a bound well above any use.
-            (Option("--frames", "frames", count_at_least(2, 1000), 150, "frames (default 150)"),),
+            (_count("frames", 2, 150, "frames", most=1000),),
             seconds=2.0,
         ),
         Demo(
             "color-shape",
             "colour+shape tracker vs colour alone: the four experiments of Fig. 13, colour path",
             demo_color_shape,
-            (Option("--frames", "frames", count_at_least(2, 1000), 60, "frames (default 60)"),),
+            (_count("frames", 2, 60, "frames", most=1000),),
             deprecated=("color_shape",),
             seconds=5.0,
         ),
@@ -133,14 +141,14 @@ def registry() -> tuple[Demo, ...]:
             "pattern tracker: Fig. 8 on a generated sequence, harness vs ECC/matchTemplate/CSRT",
             demo_pattern,
             # 640 x 480 grey frames: 1000 of them are 300 MB.
-            (Option("--frames", "frames", count_at_least(9, 1000), 60, "frames (default 60)"),),
+            (_count("frames", 9, 60, "frames", most=1000),),
             seconds=9.0,
         ),
         Demo(
             "visual-memory",
             "ceiling mosaic, key images and visual servoing (Fig. 9) vs the world's truth",
             demo_visual_memory,
-            (Option("--starts", "starts", count_at_least(1, 1000), 10, "replays (default 10)"),),
+            (_count("starts", 1, 10, "replays", most=1000),),
             seconds=17.0,
         ),
     )

@@ -17,6 +17,7 @@ from rperc.cli.outputs import (
     DemoResult,
     add_json_option,
     check_output_file,
+    print_measured,
     read_carmen_log,
     seed_type,
     write_json,
@@ -72,11 +73,7 @@ def laser_command(args: argparse.Namespace) -> int:
         "max_range_m": float(np.max(log.scans.max_range)) if len(log.scans) else math.nan,
         "max_range_param_set_aside": bool(log.max_range_contradicted),
     }
-    print(
-        " ".join(
-            f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in measured.items()
-        )
-    )
+    print_measured(measured)
     if args.tum is not None:
         wrote(result.to_tum(args.tum))
     if args.plot is not None:

@@ -10,7 +10,6 @@ import json
 import math
 import os
 import sys
-import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,12 +46,17 @@ def count_at_least(minimum: int, maximum: int | None = None) -> Callable[[str], 
 seed_type = count_at_least(0, 2**64 - 1)
 
 
-def positive_float(text: str) -> float:
-    """An argparse type: a finite float > 0."""
+def _number(text: str) -> float:
+    """The float option types' reading of their text, before each checks its range."""
     try:
-        value = float(text)
+        return float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a number, got {excerpt(text)}") from None
+
+
+def positive_float(text: str) -> float:
+    """An argparse type: a finite float > 0."""
+    value = _number(text)
     if not math.isfinite(value) or value <= 0:
         raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
     return value
@@ -60,10 +64,7 @@ def positive_float(text: str) -> float:
 
 def non_negative_float(text: str) -> float:
     """An argparse type: a finite float >= 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {excerpt(text)}") from None
+    value = _number(text)
     if not math.isfinite(value) or value < 0:
         raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}")
     return value
@@ -117,14 +118,9 @@ def read_carmen_log(path: Path) -> CarmenLog:
     (:class:`~rperc.datasets.TimestampRepairWarning`) and a max-range PARAM set aside
     (:class:`~rperc.datasets.carmen.MaxRangeWarning`) are told as ``note:`` lines on
     stderr, in the command's words, instead of Python warnings."""
-    from rperc.datasets import TimestampRepairWarning, load_carmen
-    from rperc.datasets.carmen import MaxRangeWarning
+    from rperc.datasets.carmen import _load_untold
 
-    with warnings.catch_warnings():
-        # Told below from the log's own counts; every other warning goes through.
-        warnings.simplefilter("ignore", TimestampRepairWarning)
-        warnings.simplefilter("ignore", MaxRangeWarning)
-        log = load_carmen(path)
+    log = _load_untold(path)  # its warnings are told below, from the log's own counts
     for kind, c in log.max_range_contradicted.items():
         print(
             f"note: {path.name}: {kind}'s max-range PARAM {c.param:g} m set aside: "
@@ -157,6 +153,17 @@ def _plain(value: object) -> object:
     if isinstance(value, Path):
         return str(value)
     return value
+
+
+def print_measured(measured: Mapping[str, object]) -> None:
+    """The measured figures as one ``key=value`` line on stdout, floats to 4 significant
+    digits: the SLAM commands' result line, the same for each so that one script reads
+    them all."""
+    print(
+        " ".join(
+            f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in measured.items()
+        )
+    )
 
 
 def write_json(path: Path | None, measured: Mapping[str, object]) -> None:

@@ -17,6 +17,7 @@ from rperc.cli.outputs import (
     add_json_option,
     check_output_file,
     positive_float,
+    print_measured,
     seed_type,
     write_json,
     wrote,
@@ -171,9 +172,7 @@ def slam_command(args: argparse.Namespace) -> int:
         "seconds_per_event": float(result.seconds.sum()) / max(int(events), 1),
     }
     shown = {k: v for k, v in metrics.items() if k != "statistics"}
-    print(
-        " ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in shown.items())
-    )
+    print_measured(shown)
     print("association: " + " ".join(f"{k}={v}" for k, v in result.statistics.items()))
     if args.tum is not None:
         wrote(result.to_tum(args.tum))

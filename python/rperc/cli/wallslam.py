@@ -16,6 +16,7 @@ from rperc.cli.outputs import (
     check_output_file,
     count_at_least,
     non_negative_float,
+    print_measured,
     read_carmen_log,
     seed_type,
     write_json,
@@ -85,8 +86,7 @@ def walls_command(args: argparse.Namespace) -> int:
         smooth=args.smooth,
     )  # fmt: skip
     metrics = result.measured()
-    print(" ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}"
-                   for k, v in metrics.items()))  # fmt: skip
+    print_measured(metrics)
     if args.tum is not None:
         wrote(result.to_tum(args.tum))
     if args.smoothed_tum is not None:

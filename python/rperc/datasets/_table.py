@@ -4,6 +4,7 @@ line numbers for every record, shared by the MR.CLAM and Victoria Park readers."
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from decimal import Decimal, InvalidOperation
 from pathlib import Path
@@ -143,6 +144,20 @@ def non_negative(table: Table, names: dict[int, str]) -> None:
             )
 
 
+def _read_values(
+    path: Path, columns: int, id_columns: Mapping[int, str]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Every table's reading: its values and each row's line number, checked for the
+    number of fields, numbers, no infinity and whole-number ids in ``id_columns``."""
+    tokens, numbers = _records(path, _open_lines(path), columns)
+    values = _to_floats(path, tokens, numbers, columns)
+    line = np.asarray(numbers, dtype=np.int64)
+    _check_infinite(path, values, line)
+    for col, what in id_columns.items():
+        _check_ids(path, tokens, values, line, col, what)
+    return values, line
+
+
 def read_table(
     path: str | Path,
     columns: int,
@@ -160,12 +175,7 @@ def read_table(
     previous record's. NaN values elsewhere are kept and counted in ``nan_rows``.
     """
     path = Path(path)
-    tokens, numbers = _records(path, _open_lines(path), columns)
-    values = _to_floats(path, tokens, numbers, columns)
-    line = np.asarray(numbers, dtype=np.int64)
-    _check_infinite(path, values, line)
-    for col, what in (id_columns or {}).items():
-        _check_ids(path, tokens, values, line, col, what)
+    values, line = _read_values(path, columns, id_columns or {})
     backwards = _check_time(path, values[:, 0], line, allow_time_backwards)
     nan_rows = int(np.isnan(values).any(axis=1).sum())
     return Table(path, values, line, nan_rows, backwards)
@@ -178,12 +188,7 @@ def read_id_table(
     ``Barcodes.dat``; ids (and the other ``id_columns``) must be whole numbers in
     ``0..2**53``, and the first column's unique. Infinite values are refused."""
     path = Path(path)
-    tokens, numbers = _records(path, _open_lines(path), columns)
-    values = _to_floats(path, tokens, numbers, columns)
-    line = np.asarray(numbers, dtype=np.int64)
-    _check_infinite(path, values, line)
-    for col, what in {0: "id", **(id_columns or {})}.items():
-        _check_ids(path, tokens, values, line, col, what)
+    values, line = _read_values(path, columns, {0: "id", **(id_columns or {})})
     seen: dict[float, int] = {}
     for k, ident in enumerate(values[:, 0]):
         if ident in seen:

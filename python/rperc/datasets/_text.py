@@ -54,13 +54,18 @@ def _refuse_binary(path: Path, head: bytes) -> None:
         )
 
 
+def _text_bytes(path: Path) -> bytes:
+    """:func:`read_bytes` with a UTF-8 byte-order mark dropped: the bytes both decoders
+    below read."""
+    raw = read_bytes(path)
+    return raw[len(_BOM) :] if raw.startswith(_BOM) else raw
+
+
 def read_text(path: str | Path) -> str:
     """The file as text (UTF-8, BOM dropped); a byte that is not UTF-8 is a
     :class:`DatasetFormatError` naming its line and its offset in that line."""
     path = Path(path)
-    raw = read_bytes(path)
-    if raw.startswith(_BOM):
-        raw = raw[len(_BOM) :]
+    raw = _text_bytes(path)
     try:
         return raw.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -93,9 +98,7 @@ def decode_lines(path: str | Path) -> list[str | DatasetFormatError]:
     is not UTF-8 comes back as the :class:`DatasetFormatError` naming it (line and
     byte offset) instead of aborting the read, so a reader can skip it and go on."""
     path = Path(path)
-    raw = read_bytes(path)
-    if raw.startswith(_BOM):
-        raw = raw[len(_BOM) :]
+    raw = _text_bytes(path)
     try:
         return list(split_lines(raw.decode("utf-8")))
     except UnicodeDecodeError:

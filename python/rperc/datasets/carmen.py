@@ -596,10 +596,7 @@ def load_carmen_logged(path: str | Path) -> CarmenLog:
     ``logging`` lines (``rperc.datasets.carmen``) instead of Python warnings; the log
     counts both (:attr:`CarmenLog.times_repaired`,
     :attr:`CarmenLog.max_range_contradicted`)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", TimestampRepairWarning)
-        warnings.simplefilter("ignore", MaxRangeWarning)
-        log = load_carmen(path)
+    log = _load_untold(path)
     if log.times_repaired:
         _log.info("%s: %d scan times repaired", log.path.name, log.times_repaired)
     for kind, c in log.max_range_contradicted.items():
@@ -609,6 +606,16 @@ def load_carmen_logged(path: str | Path) -> CarmenLog:
             c.farthest,
         )  # fmt: skip
     return log
+
+
+def _load_untold(path: str | Path) -> CarmenLog:
+    """:func:`load_carmen` without its two warnings, for a caller that tells what they
+    say its own way, from the log's counts (:attr:`CarmenLog.times_repaired`,
+    :attr:`CarmenLog.max_range_contradicted`). Every other warning goes through."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", TimestampRepairWarning)
+        warnings.simplefilter("ignore", MaxRangeWarning)
+        return load_carmen(path)
 
 
 def _repair_times(path: Path, scans: LaserScans) -> tuple[LaserScans, int]:

@@ -34,7 +34,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
-from rperc._args import float_array, real_number, whole_number
+from rperc._args import float_array, real_number, seed_number, whole_number
 from rperc._atomic import write_text_atomically
 from rperc._config_base import Config, as_config
 from rperc.config import LearnConfig, LearnConfigOverrides, ReplayConfig, ReplayConfigOverrides
@@ -315,7 +315,7 @@ def learn(
         np.ascontiguousarray(float_array(commands, "commands")),
         real_number(dt, "dt"),
         cfg.to_dict(),
-        whole_number(seed, "seed", 0, 2**64),
+        seed_number(seed),
     )
     memory = VisualMemory(learnt.memory)
     f = _frames(learnt.frames)
@@ -362,7 +362,7 @@ def replay(
         memory.to_json(),
         float_array(start, "start").reshape(-1),
         as_config(ReplayConfig, config, overrides).to_dict(),
-        whole_number(seed, "seed", 0, 2**64),
+        seed_number(seed),
     )
     return ReplayResult(run.outcome, run.key_index, _frames(run.frames))
 

@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rperc import _rperc
-from rperc._args import whole_number
+from rperc._args import seed_number
 from rperc._config_base import as_config, dotted_fields, merged, with_dotted
 from rperc.config import LaserConfig, LaserConfigOverrides, Unicycle
 from rperc.slam.wallslam import SPEED_SIGMA, TURN_SIGMA
@@ -219,7 +219,7 @@ def run_laser(
     speed."""
     from rperc.slam.wallslam import increments, noisy_controls
 
-    seed = whole_number(seed, "seed", 0, limit=2**64)
+    seed = seed_number(seed)
     _variant_changes(variant)
     t0 = time.perf_counter()
     sc = log.scans

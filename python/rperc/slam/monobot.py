@@ -31,7 +31,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
-from rperc._args import whole_number
+from rperc._args import seed_number, whole_number
 from rperc._config_base import as_config
 from rperc._progress import progress as _progress
 from rperc.config import MonobotConfig
@@ -153,7 +153,7 @@ def simulate(
             "reference_noise": reference_noise,
         },
     )
-    r = _rperc.monobot_simulate(model, _seed(seed), 0, cfg.to_dict())
+    r = _rperc.monobot_simulate(model, seed_number(seed), 0, cfg.to_dict())
     return MonobotResult(
         model=model, config=cfg, seed=seed, truth=r.truth, estimate=r.estimate, std=r.std,
         initial_measurement=r.initial_measurement, measurement=r.measurement,
@@ -161,10 +161,6 @@ def simulate(
         predicted_cov=r.predicted_cov, nees=r.nees, fisher=r.fisher, fisher_00=r.fisher_00,
         first_observation_error=r.first_observation_error,
     )  # fmt: skip
-
-
-def _seed(seed: int) -> int:
-    return whole_number(seed, "seed", 0, limit=2**64)
 
 
 def fisher_information(result: MonobotResult) -> np.ndarray:
@@ -259,7 +255,7 @@ def monte_carlo(
         config, {"landmarks": landmarks, "steps": steps, "initial_variance": initial_variance}
     )
     whole_number(runs, "runs", 1)
-    seed = _seed(seed)
+    seed = seed_number(seed)
     if executor is None:
         # One native call does every run on all cores, so progress reports it as one
         # batch (its final line gives the time).

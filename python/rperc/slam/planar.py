@@ -44,7 +44,7 @@ import numpy.typing as npt
 
 import rperc.slam.evaluation as evaluation
 from rperc import _rperc
-from rperc._args import excerpt, real_number, whole_number
+from rperc._args import excerpt, real_number, seed_number, whole_number
 from rperc._config_base import as_config
 from rperc.config import PlanarConfig, PlanarConfigOverrides, SimConfig
 from rperc.pose import point_path as _point_path
@@ -634,8 +634,8 @@ def simulate(
     """Run ``run`` of the simulated world ``config`` (a :class:`rperc.config.SimConfig`
     or a dict of its fields) seeded by ``seed`` (the same stream the Monte Carlo's run
     ``run`` uses)."""
-    seed = whole_number(seed, "seed", 0, limit=2**64)
-    run = whole_number(run, "run", 0, limit=2**64)
+    seed = seed_number(seed)
+    run = seed_number(run, "run")
     w = _rperc.planar_simulate(as_config(SimConfig, config).to_dict(), seed, run)
     fixes = w.fixes if len(w.fixes) else None
     rec = Recording(w.controls, w.detections, w.detection_ids, fixes)
@@ -712,7 +712,7 @@ def monte_carlo(
     sim = as_config(SimConfig, config).to_dict()
     filt = as_config(PlanarConfig, slam).to_dict() if slam is not None else sim_slam_config(sim)
     runs = whole_number(runs, "runs", 1)
-    seed = whole_number(seed, "seed", 0, limit=2**64)
+    seed = seed_number(seed)
     _rperc.planar_sim_check(sim, filt, runs)  # refused before any run starts
     if executor is None:
         nees = _rperc.planar_sim_nees(sim, filt, seed, 0, runs)

@@ -44,7 +44,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
-from rperc._args import excerpt, float_array, real_number, whole_number
+from rperc._args import excerpt, float_array, real_number, seed_number, whole_number
 from rperc.pose import wrap_angle
 from rperc.slam.planar import PlanarSlam, SlamResult
 from rperc.slam.smoothing import SmoothedRun, smooth_walls
@@ -478,7 +478,7 @@ def run_prepared(
     ``freeze_after=50``, ``association="nn"``) on top. ``smooth=True`` also smooths
     the run (:func:`rperc.slam.smoothing.smooth_walls`, one pose per scan): see
     :meth:`WallSlamResult.smoothed`."""
-    seed = whole_number(seed, "seed", 0, limit=2**64)
+    seed = seed_number(seed)
     ref, t = prepared.reference, prepared.t
     rows = prepared.rows if use_walls else np.zeros((0, 10))
     config: dict[str, object] = {

@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
-from rperc._args import whole_number
+from rperc._args import seed_number
 from rperc._config_base import as_config, as_config_moved
 from rperc.config import (
     PatternConfig,
@@ -170,11 +170,6 @@ def _region(region: Sequence[int] | npt.ArrayLike) -> tuple[int, int, int, int] 
     return (x, y, w, h)
 
 
-def _seed(seed: int) -> int:
-    # None or NaN failed inside int() with a message that named no parameter.
-    return whole_number(seed, "seed", 0, limit=2**64)
-
-
 class PatternTracker:
     """CONDENSATION tracker of a planar pattern over ``(x, y, theta, scale)``, or over
     the plane's homography.
@@ -256,7 +251,7 @@ class PatternTracker:
             PatternConfig, base, fields, _NESTED_KEYWORDS, "PatternTracker"
         )
         native = _rperc.PatternTracker(
-            _frame(frame), _region(region), _seed(seed), self.config.to_dict()
+            _frame(frame), _region(region), seed_number(seed), self.config.to_dict()
         )
         self._native = native
         # The native tracker's own initial pose: its corners come from the one place
@@ -340,7 +335,7 @@ def pattern_sequence(
         )
         fields.update(width=_tree(size[0]), height=_tree(size[1]))
     if "seed" in fields:
-        fields["seed"] = _seed(fields["seed"])  # type: ignore[arg-type]
+        fields["seed"] = seed_number(fields["seed"])
     base = config if isinstance(config, PatternSequenceConfig) else _given(config)
     cfg = as_config(PatternSequenceConfig, base, fields)
     p = np.asarray(patch, dtype=np.float64)

@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from rperc import _rperc
-from rperc._args import excerpt, whole_number
+from rperc._args import excerpt, seed_number, whole_number
 from rperc._config_base import C, as_config_moved
 from rperc.config import (
     ColorHistogramConfig,
@@ -389,7 +389,7 @@ class ParticleColorTracker(_BoxTracker[_rperc.ParticleColorTracker]):
             ParticleColorConfig, config, overrides, "ParticleColorTracker", moved
         )
         native = self.config.to_dict()
-        seed = whole_number(seed, "seed", 0, limit=2**64)
+        seed = seed_number(seed)
         self._start(
             frame,
             box,
@@ -412,7 +412,7 @@ def resample(
     """Indices of ``n`` particles drawn from non-negative ``weights`` (need not sum to
     one), sorted ascending, by ``method``; seeded. The GIL is released."""
     count = whole_number(n, "n", 0)
-    seed = whole_number(seed, "seed", 0, limit=2**64)
+    seed = seed_number(seed)
     return _rperc.resample(_weights(weights), count, method, seed)
 
 
@@ -496,7 +496,7 @@ class ColorTemplateTracker(_BoxTracker[_rperc.ColorTemplateTracker]):
         #: The tracker's settings, checked by the Rust crate when they were made.
         self.config = _settings(ColorTemplateConfig, config, overrides, "ColorTemplateTracker")
         native = self.config.to_dict()
-        seed = whole_number(seed, "seed", 0, limit=2**64)
+        seed = seed_number(seed)
         self._start(
             frame,
             box,

@@ -3,15 +3,22 @@
 
 use super::hog;
 use super::likelihood::Rect;
-use super::patch::{self, Patch, Window};
+use super::patch::{self, Window};
 use super::tracker::ColorTemplateTracker;
 use crate::frame::RgbFrame;
 
 impl ColorTemplateTracker {
     /// Learns the template, the colour histograms and the scale filter at the current
     /// box, each at its own learning rate times `confidence` in [0, 1]; `None` is the
-    /// first frame, which replaces every model.
-    pub(super) fn learn(&mut self, frame: &RgbFrame<'_>, confidence: Option<f32>) {
+    /// first frame, which replaces every model. `scales_sampled`: the scale samples
+    /// already hold this frame's at the current centre and scale (the scale step
+    /// sampled them and kept the scale), so they are not sampled again.
+    pub(super) fn learn(
+        &mut self,
+        frame: &RgbFrame<'_>,
+        confidence: Option<f32>,
+        scales_sampled: bool,
+    ) {
         let first = confidence.is_none();
         let weight = confidence.unwrap_or(1.0);
         if !first && weight <= 0.0 {
@@ -32,7 +39,9 @@ impl ColorTemplateTracker {
         let colour_rate = rate(self.params.color_learning_rate);
         self.colour
             .learn(&s.patch.rgb, pw, target, object, colour_rate);
-        self.sample_scales(frame);
+        if !scales_sampled {
+            self.sample_scales(frame);
+        }
         let scale_rate = rate(self.params.scale_learning_rate);
         self.scale_filter
             .train(&self.scratch.scale_samples, scale_rate);
@@ -45,7 +54,7 @@ impl ColorTemplateTracker {
         let (mw, mh) = self.geometry.scale_model;
         let cell = self.params.cell_size;
         let (cx, cy) = self.centre;
-        let mut patch = Patch::default();
+        let mut grey = std::mem::take(&mut self.scratch.scale_grey);
         self.scratch.scale_samples.resize_with(n, Vec::new);
         for k in 0..n {
             let factor = self.scale * self.params.scale_step.powf(k as f64 - (n / 2) as f64);
@@ -55,18 +64,21 @@ impl ColorTemplateTracker {
                 width: self.base.0 * factor,
                 height: self.base.1 * factor,
             };
-            patch::sample(frame, window, mw, mh, &mut patch);
-            hog::features(&patch.grey, mw, mh, cell, &mut self.scratch.map);
+            patch::sample_grey(frame, window, mw, mh, &mut grey);
+            hog::features(&grey, mw, mh, cell, &mut self.scratch.map);
             let out = &mut self.scratch.scale_samples[k];
             out.clear();
             for plane in &self.scratch.map.planes {
                 out.extend_from_slice(plane);
             }
         }
+        self.scratch.scale_grey = grey;
     }
 
-    /// Re-sizes the box by the scale filter's peak, within `min_scale..=max_scale`.
-    pub(super) fn estimate_scale(&mut self, frame: &RgbFrame<'_>) {
+    /// Re-sizes the box by the scale filter's peak, within `min_scale..=max_scale`;
+    /// whether the scale stayed as it was (the scale samples are then those of the
+    /// new box, and [`Self::learn`] can train on them).
+    pub(super) fn estimate_scale(&mut self, frame: &RgbFrame<'_>) -> bool {
         self.sample_scales(frame);
         let response = self.scale_filter.respond(&self.scratch.scale_samples);
         let Some((k, _)) = response
@@ -74,10 +86,12 @@ impl ColorTemplateTracker {
             .enumerate()
             .max_by(|a, b| a.1.total_cmp(b.1))
         else {
-            return;
+            return true;
         };
         let steps = k as f64 - (self.params.n_scales / 2) as f64;
         let scale = self.scale * self.params.scale_step.powf(steps);
+        let before = self.scale;
         self.scale = scale.clamp(self.params.min_scale, self.params.max_scale);
+        self.scale.to_bits() == before.to_bits()
     }
 }

@@ -34,16 +34,76 @@ pub(crate) struct Window {
 /// The two neighbouring pixel indices and the weight of the second for a coordinate
 /// along an axis of `n` pixels, clamped so a window that overhangs the border repeats
 /// the edge (OpenCV's `BORDER_REPLICATE`). Computed once per column and per row.
-fn taps(coordinate: f64, n: usize) -> (usize, usize, f32) {
+fn taps(coordinate: f64, n: usize) -> Tap {
     let c = coordinate.clamp(0.0, (n - 1) as f64);
     // c >= 0 (NaN clamps to NaN, which casts to 0): truncation is the floor.
     let i0 = c as usize;
     (i0, (i0 + 1).min(n - 1), (c - i0 as f64) as f32)
 }
 
+/// The two neighbouring pixels along an axis and the weight of the second.
+type Tap = (usize, usize, f32);
+
+/// The frame's column and row taps of `window` resampled to `width x height`: output
+/// pixel `(i, j)` takes the frame at the centre of its cell in the window (frame pixel
+/// centres at integers).
+fn window_taps(
+    frame: &RgbFrame<'_>,
+    window: Window,
+    width: usize,
+    height: usize,
+) -> (Vec<Tap>, Vec<Tap>) {
+    let (fw, fh) = (frame.width(), frame.height());
+    let (sx, sy) = (window.width / width as f64, window.height / height as f64);
+    let (x0, y0) = (
+        window.cx - window.width / 2.0,
+        window.cy - window.height / 2.0,
+    );
+    let columns = (0..width)
+        .map(|i| taps(x0 + (i as f64 + 0.5) * sx - 0.5, fw))
+        .collect();
+    let rows = (0..height)
+        .map(|j| taps(y0 + (j as f64 + 0.5) * sy - 0.5, fh))
+        .collect();
+    (columns, rows)
+}
+
+/// Visits the bilinear `[r, g, b]` (0..255, unrounded) of every output pixel of
+/// `window` resampled to `width x height`, row by row.
+#[inline(always)]
+fn for_each_colour(
+    frame: &RgbFrame<'_>,
+    window: Window,
+    width: usize,
+    height: usize,
+    mut visit: impl FnMut([f32; 3]),
+) {
+    let (columns, rows) = window_taps(frame, window, width, height);
+    let (fw, data) = (frame.width(), frame.data());
+    for &(r0, r1, fy) in &rows {
+        let (top, bottom) = (
+            &data[r0 * fw * 3..(r0 + 1) * fw * 3],
+            &data[r1 * fw * 3..(r1 + 1) * fw * 3],
+        );
+        for &(c0, c1, fx) in &columns {
+            let mix = |row: &[u8], c: usize| {
+                f32::from(row[c0 * 3 + c]) * (1.0 - fx) + f32::from(row[c1 * 3 + c]) * fx
+            };
+            visit(std::array::from_fn(|c| {
+                mix(top, c) * (1.0 - fy) + mix(bottom, c) * fy
+            }));
+        }
+    }
+}
+
+/// Luma in [0, 1] of a bilinear colour.
+#[inline(always)]
+fn luma([r, g, b]: [f32; 3]) -> f32 {
+    (0.299 * r + 0.587 * g + 0.114 * b) / 255.0
+}
+
 /// Resamples `window` of `frame` to `width x height` pixels into `out` by bilinear
-/// interpolation: output pixel `(i, j)` takes the frame at the centre of its cell in the
-/// window (frame pixel centres at integers).
+/// interpolation: colours rounded to bytes, and luma.
 pub(crate) fn sample(
     frame: &RgbFrame<'_>,
     window: Window,
@@ -55,36 +115,23 @@ pub(crate) fn sample(
     out.height = height;
     out.rgb.clear();
     out.grey.clear();
-    let (fw, fh) = (frame.width(), frame.height());
-    let (sx, sy) = (window.width / width as f64, window.height / height as f64);
-    let (x0, y0) = (
-        window.cx - window.width / 2.0,
-        window.cy - window.height / 2.0,
-    );
-    let columns: Vec<(usize, usize, f32)> = (0..width)
-        .map(|i| taps(x0 + (i as f64 + 0.5) * sx - 0.5, fw))
-        .collect();
-    let data = frame.data();
-    for j in 0..height {
-        let (r0, r1, fy) = taps(y0 + (j as f64 + 0.5) * sy - 0.5, fh);
-        let (top, bottom) = (
-            &data[r0 * fw * 3..(r0 + 1) * fw * 3],
-            &data[r1 * fw * 3..(r1 + 1) * fw * 3],
-        );
-        for &(c0, c1, fx) in &columns {
-            let mix = |row: &[u8], c: usize| {
-                f32::from(row[c0 * 3 + c]) * (1.0 - fx) + f32::from(row[c1 * 3 + c]) * fx
-            };
-            let [r, g, b]: [f32; 3] =
-                std::array::from_fn(|c| mix(top, c) * (1.0 - fy) + mix(bottom, c) * fy);
-            out.rgb.push([
-                grey_level(r.into()),
-                grey_level(g.into()),
-                grey_level(b.into()),
-            ]);
-            out.grey.push((0.299 * r + 0.587 * g + 0.114 * b) / 255.0);
-        }
-    }
+    for_each_colour(frame, window, width, height, |rgb| {
+        out.rgb.push(rgb.map(|v| grey_level(v.into())));
+        out.grey.push(luma(rgb));
+    });
+}
+
+/// [`sample`]'s luma alone into `grey` (the scale filter's samples need no colour):
+/// the same values, without rounding colours nobody reads.
+pub(crate) fn sample_grey(
+    frame: &RgbFrame<'_>,
+    window: Window,
+    width: usize,
+    height: usize,
+    grey: &mut Vec<f32>,
+) {
+    grey.clear();
+    for_each_colour(frame, window, width, height, |rgb| grey.push(luma(rgb)));
 }
 
 #[cfg(test)]
@@ -108,6 +155,26 @@ mod tests {
         for (k, px) in patch.rgb.iter().enumerate() {
             assert_eq!(px, &[data[3 * k], data[3 * k + 1], data[3 * k + 2]]);
         }
+    }
+
+    /// The grey-only sampler gives [`sample`]'s luma bit for bit, on a window that
+    /// overhangs the frame and scales unevenly.
+    #[test]
+    fn grey_only_sampling_equals_the_full_one() {
+        let (w, h) = (13usize, 9usize);
+        let data: Vec<u8> = (0..w * h * 3).map(|k| (k * 53 % 247) as u8).collect();
+        let frame = RgbFrame::new(&data, w, h).unwrap();
+        let window = Window {
+            cx: 2.3,
+            cy: 7.9,
+            width: 11.7,
+            height: 6.1,
+        };
+        let (mut full, mut grey) = (Patch::default(), Vec::new());
+        sample(&frame, window, 10, 7, &mut full);
+        sample_grey(&frame, window, 10, 7, &mut grey);
+        let bits = |v: &[f32]| v.iter().map(|g| g.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&full.grey), bits(&grey));
     }
 
     /// Half-size sampling of a horizontal ramp lands between pixel pairs: the mean of

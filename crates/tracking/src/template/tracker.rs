@@ -23,6 +23,8 @@ pub(super) struct Scratch {
     pub(super) colour: Vec<f32>,
     pub(super) probability: Vec<f32>,
     pub(super) scale_samples: Vec<Vec<f32>>,
+    /// A scale sample's grey levels.
+    pub(super) scale_grey: Vec<f32>,
 }
 
 /// A Staple-style tracker: a correlation filter on HOG + intensity cells fused with a
@@ -103,7 +105,7 @@ impl ColorTemplateTracker {
             scratch: Scratch::default(),
             params,
         };
-        tracker.learn(&frame, None);
+        tracker.learn(&frame, None, false);
         tracker.colour_seed = tracker.colour.clone();
         Ok(tracker)
     }
@@ -157,11 +159,11 @@ impl ColorTemplateTracker {
         } else {
             self.lost_frames = 0;
             self.centre = self.clamp_centre(best.cx, best.cy);
-            self.estimate_scale(&frame);
+            let scales_sampled = self.estimate_scale(&frame);
             self.tracked_frames += 1;
             self.levels.follow(&best, self.tracked_frames);
             let confidence = self.confidence(best.peak, levels.peak);
-            self.learn(&frame, Some(confidence as f32));
+            self.learn(&frame, Some(confidence as f32), scales_sampled);
         }
         Ok(TemplateResult {
             bbox: self.bbox(),

@@ -598,22 +598,23 @@ mod tests {
         }
     }
 
+    /// A graph started at `start` and a map of the wall y = 3 seen from there between
+    /// x = `from` and x = `to` (fit variance `var`), with the default settings.
+    fn seen_once(start: Pose2, (from, to): (f64, f64), var: f64) -> (PoseGraph, WallMap) {
+        let mut graph = PoseGraph::new(start, Matrix3::identity() * 1e8);
+        let mut map = WallMap::default();
+        let s = seen_from(&start, from, to, var);
+        map.observe(0, 0.0, &[s], &mut graph, &WallConfig::default())
+            .unwrap();
+        (graph, map)
+    }
+
     /// The walls a second key scan's sighting leaves in the map when the graph puts
     /// that scan's heading `heading_error` off the truth. The wall's seen middle is
     /// 10 m along it from the sensor's foot.
     fn walls_after_heading_error(heading_error: f64) -> usize {
         let cfg = WallConfig::default();
-        let first = Pose2::new(0.0, 0.0, 0.0);
-        let mut graph = PoseGraph::new(first, Matrix3::identity() * 1e8);
-        let mut map = WallMap::default();
-        map.observe(
-            0,
-            0.0,
-            &[seen_from(&first, 8.0, 12.0, 1e-8)],
-            &mut graph,
-            &cfg,
-        )
-        .unwrap();
+        let (mut graph, mut map) = seen_once(Pose2::identity(), (8.0, 12.0), 1e-8);
         let truth = Pose2::new(0.5, 0.0, 0.0);
         graph.add_pose(Pose2::new(0.5, 0.0, heading_error));
         let s = seen_from(&truth, 8.0, 12.0, 1e-8);
@@ -638,17 +639,7 @@ mod tests {
     #[test]
     fn a_wall_follows_the_poses_that_saw_it() {
         let cfg = WallConfig::default();
-        let start = Pose2::new(10.0, 0.0, 0.0);
-        let mut graph = PoseGraph::new(start, Matrix3::identity() * 1e8);
-        let mut map = WallMap::default();
-        map.observe(
-            0,
-            0.0,
-            &[seen_from(&start, 9.0, 11.0, 1e-6)],
-            &mut graph,
-            &cfg,
-        )
-        .unwrap();
+        let (mut graph, mut map) = seen_once(Pose2::new(10.0, 0.0, 0.0), (9.0, 11.0), 1e-6);
         // The optimiser moves that key scan 2 m along the wall and 0.5 m towards it.
         graph.poses[0] = Pose2::new(12.0, 0.5, 0.0);
         map.refresh(&graph);

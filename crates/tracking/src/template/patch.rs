@@ -138,18 +138,29 @@ pub(crate) fn sample_grey(
 mod tests {
     use super::*;
 
+    /// A `w x h` RGB frame's bytes, hashed by `step` (every byte differs from its
+    /// neighbours).
+    fn hashed(w: usize, h: usize, step: usize) -> Vec<u8> {
+        (0..w * h * 3).map(|k| (k * step % 251) as u8).collect()
+    }
+
+    fn window([cx, cy, width, height]: [f64; 4]) -> Window {
+        Window {
+            cx,
+            cy,
+            width,
+            height,
+        }
+    }
+
     /// A window of the frame's own size at its centre reproduces the frame exactly.
     #[test]
     fn identity_window_copies_the_frame() {
         let (w, h) = (7usize, 5usize);
-        let data: Vec<u8> = (0..w * h * 3).map(|k| (k * 37 % 251) as u8).collect();
+        let data = hashed(w, h, 37);
         let frame = RgbFrame::new(&data, w, h).unwrap();
-        let window = Window {
-            cx: w as f64 / 2.0,
-            cy: h as f64 / 2.0,
-            width: w as f64,
-            height: h as f64,
-        };
+        let (wf, hf) = (w as f64, h as f64);
+        let window = window([wf / 2.0, hf / 2.0, wf, hf]);
         let mut patch = Patch::default();
         sample(&frame, window, w, h, &mut patch);
         for (k, px) in patch.rgb.iter().enumerate() {
@@ -162,14 +173,9 @@ mod tests {
     #[test]
     fn grey_only_sampling_equals_the_full_one() {
         let (w, h) = (13usize, 9usize);
-        let data: Vec<u8> = (0..w * h * 3).map(|k| (k * 53 % 247) as u8).collect();
+        let data = hashed(w, h, 53);
         let frame = RgbFrame::new(&data, w, h).unwrap();
-        let window = Window {
-            cx: 2.3,
-            cy: 7.9,
-            width: 11.7,
-            height: 6.1,
-        };
+        let window = window([2.3, 7.9, 11.7, 6.1]);
         let (mut full, mut grey) = (Patch::default(), Vec::new());
         sample(&frame, window, 10, 7, &mut full);
         sample_grey(&frame, window, 10, 7, &mut grey);
@@ -184,12 +190,7 @@ mod tests {
         let (w, h) = (8usize, 2usize);
         let data: Vec<u8> = (0..w * h).flat_map(|k| [(k % w) as u8 * 10; 3]).collect();
         let frame = RgbFrame::new(&data, w, h).unwrap();
-        let window = Window {
-            cx: 4.0,
-            cy: 1.0,
-            width: 8.0,
-            height: 2.0,
-        };
+        let window = window([4.0, 1.0, 8.0, 2.0]);
         let mut patch = Patch::default();
         sample(&frame, window, 4, 1, &mut patch);
         let got: Vec<u8> = patch.rgb.iter().map(|p| p[0]).collect();

@@ -92,9 +92,11 @@ pub(crate) fn orientation_votes(theta: f32) -> [(usize, f32); 2] {
 /// `width x height` grey image in [0, 1]; cells of `cell` pixels (the image is cut to
 /// whole cells).
 ///
-/// Pixels are visited in raster order, so every sum adds its terms in the same order
-/// as a plain per-pixel loop would; the loop is only arranged so that a pixel costs
-/// no division by the cell size and, inside the image, no clamping of its neighbours.
+/// Each cell is summed on its own, its pixels in raster order, from zero: every sum
+/// adds the same terms in the same order as a plain per-pixel loop over the image
+/// would. The loop is only arranged so that a cell's sums stay in a small local array
+/// (not in ten planes of the map), a pixel costs no division by the cell size and,
+/// inside the image, no clamping of its neighbours.
 pub(crate) fn cell_histograms(
     grey: &[f32],
     width: usize,
@@ -105,21 +107,26 @@ pub(crate) fn cell_histograms(
     let (cw, ch) = (width / cell, height / cell);
     out.reset(cw, ch, CHANNELS);
     let area = (cell * cell) as f32;
-    for y in 0..ch * cell {
-        let row = (y / cell) * cw;
-        let inner_row = y > 0 && y + 1 < height;
+    for cy in 0..ch {
         for cx in 0..cw {
-            let k = row + cx;
-            for x in cx * cell..(cx + 1) * cell {
-                let (magnitude, theta) = if inner_row && x > 0 && x + 1 < width {
-                    interior_gradient(grey, width, x, y)
-                } else {
-                    gradient(grey, width, height, x, y)
-                };
-                for (bin, weight) in orientation_votes(theta) {
-                    out.planes[bin][k] += magnitude * weight;
+            let mut sums = [0.0f32; CHANNELS];
+            for y in cy * cell..(cy + 1) * cell {
+                let inner_row = y > 0 && y + 1 < height;
+                for x in cx * cell..(cx + 1) * cell {
+                    let (magnitude, theta) = if inner_row && x > 0 && x + 1 < width {
+                        interior_gradient(grey, width, x, y)
+                    } else {
+                        gradient(grey, width, height, x, y)
+                    };
+                    for (bin, weight) in orientation_votes(theta) {
+                        sums[bin] += magnitude * weight;
+                    }
+                    sums[ORIENTATIONS] += grey[y * width + x] / area;
                 }
-                out.planes[ORIENTATIONS][k] += grey[y * width + x] / area;
+            }
+            let k = cy * cw + cx;
+            for (plane, sum) in out.planes.iter_mut().zip(sums) {
+                plane[k] = sum;
             }
         }
     }

@@ -148,6 +148,31 @@ fn interior_gradient(grey: &[f32], width: usize, x: usize, y: usize) -> (f32, f3
 /// centred on zero so the filter does not learn a constant offset.
 pub(crate) fn normalise(map: &mut FeatureMap) {
     let (w, h) = (map.width, map.height);
+    if w == 0 || h == 0 {
+        return; // no cell (a patch under one cell): nothing to normalise
+    }
+    let norms = block_norms(map);
+    // Block `(bx, by)` covers cells `bx - 1 ..= bx` by `by - 1 ..= by`.
+    let at = |bx: usize, by: usize| norms[by * (w + 1) + bx];
+    for y in 0..h {
+        for x in 0..w {
+            let four = [at(x, y), at(x + 1, y), at(x, y + 1), at(x + 1, y + 1)];
+            let k = y * w + x;
+            for plane in &mut map.planes[..ORIENTATIONS] {
+                let v = plane[k];
+                plane[k] = 0.5 * four.iter().map(|n| (v * n).min(TRUNCATION)).sum::<f32>();
+            }
+            map.planes[ORIENTATIONS][k] -= 0.5;
+        }
+    }
+}
+
+/// `1 / sqrt(energy + 1e-4)` of every 2 x 2 block of cells, the blocks of the map's
+/// corners and edges reaching one cell beyond it (clamped: its edge cells again), in a
+/// `(w + 1) x (h + 1)` grid: block `(bx, by)` sums the cells `bx - 1 ..= bx`, `by - 1
+/// ..= by`. Each block is shared by four cells, so it is computed once, not four times.
+fn block_norms(map: &FeatureMap) -> Vec<f32> {
+    let (w, h) = (map.width, map.height);
     let energy: Vec<f32> = (0..w * h)
         .map(|k| map.planes[..ORIENTATIONS].iter().map(|p| p[k] * p[k]).sum())
         .collect();
@@ -156,24 +181,14 @@ pub(crate) fn normalise(map: &mut FeatureMap) {
         let yy = y.clamp(0, h as isize - 1) as usize;
         energy[yy * w + xx]
     };
-    let mut norms = [0.0f32; 4];
-    for y in 0..h as isize {
-        for x in 0..w as isize {
-            for (n, (dx, dy)) in norms.iter_mut().zip([(-1, -1), (0, -1), (-1, 0), (0, 0)]) {
-                let block = e(x + dx, y + dy)
-                    + e(x + dx + 1, y + dy)
-                    + e(x + dx, y + dy + 1)
-                    + e(x + dx + 1, y + dy + 1);
-                *n = 1.0 / (block + 1e-4).sqrt();
-            }
-            let k = y as usize * w + x as usize;
-            for plane in &mut map.planes[..ORIENTATIONS] {
-                let v = plane[k];
-                plane[k] = 0.5 * norms.iter().map(|n| (v * n).min(TRUNCATION)).sum::<f32>();
-            }
-            map.planes[ORIENTATIONS][k] -= 0.5;
+    let mut norms = Vec::with_capacity((w + 1) * (h + 1));
+    for by in 0..=h as isize {
+        for bx in 0..=w as isize {
+            let block = e(bx - 1, by - 1) + e(bx, by - 1) + e(bx - 1, by) + e(bx, by);
+            norms.push(1.0 / (block + 1e-4).sqrt());
         }
     }
+    norms
 }
 
 /// The normalised HOG + intensity features of a grey image: [`cell_histograms`] then
@@ -276,6 +291,54 @@ mod tests {
                     .collect()
             };
             assert_eq!(bits(&map.planes), bits(&planes), "{w} x {h}, cell {cell}");
+        }
+    }
+
+    /// The normalisation equals the per-cell form (each cell's four blocks summed
+    /// from the clamped energies on the spot), bit for bit, on maps of one cell, a
+    /// row, and several rows.
+    #[test]
+    fn normalise_equals_the_per_cell_blocks() {
+        let mut rng = rperc_core::rng::seeded(11);
+        for (w, h) in [(1usize, 1usize), (5, 1), (6, 4), (0, 3)] {
+            let mut map = FeatureMap::default();
+            map.reset(w, h, CHANNELS);
+            for p in &mut map.planes {
+                p.iter_mut()
+                    .for_each(|v| *v = rand::Rng::random_range(&mut rng, 0.0..2.0));
+            }
+            let mut expected = map.planes.clone();
+            let energy: Vec<f32> = (0..w * h)
+                .map(|k| expected[..ORIENTATIONS].iter().map(|p| p[k] * p[k]).sum())
+                .collect();
+            let e = |x: isize, y: isize| {
+                energy
+                    [y.clamp(0, h as isize - 1) as usize * w + x.clamp(0, w as isize - 1) as usize]
+            };
+            for y in 0..h as isize {
+                for x in 0..w as isize {
+                    let norms = [(-1, -1), (0, -1), (-1, 0), (0, 0)].map(|(dx, dy)| {
+                        let block = e(x + dx, y + dy)
+                            + e(x + dx + 1, y + dy)
+                            + e(x + dx, y + dy + 1)
+                            + e(x + dx + 1, y + dy + 1);
+                        1.0 / (block + 1e-4).sqrt()
+                    });
+                    let k = y as usize * w + x as usize;
+                    for plane in &mut expected[..ORIENTATIONS] {
+                        let v = plane[k];
+                        plane[k] = 0.5 * norms.iter().map(|n| (v * n).min(TRUNCATION)).sum::<f32>();
+                    }
+                    expected[ORIENTATIONS][k] -= 0.5;
+                }
+            }
+            normalise(&mut map);
+            let bits = |p: &[Vec<f32>]| -> Vec<Vec<u32>> {
+                p.iter()
+                    .map(|v| v.iter().map(|g| g.to_bits()).collect())
+                    .collect()
+            };
+            assert_eq!(bits(&map.planes), bits(&expected), "{w} x {h}");
         }
     }
 

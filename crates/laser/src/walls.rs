@@ -341,7 +341,11 @@ impl WallMap {
         self.cells.clear();
         for k in 0..self.walls.len() {
             if let Some(line) = self.line(graph, k) {
-                self.walls[k].extent = self.extent(graph, k, &line);
+                let (lo, hi) = self.extent(graph, k, &line);
+                // No sighting's pose in the graph (never so from `observe`): keep it.
+                if lo <= hi {
+                    self.walls[k].extent = (lo, hi);
+                }
             }
             self.register(k, graph);
         }
@@ -531,22 +535,6 @@ mod tests {
     use super::*;
     use nalgebra::Matrix3;
 
-    fn sighting(pose: &Pose2, from: f64, to: f64) -> Sighting {
-        // The wall y = 3 seen from `pose` (heading 0) between x = from and x = to.
-        let rho = 3.0 - pose.y;
-        let ends = [
-            Point2::new(from - pose.x, rho),
-            Point2::new(to - pose.x, rho),
-        ];
-        let z = Vector2::new(rho, std::f64::consts::FRAC_PI_2);
-        let r = Matrix2::new(1e-4, 0.0, 0.0, 1e-4);
-        Sighting {
-            z,
-            ends,
-            covariance: innovation_covariance(&z, &Sighting::middle(&ends), &r),
-        }
-    }
-
     /// A long sighting pairs with a short wall in its middle, far from its ends,
     /// and the wall then enters the graph with both sightings.
     #[test]
@@ -558,11 +546,17 @@ mod tests {
         let start = Pose2::new(10.0, 0.0, 0.0);
         let mut graph = PoseGraph::new(start, Matrix3::identity() * 1e8);
         let mut map = WallMap::default();
-        map.observe(0, 0.0, &[sighting(&start, 9.0, 11.0)], &mut graph, &cfg)
-            .unwrap();
+        map.observe(
+            0,
+            0.0,
+            &[seen_from(&start, 9.0, 11.0, 1e-4)],
+            &mut graph,
+            &cfg,
+        )
+        .unwrap();
         let later = Pose2::new(10.0, 0.5, 0.0);
         graph.add_pose(later);
-        let long = sighting(&later, -10.0, 30.0);
+        let long = seen_from(&later, -10.0, 30.0, 1e-4);
         map.observe(1, 20.0, &[long], &mut graph, &cfg).unwrap();
         assert_eq!(map.walls.len(), 1, "paired, not a new wall");
         assert_eq!((graph.walls.len(), graph.wall_factors.len()), (1, 2));

@@ -27,6 +27,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 from _timing import print_table
 
+from rperc.bench.allocator import steady_allocator
 from rperc.config import AppearanceParams
 from rperc.tracking import ColorHistogramTracker, ColorShapeTracker
 from rperc.tracking.metrics import iou, mask_iou, polygon_mask
@@ -100,6 +101,8 @@ def box_iou(boxes: list[Box], seq: ShapeSequence) -> float:
 
 
 def main() -> None:
+    # Peers and rperc timed with the same allocator behaviour (rperc.bench.allocator).
+    steady_allocator()
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--frames", type=int, default=150)
     ap.add_argument("--seeds", type=int, nargs="+", default=[200, 201, 202, 203, 204])

@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from rperc._atomic import write_text_atomically
+from rperc.bench.allocator import steady_allocator
 from rperc.datasets import data_dir
 from rperc.datasets.carmen import load_carmen
 from rperc.slam.wallslam import (
@@ -574,6 +575,8 @@ def table(rows: list[dict[str, Any]], variants: list[str]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    # Peers and rperc timed with the same allocator behaviour (rperc.bench.allocator).
+    steady_allocator()
     default = (data_dir() or Path("data")) / "carmen"
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--logs", nargs="+", default=[str(default)], help="log files or directories")

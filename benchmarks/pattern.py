@@ -46,6 +46,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 from _timing import print_table
 
+from rperc.bench.allocator import steady_allocator
 from rperc.config import PatternConfig, PatternModelConfig
 from rperc.datasets import data_dir, load_planar_truth
 from rperc.tracking import PatternSequence, PatternTracker, pattern_sequence, planar
@@ -357,6 +358,8 @@ def print_throughput(spent: dict[str, dict[str, list[float]]]) -> None:
 
 
 def main() -> None:
+    # Peers and rperc timed with the same allocator behaviour (rperc.bench.allocator).
+    steady_allocator()
     ap = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )

@@ -38,6 +38,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 from _timing import print_table
 
+from rperc.bench.allocator import steady_allocator
 from rperc.datasets import data_dir, load_otb
 from rperc.tracking.metrics import auc, iou, precision
 from rperc.tracking.shape_sequences import EXPERIMENTS, shape_sequence
@@ -232,6 +233,8 @@ def fmt(v: float, digits: int = 3) -> str:
 
 
 def main() -> None:
+    # Peers and rperc timed with the same allocator behaviour (rperc.bench.allocator).
+    steady_allocator()
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--sequences", nargs="+", default=["Girl", "Couple"])
     ap.add_argument("--challenge-seed", type=int, default=7)

@@ -176,7 +176,7 @@ def test_tcp_cluster_gives_the_serial_rows(
 
 def test_rows_differ_when_a_seed_differs(serial_rows: list[dict]) -> None:
     """The identity checks above can fail: two seeds of one run give other rows."""
-    a, b = serial_rows[0], serial_rows[1]
+    a, b = serial_rows[0], serial_rows[2]
     assert (a["method"], a["seed"], b["method"], b["seed"]) == ("plain", 0, "plain", 1)
     assert not same_rows([a], [b | {"index": a["index"]}])
 
@@ -486,3 +486,90 @@ def test_grid_is_every_combination() -> None:
     for bad in ({"a": []}, {"a": [[1]]}, {"a": [math.nan]}, "text", [1, 2]):
         with pytest.raises(ValueError):
             expand_grid(bad)  # type: ignore[arg-type]
+
+
+def test_methods_take_turns_seed_by_seed() -> None:
+    """Within a dataset the methods alternate at every seed (a slow spell of the
+    machine meets them alike); a tunable method runs each setting in its turn."""
+    from rperc.bench.tasks import make_tasks
+
+    tasks = make_tasks(
+        "pattern", ["a", "b"], ["ours", "peer"], [3, 4], [{"k": 1}, {"k": 2}], tunable=["ours"]
+    )
+    order = [(t.dataset, t.seed, t.method, t.kwargs.get("k")) for t in tasks]
+    assert order == [
+        (d, s, m, k)
+        for d in ("a", "b")
+        for s in (3, 4)
+        for m, ks in (("ours", (1, 2)), ("peer", (None,)))
+        for k in ks
+    ]
+    assert [t.index for t in tasks] == list(range(len(tasks)))
+
+
+# ------------------------------------------------------------ steady allocator
+
+#: In a fresh interpreter: how many blocks glibc has mapped (mallinfo2's ``hblks``)
+#: before and while a 4 MiB array is alive, with the allocator steadied or not.
+_MAPPED_BLOCKS = """
+import ctypes, sys
+import numpy as np
+from rperc.bench.allocator import steady_allocator
+
+class MallInfo2(ctypes.Structure):
+    _fields_ = [(n, ctypes.c_size_t) for n in
+                ("arena", "ordblks", "smblks", "hblks", "hblkhd", "usmblks",
+                 "fsmblks", "uordblks", "fordblks", "keepcost")]
+
+libc = ctypes.CDLL("libc.so.6")
+libc.mallinfo2.restype = MallInfo2
+steadied = steady_allocator() if sys.argv[1] == "steady" else False
+before = libc.mallinfo2().hblks
+block = np.ones(4 << 20, dtype=np.uint8)
+print(steadied, before, libc.mallinfo2().hblks)
+"""
+
+
+def _mapped_blocks(mode: str) -> tuple[bool, int, int]:
+    out = subprocess.run(
+        [sys.executable, "-c", _MAPPED_BLOCKS, mode], capture_output=True, text=True, check=True
+    )
+    steadied, before, during = out.stdout.split()
+    return steadied == "True", int(before), int(during)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's mallopt (Linux)")
+def test_the_steady_allocator_serves_frame_sized_arrays_from_the_heap() -> None:
+    """glibc's own accounting is the oracle: a fresh interpreter maps a 4 MiB array
+    with mmap (one more mapped block), and after ``steady_allocator`` takes it from
+    the heap (none more)."""
+    try:
+        plain = _mapped_blocks("plain")
+    except (subprocess.CalledProcessError, AttributeError) as exc:  # no mallinfo2 (musl)
+        pytest.skip(f"no glibc mallinfo2: {exc}")
+    assert plain[0] is False and plain[2] == plain[1] + 1
+    steadied, before, during = _mapped_blocks("steady")
+    assert steadied and during == before
+
+
+def test_the_steady_allocator_is_a_no_op_without_glibc(monkeypatch: pytest.MonkeyPatch) -> None:
+    import ctypes
+
+    from rperc.bench import allocator
+
+    def no_libc(*_args: object, **_kw: object) -> None:
+        raise OSError("no C library here")
+
+    monkeypatch.setattr(ctypes, "CDLL", no_libc)
+    assert allocator.steady_allocator() is False
+    monkeypatch.setattr(allocator.sys, "platform", "darwin")
+    assert allocator.steady_allocator() is False
+
+
+def test_a_serial_run_steadies_the_allocator_first(monkeypatch: pytest.MonkeyPatch) -> None:
+    from rperc.bench import runner
+
+    calls: list[str] = []
+    monkeypatch.setattr(runner, "steady_allocator", lambda: calls.append("steady") or True)
+    assert run_tasks([], scheduler="serial") == []
+    assert calls == ["steady"]

@@ -4,7 +4,10 @@ processes (``local``), or on a running Dask scheduler (``tcp://HOST:PORT``).
 The worker side is :func:`run_task`: it imports the task's suite, runs it and turns
 any exception into an error row, so one failing run never stops the others. The
 client side keeps the rows in task order, shows progress (a bar on a terminal, log
-lines elsewhere), and on Ctrl-C cancels every future before it re-raises.
+lines elsewhere), and on Ctrl-C cancels every future before it re-raises. Every
+process that times runs first fixes its allocator's thresholds
+(:func:`rperc.bench.allocator.steady_allocator`), so that no method's speed depends
+on what ran before it.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from typing import Any
 
 from rperc._extras import MissingExtraError, require
 from rperc._progress import progress, quiet
+from rperc.bench.allocator import steady_allocator
 from rperc.bench.tasks import Row as Row  # re-exported: its home before tasks
 from rperc.bench.tasks import Task
 
@@ -88,6 +92,7 @@ def run_task(task: Task) -> Row:
 
 
 def _serial(tasks: Sequence[Task], desc: str) -> list[Row]:
+    steady_allocator()
     return [run_task(t) for t in progress(tasks, desc=desc, unit="run")]
 
 
@@ -123,6 +128,9 @@ def _distributed(
 ) -> list[Row]:
     as_completed = require("distributed", f"--scheduler {scheduler}").as_completed
     with _client(scheduler, workers) as client:
+        # Every worker times its runs with the same allocator behaviour (see
+        # rperc.bench.allocator), whatever it ran before.
+        client.run(steady_allocator)
         # Keys name the task so that two benchmarks on one cluster never share results.
         stamp = f"{time.time_ns():x}"
         futures = client.map(

@@ -167,15 +167,18 @@ def make_tasks(
     tunable: Iterable[str] = (),
     options: Mapping[str, Setting] | None = None,
 ) -> list[Task]:
-    """Every dataset x method x setting x seed, in that nesting order. Methods not in
-    ``tunable`` (peers) take no settings: they run once per dataset and seed."""
+    """Every dataset x seed x method x setting, in that nesting order: the methods
+    take turns seed by seed, so that a slow spell of the machine (another process, a
+    virtual machine's neighbour) falls on all of them alike rather than on the one
+    whose runs it met. Methods not in ``tunable`` (peers) take no settings: they run
+    once per dataset and seed."""
     tune = set(tunable)
     opts = tuple(sorted((options or {}).items()))
     tasks: list[Task] = []
     for dataset in datasets:
-        for method in methods:
-            for combo in combos if method in tune else [{}]:
-                for seed in seeds:
+        for seed in seeds:
+            for method in methods:
+                for combo in combos if method in tune else [{}]:
                     settings = tuple(sorted(combo.items()))
                     tasks.append(Task(suite, len(tasks), dataset, method, seed, settings, opts))
                     if len(tasks) > MAX_TASKS:

@@ -37,8 +37,10 @@ pub struct StartSearch {
     /// How many of the best poses ICP starts from.
     pub starts: usize,
     /// ... but only when ICP from the prior's mean paired less than this share of
-    /// the scan's points on lines (or was refused).
+    /// the scan's points on lines (or was refused), ...
     pub share: f64,
+    /// ... or left an RMS distance to the lines above this, m.
+    pub rms: f64,
 }
 
 /// How far the prior's `sigmas` ellipse can move a point at range `far`: its largest
@@ -82,9 +84,9 @@ pub fn match_robustly(
     search: &StartSearch,
 ) -> Result<Match> {
     let plain = match_scan(scan, map, prior.mean, prior, icp)?;
-    // The usual case first, and cheaply: ICP paired most of the scan.
+    // The usual case first, and cheaply: ICP paired most of the scan, closely.
     let share = plain.inliers as f64 / scan.with_normals().max(1) as f64;
-    if (plain.accepted && share >= search.share) || map.is_empty() {
+    if (plain.accepted && share >= search.share && plain.rms <= search.rms) || map.is_empty() {
         return Ok(plain);
     }
     let covariance = prior

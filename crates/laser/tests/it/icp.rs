@@ -2,7 +2,7 @@
 //! (NEES over Monte Carlo runs with range noise), and no false information along a
 //! featureless corridor.
 
-use laser::scan::{Beams, ScanConfig, scan_points};
+use laser::scan::{Beams, ScanConfig, ScanPoints, scan_points};
 use laser::sim::{Segment, cluttered_room, corridor, ray_cast};
 use laser::start::{StartSearch, match_robustly};
 use laser::{IcpConfig, MapIndex, Prior, match_scan};
@@ -350,26 +350,44 @@ fn odometry_offset(k: usize) -> Vector3<f64> {
     )
 }
 
-/// The robust start: where the odometry is off by 0.7 m and 15 degrees (inside the
-/// prior's three sigma), ICP from the prior's mean can settle on the wrong stretch of
-/// wall; with the correlative search's starts every one of eight offsets finds the
-/// ray-cast truth.
-#[test]
-fn a_loose_prior_is_searched_before_icp() {
+/// The robust start's scene: the cluttered room's map seen from (4, 3, 0.2), a scan
+/// at the truth (4.4, 3.2, 0.3), and a loose prior's information (0.4 m, 8 degrees).
+fn loose_prior_scene() -> (MapIndex, Pose2, ScanPoints, Matrix3<f64>) {
     let walls = cluttered_room(12.0, 8.0);
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let map = map_from(&walls, &Pose2::new(4.0, 3.0, 0.2), 0.0, &mut rng);
     let truth = Pose2::new(4.4, 3.2, 0.3);
     let s = scan(&walls, &truth, 0.0, &mut rng);
     let sd = Vector3::new(0.4, 0.4, 8f64.to_radians());
-    let information = Matrix3::from_diagonal(&sd.map(|v| 1.0 / (v * v)));
-    let search = StartSearch {
+    (
+        map,
+        truth,
+        s,
+        Matrix3::from_diagonal(&sd.map(|v| 1.0 / (v * v))),
+    )
+}
+
+/// The robust start's settings of these tests (the front end's defaults) with the
+/// given share and RMS rules.
+fn start_search(share: f64, rms: f64) -> StartSearch {
+    StartSearch {
         reach: 0.3,
         sigmas: 3.0,
         step: 0.1,
         starts: 4,
-        share: 0.5,
-    };
+        share,
+        rms,
+    }
+}
+
+/// The robust start: where the odometry is off by 0.7 m and 15 degrees (inside the
+/// prior's three sigma), ICP from the prior's mean can settle on the wrong stretch of
+/// wall; with the correlative search's starts every one of eight offsets finds the
+/// ray-cast truth.
+#[test]
+fn a_loose_prior_is_searched_before_icp() {
+    let (map, truth, s, information) = loose_prior_scene();
+    let search = start_search(0.5, f64::INFINITY);
     let cfg = IcpConfig::default();
     let mut plain_failed = 0;
     for k in 0..8 {
@@ -413,13 +431,7 @@ fn a_tight_prior_is_not_searched() {
         mean,
         information: Matrix3::from_diagonal(&sd.map(|v| 1.0 / (v * v))),
     };
-    let search = StartSearch {
-        reach: 0.3,
-        sigmas: 3.0,
-        step: 0.1,
-        starts: 4,
-        share: 1.0,
-    };
+    let search = start_search(1.0, f64::INFINITY);
     let cfg = IcpConfig::default();
     let plain = match_scan(&s, &map, mean, &prior, &cfg).unwrap();
     let robust = match_robustly(&s, &map, &prior, &cfg, &search).unwrap();
@@ -465,6 +477,7 @@ fn the_front_end_searches_by_its_configured_share() {
                 step: local.search_step,
                 starts: local.search_starts,
                 share,
+                rms: local.search_rms,
             };
             let want = match_robustly(&second, &map, &prior, &IcpConfig::default(), &search);
             assert_eq!(tracked.matched, want.unwrap(), "offset {k}, share {share}");
@@ -474,6 +487,33 @@ fn the_front_end_searches_by_its_configured_share() {
     }
     // The case is a real one: the share decides the match from some offsets.
     assert!(differ >= 1, "the share changed no match");
+}
+
+/// The RMS rule: a match that paired enough of the scan is searched again exactly
+/// when its RMS distance exceeds `rms`. With the threshold at the plain match's own
+/// RMS the plain match stands; one float below it, the answer is the one the share
+/// rule's search gives (with a share above any match's, 2), not the plain match.
+#[test]
+fn a_loose_fit_is_searched_by_its_rms() {
+    let (map, truth, s, information) = loose_prior_scene();
+    let cfg = IcpConfig::default();
+    let search = start_search;
+    let mut searched = 0;
+    for k in 0..8 {
+        let o = odometry_offset(k);
+        let mean = truth.compose(&Pose2::new(o.x, o.y, o.z));
+        let prior = Prior { mean, information };
+        let plain = match_scan(&s, &map, mean, &prior, &cfg).unwrap();
+        if !plain.accepted {
+            continue;
+        }
+        let at = |rms: f64| match_robustly(&s, &map, &prior, &cfg, &search(0.0, rms)).unwrap();
+        assert_eq!(at(plain.rms), plain, "offset {k}");
+        let by_share = match_robustly(&s, &map, &prior, &cfg, &search(2.0, f64::INFINITY));
+        assert_eq!(at(plain.rms.next_down()), by_share.unwrap(), "offset {k}");
+        searched += usize::from(at(plain.rms.next_down()) != plain);
+    }
+    assert!(searched >= 1, "the RMS rule changed no match");
 }
 
 /// Range noise must not turn the scan: along a straight corridor, matching a noisy

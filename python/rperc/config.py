@@ -1185,6 +1185,11 @@ class LoopConfig(Config):
         max_chi2: After each optimisation the closure with the largest squared error (by its
             own information) is removed while that error exceeds this (> 0): a closure that
             disagrees with the chain and the other closures is a wrong one.
+        inflation: Each closure's covariance is multiplied by this (>= 1) in the graph: a
+            confirmed closure joins it with the one that confirmed it, both matched against
+            the same place's key scans, whose errors they share, and the next pairs at that
+            place match much of the same submap again. Default 3, chosen by leave-one-log-
+            out over the nine corpus logs on seeds 10-19 (see `docs/decisions.md`).
     """
 
     enabled: bool = True
@@ -1207,6 +1212,7 @@ class LoopConfig(Config):
     agree_distance: float = 0.2
     agree_angle: float = 0.03490658503988659
     max_chi2: float = 50.0
+    inflation: float = 3.0
 
 
 class LoopConfigOverrides(TypedDict, total=False):
@@ -1232,6 +1238,7 @@ class LoopConfigOverrides(TypedDict, total=False):
     agree_distance: float
     agree_angle: float
     max_chi2: float
+    inflation: float
 
 
 @dataclass(frozen=True, kw_only=True)

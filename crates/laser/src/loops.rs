@@ -75,6 +75,13 @@ pub struct LoopConfig {
     /// own information) is removed while that error exceeds this (> 0): a closure
     /// that disagrees with the chain and the other closures is a wrong one.
     pub max_chi2: f64,
+    /// Each closure's covariance is multiplied by this (>= 1) in the graph: a
+    /// confirmed closure joins it with the one that confirmed it, both matched
+    /// against the same place's key scans, whose errors they share, and the next
+    /// pairs at that place match much of the same submap again. Default 3, chosen by
+    /// leave-one-log-out over the nine corpus logs on seeds 10-19 (see
+    /// `docs/decisions.md`).
+    pub inflation: f64,
 }
 
 impl Default for LoopConfig {
@@ -100,6 +107,7 @@ impl Default for LoopConfig {
             agree_distance: 0.2,
             agree_angle: 2f64.to_radians(),
             max_chi2: 50.0,
+            inflation: 3.0,
         }
     }
 }
@@ -166,6 +174,12 @@ impl LoopConfig {
                 ),
             ));
         }
+        if !(self.inflation.is_finite() && self.inflation >= 1.0) {
+            return Err(LaserError::invalid(
+                "inflation",
+                format!("must be finite and >= 1, got {}", self.inflation),
+            ));
+        }
         if self.coarse_step < 1e-3 {
             return Err(LaserError::invalid(
                 "coarse_step",
@@ -206,6 +220,20 @@ pub struct Closure {
     pub inlier_share: f64,
     /// RMS distance to the lines, m.
     pub rms: f64,
+}
+
+impl Closure {
+    /// The closure as a graph edge's measurement from `anchor` (the place's pose as
+    /// the submap had it): the matched pose relative to it, and the information of
+    /// that relative pose (the match's, carried through the Jacobian of
+    /// `anchor.between`) with the covariance multiplied by `inflation`.
+    pub fn relative_to(&self, anchor: &Pose2, inflation: f64) -> Result<(Pose2, Matrix3<f64>)> {
+        let (z, _, j) = anchor.between_with_jacobians(&self.pose);
+        let j_inv = j
+            .try_inverse()
+            .ok_or_else(|| LaserError::Numerical("closure Jacobian".into()))?;
+        Ok((z, j_inv.transpose() * self.information * j_inv / inflation))
+    }
 }
 
 /// Why an attempt gave no closure.
@@ -291,4 +319,46 @@ pub fn agree(first: (&Pose2, &Closure), second: (&Pose2, &Closure), cfg: &LoopCo
     let predicted = first.1.pose.compose(&first.0.between(second.0));
     let d = predicted.between(&second.1.pose);
     d.translation().norm() <= cfg.agree_distance && wrap_angle(d.theta).abs() <= cfg.agree_angle
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The edge's covariance is the match's carried through `between` by central
+    /// differences (the oracle), times the inflation: `J Sigma J^T k`.
+    #[test]
+    fn a_closure_edge_carries_the_matchs_covariance_times_the_inflation() {
+        let anchor = Pose2::new(3.0, -1.0, 2.5);
+        let sigma = Matrix3::new(0.04, 0.01, 0.002, 0.01, 0.09, -0.003, 0.002, -0.003, 0.01);
+        let closure = Closure {
+            pose: Pose2::new(5.5, 2.0, -2.9),
+            information: sigma.try_inverse().unwrap(),
+            inlier_share: 1.0,
+            rms: 0.01,
+        };
+        let h = 1e-6;
+        let mut j = Matrix3::zeros();
+        for c in 0..3 {
+            let mut d = Vector3::zeros();
+            d[c] = h;
+            let at = |s: f64| {
+                let p = &closure.pose;
+                anchor.between(&Pose2::new(p.x + s * d.x, p.y + s * d.y, p.theta + s * d.z))
+            };
+            let (a, b) = (at(1.0), at(-1.0));
+            let column = Vector3::new(a.x - b.x, a.y - b.y, wrap_angle(a.theta - b.theta));
+            j.set_column(c, &(column / (2.0 * h)));
+        }
+        for inflation in [1.0, 3.0] {
+            let (z, information) = closure.relative_to(&anchor, inflation).unwrap();
+            assert_eq!(z, anchor.between(&closure.pose));
+            let expected = j * sigma * j.transpose() * inflation;
+            let got = information.try_inverse().unwrap();
+            assert!(
+                (got - expected).abs().max() < 1e-8,
+                "{got} against {expected}"
+            );
+        }
+    }
 }

@@ -520,11 +520,7 @@ impl Run<'_> {
         // The closure places the key scan in the world with the submap's poses as
         // they were: as a measurement from the candidate's pose.
         let anchor = self.graph.poses[from];
-        let (z, _, j) = anchor.between_with_jacobians(&p.closure.pose);
-        let j_inv = j
-            .try_inverse()
-            .ok_or_else(|| LaserError::Numerical("closure Jacobian".into()))?;
-        let information = j_inv.transpose() * p.closure.information * j_inv;
+        let (z, information) = p.closure.relative_to(&anchor, self.cfg.loops.inflation)?;
         self.graph.add_edge(Edge {
             from,
             to,

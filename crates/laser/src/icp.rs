@@ -379,6 +379,17 @@ mod tests {
     use crate::scan::{Beams, ScanConfig, scan_points};
     use crate::sim::{cluttered_room, ray_cast};
 
+    /// A scan's points from ranges at evenly spaced `angles`, 20 m at most.
+    fn points_from(ranges: &[f64], angles: &[f64]) -> ScanPoints {
+        let beams = Beams {
+            ranges,
+            angle_min: angles[0],
+            angle_increment: angles[1] - angles[0],
+            max_range: 20.0,
+        };
+        scan_points(&beams, &ScanConfig::default()).unwrap()
+    }
+
     /// With `angle_sigma`, a line point that finds no partner is charged the pairing
     /// distance over its own variance: against a map far from every point, the cost
     /// is `sum_i d^2 / (sigma^2 + (r_i angle_sigma)^2) / scale` over the scan's line
@@ -390,14 +401,7 @@ mod tests {
             .map(|i| (-90.0 + 0.5 * i as f64).to_radians())
             .collect();
         let pose = Pose2::new(4.0, 3.0, 0.2);
-        let ranges = ray_cast(&walls, &pose, &angles, 20.0);
-        let beams = Beams {
-            ranges: &ranges,
-            angle_min: angles[0],
-            angle_increment: angles[1] - angles[0],
-            max_range: 20.0,
-        };
-        let scan = scan_points(&beams, &ScanConfig::default()).unwrap();
+        let scan = points_from(&ray_cast(&walls, &pose, &angles, 20.0), &angles);
         let far = nalgebra::Vector2::new(1e4, 1e4);
         let map = MapIndex::new(vec![far], vec![nalgebra::Vector2::new(1.0, 0.0)], 0.3).unwrap();
         for angle_sigma in [0.0, 0.01] {
@@ -476,13 +480,7 @@ mod tests {
                     .fract();
                 *r += 0.04 * (u - 0.5);
             }
-            let beams = Beams {
-                ranges: &ranges,
-                angle_min: angles[0],
-                angle_increment: angles[1] - angles[0],
-                max_range: 20.0,
-            };
-            scan_points(&beams, &ScanConfig::default()).unwrap()
+            points_from(&ranges, angles)
         };
         let from = Pose2::new(6.0, 4.0, 0.0);
         let map_scan = scan_at(&from, &beams_at(240));
@@ -561,13 +559,7 @@ mod tests {
             .collect();
         let points_at = |pose: &Pose2| {
             let ranges = ray_cast(&walls, pose, &angles, 20.0);
-            let beams = Beams {
-                ranges: &ranges,
-                angle_min: angles[0],
-                angle_increment: angles[1] - angles[0],
-                max_range: 20.0,
-            };
-            scan_points(&beams, &ScanConfig::default()).unwrap()
+            points_from(&ranges, &angles)
         };
         let from = Pose2::new(4.0, 3.0, 0.2);
         let map_scan = points_at(&from);

@@ -1120,8 +1120,9 @@ class LocalMapConfig(Config):
             ICP's `max_distance`: never for this reason). A match that paired most of the
             scan but fits it worse than nearly every match of its log (the 99th percentile
             is 6-10 cm on the corpus) may have settled in a wrong basin. Default 0.08 m,
-            chosen by leave-one-log-out over the nine corpus logs (seeds 0-9, see the laser
-            guide); without it one odometry seed of ten lost the Freiburg campus.
+            chosen by leave-one-log-out over the nine corpus logs on seeds 10-19 (see
+            `docs/decisions.md`); without it one odometry seed in ten (seed 5) lost the
+            Freiburg campus.
     """
 
     key_distance: float = 0.3

@@ -497,7 +497,6 @@ fn the_front_end_searches_by_its_configured_share() {
 fn a_loose_fit_is_searched_by_its_rms() {
     let (map, truth, s, information) = loose_prior_scene();
     let cfg = IcpConfig::default();
-    let search = start_search;
     let mut searched = 0;
     for k in 0..8 {
         let o = odometry_offset(k);
@@ -507,11 +506,12 @@ fn a_loose_fit_is_searched_by_its_rms() {
         if !plain.accepted {
             continue;
         }
-        let at = |rms: f64| match_robustly(&s, &map, &prior, &cfg, &search(0.0, rms)).unwrap();
-        assert_eq!(at(plain.rms), plain, "offset {k}");
-        let by_share = match_robustly(&s, &map, &prior, &cfg, &search(2.0, f64::INFINITY));
-        assert_eq!(at(plain.rms.next_down()), by_share.unwrap(), "offset {k}");
-        searched += usize::from(at(plain.rms.next_down()) != plain);
+        let at = |rms: f64| match_robustly(&s, &map, &prior, &cfg, &start_search(0.0, rms));
+        assert_eq!(at(plain.rms).unwrap(), plain, "offset {k}");
+        let by_share = match_robustly(&s, &map, &prior, &cfg, &start_search(2.0, f64::INFINITY));
+        let below = at(plain.rms.next_down()).unwrap();
+        assert_eq!(below, by_share.unwrap(), "offset {k}");
+        searched += usize::from(below != plain);
     }
     assert!(searched >= 1, "the RMS rule changed no match");
 }
